@@ -1,0 +1,135 @@
+//! Calibration: find the parameters θ that make the simulation agree with the tests.
+//!
+//! The three methods of Qiu et al. (2018), each a pure function over arrays:
+//!
+//! - [`least_squares`]: Eq. 3, match the measured values themselves.
+//! - [`sensitivity`]: Eq. 6, match the differences between consecutive training designs, then
+//!   Eq. 7, a constant discrepancy `d` for the level.
+//! - [`bayesian`]: Kennedy–O'Hagan (Appendix, Eqs. A1–A9): a GP emulator of the simulation plus a
+//!   GP discrepancy, parameters by maximum likelihood, a posterior by MCMC.
+//!
+//! [`identifiability`] says which parameter combinations the training data can pin down.
+//!
+//! A [`Problem`] is data plus a [`Model`]; a method is a function `Problem -> Estimate`. Nothing
+//! here reads files, so every method tests in milliseconds.
+
+pub mod bayesian;
+pub mod identifiability;
+pub mod least_squares;
+pub mod optimize;
+pub mod sensitivity;
+
+use nalgebra::{DMatrix, DVector};
+
+/// The simulation as the numerics see it: a response `y(d, θ)` at design `d` and parameters `θ`.
+///
+/// Implemented by closed-form expressions and by surrogates fitted to solver runs.
+pub trait Model: Sync {
+    fn predict(&self, design: &[f64], theta: &[f64]) -> f64;
+}
+
+impl<F: Fn(&[f64], &[f64]) -> f64 + Sync> Model for F {
+    fn predict(&self, design: &[f64], theta: &[f64]) -> f64 {
+        self(design, theta)
+    }
+}
+
+/// A box `lower ≤ x ≤ upper`, one interval per coordinate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bounds {
+    pub lower: DVector<f64>,
+    pub upper: DVector<f64>,
+}
+
+impl Bounds {
+    pub fn new(lower: Vec<f64>, upper: Vec<f64>) -> Self {
+        assert_eq!(lower.len(), upper.len(), "bounds need as many lower as upper values");
+        Bounds { lower: DVector::from_vec(lower), upper: DVector::from_vec(upper) }
+    }
+
+    pub fn dim(&self) -> usize {
+        self.lower.len()
+    }
+
+    pub fn width(&self) -> DVector<f64> {
+        &self.upper - &self.lower
+    }
+
+    pub fn center(&self) -> DVector<f64> {
+        (&self.upper + &self.lower) / 2.0
+    }
+
+    /// Maps `x` into the unit cube.
+    pub fn to_unit(&self, x: &DVector<f64>) -> DVector<f64> {
+        (x - &self.lower).component_div(&self.width())
+    }
+
+    /// Maps a point of the unit cube back into the box.
+    pub fn from_unit(&self, u: &DVector<f64>) -> DVector<f64> {
+        &self.lower + u.component_mul(&self.width())
+    }
+
+    pub fn clamp(&self, x: &DVector<f64>) -> DVector<f64> {
+        x.zip_zip_map(&self.lower, &self.upper, |v, lo, hi| v.clamp(lo, hi))
+    }
+}
+
+/// What every method needs: the training tests, the model, and the parameter bounds.
+pub struct Problem<'a> {
+    /// Training designs, one row per test design, in the order the study lists them.
+    pub designs: DMatrix<f64>,
+    /// Mean measured response at each training design.
+    pub measured: DVector<f64>,
+    /// Parameter bounds; every estimate stays inside.
+    pub bounds: Bounds,
+    pub model: &'a dyn Model,
+}
+
+impl Problem<'_> {
+    pub fn design(&self, i: usize) -> Vec<f64> {
+        self.designs.row(i).iter().copied().collect()
+    }
+
+    /// Simulation predictions at every training design for parameters `theta`.
+    pub fn predictions(&self, theta: &DVector<f64>) -> DVector<f64> {
+        DVector::from_iterator(
+            self.designs.nrows(),
+            (0..self.designs.nrows()).map(|i| self.model.predict(&self.design(i), theta.as_slice())),
+        )
+    }
+}
+
+/// A calibrated model: parameters plus, for methods that have one, a discrepancy.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Estimate {
+    pub theta: DVector<f64>,
+    pub discrepancy: Discrepancy,
+}
+
+/// The model-error term a method adds to the simulation's prediction.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Discrepancy {
+    None,
+    /// Eq. 7: `y_true(d) = y_pre(d, θ) + d`.
+    Constant(f64),
+}
+
+impl Discrepancy {
+    pub fn at(&self, _design: &[f64]) -> f64 {
+        match self {
+            Discrepancy::None => 0.0,
+            Discrepancy::Constant(d) => *d,
+        }
+    }
+}
+
+/// Why a method could not produce an estimate.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CalibrationError {
+    #[error("{method} needs at least {needed} training designs, the study gives {given}")]
+    TooFewDesigns { method: &'static str, needed: usize, given: usize },
+    #[error("the model returned a non-finite value at the starting point ({0})")]
+    NonFinite(String),
+    #[error("{0}")]
+    Numerics(String),
+}

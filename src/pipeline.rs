@@ -1,0 +1,1 @@
+//! `lab run`: study → model → calibrate → report.

@@ -1,0 +1,1 @@
+//! Writing results: `results.json` and the terminal summary.

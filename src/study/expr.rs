@@ -1,0 +1,141 @@
+//! Closed-form expressions (`simulation.expression`, hypothesis terms), parsed by exmex.
+//!
+//! An [`Expression`] is compiled against a [`Symbols`] table: every name it uses must be one of
+//! the table's, and evaluation takes the values in the table's order. exmex's built-in constants
+//! are left out on purpose: its `E` (Euler's number) would silently shadow a Young's modulus `E`.
+
+use exmex::{Express, FlatEx, FloatOpsFactory, MakeOperators, Operator};
+
+/// exmex's float operators without its named constants (`E`, `PI`, `π`, `τ`, ...).
+#[derive(Clone, Debug)]
+pub struct NoConstants;
+
+impl MakeOperators<f64> for NoConstants {
+    fn make<'a>() -> Vec<Operator<'a, f64>> {
+        FloatOpsFactory::<f64>::make().into_iter().filter(|op| op.constant().is_none()).collect()
+    }
+}
+
+type Flat = FlatEx<f64, NoConstants>;
+
+/// The names an expression may use, in the order their values are passed to [`Expression::eval`].
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Symbols {
+    names: Vec<String>,
+}
+
+impl Symbols {
+    pub fn new(names: impl IntoIterator<Item = impl Into<String>>) -> Self {
+        Symbols { names: names.into_iter().map(Into::into).collect() }
+    }
+
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+
+    pub fn len(&self) -> usize {
+        self.names.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.names.is_empty()
+    }
+}
+
+/// Why an expression did not compile. `offset` is a character offset into the expression text.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExprError {
+    pub message: String,
+    pub offset: Option<usize>,
+}
+
+/// A parsed expression bound to a symbol table.
+#[derive(Debug, Clone)]
+pub struct Expression {
+    text: String,
+    flat: Flat,
+    /// For each exmex variable (exmex sorts them by name), its index in the symbol table.
+    slots: Vec<usize>,
+}
+
+impl Expression {
+    pub fn compile(text: &str, symbols: &Symbols) -> Result<Expression, ExprError> {
+        let flat = Flat::parse(text).map_err(|e| ExprError { message: e.msg().to_string(), offset: None })?;
+        let slots = flat
+            .var_names()
+            .iter()
+            .map(|name| {
+                symbols.index(name).ok_or_else(|| ExprError {
+                    message: format!(
+                        "unknown symbol `{name}`; defined are: {}",
+                        if symbols.is_empty() { "(none)".to_string() } else { symbols.names().join(", ") }
+                    ),
+                    offset: find_identifier(text, name),
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Expression { text: text.to_string(), flat, slots })
+    }
+
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// Whether the expression uses the symbol at `index` of its table.
+    pub fn uses(&self, index: usize) -> bool {
+        self.slots.contains(&index)
+    }
+
+    /// Evaluates with `values[i]` bound to the table's i-th symbol. Domain errors give NaN.
+    pub fn eval(&self, values: &[f64]) -> f64 {
+        let args: Vec<f64> = self.slots.iter().map(|&i| values[i]).collect();
+        self.flat.eval(&args).unwrap_or(f64::NAN)
+    }
+}
+
+/// Character offset of the first whole-word occurrence of `name` in `text`.
+fn find_identifier(text: &str, name: &str) -> Option<usize> {
+    let is_ident = |c: char| c.is_alphanumeric() || c == '_';
+    let mut start = 0;
+    while let Some(pos) = text[start..].find(name) {
+        let at = start + pos;
+        let before = text[..at].chars().next_back();
+        let after = text[at + name.len()..].chars().next();
+        if !before.is_some_and(is_ident) && !after.is_some_and(is_ident) {
+            return Some(text[..at].chars().count());
+        }
+        start = at + name.len();
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn e_is_a_variable_not_eulers_number() {
+        let symbols = Symbols::new(["h", "E", "F", "L", "b"]);
+        let expr = Expression::compile("4*F*L^3/(E*b*h^3)", &symbols).unwrap();
+        let y = expr.eval(&[8.0, 60_000.0, 600.0, 20.0, 2.0]);
+        let expected = 4.0 * 600.0 * 20f64.powi(3) / (60_000.0 * 2.0 * 512.0);
+        assert!((y - expected).abs() < 1e-15 * expected, "{y} vs {expected}");
+    }
+
+    #[test]
+    fn unknown_symbol_names_it_and_its_position() {
+        let err = Expression::compile("a*x + bb", &Symbols::new(["a", "x"])).unwrap_err();
+        assert!(err.message.contains("`bb`"), "{}", err.message);
+        assert_eq!(err.offset, Some(6));
+    }
+
+    #[test]
+    fn syntax_error_is_an_error_not_a_panic() {
+        assert!(Expression::compile("4*(x", &Symbols::new(["x"])).is_err());
+        assert!(Expression::compile("", &Symbols::new(["x"])).is_err());
+    }
+}

@@ -1,0 +1,153 @@
+//! The study: what to calibrate, against which tests, with which methods.
+//!
+//! [`load`] reads a study file and everything it references (experiments CSV, expressions) and
+//! returns a validated [`Study`], or an [`InputError`] naming file, line and column. Nothing after
+//! this stage re-checks user input: a `Study` is valid by construction.
+//!
+//! Vocabulary follows Dakota: *variables* (design variables and calibration parameters), the
+//! *simulation* (how a response is computed), *experiments* (measured responses), *methods*.
+
+pub mod experiments;
+pub mod expr;
+mod load;
+mod schema;
+mod yaml;
+
+use std::path::PathBuf;
+
+pub use experiments::{Experiments, TestDesign};
+pub use expr::{Expression, Symbols};
+pub use load::load;
+
+use crate::calibrate::Bounds;
+use crate::error::InputError;
+
+/// A validated study.
+#[derive(Debug, Clone)]
+pub struct Study {
+    pub name: String,
+    /// The study file; relative paths in it are relative to its directory.
+    pub path: PathBuf,
+    /// Named constants, visible to expressions and templates, in file order.
+    pub constants: Vec<(String, f64)>,
+    /// Design variables (user-controllable), in file order.
+    pub design: Vec<DesignVariable>,
+    /// Calibration parameters, in file order.
+    pub parameters: Vec<Parameter>,
+    pub simulation: Simulation,
+    pub experiments: Experiments,
+    /// Training design names, in the order the study lists them (Eq. 6 pairs consecutive ones).
+    pub training: Vec<String>,
+    pub validation: Vec<String>,
+    pub calibration: CalibrationSettings,
+    pub diagnosis: DiagnosisSettings,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignVariable {
+    pub name: String,
+    pub unit: Option<String>,
+    /// Optional bounds; default to the range of the experiments' designs.
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parameter {
+    pub name: String,
+    pub min: f64,
+    pub max: f64,
+    pub unit: Option<String>,
+}
+
+#[derive(Debug, Clone)]
+pub enum Simulation {
+    /// Closed form over design variables, parameters and constants.
+    Expression(Expression),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Method {
+    LeastSquares,
+    Sensitivity,
+    Bayesian,
+}
+
+impl Method {
+    /// The name used in the study file and in `results.json`.
+    pub fn key(self) -> &'static str {
+        match self {
+            Method::LeastSquares => "least_squares",
+            Method::Sensitivity => "sensitivity",
+            Method::Bayesian => "bayesian",
+        }
+    }
+
+    pub fn from_key(key: &str) -> Option<Method> {
+        [Method::LeastSquares, Method::Sensitivity, Method::Bayesian].into_iter().find(|m| m.key() == key)
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct CalibrationSettings {
+    /// Methods to run, in the order listed.
+    pub methods: Vec<Method>,
+    pub bayesian: crate::calibrate::bayesian::Settings,
+}
+
+#[derive(Debug, Clone, Default)]
+pub struct DiagnosisSettings {
+    pub hypotheses: Vec<Hypothesis>,
+}
+
+/// A candidate cause of model error: an additive discrepancy shape.
+#[derive(Debug, Clone)]
+pub struct Hypothesis {
+    pub name: String,
+    /// Over design variables, constants, parameters and `y`; compiled against [`Study::term_symbols`].
+    pub term: Expression,
+}
+
+impl Study {
+    /// Symbols of the simulation expression: design variables, parameters, constants.
+    pub fn symbols(&self) -> Symbols {
+        Symbols::new(
+            self.design
+                .iter()
+                .map(|d| d.name.clone())
+                .chain(self.parameters.iter().map(|p| p.name.clone()))
+                .chain(self.constants.iter().map(|(n, _)| n.clone())),
+        )
+    }
+
+    /// Symbols of a hypothesis term: the simulation's symbols plus `y`, the prediction.
+    pub fn term_symbols(&self) -> Symbols {
+        Symbols::new(self.symbols().names().iter().cloned().chain(["y".to_string()]))
+    }
+
+    pub fn parameter_bounds(&self) -> Bounds {
+        Bounds::new(
+            self.parameters.iter().map(|p| p.min).collect(),
+            self.parameters.iter().map(|p| p.max).collect(),
+        )
+    }
+
+    /// Design bounds: the study's `min`/`max` where given, else the range of the tested designs.
+    pub fn design_bounds(&self) -> Bounds {
+        let (lower, upper) = self
+            .design
+            .iter()
+            .enumerate()
+            .map(|(j, var)| {
+                let values = self.experiments.designs.iter().map(|t| t.values[j]);
+                let lo = var.min.unwrap_or_else(|| values.clone().fold(f64::INFINITY, f64::min));
+                let hi = var.max.unwrap_or_else(|| values.fold(f64::NEG_INFINITY, f64::max));
+                (lo, hi)
+            })
+            .unzip();
+        Bounds::new(lower, upper)
+    }
+}
+
+/// Re-exported so callers can name the error type of [`load`] from here.
+pub type LoadError = InputError;

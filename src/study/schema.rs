@@ -1,0 +1,1 @@
+//! The study file's YAML schema (serde), before validation.
