@@ -133,3 +133,46 @@ pub enum CalibrationError {
     #[error("{0}")]
     Numerics(String),
 }
+
+/// The paper's cantilever (Sec. 3) as a ready-made problem, for the numerics' own tests.
+#[cfg(test)]
+pub(crate) mod testing {
+    use super::*;
+
+    pub const F: f64 = 600.0;
+    pub const B: f64 = 2.0;
+    pub const NU: f64 = 0.36;
+    pub const E0: f64 = 68_000.0;
+    pub const L0: f64 = 20.0;
+
+    /// Eq. 10: the Euler–Bernoulli tip deflection (the simulation).
+    pub fn euler(h: f64, e: f64, l: f64) -> f64 {
+        4.0 * F * l.powi(3) / (e * B * h.powi(3))
+    }
+
+    /// Eq. 11: the Timoshenko tip deflection with E0 (the "tests").
+    pub fn timoshenko(h: f64) -> f64 {
+        euler(h, E0, L0) + F * L0 * (4.0 + 5.0 * NU) / (2.0 * E0 * B * h)
+    }
+
+    fn problem(hs: &[f64], bounds: Bounds, model: &'static dyn Model) -> Problem<'static> {
+        Problem {
+            designs: DMatrix::from_column_slice(hs.len(), 1, hs),
+            measured: DVector::from_iterator(hs.len(), hs.iter().map(|&h| timoshenko(h))),
+            bounds,
+            model,
+        }
+    }
+
+    /// E calibrated in [50,000, 80,000] against Timoshenko tests at `hs`.
+    pub fn cantilever(hs: &[f64]) -> Problem<'static> {
+        static MODEL: fn(&[f64], &[f64]) -> f64 = |d, th| euler(d[0], th[0], L0);
+        problem(hs, Bounds::new(vec![50_000.0], vec![80_000.0]), &MODEL)
+    }
+
+    /// E and L calibrated together (Table 1).
+    pub fn cantilever_el(hs: &[f64]) -> Problem<'static> {
+        static MODEL: fn(&[f64], &[f64]) -> f64 = |d, th| euler(d[0], th[0], th[1]);
+        problem(hs, Bounds::new(vec![50_000.0, 15.0], vec![80_000.0, 25.0]), &MODEL)
+    }
+}
