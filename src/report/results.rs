@@ -1,0 +1,185 @@
+//! `results.json`: the keys fixed in the contract, plus a few extensions.
+//!
+//! Built from the study and the calibration; serialised with parameter and design order kept.
+
+use std::path::Path;
+
+use indexmap::IndexMap;
+use serde::{Deserialize, Serialize};
+
+use crate::calibrate::identifiability::Identifiability;
+use crate::calibrate::{Discrepancy, Model};
+use crate::pipeline::{Calibrated, Calibration};
+use crate::study::Study;
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Results {
+    pub study: String,
+    /// Keyed by method name (`least_squares`, `sensitivity`, `bayesian`), in the study's order.
+    pub calibration: IndexMap<String, MethodResult>,
+    pub identifiability: IdentifiabilityResult,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct MethodResult {
+    pub parameters: IndexMap<String, f64>,
+    /// `null` for least squares; `{"constant": d}` for sensitivity; the GP's summary for Bayesian.
+    pub discrepancy: Option<serde_json::Value>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub interval95: Option<IndexMap<String, [f64; 2]>>,
+    /// Posterior median (Bayesian only).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub median: Option<IndexMap<String, f64>>,
+    pub predictions: Vec<Prediction>,
+    /// Mean |relative error| over the training designs.
+    pub training_error: Option<f64>,
+    /// Mean |relative error| over the validation designs; `null` when the study names none.
+    pub validation_error: Option<f64>,
+    /// Why the method produced no estimate; the other keys are then empty.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub error: Option<String>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Prediction {
+    pub design: String,
+    pub role: Role,
+    pub measured: f64,
+    pub predicted: f64,
+    /// (predicted − measured) / measured.
+    pub relative_error: f64,
+}
+
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    Training,
+    Validation,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct IdentifiabilityResult {
+    pub identifiable: bool,
+    pub note: String,
+    /// The parameter combinations the training tests determine, when not every parameter is.
+    pub combinations: Vec<String>,
+    pub singular_values: Vec<f64>,
+}
+
+impl From<&Identifiability> for IdentifiabilityResult {
+    fn from(i: &Identifiability) -> Self {
+        IdentifiabilityResult {
+            identifiable: i.identifiable,
+            note: i.note.clone(),
+            combinations: i.combinations.clone(),
+            singular_values: i.singular_values.clone(),
+        }
+    }
+}
+
+impl Results {
+    pub fn build(study: &Study, model: &dyn Model, calibration: &Calibration) -> Results {
+        let methods = calibration
+            .methods
+            .iter()
+            .map(|(method, outcome)| {
+                let result = match outcome {
+                    Ok(calibrated) => method_result(study, model, calibrated),
+                    Err(e) => MethodResult::failed(e.to_string()),
+                };
+                (method.key().to_string(), result)
+            })
+            .collect();
+        Results {
+            study: study.name.clone(),
+            calibration: methods,
+            identifiability: (&calibration.identifiability).into(),
+        }
+    }
+
+    /// Whether any method failed (the run then exits 1).
+    pub fn any_failed(&self) -> bool {
+        self.calibration.values().any(|m| m.error.is_some())
+    }
+
+    /// Writes `results.json` atomically: a reader never sees a half-written file.
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        let json = serde_json::to_string_pretty(self).map_err(std::io::Error::other)?;
+        crate::report::write_atomically(path, json.as_bytes())
+    }
+
+    pub fn read(path: &Path) -> std::io::Result<Results> {
+        serde_json::from_slice(&std::fs::read(path)?).map_err(std::io::Error::other)
+    }
+}
+
+impl MethodResult {
+    fn failed(error: String) -> Self {
+        MethodResult {
+            parameters: IndexMap::new(),
+            discrepancy: None,
+            interval95: None,
+            median: None,
+            predictions: vec![],
+            training_error: None,
+            validation_error: None,
+            error: Some(error),
+        }
+    }
+}
+
+fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> MethodResult {
+    let names = || study.parameters.iter().map(|p| p.name.clone());
+    let predictions = predictions(study, model, calibrated);
+    let mean_error = |role| {
+        let errors: Vec<f64> =
+            predictions.iter().filter(|p| p.role == role).map(|p| p.relative_error.abs()).collect();
+        (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64)
+    };
+    let (training_error, validation_error) = (mean_error(Role::Training), mean_error(Role::Validation));
+    let mut result = MethodResult {
+        parameters: names().zip(calibrated.theta().iter().copied()).collect(),
+        discrepancy: None,
+        interval95: None,
+        median: None,
+        predictions,
+        training_error,
+        validation_error,
+        error: None,
+    };
+    match calibrated {
+        Calibrated::Point(e) => {
+            if let Discrepancy::Constant(d) = e.discrepancy {
+                result.discrepancy = Some(serde_json::json!({ "constant": d }));
+            }
+        }
+        Calibrated::Bayesian(fit) => {
+            result.interval95 = Some(names().zip(fit.interval95.iter().map(|&(lo, hi)| [lo, hi])).collect());
+            result.median = Some(names().zip(fit.median.iter().copied()).collect());
+            result.discrepancy = Some(serde_json::json!({ "gaussian_process": true }));
+        }
+    }
+    result
+}
+
+/// Calibrated predictions at every training, then validation, design.
+fn predictions(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> Vec<Prediction> {
+    let roles = study
+        .training
+        .iter()
+        .map(|n| (n, Role::Training))
+        .chain(study.validation.iter().map(|n| (n, Role::Validation)));
+    roles
+        .map(|(name, role)| {
+            let test = study.experiments.get(name).expect("validated: designs are in the experiments");
+            let (measured, predicted) = (test.mean(), calibrated.predict(model, &test.values));
+            Prediction {
+                design: name.clone(),
+                role,
+                measured,
+                predicted,
+                relative_error: (predicted - measured) / measured,
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,98 @@
+//! The terminal summary: one table of parameters and errors per method, one of predictions.
+
+use std::fmt::Write;
+
+use super::results::{Results, Role};
+
+/// Renders the summary as plain text (no colour: it is also what a log file gets).
+pub fn render(results: &Results) -> String {
+    let mut out = String::new();
+    let names: Vec<&String> = results
+        .calibration
+        .values()
+        .find(|m| m.error.is_none())
+        .map(|m| m.parameters.keys().collect())
+        .unwrap_or_default();
+
+    let _ = writeln!(out, "study {}\n", results.study);
+    let mut header = format!("{:<15}", "method");
+    for n in &names {
+        let _ = write!(header, " {:>12}", n);
+    }
+    let _ = writeln!(out, "{header} {:>30} {:>10} {:>10}", "95 % interval / discrepancy", "train err", "valid err");
+    for (method, r) in &results.calibration {
+        let mut line = format!("{method:<15}");
+        if let Some(e) = &r.error {
+            let _ = writeln!(out, "{line} failed: {e}");
+            continue;
+        }
+        for n in &names {
+            let _ = write!(line, " {:>12}", significant(r.parameters[*n], 6));
+        }
+        let extra = match (&r.interval95, &r.discrepancy) {
+            (Some(iv), _) => iv
+                .values()
+                .map(|[lo, hi]| format!("[{}, {}]", significant(*lo, 5), significant(*hi, 5)))
+                .collect::<Vec<_>>()
+                .join(" "),
+            (None, Some(d)) => d.get("constant").and_then(|c| c.as_f64()).map(|c| format!("d = {}", significant(c, 5))).unwrap_or_default(),
+            _ => String::new(),
+        };
+        let _ = writeln!(out, "{line} {extra:>30} {:>10} {:>10}", percent(r.training_error), percent(r.validation_error));
+    }
+
+    let _ = writeln!(out, "\npredictions (relative error)");
+    let mut header = format!("{:<12} {:<10} {:>12}", "design", "role", "measured");
+    for method in results.calibration.keys() {
+        let _ = write!(header, " {:>24}", method);
+    }
+    let _ = writeln!(out, "{header}");
+    if let Some(first) = results.calibration.values().find(|m| m.error.is_none()) {
+        for (i, p) in first.predictions.iter().enumerate() {
+            let role = match p.role {
+                Role::Training => "training",
+                Role::Validation => "validation",
+            };
+            let mut line = format!("{:<12} {:<10} {:>12}", p.design, role, significant(p.measured, 6));
+            for r in results.calibration.values() {
+                let cell = r.predictions.get(i).map_or("-".to_string(), |q| {
+                    format!("{} ({:+.2} %)", significant(q.predicted, 6), 100.0 * q.relative_error)
+                });
+                let _ = write!(line, " {cell:>24}");
+            }
+            let _ = writeln!(out, "{line}");
+        }
+    }
+    let id = &results.identifiability;
+    let _ = writeln!(out, "\nidentifiability: {}", id.note);
+    out
+}
+
+/// `x` with `digits` significant figures, without exponent for ordinary magnitudes.
+pub fn significant(x: f64, digits: usize) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let magnitude = x.abs().log10().floor() as i32;
+    if !(-4..=9).contains(&magnitude) {
+        return format!("{:.*e}", digits.saturating_sub(1), x);
+    }
+    let decimals = (digits as i32 - 1 - magnitude).max(0) as usize;
+    format!("{x:.decimals$}")
+}
+
+fn percent(x: Option<f64>) -> String {
+    x.map_or("-".to_string(), |v| format!("{:.2} %", 100.0 * v))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::significant;
+
+    #[test]
+    fn significant_figures() {
+        assert_eq!(significant(64913.87, 6), "64913.9");
+        assert_eq!(significant(0.0188771, 5), "0.018877");
+        assert_eq!(significant(1.5e-7, 3), "1.50e-7");
+    }
+}
