@@ -54,11 +54,8 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
         .map_err(|e| InputError::file(file, format!("cannot read the experiments file: {e}")))?;
     let at = |line: usize, column: usize, message: String| InputError::at(file, &source, line, column, message);
 
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .from_reader(source.as_bytes());
+    let mut reader =
+        csv::ReaderBuilder::new().has_headers(true).flexible(true).trim(csv::Trim::All).from_reader(source.as_bytes());
     let header = reader.headers().map_err(|e| csv_error(file, &source, &e))?.clone();
     if header.iter().all(str::is_empty) {
         return Err(InputError::file(
@@ -73,9 +70,9 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
     let listed = header.iter().map(|h| format!("`{h}`")).collect::<Vec<_>>().join(", ");
     let column_of = |name: &str| -> Result<usize, InputError> {
         let mut found = header.iter().enumerate().filter(|(_, h)| *h == name).map(|(i, _)| i);
-        let first = found.next().ok_or_else(|| {
-            at(header_line, 1, format!("missing column `{name}`; the header has: {listed}"))
-        })?;
+        let first = found
+            .next()
+            .ok_or_else(|| at(header_line, 1, format!("missing column `{name}`; the header has: {listed}")))?;
         if let Some(again) = found.next() {
             return Err(at(
                 header_line,
@@ -184,6 +181,9 @@ fn field_column(line: &str, index: usize) -> usize {
             }
             _ => {}
         }
+    }
+    if field < index {
+        return line.chars().count() + 1;
     }
     let skipped = line.chars().skip(start).take_while(|c| *c == ' ' || *c == '\t').count();
     start + skipped + 1

@@ -20,13 +20,6 @@ pub struct Spanned<T> {
     pub column: usize,
 }
 
-impl<T> Spanned<T> {
-    /// Whether the location is known.
-    pub fn located(&self) -> bool {
-        self.line > 0 && self.column > 0
-    }
-}
-
 impl<T: PartialEq> PartialEq for Spanned<T> {
     fn eq(&self, other: &Self) -> bool {
         self.value == other.value
@@ -82,11 +75,16 @@ fn friendlier(message: &str) -> String {
         "unexpected end of file" | "unexpected end of input" => {
             "the study file is empty (or ends early): expected a YAML mapping with `name`, `design`, ...".to_string()
         }
-        _ if message.starts_with("invalid integer") || message.starts_with("invalid unsigned") => {
-            format!("{message}: expected a whole number")
-        }
+        _ if is_integer_message(message) => format!("expected a whole number ({message})"),
         _ => message.to_string(),
     }
+}
+
+/// Whether `message` is the crate's "invalid u64" (etc.) for a scalar that is not an integer.
+fn is_integer_message(message: &str) -> bool {
+    const KINDS: [&str; 13] =
+        ["integer", "u8", "u16", "u32", "u64", "u128", "usize", "i8", "i16", "i32", "i64", "i128", "isize"];
+    message.strip_prefix("invalid ").is_some_and(|kind| KINDS.contains(&kind))
 }
 
 #[cfg(test)]
