@@ -392,6 +392,31 @@ fn sensitivity_needs_two_training_designs() {
 }
 
 #[test]
+fn default_methods_need_two_training_designs() {
+    let yaml = study_with("calibration:\n  methods: [least_squares, sensitivity, bayesian]\n", "")
+        .replace("training: [h8, h10]", "training: [h8]");
+    study_error(&yaml, 12, Some(11), "default calibration methods include sensitivity");
+    let yaml = yaml.replace("validation: [h13]\n", "validation: [h13]\ncalibration: {methods: [least_squares]}\n");
+    let c = case(&yaml, CSV);
+    let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.calibration.methods, [Method::LeastSquares]);
+}
+
+#[test]
+fn undefined_symbol_in_multiline_expression_points_at_the_string() {
+    let yaml = study_with("\"4*F*L^3/(E*b*h^3)\"", "\"4*F*L^3/\n    (E*b*hh^3)\"");
+    study_error(&yaml, 8, Some(column_of(&yaml, 8, "\"")), "unknown symbol `hh`");
+}
+
+#[test]
+fn csv_with_bom_and_crlf_loads() {
+    let csv = "\u{feff}design,h,deflection\r\nh8,8,0.3\r\nh10,10,0.16\r\nh13,13,0.08\r\n";
+    let c = case(STUDY, csv);
+    let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.experiments.designs.len(), 3);
+}
+
+#[test]
 fn bad_bayesian_settings() {
     let yaml = study_with("bayesian]\n", "bayesian]\n  bayesian: {mcmc_steps: 100, mcmc_burn_in: 100}\n");
     study_error(&yaml, 16, Some(column_of(&yaml, 16, "100}")), "must be less than");

@@ -180,7 +180,7 @@ impl Checker<'_> {
             ));
         }
 
-        let calibration = self.calibration(file.calibration.as_ref(), training.len())?;
+        let calibration = self.calibration(file.calibration.as_ref(), &file.training, training.len())?;
 
         let mut study = Study {
             name,
@@ -376,17 +376,21 @@ impl Checker<'_> {
     fn calibration(
         &self,
         spec: Option<&CalibrationFile>,
+        training: &Spanned<Vec<Name>>,
         n_training: usize,
     ) -> Result<CalibrationSettings, InputError> {
         let all = vec![Method::LeastSquares, Method::Sensitivity, Method::Bayesian];
         let methods = match spec.and_then(|c| c.methods.as_ref()) {
             None => {
                 if n_training < 2 {
-                    // Defaulting to all three would include sensitivity, which cannot run.
-                    return Ok(CalibrationSettings {
-                        methods: vec![Method::LeastSquares, Method::Bayesian],
-                        bayesian: self.bayesian(spec.map(|c| &c.bayesian))?,
-                    });
+                    return Err(self.at(
+                        training,
+                        format!(
+                            "the default calibration methods include sensitivity, which needs at least 2 training \
+                             designs (training has {n_training}); add more, or list the methods, e.g. \
+                             `calibration: {{methods: [least_squares, bayesian]}}`"
+                        ),
+                    ));
                 }
                 all
             }
