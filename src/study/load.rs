@@ -1,11 +1,474 @@
 //! Study loading: YAML → schema → validated [`Study`].
+//!
+//! [`yaml::parse`] catches what the schema can see (syntax, unknown and duplicate keys, missing keys,
+//! wrong types); the checks here catch the rest, each at the node that is wrong.
 
+use std::collections::HashMap;
 use std::path::Path;
 
-use super::Study;
+use super::expr::ExprError;
+use super::schema::{BayesianFile, CalibrationFile, DiagnosisFile, Name, SimulationFile, StudyFile};
+use super::yaml::{self, Spanned};
+use super::{
+    CalibrationSettings, DesignVariable, DiagnosisSettings, Experiments, Expression, Hypothesis, Method, Parameter,
+    Simulation, Study, Symbols, experiments,
+};
+use crate::calibrate::bayesian::Settings as BayesianSettings;
 use crate::error::InputError;
 
 /// Loads and validates a study file and everything it references.
-pub fn load(_path: &Path) -> Result<Study, InputError> {
-    todo!("study::load")
+pub fn load(path: &Path) -> Result<Study, InputError> {
+    let source = std::fs::read_to_string(path)
+        .map_err(|e| InputError::file(path, format!("cannot read the study file: {e}")))?;
+    let file: StudyFile = yaml::parse(path, &source)?;
+    Checker { path, source: &source }.study(file)
+}
+
+/// The study file and its text, for located errors.
+struct Checker<'a> {
+    path: &'a Path,
+    source: &'a str,
+}
+
+impl Checker<'_> {
+    /// An error at `node`, or about the whole file when its location is unknown.
+    fn at<T>(&self, node: &Spanned<T>, message: impl Into<String>) -> InputError {
+        self.at_position(node.line, node.column, message)
+    }
+
+    fn at_position(&self, line: usize, column: usize, message: impl Into<String>) -> InputError {
+        if line > 0 && column > 0 {
+            InputError::at(self.path, self.source, line, column, message)
+        } else {
+            InputError::file(self.path, message)
+        }
+    }
+
+    /// Line `line` (from 1) of the study file.
+    fn line(&self, line: usize) -> &str {
+        line.checked_sub(1).and_then(|i| self.source.lines().nth(i)).unwrap_or("")
+    }
+
+    /// Where the key `key:` whose value is `value` is written: on the value's line before it, or on
+    /// one of the few lines above (block style). Falls back to the value's own location.
+    fn key_position<T>(&self, key: &str, value: &Spanned<T>) -> (usize, usize) {
+        let pattern = format!("{key}:");
+        for line in (value.line.saturating_sub(3).max(1)..=value.line).rev() {
+            let text = self.line(line);
+            let found = text.match_indices(&pattern).map(|(at, _)| text[..at].chars().count()).filter(|&col| {
+                let before = text[..text.char_indices().nth(col).map_or(text.len(), |(b, _)| b)].chars().next_back();
+                !before.is_some_and(|c| c.is_alphanumeric() || c == '_')
+            });
+            let found =
+                if line == value.line { found.filter(|&col| col + 1 < value.column).last() } else { found.last() };
+            if let Some(col) = found {
+                return (line, col + 1);
+            }
+        }
+        (value.line, value.column)
+    }
+
+    fn at_key<T>(&self, key: &str, value: &Spanned<T>, message: impl Into<String>) -> InputError {
+        let (line, column) = self.key_position(key, value);
+        self.at_position(line, column, message)
+    }
+
+    /// An expression error at the offending character when the expression is written on one line
+    /// (node column, plus one for an opening quote, plus the error's character offset), else at the
+    /// expression's node.
+    fn expression_error(&self, node: &Spanned<String>, what: &str, error: ExprError) -> InputError {
+        let message = match error.offset {
+            Some(_) => format!("{what}: {}", error.message),
+            None => format!("{what} does not parse: {}", error.message),
+        };
+        let column = error.offset.and_then(|offset| self.column_in_string(node, offset)).unwrap_or(node.column);
+        self.at_position(node.line, column, message)
+    }
+
+    /// Column of the `offset`-th character of the string at `node`, if the source text there
+    /// matches the string's value up to and including that character.
+    fn column_in_string(&self, node: &Spanned<String>, offset: usize) -> Option<usize> {
+        let text: Vec<char> = self.line(node.line).chars().skip(node.column.checked_sub(1)?).collect();
+        let quote = usize::from(matches!(text.first(), Some('"' | '\'')));
+        let value: Vec<char> = node.value.chars().collect();
+        let wanted = value.get(..=offset)?;
+        let written = text.get(quote..quote + wanted.len())?;
+        (written == wanted).then_some(node.column + quote + offset)
+    }
+
+    fn study(&self, file: StudyFile) -> Result<Study, InputError> {
+        let name = self.name(&file.name)?;
+        self.names(&file)?;
+
+        let constants = file
+            .constants
+            .iter()
+            .map(|(name, value)| {
+                let v = self.finite(value, &format!("constant `{}`", name.value))?;
+                Ok((name.value.clone(), v))
+            })
+            .collect::<Result<Vec<_>, InputError>>()?;
+
+        let design = file
+            .design
+            .value
+            .iter()
+            .map(|(name, spec)| {
+                let spec = spec.as_ref();
+                let what = format!("design variable `{}`", name.value);
+                let min =
+                    spec.and_then(|s| s.min.as_ref()).map(|m| self.finite(m, &format!("{what}: min"))).transpose()?;
+                let max =
+                    spec.and_then(|s| s.max.as_ref()).map(|m| self.finite(m, &format!("{what}: max"))).transpose()?;
+                if let (Some(lo), Some(hi), Some(node)) = (min, max, spec.and_then(|s| s.min.as_ref()))
+                    && lo >= hi
+                {
+                    return Err(self.at(node, format!("{what}: min ({lo}) must be less than max ({hi})")));
+                }
+                Ok(DesignVariable { name: name.value.clone(), unit: spec.and_then(|s| s.unit.clone()), min, max })
+            })
+            .collect::<Result<Vec<_>, InputError>>()?;
+
+        if file.parameters.value.is_empty() {
+            return Err(self.at_key(
+                "parameters",
+                &file.parameters,
+                "no calibration parameters: give at least one, e.g. `E: {min: 50000, max: 80000}`",
+            ));
+        }
+        let parameters = file
+            .parameters
+            .value
+            .iter()
+            .map(|(name, spec)| {
+                let what = format!("parameter `{}`", name.value);
+                let min = self.finite(&spec.min, &format!("{what}: min"))?;
+                let max = self.finite(&spec.max, &format!("{what}: max"))?;
+                if min >= max {
+                    return Err(self.at(&spec.min, format!("{what}: min ({min}) must be less than max ({max})")));
+                }
+                Ok(Parameter { name: name.value.clone(), min, max, unit: spec.unit.clone() })
+            })
+            .collect::<Result<Vec<_>, InputError>>()?;
+
+        // The same order as `Study::symbols`: design variables, parameters, constants.
+        let symbols = Symbols::new(
+            design
+                .iter()
+                .map(|d| d.name.clone())
+                .chain(parameters.iter().map(|p| p.name.clone()))
+                .chain(constants.iter().map(|(n, _)| n.clone())),
+        );
+        let simulation = self.simulation(&file.simulation, &symbols, design.len(), parameters.len())?;
+
+        let experiments = self.experiments(&file, &design)?;
+        let training = self.designs(&file.training.value, "training", &experiments)?;
+        if training.is_empty() {
+            return Err(self.at(
+                &file.training,
+                "no training designs: list at least one design of the experiments file, e.g. `training: [h8, h10]`",
+            ));
+        }
+        let validation = self.designs(&file.validation, "validation", &experiments)?;
+        if let Some(both) = file.validation.iter().find(|v| training.contains(&v.value)) {
+            return Err(self.at(
+                both,
+                format!(
+                    "design `{}` is listed in both training and validation; a design is one or the other",
+                    both.value
+                ),
+            ));
+        }
+
+        let calibration = self.calibration(file.calibration.as_ref(), &file.training, training.len())?;
+
+        let mut study = Study {
+            name,
+            path: self.path.to_path_buf(),
+            constants,
+            design,
+            parameters,
+            simulation,
+            experiments,
+            training,
+            validation,
+            calibration,
+            diagnosis: DiagnosisSettings::default(),
+        };
+        debug_assert_eq!(study.symbols(), symbols);
+        study.diagnosis = self.diagnosis(file.diagnosis.as_ref(), &study.term_symbols())?;
+        Ok(study)
+    }
+
+    fn name(&self, name: &Spanned<String>) -> Result<String, InputError> {
+        let valid = name.value.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-')
+            && name.value.chars().next().is_some_and(|c| c.is_ascii_lowercase() || c.is_ascii_digit());
+        if !valid {
+            return Err(self.at(
+                name,
+                format!(
+                    "invalid study name `{}`: use lowercase letters, digits and '-', starting with a letter or digit",
+                    name.value
+                ),
+            ));
+        }
+        Ok(name.value.clone())
+    }
+
+    /// Names of constants, design variables and parameters: identifiers, each defined once.
+    fn names(&self, file: &StudyFile) -> Result<(), InputError> {
+        let mut all: Vec<(&Name, &str)> = file
+            .constants
+            .keys()
+            .map(|n| (n, "a constant"))
+            .chain(file.design.value.keys().map(|n| (n, "a design variable")))
+            .chain(file.parameters.value.keys().map(|n| (n, "a parameter")))
+            .collect();
+        all.sort_by_key(|(n, _)| (n.line, n.column));
+        let mut seen: HashMap<&str, (&Name, &str)> = HashMap::new();
+        for &(name, kind) in &all {
+            let text = name.value.as_str();
+            let identifier = text.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+                && text.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            if !identifier {
+                return Err(self.at(
+                    name,
+                    format!(
+                        "invalid name `{text}` for {kind}: use letters, digits and '_', starting with a letter, \
+                         so that expressions can refer to it"
+                    ),
+                ));
+            }
+            if text == "y" {
+                return Err(self.at(
+                    name,
+                    format!("`y` is reserved (the simulation's prediction in hypothesis terms); rename {kind}"),
+                ));
+            }
+            if text == "design" && kind == "a design variable" {
+                return Err(
+                    self.at(name, "`design` is reserved: the experiments file's `design` column holds design names")
+                );
+            }
+            if let Some((first, first_kind)) = seen.get(text) {
+                let where_ = if first.line > 0 { format!(" on line {}", first.line) } else { String::new() };
+                return Err(self.at(name, format!("`{text}` is defined twice: as {first_kind}{where_} and as {kind}")));
+            }
+            seen.insert(text, (name, kind));
+        }
+        Ok(())
+    }
+
+    fn finite(&self, node: &Spanned<f64>, what: &str) -> Result<f64, InputError> {
+        if node.value.is_finite() {
+            Ok(node.value)
+        } else {
+            Err(self.at(node, format!("{what} must be a finite number, not {}", node.value)))
+        }
+    }
+
+    fn simulation(
+        &self,
+        node: &Spanned<SimulationFile>,
+        symbols: &Symbols,
+        n_design: usize,
+        n_parameters: usize,
+    ) -> Result<Simulation, InputError> {
+        let sim = &node.value;
+        let solver_keys = [
+            ("solver", &sim.solver),
+            ("response", &sim.response),
+            ("sampling", &sim.sampling),
+            ("surrogate", &sim.surrogate),
+        ];
+        if let Some((key, Some(value))) = solver_keys.iter().find(|(_, v)| v.is_some()) {
+            return Err(self.at_key(
+                key,
+                value,
+                format!(
+                    "`simulation.{key}` is not supported yet: this version of lab runs closed-form simulations only; \
+                     use `simulation: {{expression: \"...\"}}`"
+                ),
+            ));
+        }
+        let Some(text) = &sim.expression else {
+            return Err(self.at_key(
+                "simulation",
+                node,
+                "`simulation` needs `expression`: a closed form over the design variables, parameters and constants",
+            ));
+        };
+        let expression = Expression::compile(&text.value, symbols)
+            .map_err(|e| self.expression_error(text, "simulation expression", e))?;
+        if !(n_design..n_design + n_parameters).any(|i| expression.uses(i)) {
+            let names = symbols.names()[n_design..n_design + n_parameters].join(", ");
+            return Err(self.at(
+                text,
+                format!(
+                    "the simulation expression uses no calibration parameter ({names}): there is nothing to calibrate"
+                ),
+            ));
+        }
+        Ok(Simulation::Expression(expression))
+    }
+
+    fn experiments(&self, file: &StudyFile, design: &[DesignVariable]) -> Result<Experiments, InputError> {
+        let spec = &file.experiments;
+        if spec.file.value.trim().is_empty() {
+            return Err(self.at(&spec.file, "`experiments.file` is empty: name the CSV file of measured tests"));
+        }
+        let response = &spec.response;
+        if response.value.trim().is_empty() {
+            return Err(
+                self.at(response, "`experiments.response` is empty: name the CSV column of the measured response")
+            );
+        }
+        if response.value == "design" || design.iter().any(|d| d.name == response.value) {
+            return Err(self.at(
+                response,
+                format!(
+                    "the response column `{}` cannot also be the `design` column or a design variable",
+                    response.value
+                ),
+            ));
+        }
+        let dir = self.path.parent().unwrap_or(Path::new(""));
+        let csv = dir.join(&spec.file.value);
+        if !csv.is_file() {
+            let why = if csv.exists() { "is not a file" } else { "does not exist" };
+            return Err(self.at(
+                &spec.file,
+                format!(
+                    "experiments file `{}` {why} (looked for {}; paths are relative to the study file)",
+                    spec.file.value,
+                    csv.display()
+                ),
+            ));
+        }
+        let names: Vec<String> = design.iter().map(|d| d.name.clone()).collect();
+        experiments::read(&csv, &response.value, &names)
+    }
+
+    /// Training or validation design names: each in the experiments, each listed once.
+    fn designs(&self, names: &[Name], role: &str, experiments: &Experiments) -> Result<Vec<String>, InputError> {
+        let mut out: Vec<String> = Vec::with_capacity(names.len());
+        for name in names {
+            if experiments.get(&name.value).is_none() {
+                let known: Vec<&str> = experiments.designs.iter().map(|d| d.name.as_str()).collect();
+                return Err(self.at(
+                    name,
+                    format!(
+                        "{role} design `{}` is not in the experiments file {}; its designs are: {}",
+                        name.value,
+                        experiments.file.display(),
+                        known.join(", ")
+                    ),
+                ));
+            }
+            if out.contains(&name.value) {
+                return Err(self.at(name, format!("design `{}` is listed twice in {role}", name.value)));
+            }
+            out.push(name.value.clone());
+        }
+        Ok(out)
+    }
+
+    fn calibration(
+        &self,
+        spec: Option<&CalibrationFile>,
+        training: &Spanned<Vec<Name>>,
+        n_training: usize,
+    ) -> Result<CalibrationSettings, InputError> {
+        let all = vec![Method::LeastSquares, Method::Sensitivity, Method::Bayesian];
+        let methods = match spec.and_then(|c| c.methods.as_ref()) {
+            None => {
+                if n_training < 2 {
+                    return Err(self.at(
+                        training,
+                        format!(
+                            "the default calibration methods include sensitivity, which needs at least 2 training \
+                             designs (training has {n_training}); add more, or list the methods, e.g. \
+                             `calibration: {{methods: [least_squares, bayesian]}}`"
+                        ),
+                    ));
+                }
+                all
+            }
+            Some(list) => {
+                if list.value.is_empty() {
+                    return Err(
+                        self.at(list, "no calibration methods: choose from least_squares, sensitivity, bayesian")
+                    );
+                }
+                let mut methods = Vec::new();
+                for key in &list.value {
+                    let method = Method::from_key(&key.value).ok_or_else(|| {
+                        self.at(
+                            key,
+                            format!("unknown method `{}`: choose from least_squares, sensitivity, bayesian", key.value),
+                        )
+                    })?;
+                    if methods.contains(&method) {
+                        return Err(self.at(key, format!("method `{}` is listed twice", key.value)));
+                    }
+                    if method == Method::Sensitivity && n_training < 2 {
+                        return Err(self.at(
+                            key,
+                            format!(
+                                "the sensitivity method needs at least 2 training designs (it pairs consecutive ones); \
+                                 training has {n_training}"
+                            ),
+                        ));
+                    }
+                    methods.push(method);
+                }
+                methods
+            }
+        };
+        Ok(CalibrationSettings { methods, bayesian: self.bayesian(spec.map(|c| &c.bayesian))? })
+    }
+
+    fn bayesian(&self, spec: Option<&BayesianFile>) -> Result<BayesianSettings, InputError> {
+        let mut settings = BayesianSettings::default();
+        let Some(spec) = spec else { return Ok(settings) };
+        let at_least = |node: &Option<Spanned<usize>>, key: &str, min: usize, default: usize| match node {
+            Some(n) if n.value < min => Err(self.at(n, format!("bayesian.{key} must be at least {min}"))),
+            Some(n) => Ok(n.value),
+            None => Ok(default),
+        };
+        settings.emulator_samples = at_least(&spec.emulator_samples, "emulator_samples", 2, settings.emulator_samples)?;
+        settings.mcmc_walkers = at_least(&spec.mcmc_walkers, "mcmc_walkers", 2, settings.mcmc_walkers)?;
+        settings.mcmc_steps = at_least(&spec.mcmc_steps, "mcmc_steps", 1, settings.mcmc_steps)?;
+        settings.mcmc_burn_in = at_least(&spec.mcmc_burn_in, "mcmc_burn_in", 0, settings.mcmc_burn_in)?;
+        if let Some(seed) = spec.seed {
+            settings.seed = seed;
+        }
+        if settings.mcmc_burn_in >= settings.mcmc_steps {
+            let message = format!(
+                "bayesian.mcmc_burn_in ({}) must be less than bayesian.mcmc_steps ({})",
+                settings.mcmc_burn_in, settings.mcmc_steps
+            );
+            return Err(match (&spec.mcmc_burn_in, &spec.mcmc_steps) {
+                (Some(node), _) | (None, Some(node)) => self.at(node, message),
+                (None, None) => InputError::file(self.path, message),
+            });
+        }
+        Ok(settings)
+    }
+
+    fn diagnosis(&self, spec: Option<&DiagnosisFile>, symbols: &Symbols) -> Result<DiagnosisSettings, InputError> {
+        let mut hypotheses: Vec<Hypothesis> = Vec::new();
+        for h in spec.map_or(&[][..], |d| &d.hypotheses[..]) {
+            if h.name.value.trim().is_empty() {
+                return Err(self.at(&h.name, "empty hypothesis name"));
+            }
+            if hypotheses.iter().any(|k| k.name == h.name.value) {
+                return Err(self.at(&h.name, format!("hypothesis `{}` is listed twice", h.name.value)));
+            }
+            let term = Expression::compile(&h.term.value, symbols)
+                .map_err(|e| self.expression_error(&h.term, &format!("term of hypothesis `{}`", h.name.value), e))?;
+            hypotheses.push(Hypothesis { name: h.name.value.clone(), term });
+        }
+        Ok(DiagnosisSettings { hypotheses })
+    }
 }
