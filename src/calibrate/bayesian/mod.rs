@@ -8,6 +8,9 @@
 //! - θ by maximum likelihood of the tests given the emulator (A8–A9), then MCMC samples of the
 //!   posterior of θ for a 95 % interval.
 
+mod gp;
+mod optim;
+
 use nalgebra::{DMatrix, DVector};
 
 use super::{Bounds, CalibrationError, Problem};
