@@ -152,6 +152,9 @@ fn check_inputs(problem: &Problem, design_bounds: &Bounds, sim: &SimulationData)
             sim.inputs.ncols()
         )));
     }
+    if problem.measured.len() != m {
+        return Err(CalibrationError::Numerics(format!("{m} training designs but {} measured values", problem.measured.len())));
+    }
     if problem.measured.iter().any(|v| !v.is_finite()) {
         return Err(CalibrationError::NonFinite("measured responses".into()));
     }
