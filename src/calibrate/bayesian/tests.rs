@@ -38,10 +38,19 @@ fn run(p: &Problem, settings: &Settings) -> BayesianFit {
 }
 
 fn cantilever_fit(seed: u64) -> BayesianFit {
+    cantilever_fit_with(Settings { seed, ..Settings::default() })
+}
+
+fn cantilever_fit_with(settings: Settings) -> BayesianFit {
     let model = euler;
     let hs = [8.0, 10.0];
     let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), e_bounds(), &model);
-    run(&p, &Settings { seed, ..Settings::default() })
+    run(&p, &settings)
+}
+
+/// A short chain: enough for reproducibility checks, quick in debug builds.
+fn short(seed: u64) -> Settings {
+    Settings { seed, mcmc_steps: 300, mcmc_burn_in: 100, ..Settings::default() }
 }
 
 #[test]
@@ -64,7 +73,8 @@ fn cantilever_matches_paper() {
 
 #[test]
 fn seeded_and_reproducible() {
-    let (a, b, c) = (cantilever_fit(1), cantilever_fit(1), cantilever_fit(2));
+    let (a, b, c) = (cantilever_fit_with(short(1)), cantilever_fit_with(short(1)), cantilever_fit_with(short(2)));
+    assert_eq!(a.median, b.median);
     assert_eq!(a.theta, b.theta);
     assert_eq!(a.posterior, b.posterior);
     assert_eq!(a.interval95, b.interval95);
@@ -77,7 +87,7 @@ fn perfect_model_recovers_e() {
     let model = euler;
     let hs = [8.0, 10.0, 12.0];
     let p = problem(&hs, hs.iter().map(|&h| euler(&[h], &[70_000.0])).collect(), e_bounds(), &model);
-    let fit = run(&p, &Settings::default());
+    let fit = run(&p, &short(1));
     eprintln!("perfect model: E = {:.1}, 95 % {:?}", fit.theta[0], fit.interval95[0]);
     assert!((fit.theta[0] / 70_000.0 - 1.0).abs() < 0.01, "E = {}", fit.theta[0]);
 }
@@ -89,7 +99,7 @@ fn two_parameters_stay_finite_and_inside() {
     let hs = [8.0, 10.0, 12.0];
     let bounds = Bounds::new(vec![50_000.0, 18.0], vec![80_000.0, 22.0]);
     let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), bounds.clone(), &model);
-    let fit = run(&p, &Settings::default());
+    let fit = run(&p, &short(1));
     eprintln!("two parameters: θ = {:?}, 95 % {:?}", fit.theta.as_slice(), fit.interval95);
     for k in 0..2 {
         let inside = |v: f64| v.is_finite() && bounds.lower[k] <= v && v <= bounds.upper[k];
