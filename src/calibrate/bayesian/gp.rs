@@ -31,10 +31,10 @@ pub fn cholesky_jittered(m: &DMatrix<f64>, jitter: f64) -> Option<Cholesky<f64, 
         for i in 0..a.nrows() {
             a[(i, i)] += j;
         }
-        if a.iter().all(|v| v.is_finite()) {
-            if let Some(c) = a.cholesky() {
-                return Some(c);
-            }
+        if a.iter().all(|v| v.is_finite())
+            && let Some(c) = a.cholesky()
+        {
+            return Some(c);
         }
         j *= 10.0;
     }

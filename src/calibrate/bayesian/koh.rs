@@ -34,7 +34,10 @@ pub struct HyperBox {
 
 impl HyperBox {
     fn from_scale(s: f64) -> Self {
-        HyperBox { log_var: ((1e-3 * s).powi(2).ln(), (3.0 * s).powi(2).ln()), log_roughness: (0.1f64.ln(), 100f64.ln()) }
+        HyperBox {
+            log_var: ((1e-3 * s).powi(2).ln(), (3.0 * s).powi(2).ln()),
+            log_roughness: (0.1f64.ln(), 100f64.ln()),
+        }
     }
 }
 

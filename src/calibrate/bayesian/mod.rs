@@ -81,7 +81,8 @@ impl BayesianFit {
 pub fn emulator_samples(problem: &Problem, design_bounds: &Bounds, settings: &Settings) -> SimulationData {
     let bounds = joint_bounds(design_bounds, &problem.bounds);
     let plan = crate::plan::latin_hypercube(settings.emulator_samples, bounds.dim(), settings.seed);
-    let inputs = DMatrix::from_fn(plan.nrows(), plan.ncols(), |i, k| bounds.lower[k] + plan[(i, k)] * bounds.width()[k]);
+    let inputs =
+        DMatrix::from_fn(plan.nrows(), plan.ncols(), |i, k| bounds.lower[k] + plan[(i, k)] * bounds.width()[k]);
     let pd = design_bounds.dim();
     let outputs = DVector::from_fn(inputs.nrows(), |i, _| {
         let row: Vec<f64> = inputs.row(i).iter().copied().collect();
@@ -116,8 +117,9 @@ pub fn calibrate(
     let koh = Koh::new(&emulator, problem, design_bounds)?;
     let (u_hat, _) = koh.fit_ml(settings.seed.wrapping_add(0x6b6f68));
     let theta = koh.theta(&u_hat);
-    let discrepancy =
-        koh.discrepancy(&u_hat).ok_or_else(|| CalibrationError::Numerics("discrepancy covariance is singular".into()))?;
+    let discrepancy = koh
+        .discrepancy(&u_hat)
+        .ok_or_else(|| CalibrationError::Numerics("discrepancy covariance is singular".into()))?;
 
     let log_post = |u: &[f64]| {
         if u.iter().all(|v| (0.0..=1.0).contains(v)) { -koh.cost(u, Trend::Marginal) } else { f64::NEG_INFINITY }
@@ -144,7 +146,10 @@ fn check_inputs(problem: &Problem, design_bounds: &Bounds, sim: &SimulationData)
         return Err(CalibrationError::TooFewDesigns { method: "bayesian", needed: 2, given: m });
     }
     let cols = design_bounds.dim() + problem.bounds.dim();
-    if problem.designs.ncols() != design_bounds.dim() || sim.inputs.ncols() != cols || sim.inputs.nrows() != sim.outputs.len() {
+    if problem.designs.ncols() != design_bounds.dim()
+        || sim.inputs.ncols() != cols
+        || sim.inputs.nrows() != sim.outputs.len()
+    {
         return Err(CalibrationError::Numerics(format!(
             "shape mismatch: designs have {} columns, design bounds {}, simulation inputs {} (expected {cols})",
             problem.designs.ncols(),
@@ -153,7 +158,10 @@ fn check_inputs(problem: &Problem, design_bounds: &Bounds, sim: &SimulationData)
         )));
     }
     if problem.measured.len() != m {
-        return Err(CalibrationError::Numerics(format!("{m} training designs but {} measured values", problem.measured.len())));
+        return Err(CalibrationError::Numerics(format!(
+            "{m} training designs but {} measured values",
+            problem.measured.len()
+        )));
     }
     if problem.measured.iter().any(|v| !v.is_finite()) {
         return Err(CalibrationError::NonFinite("measured responses".into()));

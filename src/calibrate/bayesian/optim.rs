@@ -85,12 +85,12 @@ pub fn line_search(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, grid: usize) -> (f6
     }
     let (a, b) = ((best_x - h).max(lo), (best_x + h).min(hi));
     let solver = BrentOpt::new(a, b).set_tolerance(1e-10, 1e-12);
-    if let Ok(res) = Executor::new(LineCost { f }, solver).configure(|s| s.max_iters(200)).run() {
-        if let Some(&x) = res.state().get_best_param() {
-            let c = finite_or_failed(f(x));
-            if c < best_c {
-                return (x, c);
-            }
+    if let Ok(res) = Executor::new(LineCost { f }, solver).configure(|s| s.max_iters(200)).run()
+        && let Some(&x) = res.state().get_best_param()
+    {
+        let c = finite_or_failed(f(x));
+        if c < best_c {
+            return (x, c);
         }
     }
     (best_x, best_c)

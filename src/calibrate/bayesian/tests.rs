@@ -21,7 +21,12 @@ fn timoshenko(h: f64) -> f64 {
 }
 
 fn problem<'a>(hs: &[f64], measured: Vec<f64>, bounds: Bounds, model: &'a dyn super::super::Model) -> Problem<'a> {
-    Problem { designs: DMatrix::from_column_slice(hs.len(), 1, hs), measured: DVector::from_vec(measured), bounds, model }
+    Problem {
+        designs: DMatrix::from_column_slice(hs.len(), 1, hs),
+        measured: DVector::from_vec(measured),
+        bounds,
+        model,
+    }
 }
 
 fn design_bounds() -> Bounds {
@@ -60,7 +65,10 @@ fn cantilever_matches_paper() {
     let secs = t0.elapsed().as_secs_f64();
     let e = fit.theta[0];
     let (lo, hi) = fit.interval95[0];
-    eprintln!("E = {e:.1}, median {:.1}, 95 % [{lo:.1}, {hi:.1}], acceptance {:.2}, {secs:.3} s", fit.median[0], fit.acceptance);
+    eprintln!(
+        "E = {e:.1}, median {:.1}, 95 % [{lo:.1}, {hi:.1}], acceptance {:.2}, {secs:.3} s",
+        fit.median[0], fit.acceptance
+    );
     // Paper: 64,911; the exact KOH answer is 64,913.9 and the emulator's own error moves it.
     assert!((e / 64_911.0 - 1.0).abs() < 0.015, "E = {e}");
     assert!(lo < 64_911.0 && 64_911.0 < hi, "[{lo}, {hi}]");
@@ -128,7 +136,14 @@ fn spread_over_seeds() {
         let fit = cantilever_fit(seed);
         let rel = fit.theta[0] / 64_913.9 - 1.0;
         worst = worst.max(rel.abs());
-        eprintln!("seed {seed}: E = {:.1} ({:+.3} %), median {:.1}, 95 % [{:.1}, {:.1}]", fit.theta[0], 100.0 * rel, fit.median[0], fit.interval95[0].0, fit.interval95[0].1);
+        eprintln!(
+            "seed {seed}: E = {:.1} ({:+.3} %), median {:.1}, 95 % [{:.1}, {:.1}]",
+            fit.theta[0],
+            100.0 * rel,
+            fit.median[0],
+            fit.interval95[0].0,
+            fit.interval95[0].1
+        );
     }
     eprintln!("worst {:.3} %", 100.0 * worst);
 }
@@ -145,7 +160,14 @@ fn long_chain_interval() {
             let s = Settings { seed, mcmc_steps: steps, ..Settings::default() };
             let t0 = Instant::now();
             let fit = run(&p, &s);
-            eprintln!("seed {seed} steps {steps}: median {:.1}, 95 % [{:.1}, {:.1}], acc {:.2}, {:.2} s", fit.median[0], fit.interval95[0].0, fit.interval95[0].1, fit.acceptance, t0.elapsed().as_secs_f64());
+            eprintln!(
+                "seed {seed} steps {steps}: median {:.1}, 95 % [{:.1}, {:.1}], acc {:.2}, {:.2} s",
+                fit.median[0],
+                fit.interval95[0].0,
+                fit.interval95[0].1,
+                fit.acceptance,
+                t0.elapsed().as_secs_f64()
+            );
         }
     }
 }
@@ -172,4 +194,3 @@ fn two_design_variables() {
     let y = fit.predict(&[4.0, 0.065]);
     assert!(y.is_finite() && y > 0.0);
 }
-
