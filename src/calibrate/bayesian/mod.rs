@@ -3,14 +3,24 @@
 //! y_true(d) = y_pre(d, θ) + δ(d)   (A1)
 //!
 //! - `y_pre` is a GP emulator over (design, parameters) fitted to simulation samples (A2–A4):
-//!   quadratic trend, Gaussian kernel, hyperparameters by maximum likelihood.
+//!   quadratic trend, Gaussian kernel, hyperparameters by maximum likelihood ([`gp`]).
 //! - `δ` is a GP discrepancy with a constant trend (A5–A7).
-//! - θ by maximum likelihood of the tests given the emulator (A8–A9), then MCMC samples of the
-//!   posterior of θ for a 95 % interval.
+//! - θ by maximum likelihood of the tests given the emulator (A8–A9, [`koh`]), then MCMC samples of
+//!   the posterior of θ for a 95 % interval ([`mcmc`]).
+//!
+//! Modular: the emulator's hyperparameters are fixed once fitted; β_d is always re-estimated with θ,
+//! never frozen at a reference θ (that would drag θ towards the reference).
+
+pub mod gp;
+pub mod koh;
+pub mod mcmc;
+mod optim;
 
 use nalgebra::{DMatrix, DVector};
 
 use super::{Bounds, CalibrationError, Problem};
+use gp::Emulator;
+use koh::{Discrepancy, Koh, Trend};
 
 /// Simulation samples for the emulator: one row per run, columns = design variables then parameters.
 #[derive(Debug, Clone)]
@@ -35,6 +45,9 @@ impl Default for Settings {
     }
 }
 
+/// Most posterior rows kept in [`BayesianFit::posterior`] (quantiles use every sample).
+const MAX_POSTERIOR_ROWS: usize = 5000;
+
 /// The calibrated Bayesian model.
 #[derive(Debug, Clone)]
 pub struct BayesianFit {
@@ -44,29 +57,128 @@ pub struct BayesianFit {
     pub interval95: Vec<(f64, f64)>,
     /// Posterior median per parameter.
     pub median: DVector<f64>,
-    /// Posterior samples after burn-in, one row per sample.
+    /// Posterior samples after burn-in, one row per sample (thinned to at most 5000 rows).
     pub posterior: DMatrix<f64>,
+    /// The fitted simulation emulator (A2–A4).
+    pub emulator: Emulator,
+    /// The discrepancy at the maximum-likelihood point, conditioned on the training residuals (A5–A7).
+    pub discrepancy: Discrepancy,
+    /// Fraction of accepted stretch moves (a healthy ensemble run lies around 0.2–0.5).
+    pub acceptance: f64,
 }
 
 impl BayesianFit {
     /// Bias-corrected prediction at a design: emulator mean at θ̂ plus the discrepancy's posterior mean.
-    pub fn predict(&self, _design: &[f64]) -> f64 {
-        todo!("bayesian predict")
+    pub fn predict(&self, design: &[f64]) -> f64 {
+        let row: Vec<f64> = design.iter().chain(self.theta.iter()).copied().collect();
+        let y = self.emulator.mean(&DMatrix::from_row_slice(1, row.len(), &row))[0];
+        y + self.discrepancy.mean(design)
     }
 }
 
 /// Draws `settings.emulator_samples` Latin-hypercube points over design × parameter bounds and
 /// evaluates the problem's model there.
-pub fn emulator_samples(_problem: &Problem, _design_bounds: &Bounds, _settings: &Settings) -> SimulationData {
-    todo!("emulator samples")
+pub fn emulator_samples(problem: &Problem, design_bounds: &Bounds, settings: &Settings) -> SimulationData {
+    let bounds = joint_bounds(design_bounds, &problem.bounds);
+    let plan = crate::plan::latin_hypercube(settings.emulator_samples, bounds.dim(), settings.seed);
+    let inputs =
+        DMatrix::from_fn(plan.nrows(), plan.ncols(), |i, k| bounds.lower[k] + plan[(i, k)] * bounds.width()[k]);
+    let pd = design_bounds.dim();
+    let outputs = DVector::from_fn(inputs.nrows(), |i, _| {
+        let row: Vec<f64> = inputs.row(i).iter().copied().collect();
+        problem.model.predict(&row[..pd], &row[pd..])
+    });
+    SimulationData { inputs, outputs }
+}
+
+/// Design bounds followed by parameter bounds: the emulator's input box.
+fn joint_bounds(design: &Bounds, theta: &Bounds) -> Bounds {
+    let cat = |a: &DVector<f64>, b: &DVector<f64>| a.iter().chain(b.iter()).copied().collect::<Vec<_>>();
+    Bounds::new(cat(&design.lower, &theta.lower), cat(&design.upper, &theta.upper))
 }
 
 /// Calibrates θ by modular Kennedy–O'Hagan.
+///
+/// 1. Emulator fitted to `sim` (A2–A4), then fixed.
+/// 2. θ̂ maximises the likelihood of the tests (A8–A9) jointly with β_d (GLS), σ_d² and λ_d.
+/// 3. Posterior by an ensemble MCMC over (θ, log σ_d², log λ_d) with β_d integrated out.
+///    Priors (all proper, independent): θ uniform on `problem.bounds`; log σ_d² uniform on
+///    [ln (10⁻³ s)², ln (3 s)²] and each log λ_d uniform on [ln 0.1, ln 100] (designs scaled to the
+///    unit cube), where s is the rms residual of the tests against the emulator at the centre of the
+///    θ box; β_d flat. The interval depends on the σ_d² prior: with few tests the data cannot fix it.
 pub fn calibrate(
-    _problem: &Problem,
-    _design_bounds: &Bounds,
-    _sim: &SimulationData,
-    _settings: &Settings,
+    problem: &Problem,
+    design_bounds: &Bounds,
+    sim: &SimulationData,
+    settings: &Settings,
 ) -> Result<BayesianFit, CalibrationError> {
-    todo!("bayesian calibrate")
+    check_inputs(problem, design_bounds, sim)?;
+    let emulator = Emulator::fit(&sim.inputs, &sim.outputs, &joint_bounds(design_bounds, &problem.bounds))?;
+    let koh = Koh::new(&emulator, problem, design_bounds)?;
+    let (u_hat, _) = koh.fit_ml(settings.seed.wrapping_add(0x6b6f68));
+    let theta = koh.theta(&u_hat);
+    let discrepancy = koh
+        .discrepancy(&u_hat)
+        .ok_or_else(|| CalibrationError::Numerics("discrepancy covariance is singular".into()))?;
+
+    let log_post = |u: &[f64]| {
+        if u.iter().all(|v| (0.0..=1.0).contains(v)) { -koh.cost(u, Trend::Marginal) } else { f64::NEG_INFINITY }
+    };
+    let walkers = settings.mcmc_walkers.max(2 * koh.dim()).next_multiple_of(2);
+    let steps = settings.mcmc_steps.max(2);
+    let burn_in = settings.mcmc_burn_in.min(steps - 1);
+    let chain = mcmc::stretch_sample(&log_post, &u_hat, walkers, steps, burn_in, settings.seed);
+    let thetas: Vec<DVector<f64>> = chain.samples.iter().map(|u| koh.theta(u)).collect();
+
+    let p = theta.len();
+    let quantile = |k: usize, q: f64| quantile(thetas.iter().map(|t| t[k]).collect(), q);
+    let interval95 = (0..p).map(|k| (quantile(k, 0.025), quantile(k, 0.975))).collect();
+    let median = DVector::from_fn(p, |k, _| quantile(k, 0.5));
+    let every = thetas.len().div_ceil(MAX_POSTERIOR_ROWS).max(1);
+    let kept: Vec<&DVector<f64>> = thetas.iter().step_by(every).collect();
+    let posterior = DMatrix::from_fn(kept.len(), p, |i, k| kept[i][k]);
+    Ok(BayesianFit { theta, interval95, median, posterior, emulator, discrepancy, acceptance: chain.acceptance })
 }
+
+fn check_inputs(problem: &Problem, design_bounds: &Bounds, sim: &SimulationData) -> Result<(), CalibrationError> {
+    let m = problem.designs.nrows();
+    if m < 2 {
+        return Err(CalibrationError::TooFewDesigns { method: "bayesian", needed: 2, given: m });
+    }
+    let cols = design_bounds.dim() + problem.bounds.dim();
+    if problem.designs.ncols() != design_bounds.dim()
+        || sim.inputs.ncols() != cols
+        || sim.inputs.nrows() != sim.outputs.len()
+    {
+        return Err(CalibrationError::Numerics(format!(
+            "shape mismatch: designs have {} columns, design bounds {}, simulation inputs {} (expected {cols})",
+            problem.designs.ncols(),
+            design_bounds.dim(),
+            sim.inputs.ncols()
+        )));
+    }
+    if problem.measured.len() != m {
+        return Err(CalibrationError::Numerics(format!(
+            "{m} training designs but {} measured values",
+            problem.measured.len()
+        )));
+    }
+    if problem.measured.iter().any(|v| !v.is_finite()) {
+        return Err(CalibrationError::NonFinite("measured responses".into()));
+    }
+    Ok(())
+}
+
+/// Linear-interpolation quantile (type 7) of `v`.
+fn quantile(mut v: Vec<f64>, q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let h = q * (v.len() - 1) as f64;
+    let (i, frac) = (h.floor() as usize, h - h.floor());
+    if i + 1 < v.len() { v[i] + frac * (v[i + 1] - v[i]) } else { v[i] }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,196 @@
+//! The cantilever of the paper (Sec. 3) and facts.md: Euler simulation, Timoshenko tests.
+
+use std::time::Instant;
+
+use nalgebra::{DMatrix, DVector};
+
+use super::*;
+
+const F: f64 = 600.0;
+const B: f64 = 2.0;
+const NU: f64 = 0.36;
+const E0: f64 = 68_000.0;
+
+fn euler(d: &[f64], th: &[f64]) -> f64 {
+    let l = th.get(1).copied().unwrap_or(20.0);
+    4.0 * F * l.powi(3) / (th[0] * B * d[0].powi(3))
+}
+
+fn timoshenko(h: f64) -> f64 {
+    euler(&[h], &[E0]) + F * 20.0 * (4.0 + 5.0 * NU) / (2.0 * E0 * B * h)
+}
+
+fn problem<'a>(hs: &[f64], measured: Vec<f64>, bounds: Bounds, model: &'a dyn super::super::Model) -> Problem<'a> {
+    Problem {
+        designs: DMatrix::from_column_slice(hs.len(), 1, hs),
+        measured: DVector::from_vec(measured),
+        bounds,
+        model,
+    }
+}
+
+fn design_bounds() -> Bounds {
+    Bounds::new(vec![7.0], vec![13.0])
+}
+
+fn e_bounds() -> Bounds {
+    Bounds::new(vec![50_000.0], vec![80_000.0])
+}
+
+fn run(p: &Problem, settings: &Settings) -> BayesianFit {
+    let sim = emulator_samples(p, &design_bounds(), settings);
+    calibrate(p, &design_bounds(), &sim, settings).unwrap()
+}
+
+fn cantilever_fit(seed: u64) -> BayesianFit {
+    cantilever_fit_with(Settings { seed, ..Settings::default() })
+}
+
+fn cantilever_fit_with(settings: Settings) -> BayesianFit {
+    let model = euler;
+    let hs = [8.0, 10.0];
+    let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), e_bounds(), &model);
+    run(&p, &settings)
+}
+
+/// A short chain: enough for reproducibility checks, quick in debug builds.
+fn short(seed: u64) -> Settings {
+    Settings { seed, mcmc_steps: 300, mcmc_burn_in: 100, ..Settings::default() }
+}
+
+#[test]
+fn cantilever_matches_paper() {
+    let t0 = Instant::now();
+    let fit = cantilever_fit(1);
+    let secs = t0.elapsed().as_secs_f64();
+    let e = fit.theta[0];
+    let (lo, hi) = fit.interval95[0];
+    eprintln!(
+        "E = {e:.1}, median {:.1}, 95 % [{lo:.1}, {hi:.1}], acceptance {:.2}, {secs:.3} s",
+        fit.median[0], fit.acceptance
+    );
+    // Paper: 64,911; the exact KOH answer is 64,913.9 and the emulator's own error moves it.
+    assert!((e / 64_911.0 - 1.0).abs() < 0.015, "E = {e}");
+    assert!(lo < 64_911.0 && 64_911.0 < hi, "[{lo}, {hi}]");
+    // The bias-corrected prediction reproduces the training tests (the discrepancy interpolates).
+    for h in [8.0, 10.0] {
+        let rel = (fit.predict(&[h]) / timoshenko(h) - 1.0).abs();
+        assert!(rel < 1e-3, "h = {h}: {rel}");
+    }
+}
+
+#[test]
+fn seeded_and_reproducible() {
+    let (a, b, c) = (cantilever_fit_with(short(1)), cantilever_fit_with(short(1)), cantilever_fit_with(short(2)));
+    assert_eq!(a.median, b.median);
+    assert_eq!(a.theta, b.theta);
+    assert_eq!(a.posterior, b.posterior);
+    assert_eq!(a.interval95, b.interval95);
+    assert_ne!(a.posterior, c.posterior);
+}
+
+#[test]
+fn perfect_model_recovers_e() {
+    // Tests from the simulation itself at E = 70,000: no discrepancy, so θ̂ must find E.
+    let model = euler;
+    let hs = [8.0, 10.0, 12.0];
+    let p = problem(&hs, hs.iter().map(|&h| euler(&[h], &[70_000.0])).collect(), e_bounds(), &model);
+    let fit = run(&p, &short(1));
+    eprintln!("perfect model: E = {:.1}, 95 % {:?}", fit.theta[0], fit.interval95[0]);
+    assert!((fit.theta[0] / 70_000.0 - 1.0).abs() < 0.01, "E = {}", fit.theta[0]);
+}
+
+#[test]
+fn two_parameters_stay_finite_and_inside() {
+    // Table 1: E and L together; only L³/E is identifiable, so only sanity is checked.
+    let model = euler;
+    let hs = [8.0, 10.0, 12.0];
+    let bounds = Bounds::new(vec![50_000.0, 18.0], vec![80_000.0, 22.0]);
+    let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), bounds.clone(), &model);
+    let fit = run(&p, &short(1));
+    eprintln!("two parameters: θ = {:?}, 95 % {:?}", fit.theta.as_slice(), fit.interval95);
+    for k in 0..2 {
+        let inside = |v: f64| v.is_finite() && bounds.lower[k] <= v && v <= bounds.upper[k];
+        assert!(inside(fit.theta[k]) && inside(fit.median[k]), "{k}: {}", fit.theta[k]);
+        assert!(inside(fit.interval95[k].0) && inside(fit.interval95[k].1));
+    }
+    assert!(fit.posterior.iter().all(|v| v.is_finite()));
+    assert!(fit.predict(&[13.0]).is_finite());
+}
+
+#[test]
+fn one_design_is_too_few() {
+    let model = euler;
+    let p = problem(&[8.0], vec![timoshenko(8.0)], e_bounds(), &model);
+    let sim = emulator_samples(&p, &design_bounds(), &Settings::default());
+    let err = calibrate(&p, &design_bounds(), &sim, &Settings::default()).unwrap_err();
+    assert!(matches!(err, CalibrationError::TooFewDesigns { needed: 2, given: 1, .. }), "{err:?}");
+}
+
+/// Spread of θ̂ over emulator designs (`cargo test --release -- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn spread_over_seeds() {
+    let mut worst: f64 = 0.0;
+    for seed in 1..=30 {
+        let fit = cantilever_fit(seed);
+        let rel = fit.theta[0] / 64_913.9 - 1.0;
+        worst = worst.max(rel.abs());
+        eprintln!(
+            "seed {seed}: E = {:.1} ({:+.3} %), median {:.1}, 95 % [{:.1}, {:.1}]",
+            fit.theta[0],
+            100.0 * rel,
+            fit.median[0],
+            fit.interval95[0].0,
+            fit.interval95[0].1
+        );
+    }
+    eprintln!("worst {:.3} %", 100.0 * worst);
+}
+
+/// MCMC error of the interval: default run against a ten times longer one (ignored, diagnostic).
+#[test]
+#[ignore]
+fn long_chain_interval() {
+    let model = euler;
+    let hs = [8.0, 10.0];
+    let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), e_bounds(), &model);
+    for seed in [1, 2, 3] {
+        for steps in [2000, 20_000] {
+            let s = Settings { seed, mcmc_steps: steps, ..Settings::default() };
+            let t0 = Instant::now();
+            let fit = run(&p, &s);
+            eprintln!(
+                "seed {seed} steps {steps}: median {:.1}, 95 % [{:.1}, {:.1}], acc {:.2}, {:.2} s",
+                fit.median[0],
+                fit.interval95[0].0,
+                fit.interval95[0].1,
+                fit.acceptance,
+                t0.elapsed().as_secs_f64()
+            );
+        }
+    }
+}
+
+#[test]
+fn two_design_variables() {
+    // Honeycomb-shaped problem: designs (c, t), one parameter σ0, mean stress 16.5 σ0 (t/c)^(5/3);
+    // tests from the model itself at σ0 = 185 plus a 3 % bias, four designs.
+    let model = |d: &[f64], th: &[f64]| 16.5 * th[0] * (d[1] / d[0]).powf(5.0 / 3.0);
+    let designs = DMatrix::from_row_slice(4, 2, &[6.0, 0.05, 3.0, 0.07, 3.0, 0.08, 4.5, 0.06]);
+    let measured = DVector::from_fn(4, |i, _| 1.03 * model(&[designs[(i, 0)], designs[(i, 1)]], &[185.0]));
+    let p = Problem { designs, measured, bounds: Bounds::new(vec![100.0], vec![200.0]), model: &model };
+    let db = Bounds::new(vec![3.0, 0.05], vec![6.0, 0.08]);
+    // 40 runs: with 24 in three inputs the emulator is off by up to 2.7 % at the corner design
+    // (3, 0.08), which moves θ̂ by about 3 %.
+    let settings = Settings { emulator_samples: 40, ..Settings::default() };
+    let sim = emulator_samples(&p, &db, &settings);
+    let fit = calibrate(&p, &db, &sim, &settings).unwrap();
+    eprintln!("two design variables: σ0 = {:.2}, 95 % {:?}", fit.theta[0], fit.interval95[0]);
+    // The bias is proportional, so σ0 = 1.03 · 185 = 190.55 explains the tests with no discrepancy.
+    assert!((fit.theta[0] / 190.55 - 1.0).abs() < 0.02, "{}", fit.theta[0]);
+    let (lo, hi) = fit.interval95[0];
+    assert!(100.0 <= lo && lo <= hi && hi <= 200.0);
+    let y = fit.predict(&[4.0, 0.065]);
+    assert!(y.is_finite() && y > 0.0);
+}
