@@ -9,7 +9,14 @@ use lab::execute::{Event, Outcome, RunRecord, RunSpec, RunStore};
 use solvers::*;
 
 fn record(key: &str, response: f64) -> RunRecord {
-    RunRecord { key: key.into(), outcome: Outcome::Success, attempts: 1, started_ms: 1, ended_ms: 2, response: Some(response) }
+    RunRecord {
+        key: key.into(),
+        outcome: Outcome::Success,
+        attempts: 1,
+        started_ms: 1,
+        ended_ms: 2,
+        response: Some(response),
+    }
 }
 
 #[test]
@@ -25,7 +32,8 @@ fn commit_is_durable_exact_and_leaves_no_temp_files() {
         }
     }
     let results = out.path().join(RESULTS_DIR);
-    let names: Vec<String> = std::fs::read_dir(&results).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into()).collect();
+    let names: Vec<String> =
+        std::fs::read_dir(&results).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into()).collect();
     assert!(names.iter().all(|n| n.ends_with(".json") && !n.starts_with('.')), "{names:?}");
     let store = RunStore::open(out.path()).unwrap();
     for (i, v) in values.iter().enumerate() {
@@ -69,8 +77,10 @@ fn half_done_run_directories_are_cleaned_finished_ones_kept() {
 }
 
 fn started_keys(events: &[Event]) -> Vec<String> {
-    let mut keys: Vec<String> =
-        events.iter().filter_map(|e| if let Event::Started { key, .. } = e { Some(key.clone()) } else { None }).collect();
+    let mut keys: Vec<String> = events
+        .iter()
+        .filter_map(|e| if let Event::Started { key, .. } = e { Some(key.clone()) } else { None })
+        .collect();
     keys.sort();
     keys
 }

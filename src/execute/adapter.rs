@@ -41,7 +41,11 @@ pub struct CommandAdapter {
 }
 
 impl CommandAdapter {
-    pub fn new(response_file: impl Into<PathBuf>, regex: &str, failure_patterns: &[&str]) -> Result<Self, regex::Error> {
+    pub fn new(
+        response_file: impl Into<PathBuf>,
+        regex: &str,
+        failure_patterns: &[&str],
+    ) -> Result<Self, regex::Error> {
         let regex = Regex::new(regex)?;
         if regex.captures_len() < 2 {
             return Err(regex::Error::Syntax(format!("response regex `{regex}` has no capture group for the number")));
@@ -101,7 +105,10 @@ impl Adapter for CommandAdapter {
             return Err(bad(ResponseProblem::Unparseable, format!("`{}` does not match {name}", self.regex)));
         };
         let Some(m) = caps.get(1) else {
-            return Err(bad(ResponseProblem::Unparseable, format!("`{}` matched {name} without its group", self.regex)));
+            return Err(bad(
+                ResponseProblem::Unparseable,
+                format!("`{}` matched {name} without its group", self.regex),
+            ));
         };
         match m.as_str().trim().parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),

@@ -159,14 +159,7 @@ enum UnitEnd {
 
 impl Executor {
     pub fn new(jobs: usize, adapter: Arc<dyn Adapter>, committer: Committer) -> Self {
-        Executor {
-            jobs,
-            grace: Duration::from_secs(5),
-            adapter,
-            committer,
-            canceller: Canceller::new(),
-            events: None,
-        }
+        Executor { jobs, grace: Duration::from_secs(5), adapter, committer, canceller: Canceller::new(), events: None }
     }
 
     /// Runs every spec (unless cancelled) and returns what happened. Never prints.
@@ -261,7 +254,8 @@ async fn unit(spec: RunSpec, ctx: Arc<Ctx>, mut cancel: watch::Receiver<Option<C
             attempt += 1;
             continue;
         }
-        let record = RunRecord { key: spec.key.clone(), outcome, attempts: attempt, started_ms, ended_ms: now_ms(), response };
+        let record =
+            RunRecord { key: spec.key.clone(), outcome, attempts: attempt, started_ms, ended_ms: now_ms(), response };
         let committer = ctx.committer.clone();
         let to_commit = record.clone();
         match tokio::task::spawn_blocking(move || committer.commit(&to_commit)).await {
@@ -291,9 +285,14 @@ enum Why {
 enum Phase {
     Running,
     /// SIGTERM sent to the group; SIGKILL at `kill_at`.
-    Terminating { why: Why, kill_at: Instant },
+    Terminating {
+        why: Why,
+        kill_at: Instant,
+    },
     /// SIGKILL sent to the group; waiting for the leader to be reaped.
-    Killed { why: Why },
+    Killed {
+        why: Why,
+    },
 }
 
 /// Kills the process group if dropped before the leader was reaped (the unit's future was dropped).
@@ -342,13 +341,7 @@ async fn run_attempt(spec: &RunSpec, ctx: &Ctx, cancel: &mut watch::Receiver<Opt
         return Attempt::Error("empty argv".to_string());
     };
     let mut command = tokio::process::Command::new(program);
-    command
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(stdout)
-        .stderr(stderr)
-        .process_group(0);
+    command.args(args).current_dir(dir).stdin(Stdio::null()).stdout(stdout).stderr(stderr).process_group(0);
     let mut child = match command.spawn() {
         Ok(c) => c,
         Err(e) => {

@@ -49,7 +49,13 @@ fn describe(holder: &Option<Holder>) -> String {
     match holder {
         Some(h) => {
             let now = SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
-            format!("pid {} on host {}, started {} s ago (unix time {})", h.pid, h.host, now.saturating_sub(h.started), h.started)
+            format!(
+                "pid {} on host {}, started {} s ago (unix time {})",
+                h.pid,
+                h.host,
+                now.saturating_sub(h.started),
+                h.started
+            )
         }
         None => "holder not yet written".to_string(),
     }
@@ -68,7 +74,8 @@ impl OutLock {
         let path = out.join(LOCK_FILE);
         let io = |source| LockError::Io { path: path.clone(), source };
         // Not truncated on open: the text belongs to the current holder until we hold the lock.
-        let mut file = OpenOptions::new().read(true).write(true).create(true).truncate(false).open(&path).map_err(io)?;
+        let mut file =
+            OpenOptions::new().read(true).write(true).create(true).truncate(false).open(&path).map_err(io)?;
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) => {

@@ -91,15 +91,25 @@ pub struct RunSpec {
 pub enum Outcome {
     Success,
     /// The solver exited with a non-zero code.
-    NonZeroExit { code: i32 },
+    NonZeroExit {
+        code: i32,
+    },
     /// An adapter-defined failure text was found in an output file.
-    FailureText { file: String, line: String },
+    FailureText {
+        file: String,
+        line: String,
+    },
     /// The response was missing, empty or not a number.
-    BadResponse { problem: ResponseProblem, detail: String },
+    BadResponse {
+        problem: ResponseProblem,
+        detail: String,
+    },
     /// The attempt ran past its timeout and was killed.
     Timeout,
     /// The solver was killed by a signal it did not get from us.
-    Signal { signal: i32 },
+    Signal {
+        signal: i32,
+    },
 }
 
 /// Why a response could not be read.
@@ -208,7 +218,10 @@ impl Default for RetryPolicy {
 pub enum Backoff {
     Fixed(Duration),
     /// `initial · 2^(retry−1)`, capped at `max`.
-    Exponential { initial: Duration, max: Duration },
+    Exponential {
+        initial: Duration,
+        max: Duration,
+    },
 }
 
 impl Backoff {

@@ -23,8 +23,8 @@ use std::fs::{self, File};
 use std::io::Write;
 use std::path::{Component, Path, PathBuf};
 
-use super::lock::{LockError, OutLock};
 use super::RunRecord;
+use super::lock::{LockError, OutLock};
 
 /// Subdirectory of run work directories.
 pub const RUNS_DIR: &str = "runs";

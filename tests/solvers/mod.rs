@@ -25,7 +25,14 @@ pub fn spec(store: &RunStore, input: &str, mode: &[&str]) -> RunSpec {
     let inputs = vec![(PathBuf::from("input.txt"), input.as_bytes().to_vec())];
     let key = run_key(&inputs, &argv, &adapter().identity());
     let dir = store.prepare(&key, &inputs).unwrap();
-    RunSpec { key, dir, argv, timeout: Some(Duration::from_secs(20)), outputs: vec!["resp.txt".into()], retry: RetryPolicy::none() }
+    RunSpec {
+        key,
+        dir,
+        argv,
+        timeout: Some(Duration::from_secs(20)),
+        outputs: vec!["resp.txt".into()],
+        retry: RetryPolicy::none(),
+    }
 }
 
 pub fn executor(store: &RunStore, jobs: usize) -> (Executor, mpsc::UnboundedReceiver<Event>) {
