@@ -60,7 +60,7 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 pub use adapter::{Adapter, CommandAdapter};
-pub use executor::{CancelReason, Canceller, Event, Executor, Summary};
+pub use executor::{CancelReason, Canceller, Event, Executor, Summary, cancel_on_signals};
 pub use lock::{Holder, LockError, OutLock};
 pub use store::RunStore;
 
