@@ -19,6 +19,7 @@
 pub mod calibrate;
 pub mod cli;
 pub mod error;
+pub mod execute;
 pub mod model;
 pub mod pipeline;
 pub mod plan;

@@ -1,0 +1,472 @@
+//! The local executor: a dispatcher and one unit task per run (see the module note in `execute`).
+//!
+//! ```text
+//! dispatcher: for each spec ── select!(biased) ─┬─ cancel set      → stop launching (rest: not started)
+//!                                               ├─ a unit ended    → collect; a store error cancels the rest
+//!                                               └─ permit free     → spawn unit(spec, permit)
+//! unit:       attempt ─► judge ─► retry? ─ yes ─► Retrying, backoff (cancellable) ─► attempt
+//!                                        └ no ──► commit (durable) ─► Finished
+//! ```
+//!
+//! A solver that cannot be started (program not found, not executable) counts as exit code 127,
+//! as a shell would report it, with the reason written to the run's `lab.stderr`.
+
+use std::fs::File;
+use std::os::unix::process::ExitStatusExt;
+use std::path::Path;
+use std::process::{ExitStatus, Stdio};
+use std::sync::Arc;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use nix::sys::signal::{Signal, killpg};
+use nix::unistd::Pid;
+use tokio::sync::{Semaphore, mpsc, watch};
+use tokio::task::JoinSet;
+use tokio::time::Instant;
+
+use super::adapter::Adapter;
+use super::store::Committer;
+use super::{Outcome, RunRecord, RunSpec, STDERR_FILE, STDOUT_FILE};
+
+/// Why the executor stops, weakest first. A stronger reason replaces a weaker one, never the reverse.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum CancelReason {
+    /// A result could not be committed: going on would only lose more work.
+    StoreError,
+    /// Ctrl-C or SIGTERM (or a caller's request): stop launching; running children get SIGTERM,
+    /// then SIGKILL after the grace period.
+    Signal,
+    /// A second Ctrl-C / SIGTERM: running children get SIGKILL at once.
+    SecondSignal,
+}
+
+/// The sending side of cancellation; cheap to clone.
+#[derive(Debug, Clone)]
+pub struct Canceller {
+    tx: Arc<watch::Sender<Option<CancelReason>>>,
+}
+
+impl Default for Canceller {
+    fn default() -> Self {
+        Canceller { tx: Arc::new(watch::Sender::new(None)) }
+    }
+}
+
+impl Canceller {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Raises the cancel reason to `reason` unless a stronger one is already set.
+    pub fn cancel(&self, reason: CancelReason) {
+        self.tx.send_if_modified(|cur| {
+            if cur.is_none_or(|c| reason > c) {
+                *cur = Some(reason);
+                true
+            } else {
+                false
+            }
+        });
+    }
+
+    pub fn reason(&self) -> Option<CancelReason> {
+        *self.tx.borrow()
+    }
+
+    fn subscribe(&self) -> watch::Receiver<Option<CancelReason>> {
+        self.tx.subscribe()
+    }
+}
+
+/// Cancels on SIGINT and SIGTERM: the first as [`CancelReason::Signal`], any later one as
+/// [`CancelReason::SecondSignal`]. Must be called inside a tokio runtime.
+pub fn cancel_on_signals(canceller: Canceller) -> std::io::Result<tokio::task::JoinHandle<()>> {
+    use tokio::signal::unix::{SignalKind, signal};
+    let mut term = signal(SignalKind::terminate())?;
+    let mut int = signal(SignalKind::interrupt())?;
+    Ok(tokio::spawn(async move {
+        let mut reason = CancelReason::Signal;
+        loop {
+            tokio::select! {
+                _ = term.recv() => {}
+                _ = int.recv() => {}
+            }
+            canceller.cancel(reason);
+            reason = CancelReason::SecondSignal;
+        }
+    }))
+}
+
+/// Progress, for the reporter. Sent in order per run; runs interleave.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// Attempt `attempt` (from 1) of `key` is starting.
+    Started { key: String, attempt: u32 },
+    /// Attempt `attempt` ended in `outcome`; the next attempt starts after `delay`.
+    Retrying { key: String, attempt: u32, outcome: Outcome, delay: Duration },
+    /// The run's record is committed (durable) — successful or not.
+    Finished { record: RunRecord },
+    /// The run was stopped by cancellation; nothing was committed for it.
+    Cancelled { key: String },
+}
+
+/// What an executor pass did.
+#[derive(Debug, Default)]
+pub struct Summary {
+    /// Records committed in this pass, in the order they were committed.
+    pub records: Vec<RunRecord>,
+    /// Set when the pass was cancelled.
+    pub cancelled: Option<CancelReason>,
+    /// Runs that were started and then stopped by cancellation (nothing committed).
+    pub interrupted: Vec<String>,
+    /// Runs never started because of cancellation.
+    pub not_started: Vec<String>,
+    /// Errors that are not outcomes of a run (a record that could not be committed).
+    pub errors: Vec<String>,
+}
+
+/// Runs [`RunSpec`]s on this machine, at most `jobs` at once.
+pub struct Executor {
+    pub jobs: usize,
+    /// Time between SIGTERM and SIGKILL to a run's process group.
+    pub grace: Duration,
+    pub adapter: Arc<dyn Adapter>,
+    pub committer: Committer,
+    pub canceller: Canceller,
+    pub events: Option<mpsc::UnboundedSender<Event>>,
+}
+
+struct Ctx {
+    grace: Duration,
+    adapter: Arc<dyn Adapter>,
+    committer: Committer,
+    events: Option<mpsc::UnboundedSender<Event>>,
+}
+
+impl Ctx {
+    fn send(&self, event: Event) {
+        if let Some(tx) = &self.events {
+            let _ = tx.send(event); // a reporter that went away does not stop the runs
+        }
+    }
+}
+
+enum UnitEnd {
+    Committed(RunRecord),
+    Cancelled(String),
+    Error(String),
+}
+
+impl Executor {
+    pub fn new(jobs: usize, adapter: Arc<dyn Adapter>, committer: Committer) -> Self {
+        Executor { jobs, grace: Duration::from_secs(5), adapter, committer, canceller: Canceller::new(), events: None }
+    }
+
+    /// Runs every spec (unless cancelled) and returns what happened. Never prints.
+    pub async fn run(&self, specs: Vec<RunSpec>) -> Summary {
+        let ctx = Arc::new(Ctx {
+            grace: self.grace,
+            adapter: self.adapter.clone(),
+            committer: self.committer.clone(),
+            events: self.events.clone(),
+        });
+        let permits = Arc::new(Semaphore::new(self.jobs.max(1)));
+        let mut cancel = self.canceller.subscribe();
+        let mut units: JoinSet<UnitEnd> = JoinSet::new();
+        let mut summary = Summary::default();
+        let mut specs = specs.into_iter();
+
+        'launch: while let Some(spec) = specs.next() {
+            loop {
+                tokio::select! {
+                    biased;
+                    _ = cancel.wait_for(Option::is_some) => {
+                        summary.not_started.push(spec.key);
+                        summary.not_started.extend(specs.by_ref().map(|s| s.key));
+                        break 'launch;
+                    }
+                    Some(end) = units.join_next(), if !units.is_empty() => {
+                        self.collect(end, &mut summary);
+                    }
+                    permit = permits.clone().acquire_owned() => {
+                        let permit = permit.expect("the semaphore is never closed");
+                        let (ctx, rx) = (ctx.clone(), self.canceller.subscribe());
+                        units.spawn(async move {
+                            let _permit = permit;
+                            unit(spec, ctx, rx).await
+                        });
+                        break;
+                    }
+                }
+            }
+        }
+        while let Some(end) = units.join_next().await {
+            self.collect(end, &mut summary);
+        }
+        summary.cancelled = self.canceller.reason();
+        summary
+    }
+
+    fn collect(&self, end: Result<UnitEnd, tokio::task::JoinError>, summary: &mut Summary) {
+        match end {
+            Ok(UnitEnd::Committed(record)) => summary.records.push(record),
+            Ok(UnitEnd::Cancelled(key)) => summary.interrupted.push(key),
+            Ok(UnitEnd::Error(e)) => {
+                summary.errors.push(e);
+                self.canceller.cancel(CancelReason::StoreError);
+            }
+            Err(e) => {
+                summary.errors.push(format!("a run task failed: {e}"));
+                self.canceller.cancel(CancelReason::StoreError);
+            }
+        }
+    }
+}
+
+fn now_ms() -> u64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as u64).unwrap_or(0)
+}
+
+async fn unit(spec: RunSpec, ctx: Arc<Ctx>, mut cancel: watch::Receiver<Option<CancelReason>>) -> UnitEnd {
+    let started_ms = now_ms();
+    let mut attempt = 1;
+    loop {
+        if cancel.borrow_and_update().is_some() {
+            ctx.send(Event::Cancelled { key: spec.key.clone() });
+            return UnitEnd::Cancelled(spec.key);
+        }
+        ctx.send(Event::Started { key: spec.key.clone(), attempt });
+        let (outcome, response) = match run_attempt(&spec, &ctx, &mut cancel).await {
+            Attempt::Judged(outcome, response) => (outcome, response),
+            Attempt::Cancelled => {
+                ctx.send(Event::Cancelled { key: spec.key.clone() });
+                return UnitEnd::Cancelled(spec.key);
+            }
+            Attempt::Error(e) => return UnitEnd::Error(format!("run {}: {e}", spec.key)),
+        };
+        if spec.retry.retries(attempt, &outcome) {
+            let delay = spec.retry.backoff.delay(attempt);
+            ctx.send(Event::Retrying { key: spec.key.clone(), attempt, outcome, delay });
+            tokio::select! {
+                _ = tokio::time::sleep(delay) => {}
+                _ = cancel.wait_for(Option::is_some) => {}  // the check at the loop's top reports it
+            }
+            attempt += 1;
+            continue;
+        }
+        let record =
+            RunRecord { key: spec.key.clone(), outcome, attempts: attempt, started_ms, ended_ms: now_ms(), response };
+        let committer = ctx.committer.clone();
+        let to_commit = record.clone();
+        match tokio::task::spawn_blocking(move || committer.commit(&to_commit)).await {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return UnitEnd::Error(e.to_string()),
+            Err(e) => return UnitEnd::Error(format!("commit task failed: {e}")),
+        }
+        ctx.send(Event::Finished { record: record.clone() });
+        return UnitEnd::Committed(record);
+    }
+}
+
+enum Attempt {
+    Judged(Outcome, Option<f64>),
+    Cancelled,
+    Error(String),
+}
+
+/// Why we signalled a child.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Why {
+    Timeout,
+    Cancel,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Phase {
+    Running,
+    /// SIGTERM sent to the group; SIGKILL at `kill_at`.
+    Terminating {
+        why: Why,
+        kill_at: Instant,
+    },
+    /// SIGKILL sent to the group; waiting for the leader to be reaped.
+    Killed {
+        why: Why,
+    },
+}
+
+/// Kills the process group if dropped before the leader was reaped (the unit's future was dropped).
+struct GroupGuard(Option<Pid>);
+
+impl GroupGuard {
+    fn signal(&self, signal: Signal) {
+        if let Some(pgid) = self.0 {
+            let _ = killpg(pgid, signal); // ESRCH: the group is already empty
+        }
+    }
+}
+
+impl Drop for GroupGuard {
+    fn drop(&mut self) {
+        self.signal(Signal::SIGKILL);
+    }
+}
+
+fn remove_if_present(path: &Path) -> std::io::Result<()> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+        _ => Ok(()),
+    }
+}
+
+async fn sleep_until(at: Option<Instant>) {
+    match at {
+        Some(at) => tokio::time::sleep_until(at).await,
+        None => std::future::pending().await,
+    }
+}
+
+async fn run_attempt(spec: &RunSpec, ctx: &Ctx, cancel: &mut watch::Receiver<Option<CancelReason>>) -> Attempt {
+    let dir = &spec.dir;
+    for rel in spec.outputs.iter().map(|p| p.as_path()).chain([Path::new(STDOUT_FILE), Path::new(STDERR_FILE)]) {
+        if let Err(e) = remove_if_present(&dir.join(rel)) {
+            return Attempt::Error(format!("removing {}: {e}", dir.join(rel).display()));
+        }
+    }
+    let (stdout, stderr) = match (File::create(dir.join(STDOUT_FILE)), File::create(dir.join(STDERR_FILE))) {
+        (Ok(o), Ok(e)) => (o, e),
+        (Err(e), _) | (_, Err(e)) => return Attempt::Error(format!("{}: {e}", dir.display())),
+    };
+    let Some((program, args)) = spec.argv.split_first() else {
+        return Attempt::Error("empty argv".to_string());
+    };
+    let mut command = tokio::process::Command::new(program);
+    command.args(args).current_dir(dir).stdin(Stdio::null()).stdout(stdout).stderr(stderr).process_group(0);
+    let mut child = match command.spawn() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = std::fs::write(dir.join(STDERR_FILE), format!("lab: cannot start `{program}`: {e}\n"));
+            return Attempt::Judged(Outcome::NonZeroExit { code: 127 }, None);
+        }
+    };
+    let group = GroupGuard(child.id().map(|pid| Pid::from_raw(pid as i32)));
+
+    let deadline = spec.timeout.map(|t| Instant::now() + t);
+    let mut phase = Phase::Running;
+    let mut cancel_open = true;
+    // Cancellation already requested before this point is seen by the first `borrow`.
+    let mut pending_cancel = cancel.borrow_and_update().is_some();
+    let status: std::io::Result<ExitStatus> = loop {
+        if std::mem::take(&mut pending_cancel) {
+            phase = on_cancel(phase, *cancel.borrow(), &group, ctx.grace);
+        }
+        let timer = match phase {
+            Phase::Running => deadline,
+            Phase::Terminating { kill_at, .. } => Some(kill_at),
+            Phase::Killed { .. } => None,
+        };
+        tokio::select! {
+            status = child.wait() => break status,
+            _ = sleep_until(timer) => {
+                phase = match phase {
+                    Phase::Running => {
+                        group.signal(Signal::SIGTERM);
+                        Phase::Terminating { why: Why::Timeout, kill_at: Instant::now() + ctx.grace }
+                    }
+                    Phase::Terminating { why, .. } | Phase::Killed { why } => {
+                        group.signal(Signal::SIGKILL);
+                        Phase::Killed { why }
+                    }
+                };
+            }
+            changed = cancel.changed(), if cancel_open => {
+                match changed {
+                    Ok(()) => pending_cancel = cancel.borrow_and_update().is_some(),
+                    Err(_) => cancel_open = false,
+                }
+            }
+        }
+    };
+    let mut group = group;
+    let why = match phase {
+        Phase::Running => None,
+        Phase::Terminating { why, .. } | Phase::Killed { why } => {
+            // The leader is gone; anything left in its group dies now, not after the grace period.
+            group.signal(Signal::SIGKILL);
+            Some(why)
+        }
+    };
+    group.0 = None;
+    let status = match status {
+        Ok(s) => s,
+        Err(e) => return Attempt::Error(format!("waiting for the solver: {e}")),
+    };
+    match why {
+        Some(Why::Cancel) => return Attempt::Cancelled,
+        Some(Why::Timeout) => return Attempt::Judged(Outcome::Timeout, None),
+        None => {}
+    }
+    let adapter = ctx.adapter.clone();
+    let dir = dir.clone();
+    let judged = tokio::task::spawn_blocking(move || judge(status, adapter.as_ref(), &dir)).await;
+    match judged {
+        Ok((outcome, response)) => Attempt::Judged(outcome, response),
+        Err(e) => Attempt::Error(format!("judging outputs: {e}")),
+    }
+}
+
+/// The next phase after a cancel request of strength `reason`.
+fn on_cancel(phase: Phase, reason: Option<CancelReason>, group: &GroupGuard, grace: Duration) -> Phase {
+    let Some(reason) = reason else { return phase };
+    match phase {
+        _ if reason >= CancelReason::SecondSignal => {
+            group.signal(Signal::SIGKILL);
+            Phase::Killed { why: Why::Cancel }
+        }
+        Phase::Running => {
+            group.signal(Signal::SIGTERM);
+            Phase::Terminating { why: Why::Cancel, kill_at: Instant::now() + grace }
+        }
+        // Already being stopped (timeout): it ends as it was going to; it is not retried (the
+        // unit checks the cancel reason before every attempt).
+        other => other,
+    }
+}
+
+/// Classifies an exited attempt. Order: signal, failure text, exit code, response.
+/// Failure text comes before the exit code because it says more, and because some solvers exit 0
+/// after an error (the exit code is not a reliable signal).
+fn judge(status: ExitStatus, adapter: &dyn Adapter, dir: &Path) -> (Outcome, Option<f64>) {
+    if let Some(signal) = status.signal() {
+        return (Outcome::Signal { signal }, None);
+    }
+    if let Some(failure) = adapter.find_failure(dir) {
+        return (failure, None);
+    }
+    match status.code() {
+        Some(0) => {}
+        Some(code) => return (Outcome::NonZeroExit { code }, None),
+        None => return (Outcome::NonZeroExit { code: -1 }, None),
+    }
+    match adapter.extract(dir) {
+        Ok(v) => (Outcome::Success, Some(v)),
+        Err(outcome) => (outcome, None),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stronger_cancel_reason_replaces_weaker_never_the_reverse() {
+        let c = Canceller::new();
+        assert_eq!(c.reason(), None);
+        c.cancel(CancelReason::Signal);
+        c.cancel(CancelReason::StoreError);
+        assert_eq!(c.reason(), Some(CancelReason::Signal));
+        c.cancel(CancelReason::SecondSignal);
+        c.cancel(CancelReason::Signal);
+        assert_eq!(c.reason(), Some(CancelReason::SecondSignal));
+    }
+}
