@@ -58,11 +58,18 @@ fn study_with(old: &str, new: &str) -> String {
     STUDY.replacen(old, new, 1)
 }
 
+/// The load error of a bad case; also checks that `lab check` on it exits 2 and prints that error.
 fn load_err(case: &Case) -> InputError {
-    match study::load(&case.study) {
+    let err = match study::load(&case.study) {
         Ok(_) => panic!("expected an error for:\n{}\n---\n{}", case.yaml, case.csv_text),
         Err(e) => e,
-    }
+    };
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lab")).arg("check").arg(&case.study).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "`lab check` exit code; stderr:\n{stderr}");
+    assert!(stderr.contains(&err.to_string()), "`lab check` did not print the error:\n{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    err
 }
 
 /// Column (from 1) of the first `needle` on line `line` (from 1) of `text`.

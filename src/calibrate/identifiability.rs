@@ -57,10 +57,11 @@ pub fn analyse(problem: &Problem, names: &[String], theta: &DVector<f64>) -> Ide
         "the training predictions do not depend on the parameters".to_string()
     } else {
         format!(
-            "the parameters cannot be told apart: the training tests determine only {} — any {} with the \
-             same value predicts the same",
+            "the parameters cannot be told apart: the training tests determine only {} — parameter sets \
+             with the same {} predict the same, so the individual values reported are set by the search, \
+             not by the data",
             combinations.join(", "),
-            if seen == 1 { "set of parameters" } else { "sets of parameters" },
+            if seen == 1 { "value of it" } else { "values of these" },
         )
     };
     Identifiability { identifiable: false, note, singular_values: values, combinations }

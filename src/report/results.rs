@@ -48,6 +48,10 @@ pub struct Prediction {
     pub predicted: f64,
     /// (predicted − measured) / measured.
     pub relative_error: f64,
+    /// Number of replicate tests averaged into `measured`.
+    pub replicates: usize,
+    /// Sample standard deviation of the replicates (the noise estimate); `null` with one test.
+    pub measured_std: Option<f64>,
 }
 
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
@@ -156,7 +160,10 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
         Calibrated::Bayesian(fit) => {
             result.interval95 = Some(names().zip(fit.interval95.iter().map(|&(lo, hi)| [lo, hi])).collect());
             result.median = Some(names().zip(fit.median.iter().copied()).collect());
-            result.discrepancy = Some(serde_json::json!({ "gaussian_process": true }));
+            let d = &fit.discrepancy;
+            result.discrepancy = Some(serde_json::json!({
+                "gaussian_process": { "mean": d.beta, "std_dev": d.var.sqrt(), "roughness": d.roughness }
+            }));
         }
     }
     result
@@ -179,6 +186,8 @@ fn predictions(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> Vec
                 measured,
                 predicted,
                 relative_error: (predicted - measured) / measured,
+                replicates: test.replicates.len(),
+                measured_std: test.std_dev(),
             }
         })
         .collect()
