@@ -133,7 +133,7 @@ fn run(study: &Study, out: &Path) -> Result<i32, Error> {
 }
 
 fn write_report(dir: &Path, results: &Results) -> Result<(), Error> {
-    report::write_atomically(&dir.join("report.html"), report::html::render(results).as_bytes())?;
+    report::write_atomic(&dir.join("report.html"), report::html::render(results).as_bytes())?;
     Ok(())
 }
 

@@ -109,7 +109,7 @@ impl Results {
     /// Writes `results.json` atomically: a reader never sees a half-written file.
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
         let json = serde_json::to_string_pretty(self).map_err(std::io::Error::other)?;
-        crate::report::write_atomically(path, json.as_bytes())
+        crate::report::write_atomic(path, json.as_bytes())
     }
 
     pub fn read(path: &Path) -> std::io::Result<Results> {
