@@ -2,6 +2,8 @@
 //!
 //! - [`lsdyna`]: typed readers for LS-DYNA ASCII outputs (rcforc, glstat, nodout, bndout, secforc,
 //!   spcforc) and the termination line.
+//! - [`crush`]: force–displacement curves and the average crush force over a stroke window, from
+//!   contact force + striker displacement, or from a test machine's CSV.
 
-
+pub mod crush;
 pub mod lsdyna;
