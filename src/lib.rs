@@ -20,6 +20,7 @@ pub mod calibrate;
 pub mod cli;
 pub mod error;
 pub mod execute;
+pub mod extract;
 pub mod model;
 pub mod pipeline;
 pub mod plan;

@@ -1,0 +1,410 @@
+//! Average crush force = absorbed energy / stroke over a stroke window, plus peak force and energy.
+//!
+//! Both sources give a [`ForceDisplacement`] curve (displacement in mm, force in kN, compression
+//! positive):
+//! - a simulation: a contact force history (`rcforc`, one interface side and axis) and the striker's
+//!   displacement history (`nodout`, one node and axis), put on common times (the union of both time grids
+//!   inside their overlap, each interpolated linearly) — [`from_histories`], [`from_lsdyna`];
+//! - a test machine's CSV of displacement and force — [`read_test_csv`], [`parse_test_csv`].
+//!
+//! Sign convention: the curve's force and displacement are `sign × component`. With [`Sign::Auto`]
+//! the displacement sign makes the stroke end positive (last − first ≥ 0) and the force sign makes the
+//! absorbed energy over the whole record non-negative; give [`Sign::Plus`] / [`Sign::Minus`] to fix
+//! it (e.g. a striker moving along −z: displacement `Minus`).
+//!
+//! [`crush_force`]: energy = ∫ F dd by the trapezoidal rule along the curve from the first point where the
+//! stroke reaches `s0` to the first point after it where it reaches `s1` (both ends interpolated
+//! linearly; rebound segments count with their sign); mean = energy / (s1 − s0). Units: mm × kN = J.
+
+use super::lsdyna::{nodout::Nodout, rcforc::Rcforc, rcforc::Side, text::parse_number};
+use crate::error::InputError;
+use std::path::Path;
+
+/// A force–displacement curve: displacement in mm, force in kN, compression positive.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ForceDisplacement {
+    pub displacement: Vec<f64>,
+    pub force: Vec<f64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sign {
+    Plus,
+    Minus,
+    Auto,
+}
+
+/// The stroke window `[s0, s1]` in mm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window {
+    pub s0: f64,
+    pub s1: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CrushResult {
+    /// Energy / stroke over the window, kN.
+    pub mean_force: f64,
+    /// Absorbed energy over the window, J (kN·mm).
+    pub energy: f64,
+    /// s1 − s0, mm.
+    pub stroke: f64,
+    /// Largest force inside the window (ends included), kN, and the stroke where it occurs.
+    pub peak_force: f64,
+    pub peak_at: f64,
+}
+
+/// Why a curve cannot be built or evaluated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CrushError {
+    #[error("{0}")]
+    Input(#[from] InputError),
+    #[error("{what}: {message}")]
+    Data { what: String, message: String },
+}
+
+fn data(what: &str, message: impl Into<String>) -> CrushError {
+    CrushError::Data { what: what.to_string(), message: message.into() }
+}
+
+/// Which simulation histories make the curve, and their units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimSource {
+    pub interface: u64,
+    pub side: Side,
+    /// 0 = x, 1 = y, 2 = z.
+    pub force_axis: usize,
+    pub force_sign: Sign,
+    /// Multiplies the solver's force unit into kN (1 for the mm–ms–kg–kN system, 1e-3 for mm–s–t–N).
+    pub force_to_kn: f64,
+    pub node: u64,
+    pub disp_axis: usize,
+    pub disp_sign: Sign,
+    /// Multiplies the solver's length unit into mm.
+    pub disp_to_mm: f64,
+}
+
+fn check_series(what: &str, t: &[f64], v: &[f64]) -> Result<(), CrushError> {
+    if t.len() != v.len() {
+        return Err(data(what, format!("{} times but {} values", t.len(), v.len())));
+    }
+    if t.len() < 2 {
+        return Err(data(what, "needs at least two samples"));
+    }
+    if let Some(i) = t.iter().chain(v).position(|x| !x.is_finite()) {
+        return Err(data(what, format!("non-finite value (sample {})", i % t.len() + 1)));
+    }
+    if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(data(
+            what,
+            format!("time must increase strictly; sample {} is at {} after {}", i + 2, t[i + 1], t[i]),
+        ));
+    }
+    Ok(())
+}
+
+/// Linear interpolation of (t, v) at `x` (t strictly increasing, x inside [t0, tn]).
+fn interp(t: &[f64], v: &[f64], x: f64) -> f64 {
+    let j = t.partition_point(|&ti| ti < x);
+    if j == 0 {
+        return v[0];
+    }
+    if j >= t.len() {
+        return v[t.len() - 1];
+    }
+    if t[j] == x {
+        return v[j];
+    }
+    let f = (x - t[j - 1]) / (t[j] - t[j - 1]);
+    v[j - 1] + f * (v[j] - v[j - 1])
+}
+
+/// Put a force history and a displacement history on common times and pair them.
+/// Common times: the union of both grids inside the overlap of the two time ranges.
+pub fn from_histories(
+    force_time: &[f64],
+    force: &[f64],
+    disp_time: &[f64],
+    disp: &[f64],
+    force_sign: Sign,
+    disp_sign: Sign,
+) -> Result<ForceDisplacement, CrushError> {
+    check_series("force history", force_time, force)?;
+    check_series("displacement history", disp_time, disp)?;
+    let lo = force_time[0].max(disp_time[0]);
+    let hi = force_time[force_time.len() - 1].min(disp_time[disp_time.len() - 1]);
+    if hi <= lo {
+        return Err(data("histories", format!("force and displacement times do not overlap ({lo} .. {hi})")));
+    }
+    let mut times: Vec<f64> = force_time.iter().chain(disp_time).copied().filter(|&t| t >= lo && t <= hi).collect();
+    times.sort_by(f64::total_cmp);
+    times.dedup();
+    let mut d: Vec<f64> = times.iter().map(|&t| interp(disp_time, disp, t)).collect();
+    let mut f: Vec<f64> = times.iter().map(|&t| interp(force_time, force, t)).collect();
+    apply_signs(&mut d, &mut f, force_sign, disp_sign);
+    Ok(ForceDisplacement { displacement: d, force: f })
+}
+
+fn apply_signs(d: &mut [f64], f: &mut [f64], force_sign: Sign, disp_sign: Sign) {
+    let ds = match disp_sign {
+        Sign::Plus => 1.0,
+        Sign::Minus => -1.0,
+        Sign::Auto => {
+            if d[d.len() - 1] - d[0] >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            }
+        }
+    };
+    d.iter_mut().for_each(|x| *x *= ds);
+    let fs = match force_sign {
+        Sign::Plus => 1.0,
+        Sign::Minus => -1.0,
+        Sign::Auto => {
+            if trapezoid(d, f) >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            }
+        }
+    };
+    f.iter_mut().for_each(|x| *x *= fs);
+}
+
+fn trapezoid(d: &[f64], f: &[f64]) -> f64 {
+    d.windows(2).zip(f.windows(2)).map(|(dd, ff)| 0.5 * (ff[0] + ff[1]) * (dd[1] - dd[0])).sum()
+}
+
+/// The curve from parsed rcforc and nodout files.
+pub fn from_lsdyna(rcforc: &Rcforc, nodout: &Nodout, src: &SimSource) -> Result<ForceDisplacement, CrushError> {
+    let side_name = match src.side {
+        Side::SurfA => "SURFA/slave",
+        Side::SurfB => "SURFB/master",
+    };
+    let s = rcforc
+        .interfaces
+        .get(&(src.side, src.interface))
+        .ok_or_else(|| data("rcforc", format!("no {side_name} resultants for interface {}", src.interface)))?;
+    let comp = s.component(src.force_axis).ok_or_else(|| data("settings", "force axis must be 0, 1 or 2"))?;
+    let n = nodout.nodes.get(&src.node).ok_or_else(|| data("nodout", format!("no node {}", src.node)))?;
+    let disp = n.disp.get(src.disp_axis).ok_or_else(|| data("settings", "displacement axis must be 0, 1 or 2"))?;
+    if !(src.force_to_kn.is_finite() && src.force_to_kn > 0.0 && src.disp_to_mm.is_finite() && src.disp_to_mm > 0.0) {
+        return Err(data("settings", "unit factors must be positive and finite"));
+    }
+    let f: Vec<f64> = comp.iter().map(|v| v * src.force_to_kn).collect();
+    let d: Vec<f64> = disp.iter().map(|v| v * src.disp_to_mm).collect();
+    from_histories(&s.time, &f, &n.time, &d, src.force_sign, src.disp_sign)
+}
+
+/// Mean crush force, energy and peak over the window.
+pub fn crush_force(curve: &ForceDisplacement, w: Window) -> Result<CrushResult, CrushError> {
+    let (d, f) = (&curve.displacement, &curve.force);
+    check_series_pairs(d, f)?;
+    if !(w.s0.is_finite() && w.s1.is_finite() && w.s1 > w.s0) {
+        return Err(data("stroke window", format!("needs finite s0 < s1, got [{}, {}]", w.s0, w.s1)));
+    }
+    let max_d = d.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if d[0] > w.s0 {
+        return Err(data("stroke window", format!("the curve starts at {} mm, after s0 = {} mm", d[0], w.s0)));
+    }
+    let n = d.len();
+    // Start: the first point where the stroke reaches s0 (segment i0, fraction g0).
+    let (i0, g0) = if d[0] == w.s0 {
+        (0, 0.0)
+    } else {
+        let i = (0..n - 1).find(|&i| d[i] < w.s0 && w.s0 <= d[i + 1]).ok_or_else(|| {
+            data("stroke window", format!("s0 = {} mm is never reached (max stroke {max_d} mm)", w.s0))
+        })?;
+        (i, (w.s0 - d[i]) / (d[i + 1] - d[i]))
+    };
+    // End: the first point after the start where the stroke reaches s1.
+    let j = (i0..n - 1)
+        .find(|&k| (k == i0 || d[k] < w.s1) && w.s1 <= d[k + 1])
+        .ok_or_else(|| data("stroke window", format!("s1 = {} mm is never reached (max stroke {max_d} mm)", w.s1)))?;
+    let h = if j == i0 {
+        let start = d[i0] + g0 * (d[i0 + 1] - d[i0]);
+        g0 + (1.0 - g0) * (w.s1 - start) / (d[i0 + 1] - start)
+    } else {
+        (w.s1 - d[j]) / (d[j + 1] - d[j])
+    };
+    let lerp = |v: &[f64], i: usize, g: f64| if g == 0.0 { v[i] } else { v[i] + g * (v[i + 1] - v[i]) };
+    let mut pd = vec![w.s0];
+    let mut pf = vec![lerp(f, i0, g0)];
+    for k in (i0 + 1)..=j {
+        pd.push(d[k]);
+        pf.push(f[k]);
+    }
+    pd.push(w.s1);
+    pf.push(lerp(f, j, h));
+    let energy = trapezoid(&pd, &pf);
+    let stroke = w.s1 - w.s0;
+    let (mut peak, mut peak_at) = (f64::NEG_INFINITY, w.s0);
+    for (x, y) in pd.iter().zip(&pf) {
+        if *y > peak {
+            peak = *y;
+            peak_at = *x;
+        }
+    }
+    Ok(CrushResult { mean_force: energy / stroke, energy, stroke, peak_force: peak, peak_at })
+}
+
+fn check_series_pairs(d: &[f64], f: &[f64]) -> Result<(), CrushError> {
+    if d.len() != f.len() {
+        return Err(data("curve", format!("{} displacements but {} forces", d.len(), f.len())));
+    }
+    if d.len() < 2 {
+        return Err(data("curve", "needs at least two points"));
+    }
+    if d.iter().chain(f).any(|x| !x.is_finite()) {
+        return Err(data("curve", "non-finite value"));
+    }
+    Ok(())
+}
+
+/// Force unit of a test-machine CSV.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ForceUnit {
+    KiloNewton,
+    Newton,
+}
+
+impl ForceUnit {
+    fn to_kn(self) -> f64 {
+        match self {
+            ForceUnit::KiloNewton => 1.0,
+            ForceUnit::Newton => 1e-3,
+        }
+    }
+}
+
+/// Settings of the test-machine CSV reader.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CsvOptions {
+    /// The force unit when the header does not say; if both say, they must agree.
+    pub force_unit: Option<ForceUnit>,
+}
+
+pub fn read_test_csv(file: &Path, opts: CsvOptions) -> Result<ForceDisplacement, InputError> {
+    let text = super::lsdyna::text::read_text(file)?;
+    parse_test_csv(file, &text, opts)
+}
+
+fn split_fields(line: &str) -> Vec<&str> {
+    let sep = if line.contains(',') {
+        Some(',')
+    } else if line.contains(';') {
+        Some(';')
+    } else if line.contains('\t') {
+        Some('\t')
+    } else {
+        None
+    };
+    match sep {
+        Some(c) => line.split(c).map(str::trim).collect(),
+        None => line.split_whitespace().collect(),
+    }
+}
+
+/// Unit named in a header cell: `[kN]`, `(N)`, `_kN`, ` kN`, `force_n`, ...
+fn header_unit(cell: &str) -> Option<String> {
+    let c = cell.trim().to_ascii_lowercase();
+    if let (Some(a), Some(b)) = (c.find(['[', '(']), c.rfind([']', ')']))
+        && b > a
+    {
+        return Some(c[a + 1..b].trim().to_string());
+    }
+    c.rsplit(['_', ' ', '/']).next().filter(|u| *u != c).map(str::to_string)
+}
+
+/// A test machine's force–displacement CSV: columns displacement [mm] and force [kN or N], an optional
+/// header (recognised by non-numeric cells; it must name the columns: `disp`/`stroke`/`travel`/`extension`
+/// and `force`/`load`; without a header the first two columns are displacement and force), `#` comments, separators `,` `;` tab or spaces.
+pub fn parse_test_csv(file: &Path, text: &str, opts: CsvOptions) -> Result<ForceDisplacement, InputError> {
+    let at = |line: usize, col: usize, m: String| InputError::at(file, text, line, col, m);
+    let mut cols = (0usize, 1usize);
+    let mut unit = opts.force_unit;
+    let mut disp_scale = 1.0;
+    let mut header_seen = false;
+    let mut d = Vec::new();
+    let mut f = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let no = i + 1;
+        let line = raw.trim().trim_start_matches('\u{feff}');
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let cells = split_fields(line);
+        let numeric = cells.iter().all(|c| parse_number(c).is_some());
+        if !numeric {
+            if header_seen || !d.is_empty() {
+                let bad = cells.iter().position(|c| parse_number(c).is_none()).unwrap_or(0);
+                let col = raw.find(cells[bad]).map_or(1, |p| p + 1);
+                return Err(at(no, col, format!("expected a number, found `{}`", cells[bad])));
+            }
+            header_seen = true;
+            let lower: Vec<String> = cells.iter().map(|c| c.to_ascii_lowercase()).collect();
+            let dcol =
+                lower.iter().position(|c| ["disp", "stroke", "travel", "extension"].iter().any(|k| c.contains(k)));
+            let fcol = lower.iter().position(|c| ["force", "load"].iter().any(|k| c.contains(k)));
+            match (dcol, fcol) {
+                (Some(a), Some(b)) if a != b => cols = (a, b),
+                _ => {
+                    return Err(at(
+                        no,
+                        1,
+                        "header must name a displacement column (disp/stroke) and a force column (force/load)".into(),
+                    ));
+                }
+            }
+            if let Some(u) = header_unit(cells[cols.1]) {
+                let hu = match u.as_str() {
+                    "kn" => Some(ForceUnit::KiloNewton),
+                    "n" => Some(ForceUnit::Newton),
+                    _ => None,
+                };
+                match (hu, opts.force_unit) {
+                    (Some(h), Some(s)) if h != s => {
+                        return Err(at(no, 1, format!("header says force in {u} but the setting says {s:?}")));
+                    }
+                    (Some(h), _) => unit = Some(h),
+                    (None, _) if !u.is_empty() && u != "force" && u != "load" => {
+                        return Err(at(no, 1, format!("unknown force unit `{u}`: expected kN or N")));
+                    }
+                    _ => {}
+                }
+            }
+            if let Some(u) = header_unit(cells[cols.0]) {
+                match u.as_str() {
+                    "mm" => disp_scale = 1.0,
+                    "m" => disp_scale = 1000.0,
+                    "disp" | "displacement" | "stroke" | "travel" | "extension" | "" => {}
+                    other => return Err(at(no, 1, format!("unknown displacement unit `{other}`: expected mm or m"))),
+                }
+            }
+            continue;
+        }
+        let need = cols.0.max(cols.1) + 1;
+        if cells.len() < need {
+            return Err(at(no, 1, format!("expected at least {need} columns, found {}", cells.len())));
+        }
+        let dv = parse_number(cells[cols.0]).unwrap_or(f64::NAN);
+        let fv = parse_number(cells[cols.1]).unwrap_or(f64::NAN);
+        if !dv.is_finite() || !fv.is_finite() {
+            return Err(at(no, 1, "expected finite displacement and force values".into()));
+        }
+        d.push(dv * disp_scale);
+        f.push(fv);
+    }
+    let Some(unit) = unit else {
+        return Err(InputError::file(
+            file,
+            "force unit unknown: name it in the header (e.g. `force [kN]`) or set the force unit (kN or N)",
+        ));
+    };
+    if d.len() < 2 {
+        return Err(InputError::file(file, "expected at least two data rows of displacement and force"));
+    }
+    let k = unit.to_kn();
+    Ok(ForceDisplacement { displacement: d, force: f.into_iter().map(|x| x * k).collect() })
+}

@@ -1,0 +1,136 @@
+//! `nodout`: nodal displacements, velocities, accelerations and coordinates over time.
+//!
+//! A block per output step headed
+//! ` n o d a l   p r i n t   o u t   f o r   t i m e  s t e p N  ( at time T )`; the time field's width
+//! and style vary between writers (`%14.7E` in LSTC `l2a.c`, `%12.5E`, `0.1000E-02`), so the heading is
+//! matched with a regular expression on the letter-spaced words and the number read by the Fortran
+//! number rules. Then a column header ` nodal point  x-disp ...` and rows of node id + 12 values
+//! (x/y/z disp, vel, accl, coor). A block whose header names `x-rot` holds rotations: node id + 9 values
+//! (rot, rot vel, rot acc), kept in [`Nodout::rotations`].
+
+use super::text::{Tok, body, err, parse_number, read_text, tokens};
+use crate::error::InputError;
+use regex::Regex;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::LazyLock;
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct NodeSeries {
+    pub time: Vec<f64>,
+    pub disp: [Vec<f64>; 3],
+    pub vel: [Vec<f64>; 3],
+    pub accl: [Vec<f64>; 3],
+    pub coor: [Vec<f64>; 3],
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct NodeRotSeries {
+    pub time: Vec<f64>,
+    pub rot: [Vec<f64>; 3],
+    pub rot_vel: [Vec<f64>; 3],
+    pub rot_acc: [Vec<f64>; 3],
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Nodout {
+    pub title: String,
+    /// Time step number and time of each block, in file order.
+    pub steps: Vec<(u64, f64)>,
+    pub nodes: BTreeMap<u64, NodeSeries>,
+    pub rotations: BTreeMap<u64, NodeRotSeries>,
+}
+
+static HEADING: LazyLock<Regex> = LazyLock::new(|| {
+    Regex::new(r"^\s*n\s*o\s*d\s*a\s*l\s+p\s*r\s*i\s*n\s*t\s+o\s*u\s*t\s+f\s*o\s*r\s+t\s*i\s*m\s*e\s+s\s*t\s*e\s*p\s*(\d+)\s*\(\s*at\s*time\s*(\S+?)\s*\)\s*$")
+        .expect("valid regex")
+});
+
+pub fn read(file: &Path) -> Result<Nodout, InputError> {
+    parse(file, &read_text(file)?)
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Block {
+    None,
+    Heading,
+    Trans,
+    Rot,
+}
+
+pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
+    let b = body(file, text, "nodout")?;
+    let mut out = Nodout { title: b.title.to_string(), ..Default::default() };
+    let mut state = Block::None;
+    let mut time = 0.0;
+    for &(no, line) in &b.lines {
+        if line.trim().is_empty() {
+            continue;
+        }
+        if let Some(c) = HEADING.captures(line) {
+            let step: u64 = c[1].parse().map_err(|_| err(file, text, no, "time step number out of range"))?;
+            time = parse_number(&c[2])
+                .ok_or_else(|| err(file, text, no, format!("expected a time after `at time`, found `{}`", &c[2])))?;
+            out.steps.push((step, time));
+            state = Block::Heading;
+            continue;
+        }
+        let t = tokens(line);
+        if t[0].text().eq_ignore_ascii_case("nodal") {
+            if state == Block::None {
+                return Err(err(file, text, no, "column header before any ` n o d a l   p r i n t   o u t` heading"));
+            }
+            state = if line.contains("x-rot") { Block::Rot } else { Block::Trans };
+            continue;
+        }
+        if line.to_ascii_lowercase().contains("n o d a l") {
+            return Err(err(
+                file,
+                text,
+                no,
+                "malformed heading: expected ` n o d a l   p r i n t   o u t   f o r   t i m e  s t e p N  ( at time T )`",
+            ));
+        }
+        let want = match state {
+            Block::Trans => 12,
+            Block::Rot => 9,
+            Block::None => return Err(err(file, text, no, "data before any ` n o d a l   p r i n t   o u t` heading")),
+            Block::Heading => return Err(err(file, text, no, "expected the ` nodal point  x-disp ...` column header")),
+        };
+        let id = match t[0] {
+            Tok::Num(v, _) if v >= 0.0 && v.fract() == 0.0 && v < 1e18 => v as u64,
+            _ => return Err(err(file, text, no, format!("expected a node id, found `{}`", t[0].text()))),
+        };
+        let vals: Option<Vec<f64>> = t[1..].iter().map(Tok::num).collect();
+        let vals = match vals {
+            Some(v) if v.len() == want => v,
+            _ => {
+                return Err(err(
+                    file,
+                    text,
+                    no,
+                    format!("expected node id and {want} numbers, found `{}`", line.trim()),
+                ));
+            }
+        };
+        if state == Block::Trans {
+            let s = out.nodes.entry(id).or_default();
+            s.time.push(time);
+            for k in 0..3 {
+                s.disp[k].push(vals[k]);
+                s.vel[k].push(vals[3 + k]);
+                s.accl[k].push(vals[6 + k]);
+                s.coor[k].push(vals[9 + k]);
+            }
+        } else {
+            let s = out.rotations.entry(id).or_default();
+            s.time.push(time);
+            for k in 0..3 {
+                s.rot[k].push(vals[k]);
+                s.rot_vel[k].push(vals[3 + k]);
+                s.rot_acc[k].push(vals[6 + k]);
+            }
+        }
+    }
+    Ok(out)
+}

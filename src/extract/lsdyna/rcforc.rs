@@ -1,0 +1,183 @@
+//! `rcforc`: resultant contact forces per interface and side over time.
+//!
+//! Data lines (LSTC `l2a.c`, `translate_rcforc`, and facts.md):
+//! `  master%11d time%12.5E  x %12.5E  y %12.5E  z %12.5E mass %12.5E`
+//! (or `  slave %11d time ...`), optionally followed by `  mx %12.5E  my %12.5E  mz %12.5E` and/or
+//! `  tied %10d  tied area %12.5E`. Newer LS-DYNA versions write `SURFA` (the former slave side) and
+//! `SURFB` (the former master side). Lines ` interface number, N,is single surface-resultants are undefined`
+//! are recorded in [`Rcforc::single_surface`]. Parsed by tokens and labels, not columns.
+
+use super::text::{Tok, body, err, read_text, tokens};
+use crate::error::InputError;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Which side of a contact interface a resultant belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Side {
+    /// `slave` in older output, `SURFA` in newer.
+    SurfA,
+    /// `master` in older output, `SURFB` in newer.
+    SurfB,
+}
+
+impl Side {
+    fn from_label(w: &str) -> Option<Side> {
+        match w.to_ascii_lowercase().as_str() {
+            "slave" | "surfa" => Some(Side::SurfA),
+            "master" | "surfb" => Some(Side::SurfB),
+            _ => None,
+        }
+    }
+}
+
+/// One interface side's resultant history.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ContactSeries {
+    pub time: Vec<f64>,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    pub z: Vec<f64>,
+    pub mass: Vec<f64>,
+    /// `mx my mz` when the file has them (all rows of this series, or none).
+    pub moments: Option<[Vec<f64>; 3]>,
+}
+
+impl ContactSeries {
+    /// Force component by axis index 0 = x, 1 = y, 2 = z.
+    pub fn component(&self, axis: usize) -> Option<&[f64]> {
+        match axis {
+            0 => Some(&self.x),
+            1 => Some(&self.y),
+            2 => Some(&self.z),
+            _ => None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Rcforc {
+    pub title: String,
+    pub interfaces: BTreeMap<(Side, u64), ContactSeries>,
+    /// Interface numbers reported as single-surface (resultants undefined).
+    pub single_surface: Vec<u64>,
+}
+
+pub fn read(file: &Path) -> Result<Rcforc, InputError> {
+    parse(file, &read_text(file)?)
+}
+
+pub fn parse(file: &Path, text: &str) -> Result<Rcforc, InputError> {
+    let b = body(file, text, "rcforc")?;
+    let mut out = Rcforc { title: b.title.to_string(), ..Default::default() };
+    for &(no, line) in &b.lines {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let t = tokens(line);
+        let first = t[0].text();
+        if first.eq_ignore_ascii_case("interface") {
+            let n = t.iter().find_map(|k| k.num()).filter(|v| v.fract() == 0.0 && *v >= 0.0);
+            match n {
+                Some(n) => out.single_surface.push(n as u64),
+                None => return Err(err(file, text, no, "expected `interface number, N,is single surface...`")),
+            }
+            continue;
+        }
+        let Some(side) = Side::from_label(first) else {
+            return Err(err(
+                file,
+                text,
+                no,
+                format!("expected a data line starting with master/slave/SURFA/SURFB, found `{first}`"),
+            ));
+        };
+        let row = data_row(&t).map_err(|m| err(file, text, no, m))?;
+        let s = out.interfaces.entry((side, row.id)).or_default();
+        match (&mut s.moments, row.moments) {
+            (Some(m), Some(r)) => {
+                for k in 0..3 {
+                    m[k].push(r[k]);
+                }
+            }
+            (None, Some(r)) if s.time.is_empty() => {
+                s.moments = Some([vec![r[0]], vec![r[1]], vec![r[2]]]);
+            }
+            (None, None) => {}
+            _ => {
+                return Err(err(
+                    file,
+                    text,
+                    no,
+                    "moment columns `mx my mz` must be on every line of an interface side or on none",
+                ));
+            }
+        }
+        s.time.push(row.time);
+        s.x.push(row.f[0]);
+        s.y.push(row.f[1]);
+        s.z.push(row.f[2]);
+        s.mass.push(row.mass);
+    }
+    Ok(out)
+}
+
+struct Row {
+    id: u64,
+    time: f64,
+    f: [f64; 3],
+    mass: f64,
+    moments: Option<[f64; 3]>,
+}
+
+fn data_row(t: &[Tok]) -> Result<Row, String> {
+    let id = match t.get(1).and_then(Tok::num) {
+        Some(v) if v >= 0.0 && v.fract() == 0.0 && v < 1e18 => v as u64,
+        _ => return Err("expected an interface number after the side label".into()),
+    };
+    // Label-value pairs after the id: time, x, y, z, mass, then optional mx, my, mz, tied, tied area.
+    let mut vals: BTreeMap<&str, f64> = BTreeMap::new();
+    let mut i = 2;
+    while i < t.len() {
+        let label = match &t[i] {
+            Tok::Word(w) => *w,
+            Tok::Num(_, s) => return Err(format!("expected a label (time, x, y, z, mass, mx, ...), found `{s}`")),
+        };
+        let key = match label.to_ascii_lowercase().as_str() {
+            "time" => "time",
+            "x" => "x",
+            "y" => "y",
+            "z" => "z",
+            "mass" => "mass",
+            "mx" => "mx",
+            "my" => "my",
+            "mz" => "mz",
+            "tied" => {
+                // `tied N  tied area A` or the `area` word following.
+                if t.get(i + 1).map(|k| k.text().eq_ignore_ascii_case("area")) == Some(true) {
+                    i += 1;
+                    "tied area"
+                } else {
+                    "tied"
+                }
+            }
+            other => return Err(format!("unknown label `{other}` in an rcforc data line")),
+        };
+        let v = t.get(i + 1).and_then(Tok::num).ok_or_else(|| format!("expected a number after `{label}`"))?;
+        if vals.insert(key, v).is_some() {
+            return Err(format!("label `{label}` appears twice"));
+        }
+        i += 2;
+    }
+    let need = |k: &str| {
+        vals.get(k)
+            .copied()
+            .ok_or_else(|| format!("missing `{k}`: expected labels time, x, y, z and mass, each followed by a number"))
+    };
+    let moments = match (vals.get("mx"), vals.get("my"), vals.get("mz")) {
+        (Some(a), Some(b), Some(c)) => Some([*a, *b, *c]),
+        (None, None, None) => None,
+        _ => return Err("expected all three moments `mx my mz` or none".into()),
+    };
+    Ok(Row { id, time: need("time")?, f: [need("x")?, need("y")?, need("z")?], mass: need("mass")?, moments })
+}
