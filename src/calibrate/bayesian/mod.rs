@@ -3,7 +3,9 @@
 //! y_true(d) = y_pre(d, θ) + δ(d)   (A1)
 //!
 //! - `y_pre` is a GP emulator over (design, parameters) fitted to simulation samples (A2–A4):
-//!   quadratic trend, Gaussian kernel, hyperparameters by maximum likelihood ([`gp`]).
+//!   quadratic trend, Gaussian kernel, hyperparameters by maximum likelihood ([`gp`]), fitted to
+//!   ln y over ln inputs when the data are positive, predicting back in y.
+//! - The likelihood stays in y, where the discrepancy is additive (A1).
 //! - `δ` is a GP discrepancy with a constant trend (A5–A7).
 //! - θ by maximum likelihood of the tests given the emulator (A8–A9, [`koh`]), then MCMC samples of
 //!   the posterior of θ for a 95 % interval ([`mcmc`]).
