@@ -186,27 +186,44 @@ fn spread_over_seeds() {
     eprintln!("worst {:.3} %", 100.0 * worst);
 }
 
-/// MCMC error of the interval: default run against a ten times longer one (ignored, diagnostic).
+/// MCMC error of the interval: spread of the 2.5/97.5 % points over seeds for several chain
+/// shapes, and the time of a whole calibrate (ignored, diagnostic; run with --test-threads=1).
 #[test]
 #[ignore]
 fn long_chain_interval() {
+    const SEEDS: u64 = 16;
     let model = euler;
     let hs = [8.0, 10.0];
     let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), e_bounds(), &model);
-    for seed in [1, 2, 3] {
-        for steps in [2000, 20_000] {
-            let s = Settings { seed, mcmc_steps: steps, ..Settings::default() };
+    for (walkers, steps, burn_in) in [(16, 2000, 500), (32, 3000, 500), (16, 20_000, 2000)] {
+        let (mut lo, mut hi, mut secs) = (Vec::new(), Vec::new(), 0.0);
+        for seed in 1..=SEEDS {
+            let s = Settings {
+                seed,
+                mcmc_walkers: walkers,
+                mcmc_steps: steps,
+                mcmc_burn_in: burn_in,
+                ..Settings::default()
+            };
             let t0 = Instant::now();
             let fit = run(&p, &s);
-            eprintln!(
-                "seed {seed} steps {steps}: median {:.1}, 95 % [{:.1}, {:.1}], acc {:.2}, {:.2} s",
-                fit.median[0],
-                fit.interval95[0].0,
-                fit.interval95[0].1,
-                fit.acceptance,
-                t0.elapsed().as_secs_f64()
-            );
+            secs += t0.elapsed().as_secs_f64() / SEEDS as f64;
+            lo.push(fit.interval95[0].0);
+            hi.push(fit.interval95[0].1);
         }
+        let range =
+            |v: &[f64]| (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(0.0, f64::max));
+        let sd = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+        };
+        eprintln!(
+            "{walkers} x {steps} (burn {burn_in}): 2.5 % in {:.0?} (sd {:.0}), 97.5 % in {:.0?} (sd {:.0}), {secs:.3} s",
+            range(&lo),
+            sd(&lo),
+            range(&hi),
+            sd(&hi)
+        );
     }
 }
 
