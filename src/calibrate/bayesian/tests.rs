@@ -118,6 +118,44 @@ fn two_parameters_stay_finite_and_inside() {
     assert!(fit.predict(&[13.0]).is_finite());
 }
 
+/// Table 1 with the paper's box: E in [50k, 80k], L in [15, 25], h = 8, 10, 12, 24 emulator runs.
+fn table1_fit(settings: &Settings) -> BayesianFit {
+    let model = euler;
+    let hs = [8.0, 10.0, 12.0];
+    let bounds = Bounds::new(vec![50_000.0, 15.0], vec![80_000.0, 25.0]);
+    let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), bounds, &model);
+    run(&p, settings)
+}
+
+#[test]
+fn table1_predicts_validation() {
+    // The response spans a factor ~47 over (h, E, L); emulated in logs it is exact, so the
+    // prediction error is KOH's own. Measured: +1.33 % at h = 13 for every seed 1–8 (θ moves along
+    // the L³/E ridge; sensitivity gives +1.63 %, the emulator in y gave +14.7 %), training < 1e-9. Bounds: 3 % at the validation design (extrapolation of the discrepancy GP past
+    // h = 12 carries most of the error), 1 % at the training designs (the discrepancy interpolates).
+    let fit = table1_fit(&short(1));
+    let valid = fit.predict(&[13.0]) / 0.083942 - 1.0;
+    eprintln!("table 1: θ = {:?}, h = 13: {:+.2} %", fit.theta.as_slice(), 100.0 * valid);
+    assert!(valid.abs() < 0.03, "h = 13: {valid}");
+    for h in [8.0, 10.0, 12.0] {
+        let rel = fit.predict(&[h]) / timoshenko(h) - 1.0;
+        assert!(rel.abs() < 0.01, "h = {h}: {rel}");
+    }
+}
+
+#[test]
+fn negative_response_falls_back_to_y() {
+    // Simulation and tests both shifted by −0.2: the deflection changes sign over the box, so the
+    // emulator stays in y; the shift cancels in the residuals, so E is the cantilever's again.
+    let model = |d: &[f64], th: &[f64]| euler(d, th) - 0.2;
+    let hs = [8.0, 10.0];
+    let p = problem(&hs, hs.iter().map(|&h| timoshenko(h) - 0.2).collect(), e_bounds(), &model);
+    let fit = run(&p, &short(1));
+    eprintln!("negative response: E = {:.1}, 95 % {:?}", fit.theta[0], fit.interval95[0]);
+    assert!(!fit.emulator.log_output());
+    assert!((fit.theta[0] / 64_911.0 - 1.0).abs() < 0.015, "E = {}", fit.theta[0]);
+}
+
 #[test]
 fn one_design_is_too_few() {
     let model = euler;
@@ -148,27 +186,44 @@ fn spread_over_seeds() {
     eprintln!("worst {:.3} %", 100.0 * worst);
 }
 
-/// MCMC error of the interval: default run against a ten times longer one (ignored, diagnostic).
+/// MCMC error of the interval: spread of the 2.5/97.5 % points over seeds for several chain
+/// shapes, and the time of a whole calibrate (ignored, diagnostic; run with --test-threads=1).
 #[test]
 #[ignore]
 fn long_chain_interval() {
+    const SEEDS: u64 = 16;
     let model = euler;
     let hs = [8.0, 10.0];
     let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), e_bounds(), &model);
-    for seed in [1, 2, 3] {
-        for steps in [2000, 20_000] {
-            let s = Settings { seed, mcmc_steps: steps, ..Settings::default() };
+    for (walkers, steps, burn_in) in [(16, 2000, 500), (32, 3000, 500), (16, 20_000, 2000)] {
+        let (mut lo, mut hi, mut secs) = (Vec::new(), Vec::new(), 0.0);
+        for seed in 1..=SEEDS {
+            let s = Settings {
+                seed,
+                mcmc_walkers: walkers,
+                mcmc_steps: steps,
+                mcmc_burn_in: burn_in,
+                ..Settings::default()
+            };
             let t0 = Instant::now();
             let fit = run(&p, &s);
-            eprintln!(
-                "seed {seed} steps {steps}: median {:.1}, 95 % [{:.1}, {:.1}], acc {:.2}, {:.2} s",
-                fit.median[0],
-                fit.interval95[0].0,
-                fit.interval95[0].1,
-                fit.acceptance,
-                t0.elapsed().as_secs_f64()
-            );
+            secs += t0.elapsed().as_secs_f64() / SEEDS as f64;
+            lo.push(fit.interval95[0].0);
+            hi.push(fit.interval95[0].1);
         }
+        let range =
+            |v: &[f64]| (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(0.0, f64::max));
+        let sd = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+        };
+        eprintln!(
+            "{walkers} x {steps} (burn {burn_in}): 2.5 % in {:.0?} (sd {:.0}), 97.5 % in {:.0?} (sd {:.0}), {secs:.3} s",
+            range(&lo),
+            sd(&lo),
+            range(&hi),
+            sd(&hi)
+        );
     }
 }
 
@@ -193,4 +248,22 @@ fn two_design_variables() {
     assert!(100.0 <= lo && lo <= hi && hi <= 200.0);
     let y = fit.predict(&[4.0, 0.065]);
     assert!(y.is_finite() && y > 0.0);
+}
+
+/// Table 1 over emulator designs and chains (ignored, diagnostic).
+#[test]
+#[ignore]
+fn table1_over_seeds() {
+    for seed in 1..=8 {
+        let fit = table1_fit(&Settings { seed, ..Settings::default() });
+        let train =
+            [8.0, 10.0, 12.0].iter().map(|&h| (fit.predict(&[h]) / timoshenko(h) - 1.0).abs()).fold(0.0, f64::max);
+        eprintln!(
+            "seed {seed}: θ = [{:.0}, {:.3}], h = 13: {:+.2} %, training max {:.1e} %",
+            fit.theta[0],
+            fit.theta[1],
+            100.0 * (fit.predict(&[13.0]) / 0.083942 - 1.0),
+            100.0 * train
+        );
+    }
 }
