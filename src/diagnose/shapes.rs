@@ -6,7 +6,8 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::study::{Hypothesis, Study};
+use crate::study::expr::ExprError;
+use crate::study::{Expression, Hypothesis, Study, Symbols};
 
 /// Where a candidate comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -61,6 +62,31 @@ impl Shape {
                 d.iter().chain(theta).chain(&constants).copied().chain(std::iter::once(y)).collect();
             expr.eval(&values)
         })
+    }
+
+    /// A term written as in a study file, compiled over `design_names`, `parameter_names`, the
+    /// constants' names and `y` (the order of [`Study::term_symbols`]).
+    pub fn from_term(
+        name: impl Into<String>,
+        term: &str,
+        design_names: &[String],
+        parameter_names: &[String],
+        constants: &[(String, f64)],
+    ) -> Result<Shape, ExprError> {
+        let symbols = Symbols::new(
+            design_names
+                .iter()
+                .chain(parameter_names)
+                .chain(constants.iter().map(|(n, _)| n))
+                .cloned()
+                .chain(["y".to_string()]),
+        );
+        let expr = Expression::compile(term, &symbols)?;
+        let values: Vec<f64> = constants.iter().map(|(_, v)| *v).collect();
+        Ok(Shape::new(name, term, Origin::Study, move |d, theta, y| {
+            let all: Vec<f64> = d.iter().chain(theta).chain(&values).copied().chain(std::iter::once(y)).collect();
+            expr.eval(&all)
+        }))
     }
 
     /// The shapes every diagnosis tries: a constant offset, an error proportional to the prediction
