@@ -217,9 +217,8 @@ fn tally(family: Family, right: impl Fn(&Case, &Diagnosis) -> bool) -> Tally {
         t.right += usize::from(ok);
         t.gain += usize::from(gain.is_some_and(|g| g >= 0.5));
         t.noise_right += usize::from(d.noise.kind == expected_noise);
-        let term_of = |name: &str| {
-            d.candidates.iter().find(|c| c.name == name).map(|c| c.term.clone()).unwrap_or_default()
-        };
+        let term_of =
+            |name: &str| d.candidates.iter().find(|c| c.name == name).map(|c| c.term.clone()).unwrap_or_default();
         t.lines.push(format!(
             "{family:?} seed {seed}: hidden {:?} ({}) m {:.3} | detected {} cause {:?} ({}) | top3 {:?} | gain {:?} ({:?}) | noise {:?} | {}",
             case.hidden_name,

@@ -73,3 +73,36 @@ fn simple_machine_names_the_saturation_term() {
         assert_eq!(c.confounded_with, vec!["theta".to_string()], "{name}");
     }
 }
+
+/// The contract's keys, read back as another program would; and the value survives a round trip.
+#[test]
+fn output_has_the_contract_keys_and_round_trips() {
+    let d = run("cantilever-diagnosis.yaml");
+    let json = serde_json::to_string(&d).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["discrepancy_detected"], true);
+    assert_eq!(v["cause"], "shear deformation");
+    for key in ["name", "loo_error", "bic", "aicc", "weight"] {
+        assert!(!v["candidates"][0][key].is_null(), "candidates[0].{key}");
+    }
+    for key in ["cause", "parameters", "validation_error_before", "validation_error_after", "gain"] {
+        assert!(!v["extended"][key].is_null(), "extended.{key}");
+    }
+    assert!(v["next_test"]["design"]["h"].is_f64());
+    assert!(v["next_test"]["why"].is_string());
+    let weights: f64 = d.candidates.iter().map(|c| c.weight).sum::<f64>() + d.uncorrected.weight.unwrap();
+    assert!((weights - 1.0).abs() < 1e-12, "weights sum to {weights}");
+    let back: Diagnosis = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, d);
+}
+
+/// The paper's two tests (h = 8, 10) cannot rank candidates: the diagnosis says so instead of
+/// guessing, and still reports the residuals.
+#[test]
+fn two_tests_are_too_few_to_rank_and_say_so() {
+    let d = run("cantilever.yaml");
+    assert!(!d.discrepancy_detected);
+    assert!(d.cause.is_none() && d.candidates.is_empty() && d.extended.is_none());
+    assert!(d.notes.iter().any(|n| n.contains("cannot rank")), "{:?}", d.notes);
+    assert_eq!(d.residuals.len(), 3);
+}

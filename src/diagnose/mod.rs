@@ -82,8 +82,8 @@ impl Observation {
     pub fn from_replicates(name: impl Into<String>, design: Vec<f64>, role: Role, replicates: &[f64]) -> Self {
         let n = replicates.len();
         let mean = replicates.iter().sum::<f64>() / n as f64;
-        let std_dev = (n > 1)
-            .then(|| (replicates.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
+        let std_dev =
+            (n > 1).then(|| (replicates.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
         Observation { name: name.into(), design, role, mean, count: n, std_dev }
     }
 }
@@ -357,9 +357,8 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
     // 2. The uncorrected model.
     let fit0 = data.fit(None, &train)?;
     let names = &inputs.parameter_names;
-    let param_map = |theta: &DVector<f64>| -> IndexMap<String, f64> {
-        names.iter().cloned().zip(theta.iter().copied()).collect()
-    };
+    let param_map =
+        |theta: &DVector<f64>| -> IndexMap<String, f64> { names.iter().cloned().zip(theta.iter().copied()).collect() };
 
     // 3. Candidate shapes: study hypotheses first, then built-ins not duplicated by one.
     let sens = data.sensitivities(&fit0.theta, &train);
@@ -367,17 +366,23 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
     for shape in inputs.hypotheses.iter().cloned().chain(Shape::built_ins(&inputs.design_names)) {
         let v = data.shape_vector(&shape, &fit0.theta, &train);
         if v.iter().any(|x| !x.is_finite()) {
-            notes.push(format!("candidate '{}' ({}) is not finite at every training design: skipped", shape.name, shape.term));
+            notes.push(format!(
+                "candidate '{}' ({}) is not finite at every training design: skipped",
+                shape.name, shape.term
+            ));
             continue;
         }
         if v.iter().all(|&x| x == 0.0) {
-            notes.push(format!("candidate '{}' ({}) vanishes at every training design: skipped", shape.name, shape.term));
+            notes.push(format!(
+                "candidate '{}' ({}) vanishes at every training design: skipped",
+                shape.name, shape.term
+            ));
             continue;
         }
         if shape.origin == Origin::BuiltIn
-            && let Some(k) = shapes.iter().position(|(h, _, hv)| {
-                h.origin == Origin::Study && stats::cosine(hv, &v).abs() > s.same_shape_cosine
-            })
+            && let Some(k) = shapes
+                .iter()
+                .position(|(h, _, hv)| h.origin == Origin::Study && stats::cosine(hv, &v).abs() > s.same_shape_cosine)
         {
             if shapes[k].1.is_none() {
                 shapes[k].1 = Some(shape.name.clone());
@@ -452,9 +457,19 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
                      (the tests look noise-free); σ floored at {sigma:.3e}"
                 )
             } else {
-                format!("no replicates: σ = {} estimated from the residuals of {who} ({dof} degrees of freedom)", text::num(sigma))
+                format!(
+                    "no replicates: σ = {} estimated from the residuals of {who} ({dof} degrees of freedom)",
+                    text::num(sigma)
+                )
             };
-            NoiseModel { kind: NoiseKind::FromResiduals, scale: sigma, dof, loglik_absolute: None, loglik_relative: None, note }
+            NoiseModel {
+                kind: NoiseKind::FromResiduals,
+                scale: sigma,
+                dof,
+                loglik_absolute: None,
+                loglik_relative: None,
+                note,
+            }
         }
     };
 
@@ -466,16 +481,17 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
             stats::f_sf(drop, 1.0, nu)
         } else {
             let df2 = (n - p - 1) as f64;
-            if drop <= 0.0 {
-                1.0
-            } else {
-                stats::f_sf(drop / (sc.fit.wrss.max(rss_floor) / df2), 1.0, df2)
-            }
+            if drop <= 0.0 { 1.0 } else { stats::f_sf(drop / (sc.fit.wrss.max(rss_floor) / df2), 1.0, df2) }
         }
     };
     let lack_of_fit = known.then(|| {
         let dof = n - p;
-        LackOfFit { chi2: base.fit.wrss, dof, noise_dof: nu as usize, p_value: stats::f_sf(base.fit.wrss / dof as f64, dof as f64, nu) }
+        LackOfFit {
+            chi2: base.fit.wrss,
+            dof,
+            noise_dof: nu as usize,
+            p_value: stats::f_sf(base.fit.wrss / dof as f64, dof as f64, nu),
+        }
     });
 
     let mut candidates = Vec::new();
@@ -549,7 +565,10 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
             (base.loo_error, sc.loo_error, "leave-one-out")
         } else {
             let err = |sh: Option<&Shape>, f: &fit::Fit| {
-                mean_abs_rel(val.iter().map(|&i| (data.predict(sh, f.theta.as_slice(), f.gamma, &data.designs[i]), data.means[i])))
+                mean_abs_rel(
+                    val.iter()
+                        .map(|&i| (data.predict(sh, f.theta.as_slice(), f.gamma, &data.designs[i]), data.means[i])),
+                )
             };
             (err(None, &base.fit), err(Some(shape), &sc.fit), "validation")
         };
@@ -830,7 +849,13 @@ fn next_test(
         }
     }
     let (sep, d, ya, yb) = best?;
-    let at = inputs.design_names.iter().zip(&d).map(|(n, v)| format!("{n} = {}", text::num(*v))).collect::<Vec<_>>().join(", ");
+    let at = inputs
+        .design_names
+        .iter()
+        .zip(&d)
+        .map(|(n, v)| format!("{n} = {}", text::num(*v)))
+        .collect::<Vec<_>>()
+        .join(", ");
     let why = format!(
         "At {at} the two leading explanations, '{}' and '{}', predict {} and {}: {} noise standard deviations of one \
          test apart, the largest separation inside the design bounds, so one test there tells them apart.",

@@ -67,7 +67,7 @@ pub fn from_replicates(observations: &[Observation]) -> Option<NoiseModel> {
         .collect();
     let nu: f64 = with.iter().map(|w| w.0).sum();
     let ss: f64 = with.iter().map(|w| w.1).sum();
-    if nu == 0.0 || !(ss > 0.0) {
+    if nu == 0.0 || ss.is_nan() || ss <= 0.0 {
         return None;
     }
     let var_abs = ss / nu;
@@ -111,4 +111,44 @@ pub fn from_replicates(observations: &[Observation]) -> Option<NoiseModel> {
         note
     };
     Some(NoiseModel { kind, scale, dof: nu as usize, loglik_absolute: Some(ll_abs), loglik_relative: ll_rel, note })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::Role;
+
+    /// Replicates whose scatter is exactly ±s around levels 1, 10, 100.
+    fn observations(scatter: impl Fn(f64) -> f64) -> Vec<Observation> {
+        [1.0, 10.0, 100.0]
+            .iter()
+            .enumerate()
+            .map(|(i, &m)| {
+                let s = scatter(m);
+                Observation::from_replicates(format!("d{i}"), vec![m], Role::Training, &[m - s, m, m + s])
+            })
+            .collect()
+    }
+
+    #[test]
+    fn scatter_proportional_to_the_level_is_relative() {
+        let nm = from_replicates(&observations(|m| 0.02 * m)).unwrap();
+        assert_eq!(nm.kind, NoiseKind::Relative);
+        assert!((nm.scale - 0.02).abs() < 1e-12, "{}", nm.scale);
+        assert_eq!(nm.dof, 6);
+    }
+
+    #[test]
+    fn constant_scatter_is_absolute() {
+        let nm = from_replicates(&observations(|_| 0.5)).unwrap();
+        assert_eq!(nm.kind, NoiseKind::Absolute);
+        assert!((nm.scale - 0.5).abs() < 1e-12, "{}", nm.scale);
+    }
+
+    #[test]
+    fn no_replicates_or_no_scatter_gives_none() {
+        let single = vec![Observation::from_replicates("a", vec![1.0], Role::Training, &[3.0])];
+        assert!(from_replicates(&single).is_none());
+        assert!(from_replicates(&observations(|_| 0.0)).is_none());
+    }
 }

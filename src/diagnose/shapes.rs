@@ -33,7 +33,11 @@ pub struct Shape {
 
 impl fmt::Debug for Shape {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Shape").field("name", &self.name).field("term", &self.term).field("origin", &self.origin).finish()
+        f.debug_struct("Shape")
+            .field("name", &self.name)
+            .field("term", &self.term)
+            .field("origin", &self.origin)
+            .finish()
     }
 }
 
@@ -58,8 +62,7 @@ impl Shape {
         let expr = hypothesis.term.clone();
         let constants: Vec<f64> = study.constants.iter().map(|(_, v)| *v).collect();
         Shape::new(hypothesis.name.clone(), expr.text().to_string(), Origin::Study, move |d, theta, y| {
-            let values: Vec<f64> =
-                d.iter().chain(theta).chain(&constants).copied().chain(std::iter::once(y)).collect();
+            let values: Vec<f64> = d.iter().chain(theta).chain(&constants).copied().chain(std::iter::once(y)).collect();
             expr.eval(&values)
         })
     }

@@ -19,7 +19,13 @@ pub fn num(v: f64) -> String {
 
 fn pct(v: f64) -> String {
     let a = 100.0 * v.abs();
-    if a >= 10.0 { format!("{a:.0} %") } else if a >= 1.0 { format!("{a:.1} %") } else { format!("{a:.2} %") }
+    if a >= 10.0 {
+        format!("{a:.0} %")
+    } else if a >= 1.0 {
+        format!("{a:.1} %")
+    } else {
+        format!("{a:.2} %")
+    }
 }
 
 fn p_text(p: f64) -> String {
@@ -68,7 +74,8 @@ pub fn summary(f: &Facts) -> String {
     trends.sort_by(|a, b| a.slope_p_value.min(a.rank_p_value).total_cmp(&b.slope_p_value.min(b.rank_p_value)));
     if let Some(t) = trends.first() {
         let j = f.inputs.design_names.iter().position(|n| *n == t.against).expect("a design variable");
-        let mut by: Vec<(f64, f64)> = f.inputs.observations.iter().zip(r).map(|(o, x)| (o.design[j], x.relative_error)).collect();
+        let mut by: Vec<(f64, f64)> =
+            f.inputs.observations.iter().zip(r).map(|(o, x)| (o.design[j], x.relative_error)).collect();
         by.sort_by(|a, b| a.0.total_cmp(&b.0));
         let third = (by.len() / 3).max(1);
         let low = &by[..third];
@@ -126,7 +133,8 @@ pub fn summary(f: &Facts) -> String {
                 p_text(c.p_value)
             );
             if let Some(e) = f.extended {
-                let params = e.parameters.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect::<Vec<_>>().join(", ");
+                let params =
+                    e.parameters.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect::<Vec<_>>().join(", ");
                 s.push_str(&format!(
                     " With it, {params}, and the {} error drops from {} to {}.",
                     if e.measured_on == "validation" { "validation" } else { "leave-one-out" },
@@ -145,7 +153,9 @@ pub fn summary(f: &Facts) -> String {
             f.candidates[k].name,
             p_text(f.candidates[k].p_value)
         )),
-        _ if f.detected => out.push("The simulation misses something beyond the noise; no candidate was ranked.".to_string()),
+        _ if f.detected => {
+            out.push("The simulation misses something beyond the noise; no candidate was ranked.".to_string())
+        }
         _ => out.push(
             "No significant discrepancy: no candidate beats the uncorrected simulation beyond the noise.".to_string(),
         ),
