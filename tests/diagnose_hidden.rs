@@ -117,6 +117,11 @@ fn eval_term(term: &str, d: &[f64], y: f64) -> f64 {
 
 /// Draws the hidden effect and the data. Returns the case and the true base.
 fn generate(family: Family, seed: u64) -> (Case, Base) {
+    generate_with(family, seed, 3)
+}
+
+/// As [`generate`], with `replicates` tests per design.
+fn generate_with(family: Family, seed: u64, replicates: usize) -> (Case, Base) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed * 1000 + family as u64);
     let base = if family == Family::ScaleIdentifiable { Base::Exponent } else { Base::Sigma };
     let theta = base.truth();
@@ -158,7 +163,7 @@ fn generate(family: Family, seed: u64) -> (Case, Base) {
     for (k, (d, role)) in designs.enumerate() {
         let mu = truth(d);
         let sd = if noise_relative { cv * mu.abs() } else { cv * level };
-        let reps: Vec<f64> = (0..3).map(|_| mu + sd * gauss(&mut rng)).collect();
+        let reps: Vec<f64> = (0..replicates).map(|_| mu + sd * gauss(&mut rng)).collect();
         obs.push(Observation::from_replicates(format!("d{k}"), d.to_vec(), role, &reps));
     }
     // Neutral names, shuffled order.
@@ -313,4 +318,45 @@ fn false_alarm_rate_over_sixty_seeds() {
         .count();
     eprintln!("false alarms: {alarms}/60");
     assert!(alarms <= 5, "false alarms in {alarms} of 60 seeds");
+}
+
+/// Without replicates the noise comes from the residuals of the best model and the detection test
+/// is the classical extra-sum-of-squares F test (1, n − p − 1). Same generator, one test per design.
+/// Beyond the issue: it checks the no-replicate path on noisy data (the paper cases are noise-free).
+#[test]
+fn without_replicates_no_effect_is_rarely_flagged_and_effects_are_named() {
+    let mut alarms = 0;
+    let mut named = [0usize; 3];
+    for seed in 0..SEEDS {
+        let (case, base) = generate_with(Family::None, seed, 1);
+        let d = diagnose_case(&case, base);
+        assert_eq!(d.noise.kind, NoiseKind::FromResiduals);
+        alarms += usize::from(d.discrepancy_detected);
+        for (k, family) in [Family::Offset, Family::Interaction, Family::Power].into_iter().enumerate() {
+            let (case, base) = generate_with(family, seed, 1);
+            let d = diagnose_case(&case, base);
+            if !named_correctly(&case, &d) {
+                let term = |n: &str| d.candidates.iter().find(|c| c.name == n).map(|c| c.term.clone());
+                eprintln!(
+                    "no replicates, {family:?} seed {seed}: hidden {:?}, cause {:?}, relative noise {}, top {:?}",
+                    case.hidden_name.as_deref().and_then(term),
+                    d.cause.as_deref().and_then(term),
+                    case.noise_relative,
+                    d.candidates
+                        .iter()
+                        .take(3)
+                        .map(|c| format!("{} {:.2} p={:.1e}", c.term, c.weight, c.p_value))
+                        .collect::<Vec<_>>()
+                );
+            }
+            named[k] += usize::from(named_correctly(&case, &d));
+        }
+    }
+    eprintln!("no replicates: false alarms {alarms}/{SEEDS}, named (offset, interaction, power) {named:?}/{SEEDS}");
+    assert!(alarms <= 1, "false alarms in {alarms} of {SEEDS} seeds");
+    // Offset and interaction: the issue's 9 of 10. Power laws: 8 of 10 (measured 8): one test per
+    // design carries √3 times the noise of a mean of three, the weights are those of absolute noise
+    // whatever the truth, and neighbouring power laws (t^0.5 against c^0.5, t^2 against t/c) then
+    // come out close; the weights show it (0.8 against 0.15 in the misses).
+    assert!(named[0] >= 9 && named[1] >= 9 && named[2] >= 8, "{named:?}");
 }

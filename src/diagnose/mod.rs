@@ -856,13 +856,18 @@ fn next_test(
         .map(|(n, v)| format!("{n} = {}", text::num(*v)))
         .collect::<Vec<_>>()
         .join(", ");
+    let rel = (ya - yb).abs() / (0.5 * (ya.abs() + yb.abs())).max(f64::MIN_POSITIVE);
+    let who = if b.1.is_none() {
+        format!("'{}' and the uncorrected simulation", a.0)
+    } else {
+        format!("the two leading explanations, '{}' and '{}',", a.0, b.0)
+    };
     let why = format!(
-        "At {at} the two leading explanations, '{}' and '{}', predict {} and {}: {} noise standard deviations of one \
-         test apart, the largest separation inside the design bounds, so one test there tells them apart.",
-        a.0,
-        b.0,
+        "At {at} {who} predict {} and {} ({} apart, {} noise standard deviations of one test): the largest separation \
+         inside the design bounds, so a test there tells them apart.",
         text::num(ya),
         text::num(yb),
+        text::pct_pub(rel),
         text::num(sep)
     );
     Some(NextTest {

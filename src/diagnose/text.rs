@@ -17,6 +17,11 @@ pub fn num(v: f64) -> String {
     if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
 }
 
+/// |v| as a percentage with sensible digits.
+pub fn pct_pub(v: f64) -> String {
+    pct(v)
+}
+
 fn pct(v: f64) -> String {
     let a = 100.0 * v.abs();
     if a >= 10.0 {
