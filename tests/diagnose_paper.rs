@@ -1,0 +1,108 @@
+//! Diagnosis on the two published cases with a known hidden effect, loaded from their study files:
+//! the paper's cantilever (Euler simulation, Timoshenko tests) and Brynjarsdóttir & O'Hagan's simple
+//! machine (a linear simulation of a saturating process).
+
+use std::path::PathBuf;
+
+use lab::diagnose::{self, Diagnosis, NoiseKind};
+use lab::pipeline;
+
+fn run(study: &str) -> Diagnosis {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("studies").join(study);
+    let study = lab::study::load(&path).expect("study loads");
+    let model = pipeline::model(&study);
+    let inputs = diagnose::inputs_from_study(&study, model.as_ref());
+    let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
+    eprintln!("{}", serde_json::to_string_pretty(&d).unwrap());
+    d
+}
+
+/// Tolerance: the 0.5 % on E. The tests are a floating-point-exact Timoshenko, so shear
+/// deformation (1/h) is the exact missing term and the joint fit returns E0 to ~1e-9 relative.
+#[test]
+fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
+    let d = run("cantilever-diagnosis.yaml");
+    assert!(d.discrepancy_detected);
+    assert_eq!(d.cause.as_deref(), Some("shear deformation"));
+    assert_eq!(d.candidates[0].name, "shear deformation");
+    let ext = d.extended.as_ref().expect("an extended model");
+    let e = ext.parameters["E"];
+    assert!((e / 68_000.0 - 1.0).abs() < 0.005, "E = {e}");
+    // The exact term leaves floating-point residuals: the validation error all but vanishes.
+    assert!(ext.validation_error_before > 0.05, "{}", ext.validation_error_before);
+    assert!(ext.validation_error_after < 1e-6, "{}", ext.validation_error_after);
+    assert!(ext.gain.unwrap() > 0.99);
+    // No replicates: the noise comes from the residuals, and the output says so.
+    assert_eq!(d.noise.kind, NoiseKind::FromResiduals);
+    assert!(d.noise.note.contains("no replicates"), "{}", d.noise.note);
+    // "offset" is the study's name for the built-in constant offset: it replaces it.
+    let offset = d.candidates.iter().find(|c| c.name == "offset").expect("offset ranked");
+    assert_eq!(offset.replaces.as_deref(), Some("constant offset"));
+    assert!(d.candidates.iter().all(|c| c.name != "constant offset"));
+    // The scale error is proportional to ∂y/∂E (y ∝ 1/E): confounded with E, and said so.
+    let scale = d.candidates.iter().find(|c| c.name == "scale error").expect("scale error ranked");
+    assert_eq!(scale.confounded_with, vec!["E".to_string()]);
+    assert!(d.confounded.iter().any(|s| s.contains("scale error") && s.contains("E")));
+    // The next test lies inside the design bounds [7, 13].
+    let next = d.next_test.as_ref().expect("a next test");
+    let h = next.design["h"];
+    assert!((7.0..=13.0).contains(&h), "h = {h}");
+    assert!(next.between.contains(&"shear deformation".to_string()));
+}
+
+/// Tolerance: the 2 % on θ. facts.md: the quadratic term gives θ = 0.6414 by least squares
+/// on the 11 noise-free points (1.3 % short of 0.65: x² is only the first term of the saturation).
+#[test]
+fn simple_machine_names_the_saturation_term() {
+    let d = run("simple-machine.yaml");
+    assert!(d.discrepancy_detected);
+    assert_eq!(d.cause.as_deref(), Some("saturation"));
+    let ext = d.extended.as_ref().unwrap();
+    let theta = ext.parameters["theta"];
+    assert!((theta / 0.65 - 1.0).abs() < 0.02, "theta = {theta}");
+    assert!((theta - 0.6414).abs() < 5e-4, "theta = {theta} (facts.md: 0.6414)");
+    // Uncorrected least squares: 0.5626 (facts.md); unweighted without replicates.
+    let theta0 = d.uncorrected.parameters["theta"];
+    assert!((theta0 - 0.5626).abs() < 5e-4, "theta0 = {theta0}");
+    // No validation designs: the gain is measured leave-one-design-out.
+    assert_eq!(ext.measured_on, "leave-one-out");
+    assert!(ext.gain.unwrap() > 0.5, "{ext:?}");
+    // Linear in x and the scale error are both ∝ ∂y/∂θ = x: confounded with theta.
+    for name in ["linear in x", "scale error"] {
+        let c = d.candidates.iter().find(|c| c.name == name).unwrap();
+        assert_eq!(c.confounded_with, vec!["theta".to_string()], "{name}");
+    }
+}
+
+/// The contract's keys, read back as another program would; and the value survives a round trip.
+#[test]
+fn output_has_the_contract_keys_and_round_trips() {
+    let d = run("cantilever-diagnosis.yaml");
+    let json = serde_json::to_string(&d).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["discrepancy_detected"], true);
+    assert_eq!(v["cause"], "shear deformation");
+    for key in ["name", "loo_error", "bic", "aicc", "weight"] {
+        assert!(!v["candidates"][0][key].is_null(), "candidates[0].{key}");
+    }
+    for key in ["cause", "parameters", "validation_error_before", "validation_error_after", "gain"] {
+        assert!(!v["extended"][key].is_null(), "extended.{key}");
+    }
+    assert!(v["next_test"]["design"]["h"].is_f64());
+    assert!(v["next_test"]["why"].is_string());
+    let weights: f64 = d.candidates.iter().map(|c| c.weight).sum::<f64>() + d.uncorrected.weight.unwrap();
+    assert!((weights - 1.0).abs() < 1e-12, "weights sum to {weights}");
+    let back: Diagnosis = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, d);
+}
+
+/// The paper's two tests (h = 8, 10) cannot rank candidates: the diagnosis says so instead of
+/// guessing, and still reports the residuals.
+#[test]
+fn two_tests_are_too_few_to_rank_and_say_so() {
+    let d = run("cantilever.yaml");
+    assert!(!d.discrepancy_detected);
+    assert!(d.cause.is_none() && d.candidates.is_empty() && d.extended.is_none());
+    assert!(d.notes.iter().any(|n| n.contains("cannot rank")), "{:?}", d.notes);
+    assert_eq!(d.residuals.len(), 3);
+}
