@@ -124,7 +124,8 @@ fn run(study: &Study, out: &Path) -> Result<i32, Error> {
     let model = pipeline::model(study);
     let problem = pipeline::problem(study, model.as_ref());
     let calibration = pipeline::calibrate(study, &problem);
-    let results = Results::build(study, model.as_ref(), &calibration);
+    let diagnosis = pipeline::diagnose(study, model.as_ref());
+    let results = Results::build(study, model.as_ref(), &calibration, diagnosis);
     results.write(&out.join("results.json"))?;
     write_report(out, &results)?;
     print!("{}", report::summary::render(&results));

@@ -6,6 +6,7 @@ use crate::calibrate::identifiability::{self, Identifiability};
 use crate::calibrate::{
     CalibrationError, Estimate, Model, Problem, bayesian, least_squares, sensitivity,
 };
+use crate::diagnose::{self, Diagnosis};
 use crate::model::ExpressionModel;
 use crate::study::{Method, Study};
 
@@ -89,4 +90,9 @@ fn run_method(study: &Study, problem: &Problem, method: Method) -> Result<Calibr
                 .map(|fit| Calibrated::Bayesian(Box::new(fit)))
         }
     }
+}
+
+/// Diagnoses model error over every tested design of the study (training and validation).
+pub fn diagnose(study: &Study, model: &dyn Model) -> Result<Diagnosis, CalibrationError> {
+    diagnose::diagnose(&diagnose::inputs_from_study(study, model))
 }

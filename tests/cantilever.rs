@@ -160,3 +160,23 @@ fn report_is_rewritten_from_results() {
     assert!(page.contains("least_squares") && page.contains("h13"));
     assert!(!page.contains("http://") && !page.contains("https://"), "report must be self-contained");
 }
+
+#[test]
+fn diagnosis_names_shear_deformation_through_the_binary() {
+    // Six training designs (h = 7..12) so three candidates can be ranked; see the study's comment.
+    let (r, _) = run("studies/cantilever-diagnosis.yaml");
+    let d = &r["diagnosis"];
+    assert_eq!(d["discrepancy_detected"], true);
+    assert_eq!(d["cause"], "shear deformation");
+    assert_eq!(d["candidates"][0]["name"], "shear deformation");
+    for key in ["loo_error", "bic", "weight"] {
+        assert!(d["candidates"][0][key].is_number(), "candidate key {key}");
+    }
+    // Issue 5: the extended E within 0.5 % of the true 68,000.
+    let e = d["extended"]["parameters"]["E"].as_f64().unwrap();
+    assert!((e / 68_000.0 - 1.0).abs() < 0.005, "extended E = {e}");
+    let (before, after) = (d["extended"]["validation_error_before"].as_f64().unwrap(), d["extended"]["validation_error_after"].as_f64().unwrap());
+    let gain = d["extended"]["gain"].as_f64().unwrap();
+    assert!((gain - (1.0 - after / before)).abs() < 1e-12);
+    assert!(d["next_test"]["design"]["h"].is_number());
+}

@@ -8,7 +8,8 @@ use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
 use crate::calibrate::identifiability::Identifiability;
-use crate::calibrate::{Discrepancy, Model};
+use crate::calibrate::{CalibrationError, Discrepancy, Model};
+use crate::diagnose::Diagnosis;
 use crate::pipeline::{Calibrated, Calibration};
 use crate::study::Study;
 
@@ -18,6 +19,11 @@ pub struct Results {
     /// Keyed by method name (`least_squares`, `sensitivity`, `bayesian`), in the study's order.
     pub calibration: IndexMap<String, MethodResult>,
     pub identifiability: IdentifiabilityResult,
+    /// What the simulation gets wrong and why (contract `diagnosis`); `null` if it could not run.
+    pub diagnosis: Option<Diagnosis>,
+    /// Why the diagnosis could not run.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub diagnosis_error: Option<String>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -82,7 +88,12 @@ impl From<&Identifiability> for IdentifiabilityResult {
 }
 
 impl Results {
-    pub fn build(study: &Study, model: &dyn Model, calibration: &Calibration) -> Results {
+    pub fn build(
+        study: &Study,
+        model: &dyn Model,
+        calibration: &Calibration,
+        diagnosis: Result<Diagnosis, CalibrationError>,
+    ) -> Results {
         let methods = calibration
             .methods
             .iter()
@@ -98,6 +109,8 @@ impl Results {
             study: study.name.clone(),
             calibration: methods,
             identifiability: (&calibration.identifiability).into(),
+            diagnosis_error: diagnosis.as_ref().err().map(|e| e.to_string()),
+            diagnosis: diagnosis.ok(),
         }
     }
 

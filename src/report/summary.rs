@@ -65,7 +65,47 @@ pub fn render(results: &Results) -> String {
     }
     let id = &results.identifiability;
     let _ = writeln!(out, "\nidentifiability: {}", id.note);
+    write_diagnosis(&mut out, results);
     out
+}
+
+fn write_diagnosis(out: &mut String, results: &Results) {
+    let Some(d) = &results.diagnosis else {
+        if let Some(e) = &results.diagnosis_error {
+            let _ = writeln!(out, "\ndiagnosis: could not run: {e}");
+        }
+        return;
+    };
+    let _ = writeln!(out, "\ndiagnosis: {}", d.summary);
+    if !d.candidates.is_empty() {
+        let _ = writeln!(out, "  {:<24} {:>8} {:>10} {:>10}", "candidate", "weight", "LOO error", "BIC");
+        for c in d.candidates.iter().take(5) {
+            let flag = if c.confounded_with.is_empty() { String::new() } else { format!("  (confounded with {})", c.confounded_with.join(", ")) };
+            let _ = writeln!(
+                out,
+                "  {:<24} {:>8.3} {:>10} {:>10.1}{flag}",
+                c.name,
+                c.weight,
+                format!("{:.2} %", 100.0 * c.loo_error),
+                c.bic
+            );
+        }
+    }
+    if let Some(x) = &d.extended {
+        let params: Vec<String> = x.parameters.iter().map(|(n, v)| format!("{n} = {}", significant(*v, 6))).collect();
+        let _ = writeln!(
+            out,
+            "  extended with `{}`: {}; validation error {:.2} % -> {:.2} % (gain {})",
+            x.cause,
+            params.join(", "),
+            100.0 * x.validation_error_before,
+            100.0 * x.validation_error_after,
+            x.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g))
+        );
+    }
+    if let Some(t) = &d.next_test {
+        let _ = writeln!(out, "  next test: {}", t.why);
+    }
 }
 
 /// `x` with `digits` significant figures, without exponent for ordinary magnitudes.
