@@ -167,7 +167,7 @@ fn unknown_retry_class_and_zero_timeout() {
 #[test]
 fn template_syntax_error_names_the_template_file_and_line() {
     let c = case(STUDY, "h = {{ h }}\n\nE = {{ E \n");
-    let err = study::load(&c.study).err().expect("a template syntax error");
+    let err = study::load(&c.study).expect_err("a template syntax error");
     assert_at(&err, &c.dir.path().join("beam.txt.tera"), 3, None, "template syntax error");
 }
 

@@ -308,3 +308,31 @@ fn failed_runs_exit_1_with_the_outcome_table_after_writing_results() {
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(text.contains(&format!("failed {failed}, running 0, pending 0")), "{text}");
 }
+
+#[test]
+fn example_study_bayesian_is_fed_the_runs_and_matches_the_paper() {
+    // studies/cantilever-command.yaml: E itself, GP surrogates, all three methods; the Bayesian
+    // emulator is fitted to the 36 sample runs of the three designs.
+    let out = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args(["run", "studies/cantilever-command.yaml", "--jobs", "2", "--out"])
+        .arg(out.path())
+        .current_dir(repo())
+        .env_remove("LAB_TEST_SOLVER_LOG")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let r: Value = serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap();
+    // Same tolerances as tests/cantilever.rs: ±1 MPa least squares, ±2 MPa sensitivity (GP surrogate
+    // error ~3e-6 relative, measured at the check runs), 1.5 % Bayesian (emulator-induced shift).
+    assert!((param(&r, "least_squares", "E") - 60_200.8).abs() <= 1.0);
+    assert!((param(&r, "sensitivity", "E") - 64_913.9).abs() <= 2.0);
+    let bayes = param(&r, "bayesian", "E");
+    assert!((bayes / 64_911.0 - 1.0).abs() <= 0.015, "bayesian E = {bayes}");
+    // The paper's check: each surrogate within 5 % at 5 check runs.
+    for design in ["h8", "h10", "h13"] {
+        let e = r["surrogates"][design]["check_max_relative_error"].as_f64().unwrap();
+        assert!(e < 0.05, "{design}: {e}");
+        assert_eq!(r["surrogates"][design]["check_runs"].as_u64(), Some(5));
+    }
+}

@@ -121,7 +121,7 @@ mod tests {
     #[test]
     fn undefined_variable_names_file_and_line() {
         let r = Renderer::new(&[template("a\n\nb = {{ nope }}\n")]).unwrap();
-        let e = r.render(&Context::new()).err().expect("undefined variable");
+        let e = r.render(&Context::new()).expect_err("undefined variable");
         assert_eq!(e.span.as_ref().map(|s| s.line), Some(3), "{e}");
     }
 

@@ -63,6 +63,7 @@ pub struct Parameter {
 }
 
 #[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // one per study; boxing the expression would buy nothing
 pub enum Simulation {
     /// Closed form over design variables, parameters and constants.
     Expression(Expression),
