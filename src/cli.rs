@@ -6,10 +6,17 @@ use std::path::{Path, PathBuf};
 
 use clap::{Parser, Subcommand, ValueEnum};
 
+use std::collections::BTreeMap;
+
+use crate::calibrate::Model;
 use crate::error::{Error, InputError};
+use crate::execute::store::Snapshot;
+use crate::execute::sweep::{self, Signals};
+use crate::execute::{OutcomeClass, RunStore, lock, progress};
 use crate::pipeline;
+use crate::plan::Plan;
 use crate::report::{self, Results};
-use crate::study::{self, Study};
+use crate::study::{self, Simulation, SolverSimulation, Study};
 
 #[derive(Parser, Debug)]
 #[command(name = "lab", version, about = "Calibrate simulation models against tests")]
@@ -81,15 +88,33 @@ pub fn main() -> i32 {
 
 fn execute(command: Command) -> Result<i32, Error> {
     match command {
-        Command::Run { study, out, executor, .. } => {
+        Command::Run { study, out, executor, jobs, replay, record } => {
             let study = study::load(&study)?;
-            if executor == Executor::Slurm {
-                eprintln!("note: `{}` has a closed-form simulation; nothing to submit to Slurm", study.name);
+            if replay.is_some() || record.is_some() {
+                return Err(Error::Failed("--replay and --record are not available yet in this version of lab".into()));
             }
-            run(&study, &out_dir(&study, out))
+            let out = out_dir(&study, out);
+            match &study.simulation {
+                Simulation::Expression(_) => {
+                    if executor == Executor::Slurm {
+                        eprintln!("note: `{}` has a closed-form simulation; nothing to submit to Slurm", study.name);
+                    }
+                    run(&study, &out)
+                }
+                Simulation::Solver(_) if executor == Executor::Slurm => {
+                    Err(Error::Failed("--executor slurm is not available yet in this version of lab".into()))
+                }
+                Simulation::Solver(sim) => run_solver(&study, sim, &out, jobs.unwrap_or_else(default_jobs)),
+            }
         }
         Command::Check { study } => {
             let study = study::load(&study)?;
+            if let Simulation::Solver(sim) = &study.simulation {
+                // Renders every planned run in memory: undefined template variables show up here.
+                let plan = Plan::new(&study, sim);
+                sweep::prepare(&study, sim, &plan)?;
+                println!("ok: {} planned solver run(s) render", plan.runs.len());
+            }
             println!(
                 "ok: study `{}`: {} design variable(s), {} parameter(s), {} tested design(s), {} training, {} validation",
                 study.name,
@@ -101,16 +126,23 @@ fn execute(command: Command) -> Result<i32, Error> {
             );
             Ok(0)
         }
-        Command::Status { study, .. } => {
+        Command::Status { study, out } => {
             let study = study::load(&study)?;
-            println!("study `{}`: closed-form simulation, no solver runs (done 0, failed 0, running 0, pending 0)", study.name);
-            Ok(0)
+            let Simulation::Solver(sim) = &study.simulation else {
+                println!(
+                    "study `{}`: closed-form simulation, no solver runs (done 0, failed 0, running 0, pending 0)",
+                    study.name
+                );
+                return Ok(0);
+            };
+            status(&study, sim, &out_dir(&study, out))
         }
         Command::Report { study, out } => {
             let study = study::load(&study)?;
             let dir = out_dir(&study, out);
-            let results = Results::read(&dir.join("results.json"))
-                .map_err(|e| Error::Failed(format!("{}: {e} (run `lab run` first)", dir.join("results.json").display())))?;
+            let results = Results::read(&dir.join("results.json")).map_err(|e| {
+                Error::Failed(format!("{}: {e} (run `lab run` first)", dir.join("results.json").display()))
+            })?;
             write_report(&dir, &results)?;
             println!("wrote {}", dir.join("report.html").display());
             Ok(0)
@@ -118,17 +150,111 @@ fn execute(command: Command) -> Result<i32, Error> {
     }
 }
 
+fn default_jobs() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 fn run(study: &Study, out: &Path) -> Result<i32, Error> {
     std::fs::create_dir_all(out)
         .map_err(|e| InputError::file(out, format!("cannot create the output directory: {e}")))?;
-    let model = pipeline::model(study);
+    let Some(model) = pipeline::model(study) else {
+        return Err(Error::Failed("internal: a closed-form run of a solver study".into()));
+    };
     let problem = pipeline::problem(study, model.as_ref());
-    let calibration = pipeline::calibrate(study, &problem);
+    let calibration = pipeline::calibrate(study, &problem, None);
     let diagnosis = pipeline::diagnose(study, model.as_ref());
     let results = Results::build(study, model.as_ref(), &calibration, diagnosis);
+    finish(out, &results)
+}
+
+/// Plans, renders, runs what is not finished, fits the surrogates, calibrates, writes.
+fn run_solver(study: &Study, sim: &SolverSimulation, out: &Path, jobs: usize) -> Result<i32, Error> {
+    let plan = Plan::new(study, sim);
+    let prepared = sweep::prepare(study, sim, &plan)?;
+    let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    let signals = Signals::install(&runtime)?;
+    let mut store = RunStore::open(out)?;
+    let swept = sweep::run(&runtime, &mut store, sim, &prepared, jobs, &signals.canceller)?;
+    signals.sweep_done();
+    let failed = print_outcomes(&plan, &prepared.keys, &swept, &store);
+    if signals.interrupted() {
+        eprintln!("interrupted: finished runs are kept in {}; `lab run` again resumes", out.display());
+        return Err(Error::Interrupted);
+    }
+    if !swept.errors.is_empty() {
+        return Err(Error::Failed(swept.errors.join("\n")));
+    }
+    let surrogates = pipeline::surrogates(study, sim, &plan, &swept.responses)?;
+    let problem = pipeline::problem(study, &surrogates as &dyn Model);
+    let runs = pipeline::simulation_data(&plan, &swept.responses);
+    let calibration = pipeline::calibrate(study, &problem, Some(&runs));
+    let diagnosis = pipeline::diagnose(study, &surrogates);
+    let mut results = Results::build(study, &surrogates, &calibration, diagnosis).with_surrogates(&surrogates);
+    let succeeded = swept.responses.iter().filter(|r| r.is_some()).count();
+    let planned = plan.runs.len();
+    results.runs = Some(report::results::RunsResult { planned, succeeded, failed: planned - succeeded });
+    let code = finish(out, &results)?;
+    Ok(if failed > 0 { 1 } else { code })
+}
+
+/// The outcome table on stderr, and the first failed runs; returns the number of failed runs.
+fn print_outcomes(plan: &Plan, keys: &[String], swept: &sweep::SweepResult, store: &RunStore) -> usize {
+    let mut classes = BTreeMap::new();
+    for class in swept.classes.iter().flatten() {
+        *classes.entry(*class).or_insert(0) += 1;
+    }
+    if let Some(n) = classes.get_mut(&OutcomeClass::Success) {
+        *n -= swept.reused.min(*n);
+    }
+    let missing = swept.classes.iter().filter(|c| c.is_none()).count();
+    eprint!("{}", progress::summary_table(&classes, swept.reused, missing));
+    let failed: Vec<usize> =
+        (0..plan.runs.len()).filter(|&i| swept.classes[i].is_some() && swept.responses[i].is_none()).collect();
+    for &i in failed.iter().take(5) {
+        let (run, key) = (&plan.runs[i], &keys[i]);
+        let why = store.record(key).map(|r| r.outcome.to_string()).unwrap_or_default();
+        eprintln!(
+            "failed: design `{}`, parameters {:?}: {why} (see {})",
+            run.design,
+            run.theta,
+            store.run_dir(key).display()
+        );
+    }
+    failed.len()
+}
+
+/// `lab status`: counts of the planned runs in the store, read without taking its lock.
+fn status(study: &Study, sim: &SolverSimulation, out: &Path) -> Result<i32, Error> {
+    let plan = Plan::new(study, sim);
+    let prepared = sweep::prepare(study, sim, &plan)?;
+    let snapshot = Snapshot::read(out)?;
+    let holder = lock::probe(out).map_err(|e| Error::Failed(e.to_string()))?;
+    let (mut done, mut failed, mut running, mut pending) = (0, 0, 0, 0);
+    for key in &prepared.keys {
+        match snapshot.records.get(key) {
+            Some(r) if r.outcome.is_success() => done += 1,
+            Some(_) => failed += 1,
+            None if holder.is_some() && snapshot.run_dirs.contains(key) => running += 1,
+            None => pending += 1,
+        }
+    }
+    println!(
+        "study `{}`: {} planned run(s): done {done}, failed {failed}, running {running}, pending {pending}",
+        study.name,
+        plan.runs.len()
+    );
+    if let Some(holder) = holder {
+        let who = holder.map_or("holder not yet written".to_string(), |h| format!("pid {} on host {}", h.pid, h.host));
+        println!("a lab is running on {} ({who})", out.display());
+    }
+    Ok(0)
+}
+
+/// Writes results.json and report.html, prints the summary; 1 when a method failed.
+fn finish(out: &Path, results: &Results) -> Result<i32, Error> {
     results.write(&out.join("results.json"))?;
-    write_report(out, &results)?;
-    print!("{}", report::summary::render(&results));
+    write_report(out, results)?;
+    print!("{}", report::summary::render(results));
     println!("\nwrote {}", out.join("results.json").display());
     Ok(if results.any_failed() { 1 } else { 0 })
 }

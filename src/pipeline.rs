@@ -1,14 +1,20 @@
 //! `lab run`: study → model → calibrate → report, one typed value handed from stage to stage.
+//!
+//! A closed-form study's model is its expression. A solver study's model is built from runs:
+//! [`crate::plan::Plan`] → [`crate::execute::sweep`] (render, execute) → responses per planned run →
+//! [`surrogates`] (one per design) → the same calibration; the Bayesian method is fed the sample
+//! runs themselves ([`simulation_data`]) instead of sampling the model.
 
 use nalgebra::{DMatrix, DVector};
 
 use crate::calibrate::identifiability::{self, Identifiability};
-use crate::calibrate::{
-    CalibrationError, Estimate, Model, Problem, bayesian, least_squares, sensitivity,
-};
+use crate::calibrate::{CalibrationError, Estimate, Model, Problem, bayesian, least_squares, sensitivity};
+use crate::error::Error;
+use crate::fit::{DesignSurrogate, Surrogate, SurrogateModel};
 use crate::diagnose::{self, Diagnosis};
 use crate::model::ExpressionModel;
-use crate::study::{Method, Study};
+use crate::plan::{Plan, RunRole};
+use crate::study::{Method, SolverSimulation, Study};
 
 /// A method's calibrated model, whatever its kind.
 pub enum Calibrated {
@@ -41,9 +47,57 @@ pub struct Calibration {
     pub identifiability: Identifiability,
 }
 
-/// The simulation of a study as a model the numerics can call.
-pub fn model(study: &Study) -> Box<dyn Model> {
-    Box::new(ExpressionModel::new(study))
+/// The closed-form simulation of a study as a model the numerics can call; `None` for a solver study.
+pub fn model(study: &Study) -> Option<Box<dyn Model>> {
+    ExpressionModel::new(study).map(|m| Box::new(m) as Box<dyn Model>)
+}
+
+/// One surrogate per planned design, fitted to its successful sample runs and checked at its
+/// successful check runs. `responses` follows the plan's order.
+pub fn surrogates(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    responses: &[Option<f64>],
+) -> Result<SurrogateModel, Error> {
+    let bounds = study.parameter_bounds();
+    let mut designs: Vec<DesignSurrogate> = Vec::new();
+    for name in study.training.iter().chain(&study.validation) {
+        let runs = |role| -> Vec<(Vec<f64>, f64)> {
+            plan.runs
+                .iter()
+                .zip(responses)
+                .filter(|(r, _)| &r.design == name && r.role == role)
+                .filter_map(|(r, y)| y.map(|y| (r.theta.clone(), y)))
+                .collect()
+        };
+        let Some(values) = plan.runs.iter().find(|r| &r.design == name).map(|r| r.design_values.clone()) else {
+            continue;
+        };
+        let samples = runs(RunRole::Sample);
+        let surrogate = Surrogate::fit(sim.surrogate, &samples, &bounds)
+            .map_err(|e| Error::Failed(format!("design `{name}`: cannot fit its surrogate: {e}")))?;
+        let check = surrogate.check(&runs(RunRole::Check));
+        designs.push(DesignSurrogate { design: name.clone(), values, surrogate, check, samples: samples.len() });
+    }
+    Ok(SurrogateModel { designs })
+}
+
+/// The successful sample runs as emulator data for the Bayesian method: design values then
+/// parameters per row, the response as output.
+pub fn simulation_data(plan: &Plan, responses: &[Option<f64>]) -> bayesian::SimulationData {
+    let rows: Vec<(Vec<f64>, f64)> = plan
+        .runs
+        .iter()
+        .zip(responses)
+        .filter(|(r, _)| r.role == RunRole::Sample)
+        .filter_map(|(r, y)| y.map(|y| (r.design_values.iter().chain(&r.theta).copied().collect(), y)))
+        .collect();
+    let cols = rows.first().map_or(0, |r| r.0.len());
+    bayesian::SimulationData {
+        inputs: DMatrix::from_fn(rows.len(), cols, |i, k| rows[i].0[k]),
+        outputs: DVector::from_iterator(rows.len(), rows.iter().map(|r| r.1)),
+    }
 }
 
 /// The training problem of a study: designs in the order the study lists them, mean measurements.
@@ -63,13 +117,11 @@ pub fn problem<'a>(study: &Study, model: &'a dyn Model) -> Problem<'a> {
 }
 
 /// Runs every method the study names, then the identifiability check at the least-squares point.
-pub fn calibrate(study: &Study, problem: &Problem) -> Calibration {
-    let methods: Vec<_> = study
-        .calibration
-        .methods
-        .iter()
-        .map(|&method| (method, run_method(study, problem, method)))
-        .collect();
+/// `runs`: a solver study's sample runs, which the Bayesian method's emulator is fitted to; without
+/// them it samples the model (a closed form) on a Latin hypercube.
+pub fn calibrate(study: &Study, problem: &Problem, runs: Option<&bayesian::SimulationData>) -> Calibration {
+    let methods: Vec<_> =
+        study.calibration.methods.iter().map(|&method| (method, run_method(study, problem, method, runs))).collect();
     let at = match methods.iter().find(|(m, _)| *m == Method::LeastSquares) {
         Some((_, Ok(c))) => c.theta().clone(),
         _ => least_squares::calibrate(problem).map(|e| e.theta).unwrap_or_else(|_| problem.bounds.center()),
@@ -78,15 +130,27 @@ pub fn calibrate(study: &Study, problem: &Problem) -> Calibration {
     Calibration { methods, identifiability: identifiability::analyse(problem, &names, &at) }
 }
 
-fn run_method(study: &Study, problem: &Problem, method: Method) -> Result<Calibrated, CalibrationError> {
+fn run_method(
+    study: &Study,
+    problem: &Problem,
+    method: Method,
+    runs: Option<&bayesian::SimulationData>,
+) -> Result<Calibrated, CalibrationError> {
     match method {
         Method::LeastSquares => least_squares::calibrate(problem).map(Calibrated::Point),
         Method::Sensitivity => sensitivity::calibrate(problem).map(Calibrated::Point),
         Method::Bayesian => {
             let settings = &study.calibration.bayesian;
             let design_bounds = study.design_bounds();
-            let samples = bayesian::emulator_samples(problem, &design_bounds, settings);
-            bayesian::calibrate(problem, &design_bounds, &samples, settings)
+            let sampled;
+            let samples = match runs {
+                Some(runs) => runs,
+                None => {
+                    sampled = bayesian::emulator_samples(problem, &design_bounds, settings);
+                    &sampled
+                }
+            };
+            bayesian::calibrate(problem, &design_bounds, samples, settings)
                 .map(|fit| Calibrated::Bayesian(Box::new(fit)))
         }
     }

@@ -157,7 +157,7 @@ fn cantilever_loads_in_file_order() {
     assert_eq!(hypotheses, ["shear deformation", "root rotation", "offset"]);
 
     // The simulation evaluates with the study's symbol order.
-    let study::Simulation::Expression(expr) = &s.simulation;
+    let study::Simulation::Expression(expr) = &s.simulation else { panic!("a closed-form study") };
     let symbols = s.symbols();
     let mut values = vec![0.0; symbols.len()];
     for (name, v) in [("h", 8.0), ("E", 68000.0), ("F", 600.0), ("L", 20.0), ("b", 2.0), ("nu", 0.36)] {
@@ -372,12 +372,12 @@ fn expression_without_parameter() {
 }
 
 #[test]
-fn solver_is_not_supported_yet() {
+fn solver_without_sampling() {
     let yaml = study_with(
         "  expression: \"4*F*L^3/(E*b*h^3)\"\n",
         "  solver:\n    adapter: command\n    command: [cp, a, b]\n  response: {file: out.txt, regex: \"y = (\\\\S+)\"}\n",
     );
-    study_error(&yaml, 8, Some(3), "not supported yet");
+    study_error(&yaml, 8, Some(3), "needs `simulation.sampling`");
 }
 
 #[test]

@@ -10,7 +10,7 @@ use lab::pipeline;
 fn run(study: &str) -> Diagnosis {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("studies").join(study);
     let study = lab::study::load(&path).expect("study loads");
-    let model = pipeline::model(&study);
+    let model = pipeline::model(&study).expect("a closed-form study");
     let inputs = diagnose::inputs_from_study(&study, model.as_ref());
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
     eprintln!("{}", serde_json::to_string_pretty(&d).unwrap());

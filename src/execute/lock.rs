@@ -98,6 +98,31 @@ impl OutLock {
     }
 }
 
+/// Whether a live process holds the lock on `out`, without taking it for longer than a check and
+/// without touching the holder's text (for `lab status`). `None` when nobody holds it (or there is
+/// no lock file yet); `Some(holder)` when someone does (`holder` may be unreadable: `None` inside).
+pub fn probe(out: &Path) -> Result<Option<Option<Holder>>, LockError> {
+    let path = out.join(LOCK_FILE);
+    let io = |source| LockError::Io { path: path.clone(), source };
+    let mut file = match OpenOptions::new().read(true).open(&path) {
+        Ok(f) => f,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(io(e)),
+    };
+    // A shared lock conflicts with the holder's exclusive one and never blocks another reader.
+    match file.try_lock_shared() {
+        Ok(()) => {
+            let _ = file.unlock();
+            Ok(None)
+        }
+        Err(TryLockError::WouldBlock) => {
+            let mut text = String::new();
+            Ok(Some(file.read_to_string(&mut text).ok().and_then(|_| serde_json::from_str(&text).ok())))
+        }
+        Err(TryLockError::Error(e)) => Err(io(e)),
+    }
+}
+
 impl Drop for OutLock {
     fn drop(&mut self) {
         // Closing the file releases the lock anyway; unlocking first makes the order explicit.

@@ -10,6 +10,8 @@
 //!   committed record.
 //! - [`lock`]: one `lab` per output directory (an `flock` that dies with its holder).
 //! - [`executor`]: runs [`RunSpec`]s on tokio, at most `jobs` at once, and reports [`executor::Event`]s.
+//! - [`progress`]: the reporter: a progress bar and the outcome summary, fed by the events.
+//! - [`sweep`]: a solver study's plan rendered, keyed and run through the executor (`lab run`).
 //!
 //! # Design (after cargo-nextest's runner)
 //!
@@ -52,7 +54,9 @@
 pub mod adapter;
 pub mod executor;
 pub mod lock;
+pub mod progress;
 pub mod store;
+pub mod sweep;
 
 use std::path::PathBuf;
 use std::time::Duration;

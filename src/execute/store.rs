@@ -127,20 +127,7 @@ impl RunStore {
         fs::create_dir_all(&runs).map_err(io_at(&runs))?;
         fs::create_dir_all(&results).map_err(io_at(&results))?;
 
-        let mut records = BTreeMap::new();
-        for entry in fs::read_dir(&results).map_err(io_at(&results))? {
-            let path = entry.map_err(io_at(&results))?.path();
-            let name = path.file_name().unwrap_or_default().to_string_lossy().into_owned();
-            if name.starts_with('.') && name.ends_with(".tmp") {
-                fs::remove_file(&path).map_err(io_at(&path))?; // a commit that never reached its rename
-                continue;
-            }
-            let Some(key) = name.strip_suffix(".json") else { continue };
-            let bytes = fs::read(&path).map_err(io_at(&path))?;
-            let record: RunRecord =
-                serde_json::from_slice(&bytes).map_err(|source| StoreError::Corrupt { path: path.clone(), source })?;
-            records.insert(key.to_string(), record);
-        }
+        let records = load_records(&results, true)?;
 
         let mut cleaned = Vec::new();
         for entry in fs::read_dir(&runs).map_err(io_at(&runs))? {
@@ -223,6 +210,55 @@ impl RunStore {
     /// Remembers a record already committed (by a [`Committer`]).
     pub fn remember(&mut self, record: RunRecord) {
         self.records.insert(record.key.clone(), record);
+    }
+}
+
+/// Every committed record in `results`, by key; with `clean`, leftover temp files are deleted.
+fn load_records(results: &Path, clean: bool) -> Result<BTreeMap<String, RunRecord>, StoreError> {
+    let mut records = BTreeMap::new();
+    let entries = match fs::read_dir(results) {
+        Ok(entries) => entries,
+        Err(e) if !clean && e.kind() == std::io::ErrorKind::NotFound => return Ok(records),
+        Err(e) => return Err(io_at(results)(e)),
+    };
+    for entry in entries {
+        let path = entry.map_err(io_at(results))?.path();
+        let name = path.file_name().unwrap_or_default().to_string_lossy().into_owned();
+        if name.starts_with('.') && name.ends_with(".tmp") {
+            if clean {
+                fs::remove_file(&path).map_err(io_at(&path))?; // a commit that never reached its rename
+            }
+            continue;
+        }
+        let Some(key) = name.strip_suffix(".json") else { continue };
+        let bytes = fs::read(&path).map_err(io_at(&path))?;
+        let record: RunRecord =
+            serde_json::from_slice(&bytes).map_err(|source| StoreError::Corrupt { path: path.clone(), source })?;
+        records.insert(key.to_string(), record);
+    }
+    Ok(records)
+}
+
+/// What is in a store, read without its lock and without changing anything (for `lab status`).
+#[derive(Debug, Default)]
+pub struct Snapshot {
+    pub records: BTreeMap<String, RunRecord>,
+    /// Keys that have a run directory.
+    pub run_dirs: std::collections::BTreeSet<String>,
+}
+
+impl Snapshot {
+    pub fn read(out: &Path) -> Result<Snapshot, StoreError> {
+        let records = load_records(&out.join(RESULTS_DIR), false)?;
+        let runs = out.join(RUNS_DIR);
+        let run_dirs = match fs::read_dir(&runs) {
+            Ok(entries) => {
+                entries.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect()
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Default::default(),
+            Err(e) => return Err(io_at(&runs)(e)),
+        };
+        Ok(Snapshot { records, run_dirs })
     }
 }
 

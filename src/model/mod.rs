@@ -1,7 +1,7 @@
 //! The simulation as a function `y(d, θ)` — Dakota's *model*.
 //!
-//! A closed-form study evaluates its expression; solver studies (later) answer from per-design
-//! surrogates fitted to runs. Either way the numerics see a [`crate::calibrate::Model`].
+//! A closed-form study evaluates its expression; solver studies answer from per-design
+//! surrogates fitted to runs ([`crate::fit::SurrogateModel`]). Either way the numerics see a [`crate::calibrate::Model`].
 
 use crate::calibrate::Model;
 use crate::study::{Expression, Simulation, Study};
@@ -15,14 +15,15 @@ pub struct ExpressionModel {
 }
 
 impl ExpressionModel {
-    pub fn new(study: &Study) -> Self {
-        let Simulation::Expression(expr) = &study.simulation;
-        ExpressionModel {
+    /// The closed form of `study`, or `None` when its simulation is a solver.
+    pub fn new(study: &Study) -> Option<Self> {
+        let Simulation::Expression(expr) = &study.simulation else { return None };
+        Some(ExpressionModel {
             expr: expr.clone(),
             n_design: study.design.len(),
             n_theta: study.parameters.len(),
             constants: study.constants.iter().map(|(_, v)| *v).collect(),
-        }
+        })
     }
 }
 

@@ -1,5 +1,8 @@
-//! Planning: which simulations to run. Sampling plans over boxes of variables.
+//! Planning: which simulations to run. Sampling plans over boxes of variables ([`latin_hypercube`],
+//! [`sweep::grid`]) and the run [`Plan`] of a solver study.
 
 mod lhs;
+pub mod sweep;
 
 pub use lhs::latin_hypercube;
+pub use sweep::{Plan, PlannedRun, RunRole};

@@ -24,6 +24,32 @@ pub struct Results {
     /// Why the diagnosis could not run.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub diagnosis_error: Option<String>,
+    /// Solver studies: each design's surrogate and its error at the check runs.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub surrogates: Option<IndexMap<String, SurrogateResult>>,
+    /// Solver studies: planned runs and how many have a successful result.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub runs: Option<RunsResult>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SurrogateResult {
+    /// `linear`, `quadratic` or `gp`.
+    pub kind: String,
+    /// Successful sample runs it was fitted to.
+    pub samples: usize,
+    /// Successful check runs it was checked at.
+    pub check_runs: usize,
+    /// max |predicted − run| / |run| over the check runs; `null` without check runs.
+    pub check_max_relative_error: Option<f64>,
+    pub check_mean_relative_error: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RunsResult {
+    pub planned: usize,
+    pub succeeded: usize,
+    pub failed: usize,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -111,7 +137,25 @@ impl Results {
             identifiability: (&calibration.identifiability).into(),
             diagnosis_error: diagnosis.as_ref().err().map(|e| e.to_string()),
             diagnosis: diagnosis.ok(),
+            surrogates: None,
+            runs: None,
         }
+    }
+
+    /// Adds the surrogates of a solver study, keyed by design name.
+    pub fn with_surrogates(mut self, model: &crate::fit::SurrogateModel) -> Results {
+        let entries = model.designs.iter().map(|d| {
+            let result = SurrogateResult {
+                kind: d.surrogate.kind.key().to_string(),
+                samples: d.samples,
+                check_runs: d.check.runs,
+                check_max_relative_error: d.check.max_relative_error,
+                check_mean_relative_error: d.check.mean_relative_error,
+            };
+            (d.design.clone(), result)
+        });
+        self.surrogates = Some(entries.collect());
+        self
     }
 
     /// Whether any method failed (the run then exits 1).
@@ -149,8 +193,7 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
     let names = || study.parameters.iter().map(|p| p.name.clone());
     let predictions = predictions(study, model, calibrated);
     let mean_error = |role| {
-        let errors: Vec<f64> =
-            predictions.iter().filter(|p| p.role == role).map(|p| p.relative_error.abs()).collect();
+        let errors: Vec<f64> = predictions.iter().filter(|p| p.role == role).map(|p| p.relative_error.abs()).collect();
         (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64)
     };
     let (training_error, validation_error) = (mean_error(Role::Training), mean_error(Role::Validation));

@@ -16,6 +16,9 @@ use super::{
 use crate::calibrate::bayesian::Settings as BayesianSettings;
 use crate::error::InputError;
 
+#[path = "load_solver.rs"]
+mod solver;
+
 /// Loads and validates a study file and everything it references.
 pub fn load(path: &Path) -> Result<Study, InputError> {
     let source = std::fs::read_to_string(path)
@@ -275,27 +278,23 @@ impl Checker<'_> {
         n_parameters: usize,
     ) -> Result<Simulation, InputError> {
         let sim = &node.value;
-        let solver_keys = [
-            ("solver", &sim.solver),
-            ("response", &sim.response),
-            ("sampling", &sim.sampling),
-            ("surrogate", &sim.surrogate),
-        ];
-        if let Some((key, Some(value))) = solver_keys.iter().find(|(_, v)| v.is_some()) {
-            return Err(self.at_key(
-                key,
-                value,
-                format!(
-                    "`simulation.{key}` is not supported yet: this version of lab runs closed-form simulations only; \
-                     use `simulation: {{expression: \"...\"}}`"
-                ),
-            ));
+        if let Some(solver) = &sim.solver {
+            if let Some(expression) = &sim.expression {
+                return Err(self.at_key(
+                    "expression",
+                    expression,
+                    "`simulation` has both `expression` and `solver`: give exactly one",
+                ));
+            }
+            return self.solver(node, solver, n_parameters).map(|s| Simulation::Solver(Box::new(s)));
         }
+        self.no_solver_keys(sim)?;
         let Some(text) = &sim.expression else {
             return Err(self.at_key(
                 "simulation",
                 node,
-                "`simulation` needs `expression`: a closed form over the design variables, parameters and constants",
+                "`simulation` needs `expression` (a closed form over the design variables, parameters and \
+                 constants) or `solver` (a program run per sample)",
             ));
         };
         let expression = Expression::compile(&text.value, symbols)

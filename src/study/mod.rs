@@ -11,6 +11,7 @@ pub mod experiments;
 pub mod expr;
 mod load;
 mod schema;
+pub mod solver;
 mod yaml;
 
 use std::path::PathBuf;
@@ -18,6 +19,7 @@ use std::path::PathBuf;
 pub use experiments::{Experiments, TestDesign};
 pub use expr::{Expression, Symbols};
 pub use load::load;
+pub use solver::{CopiedFile, SamplingMethod, SolverSimulation, SurrogateKind, Template};
 
 use crate::calibrate::Bounds;
 use crate::error::InputError;
@@ -61,9 +63,12 @@ pub struct Parameter {
 }
 
 #[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // one per study; boxing the expression would buy nothing
 pub enum Simulation {
     /// Closed form over design variables, parameters and constants.
     Expression(Expression),
+    /// A program run for every planned (design, parameter sample); surrogates fitted to its runs.
+    Solver(Box<SolverSimulation>),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

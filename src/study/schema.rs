@@ -5,7 +5,6 @@
 
 use indexmap::IndexMap;
 use serde::Deserialize;
-use serde::de::IgnoredAny;
 
 use super::yaml::Spanned;
 
@@ -45,16 +44,64 @@ pub struct ParameterFile {
     pub unit: Option<String>,
 }
 
-/// `simulation:`. Only `expression` is supported for now; the solver keys are accepted by the
-/// schema so that a study using them gets a "not supported yet" error rather than "unknown key".
+/// `simulation:`: exactly one of `expression` and `solver`; `response`, `sampling` and `surrogate`
+/// go with `solver`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SimulationFile {
     pub expression: Option<Spanned<String>>,
-    pub solver: Option<Spanned<IgnoredAny>>,
-    pub response: Option<Spanned<IgnoredAny>>,
-    pub sampling: Option<Spanned<IgnoredAny>>,
-    pub surrogate: Option<Spanned<IgnoredAny>>,
+    pub solver: Option<Spanned<SolverFile>>,
+    pub response: Option<Spanned<ResponseFile>>,
+    pub sampling: Option<Spanned<SamplingFile>>,
+    pub surrogate: Option<Spanned<String>>,
+}
+
+/// `simulation.solver`: how one run is made.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverFile {
+    pub adapter: Spanned<String>,
+    #[serde(default)]
+    pub templates: Vec<Spanned<String>>,
+    /// Files copied verbatim into every run directory (part of the run key).
+    #[serde(default)]
+    pub files: Vec<Spanned<String>>,
+    pub command: Spanned<Vec<Spanned<String>>>,
+    pub timeout: Option<Spanned<f64>>,
+    pub retries: Option<Spanned<RetriesFile>>,
+}
+
+/// `simulation.solver.retries`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RetriesFile {
+    pub max_attempts: Spanned<u32>,
+    /// Seconds before the first retry; doubled for each further retry.
+    pub backoff: Option<Spanned<f64>>,
+    /// Longest delay between attempts, seconds.
+    pub max_backoff: Option<Spanned<f64>>,
+    /// Outcome classes retried.
+    pub on: Option<Vec<Spanned<String>>>,
+}
+
+/// `simulation.response`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResponseFile {
+    pub file: Spanned<String>,
+    pub regex: Spanned<String>,
+}
+
+/// `simulation.sampling`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SamplingFile {
+    pub method: Spanned<String>,
+    pub count: Spanned<usize>,
+    #[serde(default)]
+    pub seed: u64,
+    /// Extra Latin-hypercube runs per design that measure the surrogate's error (paper: 5).
+    pub check_runs: Option<Spanned<usize>>,
 }
 
 #[derive(Debug, Deserialize)]

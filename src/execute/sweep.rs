@@ -1,0 +1,167 @@
+//! The sweep of a solver study: every planned run rendered, keyed, and — unless the store already
+//! holds its success — run by the [`Executor`], with progress on stderr.
+//!
+//! ```text
+//! Plan ──render──► Prepared {key per planned run, inputs per key} ──store.prepare──► RunSpec
+//!      ──Executor──► RunRecord (committed) ──► responses per planned run
+//! ```
+//!
+//! Keys are computed from the rendered bytes before anything is written, so a finished run is
+//! found again without touching the disk, and editing a template changes exactly the keys whose
+//! rendered inputs change. Planned runs with equal inputs share one key and one run.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use tokio::sync::mpsc;
+
+use super::store::run_key;
+use super::{Adapter, CancelReason, Canceller, CommandAdapter, Executor, OutcomeClass, RunSpec, RunStore, progress};
+use crate::error::{Error, InputError};
+use crate::plan::Plan;
+use crate::render::{self, Inputs, Renderer};
+use crate::study::{SolverSimulation, Study};
+
+/// The run of every planned run, rendered in memory.
+pub struct Prepared {
+    /// The key of each planned run, in plan order.
+    pub keys: Vec<String>,
+    /// The inputs of each distinct key.
+    pub inputs: BTreeMap<String, Inputs>,
+}
+
+/// The study's adapter (the `command` adapter: response file + regex).
+pub fn adapter(sim: &SolverSimulation) -> Result<CommandAdapter, Error> {
+    CommandAdapter::new(&sim.response_file, &sim.response_regex, &[])
+        .map_err(|e| Error::Failed(format!("response regex: {e}")))
+}
+
+/// Renders every planned run and computes its key. Template errors name the template and line.
+pub fn prepare(study: &Study, sim: &SolverSimulation, plan: &Plan) -> Result<Prepared, Error> {
+    let renderer = Renderer::new(&sim.templates)?;
+    let identity = adapter(sim)?.identity();
+    let mut prepared = Prepared { keys: Vec::with_capacity(plan.runs.len()), inputs: BTreeMap::new() };
+    for run in &plan.runs {
+        let context = render::context(study, &run.design, &run.design_values, &run.theta);
+        let inputs = render::inputs(&renderer, &sim.files, &context).map_err(|e| with_run(e, &run.design))?;
+        let key = run_key(&inputs, &sim.command, &identity);
+        prepared.keys.push(key.clone());
+        prepared.inputs.entry(key).or_insert(inputs);
+    }
+    Ok(prepared)
+}
+
+fn with_run(mut e: InputError, design: &str) -> InputError {
+    e.message = format!("{} (rendering design `{design}`)", e.message);
+    e
+}
+
+/// Signal handling for the whole of `lab run`: during the sweep a signal cancels it (a second one
+/// kills the children at once); after the sweep (fitting, calibrating) a signal exits 130 at once,
+/// since tokio's handler replaces the default action for the rest of the process.
+pub struct Signals {
+    pub canceller: Canceller,
+    after_sweep: Arc<AtomicBool>,
+}
+
+impl Signals {
+    /// Installs the handlers; must be called inside `runtime`.
+    pub fn install(runtime: &tokio::runtime::Runtime) -> Result<Signals, Error> {
+        use tokio::signal::unix::{SignalKind, signal};
+        let _guard = runtime.enter();
+        let mut term = signal(SignalKind::terminate())?;
+        let mut int = signal(SignalKind::interrupt())?;
+        let canceller = Canceller::new();
+        let after_sweep = Arc::new(AtomicBool::new(false));
+        let (c, after) = (canceller.clone(), after_sweep.clone());
+        runtime.spawn(async move {
+            let mut reason = CancelReason::Signal;
+            loop {
+                tokio::select! {
+                    _ = term.recv() => {}
+                    _ = int.recv() => {}
+                }
+                if after.load(Ordering::SeqCst) {
+                    eprintln!("\ninterrupted");
+                    std::process::exit(130);
+                }
+                c.cancel(reason);
+                reason = CancelReason::SecondSignal;
+            }
+        });
+        Ok(Signals { canceller, after_sweep })
+    }
+
+    /// From now on a signal exits 130 at once.
+    pub fn sweep_done(&self) {
+        self.after_sweep.store(true, Ordering::SeqCst);
+    }
+
+    pub fn interrupted(&self) -> bool {
+        self.canceller.reason().is_some_and(|r| r >= CancelReason::Signal)
+    }
+}
+
+/// What the sweep left in the store for the plan.
+pub struct SweepResult {
+    /// The response of each planned run (plan order); `None` when it has no successful record.
+    pub responses: Vec<Option<f64>>,
+    /// Outcome class of each planned run's record, if any.
+    pub classes: Vec<Option<OutcomeClass>>,
+    /// Planned runs that were finished before this pass.
+    pub reused: usize,
+    /// Errors not tied to a run's outcome (a record that could not be committed).
+    pub errors: Vec<String>,
+}
+
+/// Runs every planned run that has no success in the store, `jobs` at once.
+pub fn run(
+    runtime: &tokio::runtime::Runtime,
+    store: &mut RunStore,
+    sim: &SolverSimulation,
+    prepared: &Prepared,
+    jobs: usize,
+    canceller: &Canceller,
+) -> Result<SweepResult, Error> {
+    let reused = prepared.keys.iter().filter(|k| store.is_finished(k)).count();
+    let mut specs = Vec::new();
+    let mut seen = BTreeSet::new();
+    for key in &prepared.keys {
+        if store.is_finished(key) || !seen.insert(key.clone()) {
+            continue;
+        }
+        let dir = store.prepare(key, &prepared.inputs[key])?;
+        specs.push(spec(sim, key, dir));
+    }
+    let (tx, rx) = mpsc::unbounded_channel();
+    let mut executor = Executor::new(jobs, Arc::new(adapter(sim)?), store.committer());
+    executor.canceller = canceller.clone();
+    executor.events = Some(tx);
+    let bar = progress::bar(specs.len() as u64);
+    let summary = runtime.block_on(async move {
+        let reporter = tokio::spawn(progress::report(rx, bar));
+        let summary = executor.run(specs).await;
+        drop(executor); // closes the event channel: the reporter finishes
+        let _ = reporter.await;
+        summary
+    });
+    for record in summary.records {
+        store.remember(record);
+    }
+    let responses = prepared.keys.iter().map(|k| store.record(k).and_then(|r| r.response)).collect();
+    let classes = prepared.keys.iter().map(|k| store.record(k).map(|r| r.outcome.class())).collect();
+    Ok(SweepResult { responses, classes, reused, errors: summary.errors })
+}
+
+fn spec(sim: &SolverSimulation, key: &str, dir: PathBuf) -> RunSpec {
+    RunSpec {
+        key: key.to_string(),
+        dir,
+        argv: sim.command.clone(),
+        timeout: sim.timeout,
+        outputs: vec![sim.response_file.clone()],
+        retry: sim.retry.clone(),
+    }
+}

@@ -1,0 +1,136 @@
+//! Rendering: a study's Tera templates into the input files of one run, in memory.
+//!
+//! The context of every template is the run's design variables, parameters and the study's
+//! constants, each by name as a number, plus `design_name` (the design's name in the experiments
+//! file). Rendering happens in memory so that the run key ([`crate::execute::store::run_key`]) can
+//! be computed before anything is written; [`crate::execute::RunStore::prepare`] writes the files.
+//!
+//! Templates are Tera 2 with autoescaping off (solver inputs are not HTML). Every error, at parse
+//! or at render time, names the template file and the line.
+//!
+//! ```
+//! use lab::render::Renderer;
+//! use lab::study::Template;
+//! let t = Template { file: "in.txt.tera".into(), output: "in.txt".into(), source: "E = {{ E }}\n".into() };
+//! let r = Renderer::new(&[t]).unwrap();
+//! let mut ctx = tera::Context::new();
+//! ctx.insert("E", &60000.5);
+//! assert_eq!(r.render(&ctx).unwrap()[0].1, b"E = 60000.5\n");
+//! ```
+
+use std::path::PathBuf;
+
+use tera::{Context, ErrorKind, Tera};
+
+use crate::error::InputError;
+use crate::study::{CopiedFile, Study, Template};
+
+/// The rendered inputs of one run: (path relative to the run directory, bytes).
+pub type Inputs = Vec<(PathBuf, Vec<u8>)>;
+
+/// A study's templates, parsed once, ready to render any number of runs.
+pub struct Renderer {
+    tera: Tera,
+    templates: Vec<Template>,
+}
+
+/// The Tera name of template `i` (no suffix, so nothing is autoescaped by name either).
+fn name(i: usize) -> String {
+    format!("template-{i}")
+}
+
+impl Renderer {
+    /// Parses every template; a syntax error names the template file, line and column.
+    pub fn new(templates: &[Template]) -> Result<Self, InputError> {
+        let mut tera = Tera::new();
+        tera.autoescape_on(Vec::<&str>::new());
+        for (i, t) in templates.iter().enumerate() {
+            tera.add_raw_template(&name(i), &t.source).map_err(|e| located(t, &e))?;
+        }
+        Ok(Renderer { tera, templates: templates.to_vec() })
+    }
+
+    /// Renders every template with `context`, in the study's order.
+    pub fn render(&self, context: &Context) -> Result<Inputs, InputError> {
+        self.templates
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let text = self.tera.render(&name(i), context).map_err(|e| located(t, &e))?;
+                Ok((t.output.clone(), text.into_bytes()))
+            })
+            .collect()
+    }
+}
+
+/// A Tera error as an input error at the template's file and line.
+fn located(template: &Template, error: &tera::Error) -> InputError {
+    let (what, report) = match error.kind() {
+        ErrorKind::SyntaxError(r) => ("template syntax error", r),
+        ErrorKind::RenderingError(r) => ("template rendering error", r),
+        other => return InputError::file(&template.file, format!("template error: {other}")),
+    };
+    let span = report.span();
+    let message = format!("{what}: {}", report.message());
+    if span.start_line == 0 {
+        return InputError::file(&template.file, message);
+    }
+    InputError::at(&template.file, &template.source, span.start_line, span.start_col + 1, message)
+}
+
+/// The template context of a run: design variables, parameters, constants, `design_name`.
+pub fn context(study: &Study, design_name: &str, design: &[f64], theta: &[f64]) -> Context {
+    let mut ctx = Context::new();
+    let named = study
+        .design
+        .iter()
+        .map(|d| &d.name)
+        .zip(design)
+        .chain(study.parameters.iter().map(|p| &p.name).zip(theta))
+        .chain(study.constants.iter().map(|(n, v)| (n, v)));
+    for (name, value) in named {
+        ctx.insert(name.clone(), value);
+    }
+    ctx.insert("design_name", design_name);
+    ctx
+}
+
+/// The rendered templates plus the copied files: every input of a run.
+pub fn inputs(renderer: &Renderer, files: &[CopiedFile], context: &Context) -> Result<Inputs, InputError> {
+    let mut inputs = renderer.render(context)?;
+    inputs.extend(files.iter().map(|f| (f.output.clone(), f.bytes.clone())));
+    Ok(inputs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn template(source: &str) -> Template {
+        Template { file: "dir/in.txt.tera".into(), output: "in.txt".into(), source: source.into() }
+    }
+
+    #[test]
+    fn syntax_error_names_file_and_line() {
+        let e = Renderer::new(&[template("a\nb = {{ E \n")]).err().expect("syntax error");
+        assert_eq!(e.file, PathBuf::from("dir/in.txt.tera"));
+        assert_eq!(e.span.as_ref().map(|s| s.line), Some(2), "{e}");
+        assert!(e.message.contains("syntax"), "{e}");
+    }
+
+    #[test]
+    fn undefined_variable_names_file_and_line() {
+        let r = Renderer::new(&[template("a\n\nb = {{ nope }}\n")]).unwrap();
+        let e = r.render(&Context::new()).expect_err("undefined variable");
+        assert_eq!(e.span.as_ref().map(|s| s.line), Some(3), "{e}");
+    }
+
+    #[test]
+    fn numbers_render_round_trip_and_nothing_is_escaped() {
+        let r = Renderer::new(&[template("{{ x }} {{ s }}")]).unwrap();
+        let mut ctx = Context::new();
+        ctx.insert("x", &0.1_f64);
+        ctx.insert("s", "<&>");
+        assert_eq!(r.render(&ctx).unwrap()[0].1, b"0.1 <&>");
+    }
+}

@@ -1,0 +1,103 @@
+//! A simulation run by a program (`simulation.solver`, `response`, `sampling`, `surrogate`), as
+//! validated by [`super::load`]: templates read and parsed, regex compiled, counts checked.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use crate::execute::RetryPolicy;
+
+/// `simulation.solver` plus the keys that go with it.
+#[derive(Debug, Clone)]
+pub struct SolverSimulation {
+    /// Always `command` for now (`lsdyna` and `calculix` are refused until their adapters land).
+    pub adapter: String,
+    pub templates: Vec<Template>,
+    /// Files copied verbatim into every run directory.
+    pub files: Vec<CopiedFile>,
+    /// argv, run in the run directory; never through a shell. Not empty.
+    pub command: Vec<String>,
+    pub timeout: Option<Duration>,
+    pub retry: RetryPolicy,
+    /// The file (relative to the run directory) holding the response.
+    pub response_file: PathBuf,
+    /// Its first capture group is the response; compiles and has a capture group.
+    pub response_regex: String,
+    pub sampling: Sampling,
+    pub surrogate: SurrogateKind,
+}
+
+/// A Tera template: where it was read from, where it is rendered to, and its text (already parsed
+/// once without error).
+#[derive(Debug, Clone)]
+pub struct Template {
+    /// The template file (relative paths resolved against the study file's directory).
+    pub file: PathBuf,
+    /// Its name in the run directory: the file name without `.tera`.
+    pub output: PathBuf,
+    pub source: String,
+}
+
+/// A file copied into every run directory unchanged.
+#[derive(Debug, Clone)]
+pub struct CopiedFile {
+    pub file: PathBuf,
+    pub output: PathBuf,
+    pub bytes: Vec<u8>,
+}
+
+/// `simulation.sampling`: parameter samples per design.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sampling {
+    pub method: SamplingMethod,
+    /// Samples per design (for `grid`, a perfect power: points per axis ^ parameters).
+    pub count: usize,
+    pub seed: u64,
+    /// Extra Latin-hypercube runs per design, from a different seed stream, to check the surrogate.
+    pub check_runs: usize,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SamplingMethod {
+    Lhs,
+    Grid,
+}
+
+/// The per-design surrogate over the parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SurrogateKind {
+    Linear,
+    Quadratic,
+    Gp,
+}
+
+impl SurrogateKind {
+    pub fn key(self) -> &'static str {
+        match self {
+            SurrogateKind::Linear => "linear",
+            SurrogateKind::Quadratic => "quadratic",
+            SurrogateKind::Gp => "gp",
+        }
+    }
+
+    pub fn from_key(key: &str) -> Option<Self> {
+        [SurrogateKind::Linear, SurrogateKind::Quadratic, SurrogateKind::Gp].into_iter().find(|k| k.key() == key)
+    }
+
+    /// Fewest samples per design that determine the surrogate over `p` parameters.
+    pub fn min_samples(self, p: usize) -> usize {
+        match self {
+            SurrogateKind::Linear => p + 1,
+            SurrogateKind::Quadratic => (p + 1) * (p + 2) / 2,
+            // The GP's linear trend takes p + 1; one more leaves something for the kernel.
+            SurrogateKind::Gp => p + 2,
+        }
+    }
+}
+
+impl Sampling {
+    /// Points per axis of a grid of `count` points over `p` parameters, when `count` is a perfect power.
+    pub fn grid_side(count: usize, p: usize) -> Option<usize> {
+        let guess = (count as f64).powf(1.0 / p.max(1) as f64).round() as usize;
+        (guess.saturating_sub(1)..=guess + 1).find(|&n| n.checked_pow(p as u32) == Some(count))
+    }
+}

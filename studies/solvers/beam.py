@@ -1,0 +1,49 @@
+"""A small stand-in solver for `lab`'s solver studies: the cantilever of Qiu et al. (2018), Sec. 3.
+
+Run in a run directory as `python3 beam.py [INPUT]` (default `beam.txt`). The input holds
+`name = number` lines (`#` starts a comment): h, F, L, b and either E (Young's modulus) or C
+(compliance 1/E, which makes the response exactly linear in the parameter). Writes `output.txt`:
+
+    tip deflection (Euler-Bernoulli)
+    y = <4 F L^3 / (E b h^3), full precision>
+
+`fail = 1` in the input makes it exit with code 3 (for failure handling). For lab's own tests:
+LAB_TEST_SOLVER_LOG names a file to which one line `start <run directory name>` is appended per
+run, and LAB_TEST_SOLVER_SLEEP makes each run take that many more seconds.
+"""
+
+import os
+import sys
+import time
+
+
+def read(path):
+    values = {}
+    with open(path) as f:
+        for line in f:
+            line = line.split("#", 1)[0].strip()
+            if line:
+                name, value = (part.strip() for part in line.split("=", 1))
+                values[name] = float(value)
+    return values
+
+
+def main():
+    log = os.environ.get("LAB_TEST_SOLVER_LOG")
+    if log:
+        fd = os.open(log, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        os.write(fd, f"start {os.path.basename(os.getcwd())}\n".encode())
+        os.close(fd)
+    v = read(sys.argv[1] if len(sys.argv) > 1 else "beam.txt")
+    time.sleep(float(os.environ.get("LAB_TEST_SOLVER_SLEEP", "0")))
+    if v.get("fail") == 1:
+        print("beam: asked to fail", file=sys.stderr)
+        sys.exit(3)
+    compliance = v["C"] if "C" in v else 1.0 / v["E"]
+    y = 4.0 * v["F"] * v["L"] ** 3 * compliance / (v["b"] * v["h"] ** 3)
+    with open("output.txt", "w") as f:
+        f.write(f"tip deflection (Euler-Bernoulli)\ny = {y!r}\n")
+
+
+if __name__ == "__main__":
+    main()

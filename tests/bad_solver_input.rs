@@ -1,0 +1,182 @@
+//! Strict loading of solver studies: each malformed `simulation.solver` / `response` / `sampling` /
+//! `surrogate` gives an `InputError` at the offending node (or, for templates, at the template's
+//! file and line); nothing panics.
+
+use std::path::{Path, PathBuf};
+
+use lab::error::InputError;
+use lab::study::{self, Simulation};
+
+/// A valid solver study; each bad case changes one thing. Line numbers are referred to below.
+const STUDY: &str = r#"name: beam
+constants: {F: 600, L: 20, b: 2}
+design:
+  h: {unit: mm}
+parameters:
+  E: {min: 50000, max: 80000}
+simulation:
+  solver:
+    adapter: command
+    templates: [beam.txt.tera]
+    command: [python3, beam.py]
+    timeout: 30
+    retries: {max_attempts: 2, backoff: 0.5, on: [non_zero_exit]}
+  response: {file: out.txt, regex: "y = (\\S+)"}
+  sampling: {method: lhs, count: 4, seed: 1}
+  surrogate: quadratic
+experiments:
+  file: tests.csv
+  response: deflection
+training: [h8, h10]
+calibration: {methods: [least_squares]}
+"#;
+
+const TEMPLATE: &str = "h = {{ h }}\nE = {{ E }}\n";
+const CSV: &str = "design,h,deflection\nh8,8,0.308\nh10,10,0.167\n";
+
+struct Case {
+    dir: tempfile::TempDir,
+    study: PathBuf,
+}
+
+fn case(yaml: &str, template: &str) -> Case {
+    let dir = tempfile::tempdir().unwrap();
+    let study = dir.path().join("study.yaml");
+    std::fs::write(&study, yaml).unwrap();
+    std::fs::write(dir.path().join("tests.csv"), CSV).unwrap();
+    std::fs::write(dir.path().join("beam.txt.tera"), template).unwrap();
+    Case { dir, study }
+}
+
+fn with(old: &str, new: &str) -> String {
+    assert!(STUDY.contains(old), "test bug: `{old}` not in the base study");
+    STUDY.replacen(old, new, 1)
+}
+
+fn column_of(text: &str, line: usize, needle: &str) -> usize {
+    let l = text.lines().nth(line - 1).unwrap();
+    l[..l.find(needle).unwrap_or_else(|| panic!("`{needle}` not on line {line}: {l}"))].chars().count() + 1
+}
+
+#[track_caller]
+fn assert_at(err: &InputError, file: &Path, line: usize, column: Option<usize>, phrase: &str) {
+    let shown = err.to_string();
+    assert_eq!(err.file, file, "wrong file in:\n{shown}");
+    let span = err.span.as_ref().unwrap_or_else(|| panic!("no line in:\n{shown}"));
+    assert_eq!(span.line, line, "wrong line in:\n{shown}");
+    if let Some(column) = column {
+        assert_eq!(span.column, column, "wrong column in:\n{shown}");
+    }
+    assert!(shown.contains(phrase), "`{phrase}` not in:\n{shown}");
+    assert!(err.excerpt.as_deref().is_some_and(|e| e.contains('^')), "no caret in:\n{shown}");
+}
+
+#[track_caller]
+fn study_error(yaml: &str, line: usize, needle: Option<&str>, phrase: &str) {
+    let c = case(yaml, TEMPLATE);
+    let err = study::load(&c.study).err().unwrap_or_else(|| panic!("expected an error for:\n{yaml}"));
+    let column = needle.map(|n| column_of(yaml, line, n));
+    assert_at(&err, &c.study, line, column, phrase);
+}
+
+#[test]
+fn base_solver_study_loads() {
+    let c = case(STUDY, TEMPLATE);
+    let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
+    let Simulation::Solver(sim) = &s.simulation else { panic!("not a solver study") };
+    assert_eq!(sim.command, ["python3", "beam.py"]);
+    assert_eq!(sim.templates[0].output, Path::new("beam.txt"));
+    assert_eq!(sim.retry.max_attempts, 2);
+    assert_eq!(sim.sampling.check_runs, 5, "the paper's 5 check runs by default");
+}
+
+#[test]
+fn unknown_adapter() {
+    study_error(&with("adapter: command", "adapter: abaqus"), 9, Some("abaqus"), "unknown adapter `abaqus`");
+}
+
+#[test]
+fn later_adapters_are_named_but_not_available() {
+    study_error(&with("adapter: command", "adapter: lsdyna"), 9, Some("lsdyna"), "not available yet");
+    study_error(&with("adapter: command", "adapter: calculix"), 9, Some("calculix"), "not available yet");
+}
+
+#[test]
+fn empty_command() {
+    study_error(&with("command: [python3, beam.py]", "command: []"), 11, Some("["), "empty `solver.command`");
+}
+
+#[test]
+fn missing_template_file() {
+    study_error(&with("[beam.txt.tera]", "[nope.tera]"), 10, Some("nope"), "template `nope.tera` does not exist");
+}
+
+#[test]
+fn bad_regex_and_regex_without_capture_group() {
+    let yaml = with(r#"regex: "y = (\\S+)""#, r#"regex: "y = (\\S+""#);
+    study_error(&yaml, 14, Some("\"y ="), "response regex");
+    let yaml = with(r#"regex: "y = (\\S+)""#, r#"regex: "y = \\S+""#);
+    study_error(&yaml, 14, Some("\"y ="), "no capture group");
+}
+
+#[test]
+fn too_few_samples_for_the_surrogate() {
+    // A quadratic in one parameter has 3 coefficients.
+    let yaml = with("count: 4", "count: 2");
+    study_error(&yaml, 15, Some("2,"), "too few for a quadratic surrogate");
+}
+
+#[test]
+fn grid_count_must_be_a_power() {
+    let yaml = with(
+        "parameters:\n  E: {min: 50000, max: 80000}\n",
+        "parameters:\n  E: {min: 50000, max: 80000}\n  L0: {min: 1, max: 2}\n",
+    )
+    .replace("method: lhs, count: 4", "method: grid, count: 8")
+    .replace("surrogate: quadratic", "surrogate: linear");
+    study_error(&yaml, 16, Some("8,"), "2-th power");
+}
+
+#[test]
+fn unknown_surrogate_and_sampling_method() {
+    study_error(&with("surrogate: quadratic", "surrogate: cubic"), 16, Some("cubic"), "unknown surrogate `cubic`");
+    study_error(&with("method: lhs", "method: sobol"), 15, Some("sobol"), "unknown sampling method `sobol`");
+}
+
+#[test]
+fn expression_and_solver_together() {
+    let yaml = with("simulation:\n", "simulation:\n  expression: \"E*h\"\n");
+    study_error(&yaml, 8, Some("expression"), "exactly one");
+}
+
+#[test]
+fn solver_keys_without_solver() {
+    let yaml = with(
+        "  solver:\n    adapter: command\n    templates: [beam.txt.tera]\n    command: [python3, beam.py]\n    timeout: 30\n    retries: {max_attempts: 2, backoff: 0.5, on: [non_zero_exit]}\n",
+        "  expression: \"E*h\"\n",
+    );
+    study_error(&yaml, 9, Some("response"), "goes with `simulation.solver`");
+}
+
+#[test]
+fn unknown_retry_class_and_zero_timeout() {
+    study_error(&with("on: [non_zero_exit]", "on: [oops]"), 13, Some("oops"), "unknown outcome class `oops`");
+    study_error(&with("timeout: 30", "timeout: 0"), 12, Some("0"), "more than zero");
+}
+
+#[test]
+fn template_syntax_error_names_the_template_file_and_line() {
+    let c = case(STUDY, "h = {{ h }}\n\nE = {{ E \n");
+    let err = study::load(&c.study).expect_err("a template syntax error");
+    assert_at(&err, &c.dir.path().join("beam.txt.tera"), 3, None, "template syntax error");
+}
+
+#[test]
+fn undefined_template_variable_is_caught_by_lab_check() {
+    let c = case(STUDY, "h = {{ h }}\nE = {{ Young }}\n");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lab")).arg("check").arg(&c.study).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    let location = format!("{}:2:", c.dir.path().join("beam.txt.tera").display());
+    assert!(stderr.contains(&location), "no `{location}` in:\n{stderr}");
+}
