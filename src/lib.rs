@@ -18,10 +18,12 @@
 
 pub mod calibrate;
 pub mod cli;
+pub mod crushsim;
 pub mod error;
 pub mod execute;
 pub mod model;
 pub mod pipeline;
 pub mod plan;
+pub mod render;
 pub mod report;
 pub mod study;

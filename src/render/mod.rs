@@ -1,0 +1,2 @@
+pub mod lsdyna;
+pub mod mesh;
