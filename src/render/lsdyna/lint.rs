@@ -56,6 +56,8 @@ use Kind::{Int as I, Real as R, Text as A};
 
 const I10: (usize, Kind) = (10, I);
 const R10: (usize, Kind) = (10, R);
+const PN: (usize, Kind) = (10, Kind::ParamName);
+const PV: (usize, Kind) = (10, Kind::ParamValue);
 const TITLE: Layout = &[(80, A)];
 const PART_CARD: Layout = &[I10, I10, I10, I10, I10, I10, I10, I10];
 const CONTACT: &[Layout] = &[
@@ -71,7 +73,7 @@ pub fn schema(keyword: &str) -> Option<Schema> {
     match keyword {
         "KEYWORD" | "END" => s(&[], None),
         "TITLE" | "INCLUDE" => s(&[TITLE], None),
-        "PARAMETER" => s(&[], Some(&[(10, Kind::ParamName), (10, Kind::ParamValue)])),
+        "PARAMETER" => s(&[], Some(&[PN, PV, PN, PV, PN, PV, PN, PV])),
         "CONTROL_TERMINATION" => s(&[&[R10, I10, R10, R10, R10, I10]], None),
         "CONTROL_TIMESTEP" => s(&[&[R10, R10, I10, R10, R10, I10, I10, I10]], None),
         "CONTROL_HOURGLASS" => s(&[&[I10, R10]], None),
@@ -95,6 +97,7 @@ pub fn schema(keyword: &str) -> Option<Schema> {
         "BOUNDARY_PRESCRIBED_MOTION_RIGID" => s(&[&[I10, I10, I10, I10, R10, I10, R10, R10]], None),
         "INITIAL_VELOCITY_RIGID_BODY" => s(&[&[I10, R10, R10, R10, R10, R10, R10]], None),
         "CONTACT_AUTOMATIC_NODES_TO_SURFACE" | "CONTACT_AUTOMATIC_SINGLE_SURFACE" => s(CONTACT, None),
+        "CRUSHSIM_TEST" => s(&[&[(10, A), R10]], None),
         "NODE" => s(&[], Some(&[(8, I), (16, R), (16, R), (16, R), (8, I), (8, I)])),
         "ELEMENT_SHELL" => s(&[], Some(&[(8, I); 10])),
         _ => None,
