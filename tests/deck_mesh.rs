@@ -21,11 +21,25 @@ fn cell_count_and_wall_length_follow_the_geometry() {
         let cells = area() / (3f64.sqrt() / 2.0 * cell * cell);
         let walls = 2.0 * area() / cell;
         let total = s.wall_length_single + s.wall_length_ribbon;
-        assert!((s.cells as f64 / cells - 1.0).abs() < 0.03, "c={cell}: {} cells, expected ≈ {cells:.1}", s.cells);
-        assert!((total / walls - 1.0).abs() < 0.02, "c={cell}: wall length {total:.1}, expected ≈ {walls:.1}");
+        assert!(
+            (s.cells as f64 / cells - 1.0).abs() < 0.03,
+            "c={cell}: {} cells, expected ≈ {cells:.1}",
+            s.cells
+        );
+        assert!(
+            (total / walls - 1.0).abs() < 0.02,
+            "c={cell}: wall length {total:.1}, expected ≈ {walls:.1}"
+        );
         let ribbon_share = s.wall_length_ribbon / total;
-        assert!((ribbon_share - 1.0 / 3.0).abs() < 0.02, "c={cell}: ribbon share {ribbon_share:.3}");
-        assert!(s.dropped_length < 0.01 * total, "c={cell}: dropped {}", s.dropped_length);
+        assert!(
+            (ribbon_share - 1.0 / 3.0).abs() < 0.02,
+            "c={cell}: ribbon share {ribbon_share:.3}"
+        );
+        assert!(
+            s.dropped_length < 0.01 * total,
+            "c={cell}: dropped {}",
+            s.dropped_length
+        );
     }
 }
 
@@ -34,7 +48,11 @@ fn no_duplicate_nodes_and_every_node_used() {
     let m = mesh::mesh(&TubeSpec::paper(3.0, COARSE)).unwrap();
     let mut seen = HashSet::new();
     for (_, [x, y, z]) in m.nodes() {
-        let key = ((x * 1e4).round() as i64, (y * 1e4).round() as i64, (z * 1e4).round() as i64);
+        let key = (
+            (x * 1e4).round() as i64,
+            (y * 1e4).round() as i64,
+            (z * 1e4).round() as i64,
+        );
         assert!(seen.insert(key), "two nodes at ({x}, {y}, {z})");
     }
     let used: HashSet<usize> = m.elements().flat_map(|(_, _, n)| n).collect();
@@ -51,14 +69,21 @@ fn junctions_are_shared_between_three_walls() {
     }
     let y_junctions = degree.iter().filter(|&&d| d == 3).count();
     // Two Y junctions per cell in the interior.
-    assert!(y_junctions as f64 > 1.8 * m.cells as f64, "{y_junctions} junctions for {} cells", m.cells);
+    assert!(
+        y_junctions as f64 > 1.8 * m.cells as f64,
+        "{y_junctions} junctions for {} cells",
+        m.cells
+    );
 }
 
 #[test]
 fn element_quality_is_bounded() {
     for (cell, h) in [(3.0, COARSE), (6.0, COARSE), (3.0, 1.0)] {
         let s = mesh::mesh(&TubeSpec::paper(cell, h)).unwrap().summary();
-        assert!(s.min_aspect >= 1.0 && s.max_aspect <= 4.0 + 1e-9, "c={cell} h={h}: {s:?}");
+        assert!(
+            s.min_aspect >= 1.0 && s.max_aspect <= 4.0 + 1e-9,
+            "c={cell} h={h}: {s:?}"
+        );
     }
     let m = mesh::mesh(&TubeSpec::paper(3.0, COARSE)).unwrap();
     let xyz: Vec<[f64; 3]> = m.nodes().map(|(_, p)| p).collect();
@@ -67,7 +92,11 @@ fn element_quality_is_bounded() {
         let (a, b, d) = (p(0), p(1), p(3));
         let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
         let v = [d[0] - a[0], d[1] - a[1], d[2] - a[2]];
-        let cross = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+        let cross = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
         let area = (cross[0].powi(2) + cross[1].powi(2) + cross[2].powi(2)).sqrt();
         assert!(area > 0.25 * 0.25 * COARSE * COARSE, "degenerate shell {n:?}");
     }
@@ -97,6 +126,10 @@ fn paper_mesh_sizes() {
     for (cell, h) in [(6.0, 0.5), (3.0, 0.5), (6.0, COARSE), (3.0, COARSE)] {
         let t0 = std::time::Instant::now();
         let (text, s) = mesh::include(&TubeSpec::paper(cell, h)).unwrap();
-        println!("c={cell} h={h}: {s:?}, {} MB, {:.2} s", text.len() / 1_000_000, t0.elapsed().as_secs_f64());
+        println!(
+            "c={cell} h={h}: {s:?}, {} MB, {:.2} s",
+            text.len() / 1_000_000,
+            t0.elapsed().as_secs_f64()
+        );
     }
 }

@@ -45,7 +45,11 @@ fn snapshot_matches_and_lints_clean() {
     assert_eq!(deck, expected, "rendered deck differs from {SNAPSHOT}");
     let mesh = coarse_mesh();
     let problems = lint::lint(&deck, &|name| (name == "mesh.k").then(|| mesh.clone()));
-    assert!(problems.is_empty(), "{}", problems.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n"));
+    assert!(
+        problems.is_empty(),
+        "{}",
+        problems.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n")
+    );
 }
 
 #[test]
@@ -66,13 +70,19 @@ fn defaults_and_the_crushsim_switch_render() {
 #[test]
 fn a_value_that_does_not_fit_fails_the_render() {
     let mut ctx = context();
-    ctx.insert("sigma_y", &137.28391029384012);
+    ctx.insert("sigma_y", &137.2839102938401);
     let err = format!("{:?}", render(&ctx).unwrap_err());
-    assert!(err.contains("137.2839102938401") && err.contains("10-character"), "{err}");
+    assert!(
+        err.contains("137.2839102938401") && err.contains("10-character"),
+        "{err}"
+    );
 }
 
 fn problems(deck: &str) -> Vec<String> {
-    lint::lint(deck, &|name| (name == "mesh.k").then(String::new)).into_iter().map(|p| p.to_string()).collect()
+    lint::lint(deck, &|name| (name == "mesh.k").then(String::new))
+        .into_iter()
+        .map(|p| p.to_string())
+        .collect()
 }
 
 #[test]
@@ -82,22 +92,33 @@ fn lint_catches_a_field_spilling_over() {
         "         1      &RHO      &EMOD       &PR    &SIGY",
     );
     let p = problems(&deck);
-    assert!(p.iter().any(|m| m.contains("&EMOD") || m.contains("not a real")), "{p:?}");
-    let deck = render(&context()).unwrap().replace("         1         2    0.8333         5", "         1         2    0.8333  5.000001");
+    assert!(
+        p.iter().any(|m| m.contains("&EMOD") || m.contains("not a real")),
+        "{p:?}"
+    );
+    let deck = render(&context()).unwrap().replace(
+        "         1         2    0.8333         5",
+        "         1         2    0.8333  5.000001",
+    );
     let p = problems(&deck);
     assert!(p.iter().any(|m| m.contains("not an integer")), "{p:?}");
 }
 
 #[test]
 fn lint_catches_an_undefined_reference() {
-    let deck = render(&context()).unwrap().replace("     &TEND         0", "    &TENDX         0");
+    let deck = render(&context())
+        .unwrap()
+        .replace("     &TEND         0", "    &TENDX         0");
     let p = problems(&deck);
     assert!(p.iter().any(|m| m.contains("&TENDX is not defined")), "{p:?}");
 }
 
 #[test]
 fn lint_catches_a_missing_include() {
-    let p: Vec<String> = lint::lint(&render(&context()).unwrap(), &|_| None).into_iter().map(|p| p.to_string()).collect();
+    let p: Vec<String> = lint::lint(&render(&context()).unwrap(), &|_| None)
+        .into_iter()
+        .map(|p| p.to_string())
+        .collect();
     assert!(p.iter().any(|m| m.contains("\"mesh.k\" does not exist")), "{p:?}");
 }
 
@@ -110,7 +131,9 @@ fn lint_catches_end_not_last() {
 
 #[test]
 fn lint_catches_long_lines_and_blank_cards() {
-    let deck = render(&context()).unwrap().replace("*TITLE\n", &format!("*TITLE\n{}\n\n", "x".repeat(81)));
+    let deck = render(&context())
+        .unwrap()
+        .replace("*TITLE\n", &format!("*TITLE\n{}\n\n", "x".repeat(81)));
     let p = problems(&deck);
     assert!(p.iter().any(|m| m.contains("81 columns")), "{p:?}");
     assert!(p.iter().any(|m| m.contains("blank line")), "{p:?}");

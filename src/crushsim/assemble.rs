@@ -46,11 +46,18 @@ pub fn load(main: &Path) -> Res<Model> {
     let geo = geometry(&blocks)?;
     let (material, tube, length, diameter) = tube(&materials, &sections, &parts, &geo, main)?;
     let striker = striker(&blocks, &r, &materials, &sections, &parts, &geo, main)?;
-    let base_pid = parts.iter().find(|p| p.pid != striker.pid && matches!(materials.get(&p.mid), Some(Material::Rigid { .. }))).map(|p| p.pid);
+    let base_pid = parts
+        .iter()
+        .find(|p| p.pid != striker.pid && matches!(materials.get(&p.mid), Some(Material::Rigid { .. })))
+        .map(|p| p.pid);
     let (end_time, tssfac) = control(&blocks, &r, main)?;
     Ok(Model {
         title: first_text(&blocks, "TITLE").unwrap_or_else(|| "crushsim run".into()),
-        params: r.order.iter().filter_map(|k| r.params.get(k).map(|v| (k.clone(), v.clone()))).collect(),
+        params: r
+            .order
+            .iter()
+            .filter_map(|k| r.params.get(k).map(|v| (k.clone(), v.clone())))
+            .collect(),
         material,
         tube,
         tube_length: length,
@@ -76,15 +83,30 @@ fn named<'a>(blocks: &'a [Located], keyword: &'a str) -> impl Iterator<Item = &'
 }
 
 fn first_text(blocks: &[Located], keyword: &str) -> Option<String> {
-    named(blocks, keyword).next().and_then(|b| b.block.cards.first()).map(|c| c.text.trim().to_string())
+    named(blocks, keyword)
+        .next()
+        .and_then(|b| b.block.cards.first())
+        .map(|c| c.text.trim().to_string())
 }
 
 fn fail(file: &str, line: usize, message: impl Into<String>) -> DeckError {
-    DeckError { file: file.to_string(), line, message: message.into() }
+    DeckError {
+        file: file.to_string(),
+        line,
+        message: message.into(),
+    }
 }
 
 fn positive(b: &Located, c: &Card, what: &str, v: f64) -> Res<f64> {
-    if v > 0.0 && v.is_finite() { Ok(v) } else { Err(fail(&b.file, c.line, format!("*{}: {what} must be positive, is {v}", b.block.keyword))) }
+    if v > 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(fail(
+            &b.file,
+            c.line,
+            format!("*{}: {what} must be positive, is {v}", b.block.keyword),
+        ))
+    }
 }
 
 fn materials(blocks: &[Located], r: &Reader) -> Res<HashMap<i64, Material>> {
@@ -106,12 +128,21 @@ fn materials(blocks: &[Located], r: &Reader) -> Res<HashMap<i64, Material>> {
                 srp: r.real_or(f, c2, 1, 0.0)?,
             };
             if m.etan < 0.0 || m.src < 0.0 || m.srp < 0.0 || !(0.0..0.5).contains(&m.nu) {
-                return Err(fail(f, c1.line, "MAT_003: ETAN, SRC, SRP must be >= 0 and 0 <= PR < 0.5"));
+                return Err(fail(
+                    f,
+                    c1.line,
+                    "MAT_003: ETAN, SRC, SRP must be >= 0 and 0 <= PR < 0.5",
+                ));
             }
             out.insert(m.mid, Material::Plastic(m));
         } else if matches!(kw, "MAT_RIGID" | "MAT_020") {
             let c1 = card(b, 0)?;
-            out.insert(r.int_or(f, c1, 0, 0)?, Material::Rigid { rho: r.real_or(f, c1, 1, 0.0)? });
+            out.insert(
+                r.int_or(f, c1, 0, 0)?,
+                Material::Rigid {
+                    rho: r.real_or(f, c1, 1, 0.0)?,
+                },
+            );
         }
     }
     Ok(out)
@@ -129,7 +160,10 @@ fn sections(blocks: &[Located], r: &Reader) -> Res<HashMap<i64, f64>> {
 
 fn parts(blocks: &[Located], r: &Reader) -> Res<Vec<PartDef>> {
     let mut out = Vec::new();
-    for b in blocks.iter().filter(|b| matches!(b.block.keyword.as_str(), "PART" | "PART_INERTIA")) {
+    for b in blocks
+        .iter()
+        .filter(|b| matches!(b.block.keyword.as_str(), "PART" | "PART_INERTIA"))
+    {
         let (title, c) = (card(b, 0)?, card(b, 1)?);
         let f = &b.file;
         out.push(PartDef {
@@ -145,7 +179,10 @@ fn parts(blocks: &[Located], r: &Reader) -> Res<Vec<PartDef>> {
 }
 
 fn geometry(blocks: &[Located]) -> Res<Geometry> {
-    let mut g = Geometry { min_edge: f64::INFINITY, ..Default::default() };
+    let mut g = Geometry {
+        min_edge: f64::INFINITY,
+        ..Default::default()
+    };
     for b in named(blocks, "NODE") {
         for c in &b.block.cards {
             let f = deck::fields(&c.text, &[8, 16, 16, 16, 8, 8]);
@@ -154,7 +191,13 @@ fn geometry(blocks: &[Located]) -> Res<Geometry> {
                 (Some(id), Some(x), Some(y), Some(z)) => {
                     g.nodes.insert(id, [x, y, z]);
                 }
-                _ => return Err(fail(&b.file, c.line, format!("*NODE card {:?} is not `id x y z`", c.text.trim()))),
+                _ => {
+                    return Err(fail(
+                        &b.file,
+                        c.line,
+                        format!("*NODE card {:?} is not `id x y z`", c.text.trim()),
+                    ));
+                }
             }
         }
     }
@@ -169,12 +212,20 @@ fn geometry(blocks: &[Located]) -> Res<Geometry> {
 fn shell(g: &mut Geometry, file: &str, c: &Card) -> Res<()> {
     let f = deck::fields(&c.text, &[8]);
     let ids: Option<Vec<i64>> = f.iter().take(6).map(|s| deck::parse_int(s)).collect();
-    let ids = ids.filter(|v| v.len() == 6).ok_or_else(|| fail(file, c.line, "*ELEMENT_SHELL card is not `eid pid n1 n2 n3 n4`"))?;
+    let ids = ids
+        .filter(|v| v.len() == 6)
+        .ok_or_else(|| fail(file, c.line, "*ELEMENT_SHELL card is not `eid pid n1 n2 n3 n4`"))?;
     let xyz: Option<Vec<[f64; 3]>> = ids[2..].iter().map(|n| g.nodes.get(n).copied()).collect();
     let xyz = xyz.ok_or_else(|| fail(file, c.line, format!("shell {} uses an undefined node", ids[0])))?;
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let cross = |u: [f64; 3], v: [f64; 3]| [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+    let cross = |u: [f64; 3], v: [f64; 3]| {
+        [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ]
+    };
     let area = 0.5 * norm(cross(sub(xyz[2], xyz[0]), sub(xyz[3], xyz[1])));
     for k in 0..4 {
         let e = norm(sub(xyz[(k + 1) % 4], xyz[k]));
@@ -191,11 +242,24 @@ fn shell(g: &mut Geometry, file: &str, c: &Card) -> Res<()> {
 
 type Tube = (Plastic, Vec<TubePart>, f64, f64);
 
-fn tube(materials: &HashMap<i64, Material>, sections: &HashMap<i64, f64>, parts: &[PartDef], g: &Geometry, main: &Path) -> Res<Tube> {
+fn tube(
+    materials: &HashMap<i64, Material>,
+    sections: &HashMap<i64, f64>,
+    parts: &[PartDef],
+    g: &Geometry,
+    main: &Path,
+) -> Res<Tube> {
     let deck = main.display().to_string();
-    let plastic: Vec<&PartDef> = parts.iter().filter(|p| matches!(materials.get(&p.mid), Some(Material::Plastic(_)))).collect();
-    let Some(first) = plastic.first() else { return Err(fail(&deck, 0, "no part uses *MAT_PLASTIC_KINEMATIC: nothing to crush")) };
-    let Some(Material::Plastic(material)) = materials.get(&first.mid).copied() else { unreachable_material(&deck)? };
+    let plastic: Vec<&PartDef> = parts
+        .iter()
+        .filter(|p| matches!(materials.get(&p.mid), Some(Material::Plastic(_))))
+        .collect();
+    let Some(first) = plastic.first() else {
+        return Err(fail(&deck, 0, "no part uses *MAT_PLASTIC_KINEMATIC: nothing to crush"));
+    };
+    let Some(Material::Plastic(material)) = materials.get(&first.mid).copied() else {
+        unreachable_material(&deck)?
+    };
     let (mut zmin, mut zmax, mut rmax) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
     for p in &plastic {
         for n in g.part_nodes.get(&p.pid).into_iter().flatten() {
@@ -204,14 +268,26 @@ fn tube(materials: &HashMap<i64, Material>, sections: &HashMap<i64, f64>, parts:
         }
     }
     let length = zmax - zmin;
-    if !(length > 0.0) {
+    if length.is_nan() || length <= 0.0 {
         return Err(fail(&deck, 0, "the tube parts have no shells (is the mesh included?)"));
     }
     let mut tube = Vec::new();
     for p in plastic {
-        let t = *sections.get(&p.secid).ok_or_else(|| fail(&p.file, p.line, format!("part {}: section {} is not defined", p.pid, p.secid)))?;
+        let t = *sections.get(&p.secid).ok_or_else(|| {
+            fail(
+                &p.file,
+                p.line,
+                format!("part {}: section {} is not defined", p.pid, p.secid),
+            )
+        })?;
         let area = g.area.get(&p.pid).copied().unwrap_or(0.0);
-        tube.push(TubePart { pid: p.pid, title: p.title.clone(), thickness: t, wall_length: area / length, elements: g.count.get(&p.pid).copied().unwrap_or(0) });
+        tube.push(TubePart {
+            pid: p.pid,
+            title: p.title.clone(),
+            thickness: t,
+            wall_length: area / length,
+            elements: g.count.get(&p.pid).copied().unwrap_or(0),
+        });
     }
     Ok((material, tube, length, 2.0 * rmax))
 }
@@ -220,20 +296,47 @@ fn unreachable_material<T>(deck: &str) -> Res<T> {
     Err(fail(deck, 0, "internal: tube material vanished"))
 }
 
-fn striker(blocks: &[Located], r: &Reader, materials: &HashMap<i64, Material>, sections: &HashMap<i64, f64>, parts: &[PartDef], g: &Geometry, main: &Path) -> Res<Striker> {
+fn striker(
+    blocks: &[Located],
+    r: &Reader,
+    materials: &HashMap<i64, Material>,
+    sections: &HashMap<i64, f64>,
+    parts: &[PartDef],
+    g: &Geometry,
+    main: &Path,
+) -> Res<Striker> {
     let deck = main.display().to_string();
     let motion = named(blocks, "BOUNDARY_PRESCRIBED_MOTION_RIGID").next();
     let inertia = named(blocks, "PART_INERTIA").next();
     let pid = match (motion, inertia) {
         (Some(b), _) => r.int_or(&b.file, card(b, 0)?, 0, 0)?,
         (None, Some(b)) => r.int_or(&b.file, card(b, 1)?, 0, 0)?,
-        (None, None) => return Err(fail(&deck, 0, "no striker: need *PART_INERTIA or *BOUNDARY_PRESCRIBED_MOTION_RIGID on a rigid part")),
+        (None, None) => {
+            return Err(fail(
+                &deck,
+                0,
+                "no striker: need *PART_INERTIA or *BOUNDARY_PRESCRIBED_MOTION_RIGID on a rigid part",
+            ));
+        }
     };
-    let part = parts.iter().find(|p| p.pid == pid).ok_or_else(|| fail(&deck, 0, format!("striker part {pid} is not defined")))?;
+    let part = parts
+        .iter()
+        .find(|p| p.pid == pid)
+        .ok_or_else(|| fail(&deck, 0, format!("striker part {pid} is not defined")))?;
     let Some(Material::Rigid { rho }) = materials.get(&part.mid).copied() else {
-        return Err(fail(&part.file, part.line, format!("striker part {pid} must use *MAT_RIGID")));
+        return Err(fail(
+            &part.file,
+            part.line,
+            format!("striker part {pid} must use *MAT_RIGID"),
+        ));
     };
-    let mut s = Striker { pid, mass: 0.0, speed: 0.0, prescribed: None, node: None };
+    let mut s = Striker {
+        pid,
+        mass: 0.0,
+        speed: 0.0,
+        prescribed: None,
+        node: None,
+    };
     match inertia.filter(|b| r.int_or(&b.file, &b.block.cards[1], 0, 0).ok() == Some(pid)) {
         Some(b) => {
             let (c2, c4) = (card(b, 2)?, card(b, 4)?);
@@ -241,7 +344,9 @@ fn striker(blocks: &[Located], r: &Reader, materials: &HashMap<i64, Material>, s
             s.node = r.int(&b.file, c2, 5)?;
             s.speed = -r.real_or(&b.file, c4, 2, 0.0)?;
         }
-        None => s.mass = rho * g.area.get(&pid).copied().unwrap_or(0.0) * sections.get(&part.secid).copied().unwrap_or(0.0),
+        None => {
+            s.mass = rho * g.area.get(&pid).copied().unwrap_or(0.0) * sections.get(&part.secid).copied().unwrap_or(0.0)
+        }
     }
     if let Some(b) = motion {
         s.prescribed = Some(prescribed(blocks, r, b)?);
@@ -257,12 +362,27 @@ fn striker(blocks: &[Located], r: &Reader, materials: &HashMap<i64, Material>, s
 fn prescribed(blocks: &[Located], r: &Reader, b: &Located) -> Res<Vec<(f64, f64)>> {
     let c = card(b, 0)?;
     let f = &b.file;
-    let (dof, vad, lcid, sf) = (r.int_or(f, c, 1, 0)?, r.int_or(f, c, 2, 0)?, r.int_or(f, c, 3, 0)?, r.real_or(f, c, 4, 1.0)?);
+    let (dof, vad, lcid, sf) = (
+        r.int_or(f, c, 1, 0)?,
+        r.int_or(f, c, 2, 0)?,
+        r.int_or(f, c, 3, 0)?,
+        r.real_or(f, c, 4, 1.0)?,
+    );
     if dof != 3 || vad != 0 {
-        return Err(fail(f, c.line, format!("crushsim supports prescribed z velocity only (DOF 3, VAD 0), not DOF {dof} VAD {vad}")));
+        return Err(fail(
+            f,
+            c.line,
+            format!("crushsim supports prescribed z velocity only (DOF 3, VAD 0), not DOF {dof} VAD {vad}"),
+        ));
     }
     let curve = named(blocks, "DEFINE_CURVE")
-        .find(|cb| cb.block.cards.first().and_then(|c0| r.int(&cb.file, c0, 0).ok().flatten()) == Some(lcid))
+        .find(|cb| {
+            cb.block
+                .cards
+                .first()
+                .and_then(|c0| r.int(&cb.file, c0, 0).ok().flatten())
+                == Some(lcid)
+        })
         .ok_or_else(|| fail(f, c.line, format!("load curve {lcid} is not defined")))?;
     let c0 = card(curve, 0)?;
     let (sfa, sfo) = (r.real_or(&curve.file, c0, 2, 1.0)?, r.real_or(&curve.file, c0, 3, 1.0)?);
@@ -274,13 +394,19 @@ fn prescribed(blocks: &[Located], r: &Reader, b: &Located) -> Res<Vec<(f64, f64)
         points.push((a * sfa, -o * sfo * sf));
     }
     if points.is_empty() || points.windows(2).any(|w| w[1].0 <= w[0].0) {
-        return Err(fail(&curve.file, c0.line, format!("load curve {lcid} needs increasing abscissae")));
+        return Err(fail(
+            &curve.file,
+            c0.line,
+            format!("load curve {lcid} needs increasing abscissae"),
+        ));
     }
     Ok(points)
 }
 
 fn control(blocks: &[Located], r: &Reader, main: &Path) -> Res<(f64, f64)> {
-    let b = named(blocks, "CONTROL_TERMINATION").next().ok_or_else(|| fail(&main.display().to_string(), 0, "no *CONTROL_TERMINATION"))?;
+    let b = named(blocks, "CONTROL_TERMINATION")
+        .next()
+        .ok_or_else(|| fail(&main.display().to_string(), 0, "no *CONTROL_TERMINATION"))?;
     let c = card(b, 0)?;
     let end = positive(b, c, "ENDTIM", r.real_or(&b.file, c, 0, 0.0)?)?;
     let tssfac = match named(blocks, "CONTROL_TIMESTEP").next() {
@@ -306,7 +432,10 @@ fn history(blocks: &[Located], r: &Reader, g: &Geometry) -> Res<Vec<(i64, [f64; 
         for c in &b.block.cards {
             for k in 0..8 {
                 if let Some(id) = r.int(&b.file, c, k)?.filter(|&id| id > 0) {
-                    let xyz = g.nodes.get(&id).ok_or_else(|| fail(&b.file, c.line, format!("history node {id} is not defined")))?;
+                    let xyz = g
+                        .nodes
+                        .get(&id)
+                        .ok_or_else(|| fail(&b.file, c.line, format!("history node {id} is not defined")))?;
                     out.push((id, *xyz));
                 }
             }
@@ -333,8 +462,13 @@ fn contacts(blocks: &[Located], r: &Reader) -> Res<Vec<Contact>> {
 }
 
 fn test_switch(blocks: &[Located], r: &Reader) -> Res<Option<(String, f64)>> {
-    let Some(b) = named(blocks, "CRUSHSIM_TEST").next() else { return Ok(None) };
+    let Some(b) = named(blocks, "CRUSHSIM_TEST").next() else {
+        return Ok(None);
+    };
     let c = card(b, 0)?;
-    let mode = deck::fields(&c.text, &[10]).first().map(|s| s.trim().to_ascii_lowercase()).unwrap_or_default();
+    let mode = deck::fields(&c.text, &[10])
+        .first()
+        .map(|s| s.trim().to_ascii_lowercase())
+        .unwrap_or_default();
     Ok(Some((mode, r.real_or(&b.file, c, 1, 0.0)?)))
 }

@@ -110,8 +110,11 @@ pub struct Model {
 /// Reads every block of `main` and of the files it includes (relative to `main`'s directory).
 pub fn read_blocks(main: &Path) -> Res<Vec<Located>> {
     let name = main.display().to_string();
-    let text = std::fs::read_to_string(main)
-        .map_err(|e| DeckError { file: name.clone(), line: 0, message: format!("cannot read the deck: {e}") })?;
+    let text = std::fs::read_to_string(main).map_err(|e| DeckError {
+        file: name.clone(),
+        line: 0,
+        message: format!("cannot read the deck: {e}"),
+    })?;
     let dir = main.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut out = Vec::new();
     collect(&name, &text, &dir, 0, &mut out)?;
@@ -133,11 +136,18 @@ fn collect(name: &str, text: &str, dir: &Path, depth: usize, out: &mut Vec<Locat
                 message: format!("included file {} cannot be read: {e}", path.display()),
             })?;
             if depth >= 8 {
-                return Err(DeckError { file: name.into(), line: card.line, message: "includes nested deeper than 8".into() });
+                return Err(DeckError {
+                    file: name.into(),
+                    line: card.line,
+                    message: "includes nested deeper than 8".into(),
+                });
             }
             collect(&path.display().to_string(), &included, dir, depth + 1, out)?;
         } else {
-            out.push(Located { file: name.to_string(), block });
+            out.push(Located {
+                file: name.to_string(),
+                block,
+            });
         }
     }
     Ok(())
@@ -151,7 +161,11 @@ pub struct Reader {
 
 impl Reader {
     fn err(file: &str, card: &Card, message: impl Into<String>) -> DeckError {
-        DeckError { file: file.to_string(), line: card.line, message: message.into() }
+        DeckError {
+            file: file.to_string(),
+            line: card.line,
+            message: message.into(),
+        }
     }
 
     /// Field `k` of a 10-column card as a real (`None` when blank).
@@ -161,13 +175,20 @@ impl Reader {
 
     pub fn real_w(&self, file: &str, card: &Card, k: usize, widths: &[usize]) -> Res<Option<f64>> {
         let fields = deck::fields(&card.text, widths);
-        let Some(raw) = fields.get(k).map(|s| s.trim()) else { return Ok(None) };
+        let Some(raw) = fields.get(k).map(|s| s.trim()) else {
+            return Ok(None);
+        };
         if raw.is_empty() {
             return Ok(None);
         }
         if let Some((name, neg)) = deck::reference(raw) {
-            let p = self.params.get(&name).ok_or_else(|| Self::err(file, card, format!("&{name} is not defined by a *PARAMETER")))?;
-            let v = p.as_f64().ok_or_else(|| Self::err(file, card, format!("&{name} is not a number")))?;
+            let p = self
+                .params
+                .get(&name)
+                .ok_or_else(|| Self::err(file, card, format!("&{name} is not defined by a *PARAMETER")))?;
+            let v = p
+                .as_f64()
+                .ok_or_else(|| Self::err(file, card, format!("&{name} is not a number")))?;
             return Ok(Some(if neg { -v } else { v }));
         }
         deck::parse_real(raw)
@@ -200,8 +221,11 @@ pub fn parameters(blocks: &[Located]) -> Res<Reader> {
     for b in blocks.iter().filter(|b| b.block.keyword == "PARAMETER") {
         for card in &b.block.cards {
             let before: Vec<String> = params.keys().cloned().collect();
-            deck::read_parameter_card(card, &mut params)
-                .map_err(|e| DeckError { file: b.file.clone(), line: e.line, message: e.message })?;
+            deck::read_parameter_card(card, &mut params).map_err(|e| DeckError {
+                file: b.file.clone(),
+                line: e.line,
+                message: e.message,
+            })?;
             let mut new: Vec<String> = params.keys().filter(|k| !before.contains(k)).cloned().collect();
             new.sort();
             order.extend(new);
@@ -211,7 +235,7 @@ pub fn parameters(blocks: &[Located]) -> Res<Reader> {
 }
 
 /// A card of a block, or an error saying which card is missing.
-pub fn card<'a>(b: &'a Located, k: usize) -> Res<&'a Card> {
+pub fn card(b: &Located, k: usize) -> Res<&Card> {
     b.block.cards.get(k).ok_or_else(|| DeckError {
         file: b.file.clone(),
         line: b.block.line,

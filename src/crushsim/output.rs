@@ -72,14 +72,36 @@ pub fn rcforc(m: &Model, h: &History, dt: f64) -> String {
         let _ = writeln!(out, "{:9}     {}", k + 1, c.kind);
     }
     out.push_str("{END LEGEND}\n\n");
-    let tube_mass: f64 = m.tube.iter().map(|p| p.wall_length * p.thickness * m.tube_length * m.material.rho).sum();
+    let tube_mass: f64 = m
+        .tube
+        .iter()
+        .map(|p| p.wall_length * p.thickness * m.tube_length * m.material.rho)
+        .sum();
     for t in times(m, dt) {
         let s = h.at(t);
         for k in 0..m.contacts.len() {
             let (slave, master) = contact_forces(m, k, s);
             let mass = if s.force > 0.0 { tube_mass } else { 0.0 };
-            let _ = writeln!(out, "  slave {:11} time{}  x {}  y {}  z {} mass {}", k + 1, e(t, 12, 5), e(slave[0], 12, 5), e(slave[1], 12, 5), e(slave[2], 12, 5), e(mass, 12, 5));
-            let _ = writeln!(out, "  master{:11} time{}  x {}  y {}  z {} mass {}", k + 1, e(t, 12, 5), e(master[0], 12, 5), e(master[1], 12, 5), e(master[2], 12, 5), e(0.0, 12, 5));
+            let _ = writeln!(
+                out,
+                "  slave {:11} time{}  x {}  y {}  z {} mass {}",
+                k + 1,
+                e(t, 12, 5),
+                e(slave[0], 12, 5),
+                e(slave[1], 12, 5),
+                e(slave[2], 12, 5),
+                e(mass, 12, 5)
+            );
+            let _ = writeln!(
+                out,
+                "  master{:11} time{}  x {}  y {}  z {} mass {}",
+                k + 1,
+                e(t, 12, 5),
+                e(master[0], 12, 5),
+                e(master[1], 12, 5),
+                e(master[2], 12, 5),
+                e(0.0, 12, 5)
+            );
         }
     }
     out
@@ -124,7 +146,13 @@ pub fn glstat(m: &Model, h: &History, dt: f64) -> String {
             ("global z velocity", -s.speed),
             ("time per zone cycle.(nanosec)", 0.0),
         ];
-        let _ = writeln!(out, "\n dt of cycle {:10} is controlled by shell {:10} of part {:10}\n", cycle(m, t), 1, m.tube.first().map_or(0, |p| p.pid));
+        let _ = writeln!(
+            out,
+            "\n dt of cycle {:10} is controlled by shell {:10} of part {:10}\n",
+            cycle(m, t),
+            1,
+            m.tube.first().map_or(0, |p| p.pid)
+        );
         for (label, v) in rows {
             let _ = writeln!(out, " {label:.<31} {}", e(v, 12, 5));
         }
@@ -136,11 +164,20 @@ pub fn nodout(m: &Model, h: &History, dt: f64) -> String {
     let mut out = header(m);
     for t in times(m, dt) {
         let s = h.at(t);
-        let _ = writeln!(out, "\n n o d a l   p r i n t   o u t   f o r   t i m e  s t e p{:8}                              ( at time {} )\n", cycle(m, t), e(t, 12, 7).trim());
+        let _ = writeln!(
+            out,
+            "\n n o d a l   p r i n t   o u t   f o r   t i m e  s t e p{:8}                              ( at time {} )\n",
+            cycle(m, t),
+            e(t, 12, 7).trim()
+        );
         out.push_str(" nodal point  x-disp     y-disp      z-disp      x-vel       y-vel       z-vel      x-accl      y-accl      z-accl      x-coor      y-coor      z-coor\n");
         for &(id, [x, y, z]) in &m.history_nodes {
             let moving = Some(id) == m.striker.node;
-            let (dz, vz, az) = if moving { (-s.crush, -s.speed, -s.accel) } else { (0.0, 0.0, 0.0) };
+            let (dz, vz, az) = if moving {
+                (-s.crush, -s.speed, -s.accel)
+            } else {
+                (0.0, 0.0, 0.0)
+            };
             let row = [0.0, 0.0, dz, 0.0, 0.0, vz, 0.0, 0.0, az, x, y, z + dz];
             let _ = write!(out, "{id:9}");
             for v in row {
@@ -182,19 +219,69 @@ fn echo(m: &Model) -> String {
         let _ = writeln!(out, "   {name:<10} {value:?}");
     }
     let mt = &m.material;
-    let _ = writeln!(out, "\n m a t e r i a l   (type 3, id {})\n   density {}\n   young's modulus {}\n   poisson's ratio {}", mt.mid, e(mt.rho, 12, 5), e(mt.e, 12, 5), e(mt.nu, 12, 5));
-    let _ = writeln!(out, "   yield stress {}\n   hardening modulus {}\n   beta {}\n   strain rate parameter c {}\n   strain rate parameter p {}", e(mt.sigy, 12, 5), e(mt.etan, 12, 5), e(mt.beta, 12, 5), e(mt.src, 12, 5), e(mt.srp, 12, 5));
+    let _ = writeln!(
+        out,
+        "\n m a t e r i a l   (type 3, id {})\n   density {}\n   young's modulus {}\n   poisson's ratio {}",
+        mt.mid,
+        e(mt.rho, 12, 5),
+        e(mt.e, 12, 5),
+        e(mt.nu, 12, 5)
+    );
+    let _ = writeln!(
+        out,
+        "   yield stress {}\n   hardening modulus {}\n   beta {}\n   strain rate parameter c {}\n   strain rate parameter p {}",
+        e(mt.sigy, 12, 5),
+        e(mt.etan, 12, 5),
+        e(mt.beta, 12, 5),
+        e(mt.src, 12, 5),
+        e(mt.srp, 12, 5)
+    );
     out.push_str("\n t u b e   p a r t s\n   part  thickness    wall length   shells  title\n");
     for p in &m.tube {
-        let _ = writeln!(out, "{:7} {} {} {:8}  {}", p.pid, e(p.thickness, 12, 5), e(p.wall_length, 14, 5), p.elements, p.title);
+        let _ = writeln!(
+            out,
+            "{:7} {} {} {:8}  {}",
+            p.pid,
+            e(p.thickness, 12, 5),
+            e(p.wall_length, 14, 5),
+            p.elements,
+            p.title
+        );
     }
     let s = &m.striker;
-    let _ = writeln!(out, "\n   tube length {}  diameter {}\n   nodes {}  shells {}  smallest edge {}", e(m.tube_length, 12, 5), e(m.tube_diameter, 12, 5), m.nodes, m.elements, e(m.min_edge, 12, 5));
+    let _ = writeln!(
+        out,
+        "\n   tube length {}  diameter {}\n   nodes {}  shells {}  smallest edge {}",
+        e(m.tube_length, 12, 5),
+        e(m.tube_diameter, 12, 5),
+        m.nodes,
+        m.elements,
+        e(m.min_edge, 12, 5)
+    );
     let motion = if s.prescribed.is_some() { "prescribed" } else { "free" };
-    let _ = writeln!(out, "   striker part {}  mass {}  speed {}  motion {motion}", s.pid, e(s.mass, 12, 5), e(s.speed, 12, 5));
-    let _ = writeln!(out, "   termination time {}  time step {}", e(m.end_time, 12, 5), e(time_step(m), 12, 5));
+    let _ = writeln!(
+        out,
+        "   striker part {}  mass {}  speed {}  motion {motion}",
+        s.pid,
+        e(s.mass, 12, 5),
+        e(s.speed, 12, 5)
+    );
+    let _ = writeln!(
+        out,
+        "   termination time {}  time step {}",
+        e(m.end_time, 12, 5),
+        e(time_step(m), 12, 5)
+    );
     for (k, c) in m.contacts.iter().enumerate() {
-        let _ = writeln!(out, "   contact {:3}  {}  ssid {} msid {}  fs {}", k + 1, c.kind, c.ssid, c.msid, e(c.fs, 10, 3));
+        let _ = writeln!(
+            out,
+            "   contact {:3}  {}  ssid {} msid {}  fs {}",
+            k + 1,
+            c.kind,
+            c.ssid,
+            c.msid,
+            e(c.fs, 10, 3)
+        );
     }
     out
 }

@@ -48,7 +48,11 @@ pub fn kappa() -> f64 {
 /// The cell size the deck states in its `CELL` parameter (the template writes it; LS-DYNA
 /// ignores unused parameters), if any.
 pub fn cell_parameter(m: &Model) -> Option<f64> {
-    m.params.iter().find(|(k, _)| k == "CELL").and_then(|(_, v)| v.as_f64()).filter(|c| *c > 0.0)
+    m.params
+        .iter()
+        .find(|(k, _)| k == "CELL")
+        .and_then(|(_, v)| v.as_f64())
+        .filter(|c| *c > 0.0)
 }
 
 /// Quantities of the crush model that do not change during the run.
@@ -202,12 +206,19 @@ fn curve_at(points: &[(f64, f64)], t: f64) -> f64 {
 /// 1e-5 s), so the fold oscillations are resolved.
 pub fn simulate(m: &Model) -> History {
     let th = Theory::new(m);
-    let finest = [m.dt_rcforc, m.dt_glstat, m.dt_nodout].into_iter().flatten().fold(m.end_time, f64::min);
+    let finest = [m.dt_rcforc, m.dt_glstat, m.dt_nodout]
+        .into_iter()
+        .flatten()
+        .fold(m.end_time, f64::min);
     let dt = (finest / 100.0).min(1e-5);
     let n = (m.end_time / dt).round().max(1.0) as usize;
     let s = &m.striker;
     let mut steps = Vec::with_capacity(n + 1);
-    let mut cur = Step { speed: s.speed, kinetic: 0.5 * s.mass * s.speed * s.speed, ..Step::default() };
+    let mut cur = Step {
+        speed: s.speed,
+        kinetic: 0.5 * s.mass * s.speed * s.speed,
+        ..Step::default()
+    };
     let mut max_crush = 0.0f64;
     let mut max_force = 0.0f64;
     for k in 0..=n {
@@ -244,5 +255,14 @@ fn advance(m: &Model, s: &Step, dt: f64, force: f64) -> Step {
         Some(_) => s.external + work + (kinetic - s.kinetic),
         None => s.external,
     };
-    Step { time: t1, crush: s.crush + dd, speed, accel, force, internal: s.internal + work, external, kinetic }
+    Step {
+        time: t1,
+        crush: s.crush + dd,
+        speed,
+        accel,
+        force,
+        internal: s.internal + work,
+        external,
+        kinetic,
+    }
 }

@@ -42,7 +42,12 @@ pub const USAGE: &str = "usage: crushsim i=main.k [ncpu=N] [memory=SIZE]";
 
 /// Reads LS-DYNA style `key=value` arguments (keys case-insensitive).
 pub fn parse_args(args: &[String]) -> Result<Args, String> {
-    let mut parsed = Args { input: PathBuf::new(), ncpu: None, memory: None, ignored: Vec::new() };
+    let mut parsed = Args {
+        input: PathBuf::new(),
+        ncpu: None,
+        memory: None,
+        ignored: Vec::new(),
+    };
     for a in args {
         match a.split_once('=') {
             Some((k, v)) if k.eq_ignore_ascii_case("i") => parsed.input = PathBuf::from(v),
@@ -69,7 +74,12 @@ pub fn main(args: &[String]) -> i32 {
     };
     println!("{}", output::banner());
     println!(" {}", output::version_line().trim());
-    println!(" input deck {}  ncpu {}  memory {}", args.input.display(), args.ncpu.as_deref().unwrap_or("1"), args.memory.as_deref().unwrap_or("default"));
+    println!(
+        " input deck {}  ncpu {}  memory {}",
+        args.input.display(),
+        args.ncpu.as_deref().unwrap_or("1"),
+        args.memory.as_deref().unwrap_or("default")
+    );
     for a in &args.ignored {
         println!(" *** Warning: argument {a:?} ignored");
     }
@@ -83,7 +93,12 @@ fn deck_error(e: &DeckError) -> i32 {
     let line = format!(" *** Error: {e}");
     println!("{line}\n{}", error_termination());
     eprintln!("crushsim: {e}");
-    let text = format!("crushsim run\n{}\n\n{}{line}\n\n{}\n", output::version_line(), output::banner(), error_termination());
+    let text = format!(
+        "crushsim run\n{}\n\n{}{line}\n\n{}\n",
+        output::version_line(),
+        output::banner(),
+        error_termination()
+    );
     let _ = std::fs::write("d3hsp", &text);
     let _ = std::fs::write("messag", &text);
     1
@@ -102,7 +117,9 @@ enum Switch {
 }
 
 fn switch(m: &Model) -> Result<Switch, String> {
-    let Some((mode, value)) = &m.test_switch else { return Ok(Switch::None) };
+    let Some((mode, value)) = &m.test_switch else {
+        return Ok(Switch::None);
+    };
     let or = |d: f64| if *value == 0.0 { d } else { *value };
     Ok(match mode.as_str() {
         "error" => Switch::Error(*value as i32),
@@ -111,14 +128,24 @@ fn switch(m: &Model) -> Result<Switch, String> {
         "garbage" => Switch::Garbage,
         "hang" => Switch::Hang(or(3600.0)),
         "signal" => Switch::Signal(or(9.0) as i32),
-        other => return Err(format!("*CRUSHSIM_TEST: unknown mode {other:?} (error, exit, nooutput, garbage, hang, signal)")),
+        other => {
+            return Err(format!(
+                "*CRUSHSIM_TEST: unknown mode {other:?} (error, exit, nooutput, garbage, hang, signal)"
+            ));
+        }
     })
 }
 
 fn run_model(m: &Model) -> i32 {
     let sw = match switch(m) {
         Ok(s) => s,
-        Err(e) => return deck_error(&DeckError { file: "deck".into(), line: 0, message: e }),
+        Err(e) => {
+            return deck_error(&DeckError {
+                file: "deck".into(),
+                line: 0,
+                message: e,
+            });
+        }
     };
     match sw {
         Switch::Hang(seconds) => {
@@ -161,7 +188,11 @@ fn write(name: &str, text: &str) -> std::io::Result<()> {
 }
 
 fn write_outputs(m: &Model, h: &History, sw: Switch) -> std::io::Result<i32> {
-    let termination = if matches!(sw, Switch::Error(_)) { error_termination() } else { normal_termination() };
+    let termination = if matches!(sw, Switch::Error(_)) {
+        error_termination()
+    } else {
+        normal_termination()
+    };
     if sw != Switch::NoOutput {
         if let Some(dt) = m.dt_rcforc {
             match sw {
@@ -176,11 +207,18 @@ fn write_outputs(m: &Model, h: &History, sw: Switch) -> std::io::Result<i32> {
             write("nodout", &output::nodout(m, h, dt))?;
         }
     }
-    let mut notes = vec![format!(" crushsim: {} steps of {} s", h.steps.len() - 1, output::e(h.dt, 12, 5).trim())];
+    let mut notes = vec![format!(
+        " crushsim: {} steps of {} s",
+        h.steps.len() - 1,
+        output::e(h.dt, 12, 5).trim()
+    )];
     if let Switch::Error(_) = sw {
         notes.push(" *** Error 99999: crushsim test switch: error termination requested".into());
     }
-    write("d3hsp", &(output::d3hsp(m, h, &(notes.join("\n") + "\n\n" + &termination))))?;
+    write(
+        "d3hsp",
+        &(output::d3hsp(m, h, &(notes.join("\n") + "\n\n" + &termination))),
+    )?;
     write("messag", &output::messag(m, &notes, &termination))?;
     println!("{}\n{termination}", notes.join("\n"));
     Ok(match sw {

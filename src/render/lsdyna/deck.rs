@@ -36,9 +36,16 @@ pub fn blocks(text: &str) -> Vec<Block> {
         }
         if let Some(rest) = line.strip_prefix('*') {
             let keyword = rest.split_whitespace().next().unwrap_or("").to_ascii_uppercase();
-            out.push(Block { keyword, line: i + 1, cards: Vec::new() });
+            out.push(Block {
+                keyword,
+                line: i + 1,
+                cards: Vec::new(),
+            });
         } else if let Some(block) = out.last_mut() {
-            block.cards.push(Card { line: i + 1, text: line.to_string() });
+            block.cards.push(Card {
+                line: i + 1,
+                text: line.to_string(),
+            });
         }
     }
     out
@@ -56,7 +63,10 @@ pub fn fields<'a>(card: &'a str, widths: &[usize]) -> Vec<&'a str> {
     while start < card.len() {
         let w = widths.get(k).or(widths.last()).copied().unwrap_or(10);
         let end = (start + w).min(card.len());
-        let end = (start..=end).rev().find(|&e| card.is_char_boundary(e)).unwrap_or(card.len());
+        let end = (start..=end)
+            .rev()
+            .find(|&e| card.is_char_boundary(e))
+            .unwrap_or(card.len());
         if end == start {
             break;
         }
@@ -102,12 +112,18 @@ pub fn read_parameter_card(card: &Card, table: &mut HashMap<String, Param>) -> R
         if name_field.is_empty() {
             continue;
         }
-        let bad = |message: String| ParamError { line: card.line, column, message };
+        let bad = |message: String| ParamError {
+            line: card.line,
+            column,
+            message,
+        };
         let mut chars = name_field.chars();
         let kind = chars.next().unwrap_or(' ').to_ascii_uppercase();
         let name = chars.as_str().trim().to_ascii_uppercase();
         if name.is_empty() || name.len() > 9 || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-            return Err(bad(format!("bad parameter name field {name_field:?}: a type letter then a name of 1-9 characters")));
+            return Err(bad(format!(
+                "bad parameter name field {name_field:?}: a type letter then a name of 1-9 characters"
+            )));
         }
         let value_text = chunk.get(1).map(|s| s.trim()).unwrap_or("");
         let value = match kind {
@@ -116,7 +132,8 @@ pub fn read_parameter_card(card: &Card, table: &mut HashMap<String, Param>) -> R
             'C' => Some(Param::Text(value_text.to_string())),
             _ => return Err(bad(format!("parameter {name}: type letter {kind:?} is not R, I or C"))),
         };
-        let value = value.ok_or_else(|| bad(format!("parameter {name}: {value_text:?} is not a valid {kind} value")))?;
+        let value =
+            value.ok_or_else(|| bad(format!("parameter {name}: {value_text:?} is not a valid {kind} value")))?;
         table.insert(name, value);
     }
     Ok(())
@@ -135,7 +152,11 @@ pub fn parse_real(text: &str) -> Option<f64> {
 /// Reads an integer field (an integral real such as `3.` is accepted, as LS-DYNA does).
 pub fn parse_int(text: &str) -> Option<i64> {
     let t = text.trim();
-    t.parse::<i64>().ok().or_else(|| parse_real(t).filter(|v| v.fract() == 0.0 && v.abs() < 9e15).map(|v| v as i64))
+    t.parse::<i64>().ok().or_else(|| {
+        parse_real(t)
+            .filter(|v| v.fract() == 0.0 && v.abs() < 9e15)
+            .map(|v| v as i64)
+    })
 }
 
 /// The parameter name a field refers to (`&SIGY` or `-&SIGY`), and whether it is negated.

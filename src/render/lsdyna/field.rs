@@ -17,14 +17,22 @@ pub struct FieldError {
 
 impl fmt::Display for FieldError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "cannot write {} into a {}-character field: {}", self.value, self.width, self.reason)
+        write!(
+            f,
+            "cannot write {} into a {}-character field: {}",
+            self.value, self.width, self.reason
+        )
     }
 }
 
 impl std::error::Error for FieldError {}
 
 fn err(value: impl fmt::Display, width: usize, reason: impl Into<String>) -> FieldError {
-    FieldError { value: value.to_string(), width, reason: reason.into() }
+    FieldError {
+        value: value.to_string(),
+        width,
+        reason: reason.into(),
+    }
 }
 
 /// The candidate texts for a real value, each of which parses back to exactly `value`.
@@ -36,7 +44,11 @@ fn real_candidates(value: f64) -> Vec<String> {
     let exp = format!("{value:e}"); // shortest digits, e.g. "1.85e2", "2.7e-9"
     let (mantissa, power) = exp.split_once('e').unwrap_or((&exp, "0"));
     let power: i32 = power.parse().unwrap_or(0);
-    let mantissa = if mantissa.contains('.') { mantissa.to_string() } else { format!("{mantissa}.0") };
+    let mantissa = if mantissa.contains('.') {
+        mantissa.to_string()
+    } else {
+        format!("{mantissa}.0")
+    };
     let sign = if power < 0 { '-' } else { '+' };
     let long = format!("{mantissa}e{sign}{:02}", power.abs());
     let short = format!("{mantissa}e{power}");
@@ -71,7 +83,11 @@ pub fn real_text(value: f64, width: usize) -> Result<String, FieldError> {
     };
     best.ok_or_else(|| {
         let shortest = candidates.iter().map(String::len).min().unwrap_or(0);
-        err(value, width, format!("its shortest exact form needs {shortest} characters; round it explicitly"))
+        err(
+            value,
+            width,
+            format!("its shortest exact form needs {shortest} characters; round it explicitly"),
+        )
     })
 }
 
@@ -107,11 +123,19 @@ pub fn param_name(kind: char, name: &str) -> Result<String, FieldError> {
         return Err(err(kind, 10, "the parameter type must be R, I or C"));
     }
     if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-        return Err(err(format!("{name:?}"), 10, "a parameter name is letters, digits and '_'"));
+        return Err(err(
+            format!("{name:?}"),
+            10,
+            "a parameter name is letters, digits and '_'",
+        ));
     }
     // `&name` must fit a 10-character field where it is used: at most 9 characters.
     if name.len() > 8 {
-        return Err(err(format!("{name:?}"), 10, "a parameter name has at most 8 characters here"));
+        return Err(err(
+            format!("{name:?}"),
+            10,
+            "a parameter name has at most 8 characters here",
+        ));
     }
     text(&format!("{kind} {name}"), 10)
 }
@@ -147,7 +171,7 @@ mod tests {
 
     #[test]
     fn refuses_what_does_not_fit() {
-        let e = real(137.28391029384012, 10).unwrap_err();
+        let e = real(137.2839102938401, 10).unwrap_err();
         assert!(e.to_string().contains("137.2839102938401"), "{e}");
         assert!(e.to_string().contains("10-character"), "{e}");
         assert!(int(12345678901, 10).is_err());
@@ -156,7 +180,7 @@ mod tests {
 
     #[test]
     fn fit_rounds_explicitly() {
-        let v = fit_real(137.28391029384012, 10).unwrap();
+        let v = fit_real(137.2839102938401, 10).unwrap();
         assert_eq!(real_text(v, 10).unwrap(), "137.28391");
     }
 }

@@ -87,7 +87,10 @@ pub fn schema(keyword: &str) -> Option<Schema> {
             None,
         ),
         "SECTION_SHELL" => s(
-            &[&[I10, I10, R10, I10, R10, R10, I10, I10], &[R10, R10, R10, R10, R10, R10, I10, I10]],
+            &[
+                &[I10, I10, R10, I10, R10, R10, I10, I10],
+                &[R10, R10, R10, R10, R10, R10, I10, I10],
+            ],
             None,
         ),
         "MAT_PLASTIC_KINEMATIC" | "MAT_003" => s(&[&[I10, R10, R10, R10, R10, R10, R10], &[R10; 4]], None),
@@ -112,7 +115,11 @@ pub fn lint(main: &str, resolve: &dyn Fn(&str) -> Option<String>) -> Vec<Problem
 
 /// [`lint`] with the main deck's name for messages.
 pub fn lint_named(main_name: &str, main: &str, resolve: &dyn Fn(&str) -> Option<String>) -> Vec<Problem> {
-    let mut linter = Linter { problems: Vec::new(), params: HashMap::new(), depth: 0 };
+    let mut linter = Linter {
+        problems: Vec::new(),
+        params: HashMap::new(),
+        depth: 0,
+    };
     linter.frame(main_name, main);
     linter.file(main_name, main, resolve);
     linter.problems
@@ -126,7 +133,12 @@ struct Linter {
 
 impl Linter {
     fn push(&mut self, file: &str, line: usize, column: usize, message: impl Into<String>) {
-        self.problems.push(Problem { file: file.to_string(), line, column, message: message.into() });
+        self.problems.push(Problem {
+            file: file.to_string(),
+            line,
+            column,
+            message: message.into(),
+        });
     }
 
     /// `*KEYWORD` first and `*END` last (ignoring comments and trailing blank lines).
@@ -167,10 +179,20 @@ impl Linter {
             }
             let n = line.trim_end_matches('\r').chars().count();
             if n > 80 {
-                self.push(name, i + 1, 81, format!("line is {n} columns long; fixed format reads 80"));
+                self.push(
+                    name,
+                    i + 1,
+                    81,
+                    format!("line is {n} columns long; fixed format reads 80"),
+                );
             }
             if line.trim().is_empty() && i < last_content {
-                self.push(name, i + 1, 1, "blank line: LS-DYNA reads it as a card with all defaults");
+                self.push(
+                    name,
+                    i + 1,
+                    1,
+                    "blank line: LS-DYNA reads it as a card with all defaults",
+                );
             }
         }
     }
@@ -196,20 +218,27 @@ impl Linter {
         for (k, card) in block.cards.iter().enumerate() {
             let layout = schema.as_ref().and_then(|s| s.cards.get(k).copied().or(s.repeat));
             if schema.is_some() && layout.is_none() {
-                self.push(name, card.line, 1, format!("*{} has only {} card(s) here", block.keyword, k));
+                self.push(
+                    name,
+                    card.line,
+                    1,
+                    format!("*{} has only {} card(s) here", block.keyword, k),
+                );
                 continue;
             }
-            if block.keyword == "PARAMETER" {
-                if let Err(e) = deck::read_parameter_card(card, &mut self.params) {
-                    self.push(name, e.line, e.column, e.message);
-                }
+            if block.keyword == "PARAMETER"
+                && let Err(e) = deck::read_parameter_card(card, &mut self.params)
+            {
+                self.push(name, e.line, e.column, e.message);
             }
             self.card(name, card, layout);
         }
     }
 
     fn card(&mut self, name: &str, card: &Card, layout: Option<Layout>) {
-        let widths: Vec<usize> = layout.map(|l| l.iter().map(|(w, _)| *w).collect()).unwrap_or_else(|| vec![10]);
+        let widths: Vec<usize> = layout
+            .map(|l| l.iter().map(|(w, _)| *w).collect())
+            .unwrap_or_else(|| vec![10]);
         let free = card.text.contains(',');
         let mut column = 1;
         let mut prev_kind = ' ';
@@ -217,9 +246,12 @@ impl Linter {
             let spec = layout.map(|l| l.get(k).copied());
             let width = widths.get(k).copied().unwrap_or(10);
             match spec {
-                Some(None) if !field.trim().is_empty() => {
-                    self.push(name, card.line, column, format!("extra field {:?} beyond the card's layout", field.trim()))
-                }
+                Some(None) if !field.trim().is_empty() => self.push(
+                    name,
+                    card.line,
+                    column,
+                    format!("extra field {:?} beyond the card's layout", field.trim()),
+                ),
                 Some(Some((_, kind))) => {
                     if let Some(message) = self.check_field(field, kind, width, free, &mut prev_kind) {
                         self.push(name, card.line, column, message);
@@ -251,11 +283,17 @@ impl Linter {
             return self.check_reference(field, width);
         }
         let ok = match (kind, *prev) {
-            (Kind::Int, _) | (Kind::ParamValue, 'I') => deck::parse_int(t).is_some() && !t.contains(char::is_whitespace),
+            (Kind::Int, _) | (Kind::ParamValue, 'I') => {
+                deck::parse_int(t).is_some() && !t.contains(char::is_whitespace)
+            }
             (Kind::Real, _) | (Kind::ParamValue, 'R') => deck::parse_real(t).is_some(),
             _ => true,
         };
-        let what = if kind == Kind::Int || *prev == 'I' { "an integer" } else { "a real number" };
+        let what = if kind == Kind::Int || *prev == 'I' {
+            "an integer"
+        } else {
+            "a real number"
+        };
         (!ok).then(|| format!("field {field:?} is not {what} (a value spilling over its {width}-character field?)"))
     }
 

@@ -48,7 +48,12 @@ pub struct TubeSpec {
 impl TubeSpec {
     /// The paper's tube (57.35 mm × 150 mm) with cell size `cell` and element size `element`.
     pub fn paper(cell: f64, element: f64) -> Self {
-        TubeSpec { cell, diameter: 57.35, length: 150.0, element }
+        TubeSpec {
+            cell,
+            diameter: 57.35,
+            length: 150.0,
+            element,
+        }
     }
 }
 
@@ -120,9 +125,19 @@ pub fn mesh(spec: &TubeSpec) -> Result<Mesh, MeshError> {
         walls.push(chain(&mut points, a, b, p.1 == q.1, spec.element));
     }
     let rows = ((spec.length / spec.element).round() as usize).max(1);
-    let mesh = Mesh { spec: *spec, points: points.coords, walls, rows, cells, dropped_length: dropped };
+    let mesh = Mesh {
+        spec: *spec,
+        points: points.coords,
+        walls,
+        rows,
+        cells,
+        dropped_length: dropped,
+    };
     if mesh.node_count() >= FIRST_FREE_ID || mesh.element_count() >= FIRST_FREE_ID {
-        return Err(MeshError(format!("{} nodes: too many for ids below {FIRST_FREE_ID}", mesh.node_count())));
+        return Err(MeshError(format!(
+            "{} nodes: too many for ids below {FIRST_FREE_ID}",
+            mesh.node_count()
+        )));
     }
     Ok(mesh)
 }
@@ -212,7 +227,13 @@ fn clip(p: Vertex, q: Vertex, spec: &TubeSpec) -> Option<(End, End)> {
     let snap = 0.25 * spec.element / a.sqrt();
     let lo = if lo < snap { 0.0 } else { lo };
     let hi = if 1.0 - hi < snap { 1.0 } else { hi };
-    let at = |u: f64, v: Vertex| if u == 0.0 || u == 1.0 { End::Vertex(v) } else { End::Cut([pf[0] + u * d[0], pf[1] + u * d[1]]) };
+    let at = |u: f64, v: Vertex| {
+        if u == 0.0 || u == 1.0 {
+            End::Vertex(v)
+        } else {
+            End::Cut([pf[0] + u * d[0], pf[1] + u * d[1]])
+        }
+    };
     Some((at(lo, p), at(hi, q)))
 }
 
@@ -226,7 +247,12 @@ struct PointSet {
 
 impl PointSet {
     fn new(spec: &TubeSpec) -> Self {
-        PointSet { coords: Vec::new(), vertices: HashMap::new(), half_side: spec.cell / 3f64.sqrt() / 2.0, half_cell: spec.cell / 2.0 }
+        PointSet {
+            coords: Vec::new(),
+            vertices: HashMap::new(),
+            half_side: spec.cell / 3f64.sqrt() / 2.0,
+            half_cell: spec.cell / 2.0,
+        }
     }
 
     fn xy(&self, end: End) -> [f64; 2] {
@@ -266,7 +292,11 @@ fn chain(points: &mut PointSet, a: End, b: End, ribbon: bool, h: f64) -> Wall {
         chain.push(points.push([pa[0] + u * (pb[0] - pa[0]), pa[1] + u * (pb[1] - pa[1])]));
     }
     chain.push(points.get(b));
-    Wall { points: chain, part: if ribbon { PART_RIBBON } else { PART_SINGLE }, length: len }
+    Wall {
+        points: chain,
+        part: if ribbon { PART_RIBBON } else { PART_SINGLE },
+        length: len,
+    }
 }
 
 impl Mesh {
@@ -292,7 +322,10 @@ impl Mesh {
     pub fn nodes(&self) -> impl Iterator<Item = (usize, [f64; 3])> + '_ {
         let dz = self.dz();
         (0..=self.rows).flat_map(move |k| {
-            self.points.iter().enumerate().map(move |(p, xy)| (self.node_id(p, k), [xy[0], xy[1], k as f64 * dz]))
+            self.points
+                .iter()
+                .enumerate()
+                .map(move |(p, xy)| (self.node_id(p, k), [xy[0], xy[1], k as f64 * dz]))
         })
     }
 
@@ -307,22 +340,38 @@ impl Mesh {
         (0..self.rows).flat_map(move |k| {
             let row = per_row.clone();
             row.into_iter().enumerate().map(move |(e, (part, p, q))| {
-                let ids = [self.node_id(p, k), self.node_id(q, k), self.node_id(q, k + 1), self.node_id(p, k + 1)];
+                let ids = [
+                    self.node_id(p, k),
+                    self.node_id(q, k),
+                    self.node_id(q, k + 1),
+                    self.node_id(p, k + 1),
+                ];
                 (k * n + e + 1, part, ids)
             })
         })
     }
 
     pub fn summary(&self) -> Summary {
-        let len = |part| self.walls.iter().filter(|w| w.part == part).map(|w| w.length).sum::<f64>();
-        let count = |part| self.walls.iter().filter(|w| w.part == part).map(|w| w.points.len() - 1).sum::<usize>();
+        let len = |part| {
+            self.walls
+                .iter()
+                .filter(|w| w.part == part)
+                .map(|w| w.length)
+                .sum::<f64>()
+        };
+        let count = |part| {
+            self.walls
+                .iter()
+                .filter(|w| w.part == part)
+                .map(|w| w.points.len() - 1)
+                .sum::<usize>()
+        };
         let dz = self.dz();
         let aspects = self.walls.iter().map(|w| {
             let width = w.length / (w.points.len() - 1) as f64;
             width.max(dz) / width.min(dz)
         });
-        let (min_aspect, max_aspect) =
-            aspects.fold((f64::INFINITY, 0.0f64), |(lo, hi), a| (lo.min(a), hi.max(a)));
+        let (min_aspect, max_aspect) = aspects.fold((f64::INFINITY, 0.0f64), |(lo, hi), a| (lo.min(a), hi.max(a)));
         Summary {
             cells: self.cells,
             wall_length_single: len(PART_SINGLE),
@@ -358,11 +407,27 @@ impl Mesh {
         let s = self.summary();
         let sp = &self.spec;
         out.push_str("*KEYWORD\n");
-        let _ = writeln!(out, "$ honeycomb tube: cell {} mm across flats, D {} mm, L {} mm", sp.cell, sp.diameter, sp.length);
-        let _ = writeln!(out, "$ element size {} mm: {} nodes, {} shells", sp.element, s.nodes, s.elements);
+        let _ = writeln!(
+            out,
+            "$ honeycomb tube: cell {} mm across flats, D {} mm, L {} mm",
+            sp.cell, sp.diameter, sp.length
+        );
+        let _ = writeln!(
+            out,
+            "$ element size {} mm: {} nodes, {} shells",
+            sp.element, s.nodes, s.elements
+        );
         let _ = writeln!(out, "$ cells (centre inside) {}", s.cells);
-        let _ = writeln!(out, "$ part {PART_SINGLE} single walls: {:.3} mm, {} shells", s.wall_length_single, s.elements_single);
-        let _ = writeln!(out, "$ part {PART_RIBBON} ribbon walls: {:.3} mm, {} shells", s.wall_length_ribbon, s.elements_ribbon);
+        let _ = writeln!(
+            out,
+            "$ part {PART_SINGLE} single walls: {:.3} mm, {} shells",
+            s.wall_length_single, s.elements_single
+        );
+        let _ = writeln!(
+            out,
+            "$ part {PART_RIBBON} ribbon walls: {:.3} mm, {} shells",
+            s.wall_length_ribbon, s.elements_ribbon
+        );
         let _ = writeln!(out, "$ dropped trimmed fragments: {:.3} mm", s.dropped_length);
         let _ = writeln!(out, "$ element aspect ratio {:.3} .. {:.3}", s.min_aspect, s.max_aspect);
     }
