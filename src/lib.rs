@@ -18,6 +18,7 @@
 
 pub mod calibrate;
 pub mod cli;
+pub mod crushsim;
 pub mod diagnose;
 pub mod error;
 pub mod execute;

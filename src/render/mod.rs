@@ -18,6 +18,9 @@
 //! assert_eq!(r.render(&ctx).unwrap()[0].1, b"E = 60000.5\n");
 //! ```
 
+pub mod lsdyna;
+pub mod mesh;
+
 use std::path::PathBuf;
 
 use tera::{Context, ErrorKind, Tera};

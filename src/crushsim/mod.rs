@@ -1,0 +1,15 @@
+//! `crushsim`: a stand-in for LS-DYNA on the honeycomb crush deck, so the run engine can be
+//! exercised and recordings made without a licence. It says so in its banner and its d3hsp.
+//!
+//! - [`model`] / [`assemble`]: read the rendered deck (parameters, includes, MAT_003, sections,
+//!   striker, times, outputs) into a [`model::Model`], with file:line errors;
+//! - [`physics`]: the force–crush history from super-folding-element theory (formulas there);
+//! - [`output`]: rcforc, glstat, nodout, d3hsp, messag in LS-DYNA's ASCII formats;
+//! - [`run`]: the command line (`crushsim i=main.k [ncpu=N] [memory=...]`) and the test-only
+//!   failure switch `*CRUSHSIM_TEST` (see there).
+
+pub mod assemble;
+pub mod model;
+pub mod output;
+pub mod physics;
+pub mod run;

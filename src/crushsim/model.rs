@@ -1,0 +1,244 @@
+//! What `crushsim` reads from a rendered deck: parameters, MAT_003 and rigid materials, shell
+//! sections per part, the striker's mass and velocity, termination time, output intervals, the
+//! history nodes, contacts, the mesh geometry (wall length per tube part) and the test switch.
+//!
+//! Every problem is a [`DeckError`] naming the file and line; nothing here panics on a bad deck.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use crate::render::lsdyna::deck::{self, Block, Card, Param};
+
+/// A deck that cannot be run, with its place.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeckError {
+    pub file: String,
+    pub line: usize,
+    pub message: String,
+}
+
+impl fmt::Display for DeckError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}: {}", self.file, self.line, self.message)
+    }
+}
+
+impl std::error::Error for DeckError {}
+
+type Res<T> = Result<T, DeckError>;
+
+/// A keyword block and the file it came from.
+#[derive(Debug, Clone)]
+pub struct Located {
+    pub file: String,
+    pub block: Block,
+}
+
+/// MAT_003 values used by the crush model (MPa, t/mm^3, 1/s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plastic {
+    pub mid: i64,
+    pub rho: f64,
+    pub e: f64,
+    pub nu: f64,
+    pub sigy: f64,
+    pub etan: f64,
+    pub beta: f64,
+    pub src: f64,
+    pub srp: f64,
+}
+
+/// A tube part: its shell thickness and the wall length it has in the cross-section.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TubePart {
+    pub pid: i64,
+    pub title: String,
+    pub thickness: f64,
+    pub wall_length: f64,
+    pub elements: usize,
+}
+
+/// The striker as the deck defines it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Striker {
+    pub pid: i64,
+    pub mass: f64,
+    /// Initial speed towards the tube (mm/s, positive = crushing).
+    pub speed: f64,
+    /// Prescribed speed curve (time, speed), when the motion is prescribed.
+    pub prescribed: Option<Vec<(f64, f64)>>,
+    pub node: Option<i64>,
+}
+
+/// A contact definition, in deck order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Contact {
+    pub kind: String,
+    pub ssid: i64,
+    pub msid: i64,
+    pub fs: f64,
+    /// Which rigid part is its master, if any (striker or base).
+    pub master_part: Option<i64>,
+}
+
+/// Everything the run needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Model {
+    pub title: String,
+    pub params: Vec<(String, Param)>,
+    pub material: Plastic,
+    pub tube: Vec<TubePart>,
+    pub tube_length: f64,
+    pub tube_diameter: f64,
+    pub nodes: usize,
+    pub elements: usize,
+    pub min_edge: f64,
+    pub striker: Striker,
+    pub base_pid: Option<i64>,
+    pub end_time: f64,
+    pub tssfac: f64,
+    pub dt_rcforc: Option<f64>,
+    pub dt_glstat: Option<f64>,
+    pub dt_nodout: Option<f64>,
+    /// History nodes with their initial coordinates.
+    pub history_nodes: Vec<(i64, [f64; 3])>,
+    pub contacts: Vec<Contact>,
+    pub test_switch: Option<(String, f64)>,
+}
+
+/// Reads every block of `main` and of the files it includes (relative to `main`'s directory).
+pub fn read_blocks(main: &Path) -> Res<Vec<Located>> {
+    let name = main.display().to_string();
+    let text = std::fs::read_to_string(main).map_err(|e| DeckError {
+        file: name.clone(),
+        line: 0,
+        message: format!("cannot read the deck: {e}"),
+    })?;
+    let dir = main.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut out = Vec::new();
+    collect(&name, &text, &dir, 0, &mut out)?;
+    Ok(out)
+}
+
+fn collect(name: &str, text: &str, dir: &Path, depth: usize, out: &mut Vec<Located>) -> Res<()> {
+    for block in deck::blocks(text) {
+        if block.keyword == "INCLUDE" {
+            let card = block.cards.first().ok_or_else(|| DeckError {
+                file: name.to_string(),
+                line: block.line,
+                message: "*INCLUDE without a file name on the next line".into(),
+            })?;
+            let path: PathBuf = dir.join(card.text.trim());
+            let included = std::fs::read_to_string(&path).map_err(|e| DeckError {
+                file: name.to_string(),
+                line: card.line,
+                message: format!("included file {} cannot be read: {e}", path.display()),
+            })?;
+            if depth >= 8 {
+                return Err(DeckError {
+                    file: name.into(),
+                    line: card.line,
+                    message: "includes nested deeper than 8".into(),
+                });
+            }
+            collect(&path.display().to_string(), &included, dir, depth + 1, out)?;
+        } else {
+            out.push(Located {
+                file: name.to_string(),
+                block,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Reads fields with parameters resolved.
+pub struct Reader {
+    pub params: HashMap<String, Param>,
+    pub order: Vec<String>,
+}
+
+impl Reader {
+    fn err(file: &str, card: &Card, message: impl Into<String>) -> DeckError {
+        DeckError {
+            file: file.to_string(),
+            line: card.line,
+            message: message.into(),
+        }
+    }
+
+    /// Field `k` of a 10-column card as a real (`None` when blank).
+    pub fn real(&self, file: &str, card: &Card, k: usize) -> Res<Option<f64>> {
+        self.real_w(file, card, k, &[10])
+    }
+
+    pub fn real_w(&self, file: &str, card: &Card, k: usize, widths: &[usize]) -> Res<Option<f64>> {
+        let fields = deck::fields(&card.text, widths);
+        let Some(raw) = fields.get(k).map(|s| s.trim()) else {
+            return Ok(None);
+        };
+        if raw.is_empty() {
+            return Ok(None);
+        }
+        if let Some((name, neg)) = deck::reference(raw) {
+            let p = self
+                .params
+                .get(&name)
+                .ok_or_else(|| Self::err(file, card, format!("&{name} is not defined by a *PARAMETER")))?;
+            let v = p
+                .as_f64()
+                .ok_or_else(|| Self::err(file, card, format!("&{name} is not a number")))?;
+            return Ok(Some(if neg { -v } else { v }));
+        }
+        deck::parse_real(raw)
+            .map(Some)
+            .ok_or_else(|| Self::err(file, card, format!("field {} {raw:?} is not a number", k + 1)))
+    }
+
+    pub fn real_or(&self, file: &str, card: &Card, k: usize, default: f64) -> Res<f64> {
+        Ok(self.real(file, card, k)?.unwrap_or(default))
+    }
+
+    /// Field `k` as an integer (`None` when blank).
+    pub fn int(&self, file: &str, card: &Card, k: usize) -> Res<Option<i64>> {
+        match self.real(file, card, k)? {
+            None => Ok(None),
+            Some(v) if v.fract() == 0.0 && v.abs() < 9e15 => Ok(Some(v as i64)),
+            Some(v) => Err(Self::err(file, card, format!("field {} is {v}, not an integer", k + 1))),
+        }
+    }
+
+    pub fn int_or(&self, file: &str, card: &Card, k: usize, default: i64) -> Res<i64> {
+        Ok(self.int(file, card, k)?.unwrap_or(default))
+    }
+}
+
+/// Builds the parameter table from every `*PARAMETER` block, in deck order.
+pub fn parameters(blocks: &[Located]) -> Res<Reader> {
+    let mut params = HashMap::new();
+    let mut order = Vec::new();
+    for b in blocks.iter().filter(|b| b.block.keyword == "PARAMETER") {
+        for card in &b.block.cards {
+            let before: Vec<String> = params.keys().cloned().collect();
+            deck::read_parameter_card(card, &mut params).map_err(|e| DeckError {
+                file: b.file.clone(),
+                line: e.line,
+                message: e.message,
+            })?;
+            let mut new: Vec<String> = params.keys().filter(|k| !before.contains(k)).cloned().collect();
+            new.sort();
+            order.extend(new);
+        }
+    }
+    Ok(Reader { params, order })
+}
+
+/// A card of a block, or an error saying which card is missing.
+pub fn card(b: &Located, k: usize) -> Res<&Card> {
+    b.block.cards.get(k).ok_or_else(|| DeckError {
+        file: b.file.clone(),
+        line: b.block.line,
+        message: format!("*{} needs at least {} card(s)", b.block.keyword, k + 1),
+    })
+}
