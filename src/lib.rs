@@ -3,16 +3,21 @@
 //! The crate is laid out as the pipeline it runs; one typed value flows from each stage to the next:
 //!
 //! ```text
-//! study ──► plan ──► (render ► execute ► extract) ──► fit ──► calibrate ──► diagnose ──► report
-//! Study     Plan       run store, responses           Model   Calibration   Diagnosis    results.json
+//! study ──► plan ──► render ──► execute ──► extract ──► fit ──► calibrate ──► diagnose ──► report
+//! Study     Plan     inputs     RunRecord   response    Model   Calibration   Diagnosis    results.json
 //! ```
 //!
 //! - [`study`]: the study file and the experiments it names, loaded strictly into a [`study::Study`].
-//! - [`model`]: the simulation as a function `y(d, θ)` (a closed-form expression, or surrogates).
-//! - [`plan`]: sampling plans (Latin hypercube) for simulation runs.
+//! - [`plan`]: which runs to make: parameter samples per design (Latin hypercube or grid) and checks.
+//! - [`render`]: Tera templates into each run's input files (and LS-DYNA fields, meshes).
+//! - [`execute`]: the run engine: a content-addressed run store, a lock, the local executor.
+//! - [`extract`]: solver outputs to numbers (LS-DYNA ASCII files, crush force).
+//! - [`fit`]: per-design surrogates over the parameters; [`model`]: closed-form simulations.
 //! - [`calibrate`]: the paper's three methods and the identifiability check, as pure numerics.
-//! - [`report`]: `results.json` and the terminal summary.
-//! - [`pipeline`]: wires the stages together for `lab run`.
+//! - [`diagnose`]: what the simulation gets wrong, its likely cause, the extended model.
+//! - [`report`]: `results.json`, the terminal summary, the HTML report.
+//! - [`pipeline`] wires the stages for `lab run`; [`cli`] is the command line.
+//! - [`crushsim`]: the stand-in crush solver (a second binary), not part of the pipeline.
 //!
 //! Numerics never read files and never block on I/O; everything else hands them arrays.
 
