@@ -53,6 +53,14 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Mean crush force (energy / stroke) of a test machine's force–displacement CSV.
+    Extract {
+        /// CSV with displacement [mm] and force [kN or N] columns.
+        curve: PathBuf,
+        /// Stroke window `S0:S1` in mm.
+        #[arg(long, default_value = "5:60")]
+        window: String,
+    },
     /// Rewrite the report from what is recorded.
     Report {
         study: PathBuf,
@@ -90,10 +98,18 @@ fn execute(command: Command) -> Result<i32, Error> {
     match command {
         Command::Run { study, out, executor, jobs, replay, record } => {
             let study = study::load(&study)?;
-            if replay.is_some() || record.is_some() {
-                return Err(Error::Failed("--replay and --record are not available yet in this version of lab".into()));
+            if replay.is_some() && record.is_some() {
+                return Err(Error::Input(InputError::file(
+                    &study.path,
+                    "--replay and --record together: a replay starts no solver, so there is nothing new to record",
+                )));
             }
             let out = out_dir(&study, out);
+            if let Simulation::Expression(_) = &study.simulation
+                && (replay.is_some() || record.is_some())
+            {
+                eprintln!("note: `{}` has a closed-form simulation; nothing to record or replay", study.name);
+            }
             match &study.simulation {
                 Simulation::Expression(_) => {
                     if executor == Executor::Slurm {
@@ -104,7 +120,10 @@ fn execute(command: Command) -> Result<i32, Error> {
                 Simulation::Solver(_) if executor == Executor::Slurm => {
                     Err(Error::Failed("--executor slurm is not available yet in this version of lab".into()))
                 }
-                Simulation::Solver(sim) => run_solver(&study, sim, &out, jobs.unwrap_or_else(default_jobs)),
+                Simulation::Solver(sim) => {
+                    let modes = Modes { replay: replay_dir(sim, replay), record };
+                    run_solver(&study, sim, &out, jobs.unwrap_or_else(default_jobs), &modes)
+                }
             }
         }
         Command::Check { study } => {
@@ -137,6 +156,20 @@ fn execute(command: Command) -> Result<i32, Error> {
             };
             status(&study, sim, &out_dir(&study, out))
         }
+        Command::Extract { curve, window } => {
+            use crate::extract::crush;
+            let bad = || InputError::file(&curve, format!("--window `{window}`: give S0:S1 in mm, e.g. 5:60"));
+            let (a, b) = window.split_once(':').ok_or_else(bad)?;
+            let (s0, s1) = (a.trim().parse::<f64>().map_err(|_| bad())?, b.trim().parse::<f64>().map_err(|_| bad())?);
+            let data = crush::read_test_csv(&curve, crush::CsvOptions::default())?;
+            let r = crush::crush_force(&data, crush::Window { s0, s1 })
+                .map_err(|e| InputError::file(&curve, e.to_string()))?;
+            println!(
+                "mean crush force {} kN over {s0}-{s1} mm (energy {} J, peak {} kN at {} mm)",
+                r.mean_force, r.energy, r.peak_force, r.peak_at
+            );
+            Ok(0)
+        }
         Command::Report { study, out } => {
             let study = study::load(&study)?;
             let dir = out_dir(&study, out);
@@ -167,15 +200,69 @@ fn run(study: &Study, out: &Path) -> Result<i32, Error> {
     finish(out, &results)
 }
 
-/// Plans, renders, runs what is not finished, fits the surrogates, calibrates, writes.
-fn run_solver(study: &Study, sim: &SolverSimulation, out: &Path, jobs: usize) -> Result<i32, Error> {
+/// Where runs come from besides the solver, and where they go.
+struct Modes {
+    replay: Option<PathBuf>,
+    record: Option<PathBuf>,
+}
+
+/// The replay directory: `--replay DIR`, else the study's `simulation.replay` when the solver
+/// program is not on PATH (a note says so), else none (live).
+fn replay_dir(sim: &SolverSimulation, replay: Option<PathBuf>) -> Option<PathBuf> {
+    if replay.is_some() {
+        return replay;
+    }
+    let default = sim.replay.clone()?;
+    let program = &sim.command[0];
+    if on_path(program) {
+        return None;
+    }
+    eprintln!("note: solver `{program}` is not on PATH: replaying the study's recordings in {}", default.display());
+    Some(default)
+}
+
+/// Whether `program` would be found: a path that exists, or an executable file on PATH.
+fn on_path(program: &str) -> bool {
+    use std::os::unix::fs::PermissionsExt;
+    let executable = |p: &Path| p.metadata().is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0);
+    if program.contains('/') {
+        return executable(Path::new(program));
+    }
+    std::env::var_os("PATH").is_some_and(|path| std::env::split_paths(&path).any(|dir| executable(&dir.join(program))))
+}
+
+/// Plans, renders, runs (or replays) what is not finished, fits the surrogates, calibrates, writes.
+fn run_solver(study: &Study, sim: &SolverSimulation, out: &Path, jobs: usize, modes: &Modes) -> Result<i32, Error> {
     let plan = Plan::new(study, sim);
     let prepared = sweep::prepare(study, sim, &plan)?;
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     let signals = Signals::install(&runtime)?;
     let mut store = RunStore::open(out)?;
-    let swept = sweep::run(&runtime, &mut store, sim, &prepared, jobs, &signals.canceller)?;
+    sweep::write_meshes(out, &prepared)?;
+    let swept = match &modes.replay {
+        Some(dir) => {
+            if !dir.is_dir() {
+                return Err(Error::Failed(format!("replay directory {} does not exist", dir.display())));
+            }
+            let (swept, misses) = sweep::replay_runs(study, sim, &plan, &prepared, &mut store, dir)?;
+            if !misses.is_empty() {
+                let shown: Vec<&String> = misses.iter().take(5).collect();
+                let more = if misses.len() > 5 { format!("\n... and {} more", misses.len() - 5) } else { String::new() };
+                return Err(Error::Failed(format!(
+                    "{} planned run(s) have no recording:\n{}{more}",
+                    misses.len(),
+                    shown.iter().map(|m| format!("- {m}")).collect::<Vec<_>>().join("\n")
+                )));
+            }
+            swept
+        }
+        None => sweep::run(&runtime, &mut store, sim, &prepared, jobs, &signals.canceller)?,
+    };
     signals.sweep_done();
+    if let Some(dir) = &modes.record {
+        let n = sweep::record(study, sim, &plan, &prepared, &store, dir)?;
+        eprintln!("recorded {n} run(s) into {}", dir.display());
+    }
     let failed = print_outcomes(&plan, &prepared.keys, &swept, &store);
     if signals.interrupted() {
         eprintln!("interrupted: finished runs are kept in {}; `lab run` again resumes", out.display());
@@ -190,11 +277,66 @@ fn run_solver(study: &Study, sim: &SolverSimulation, out: &Path, jobs: usize) ->
     let calibration = pipeline::calibrate(study, &problem, Some(&runs));
     let diagnosis = pipeline::diagnose(study, &surrogates);
     let mut results = Results::build(study, &surrogates, &calibration, diagnosis).with_surrogates(&surrogates);
+    if !study.splits.is_empty() {
+        results.splits = Some(study.splits.iter().map(|split| calibrate_split(study, split, &surrogates, &runs)).collect());
+    }
     let succeeded = swept.responses.iter().filter(|r| r.is_some()).count();
     let planned = plan.runs.len();
     results.runs = Some(report::results::RunsResult { planned, succeeded, failed: planned - succeeded });
     let code = finish(out, &results)?;
+    if let Some(splits) = &results.splits {
+        print!("{}", splits_table(splits));
+    }
     Ok(if failed > 0 { 1 } else { code })
+}
+
+/// Calibrates the study again with a split's training and validation designs.
+fn calibrate_split(
+    study: &Study,
+    split: &study::Split,
+    surrogates: &crate::fit::SurrogateModel,
+    runs: &crate::calibrate::bayesian::SimulationData,
+) -> report::results::SplitResult {
+    let mut s = study.clone();
+    s.training = split.training.clone();
+    s.validation = split.validation.clone();
+    let problem = pipeline::problem(&s, surrogates as &dyn Model);
+    let calibration = pipeline::calibrate(&s, &problem, Some(runs));
+    let not_diagnosed = Err(crate::calibrate::CalibrationError::Numerics("not diagnosed per split".into()));
+    let results = Results::build(&s, surrogates, &calibration, not_diagnosed);
+    report::results::SplitResult::from_results(&s, &results)
+}
+
+/// The splits as a text table: per split and method, the parameters and the errors.
+fn splits_table(splits: &[report::results::SplitResult]) -> String {
+    use std::fmt::Write;
+    let mut t = String::from("\ntrain/validate splits:\n");
+    for split in splits {
+        let _ = writeln!(t, "  train {} / validate {}", split.training.join(", "), split.validation.join(", "));
+        for (method, m) in &split.methods {
+            if let Some(e) = &m.error {
+                let _ = writeln!(t, "    {method:<14} failed: {e}");
+                continue;
+            }
+            let params: Vec<String> = m.parameters.iter().map(|(k, v)| format!("{k} = {v:.1}")).collect();
+            let truth: Vec<String> = m
+                .parameter_error
+                .iter()
+                .flatten()
+                .map(|(k, e)| format!("{k} {:+.1} % vs truth", 100.0 * e))
+                .collect();
+            let pct = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("{:.2} %", 100.0 * e));
+            let _ = writeln!(
+                t,
+                "    {method:<14} {}{}  training error {}  validation error {}",
+                params.join(", "),
+                if truth.is_empty() { String::new() } else { format!(" ({})", truth.join(", ")) },
+                pct(m.training_error),
+                pct(m.validation_error)
+            );
+        }
+    }
+    t
 }
 
 /// The outcome table on stderr, and the first failed runs; returns the number of failed runs.

@@ -97,8 +97,44 @@ fn unknown_adapter() {
 
 #[test]
 fn later_adapters_are_named_but_not_available() {
-    study_error(&with("adapter: command", "adapter: lsdyna"), 9, Some("lsdyna"), "not available yet");
     study_error(&with("adapter: command", "adapter: calculix"), 9, Some("calculix"), "not available yet");
+}
+
+#[test]
+fn lsdyna_response_keys_are_checked_where_written() {
+    // The command adapter's {file, regex} response does not suit lsdyna.
+    study_error(&with("adapter: command", "adapter: lsdyna"), 14, Some("out.txt"), "reads rcforc and nodout itself");
+    let lsdyna = with("adapter: command", "adapter: lsdyna");
+    let bad_window = with_in(
+        &lsdyna,
+        r#"response: {file: out.txt, regex: "y = (\\S+)"}"#,
+        "response: {kind: crush_force, window: [60, 5], node: 9000005}",
+    );
+    study_error(&bad_window, 14, Some("[60"), "0 <= s0 < s1");
+    let bad_kind = with_in(
+        &lsdyna,
+        r#"response: {file: out.txt, regex: "y = (\\S+)"}"#,
+        "response: {kind: peak, window: [5, 60], node: 9000005}",
+    );
+    study_error(&bad_kind, 14, Some("peak"), "unknown response kind `peak`");
+    let bad_axis = with_in(
+        &lsdyna,
+        r#"response: {file: out.txt, regex: "y = (\\S+)"}"#,
+        "response: {kind: crush_force, window: [5, 60], node: 9000005, axis: w}",
+    );
+    study_error(&bad_axis, 14, Some("w}"), "axis `w`");
+    let ok = with_in(
+        &lsdyna,
+        r#"response: {file: out.txt, regex: "y = (\\S+)"}"#,
+        "response: {kind: crush_force, window: [5, 60], node: 9000005}",
+    );
+    let bad_mesh = with_in(&ok, "  surrogate: quadratic", "  surrogate: quadratic\n  mesh: {kind: honeycomb_tube, element_size: 2, cell: d}");
+    study_error(&bad_mesh, 17, Some("d}"), "design variable `d`");
+}
+
+fn with_in(text: &str, from: &str, to: &str) -> String {
+    assert!(text.contains(from), "{from}");
+    text.replacen(from, to, 1)
 }
 
 #[test]

@@ -127,10 +127,20 @@ fn hardening_and_strain_rate_raise_the_force() {
         .with("src", 6500.0)
         .with("srp", 4.0)
         .mean_force();
+    // σ0 = σy + ETAN t/(2H), H = 0.82 t^(1/3) s^(2/3): design-dependent, not a shift of σy.
+    let rise = |c: f64, t: f64, etan: f64| {
+        let s = c / 3f64.sqrt();
+        let h = 0.82 * t.cbrt() * s.powf(2.0 / 3.0);
+        etan * t / (2.0 * h) / 185.0
+    };
     assert!(
-        (hard / base - (185.0 + 50.0) / 185.0).abs() < 0.01,
+        (hard / base - 1.0 - rise(3.0, 0.08, 500.0)).abs() < 0.01,
         "ETAN: {hard:.0} vs {base:.0}"
     );
+    let c6t5 = Case::new(6.0, 0.05, 2).with("etan", 200.0).mean_force() / Case::new(6.0, 0.05, 2).mean_force();
+    let c3t8 = Case::new(3.0, 0.08, 2).with("etan", 200.0).mean_force() / Case::new(3.0, 0.08, 2).mean_force();
+    assert!((c6t5 - 1.039).abs() < 0.005, "C6T5 with ETAN 200: x{c6t5:.4}");
+    assert!((c3t8 - 1.085).abs() < 0.005, "C3T8 with ETAN 200: x{c3t8:.4}");
     assert!(rate > 1.2 * base, "SRC/SRP: {rate:.0} vs {base:.0}");
 }
 
@@ -332,4 +342,64 @@ fn write_sample() {
     for f in ["main.k", "mesh.k"] {
         std::fs::copy(dir.path().join(f), target.join(f)).unwrap();
     }
+}
+
+/// The lsdyna adapter, through the real executor, classifies each of crushsim's failure switches.
+#[test]
+fn lsdyna_adapter_classifies_the_outcomes() {
+    use lab::execute::{Executor, LsDynaAdapter, OutcomeClass, RetryPolicy, RunSpec, RunStore};
+    use lab::extract::crush::{SimSource, Sign, Window};
+    use lab::extract::lsdyna::rcforc::Side;
+    use std::sync::Arc;
+    let adapter = LsDynaAdapter {
+        window: Window { s0: 5.0, s1: 60.0 },
+        source: SimSource {
+            interface: 1,
+            side: Side::SurfB,
+            force_axis: 2,
+            force_sign: Sign::Auto,
+            force_to_kn: 1e-3,
+            node: 9_000_005,
+            disp_axis: 2,
+            disp_sign: Sign::Auto,
+            disp_to_mm: 1.0,
+        },
+    };
+    let cases: [(&str, Option<(&'static str, f64)>, OutcomeClass); 5] = [
+        ("ok", None, OutcomeClass::Success),
+        ("error", Some(("error", 0.0)), OutcomeClass::FailureText),
+        ("exit", Some(("exit", 3.0)), OutcomeClass::NonZeroExit),
+        ("nooutput", Some(("nooutput", 0.0)), OutcomeClass::BadResponse),
+        ("garbage", Some(("garbage", 0.0)), OutcomeClass::BadResponse),
+    ];
+    let dirs: Vec<tempfile::TempDir> = cases
+        .iter()
+        .map(|(_, sw, _)| match sw {
+            Some((mode, value)) => Case::new(6.0, 0.05, 1).switch(mode, *value).write(),
+            None => Case::new(6.0, 0.05, 1).write(),
+        })
+        .collect();
+    let out = tempfile::tempdir().unwrap();
+    let store = RunStore::open(out.path()).unwrap();
+    let specs = cases
+        .iter()
+        .zip(&dirs)
+        .map(|((key, _, _), dir)| RunSpec {
+            key: key.to_string(),
+            dir: dir.path().to_path_buf(),
+            argv: vec![env!("CARGO_BIN_EXE_crushsim").to_string(), "i=main.k".into()],
+            timeout: Some(std::time::Duration::from_secs(120)),
+            outputs: lab::execute::Adapter::cleared(&adapter),
+            retry: RetryPolicy::none(),
+        })
+        .collect();
+    let executor = Executor::new(2, Arc::new(adapter), store.committer());
+    let summary = tokio::runtime::Runtime::new().unwrap().block_on(executor.run(specs));
+    for (key, _, class) in &cases {
+        let r = summary.records.iter().find(|r| r.key == *key).unwrap();
+        assert_eq!(r.outcome.class(), *class, "{key}: {}", r.outcome);
+        assert_eq!(r.response.is_some(), *class == OutcomeClass::Success, "{key}");
+    }
+    let ok = summary.records.iter().find(|r| r.key == "ok").unwrap().response.unwrap();
+    assert!(ok > 1.0 && ok < 2.0, "C6T5 single walls at 185 MPa: {ok} kN");
 }

@@ -21,8 +21,18 @@
 //! (thickness t), the ribbon third of the walls carries `1/2^(5/3)` of its doubled share, so the
 //! force drops by the factor `3 / (2 + 2^(5/3)) = 0.58`.
 //!
-//! **Flow stress.** `σ0 = (σy + σu)/2` with `σu = σy + ETAN ε_u`, `ε_u = 0.2` (a representative
-//! strain in the fold hinges): `σ0 = σy + 0.1 ETAN`. Cowper–Symonds (SRC = C, SRP = p, both > 0):
+//! **Flow stress.** Linear hardening (MAT_003's tangent modulus ETAN) raises the stress in the
+//! fold hinges from σy at first yield to `σu = σy + ETAN ε` at the hinge strain ε; the flow stress
+//! of the super-folding element is their mean, `σ0 = (σy + σu)/2 = σy + ETAN ε/2`. The hinge
+//! strain follows the fold geometry: a wall of thickness t bent over a fold of half-wavelength
+//! `H = 0.82 t^(1/3) s^(2/3)` reaches a mean surface strain of about `ε ≈ t/H` (bending radius of
+//! the order of H), so
+//!
+//! `σ0 = σy + ETAN · t / (2H)`, with t the thinnest tube wall.
+//!
+//! Because ε depends on t and s, hardening is not a shift of the yield stress: with
+//! ETAN = 200 MPa and σy = 185 MPa it raises the mean force by about 3.9 % for C6T5
+//! (ε = 0.072), 8.5 % for C3T8 (ε = 0.157). Cowper–Symonds (SRC = C, SRP = p, both > 0):
 //! `σ0 ← σ0 (1 + (ε̇/C)^(1/p))` with the mean hinge strain rate `ε̇ = 0.33 V / s` (the
 //! Abramowicz–Jones estimate for a folding wall of width s crushed at speed V).
 //!
@@ -62,6 +72,8 @@ pub struct Theory {
     pub cell_side: f64,
     pub cell_size: f64,
     pub flow_stress: f64,
+    /// Mean hinge strain `t/H` (thinnest wall over the fold half-wavelength).
+    pub hinge_strain: f64,
     /// Σ ℓ_p t_p^(5/3), mm^(8/3).
     pub wall_sum: f64,
     pub wall_area: f64,
@@ -83,11 +95,13 @@ impl Theory {
         let t_ref = m.tube.iter().map(|p| p.thickness).fold(f64::INFINITY, f64::min);
         let half_wave = 0.82 * t_ref.cbrt() * s.powf(2.0 / 3.0);
         let rel_density = wall_area / area;
+        let hinge_strain = t_ref / half_wave;
         Theory {
             area,
             cell_side: s,
             cell_size: 3f64.sqrt() * s,
-            flow_stress: m.material.sigy + 0.1 * m.material.etan,
+            flow_stress: m.material.sigy + 0.5 * m.material.etan * hinge_strain,
+            hinge_strain,
             wall_sum,
             wall_area,
             stiffness: m.material.e * wall_area / m.tube_length,

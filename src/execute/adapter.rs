@@ -28,6 +28,17 @@ pub trait Adapter: Send + Sync {
 
     /// The response, or why it could not be read (an `Outcome::BadResponse`).
     fn extract(&self, dir: &Path) -> Result<f64, Outcome>;
+
+    /// The output files (relative to the run directory) the judgement reads: what `--record`
+    /// keeps and `--replay` serves.
+    fn outputs(&self) -> Vec<PathBuf> {
+        Vec::new()
+    }
+
+    /// Output files removed before each attempt (default: [`Adapter::outputs`]).
+    fn cleared(&self) -> Vec<PathBuf> {
+        self.outputs()
+    }
 }
 
 /// The `command` adapter: the response is the first capture group of `regex` in `response_file`;
@@ -64,6 +75,18 @@ fn bad(problem: ResponseProblem, detail: String) -> Outcome {
 }
 
 impl Adapter for CommandAdapter {
+    fn outputs(&self) -> Vec<PathBuf> {
+        if self.failure_patterns.is_empty() {
+            vec![self.response_file.clone()]
+        } else {
+            self.scanned_files().to_vec()
+        }
+    }
+
+    fn cleared(&self) -> Vec<PathBuf> {
+        vec![self.response_file.clone()]
+    }
+
     fn identity(&self) -> String {
         // serde_json quotes each part, so no choice of strings can make two settings collide.
         let failures: Vec<&str> = self.failure_patterns.iter().map(Regex::as_str).collect();

@@ -54,7 +54,9 @@
 pub mod adapter;
 pub mod executor;
 pub mod lock;
+pub mod lsdyna;
 pub mod progress;
+pub mod replay;
 pub mod store;
 pub mod sweep;
 
@@ -64,6 +66,7 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 pub use adapter::{Adapter, CommandAdapter};
+pub use lsdyna::LsDynaAdapter;
 pub use executor::{CancelReason, Canceller, Event, Executor, Summary, cancel_on_signals};
 pub use lock::{Holder, LockError, OutLock};
 pub use store::RunStore;

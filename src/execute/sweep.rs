@@ -17,12 +17,20 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use tokio::sync::mpsc;
 
-use super::store::run_key;
-use super::{Adapter, CancelReason, Canceller, CommandAdapter, Executor, OutcomeClass, RunSpec, RunStore, progress};
+use super::replay::{self, InputDigest, Manifest};
+use super::store::{RUNS_DIR, run_key, write_atomic};
+use super::{
+    Adapter, CancelReason, Canceller, CommandAdapter, Executor, LsDynaAdapter, Outcome, OutcomeClass, RunRecord,
+    RunSpec, RunStore, progress,
+};
 use crate::error::{Error, InputError};
 use crate::plan::Plan;
+use crate::render::mesh::{self, TubeSpec};
 use crate::render::{self, Inputs, Renderer};
-use crate::study::{SolverSimulation, Study};
+use crate::study::{Response, SolverSimulation, Study};
+
+/// Directory (under `--out`) of the generated meshes, one file per design, named by content.
+pub const MESHES_DIR: &str = "meshes";
 
 /// The run of every planned run, rendered in memory.
 pub struct Prepared {
@@ -30,27 +38,183 @@ pub struct Prepared {
     pub keys: Vec<String>,
     /// The inputs of each distinct key.
     pub inputs: BTreeMap<String, Inputs>,
+    /// Generated meshes: path relative to `--out` → bytes (written once, shared by a design's runs).
+    pub meshes: BTreeMap<PathBuf, Vec<u8>>,
+    /// The mesh each planned run includes (path relative to `--out`), in plan order.
+    pub run_mesh: Vec<Option<PathBuf>>,
 }
 
-/// The study's adapter (the `command` adapter: response file + regex).
-pub fn adapter(sim: &SolverSimulation) -> Result<CommandAdapter, Error> {
-    CommandAdapter::new(&sim.response_file, &sim.response_regex, &[])
-        .map_err(|e| Error::Failed(format!("response regex: {e}")))
+/// The study's adapter: `command` (response file + regex) or `lsdyna` (crush force).
+pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
+    Ok(match &sim.response {
+        Response::Regex { file, regex } => Arc::new(
+            CommandAdapter::new(file, regex, &[]).map_err(|e| Error::Failed(format!("response regex: {e}")))?,
+        ),
+        Response::CrushForce { window, source } => Arc::new(LsDynaAdapter { window: *window, source: source.clone() }),
+    })
 }
 
 /// Renders every planned run and computes its key. Template errors name the template and line.
+///
+/// With `simulation.mesh`, each design's mesh is generated once, named by the hash of its bytes
+/// (`meshes/<design>-<hash>.k` under `--out`) and given to the templates as `mesh_file`, the path
+/// from the run directory (`../../meshes/...`): the deck's text, hence the run key, changes
+/// exactly when the mesh's bytes do.
 pub fn prepare(study: &Study, sim: &SolverSimulation, plan: &Plan) -> Result<Prepared, Error> {
     let renderer = Renderer::new(&sim.templates)?;
     let identity = adapter(sim)?.identity();
-    let mut prepared = Prepared { keys: Vec::with_capacity(plan.runs.len()), inputs: BTreeMap::new() };
+    let mut prepared = Prepared {
+        keys: Vec::with_capacity(plan.runs.len()),
+        inputs: BTreeMap::new(),
+        meshes: BTreeMap::new(),
+        run_mesh: Vec::with_capacity(plan.runs.len()),
+    };
+    let mut by_design: BTreeMap<String, PathBuf> = BTreeMap::new();
     for run in &plan.runs {
-        let context = render::context(study, &run.design, &run.design_values, &run.theta);
+        let mut context = render::context(study, &run.design, &run.design_values, &run.theta);
+        let mesh_path = match &sim.mesh {
+            None => None,
+            Some(spec) => {
+                let path = match by_design.get(&run.design) {
+                    Some(p) => p.clone(),
+                    None => {
+                        let tube = TubeSpec {
+                            cell: run.design_values[spec.cell_variable],
+                            diameter: spec.diameter,
+                            length: spec.length,
+                            element: spec.element_size,
+                        };
+                        let (text, _) = mesh::include(&tube)
+                            .map_err(|e| Error::Failed(format!("design `{}`: {e}", run.design)))?;
+                        let hash = blake3::hash(text.as_bytes()).to_hex();
+                        let path = PathBuf::from(MESHES_DIR).join(format!("{}-{}.k", run.design, &hash[..16]));
+                        prepared.meshes.insert(path.clone(), text.into_bytes());
+                        by_design.insert(run.design.clone(), path.clone());
+                        path
+                    }
+                };
+                context.insert("mesh_file", &format!("../../{}", path.display()));
+                Some(path)
+            }
+        };
+        prepared.run_mesh.push(mesh_path);
         let inputs = render::inputs(&renderer, &sim.files, &context).map_err(|e| with_run(e, &run.design))?;
         let key = run_key(&inputs, &sim.command, &identity);
         prepared.keys.push(key.clone());
         prepared.inputs.entry(key).or_insert(inputs);
     }
     Ok(prepared)
+}
+
+/// Writes the generated meshes under `out` (skipping those already there: they are named by content).
+pub fn write_meshes(out: &std::path::Path, prepared: &Prepared) -> Result<(), Error> {
+    debug_assert!(RUNS_DIR != MESHES_DIR);
+    for (rel, bytes) in &prepared.meshes {
+        let path = out.join(rel);
+        if path.is_file() {
+            continue;
+        }
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| Error::Failed(format!("{}: {e}", parent.display())))?;
+        }
+        write_atomic(&path, bytes).map_err(|e| Error::Failed(format!("{}: {e}", path.display())))?;
+    }
+    Ok(())
+}
+
+/// The manifest of planned run `i`: what a recording of it holds and what a miss compares.
+pub fn manifest(study: &Study, sim: &SolverSimulation, plan: &Plan, prepared: &Prepared, i: usize) -> Result<Manifest, Error> {
+    let run = &plan.runs[i];
+    let key = &prepared.keys[i];
+    let adapter = adapter(sim)?;
+    let inputs = prepared.inputs[key]
+        .iter()
+        .map(|(path, bytes)| (path.display().to_string(), InputDigest::of(bytes)))
+        .collect();
+    let shared = prepared.run_mesh[i]
+        .iter()
+        .map(|p| {
+            let name = p.file_name().unwrap_or_default().to_string_lossy().into_owned();
+            (name, blake3::hash(&prepared.meshes[p]).to_hex().to_string())
+        })
+        .collect();
+    Ok(Manifest {
+        key: key.clone(),
+        design: run.design.clone(),
+        role: run.role.key().to_string(),
+        parameters: study.parameters.iter().map(|p| p.name.clone()).zip(run.theta.iter().copied()).collect(),
+        command: sim.command.clone(),
+        adapter: adapter.identity(),
+        inputs,
+        shared,
+        outputs: adapter.outputs().iter().map(|p| p.display().to_string()).collect(),
+    })
+}
+
+/// Copies every finished planned run that `dir` does not hold yet into `dir`; returns how many.
+pub fn record(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    prepared: &Prepared,
+    store: &RunStore,
+    dir: &std::path::Path,
+) -> Result<usize, Error> {
+    let mut done = BTreeSet::new();
+    for (i, key) in prepared.keys.iter().enumerate() {
+        if !store.is_finished(key) || replay::find(dir, key).is_some() || !done.insert(key.clone()) {
+            continue;
+        }
+        let m = manifest(study, sim, plan, prepared, i)?;
+        replay::record(dir, &store.run_dir(key), &m)
+            .map_err(|e| Error::Failed(format!("recording run {key} into {}: {e}", dir.display())))?;
+    }
+    Ok(done.len())
+}
+
+/// Serves every unfinished planned run from its recording in `dir` (no solver is started): the
+/// recording is judged by the adapter as a live run's outputs would be, and the record committed.
+/// Runs without a recording are returned as explanations (see [`replay::explain_miss`]).
+pub fn replay_runs(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    prepared: &Prepared,
+    store: &mut RunStore,
+    dir: &std::path::Path,
+) -> Result<(SweepResult, Vec<String>), Error> {
+    let adapter = adapter(sim)?;
+    let reused = prepared.keys.iter().filter(|k| store.is_finished(k)).count();
+    let mut misses = Vec::new();
+    let mut recorded: Option<Vec<Manifest>> = None;
+    let mut seen = BTreeSet::new();
+    for (i, key) in prepared.keys.iter().enumerate() {
+        if store.is_finished(key) || !seen.insert(key.clone()) {
+            continue;
+        }
+        let Some(at) = replay::find(dir, key) else {
+            let all = recorded.get_or_insert_with(|| replay::manifests(dir));
+            misses.push(replay::explain_miss(dir, &manifest(study, sim, plan, prepared, i)?, all));
+            continue;
+        };
+        let started = now_ms();
+        let (outcome, response) = match adapter.find_failure(&at) {
+            Some(failure) => (failure, None),
+            None => match adapter.extract(&at) {
+                Ok(v) => (Outcome::Success, Some(v)),
+                Err(o) => (o, None),
+            },
+        };
+        let record = RunRecord { key: key.clone(), outcome, attempts: 1, started_ms: started, ended_ms: now_ms(), response };
+        store.commit(record)?;
+    }
+    let responses = prepared.keys.iter().map(|k| store.record(k).and_then(|r| r.response)).collect();
+    let classes = prepared.keys.iter().map(|k| store.record(k).map(|r| r.outcome.class())).collect();
+    Ok((SweepResult { responses, classes, reused, errors: Vec::new() }, misses))
+}
+
+fn now_ms() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64)
 }
 
 fn with_run(mut e: InputError, design: &str) -> InputError {
@@ -133,10 +297,10 @@ pub fn run(
             continue;
         }
         let dir = store.prepare(key, &prepared.inputs[key])?;
-        specs.push(spec(sim, key, dir));
+        specs.push(spec(sim, key, dir)?);
     }
     let (tx, rx) = mpsc::unbounded_channel();
-    let mut executor = Executor::new(jobs, Arc::new(adapter(sim)?), store.committer());
+    let mut executor = Executor::new(jobs, adapter(sim)?, store.committer());
     executor.canceller = canceller.clone();
     executor.events = Some(tx);
     let bar = progress::bar(specs.len() as u64);
@@ -155,13 +319,13 @@ pub fn run(
     Ok(SweepResult { responses, classes, reused, errors: summary.errors })
 }
 
-fn spec(sim: &SolverSimulation, key: &str, dir: PathBuf) -> RunSpec {
-    RunSpec {
+fn spec(sim: &SolverSimulation, key: &str, dir: PathBuf) -> Result<RunSpec, Error> {
+    Ok(RunSpec {
         key: key.to_string(),
         dir,
         argv: sim.command.clone(),
         timeout: sim.timeout,
-        outputs: vec![sim.response_file.clone()],
+        outputs: adapter(sim)?.cleared(),
         retry: sim.retry.clone(),
-    }
+    })
 }

@@ -58,9 +58,21 @@ impl Plan {
                 .map(|i| (0..p).map(|k| bounds.lower[k] + unit[(i, k)] * bounds.width()[k]).collect())
                 .collect()
         };
-        let samples = scale(unit_samples(&sim.sampling, p));
-        let checks =
-            scale(latin_hypercube(sim.sampling.check_runs, p, sim.sampling.seed.wrapping_add(CHECK_SEED_OFFSET)));
+        // A solver with fixed-width number fields reads a rounded value: plan that value, so the
+        // surrogates are fitted at exactly what the solver saw.
+        let fit = |v: f64| match sim.parameter_width {
+            Some(w) => crate::render::lsdyna::field::fit_real(v, w).unwrap_or(v),
+            None => v,
+        };
+        let rounded = |rows: Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+            rows.into_iter().map(|r| r.into_iter().map(fit).collect()).collect()
+        };
+        let samples = rounded(scale(unit_samples(&sim.sampling, p)));
+        let checks = rounded(scale(latin_hypercube(
+            sim.sampling.check_runs,
+            p,
+            sim.sampling.seed.wrapping_add(CHECK_SEED_OFFSET),
+        )));
         let mut runs = Vec::new();
         for name in study.training.iter().chain(&study.validation) {
             let Some(test) = study.experiments.get(name) else { continue }; // validated: always there

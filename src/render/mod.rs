@@ -5,7 +5,8 @@
 //! file). Rendering happens in memory so that the run key ([`crate::execute::store::run_key`]) can
 //! be computed before anything is written; [`crate::execute::RunStore::prepare`] writes the files.
 //!
-//! Templates are Tera 2 with autoescaping off (solver inputs are not HTML). Every error, at parse
+//! Templates are Tera 2 with autoescaping off (solver inputs are not HTML) and the fixed-field
+//! filters of [`lsdyna::filters`] (`dyna_real`, `dyna_int`, `dyna_text`) registered. Every error, at parse
 //! or at render time, names the template file and the line.
 //!
 //! ```
@@ -47,6 +48,7 @@ impl Renderer {
     pub fn new(templates: &[Template]) -> Result<Self, InputError> {
         let mut tera = Tera::new();
         tera.autoescape_on(Vec::<&str>::new());
+        lsdyna::register(&mut tera); // dyna_real / dyna_int / dyna_text for keyword decks
         for (i, t) in templates.iter().enumerate() {
             tera.add_raw_template(&name(i), &t.source).map_err(|e| located(t, &e))?;
         }

@@ -30,6 +30,61 @@ pub struct Results {
     /// Solver studies: planned runs and how many have a successful result.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub runs: Option<RunsResult>,
+    /// The study's `truth` (known parameter values of synthetic tests), when it states one.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub truth: Option<IndexMap<String, f64>>,
+    /// The study's extra train/validate splits, each calibrated from the same simulations.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub splits: Option<Vec<SplitResult>>,
+}
+
+/// One train/validate split: each method's estimate and errors.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SplitResult {
+    pub training: Vec<String>,
+    pub validation: Vec<String>,
+    pub methods: IndexMap<String, SplitMethod>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SplitMethod {
+    pub parameters: IndexMap<String, f64>,
+    /// (estimate − truth) / truth per parameter, when the study states a truth.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub parameter_error: Option<IndexMap<String, f64>>,
+    pub training_error: Option<f64>,
+    pub validation_error: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub error: Option<String>,
+}
+
+impl SplitResult {
+    /// The split's results from a full `Results` built for a study whose training and validation
+    /// are the split's.
+    pub fn from_results(study: &Study, results: &Results) -> SplitResult {
+        let methods = results
+            .calibration
+            .iter()
+            .map(|(name, m)| {
+                let parameter_error = (!study.truth.is_empty() && m.error.is_none()).then(|| {
+                    study
+                        .truth
+                        .iter()
+                        .filter_map(|(p, t)| m.parameters.get(p).map(|v| (p.clone(), (v - t) / t)))
+                        .collect()
+                });
+                let entry = SplitMethod {
+                    parameters: m.parameters.clone(),
+                    parameter_error,
+                    training_error: m.training_error,
+                    validation_error: m.validation_error,
+                    error: m.error.clone(),
+                };
+                (name.clone(), entry)
+            })
+            .collect();
+        SplitResult { training: study.training.clone(), validation: study.validation.clone(), methods }
+    }
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -139,6 +194,8 @@ impl Results {
             diagnosis: diagnosis.ok(),
             surrogates: None,
             runs: None,
+            truth: (!study.truth.is_empty()).then(|| study.truth.iter().cloned().collect()),
+            splits: None,
         }
     }
 

@@ -184,6 +184,18 @@ impl Checker<'_> {
         }
 
         let calibration = self.calibration(file.calibration.as_ref(), &file.training, training.len())?;
+        let splits = self.splits(file.splits.as_ref(), &experiments, &training, &validation, &calibration)?;
+        let mut truth = Vec::new();
+        for (name, value) in &file.truth {
+            if !parameters.iter().any(|p| p.name == name.value) {
+                let known: Vec<&str> = parameters.iter().map(|p| p.name.as_str()).collect();
+                return Err(self.at(
+                    name,
+                    format!("`truth` names `{}`, which is not a parameter; parameters: {}", name.value, known.join(", ")),
+                ));
+            }
+            truth.push((name.value.clone(), self.finite(value, &format!("truth `{}`", name.value))?));
+        }
 
         let mut study = Study {
             name,
@@ -197,6 +209,8 @@ impl Checker<'_> {
             validation,
             calibration,
             diagnosis: DiagnosisSettings::default(),
+            splits,
+            truth,
         };
         debug_assert_eq!(study.symbols(), symbols);
         study.diagnosis = self.diagnosis(file.diagnosis.as_ref(), &study.term_symbols())?;
@@ -286,7 +300,7 @@ impl Checker<'_> {
                     "`simulation` has both `expression` and `solver`: give exactly one",
                 ));
             }
-            return self.solver(node, solver, n_parameters).map(|s| Simulation::Solver(Box::new(s)));
+            return self.solver(node, solver, &symbols.names()[..n_design], n_parameters).map(|s| Simulation::Solver(Box::new(s)));
         }
         self.no_solver_keys(sim)?;
         let Some(text) = &sim.expression else {
@@ -346,6 +360,45 @@ impl Checker<'_> {
         }
         let names: Vec<String> = design.iter().map(|d| d.name.clone()).collect();
         experiments::read(&csv, &response.value, &names)
+    }
+
+    /// `splits`: each a training and a validation list of tested designs, none in both; with a
+    /// solver, only designs the study plans runs for (its training and validation designs).
+    fn splits(
+        &self,
+        node: Option<&Spanned<Vec<super::schema::SplitFile>>>,
+        experiments: &Experiments,
+        training: &[String],
+        validation: &[String],
+        calibration: &CalibrationSettings,
+    ) -> Result<Vec<super::Split>, InputError> {
+        let Some(node) = node else { return Ok(Vec::new()) };
+        let planned: Vec<&String> = training.iter().chain(validation).collect();
+        let mut out = Vec::new();
+        for split in &node.value {
+            let t = self.designs(&split.training.value, "split training", experiments)?;
+            let v = self.designs(&split.validation, "split validation", experiments)?;
+            for name in split.training.value.iter().chain(&split.validation) {
+                if !planned.contains(&&name.value) {
+                    return Err(self.at(
+                        name,
+                        format!(
+                            "split design `{}` is neither in `training` nor in `validation`, so nothing is planned \
+                             for it; list it there first",
+                            name.value
+                        ),
+                    ));
+                }
+                if t.contains(&name.value) && v.contains(&name.value) {
+                    return Err(self.at(name, format!("design `{}` is in both halves of a split", name.value)));
+                }
+            }
+            if calibration.methods.contains(&Method::Sensitivity) && t.len() < 2 {
+                return Err(self.at(&split.training, "the sensitivity method needs at least 2 training designs per split"));
+            }
+            out.push(super::Split { training: t, validation: v });
+        }
+        Ok(out)
     }
 
     /// Training or validation design names: each in the experiments, each listed once.

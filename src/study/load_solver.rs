@@ -5,15 +5,19 @@
 use std::path::{Component, Path, PathBuf};
 use std::time::Duration;
 
-use super::super::schema::{RetriesFile, SamplingFile, SimulationFile, SolverFile};
-use super::super::solver::{CopiedFile, Sampling, SamplingMethod, SolverSimulation, SurrogateKind, Template};
+use super::super::schema::{MeshFile, ResponseFile, RetriesFile, SamplingFile, SimulationFile, SolverFile};
+use super::super::solver::{
+    CopiedFile, MeshSpec, Response, Sampling, SamplingMethod, SolverSimulation, SurrogateKind, Template,
+};
+use crate::extract::crush::{SimSource, Sign, Window};
+use crate::extract::lsdyna::rcforc::Side;
 use super::super::yaml::Spanned;
 use super::Checker;
 use crate::error::InputError;
 use crate::execute::{Backoff, CommandAdapter, OutcomeClass, RetryPolicy};
 
 /// Adapters named by the contract whose implementation is not in this version.
-const LATER_ADAPTERS: [&str; 2] = ["lsdyna", "calculix"];
+const LATER_ADAPTERS: [&str; 1] = ["calculix"];
 
 /// Outcome classes a retry policy may name, by their study-file names.
 const RETRY_CLASSES: [(&str, OutcomeClass); 5] = [
@@ -49,6 +53,14 @@ impl Checker<'_> {
             let (l, c) = self.key_position("surrogate", n);
             return Err(at("surrogate", l, c));
         }
+        if let Some(n) = &sim.mesh {
+            let (l, c) = self.key_position("mesh", n);
+            return Err(at("mesh", l, c));
+        }
+        if let Some(n) = &sim.replay {
+            let (l, c) = self.key_position("replay", n);
+            return Err(at("replay", l, c));
+        }
         Ok(())
     }
 
@@ -56,27 +68,47 @@ impl Checker<'_> {
         &self,
         node: &Spanned<SimulationFile>,
         solver: &Spanned<SolverFile>,
+        design_names: &[String],
         n_parameters: usize,
     ) -> Result<SolverSimulation, InputError> {
         let sim = &node.value;
         let spec = &solver.value;
         let adapter = self.adapter(&spec.adapter)?;
-        let command = self.command(&spec.command)?;
+        let lsdyna = adapter == "lsdyna";
         let mut outputs: Vec<PathBuf> = Vec::new();
         let templates = spec.templates.iter().map(|t| self.template(t, &mut outputs)).collect::<Result<Vec<_>, _>>()?;
         let files = spec.files.iter().map(|f| self.copied(f, &mut outputs)).collect::<Result<Vec<_>, _>>()?;
+        let command = match &spec.command {
+            Some(c) => self.command(c)?,
+            None if lsdyna => {
+                let Some(main) = templates.first() else {
+                    return Err(self.at_key(
+                        "solver",
+                        solver,
+                        "an `lsdyna` solver needs `templates: [main.k.tera, ...]` (the first is the main deck)",
+                    ));
+                };
+                vec!["ls-dyna".to_string(), format!("i={}", main.output.display()), "ncpu=1".to_string()]
+            }
+            None => {
+                return Err(self.at_key(
+                    "solver",
+                    solver,
+                    "a `command` solver needs `command: [program, args...]`",
+                ));
+            }
+        };
         let timeout = spec.timeout.as_ref().map(|t| self.seconds(t, "solver.timeout", false)).transpose()?;
         let retry = spec.retries.as_ref().map(|r| self.retries(r)).transpose()?.unwrap_or_default();
         let Some(response) = &sim.response else {
-            return Err(self.at_key(
-                "solver",
-                solver,
-                "a solver simulation needs `simulation.response: {file, regex}`",
-            ));
+            let want = if lsdyna {
+                "an `lsdyna` solver needs `simulation.response: {kind: crush_force, window: [5, 60], node: ...}`"
+            } else {
+                "a solver simulation needs `simulation.response: {file, regex}`"
+            };
+            return Err(self.at_key("solver", solver, want));
         };
-        let response_file = self.relative_path(&response.value.file, "response.file")?;
-        CommandAdapter::new(&response_file, &response.value.regex.value, &[])
-            .map_err(|e| self.at(&response.value.regex, format!("response regex: {e}")))?;
+        let response = if lsdyna { self.crush_response(response)? } else { self.regex_response(response)? };
         let surrogate = match &sim.surrogate {
             None => SurrogateKind::Linear,
             Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
@@ -91,6 +123,14 @@ impl Checker<'_> {
             ));
         };
         let sampling = self.sampling(sampling, surrogate, n_parameters)?;
+        let mesh = sim.mesh.as_ref().map(|m| self.mesh(m, design_names)).transpose()?;
+        let replay = sim.replay.as_ref().map(|r| {
+            if r.value.trim().is_empty() {
+                return Err(self.at(r, "`simulation.replay` is empty: give a directory relative to the study file"));
+            }
+            Ok(self.path.parent().unwrap_or(Path::new("")).join(&r.value))
+        });
+        let replay = replay.transpose()?;
         Ok(SolverSimulation {
             adapter,
             templates,
@@ -98,16 +138,128 @@ impl Checker<'_> {
             command,
             timeout,
             retry,
-            response_file,
-            response_regex: response.value.regex.value.clone(),
+            response,
             sampling,
             surrogate,
+            mesh,
+            replay,
+            parameter_width: lsdyna.then_some(10),
         })
+    }
+
+    fn regex_response(&self, node: &Spanned<ResponseFile>) -> Result<Response, InputError> {
+        let r = &node.value;
+        if let Some(kind) = &r.kind {
+            return Err(self.at(kind, "`response.kind` goes with `adapter: lsdyna`; the command adapter reads {file, regex}"));
+        }
+        let (Some(file), Some(regex)) = (&r.file, &r.regex) else {
+            return Err(self.at_key("response", node, "the command adapter needs `simulation.response: {file, regex}`"));
+        };
+        let response_file = self.relative_path(file, "response.file")?;
+        CommandAdapter::new(&response_file, &regex.value, &[])
+            .map_err(|e| self.at(regex, format!("response regex: {e}")))?;
+        Ok(Response::Regex { file: response_file, regex: regex.value.clone() })
+    }
+
+    fn crush_response(&self, node: &Spanned<ResponseFile>) -> Result<Response, InputError> {
+        let r = &node.value;
+        if let Some(f) = r.file.as_ref().or(r.regex.as_ref()) {
+            return Err(self.at(
+                f,
+                "the lsdyna adapter reads rcforc and nodout itself: give `kind: crush_force`, `window`, `node`, not \
+                 file/regex",
+            ));
+        }
+        match &r.kind {
+            Some(k) if k.value == "crush_force" => {}
+            Some(k) => return Err(self.at(k, format!("unknown response kind `{}`: the lsdyna adapter has crush_force", k.value))),
+            None => return Err(self.at_key("response", node, "the lsdyna adapter needs `response.kind: crush_force`")),
+        }
+        let Some(window) = &r.window else {
+            return Err(self.at_key("response", node, "`response.window: [s0, s1]` (stroke window, mm) is missing"));
+        };
+        let w: Vec<f64> = window.value.iter().map(|v| v.value).collect();
+        if w.len() != 2 || !w.iter().all(|v| v.is_finite()) || w[0] < 0.0 || w[1] <= w[0] {
+            return Err(self.at(window, "`response.window` must be [s0, s1] in mm with 0 <= s0 < s1"));
+        }
+        let Some(node_id) = &r.node else {
+            return Err(self.at_key("response", node, "`response.node` (the striker's nodout node id) is missing"));
+        };
+        let axis = |n: &Option<Spanned<String>>, default: usize| -> Result<usize, InputError> {
+            match n {
+                None => Ok(default),
+                Some(a) => match a.value.to_ascii_lowercase().as_str() {
+                    "x" => Ok(0),
+                    "y" => Ok(1),
+                    "z" => Ok(2),
+                    other => Err(self.at(a, format!("axis `{other}`: choose x, y or z"))),
+                },
+            }
+        };
+        let force_axis = axis(&r.axis, 2)?;
+        let disp_axis = axis(&r.node_axis, force_axis)?;
+        let side = match &r.side {
+            None => Side::SurfB,
+            Some(s) => match s.value.to_ascii_lowercase().as_str() {
+                "master" | "surfb" => Side::SurfB,
+                "slave" | "surfa" => Side::SurfA,
+                other => return Err(self.at(s, format!("side `{other}`: choose master (surfb) or slave (surfa)"))),
+            },
+        };
+        let factor = |n: &Option<Spanned<f64>>, key: &str| -> Result<f64, InputError> {
+            match n {
+                None => Ok(1.0),
+                Some(v) if v.value.is_finite() && v.value > 0.0 => Ok(v.value),
+                Some(v) => Err(self.at(v, format!("`response.{key}` must be a positive number"))),
+            }
+        };
+        let source = SimSource {
+            interface: r.interface.as_ref().map_or(1, |i| i.value),
+            side,
+            force_axis,
+            force_sign: Sign::Auto,
+            force_to_kn: factor(&r.force_to_kn, "force_to_kn")?,
+            node: node_id.value,
+            disp_axis,
+            disp_sign: Sign::Auto,
+            disp_to_mm: factor(&r.disp_to_mm, "disp_to_mm")?,
+        };
+        Ok(Response::CrushForce { window: Window { s0: w[0], s1: w[1] }, source })
+    }
+
+    fn mesh(&self, node: &Spanned<MeshFile>, design_names: &[String]) -> Result<MeshSpec, InputError> {
+        let m = &node.value;
+        if m.kind.value != "honeycomb_tube" {
+            return Err(self.at(&m.kind, format!("unknown mesh kind `{}`: choose honeycomb_tube", m.kind.value)));
+        }
+        let positive = |v: &Spanned<f64>, key: &str| -> Result<f64, InputError> {
+            if v.value.is_finite() && v.value > 0.0 {
+                Ok(v.value)
+            } else {
+                Err(self.at(v, format!("`mesh.{key}` must be a positive length in mm")))
+            }
+        };
+        let element_size = positive(&m.element_size, "element_size")?;
+        let cell_name = m.cell.as_ref().map_or("c", |c| c.value.as_str());
+        let Some(cell_variable) = design_names.iter().position(|n| n == cell_name) else {
+            let msg = format!(
+                "the mesh's cell size comes from design variable `{cell_name}`, which the study does not have \
+                 (design variables: {}); set `mesh.cell`",
+                design_names.join(", ")
+            );
+            return Err(match &m.cell {
+                Some(c) => self.at(c, msg),
+                None => self.at_key("mesh", node, msg),
+            });
+        };
+        let diameter = m.diameter.as_ref().map(|v| positive(v, "diameter")).transpose()?.unwrap_or(57.35);
+        let length = m.length.as_ref().map(|v| positive(v, "length")).transpose()?.unwrap_or(150.0);
+        Ok(MeshSpec { cell_variable, element_size, diameter, length })
     }
 
     fn adapter(&self, node: &Spanned<String>) -> Result<String, InputError> {
         match node.value.as_str() {
-            "command" => Ok(node.value.clone()),
+            "command" | "lsdyna" => Ok(node.value.clone()),
             name if LATER_ADAPTERS.contains(&name) => Err(self.at(
                 node,
                 format!("adapter `{name}` is not available yet in this version of lab; use `adapter: command`"),

@@ -19,7 +19,7 @@ use std::path::PathBuf;
 pub use experiments::{Experiments, TestDesign};
 pub use expr::{Expression, Symbols};
 pub use load::load;
-pub use solver::{CopiedFile, SamplingMethod, SolverSimulation, SurrogateKind, Template};
+pub use solver::{CopiedFile, MeshSpec, Response, SamplingMethod, SolverSimulation, SurrogateKind, Template};
 
 use crate::calibrate::Bounds;
 use crate::error::InputError;
@@ -43,6 +43,17 @@ pub struct Study {
     pub validation: Vec<String>,
     pub calibration: CalibrationSettings,
     pub diagnosis: DiagnosisSettings,
+    /// Extra train/validate splits, calibrated from the same simulations (`splits`).
+    pub splits: Vec<Split>,
+    /// Known parameter values (`truth`), by parameter name, in parameter order.
+    pub truth: Vec<(String, f64)>,
+}
+
+/// A train/validate split of the tested designs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Split {
+    pub training: Vec<String>,
+    pub validation: Vec<String>,
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -26,6 +26,20 @@ pub struct StudyFile {
     pub validation: Vec<Name>,
     pub calibration: Option<CalibrationFile>,
     pub diagnosis: Option<DiagnosisFile>,
+    /// Extra train/validate splits calibrated from the same runs (reported under `splits`).
+    pub splits: Option<Spanned<Vec<SplitFile>>>,
+    /// Known parameter values (synthetic tests): each method's error against them is reported.
+    #[serde(default)]
+    pub truth: IndexMap<Name, Spanned<f64>>,
+}
+
+/// One entry of `splits`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SplitFile {
+    pub training: Spanned<Vec<Name>>,
+    #[serde(default)]
+    pub validation: Vec<Name>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -54,6 +68,22 @@ pub struct SimulationFile {
     pub response: Option<Spanned<ResponseFile>>,
     pub sampling: Option<Spanned<SamplingFile>>,
     pub surrogate: Option<Spanned<String>>,
+    /// A generated mesh, once per design (`{kind: honeycomb_tube, element_size: 2.0}`).
+    pub mesh: Option<Spanned<MeshFile>>,
+    /// Default replay directory (relative to the study file), used when the solver is not on PATH.
+    pub replay: Option<Spanned<String>>,
+}
+
+/// `simulation.mesh`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshFile {
+    pub kind: Spanned<String>,
+    pub element_size: Spanned<f64>,
+    /// The design variable holding the cell size across flats (default `c`).
+    pub cell: Option<Spanned<String>>,
+    pub diameter: Option<Spanned<f64>>,
+    pub length: Option<Spanned<f64>>,
 }
 
 /// `simulation.solver`: how one run is made.
@@ -66,7 +96,8 @@ pub struct SolverFile {
     /// Files copied verbatim into every run directory (part of the run key).
     #[serde(default)]
     pub files: Vec<Spanned<String>>,
-    pub command: Spanned<Vec<Spanned<String>>>,
+    /// Required for `command`; `lsdyna` defaults to `[ls-dyna, i=<first template>, ncpu=1]`.
+    pub command: Option<Spanned<Vec<Spanned<String>>>>,
     pub timeout: Option<Spanned<f64>>,
     pub retries: Option<Spanned<RetriesFile>>,
 }
@@ -88,8 +119,27 @@ pub struct RetriesFile {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ResponseFile {
-    pub file: Spanned<String>,
-    pub regex: Spanned<String>,
+    /// `command` adapter: the file and the regex whose first group is the response.
+    pub file: Option<Spanned<String>>,
+    pub regex: Option<Spanned<String>>,
+    /// `lsdyna` adapter: `crush_force` (the only kind so far).
+    pub kind: Option<Spanned<String>>,
+    /// Stroke window `[s0, s1]`, mm.
+    pub window: Option<Spanned<Vec<Spanned<f64>>>>,
+    /// rcforc interface id (default 1).
+    pub interface: Option<Spanned<u64>>,
+    /// `master` / `surfb` (default) or `slave` / `surfa`.
+    pub side: Option<Spanned<String>>,
+    /// Force component: x, y or z (default z).
+    pub axis: Option<Spanned<String>>,
+    /// nodout node whose displacement is the stroke (the striker).
+    pub node: Option<Spanned<u64>>,
+    /// Displacement component (default: `axis`).
+    pub node_axis: Option<Spanned<String>>,
+    /// Multiplies the solver's force into kN (default 1; 0.001 for N).
+    pub force_to_kn: Option<Spanned<f64>>,
+    /// Multiplies the solver's length into mm (default 1).
+    pub disp_to_mm: Option<Spanned<f64>>,
 }
 
 /// `simulation.sampling`.

@@ -9,7 +9,7 @@ use crate::execute::RetryPolicy;
 /// `simulation.solver` plus the keys that go with it.
 #[derive(Debug, Clone)]
 pub struct SolverSimulation {
-    /// Always `command` for now (`lsdyna` and `calculix` are refused until their adapters land).
+    /// `command` or `lsdyna` (`calculix` is refused until its adapter lands).
     pub adapter: String,
     pub templates: Vec<Template>,
     /// Files copied verbatim into every run directory.
@@ -18,12 +18,37 @@ pub struct SolverSimulation {
     pub command: Vec<String>,
     pub timeout: Option<Duration>,
     pub retry: RetryPolicy,
-    /// The file (relative to the run directory) holding the response.
-    pub response_file: PathBuf,
-    /// Its first capture group is the response; compiles and has a capture group.
-    pub response_regex: String,
+    /// How the response is read from a finished run.
+    pub response: Response,
     pub sampling: Sampling,
     pub surrogate: SurrogateKind,
+    /// A mesh generated once per design and included by the deck (`mesh_file` in the context).
+    pub mesh: Option<MeshSpec>,
+    /// Default replay directory (absolute or relative to the current directory), used when the
+    /// solver program is not on PATH and no `--replay` is given.
+    pub replay: Option<PathBuf>,
+    /// Width of the solver's fixed number fields: sampled parameters are rounded to fit them
+    /// (10 for `lsdyna`), so the surrogates see exactly the values the solver read.
+    pub parameter_width: Option<usize>,
+}
+
+/// `simulation.response`.
+#[derive(Debug, Clone)]
+pub enum Response {
+    /// `command`: the first capture group of `regex` in `file` (relative to the run directory).
+    Regex { file: PathBuf, regex: String },
+    /// `lsdyna`: mean crush force (kN) over a stroke window, from rcforc and nodout.
+    CrushForce { window: crate::extract::crush::Window, source: crate::extract::crush::SimSource },
+}
+
+/// `simulation.mesh: {kind: honeycomb_tube, ...}`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshSpec {
+    /// Index of the design variable holding the cell size.
+    pub cell_variable: usize,
+    pub element_size: f64,
+    pub diameter: f64,
+    pub length: f64,
 }
 
 /// A Tera template: where it was read from, where it is rendered to, and its text (already parsed

@@ -74,6 +74,10 @@ pub fn parse(file: &Path, text: &str) -> Result<Rcforc, InputError> {
         if line.trim().is_empty() {
             continue;
         }
+        // The letter-spaced heading ` r e s u l t a n t   i n t e r f a c e   f o r c e s`.
+        if super::text::squash(line).eq_ignore_ascii_case("resultantinterfaceforces") {
+            continue;
+        }
         let t = tokens(line);
         let first = t[0].text();
         if first.eq_ignore_ascii_case("interface") {

@@ -1,0 +1,114 @@
+//! Generates the honeycomb study's "measured" tests from a documented truth, with the stand-in
+//! solver `crushsim` (see fixtures/README.md):
+//!
+//! - truth: the deck template `templates/honeycomb/main.k.tera` with sigma_y = 185 MPa and ONE
+//!   effect the study's baseline lacks: linear strain hardening ETAN = 200 MPa (design-dependent
+//!   through the fold geometry in crushsim's physics); everything else as the study's runs
+//!   (mesh element size, output interval, termination time);
+//! - 3 specimens per design (C6T5, C3T7, C3T8): specimen scatter, the whole force curve times
+//!   (1 + 0.02 z), plus measurement noise of 0.5 % of the specimen's mean force per sample
+//!   (z standard normal; ChaCha8 seeded with SEED);
+//! - each specimen a test-machine CSV `displacement [mm],force [kN]`; the experiments CSV
+//!   (design, c, t, force) holds each specimen's mean crush force over 5–60 mm as computed by
+//!   lab's own extractor on that CSV.
+//!
+//! `cargo run --release --example make_honeycomb_tests -- OUT_DIR PATH/TO/crushsim`
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use lab::extract::crush::{self, CsvOptions, SimSource, Sign, Window};
+use lab::extract::lsdyna::{nodout, rcforc};
+use lab::render::Renderer;
+use lab::render::mesh::{self, TubeSpec};
+use lab::study::Template;
+use rand::{Rng, SeedableRng};
+
+const SEED: u64 = 2018;
+const SIGMA_Y: f64 = 185.0;
+const ETAN: f64 = 200.0;
+const SCATTER: f64 = 0.02;
+const NOISE: f64 = 0.005;
+const SPECIMENS: usize = 3;
+/// Must match studies/honeycomb.yaml.
+const ELEMENT: f64 = 2.0;
+const TERM_TIME: f64 = 0.061;
+const DT_OUT: f64 = 0.0005;
+const WINDOW: Window = Window { s0: 5.0, s1: 60.0 };
+const DESIGNS: [(&str, f64, f64); 3] = [("C6T5", 6.0, 0.05), ("C3T7", 3.0, 0.07), ("C3T8", 3.0, 0.08)];
+
+fn normal(rng: &mut impl Rng) -> f64 {
+    let u1: f64 = rng.random::<f64>().max(1e-300);
+    let u2: f64 = rng.random();
+    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let [out, crushsim] = &args[..] else {
+        eprintln!("usage: make_honeycomb_tests OUT_DIR CRUSHSIM");
+        std::process::exit(2);
+    };
+    let out = PathBuf::from(out);
+    std::fs::create_dir_all(&out).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let file = root.join("templates/honeycomb/main.k.tera");
+    let source = std::fs::read_to_string(&file).unwrap();
+    let renderer = Renderer::new(&[Template { file, output: "main.k".into(), source }]).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(SEED);
+    let mut experiments = String::from("design,c,t,force\n");
+    for (name, c, t) in DESIGNS {
+        let dir = tempfile::tempdir().unwrap();
+        let (mesh_text, _) = mesh::include(&TubeSpec::paper(c, ELEMENT)).unwrap();
+        std::fs::write(dir.path().join("mesh.k"), mesh_text).unwrap();
+        let mut ctx = tera::Context::new();
+        for (k, v) in [("c", c), ("t", t), ("sigma_y", SIGMA_Y), ("etan", ETAN), ("term_time", TERM_TIME), ("dt_out", DT_OUT)] {
+            ctx.insert(k, &v);
+        }
+        ctx.insert("design_name", name);
+        ctx.insert("mesh_file", "mesh.k");
+        let deck = renderer.render(&ctx).unwrap();
+        std::fs::write(dir.path().join("main.k"), &deck[0].1).unwrap();
+        let status = std::process::Command::new(crushsim)
+            .arg("i=main.k")
+            .current_dir(dir.path())
+            .stdout(std::process::Stdio::null())
+            .status()
+            .unwrap();
+        assert!(status.success(), "crushsim failed for {name}");
+        let rc = rcforc::read(&dir.path().join("rcforc")).unwrap();
+        let nod = nodout::read(&dir.path().join("nodout")).unwrap();
+        let source = SimSource {
+            interface: 1,
+            side: rcforc::Side::SurfB,
+            force_axis: 2,
+            force_sign: Sign::Auto,
+            force_to_kn: 1e-3,
+            node: 9_000_005,
+            disp_axis: 2,
+            disp_sign: Sign::Auto,
+            disp_to_mm: 1.0,
+        };
+        let curve = crush::from_lsdyna(&rc, &nod, &source).unwrap();
+        let level = crush::crush_force(&curve, WINDOW).unwrap().mean_force;
+        for k in 1..=SPECIMENS {
+            let factor = 1.0 + SCATTER * normal(&mut rng);
+            let mut csv = format!(
+                "# honeycomb tube {name} specimen {k}: SYNTHETIC test from the stand-in solver crushsim\n\
+                 # truth sigma_y = {SIGMA_Y} MPa, ETAN = {ETAN} MPa; scatter x{factor:.5}; noise {NOISE} x mean; seed {SEED}\n\
+                 displacement [mm],force [kN]\n"
+            );
+            for (d, f) in curve.displacement.iter().zip(&curve.force) {
+                let measured = f * factor + NOISE * level * normal(&mut rng);
+                let _ = writeln!(csv, "{d:.4},{measured:.5}");
+            }
+            let path = out.join(format!("{name}-{k}.csv"));
+            std::fs::write(&path, csv).unwrap();
+            let read = crush::read_test_csv(&path, CsvOptions::default()).unwrap();
+            let mean = crush::crush_force(&read, WINDOW).unwrap().mean_force;
+            let _ = writeln!(experiments, "{name},{c},{t},{mean}");
+            println!("{name} specimen {k}: mean crush force {mean:.4} kN (model level {level:.4} kN)");
+        }
+    }
+    std::fs::write(out.join("experiments.csv"), experiments).unwrap();
+}
