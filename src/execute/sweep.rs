@@ -44,7 +44,7 @@ pub fn prepare(study: &Study, sim: &SolverSimulation, plan: &Plan) -> Result<Pre
     let identity = adapter(sim)?.identity();
     let mut prepared = Prepared { keys: Vec::with_capacity(plan.runs.len()), inputs: BTreeMap::new() };
     for run in &plan.runs {
-        let context = render::context(study, &run.design, &run.design_values, &run.theta);
+        let context = render::run_context(study, run);
         let inputs = render::inputs(&renderer, &sim.files, &context).map_err(|e| with_run(e, &run.design))?;
         let key = run_key(&inputs, &sim.command, &identity);
         prepared.keys.push(key.clone());

@@ -98,6 +98,25 @@ pub fn context(study: &Study, design_name: &str, design: &[f64], theta: &[f64]) 
     ctx
 }
 
+/// Adds a model extension's template variables to a run's context (they override constants).
+pub fn extend(ctx: &mut Context, variables: &[(String, f64)]) {
+    for (name, value) in variables {
+        ctx.insert(name.clone(), value);
+    }
+}
+
+/// The template context of a planned run: [`context`], plus the extension's variables for the runs
+/// of a model-extension hypothesis ([`crate::plan::RunRole::Extension`]).
+pub fn run_context(study: &Study, run: &crate::plan::PlannedRun) -> Context {
+    let mut ctx = context(study, &run.design, &run.design_values, &run.theta);
+    if let crate::plan::RunRole::Extension(k) = run.role
+        && let Some(variables) = study.diagnosis.hypotheses.get(k).and_then(|h| h.extension())
+    {
+        extend(&mut ctx, variables);
+    }
+    ctx
+}
+
 /// The rendered templates plus the copied files: every input of a run.
 pub fn inputs(renderer: &Renderer, files: &[CopiedFile], context: &Context) -> Result<Inputs, InputError> {
     let mut inputs = renderer.render(context)?;
