@@ -55,8 +55,7 @@ fn cantilever_shear_extension_is_named_with_gamma_one_and_e0() {
     assert_eq!(out.status.code(), Some(0), "{text}");
     assert_eq!(starts(&log), PLANNED, "every planned run, extension runs included, is run once");
 
-    let results: Value =
-        serde_json::from_slice(&std::fs::read(dir.path().join("out/results.json")).unwrap()).unwrap();
+    let results: Value = serde_json::from_slice(&std::fs::read(dir.path().join("out/results.json")).unwrap()).unwrap();
     assert_eq!(results["runs"]["planned"], PLANNED, "{}", results["runs"]);
     let d = &results["diagnosis"];
     assert_eq!(d["discrepancy_detected"], true);

@@ -18,6 +18,9 @@
 //!    0.999 over the training designs) is dropped: the hypothesis carries the user's name. A shape
 //!    proportional to ∂y/∂θ_j (|cos| > 0.99), or lying in the span of the sensitivities, is
 //!    *confounded*: the data cannot tell it from a change of θ, and it is never named the cause.
+//!    A model-extension hypothesis (solver studies) is a shape too: `g = y_ext(d, θ) − y(d, θ)` from
+//!    the surrogates of its runs ([`inputs_with_extensions`]; γ = 1 is the extension as specified,
+//!    see [`shapes`]); it is ranked and tested like any other candidate.
 //! 4. **Ranking**: by `score = ½ (AICc + D_loo)`, where D_loo is the leave-one-design-out predictive
 //!    deviance. Both estimate the same out-of-sample deviance (Stone 1977: LOO and AIC are
 //!    asymptotically equivalent); with few designs each is noisy, so the two are averaged. Weights

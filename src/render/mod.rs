@@ -2,7 +2,8 @@
 //!
 //! The context of every template is the run's design variables, parameters and the study's
 //! constants, each by name as a number, plus `design_name` (the design's name in the experiments
-//! file). Rendering happens in memory so that the run key ([`crate::execute::store::run_key`]) can
+//! file); the runs of a model-extension hypothesis add its variables ([`run_context`]). Rendering
+//! happens in memory so that the run key ([`crate::execute::store::run_key`]) can
 //! be computed before anything is written; [`crate::execute::RunStore::prepare`] writes the files.
 //!
 //! Templates are Tera 2 with autoescaping off (solver inputs are not HTML). Every error, at parse
