@@ -275,7 +275,7 @@ fn run_solver(study: &Study, sim: &SolverSimulation, out: &Path, jobs: usize, mo
     let problem = pipeline::problem(study, &surrogates as &dyn Model);
     let runs = pipeline::simulation_data(&plan, &swept.responses);
     let calibration = pipeline::calibrate(study, &problem, Some(&runs));
-    let diagnosis = pipeline::diagnose(study, &surrogates);
+    let diagnosis = pipeline::diagnose_solver(study, sim, &plan, &swept.responses, &surrogates);
     let mut results = Results::build(study, &surrogates, &calibration, diagnosis).with_surrogates(&surrogates);
     if !study.splits.is_empty() {
         results.splits = Some(study.splits.iter().map(|split| calibrate_split(study, split, &surrogates, &runs)).collect());

@@ -9,9 +9,9 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::calibrate::identifiability::{self, Identifiability};
 use crate::calibrate::{CalibrationError, Estimate, Model, Problem, bayesian, least_squares, sensitivity};
+use crate::diagnose::{self, Diagnosis};
 use crate::error::Error;
 use crate::fit::{DesignSurrogate, Surrogate, SurrogateModel};
-use crate::diagnose::{self, Diagnosis};
 use crate::model::ExpressionModel;
 use crate::plan::{Plan, RunRole};
 use crate::study::{Method, SolverSimulation, Study};
@@ -159,4 +159,65 @@ fn run_method(
 /// Diagnoses model error over every tested design of the study (training and validation).
 pub fn diagnose(study: &Study, model: &dyn Model) -> Result<Diagnosis, CalibrationError> {
     diagnose::diagnose(&diagnose::inputs_from_study(study, model))
+}
+
+/// The surrogates of each model-extension hypothesis's runs ([`RunRole::Extension`]): per design,
+/// the same kind as the study's surrogate, fitted over θ to the design's successful extension runs.
+/// `(k, model)` for `study.diagnosis.hypotheses[k]`; a design whose extension runs cannot be fitted
+/// (failed runs) is left out, so the candidate is not finite there and the diagnosis skips it with
+/// a note rather than guess.
+pub fn extension_surrogates(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    responses: &[Option<f64>],
+) -> Vec<(usize, SurrogateModel)> {
+    let bounds = study.parameter_bounds();
+    let extensions = study.diagnosis.hypotheses.iter().enumerate().filter(|(_, h)| h.extension().is_some());
+    extensions
+        .map(|(k, _)| {
+            let mut designs = Vec::new();
+            for name in study.training.iter().chain(&study.validation) {
+                let runs: Vec<(&crate::plan::PlannedRun, f64)> = plan
+                    .runs
+                    .iter()
+                    .zip(responses)
+                    .filter(|(r, _)| &r.design == name && r.role == RunRole::Extension(k))
+                    .filter_map(|(r, y)| y.map(|y| (r, y)))
+                    .collect();
+                let Some(values) = runs.first().map(|(r, _)| r.design_values.clone()) else {
+                    continue;
+                };
+                let samples: Vec<(Vec<f64>, f64)> = runs.iter().map(|(r, y)| (r.theta.clone(), *y)).collect();
+                let Ok(surrogate) = Surrogate::fit(sim.surrogate, &samples, &bounds) else {
+                    continue;
+                };
+                let check = surrogate.check(&[]);
+                designs.push(DesignSurrogate {
+                    design: name.clone(),
+                    values,
+                    surrogate,
+                    check,
+                    samples: samples.len(),
+                });
+            }
+            (k, SurrogateModel { designs })
+        })
+        .collect()
+}
+
+/// [`diagnose`] for a solver study: its model-extension hypotheses become candidates
+/// `y_ext(d, θ) − y(d, θ)` from the surrogates of their runs.
+pub fn diagnose_solver(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    responses: &[Option<f64>],
+    model: &dyn Model,
+) -> Result<Diagnosis, CalibrationError> {
+    let extensions: Vec<(usize, std::sync::Arc<dyn Model + Send>)> = extension_surrogates(study, sim, plan, responses)
+        .into_iter()
+        .map(|(k, m)| (k, std::sync::Arc::new(m) as std::sync::Arc<dyn Model + Send>))
+        .collect();
+    diagnose::diagnose(&diagnose::inputs_with_extensions(study, model, &extensions))
 }

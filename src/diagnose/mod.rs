@@ -18,6 +18,9 @@
 //!    0.999 over the training designs) is dropped: the hypothesis carries the user's name. A shape
 //!    proportional to ∂y/∂θ_j (|cos| > 0.99), or lying in the span of the sensitivities, is
 //!    *confounded*: the data cannot tell it from a change of θ, and it is never named the cause.
+//!    A model-extension hypothesis (solver studies) is a shape too: `g = y_ext(d, θ) − y(d, θ)` from
+//!    the surrogates of its runs ([`inputs_with_extensions`]; γ = 1 is the extension as specified,
+//!    see [`shapes`]); it is ranked and tested like any other candidate.
 //! 4. **Ranking**: by `score = ½ (AICc + D_loo)`, where D_loo is the leave-one-design-out predictive
 //!    deviance. Both estimate the same out-of-sample deviance (Stone 1977: LOO and AIC are
 //!    asymptotically equivalent); with few designs each is noisy, so the two are averaged. Weights
@@ -130,8 +133,19 @@ pub struct Inputs<'a> {
 }
 
 /// The diagnosis inputs of a study: its training and validation designs (replicates summarised),
-/// its parameters and design bounds, and its `diagnosis.hypotheses`.
+/// its parameters and design bounds, and its `diagnosis.hypotheses` (a model extension without the
+/// surrogate of its runs is skipped with a note: see [`inputs_with_extensions`]).
 pub fn inputs_from_study<'a>(study: &Study, model: &'a dyn Model) -> Inputs<'a> {
+    inputs_with_extensions(study, model, &[])
+}
+
+/// [`inputs_from_study`], with the model of each extension hypothesis's runs: `(k, y_ext)` for
+/// `study.diagnosis.hypotheses[k]`. Its candidate is `y_ext(d, θ) − y(d, θ)` ([`Shape::from_extension`]).
+pub fn inputs_with_extensions<'a>(
+    study: &Study,
+    model: &'a dyn Model,
+    extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
+) -> Inputs<'a> {
     let observations = study
         .training
         .iter()
@@ -149,7 +163,16 @@ pub fn inputs_from_study<'a>(study: &Study, model: &'a dyn Model) -> Inputs<'a> 
         parameter_bounds: study.parameter_bounds(),
         design_names: study.design.iter().map(|d| d.name.clone()).collect(),
         design_bounds: study.design_bounds(),
-        hypotheses: study.diagnosis.hypotheses.iter().map(|h| Shape::from_hypothesis(h, study)).collect(),
+        hypotheses: study
+            .diagnosis
+            .hypotheses
+            .iter()
+            .enumerate()
+            .map(|(k, h)| match (h.extension(), extensions.iter().find(|(j, _)| *j == k)) {
+                (Some(variables), Some((_, ext))) => Shape::from_extension(h.name.clone(), variables, ext.clone()),
+                _ => Shape::from_hypothesis(h, study),
+            })
+            .collect(),
         settings: Settings::default(),
     }
 }
@@ -214,6 +237,9 @@ pub struct Candidate {
     pub explains_misfit: bool,
     /// Parameters the shape cannot be told apart from (empty when none).
     pub confounded_with: Vec<String>,
+    /// A model extension's template variables (absent for a term).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub extension: Option<IndexMap<String, f64>>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -251,6 +277,20 @@ pub struct Extended {
     pub gain: Option<f64>,
     /// `validation` or `leave-one-out` (no validation designs).
     pub measured_on: String,
+    /// When the cause is a model extension: its variables and what the amplitude means.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub extension: Option<ExtensionEffect>,
+}
+
+/// The cause as a model extension: `y + γ (y_ext − y)`, see [`shapes`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExtensionEffect {
+    /// The template variables of the extension's runs.
+    pub variables: IndexMap<String, f64>,
+    /// γ: 1 is the extension exactly as specified, 0 the baseline.
+    pub amplitude: f64,
+    /// γ in words (linearisation, and the equivalent value of a single variable).
+    pub meaning: String,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -535,6 +575,7 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
             p_value: pv,
             explains_misfit: pv * kc < s.alpha,
             confounded_with: with,
+            extension: shape.extension.as_ref().map(|v| v.iter().cloned().collect()),
         });
         shapes_ranked.push((shape, sc));
     }
@@ -586,6 +627,11 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
             validation_error_after: after,
             gain: (before > 0.0).then(|| 1.0 - after / before),
             measured_on: on.to_string(),
+            extension: shape.amplitude_meaning(sc.fit.gamma).map(|meaning| ExtensionEffect {
+                variables: shape.extension.iter().flatten().cloned().collect(),
+                amplitude: sc.fit.gamma,
+                meaning,
+            }),
         }
     });
 

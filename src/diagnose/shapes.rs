@@ -1,13 +1,22 @@
 //! Candidate causes of model error: additive discrepancy shapes `g(d, θ, y)` with a free amplitude γ,
 //! `y_true(d) = y(d, θ) + γ · g(d, θ, y(d, θ))`.
+//!
+//! A model extension (a hypothesis with `extension:`, solver studies) is a shape too:
+//! `g(d, θ) = y_ext(d, θ) − y(d, θ)`, where `y_ext` is the surrogate of the extension's runs (the
+//! templates rendered with its extra variables). γ = 1 is the extension exactly as specified, γ = 0
+//! the baseline. This linearises the extension around the baseline: `y + γ (y_ext − y)` is the
+//! response with the extension variable moved a fraction γ of the way from its baseline value to
+//! the specified one, which is exact when the response is linear in that variable (so then, with a
+//! baseline of 0, γ × value is the value the tests want) and a first-order approximation otherwise.
 
 use std::fmt;
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
+use crate::calibrate::Model;
 use crate::study::expr::ExprError;
-use crate::study::{Expression, Hypothesis, Study, Symbols};
+use crate::study::{Expression, Hypothesis, HypothesisKind, Study, Symbols};
 
 /// Where a candidate comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -28,6 +37,8 @@ pub struct Shape {
     /// The term as the user would write it (`1/h`, `y`, `t`).
     pub term: String,
     pub origin: Origin,
+    /// The template variables of a model extension (`None` for a term).
+    pub extension: Option<Vec<(String, f64)>>,
     f: Arc<ShapeFn>,
 }
 
@@ -37,6 +48,7 @@ impl fmt::Debug for Shape {
             .field("name", &self.name)
             .field("term", &self.term)
             .field("origin", &self.origin)
+            .field("extension", &self.extension)
             .finish()
     }
 }
@@ -48,7 +60,7 @@ impl Shape {
         origin: Origin,
         f: impl Fn(&[f64], &[f64], f64) -> f64 + Send + Sync + 'static,
     ) -> Shape {
-        Shape { name: name.into(), term: term.into(), origin, f: Arc::new(f) }
+        Shape { name: name.into(), term: term.into(), origin, extension: None, f: Arc::new(f) }
     }
 
     /// `g(design, θ, y)`, where `y` is the simulation's prediction at `design` and `θ`.
@@ -57,14 +69,58 @@ impl Shape {
     }
 
     /// A study hypothesis: its term is evaluated over design variables, parameters, constants and
-    /// `y`, in the order of [`Study::term_symbols`].
+    /// `y`, in the order of [`Study::term_symbols`]. A model extension needs the surrogate of its
+    /// runs ([`Shape::from_extension`]); without one its shape is NaN everywhere, which the
+    /// diagnosis skips with a note.
     pub fn from_hypothesis(hypothesis: &Hypothesis, study: &Study) -> Shape {
-        let expr = hypothesis.term.clone();
+        let expr = match &hypothesis.kind {
+            HypothesisKind::Term(expr) => expr.clone(),
+            HypothesisKind::Extension(variables) => {
+                let missing: Arc<dyn Model + Send> = Arc::new(|_: &[f64], _: &[f64]| f64::NAN);
+                return Shape::from_extension(hypothesis.name.clone(), variables, missing);
+            }
+        };
         let constants: Vec<f64> = study.constants.iter().map(|(_, v)| *v).collect();
         Shape::new(hypothesis.name.clone(), expr.text().to_string(), Origin::Study, move |d, theta, y| {
             let values: Vec<f64> = d.iter().chain(theta).chain(&constants).copied().chain(std::iter::once(y)).collect();
             expr.eval(&values)
         })
+    }
+
+    /// A model extension: `g(d, θ, y) = y_ext(d, θ) − y`, where `extension` predicts the response
+    /// of the extension's runs (NaN where it has none). Its term reads `y[shear = 1] − y`.
+    pub fn from_extension(
+        name: impl Into<String>,
+        variables: &[(String, f64)],
+        extension: Arc<dyn Model + Send>,
+    ) -> Shape {
+        let set = variables.iter().map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ");
+        let mut shape = Shape::new(name, format!("y[{set}] - y"), Origin::Study, move |d, theta, y| {
+            extension.predict(d, theta) - y
+        });
+        shape.extension = Some(variables.to_vec());
+        shape
+    }
+
+    /// What a fitted amplitude γ of this extension means, in words (`None` for a term).
+    pub fn amplitude_meaning(&self, gamma: f64) -> Option<String> {
+        let variables = self.extension.as_ref()?;
+        let set = variables.iter().map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ");
+        let g = super::text::num(gamma);
+        let mut s = format!(
+            "γ = {g}: the tests want {g} × the effect of the extension as specified ({set}); γ = 1 is the \
+             extension exactly, γ = 0 the baseline. The extension enters linearised around the baseline, exact when \
+             the response is linear in the extension's variables"
+        );
+        if let [(k, v)] = variables.as_slice() {
+            s.push_str(&format!(
+                ": then, with {k} = 0 in the baseline, the tests want {k} ≈ γ × {} = {}",
+                super::text::num(*v),
+                super::text::num(gamma * v)
+            ));
+        }
+        s.push('.');
+        Some(s)
     }
 
     /// A term written as in a study file, compiled over `design_names`, `parameter_names`, the

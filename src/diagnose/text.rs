@@ -146,6 +146,9 @@ pub fn summary(f: &Facts) -> String {
                     pct(e.validation_error_before),
                     pct(e.validation_error_after)
                 ));
+                if let Some(x) = &e.extension {
+                    s.push_str(&format!(" {}", x.meaning));
+                }
             }
             if let Some(second) = f.candidates.iter().skip(k + 1).find(|c| c.confounded_with.is_empty()) {
                 s.push_str(&format!(" Runner-up: '{}' (weight {:.2}).", second.name, second.weight));

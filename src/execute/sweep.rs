@@ -71,7 +71,7 @@ pub fn prepare(study: &Study, sim: &SolverSimulation, plan: &Plan) -> Result<Pre
     };
     let mut by_design: BTreeMap<String, PathBuf> = BTreeMap::new();
     for run in &plan.runs {
-        let mut context = render::context(study, &run.design, &run.design_values, &run.theta);
+        let mut context = render::run_context(study, run);
         let mesh_path = match &sim.mesh {
             None => None,
             Some(spec) => {

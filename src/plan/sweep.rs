@@ -1,6 +1,7 @@
 //! The run plan of a solver study: for every training and validation design, the parameter
 //! samples of `simulation.sampling` (Latin hypercube or full grid) plus `check_runs` extra Latin
-//! hypercube points from a different seed stream, at which the fitted surrogate is checked.
+//! hypercube points from a different seed stream, at which the fitted surrogate is checked; then,
+//! for each model-extension hypothesis, the sample runs again with the extension's variables.
 //!
 //! Every design gets the same parameter samples (the paper's "12 yield-stress samples per design"),
 //! so the plan is a fixed function of the study: the same study always plans the same runs.
@@ -21,6 +22,9 @@ pub enum RunRole {
     Sample,
     /// A point the fitted surrogate is checked at (not used to fit it).
     Check,
+    /// A sample of the model extension of hypothesis `k` (`study.diagnosis.hypotheses[k]`): the
+    /// same design and parameters as a baseline sample, rendered with the extension's variables.
+    Extension(usize),
 }
 
 impl RunRole {
@@ -28,6 +32,7 @@ impl RunRole {
         match self {
             RunRole::Sample => "sample",
             RunRole::Check => "check",
+            RunRole::Extension(_) => "extension",
         }
     }
 }
@@ -75,7 +80,9 @@ impl Plan {
         )));
         let mut runs = Vec::new();
         for name in study.training.iter().chain(&study.validation) {
-            let Some(test) = study.experiments.get(name) else { continue }; // validated: always there
+            let Some(test) = study.experiments.get(name) else {
+                continue;
+            }; // validated: always there
             let at = |theta: &Vec<f64>, role| PlannedRun {
                 design: name.clone(),
                 design_values: test.values.clone(),
@@ -85,8 +92,25 @@ impl Plan {
             runs.extend(samples.iter().map(|t| at(t, RunRole::Sample)));
             runs.extend(checks.iter().map(|t| at(t, RunRole::Check)));
         }
+        runs.extend(extension_runs(study, &runs));
         Plan { runs }
     }
+}
+
+/// For each model-extension hypothesis, in study order, a copy of every baseline sample run with
+/// the role [`RunRole::Extension`]: the same designs and parameter samples, so the extension's
+/// surrogate lives on the baseline's points. They come after all baseline runs, so adding an
+/// extension leaves the baseline's plan (and its run keys) as it was.
+fn extension_runs(study: &Study, baseline: &[PlannedRun]) -> Vec<PlannedRun> {
+    let extensions = study.diagnosis.hypotheses.iter().enumerate().filter(|(_, h)| h.extension().is_some());
+    extensions
+        .flat_map(|(k, _)| {
+            baseline
+                .iter()
+                .filter(|r| r.role == RunRole::Sample)
+                .map(move |r| PlannedRun { role: RunRole::Extension(k), ..r.clone() })
+        })
+        .collect()
 }
 
 /// The samples in the unit cube, one row each.
@@ -100,7 +124,9 @@ fn unit_samples(sampling: &Sampling, p: usize) -> DMatrix<f64> {
 /// A full grid with `side` points per axis, ends included (one point: the centre).
 pub fn grid(side: usize, p: usize) -> DMatrix<f64> {
     let n = side.pow(p as u32);
-    let coordinate = |i: usize| if side < 2 { 0.5 } else { i as f64 / (side - 1) as f64 };
+    let coordinate = |i: usize| {
+        if side < 2 { 0.5 } else { i as f64 / (side - 1) as f64 }
+    };
     DMatrix::from_fn(n, p, |row, k| coordinate(row / side.pow(k as u32) % side))
 }
 

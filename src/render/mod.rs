@@ -2,7 +2,8 @@
 //!
 //! The context of every template is the run's design variables, parameters and the study's
 //! constants, each by name as a number, plus `design_name` (the design's name in the experiments
-//! file). Rendering happens in memory so that the run key ([`crate::execute::store::run_key`]) can
+//! file); the runs of a model-extension hypothesis add its variables ([`run_context`]). Rendering
+//! happens in memory so that the run key ([`crate::execute::store::run_key`]) can
 //! be computed before anything is written; [`crate::execute::RunStore::prepare`] writes the files.
 //!
 //! Templates are Tera 2 with autoescaping off (solver inputs are not HTML) and the fixed-field
@@ -97,6 +98,25 @@ pub fn context(study: &Study, design_name: &str, design: &[f64], theta: &[f64]) 
         ctx.insert(name.clone(), value);
     }
     ctx.insert("design_name", design_name);
+    ctx
+}
+
+/// Adds a model extension's template variables to a run's context (they override constants).
+pub fn extend(ctx: &mut Context, variables: &[(String, f64)]) {
+    for (name, value) in variables {
+        ctx.insert(name.clone(), value);
+    }
+}
+
+/// The template context of a planned run: [`context`], plus the extension's variables for the runs
+/// of a model-extension hypothesis ([`crate::plan::RunRole::Extension`]).
+pub fn run_context(study: &Study, run: &crate::plan::PlannedRun) -> Context {
+    let mut ctx = context(study, &run.design, &run.design_values, &run.theta);
+    if let crate::plan::RunRole::Extension(k) = run.role
+        && let Some(variables) = study.diagnosis.hypotheses.get(k).and_then(|h| h.extension())
+    {
+        extend(&mut ctx, variables);
+    }
     ctx
 }
 

@@ -10,14 +10,17 @@ use super::expr::ExprError;
 use super::schema::{BayesianFile, CalibrationFile, DiagnosisFile, Name, SimulationFile, StudyFile};
 use super::yaml::{self, Spanned};
 use super::{
-    CalibrationSettings, DesignVariable, DiagnosisSettings, Experiments, Expression, Hypothesis, Method, Parameter,
-    Simulation, Study, Symbols, experiments,
+    CalibrationSettings, DesignVariable, DiagnosisSettings, Experiments, Expression, Hypothesis, HypothesisKind,
+    Method, Parameter, Simulation, Study, Symbols, experiments,
 };
 use crate::calibrate::bayesian::Settings as BayesianSettings;
 use crate::error::InputError;
 
 #[path = "load_solver.rs"]
 mod solver;
+
+#[path = "load_extension.rs"]
+mod extension;
 
 /// Loads and validates a study file and everything it references.
 pub fn load(path: &Path) -> Result<Study, InputError> {
@@ -213,7 +216,7 @@ impl Checker<'_> {
             truth,
         };
         debug_assert_eq!(study.symbols(), symbols);
-        study.diagnosis = self.diagnosis(file.diagnosis.as_ref(), &study.term_symbols())?;
+        study.diagnosis = self.diagnosis(file.diagnosis.as_ref(), &study)?;
         Ok(study)
     }
 
@@ -482,7 +485,9 @@ impl Checker<'_> {
 
     fn bayesian(&self, spec: Option<&BayesianFile>) -> Result<BayesianSettings, InputError> {
         let mut settings = BayesianSettings::default();
-        let Some(spec) = spec else { return Ok(settings) };
+        let Some(spec) = spec else {
+            return Ok(settings);
+        };
         let at_least = |node: &Option<Spanned<usize>>, key: &str, min: usize, default: usize| match node {
             Some(n) if n.value < min => Err(self.at(n, format!("bayesian.{key} must be at least {min}"))),
             Some(n) => Ok(n.value),
@@ -508,7 +513,8 @@ impl Checker<'_> {
         Ok(settings)
     }
 
-    fn diagnosis(&self, spec: Option<&DiagnosisFile>, symbols: &Symbols) -> Result<DiagnosisSettings, InputError> {
+    fn diagnosis(&self, spec: Option<&DiagnosisFile>, study: &Study) -> Result<DiagnosisSettings, InputError> {
+        let symbols = &study.term_symbols();
         let mut hypotheses: Vec<Hypothesis> = Vec::new();
         for h in spec.map_or(&[][..], |d| &d.hypotheses[..]) {
             if h.name.value.trim().is_empty() {
@@ -517,9 +523,36 @@ impl Checker<'_> {
             if hypotheses.iter().any(|k| k.name == h.name.value) {
                 return Err(self.at(&h.name, format!("hypothesis `{}` is listed twice", h.name.value)));
             }
-            let term = Expression::compile(&h.term.value, symbols)
-                .map_err(|e| self.expression_error(&h.term, &format!("term of hypothesis `{}`", h.name.value), e))?;
-            hypotheses.push(Hypothesis { name: h.name.value.clone(), term });
+            let kind = match (&h.term, &h.extension) {
+                (Some(term), None) => {
+                    HypothesisKind::Term(Expression::compile(&term.value, symbols).map_err(|e| {
+                        self.expression_error(term, &format!("term of hypothesis `{}`", h.name.value), e)
+                    })?)
+                }
+                (None, Some(extension)) => HypothesisKind::Extension(self.extension(study, &h.name, extension)?),
+                (Some(_), Some(extension)) => {
+                    return Err(self.at_key(
+                        "extension",
+                        extension,
+                        format!(
+                            "hypothesis `{}` has both `term` and `extension`: give exactly one (a term is an additive \
+                             shape; an extension sets template variables for extra solver runs)",
+                            h.name.value
+                        ),
+                    ));
+                }
+                (None, None) => {
+                    return Err(self.at(
+                        &h.name,
+                        format!(
+                            "hypothesis `{}` needs `term:` (an additive discrepancy shape, e.g. \"1/h\") or \
+                             `extension:` (template variables for extra solver runs, e.g. {{shear: 1}})",
+                            h.name.value
+                        ),
+                    ));
+                }
+            };
+            hypotheses.push(Hypothesis { name: h.name.value.clone(), kind });
         }
         Ok(DiagnosisSettings { hypotheses })
     }

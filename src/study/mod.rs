@@ -116,12 +116,33 @@ pub struct DiagnosisSettings {
     pub hypotheses: Vec<Hypothesis>,
 }
 
-/// A candidate cause of model error: an additive discrepancy shape.
+/// A candidate cause of model error: an additive discrepancy shape, or a model extension.
 #[derive(Debug, Clone)]
 pub struct Hypothesis {
     pub name: String,
-    /// Over design variables, constants, parameters and `y`; compiled against [`Study::term_symbols`].
-    pub term: Expression,
+    pub kind: HypothesisKind,
+}
+
+#[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // a few per study; boxing the expression would buy nothing
+pub enum HypothesisKind {
+    /// `term:` over design variables, constants, parameters and `y`; compiled against
+    /// [`Study::term_symbols`].
+    Term(Expression),
+    /// `extension:` (solver studies only): template variables, in file order, set for the extra
+    /// runs of this hypothesis ([`crate::plan::RunRole::Extension`]); each one changes what a
+    /// template renders.
+    Extension(Vec<(String, f64)>),
+}
+
+impl Hypothesis {
+    /// The extension's template variables, if this hypothesis is a model extension.
+    pub fn extension(&self) -> Option<&[(String, f64)]> {
+        match &self.kind {
+            HypothesisKind::Extension(v) => Some(v),
+            HypothesisKind::Term(_) => None,
+        }
+    }
 }
 
 impl Study {
@@ -142,10 +163,7 @@ impl Study {
     }
 
     pub fn parameter_bounds(&self) -> Bounds {
-        Bounds::new(
-            self.parameters.iter().map(|p| p.min).collect(),
-            self.parameters.iter().map(|p| p.max).collect(),
-        )
+        Bounds::new(self.parameters.iter().map(|p| p.min).collect(), self.parameters.iter().map(|p| p.max).collect())
     }
 
     /// Design bounds: the study's `min`/`max` where given, else the range of the tested designs.

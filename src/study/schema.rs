@@ -190,5 +190,8 @@ pub struct DiagnosisFile {
 #[serde(deny_unknown_fields)]
 pub struct HypothesisFile {
     pub name: Name,
-    pub term: Spanned<String>,
+    /// An additive discrepancy shape; exactly one of `term` and `extension`.
+    pub term: Option<Spanned<String>>,
+    /// A model extension (solver studies): template variables set for extra runs.
+    pub extension: Option<Spanned<IndexMap<Name, Spanned<f64>>>>,
 }

@@ -7,6 +7,10 @@ Run in a run directory as `python3 beam.py [INPUT]` (default `beam.txt`). The in
     tip deflection (Euler-Bernoulli)
     y = <4 F L^3 / (E b h^3), full precision>
 
+`shear = s` (optional, default 0; needs nu, Poisson's ratio) adds s times the Timoshenko shear
+term F L (4 + 5 nu) / (2 E b h) (Qiu et al. 2018, Eq. 11): s = 1 is the Timoshenko beam, and the
+response is linear in s (a model extension for lab's diagnosis).
+
 `fail = 1` in the input makes it exit with code 3 (for failure handling). For lab's own tests:
 LAB_TEST_SOLVER_LOG names a file to which one line `start <run directory name>` is appended per
 run, and LAB_TEST_SOLVER_SLEEP makes each run take that many more seconds.
@@ -41,8 +45,12 @@ def main():
         sys.exit(3)
     compliance = v["C"] if "C" in v else 1.0 / v["E"]
     y = 4.0 * v["F"] * v["L"] ** 3 * compliance / (v["b"] * v["h"] ** 3)
+    shear = v.get("shear", 0.0)
+    if shear != 0.0:
+        y += shear * v["F"] * v["L"] * (4.0 + 5.0 * v["nu"]) * compliance / (2.0 * v["b"] * v["h"])
+    title = "Timoshenko" if shear == 1.0 else "Euler-Bernoulli" if shear == 0.0 else f"Euler-Bernoulli + {shear!r} x shear"
     with open("output.txt", "w") as f:
-        f.write(f"tip deflection (Euler-Bernoulli)\ny = {y!r}\n")
+        f.write(f"tip deflection ({title})\ny = {y!r}\n")
 
 
 if __name__ == "__main__":

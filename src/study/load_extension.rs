@@ -1,0 +1,115 @@
+//! Validation of a model-extension hypothesis (`diagnosis.hypotheses[].extension`): template
+//! variables set for the extra runs of a solver study. Every error is at the offending node.
+//!
+//! A variable is *used* when setting it changes what the templates render: the templates are
+//! rendered for the first training design at the centre of the parameter box with all the
+//! extension's variables, then without each one in turn; a variable whose absence renders the same
+//! bytes (or whose value equals what the template would render anyway) has no effect and is an
+//! error. A template that does not render without the variable (no `default`) uses it as well.
+
+use indexmap::IndexMap;
+
+use super::super::schema::Name;
+use super::super::yaml::Spanned;
+use super::super::{Simulation, Study};
+use super::Checker;
+use crate::error::InputError;
+
+/// Template-context names an extension cannot set: they are every run's own.
+const RESERVED: [&str; 1] = ["design_name"];
+
+impl Checker<'_> {
+    pub(super) fn extension(
+        &self,
+        study: &Study,
+        hypothesis: &Name,
+        node: &Spanned<IndexMap<Name, Spanned<f64>>>,
+    ) -> Result<Vec<(String, f64)>, InputError> {
+        let who = format!("hypothesis `{}`", hypothesis.value);
+        let Simulation::Solver(sim) = &study.simulation else {
+            return Err(self.at_key(
+                "extension",
+                node,
+                format!(
+                    "{who}: `extension` sets template variables for extra solver runs, but this study's simulation \
+                     is a closed-form `expression` (no templates, no runs); write the effect as a `term:`, or run \
+                     the simulation with `simulation.solver`"
+                ),
+            ));
+        };
+        if node.value.is_empty() {
+            return Err(self.at_key(
+                "extension",
+                node,
+                format!("{who}: empty `extension`: give the template variables it sets, e.g. {{shear: 1}}"),
+            ));
+        }
+        let mut vars = Vec::new();
+        for (var, value) in &node.value {
+            let text = var.value.as_str();
+            let identifier = text.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+                && text.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            if !identifier {
+                return Err(self.at(
+                    var,
+                    format!(
+                        "{who}: invalid template variable `{text}`: use letters, digits and '_', starting with a letter"
+                    ),
+                ));
+            }
+            let clash = if study.design.iter().any(|d| d.name == text) {
+                Some("a design variable")
+            } else if study.parameters.iter().any(|p| p.name == text) {
+                Some("a calibration parameter")
+            } else if RESERVED.contains(&text) {
+                Some("set by lab for every run")
+            } else {
+                None
+            };
+            if let Some(what) = clash {
+                return Err(self.at(
+                    var,
+                    format!(
+                        "{who}: `{text}` is {what}; an extension sets a template variable of its own (or overrides a \
+                         constant)"
+                    ),
+                ));
+            }
+            if !value.value.is_finite() {
+                return Err(self.at(value, format!("{who}: `{text}` must be a finite number, not {}", value.value)));
+            }
+            vars.push((text.to_string(), value.value));
+        }
+
+        // The render test, at the first training design and the centre of the parameter box.
+        let renderer = crate::render::Renderer::new(&sim.templates)?;
+        let design = &study.training[0];
+        let values = study.experiments.get(design).map(|t| t.values.clone()).unwrap_or_default();
+        let theta: Vec<f64> = study.parameter_bounds().center().iter().copied().collect();
+        let render = |vars: &[(String, f64)]| {
+            let mut ctx = crate::render::context(study, design, &values, &theta);
+            crate::render::extend(&mut ctx, vars);
+            renderer.render(&ctx)
+        };
+        let full = render(&vars).map_err(|mut e| {
+            e.message = format!("{} (rendering the extension of {who})", e.message);
+            e
+        })?;
+        for (i, (var, _)) in node.value.iter().enumerate() {
+            let without: Vec<(String, f64)> =
+                vars.iter().enumerate().filter(|&(k, _)| k != i).map(|(_, v)| v.clone()).collect();
+            if render(&without).is_ok_and(|inputs| inputs == full) {
+                return Err(self.at(
+                    var,
+                    format!(
+                        "{who}: template variable `{}` does not change what the templates render (design `{design}`, \
+                         parameters at the centre of their bounds): no template uses it, so its runs would repeat \
+                         the baseline's",
+                        var.value
+                    ),
+                ));
+            }
+        }
+        Ok(vars)
+    }
+}
