@@ -62,7 +62,7 @@ fn main() {
         let (mesh_text, _) = mesh::include(&TubeSpec::paper(c, ELEMENT)).unwrap();
         std::fs::write(dir.path().join("mesh.k"), mesh_text).unwrap();
         let mut ctx = tera::Context::new();
-        for (k, v) in [("c", c), ("t", t), ("sigma_y", SIGMA_Y), ("etan", ETAN), ("term_time", TERM_TIME), ("dt_out", DT_OUT)] {
+        for (k, v) in [("c", c), ("t", t), ("sigma_y", SIGMA_Y), ("etan", ETAN), ("ribbon_factor", 2.0), ("term_time", TERM_TIME), ("dt_out", DT_OUT)] {
             ctx.insert(k, &v);
         }
         ctx.insert("design_name", name);

@@ -6,7 +6,7 @@ set -eu
 cd "$(dirname "$0")/.."
 target="${CARGO_TARGET_DIR:-target}"
 cargo build --release --bins --example make_honeycomb_tests
-bin="$target/release"
+bin="$(cd "$target/release" && pwd)"
 rm -rf fixtures/honeycomb/tests
 find fixtures/honeycomb -mindepth 1 -maxdepth 1 -type d -name '[0-9a-f]*' -exec rm -rf {} +
 "$bin/examples/make_honeycomb_tests" fixtures/honeycomb/tests "$bin/crushsim"

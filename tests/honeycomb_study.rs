@@ -37,7 +37,10 @@ fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
     let r = results(out.path());
     for m in ["least_squares", "sensitivity", "bayesian"] {
         let s = r["calibration"][m]["parameters"]["sigma_y"].as_f64().unwrap();
-        assert!((100.0..=200.0).contains(&s), "{m}: {s}");
+        // The tests' truth is 185 MPa plus hardening that raises the crush force by 3.9 % (C6T5) to
+        // 8.5 % (C3T8) (fixtures/README.md). The baseline lacks it, so every method must land above
+        // the truth by about that much: 188-205 MPa allows the replicate scatter (2 %/√3 per design).
+        assert!((188.0..=205.0).contains(&s), "{m}: {s}");
         assert!(r["calibration"][m]["validation_error"].as_f64().is_some(), "{m}");
     }
     for (design, s) in r["surrogates"].as_object().unwrap() {
