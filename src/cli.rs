@@ -53,6 +53,17 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Inside a Slurm job: run the given runs of the study and commit their records (internal).
+    #[command(hide = true)]
+    SlurmWorker {
+        #[arg(long)]
+        study: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+        keys: Vec<String>,
+    },
     /// Rewrite the report from what is recorded.
     Report {
         study: PathBuf,
@@ -101,11 +112,17 @@ fn execute(command: Command) -> Result<i32, Error> {
                     }
                     run(&study, &out)
                 }
-                Simulation::Solver(_) if executor == Executor::Slurm => {
-                    Err(Error::Failed("--executor slurm is not available yet in this version of lab".into()))
+                Simulation::Solver(sim) => {
+                    run_solver(&study, sim, &out, jobs.unwrap_or_else(default_jobs), executor == Executor::Slurm)
                 }
-                Simulation::Solver(sim) => run_solver(&study, sim, &out, jobs.unwrap_or_else(default_jobs)),
             }
+        }
+        Command::SlurmWorker { study, out, jobs, keys } => {
+            let study = study::load(&study)?;
+            let Simulation::Solver(sim) = &study.simulation else {
+                return Err(Error::Failed("slurm-worker: not a solver study".into()));
+            };
+            sweep::worker(&study, sim, &out, jobs, &keys)
         }
         Command::Check { study } => {
             let study = study::load(&study)?;
@@ -168,13 +185,17 @@ fn run(study: &Study, out: &Path) -> Result<i32, Error> {
 }
 
 /// Plans, renders, runs what is not finished, fits the surrogates, calibrates, writes.
-fn run_solver(study: &Study, sim: &SolverSimulation, out: &Path, jobs: usize) -> Result<i32, Error> {
+fn run_solver(study: &Study, sim: &SolverSimulation, out: &Path, jobs: usize, slurm: bool) -> Result<i32, Error> {
     let plan = Plan::new(study, sim);
     let prepared = sweep::prepare(study, sim, &plan)?;
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     let signals = Signals::install(&runtime)?;
     let mut store = RunStore::open(out)?;
-    let swept = sweep::run(&runtime, &mut store, sim, &prepared, jobs, &signals.canceller)?;
+    let swept = if slurm {
+        sweep::run_slurm(&mut store, study, sim, &prepared, &signals.canceller)?
+    } else {
+        sweep::run(&runtime, &mut store, sim, &prepared, jobs, &signals.canceller)?
+    };
     signals.sweep_done();
     let failed = print_outcomes(&plan, &prepared.keys, &swept, &store);
     if signals.interrupted() {

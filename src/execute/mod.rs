@@ -52,9 +52,11 @@
 //!   attempt is never judged by a previous attempt's files.
 
 pub mod adapter;
+pub mod calculix;
 pub mod executor;
 pub mod lock;
 pub mod progress;
+pub mod slurm;
 pub mod store;
 pub mod sweep;
 

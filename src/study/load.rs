@@ -18,6 +18,8 @@ use crate::error::InputError;
 
 #[path = "load_solver.rs"]
 mod solver;
+#[path = "load_cluster.rs"]
+mod cluster;
 
 /// Loads and validates a study file and everything it references.
 pub fn load(path: &Path) -> Result<Study, InputError> {

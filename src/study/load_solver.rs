@@ -13,7 +13,7 @@ use crate::error::InputError;
 use crate::execute::{Backoff, CommandAdapter, OutcomeClass, RetryPolicy};
 
 /// Adapters named by the contract whose implementation is not in this version.
-const LATER_ADAPTERS: [&str; 2] = ["lsdyna", "calculix"];
+const LATER_ADAPTERS: [&str; 1] = ["lsdyna"];
 
 /// Outcome classes a retry policy may name, by their study-file names.
 const RETRY_CLASSES: [(&str, OutcomeClass); 5] = [
@@ -61,7 +61,6 @@ impl Checker<'_> {
         let sim = &node.value;
         let spec = &solver.value;
         let adapter = self.adapter(&spec.adapter)?;
-        let command = self.command(&spec.command)?;
         let mut outputs: Vec<PathBuf> = Vec::new();
         let templates = spec.templates.iter().map(|t| self.template(t, &mut outputs)).collect::<Result<Vec<_>, _>>()?;
         let files = spec.files.iter().map(|f| self.copied(f, &mut outputs)).collect::<Result<Vec<_>, _>>()?;
@@ -74,9 +73,35 @@ impl Checker<'_> {
                 "a solver simulation needs `simulation.response: {file, regex}`",
             ));
         };
-        let response_file = self.relative_path(&response.value.file, "response.file")?;
-        CommandAdapter::new(&response_file, &response.value.regex.value, &[])
-            .map_err(|e| self.at(&response.value.regex, format!("response regex: {e}")))?;
+        // `calculix`, `job`, `response.dat`, `slurm`: see load_cluster.rs.
+        let cluster = self.cluster_keys(&adapter, solver, response, &outputs)?;
+        let command = match (&spec.command, &cluster.calculix) {
+            (Some(command), _) => self.command(command)?,
+            (None, Some(ccx)) => ccx.argv(),
+            (None, None) => {
+                return Err(self.at_key(
+                    "solver",
+                    solver,
+                    "`solver.command` is missing: give the program and its arguments, e.g. [python3, beam.py]",
+                ));
+            }
+        };
+        let (response_file, response_regex) = match &cluster.calculix {
+            Some(ccx) => (ccx.dat_file(), String::new()),
+            None => {
+                let (Some(file), Some(regex)) = (&response.value.file, &response.value.regex) else {
+                    return Err(self.at_key(
+                        "response",
+                        response,
+                        "`simulation.response` needs `file` and `regex` (the first capture group is the response)",
+                    ));
+                };
+                let response_file = self.relative_path(file, "response.file")?;
+                CommandAdapter::new(&response_file, &regex.value, &[])
+                    .map_err(|e| self.at(regex, format!("response regex: {e}")))?;
+                (response_file, regex.value.clone())
+            }
+        };
         let surrogate = match &sim.surrogate {
             None => SurrogateKind::Linear,
             Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
@@ -99,15 +124,17 @@ impl Checker<'_> {
             timeout,
             retry,
             response_file,
-            response_regex: response.value.regex.value.clone(),
+            response_regex,
             sampling,
             surrogate,
+            calculix: cluster.calculix,
+            slurm: cluster.slurm,
         })
     }
 
     fn adapter(&self, node: &Spanned<String>) -> Result<String, InputError> {
         match node.value.as_str() {
-            "command" => Ok(node.value.clone()),
+            "command" | "calculix" => Ok(node.value.clone()),
             name if LATER_ADAPTERS.contains(&name) => Err(self.at(
                 node,
                 format!("adapter `{name}` is not available yet in this version of lab; use `adapter: command`"),
@@ -182,7 +209,7 @@ impl Checker<'_> {
         Ok(CopiedFile { file, output, bytes })
     }
 
-    fn relative_path(&self, node: &Spanned<String>, key: &str) -> Result<PathBuf, InputError> {
+    pub(super) fn relative_path(&self, node: &Spanned<String>, key: &str) -> Result<PathBuf, InputError> {
         let path = PathBuf::from(&node.value);
         let inside = path.components().all(|c| matches!(c, Component::Normal(_)));
         if node.value.is_empty() || !inside {

@@ -24,6 +24,10 @@ pub struct SolverSimulation {
     pub response_regex: String,
     pub sampling: Sampling,
     pub surrogate: SurrogateKind,
+    /// `adapter: calculix`: its job and `.dat` response (then `response_file` is `JOB.dat`).
+    pub calculix: Option<crate::execute::calculix::CalculixAdapter>,
+    /// `solver.slurm`: settings of `--executor slurm` (defaults when absent).
+    pub slurm: Option<crate::execute::slurm::SlurmSettings>,
 }
 
 /// A Tera template: where it was read from, where it is rendered to, and its text (already parsed
