@@ -93,60 +93,41 @@ fn execute(inputs: &[(&str, &str)], argv: &[&str]) -> (Outcome, Option<f64>, tem
 const DAT_OK: &str =
     " displacements (vx,vy,vz) for set NTIP and time  0.1000000E+01\n\n    41  1.0E-03  3.0E-01  0.0E+00\n";
 
+/// A fake ccx: copies `dat` (if any) to beam.dat (outputs are removed before each attempt), then `script`.
+fn fake(dat: Option<&str>, script: &str) -> (Outcome, Option<f64>, tempfile::TempDir) {
+    let cmd = format!("if [ -f src.dat ]; then cp src.dat beam.dat; fi; {script}");
+    match dat {
+        Some(d) => execute(&[("src.dat", d)], &["sh", "-c", &cmd]),
+        None => execute(&[("beam.inp", "")], &["sh", "-c", &cmd]),
+    }
+}
+
 #[test]
 fn classification_without_ccx() {
     // Exit 0, but *ERROR in the output: failure text, even with a good .dat.
-    let (o, _, _out) = execute(
-        &[("beam.dat", DAT_OK)],
-        &[
-            "sh",
-            "-c",
-            "echo ' *ERROR in calinput: unknown keyword'; echo ' Job finished'",
-        ],
-    );
+    let (o, _, _out) = fake(Some(DAT_OK), "echo ' *ERROR in calinput: unknown keyword'; echo ' Job finished'");
     assert!(
         matches!(&o, Outcome::FailureText { file, line } if file == STDOUT_FILE && line.starts_with("*ERROR")),
         "{o:?}"
     );
     // Exit 201 (non-convergence).
-    let (o, _, _out) = execute(&[("beam.dat", DAT_OK)], &["sh", "-c", "exit 201"]);
+    let (o, _, _out) = fake(Some(DAT_OK), "exit 201");
     assert_eq!(o, Outcome::NonZeroExit { code: 201 });
     // Exit 0, no error text, the block missing (an unknown keyword skipped the *NODE PRINT).
     let other = " forces (fx,fy,fz) for set NFIX and time  0.1000000E+01\n\n 1 0 0 0\n";
-    let (o, _, _out) = execute(&[("beam.dat", other)], &["true"]);
+    let (o, _, _out) = fake(Some(other), "true");
     assert!(
         matches!(&o, Outcome::BadResponse { problem: ResponseProblem::Missing, detail } if detail.contains("NTIP")),
         "{o:?}"
     );
     // No .dat at all.
-    let (o, _, _out) = execute(&[("beam.inp", "")], &["true"]);
-    assert!(
-        matches!(
-            &o,
-            Outcome::BadResponse {
-                problem: ResponseProblem::Missing,
-                ..
-            }
-        ),
-        "{o:?}"
-    );
+    let (o, _, _out) = fake(None, "true");
+    assert!(matches!(&o, Outcome::BadResponse { problem: ResponseProblem::Missing, .. }), "{o:?}");
     // A truncated block: the header without rows.
-    let (o, _, _out) = execute(
-        &[("beam.dat", " displacements (vx,vy,vz) for set NTIP and time 1.0\n")],
-        &["true"],
-    );
-    assert!(
-        matches!(
-            &o,
-            Outcome::BadResponse {
-                problem: ResponseProblem::Empty,
-                ..
-            }
-        ),
-        "{o:?}"
-    );
+    let (o, _, _out) = fake(Some(" displacements (vx,vy,vz) for set NTIP and time 1.0\n"), "true");
+    assert!(matches!(&o, Outcome::BadResponse { problem: ResponseProblem::Empty, .. }), "{o:?}");
     // Success.
-    let (o, r, _out) = execute(&[("beam.dat", DAT_OK)], &["true"]);
+    let (o, r, _out) = fake(Some(DAT_OK), "true");
     assert_eq!((o, r), (Outcome::Success, Some(0.3)));
 }
 
@@ -171,7 +152,7 @@ fn ccx_unknown_keyword_and_missing_include_are_failures() {
 }
 
 fn timoshenko(h: f64, e: f64) -> f64 {
-    let (f, l, b, nu) = (600.0, 20.0, 2.0, 0.36);
+    let (f, l, b, nu): (f64, f64, f64, f64) = (600.0, 20.0, 2.0, 0.36);
     4.0 * f * l.powi(3) / (e * b * h.powi(3)) + f * l * (4.0 + 5.0 * nu) / (2.0 * e * b * h)
 }
 

@@ -379,7 +379,8 @@ pub fn run(
     canceller: &Canceller,
     inputs: &dyn Fn(&str) -> Result<(), Error>,
 ) -> Result<SlurmSummary, Error> {
-    let out = store.out().to_path_buf();
+    // Absolute: the job runs with its own working directory.
+    let out = std::path::absolute(store.out()).map_err(|e| Error::Failed(format!("{}: {e}", store.out().display())))?;
     std::fs::create_dir_all(journal_dir(&out)).map_err(|e| Error::Failed(format!("{}: {e}", out.display())))?;
     let mut summary = SlurmSummary::default();
     let wanted: BTreeSet<&String> = keys.iter().filter(|k| !store.is_finished(k)).collect();

@@ -327,7 +327,8 @@ mod tests {
 
     #[test]
     fn errors_name_file_and_line() {
-        let text = " displacements (vx,vy,vz) for set A and time 1.0\n\n 1 0.0 1.0\n";
+        // Two numbers where three values are due (a row cut short).
+        let text = " displacements (vx,vy,vz) for set A and time 1.0\n\n 1 0.0\n";
         let e = parse_dat(Path::new("run/j.dat"), text).unwrap_err();
         assert_eq!((e.line, e.file.as_path()), (3, Path::new("run/j.dat")));
         assert!(e.to_string().starts_with("run/j.dat:3: "), "{e}");
