@@ -61,6 +61,17 @@ enum Command {
         #[arg(long, default_value = "5:60")]
         window: String,
     },
+    /// Inside a Slurm job: run the given runs of the study and commit their records (internal).
+    #[command(hide = true)]
+    SlurmWorker {
+        #[arg(long)]
+        study: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+        keys: Vec<String>,
+    },
     /// Rewrite the report from what is recorded.
     Report {
         study: PathBuf,
@@ -117,14 +128,18 @@ fn execute(command: Command) -> Result<i32, Error> {
                     }
                     run(&study, &out)
                 }
-                Simulation::Solver(_) if executor == Executor::Slurm => {
-                    Err(Error::Failed("--executor slurm is not available yet in this version of lab".into()))
-                }
                 Simulation::Solver(sim) => {
-                    let modes = Modes { replay: replay_dir(sim, replay), record };
+                    let modes = Modes { replay: replay_dir(sim, replay), record, slurm: executor == Executor::Slurm };
                     run_solver(&study, sim, &out, jobs.unwrap_or_else(default_jobs), &modes)
                 }
             }
+        }
+        Command::SlurmWorker { study, out, jobs, keys } => {
+            let study = study::load(&study)?;
+            let Simulation::Solver(sim) = &study.simulation else {
+                return Err(Error::Failed("slurm-worker: not a solver study".into()));
+            };
+            sweep::worker(&study, sim, &out, jobs, &keys)
         }
         Command::Check { study } => {
             let study = study::load(&study)?;
@@ -204,6 +219,8 @@ fn run(study: &Study, out: &Path) -> Result<i32, Error> {
 struct Modes {
     replay: Option<PathBuf>,
     record: Option<PathBuf>,
+    /// `--executor slurm`: runs go to Slurm jobs.
+    slurm: bool,
 }
 
 /// The replay directory: `--replay DIR`, else the study's `simulation.replay` when the solver
@@ -256,6 +273,7 @@ fn run_solver(study: &Study, sim: &SolverSimulation, out: &Path, jobs: usize, mo
             }
             swept
         }
+        None if modes.slurm => sweep::run_slurm(&mut store, study, sim, &prepared, &signals.canceller)?,
         None => sweep::run(&runtime, &mut store, sim, &prepared, jobs, &signals.canceller)?,
     };
     signals.sweep_done();

@@ -96,8 +96,19 @@ fn unknown_adapter() {
 }
 
 #[test]
-fn later_adapters_are_named_but_not_available() {
-    study_error(&with("adapter: command", "adapter: calculix"), 9, Some("calculix"), "not available yet");
+fn calculix_keys_are_checked_where_they_are() {
+    // `calculix` takes its response from `response.dat`, not a file and a regex.
+    let yaml = with("adapter: command", "adapter: calculix");
+    study_error(&yaml, 14, Some("out.txt"), "does not go with `adapter: calculix`");
+    let dat = r#"response: {dat: {block: displacements, set: NTIP, component: fy}}"#;
+    let yaml = with(r#"response: {file: out.txt, regex: "y = (\\S+)"}"#, dat).replace("adapter: command", "adapter: calculix");
+    // No .inp input: the job cannot be named.
+    study_error(&yaml, 8, None, "`.inp` input");
+    let yaml = yaml.replace("    templates: [beam.txt.tera]\n", "    templates: [beam.txt.tera]\n    job: beam\n");
+    study_error(&yaml, 11, Some("beam"), "no template or file gives `beam.inp`");
+    // `dat` with the command adapter.
+    let yaml = with(r#"response: {file: out.txt, regex: "y = (\\S+)"}"#, dat);
+    study_error(&yaml, 14, Some("{block"), "`response.dat` goes with `adapter: calculix`");
 }
 
 #[test]

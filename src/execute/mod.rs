@@ -52,11 +52,13 @@
 //!   attempt is never judged by a previous attempt's files.
 
 pub mod adapter;
+pub mod calculix;
 pub mod executor;
 pub mod lock;
 pub mod lsdyna;
 pub mod progress;
 pub mod replay;
+pub mod slurm;
 pub mod store;
 pub mod sweep;
 

@@ -100,6 +100,11 @@ pub struct Committer {
 }
 
 impl Committer {
+    /// A committer into `results` (the Slurm worker commits without holding the store's lock).
+    pub fn new(results: PathBuf) -> Self {
+        Committer { results }
+    }
+
     pub fn commit(&self, record: &RunRecord) -> Result<(), StoreError> {
         let path = self.results.join(format!("{}.json", record.key));
         let text = serde_json::to_vec_pretty(record).expect("records serialize");
@@ -128,12 +133,14 @@ impl RunStore {
         fs::create_dir_all(&results).map_err(io_at(&results))?;
 
         let records = load_records(&results, true)?;
+        // Runs submitted to Slurm and not yet collected: their directories are in use.
+        let submitted = super::slurm::journaled_keys(out);
 
         let mut cleaned = Vec::new();
         for entry in fs::read_dir(&runs).map_err(io_at(&runs))? {
             let path = entry.map_err(io_at(&runs))?.path();
             let key = path.file_name().unwrap_or_default().to_string_lossy().into_owned();
-            if !records.contains_key(&key) {
+            if !records.contains_key(&key) && !submitted.contains(&key) {
                 remove_any(&path)?;
                 cleaned.push(key);
             }
@@ -204,6 +211,17 @@ impl RunStore {
     pub fn commit(&mut self, record: RunRecord) -> Result<(), StoreError> {
         self.committer().commit(&record)?;
         self.remember(record);
+        Ok(())
+    }
+
+    /// Removes the committed record of `key` (a failed one, before the run is submitted again).
+    pub fn forget(&mut self, key: &str) -> Result<(), StoreError> {
+        let path = self.out.join(RESULTS_DIR).join(format!("{key}.json"));
+        match fs::remove_file(&path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io_at(&path)(e)),
+            _ => {}
+        }
+        self.records.remove(key);
         Ok(())
     }
 

@@ -44,13 +44,14 @@ pub struct Prepared {
     pub run_mesh: Vec<Option<PathBuf>>,
 }
 
-/// The study's adapter: `command` (response file + regex) or `lsdyna` (crush force).
+/// The study's adapter: `command` (response file + regex), `lsdyna` (crush force) or `calculix`.
 pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
     Ok(match &sim.response {
         Response::Regex { file, regex } => Arc::new(
             CommandAdapter::new(file, regex, &[]).map_err(|e| Error::Failed(format!("response regex: {e}")))?,
         ),
         Response::CrushForce { window, source } => Arc::new(LsDynaAdapter { window: *window, source: source.clone() }),
+        Response::Dat(ccx) => Arc::new(ccx.clone()),
     })
 }
 
@@ -289,6 +290,16 @@ pub fn run(
     jobs: usize,
     canceller: &Canceller,
 ) -> Result<SweepResult, Error> {
+    let submitted = super::slurm::journal(store.out());
+    if !submitted.is_empty() {
+        let ids: Vec<String> = submitted.iter().filter_map(|j| j.job_id.clone()).collect();
+        return Err(Error::Failed(format!(
+            "{} run(s) of {} are submitted to Slurm (job(s) {}): `lab run --executor slurm` re-attaches to them",
+            submitted.iter().map(|j| j.keys.len()).sum::<usize>(),
+            store.out().display(),
+            ids.join(", ")
+        )));
+    }
     let reused = prepared.keys.iter().filter(|k| store.is_finished(k)).count();
     let mut specs = Vec::new();
     let mut seen = BTreeSet::new();
@@ -314,12 +325,25 @@ pub fn run(
     for record in summary.records {
         store.remember(record);
     }
-    let responses = prepared.keys.iter().map(|k| store.record(k).and_then(|r| r.response)).collect();
-    let classes = prepared.keys.iter().map(|k| store.record(k).map(|r| r.outcome.class())).collect();
-    Ok(SweepResult { responses, classes, reused, errors: summary.errors })
+    let responses = prepared
+        .keys
+        .iter()
+        .map(|k| store.record(k).and_then(|r| r.response))
+        .collect();
+    let classes = prepared
+        .keys
+        .iter()
+        .map(|k| store.record(k).map(|r| r.outcome.class()))
+        .collect();
+    Ok(SweepResult {
+        responses,
+        classes,
+        reused,
+        errors: summary.errors,
+    })
 }
 
-fn spec(sim: &SolverSimulation, key: &str, dir: PathBuf) -> Result<RunSpec, Error> {
+pub fn spec(sim: &SolverSimulation, key: &str, dir: PathBuf) -> Result<RunSpec, Error> {
     Ok(RunSpec {
         key: key.to_string(),
         dir,
@@ -328,4 +352,92 @@ fn spec(sim: &SolverSimulation, key: &str, dir: PathBuf) -> Result<RunSpec, Erro
         outputs: adapter(sim)?.cleared(),
         retry: sim.retry.clone(),
     })
+}
+
+/// `lab run --executor slurm`: the sweep submitted to Slurm (see [`super::slurm`]).
+pub fn run_slurm(
+    store: &mut RunStore,
+    study: &Study,
+    sim: &SolverSimulation,
+    prepared: &Prepared,
+    canceller: &Canceller,
+) -> Result<SweepResult, Error> {
+    let reused = prepared.keys.iter().filter(|k| store.is_finished(k)).count();
+    let settings = sim.slurm.clone().unwrap_or_default();
+    let study_path =
+        std::fs::canonicalize(&study.path).map_err(|e| Error::Failed(format!("{}: {e}", study.path.display())))?;
+    let mut distinct: Vec<String> = Vec::new();
+    for key in &prepared.keys {
+        if !distinct.contains(key) {
+            distinct.push(key.clone());
+        }
+    }
+    let out = store.out().to_path_buf();
+    let prepare = |key: &str| -> Result<(), Error> { store_prepare(&out, key, &prepared.inputs[key]) };
+    let summary = super::slurm::run(&settings, &study_path, store, &distinct, canceller, &prepare)?;
+    if !summary.left_running.is_empty() {
+        let ids = summary.left_running.join(",");
+        eprintln!(
+            "left {} Slurm job(s) running ({ids}): `lab run {} --executor slurm` again re-attaches; `scancel {ids}` cancels them",
+            summary.left_running.len(),
+            study.path.display()
+        );
+    }
+    let responses = prepared
+        .keys
+        .iter()
+        .map(|k| store.record(k).and_then(|r| r.response))
+        .collect();
+    let classes = prepared
+        .keys
+        .iter()
+        .map(|k| store.record(k).map(|r| r.outcome.class()))
+        .collect();
+    Ok(SweepResult {
+        responses,
+        classes,
+        reused,
+        errors: summary.errors,
+    })
+}
+
+/// [`RunStore::prepare`] without the store (the store is borrowed by the Slurm pass).
+fn store_prepare(out: &std::path::Path, key: &str, inputs: &Inputs) -> Result<(), Error> {
+    let dir = out.join(super::store::RUNS_DIR).join(key);
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir).map_err(|e| Error::Failed(format!("{}: {e}", dir.display())))?;
+    }
+    for (rel, bytes) in inputs {
+        let path = dir.join(rel);
+        std::fs::create_dir_all(path.parent().unwrap_or(&dir))
+            .map_err(|e| Error::Failed(format!("{}: {e}", path.display())))?;
+        std::fs::write(&path, bytes).map_err(|e| Error::Failed(format!("{}: {e}", path.display())))?;
+    }
+    Ok(())
+}
+
+/// `lab slurm-worker`: inside a Slurm job, runs `keys` of the study in OUT/runs with the local
+/// executor (`jobs` at once) and commits their records; the submitting lab collects them.
+pub fn worker(
+    _study: &Study,
+    sim: &SolverSimulation,
+    out: &std::path::Path,
+    jobs: usize,
+    keys: &[String],
+) -> Result<i32, Error> {
+    let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    let committer = super::store::Committer::new(out.join(super::store::RESULTS_DIR));
+    let specs = keys
+        .iter()
+        .map(|k| spec(sim, k, out.join(super::store::RUNS_DIR).join(k)))
+        .collect::<Result<Vec<RunSpec>, Error>>()?;
+    let executor = Executor::new(jobs, adapter(sim)?, committer);
+    let summary = runtime.block_on(executor.run(specs));
+    for r in &summary.records {
+        println!("{} {}", r.key, r.outcome);
+    }
+    if !summary.errors.is_empty() {
+        return Err(Error::Failed(summary.errors.join("\n")));
+    }
+    Ok(0)
 }

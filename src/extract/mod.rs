@@ -5,5 +5,6 @@
 //! - [`crush`]: force–displacement curves and the average crush force over a stroke window, from
 //!   contact force + striker displacement, or from a test machine's CSV.
 
+pub mod calculix;
 pub mod crush;
 pub mod lsdyna;

@@ -18,6 +18,8 @@ use crate::error::InputError;
 
 #[path = "load_solver.rs"]
 mod solver;
+#[path = "load_cluster.rs"]
+mod cluster;
 
 #[path = "load_extension.rs"]
 mod extension;

@@ -17,7 +17,6 @@ use crate::error::InputError;
 use crate::execute::{Backoff, CommandAdapter, OutcomeClass, RetryPolicy};
 
 /// Adapters named by the contract whose implementation is not in this version.
-const LATER_ADAPTERS: [&str; 1] = ["calculix"];
 
 /// Outcome classes a retry policy may name, by their study-file names.
 const RETRY_CLASSES: [(&str, OutcomeClass); 5] = [
@@ -90,6 +89,8 @@ impl Checker<'_> {
                 };
                 vec!["ls-dyna".to_string(), format!("i={}", main.output.display()), "ncpu=1".to_string()]
             }
+            // `calculix`: `[ccx, -i, JOB]`, filled in once the job is known (load_cluster.rs).
+            None if adapter == "calculix" => Vec::new(),
             None => {
                 return Err(self.at_key(
                     "solver",
@@ -108,7 +109,17 @@ impl Checker<'_> {
             };
             return Err(self.at_key("solver", solver, want));
         };
-        let response = if lsdyna { self.crush_response(response)? } else { self.regex_response(response)? };
+        // `calculix`, `job`, `response.dat`, `slurm`: see load_cluster.rs.
+        let cluster = self.cluster_keys(&adapter, solver, response, &outputs)?;
+        let command = match &cluster.calculix {
+            Some(ccx) if command.is_empty() => ccx.argv(),
+            _ => command,
+        };
+        let response = match cluster.calculix {
+            Some(ccx) => Response::Dat(ccx),
+            None if lsdyna => self.crush_response(response)?,
+            None => self.regex_response(response)?,
+        };
         let surrogate = match &sim.surrogate {
             None => SurrogateKind::Linear,
             Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
@@ -144,6 +155,7 @@ impl Checker<'_> {
             mesh,
             replay,
             parameter_width: lsdyna.then_some(10),
+            slurm: cluster.slurm,
         })
     }
 
@@ -259,11 +271,7 @@ impl Checker<'_> {
 
     fn adapter(&self, node: &Spanned<String>) -> Result<String, InputError> {
         match node.value.as_str() {
-            "command" | "lsdyna" => Ok(node.value.clone()),
-            name if LATER_ADAPTERS.contains(&name) => Err(self.at(
-                node,
-                format!("adapter `{name}` is not available yet in this version of lab; use `adapter: command`"),
-            )),
+            "command" | "lsdyna" | "calculix" => Ok(node.value.clone()),
             name => Err(self.at(node, format!("unknown adapter `{name}`: choose from command, lsdyna, calculix"))),
         }
     }
@@ -334,7 +342,7 @@ impl Checker<'_> {
         Ok(CopiedFile { file, output, bytes })
     }
 
-    fn relative_path(&self, node: &Spanned<String>, key: &str) -> Result<PathBuf, InputError> {
+    pub(super) fn relative_path(&self, node: &Spanned<String>, key: &str) -> Result<PathBuf, InputError> {
         let path = PathBuf::from(&node.value);
         let inside = path.components().all(|c| matches!(c, Component::Normal(_)));
         if node.value.is_empty() || !inside {

@@ -96,10 +96,15 @@ pub struct SolverFile {
     /// Files copied verbatim into every run directory (part of the run key).
     #[serde(default)]
     pub files: Vec<Spanned<String>>,
-    /// Required for `command`; `lsdyna` defaults to `[ls-dyna, i=<first template>, ncpu=1]`.
+    /// Required for `command`; `lsdyna` defaults to `[ls-dyna, i=<first template>, ncpu=1]`,
+    /// `calculix` to `[ccx, -i, JOB]`.
     pub command: Option<Spanned<Vec<Spanned<String>>>>,
     pub timeout: Option<Spanned<f64>>,
     pub retries: Option<Spanned<RetriesFile>>,
+    /// `adapter: calculix`: the job name (`JOB.inp` in the run directory).
+    pub job: Option<Spanned<String>>,
+    /// Settings of `--executor slurm`.
+    pub slurm: Option<Spanned<SlurmFile>>,
 }
 
 /// `simulation.solver.retries`.
@@ -140,6 +145,8 @@ pub struct ResponseFile {
     pub force_to_kn: Option<Spanned<f64>>,
     /// Multiplies the solver's length into mm (default 1).
     pub disp_to_mm: Option<Spanned<f64>>,
+    /// `adapter: calculix`: a block of `JOB.dat`.
+    pub dat: Option<Spanned<DatFile>>,
 }
 
 /// `simulation.sampling`.
@@ -194,4 +201,34 @@ pub struct HypothesisFile {
     pub term: Option<Spanned<String>>,
     /// A model extension (solver studies): template variables set for extra runs.
     pub extension: Option<Spanned<IndexMap<Name, Spanned<f64>>>>,
+}
+
+// ---- Cluster and CalculiX keys (issue 6): `solver.job`, `solver.slurm`, `response.dat` ----
+
+/// `simulation.response.dat`: `{block: displacements, set: NTIP, component: vy, reduce: mean}`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DatFile {
+    pub block: Spanned<String>,
+    pub set: Spanned<String>,
+    pub component: Spanned<String>,
+    pub reduce: Option<Spanned<String>>,
+}
+
+/// `simulation.solver.slurm`: how runs are submitted by `--executor slurm`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SlurmFile {
+    pub partition: Option<Spanned<String>>,
+    /// Per job, in minutes.
+    pub time_limit: Option<Spanned<u32>>,
+    /// CPUs per job; runs of one job run this many at once.
+    pub cpus: Option<Spanned<u32>>,
+    /// Memory per job in MB.
+    pub memory: Option<Spanned<u32>>,
+    /// Runs packed into one job.
+    pub runs_per_job: Option<Spanned<usize>>,
+    /// More sbatch options, each one argv element (`--account=x`).
+    #[serde(default)]
+    pub options: Vec<Spanned<String>>,
 }

@@ -30,6 +30,8 @@ pub struct SolverSimulation {
     /// Width of the solver's fixed number fields: sampled parameters are rounded to fit them
     /// (10 for `lsdyna`), so the surrogates see exactly the values the solver read.
     pub parameter_width: Option<usize>,
+    /// `solver.slurm`: settings of `--executor slurm` (defaults when absent).
+    pub slurm: Option<crate::execute::slurm::SlurmSettings>,
 }
 
 /// `simulation.response`.
@@ -39,6 +41,8 @@ pub enum Response {
     Regex { file: PathBuf, regex: String },
     /// `lsdyna`: mean crush force (kN) over a stroke window, from rcforc and nodout.
     CrushForce { window: crate::extract::crush::Window, source: crate::extract::crush::SimSource },
+    /// `calculix`: a value from a block of `JOB.dat` (`response.dat`), judged by the ccx adapter.
+    Dat(crate::execute::calculix::CalculixAdapter),
 }
 
 /// `simulation.mesh: {kind: honeycomb_tube, ...}`.

@@ -1,0 +1,152 @@
+//! The `calculix` adapter: `ccx -i JOB` in the run directory, judged by its own rules.
+//!
+//! CalculiX's exit code is not enough: it exits 201 on non-convergence, but 0 after an unknown
+//! keyword or a missing include (it warns and prints "Job finished"). A run succeeds only when
+//! (1) the exit code is 0 (the executor checks), (2) no line of its output holds `*ERROR`, and (3)
+//! `JOB.dat` holds the expected block with rows; the response is one column of that block, reduced.
+//!
+//! ```
+//! use lab::execute::{Adapter, calculix::{CalculixAdapter, DatResponse}};
+//! use lab::extract::calculix::Reduce;
+//! let a = CalculixAdapter::new("beam", DatResponse {
+//!     block: "displacements".into(), set: "NTIP".into(), component: "vy".into(), reduce: Reduce::Mean });
+//! assert_eq!(a.argv(), ["ccx", "-i", "beam"]);
+//! let dir = tempfile::tempdir().unwrap();
+//! std::fs::write(dir.path().join("beam.dat"),
+//!     " displacements (vx,vy,vz) for set NTIP and time 1.0\n\n 7 0.0 0.3055 0.0\n").unwrap();
+//! assert_eq!(a.extract(dir.path()).unwrap(), 0.3055);
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use super::{Adapter, Outcome, ResponseProblem, STDERR_FILE, STDOUT_FILE};
+use crate::extract::calculix::{Missing, Reduce, find, parse_dat};
+
+/// The text CalculiX starts its error messages with.
+pub const ERROR_TEXT: &str = "*ERROR";
+
+/// Which `.dat` block, set and component the response is, and how the column is reduced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DatResponse {
+    /// Block kind as in the header, lowercase: `displacements`, `forces`, `total force`, `stresses`.
+    pub block: String,
+    pub set: String,
+    /// Component name as in the header, lowercase: `vx`, `vy`, `fz`, `sxx`, ...
+    pub component: String,
+    pub reduce: Reduce,
+}
+
+#[derive(Debug, Clone)]
+pub struct CalculixAdapter {
+    /// The job name: the input is `JOB.inp`, results `JOB.dat`.
+    pub job: String,
+    pub response: DatResponse,
+}
+
+impl CalculixAdapter {
+    pub fn new(job: impl Into<String>, response: DatResponse) -> Self {
+        CalculixAdapter {
+            job: job.into(),
+            response,
+        }
+    }
+
+    /// `ccx -i JOB`.
+    pub fn argv(&self) -> Vec<String> {
+        vec!["ccx".into(), "-i".into(), self.job.clone()]
+    }
+
+    pub fn dat_file(&self) -> PathBuf {
+        PathBuf::from(format!("{}.dat", self.job))
+    }
+
+    /// Files ccx writes (removed before each attempt).
+    pub fn outputs(&self) -> Vec<PathBuf> {
+        ["dat", "frd", "sta", "cvg"]
+            .iter()
+            .map(|ext| PathBuf::from(format!("{}.{ext}", self.job)))
+            .collect()
+    }
+}
+
+fn bad(problem: ResponseProblem, detail: String) -> Outcome {
+    Outcome::BadResponse { problem, detail }
+}
+
+impl Adapter for CalculixAdapter {
+    fn identity(&self) -> String {
+        let r = &self.response;
+        let parts = (&self.job, &r.block, &r.set, &r.component, r.reduce.key());
+        format!(
+            "calculix/1 {}",
+            serde_json::to_string(&parts).expect("strings serialize")
+        )
+    }
+
+    fn find_failure(&self, dir: &Path) -> Option<Outcome> {
+        for rel in [STDOUT_FILE, STDERR_FILE] {
+            let Ok(bytes) = std::fs::read(dir.join(rel)) else {
+                continue;
+            };
+            let text = String::from_utf8_lossy(&bytes);
+            if let Some(line) = text.lines().find(|l| l.contains(ERROR_TEXT)) {
+                let line: String = line.trim().chars().take(200).collect();
+                return Some(Outcome::FailureText {
+                    file: rel.to_string(),
+                    line,
+                });
+            }
+        }
+        None
+    }
+
+    fn extract(&self, dir: &Path) -> Result<f64, Outcome> {
+        let rel = self.dat_file();
+        let bytes = match std::fs::read(dir.join(&rel)) {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(bad(
+                    ResponseProblem::Missing,
+                    format!("{} was not written", rel.display()),
+                ));
+            }
+            Err(e) => return Err(bad(ResponseProblem::Missing, format!("{}: {e}", rel.display()))),
+        };
+        let text = String::from_utf8_lossy(&bytes);
+        let blocks = parse_dat(&rel, &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+        let r = &self.response;
+        let Some(block) = find(&blocks, &r.block, &r.set) else {
+            return Err(bad(
+                ResponseProblem::Missing,
+                format!(
+                    "no `{}` block for set {} in {} (ccx skips unknown keywords and missing includes with only a \
+                     warning: see {STDOUT_FILE})",
+                    r.block,
+                    r.set,
+                    rel.display()
+                ),
+            ));
+        };
+        let at = format!("{}:{}", rel.display(), block.line);
+        match block.reduce(&r.component, r.reduce) {
+            Ok(v) => Ok(v),
+            Err(Missing::NoRows) => Err(bad(
+                ResponseProblem::Empty,
+                format!("{at}: `{}` block has no rows", r.block),
+            )),
+            Err(Missing::NoComponent(names)) => Err(bad(
+                ResponseProblem::Missing,
+                format!(
+                    "{at}: `{}` block has no component `{}` (it has {})",
+                    r.block,
+                    r.component,
+                    names.join(", ")
+                ),
+            )),
+            Err(Missing::SeveralRows(n)) => Err(bad(
+                ResponseProblem::Unparseable,
+                format!("{at}: `reduce: value` needs a single row; the block has {n}"),
+            )),
+        }
+    }
+}

@@ -1,0 +1,491 @@
+//! The Slurm executor (`lab run --executor slurm`).
+
+/// `simulation.solver.slurm`: how runs are submitted.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SlurmSettings {
+    pub partition: Option<String>,
+    pub time_limit_minutes: Option<u32>,
+    /// CPUs per job: the runs of one job run this many at once.
+    pub cpus: u32,
+    pub memory_mb: Option<u32>,
+    /// Runs packed into one job (the scheduler starts about 2 jobs a second).
+    pub runs_per_job: usize,
+    /// More sbatch options, one argv element each.
+    pub options: Vec<String>,
+}
+
+impl Default for SlurmSettings {
+    fn default() -> Self {
+        SlurmSettings {
+            partition: None,
+            time_limit_minutes: None,
+            cpus: 1,
+            memory_mb: None,
+            runs_per_job: 8,
+            options: Vec::new(),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The executor.
+//
+// ```text
+// OUT/slurm/<token>.json   journal entry of one job: {token, job_id, keys, submitted_ms}
+// OUT/slurm/<token>.sh     the job's batch script (kept): `lab slurm-worker ... KEY...`
+// OUT/slurm/<token>.out    the job's stdout/stderr (Slurm --output)
+// OUT/runs/<key>/lab.job.sh  the run's own script (kept): the same worker for that one key
+// ```
+//
+// A job's runs are executed inside the job by `lab slurm-worker`, which runs them with the local
+// executor (same process groups, timeouts, retries, adapter checks) and commits their records
+// into OUT/results atomically. The submitting `lab` only watches: it polls the job's state and the
+// records. The journal entry is written *before* sbatch (without an id; the job is named
+// `lab-<token>`), then again with the id: a `lab` killed at any moment finds every job it may have
+// submitted, by id or by name, and re-attaches instead of submitting twice. Run directories of
+// journaled keys are kept when the store is opened. An entry is removed once all its runs have
+// records.
+// ---------------------------------------------------------------------------------------------
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use serde::{Deserialize, Serialize};
+
+use super::store::{RESULTS_DIR, write_atomic};
+use super::{Canceller, Outcome, RunRecord, RunStore};
+use crate::error::Error;
+
+/// Directory (under `--out`) of the journal and the batch scripts.
+pub const SLURM_DIR: &str = "slurm";
+/// The run's own job script, in its run directory.
+pub const RUN_SCRIPT: &str = "lab.job.sh";
+
+/// One submitted job, as journaled.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct JobEntry {
+    pub token: String,
+    /// `None` between the journal write and sbatch's answer.
+    pub job_id: Option<String>,
+    pub keys: Vec<String>,
+    pub submitted_ms: u64,
+}
+
+fn now_ms() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_millis() as u64)
+        .unwrap_or(0)
+}
+
+fn journal_dir(out: &Path) -> PathBuf {
+    out.join(SLURM_DIR)
+}
+
+/// Live journal entries of `out` (unreadable entries are skipped).
+pub fn journal(out: &Path) -> Vec<JobEntry> {
+    let Ok(entries) = std::fs::read_dir(journal_dir(out)) else {
+        return Vec::new();
+    };
+    let mut jobs: Vec<JobEntry> = entries
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().extension().is_some_and(|x| x == "json"))
+        .filter_map(|e| serde_json::from_slice(&std::fs::read(e.path()).ok()?).ok())
+        .collect();
+    jobs.sort_by_key(|j| j.submitted_ms);
+    jobs
+}
+
+/// Keys of runs journaled as submitted to Slurm: their run directories must be kept.
+pub fn journaled_keys(out: &Path) -> BTreeSet<String> {
+    journal(out).into_iter().flat_map(|j| j.keys).collect()
+}
+
+fn write_entry(out: &Path, entry: &JobEntry) -> Result<(), Error> {
+    let path = journal_dir(out).join(format!("{}.json", entry.token));
+    write_atomic(&path, &serde_json::to_vec_pretty(entry).expect("entries serialize"))
+        .map_err(|e| Error::Failed(format!("{}: {e}", path.display())))
+}
+
+fn remove_entry(out: &Path, token: &str) {
+    let _ = std::fs::remove_file(journal_dir(out).join(format!("{token}.json")));
+}
+
+/// POSIX-shell single quoting.
+fn quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', r"'\''"))
+}
+
+/// A Slurm command's stdout, or why it failed.
+fn slurm_cmd(program: &str, args: &[&str]) -> Result<String, String> {
+    let out = Command::new(program)
+        .args(args)
+        .output()
+        .map_err(|e| format!("cannot run `{program}`: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "`{program} {}`: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr).trim()
+        ));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// A job's state as Slurm says it, and its exit code when given.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobState {
+    pub state: String,
+    pub exit_code: Option<i32>,
+}
+
+impl JobState {
+    pub fn is_final(&self) -> bool {
+        !matches!(
+            self.state.as_str(),
+            "PENDING"
+                | "RUNNING"
+                | "CONFIGURING"
+                | "COMPLETING"
+                | "SUSPENDED"
+                | "REQUEUED"
+                | "RESIZING"
+                | "STAGE_OUT"
+                | "SIGNALING"
+                | "REQUEUE_HOLD"
+                | "REQUEUE_FED"
+                | "RESV_DEL_HOLD"
+                | "STOPPED"
+        )
+    }
+}
+
+fn field<'a>(line: &'a str, name: &str) -> Option<&'a str> {
+    line.split_whitespace()
+        .find_map(|t| t.strip_prefix(name)?.strip_prefix('='))
+}
+
+/// The jobcomp file's path, from `scontrol show config` (JobCompLoc).
+fn jobcomp_file() -> Option<PathBuf> {
+    let config = slurm_cmd("scontrol", &["show", "config"]).ok()?;
+    config.lines().find_map(|l| {
+        let (k, v) = l.split_once('=')?;
+        (k.trim() == "JobCompLoc").then(|| PathBuf::from(v.trim()))
+    })
+}
+
+/// States of `ids`: `squeue -h -t all`, then `scontrol -o show job`, then the jobcomp record
+/// (after MinJobAge the first two forget the job). Ids no source knows are left out.
+pub fn job_states(ids: &[String]) -> BTreeMap<String, JobState> {
+    let mut states = BTreeMap::new();
+    if ids.is_empty() {
+        return states;
+    }
+    if let Ok(text) = slurm_cmd("squeue", &["-h", "-t", "all", "-j", &ids.join(","), "-o", "%i %T"]) {
+        for line in text.lines() {
+            if let Some((id, state)) = line.trim().split_once(' ') {
+                states.insert(
+                    id.to_string(),
+                    JobState {
+                        state: state.trim().to_string(),
+                        exit_code: None,
+                    },
+                );
+            }
+        }
+    }
+    let mut jobcomp: Option<String> = None;
+    for id in ids {
+        let known = states.get(id).cloned();
+        if known.as_ref().is_some_and(|s| !s.is_final()) {
+            continue;
+        }
+        // Final (or unknown to squeue): the exit code from scontrol, or the jobcomp record.
+        let line = slurm_cmd("scontrol", &["-o", "show", "job", id])
+            .ok()
+            .filter(|l| field(l, "JobState").is_some());
+        let line = line.or_else(|| {
+            let text = jobcomp.get_or_insert_with(|| {
+                jobcomp_file()
+                    .and_then(|p| std::fs::read_to_string(p).ok())
+                    .unwrap_or_default()
+            });
+            text.lines()
+                .rev()
+                .find(|l| field(l, "JobId") == Some(id.as_str()))
+                .map(str::to_string)
+        });
+        if let Some(line) = line {
+            let state = field(&line, "JobState").unwrap_or("UNKNOWN").to_string();
+            let exit_code = field(&line, "ExitCode").and_then(|c| c.split(':').next()?.parse().ok());
+            states.insert(id.clone(), JobState { state, exit_code });
+        }
+    }
+    states
+}
+
+/// The id of the job named `lab-<token>`, if Slurm (or its jobcomp record) knows one.
+fn find_by_name(token: &str) -> Option<String> {
+    let name = format!("lab-{token}");
+    if let Ok(text) = slurm_cmd("squeue", &["-h", "-t", "all", "-n", &name, "-o", "%i"]) {
+        if let Some(id) = text.split_whitespace().next() {
+            return Some(id.to_string());
+        }
+    }
+    let text = std::fs::read_to_string(jobcomp_file()?).ok()?;
+    text.lines()
+        .rev()
+        .find(|l| field(l, "Name") == Some(name.as_str()))
+        .and_then(|l| field(l, "JobId"))
+        .map(str::to_string)
+}
+
+/// What `lab` runs inside a job: `lab slurm-worker --study S --out O --jobs N KEY...`.
+fn worker_argv(study: &Path, out: &Path, jobs: u32, keys: &[String]) -> Result<Vec<String>, Error> {
+    let lab = std::env::current_exe().map_err(|e| Error::Failed(format!("cannot find the lab binary: {e}")))?;
+    let mut argv = vec![
+        lab.display().to_string(),
+        "slurm-worker".into(),
+        "--study".into(),
+        study.display().to_string(),
+        "--out".into(),
+        out.display().to_string(),
+        "--jobs".into(),
+        jobs.to_string(),
+    ];
+    argv.extend(keys.iter().cloned());
+    Ok(argv)
+}
+
+fn script(comment: &str, argv: &[String]) -> String {
+    let line: Vec<String> = argv.iter().map(|a| quote(a)).collect();
+    format!("#!/bin/sh\n# {comment}\nexec {}\n", line.join(" "))
+}
+
+fn make_token(keys: &[String]) -> String {
+    let mut h = blake3::Hasher::new();
+    h.update(&now_ms().to_le_bytes());
+    h.update(&std::process::id().to_le_bytes());
+    for k in keys {
+        h.update(k.as_bytes());
+    }
+    h.finalize().to_hex()[..12].to_string()
+}
+
+/// Writes the scripts, journals the job, submits it; the journal entry (with its id).
+fn submit(
+    settings: &SlurmSettings,
+    study: &Path,
+    out: &Path,
+    store: &RunStore,
+    keys: Vec<String>,
+) -> Result<JobEntry, Error> {
+    let token = make_token(&keys);
+    for key in &keys {
+        let argv = worker_argv(study, out, 1, std::slice::from_ref(key))?;
+        let path = store.run_dir(key).join(RUN_SCRIPT);
+        let text = script(
+            &format!("lab: run {key} (submitted in Slurm job lab-{token}); run by hand: sh {RUN_SCRIPT}"),
+            &argv,
+        );
+        std::fs::write(&path, text).map_err(|e| Error::Failed(format!("{}: {e}", path.display())))?;
+    }
+    let dir = journal_dir(out);
+    let batch = dir.join(format!("{token}.sh"));
+    let text = script(
+        &format!("lab: Slurm job lab-{token}, {} run(s)", keys.len()),
+        &worker_argv(study, out, settings.cpus, &keys)?,
+    );
+    std::fs::write(&batch, text).map_err(|e| Error::Failed(format!("{}: {e}", batch.display())))?;
+    let mut entry = JobEntry {
+        token: token.clone(),
+        job_id: None,
+        keys,
+        submitted_ms: now_ms(),
+    };
+    write_entry(out, &entry)?; // before sbatch: a lab killed now finds the job by its name
+    let mut args: Vec<String> = vec![
+        "--parsable".into(),
+        format!("--job-name=lab-{token}"),
+        format!("--chdir={}", dir.display()),
+        format!("--output={}", dir.join(format!("{token}.out")).display()),
+        format!("--cpus-per-task={}", settings.cpus),
+        "--ntasks=1".into(),
+    ];
+    if let Some(p) = &settings.partition {
+        args.push(format!("--partition={p}"));
+    }
+    if let Some(t) = settings.time_limit_minutes {
+        args.push(format!("--time={t}"));
+    }
+    if let Some(m) = settings.memory_mb {
+        args.push(format!("--mem={m}M"));
+    }
+    args.extend(settings.options.iter().cloned());
+    args.push(batch.display().to_string());
+    let arg_refs: Vec<&str> = args.iter().map(String::as_str).collect();
+    match slurm_cmd("sbatch", &arg_refs) {
+        Ok(text) => {
+            // --parsable: `id` or `id;cluster`.
+            let id = text.trim().split(';').next().unwrap_or_default().to_string();
+            entry.job_id = Some(id);
+            write_entry(out, &entry)?;
+            Ok(entry)
+        }
+        Err(e) => {
+            remove_entry(out, &token);
+            Err(Error::Failed(format!("submitting to Slurm: {e}")))
+        }
+    }
+}
+
+/// The committed record of `key` in OUT/results, if any.
+fn read_record(out: &Path, key: &str) -> Option<RunRecord> {
+    serde_json::from_slice(&std::fs::read(out.join(RESULTS_DIR).join(format!("{key}.json"))).ok()?).ok()
+}
+
+/// The outcome of a run whose job ended without committing its record.
+fn lost_outcome(state: &JobState) -> Outcome {
+    match state.state.as_str() {
+        "TIMEOUT" | "DEADLINE" => Outcome::Timeout,
+        "CANCELLED" | "PREEMPTED" => Outcome::Signal { signal: 15 },
+        "OUT_OF_MEMORY" => Outcome::Signal { signal: 9 },
+        _ => Outcome::NonZeroExit {
+            code: state.exit_code.filter(|c| *c != 0).unwrap_or(-1),
+        },
+    }
+}
+
+/// What a Slurm pass did.
+#[derive(Debug, Default)]
+pub struct SlurmSummary {
+    pub records: Vec<RunRecord>,
+    pub submitted_jobs: usize,
+    pub reattached_jobs: usize,
+    /// Jobs left running when the pass was cancelled.
+    pub left_running: Vec<String>,
+    pub errors: Vec<String>,
+}
+
+/// Submits the runs of `keys` that are neither finished nor journaled, re-attaches to journaled
+/// jobs, and waits for every run's record (or cancellation: then jobs are left running).
+pub fn run(
+    settings: &SlurmSettings,
+    study: &Path,
+    store: &mut RunStore,
+    keys: &[String],
+    canceller: &Canceller,
+    inputs: &dyn Fn(&str) -> Result<(), Error>,
+) -> Result<SlurmSummary, Error> {
+    // Absolute: the job runs with its own working directory.
+    let out = std::path::absolute(store.out()).map_err(|e| Error::Failed(format!("{}: {e}", store.out().display())))?;
+    std::fs::create_dir_all(journal_dir(&out)).map_err(|e| Error::Failed(format!("{}: {e}", out.display())))?;
+    let mut summary = SlurmSummary::default();
+    let wanted: BTreeSet<&String> = keys.iter().filter(|k| !store.is_finished(k)).collect();
+    // Re-attach.
+    let mut active: Vec<JobEntry> = Vec::new();
+    for mut entry in journal(&out) {
+        if entry.job_id.is_none() {
+            entry.job_id = find_by_name(&entry.token);
+            match &entry.job_id {
+                Some(_) => write_entry(&out, &entry)?,
+                None => {
+                    remove_entry(&out, &entry.token); // never reached Slurm
+                    continue;
+                }
+            }
+        }
+        eprintln!(
+            "re-attached to Slurm job {} ({} run(s))",
+            entry.job_id.as_deref().unwrap_or("?"),
+            entry.keys.len()
+        );
+        summary.reattached_jobs += 1;
+        active.push(entry);
+    }
+    let journaled: BTreeSet<String> = active.iter().flat_map(|j| j.keys.iter().cloned()).collect();
+    // Submit the rest, `runs_per_job` per job.
+    let fresh: Vec<String> = wanted
+        .into_iter()
+        .filter(|k| !journaled.contains(*k))
+        .cloned()
+        .collect();
+    for chunk in fresh.chunks(settings.runs_per_job.max(1)) {
+        if canceller.reason().is_some() {
+            break;
+        }
+        for key in chunk {
+            store.forget(key).map_err(Error::from)?; // an old failed record is not this job's
+            inputs(key)?;
+        }
+        let entry = submit(settings, study, &out, store, chunk.to_vec())?;
+        summary.submitted_jobs += 1;
+        active.push(entry);
+    }
+    if summary.submitted_jobs > 0 {
+        eprintln!(
+            "submitted {} run(s) in {} Slurm job(s)",
+            fresh.len(),
+            summary.submitted_jobs
+        );
+    }
+    // Poll.
+    let mut delay = Duration::from_millis(200);
+    let mut last_report = Instant::now();
+    while !active.is_empty() {
+        if canceller.reason().is_some() {
+            summary.left_running = active.iter().filter_map(|j| j.job_id.clone()).collect();
+            break;
+        }
+        let ids: Vec<String> = active.iter().filter_map(|j| j.job_id.clone()).collect();
+        let states = job_states(&ids);
+        let mut still = Vec::new();
+        for entry in active {
+            let id = entry.job_id.clone().unwrap_or_default();
+            let state = states.get(&id);
+            let ended = state.is_some_and(JobState::is_final);
+            let mut open = false;
+            for key in &entry.keys {
+                if store.is_finished(key) || (store.record(key).is_some() && ended) {
+                    continue;
+                }
+                if let Some(record) = read_record(&out, key).filter(|r| r.ended_ms >= entry.submitted_ms) {
+                    store.remember(record.clone());
+                    summary.records.push(record);
+                } else if ended {
+                    let state = state.expect("ended implies a state");
+                    let record = RunRecord {
+                        key: key.clone(),
+                        outcome: lost_outcome(state),
+                        attempts: 1,
+                        started_ms: entry.submitted_ms,
+                        ended_ms: now_ms(),
+                        response: None,
+                    };
+                    store.commit(record.clone()).map_err(Error::from)?;
+                    summary.records.push(record);
+                } else {
+                    open = true;
+                }
+            }
+            if open || (!ended && state.is_none() && entry.keys.iter().any(|k| store.record(k).is_none())) {
+                still.push(entry);
+            } else {
+                remove_entry(&out, &entry.token);
+            }
+        }
+        active = still;
+        if active.is_empty() {
+            break;
+        }
+        if last_report.elapsed() > Duration::from_secs(10) {
+            eprintln!("waiting for {} Slurm job(s)...", active.len());
+            last_report = Instant::now();
+        }
+        std::thread::sleep(delay);
+        delay = (delay * 3 / 2).min(Duration::from_secs(2));
+    }
+    Ok(summary)
+}
