@@ -12,11 +12,12 @@
 //!   (design, c, t, force) holds each specimen's mean crush force over 5–60 mm as computed by
 //!   lab's own extractor on that CSV.
 //!
-//! `cargo run --release --example make_honeycomb_tests -- OUT_DIR PATH/TO/crushsim [DESIGNS]`
+//! `cargo run --release --example make_honeycomb_tests -- OUT_DIR PATH/TO/crushsim [DESIGNS [SPECIMENS]]`
 //!
 //! DESIGNS (optional) is a comma-separated list `NAME:c:t` (e.g. `C6T5:6:0.05,C3T8:3:0.08`); the
 //! default is the three designs of studies/honeycomb.yaml. The truth, noise and seed are the same
-//! for any list (the random draws follow the list's order).
+//! for any list (the random draws follow the list's order). SPECIMENS (optional, default 3) is the
+//! number of specimens per design.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -69,11 +70,20 @@ fn parse_designs(list: &str) -> Vec<(String, f64, f64)> {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let (out, crushsim, designs) = match &args[..] {
-        [out, crushsim] => (out, crushsim, DESIGNS.iter().map(|&(n, c, t)| (n.to_string(), c, t)).collect()),
-        [out, crushsim, list] => (out, crushsim, parse_designs(list)),
+    let (out, crushsim, designs, specimens) = match &args[..] {
+        [out, crushsim] => (out, crushsim, DESIGNS.iter().map(|&(n, c, t)| (n.to_string(), c, t)).collect(), SPECIMENS),
+        [out, crushsim, list] => (out, crushsim, parse_designs(list), SPECIMENS),
+        [out, crushsim, list, n] => (
+            out,
+            crushsim,
+            parse_designs(list),
+            n.parse().ok().filter(|&n: &usize| n > 0).unwrap_or_else(|| {
+                eprintln!("bad specimen count `{n}`");
+                std::process::exit(2)
+            }),
+        ),
         _ => {
-            eprintln!("usage: make_honeycomb_tests OUT_DIR CRUSHSIM [NAME:c:t,...]");
+            eprintln!("usage: make_honeycomb_tests OUT_DIR CRUSHSIM [NAME:c:t,... [SPECIMENS]]");
             std::process::exit(2);
         }
     };
@@ -120,7 +130,7 @@ fn main() {
         };
         let curve = crush::from_lsdyna(&rc, &nod, &source).unwrap();
         let level = crush::crush_force(&curve, WINDOW).unwrap().mean_force;
-        for k in 1..=SPECIMENS {
+        for k in 1..=specimens {
             let factor = 1.0 + SCATTER * normal(&mut rng);
             let mut csv = format!(
                 "# honeycomb tube {name} specimen {k}: SYNTHETIC test from the stand-in solver crushsim\n\
