@@ -12,7 +12,12 @@
 //!   (design, c, t, force) holds each specimen's mean crush force over 5–60 mm as computed by
 //!   lab's own extractor on that CSV.
 //!
-//! `cargo run --release --example make_honeycomb_tests -- OUT_DIR PATH/TO/crushsim`
+//! `cargo run --release --example make_honeycomb_tests -- OUT_DIR PATH/TO/crushsim [DESIGNS [SPECIMENS]]`
+//!
+//! DESIGNS (optional) is a comma-separated list `NAME:c:t` (e.g. `C6T5:6:0.05,C3T8:3:0.08`); the
+//! default is the three designs of studies/honeycomb.yaml. The truth, noise and seed are the same
+//! for any list (the random draws follow the list's order). SPECIMENS (optional, default 3) is the
+//! number of specimens per design.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -43,11 +48,44 @@ fn normal(rng: &mut impl Rng) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
 }
 
+/// `NAME:c:t,NAME:c:t,...`
+fn parse_designs(list: &str) -> Vec<(String, f64, f64)> {
+    list.split(',')
+        .map(|item| {
+            let parts: Vec<&str> = item.trim().split(':').collect();
+            let [name, c, t] = parts[..] else {
+                eprintln!("bad design `{item}`: expected NAME:c:t");
+                std::process::exit(2);
+            };
+            let num = |v: &str| -> f64 {
+                v.parse().unwrap_or_else(|_| {
+                    eprintln!("bad number `{v}` in design `{item}`");
+                    std::process::exit(2)
+                })
+            };
+            (name.to_string(), num(c), num(t))
+        })
+        .collect()
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let [out, crushsim] = &args[..] else {
-        eprintln!("usage: make_honeycomb_tests OUT_DIR CRUSHSIM");
-        std::process::exit(2);
+    let (out, crushsim, designs, specimens) = match &args[..] {
+        [out, crushsim] => (out, crushsim, DESIGNS.iter().map(|&(n, c, t)| (n.to_string(), c, t)).collect(), SPECIMENS),
+        [out, crushsim, list] => (out, crushsim, parse_designs(list), SPECIMENS),
+        [out, crushsim, list, n] => (
+            out,
+            crushsim,
+            parse_designs(list),
+            n.parse().ok().filter(|&n: &usize| n > 0).unwrap_or_else(|| {
+                eprintln!("bad specimen count `{n}`");
+                std::process::exit(2)
+            }),
+        ),
+        _ => {
+            eprintln!("usage: make_honeycomb_tests OUT_DIR CRUSHSIM [NAME:c:t,... [SPECIMENS]]");
+            std::process::exit(2);
+        }
     };
     let out = PathBuf::from(out);
     std::fs::create_dir_all(&out).unwrap();
@@ -57,7 +95,8 @@ fn main() {
     let renderer = Renderer::new(&[Template { file, output: "main.k".into(), source }]).unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(SEED);
     let mut experiments = String::from("design,c,t,force\n");
-    for (name, c, t) in DESIGNS {
+    for (name, c, t) in designs {
+        let name = name.as_str();
         let dir = tempfile::tempdir().unwrap();
         let (mesh_text, _) = mesh::include(&TubeSpec::paper(c, ELEMENT)).unwrap();
         std::fs::write(dir.path().join("mesh.k"), mesh_text).unwrap();
@@ -91,7 +130,7 @@ fn main() {
         };
         let curve = crush::from_lsdyna(&rc, &nod, &source).unwrap();
         let level = crush::crush_force(&curve, WINDOW).unwrap().mean_force;
-        for k in 1..=SPECIMENS {
+        for k in 1..=specimens {
             let factor = 1.0 + SCATTER * normal(&mut rng);
             let mut csv = format!(
                 "# honeycomb tube {name} specimen {k}: SYNTHETIC test from the stand-in solver crushsim\n\
