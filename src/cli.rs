@@ -3,6 +3,7 @@
 //! usage, 130 interrupted.
 
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
@@ -15,6 +16,7 @@ use crate::execute::sweep::{self, Signals};
 use crate::execute::{OutcomeClass, RunStore, lock, progress};
 use crate::pipeline;
 use crate::plan::Plan;
+use crate::report::data::ReportData;
 use crate::report::{self, Results};
 use crate::study::{self, Simulation, SolverSimulation, Study};
 
@@ -108,6 +110,7 @@ pub fn main() -> i32 {
 fn execute(command: Command) -> Result<i32, Error> {
     match command {
         Command::Run { study, out, executor, jobs, replay, record } => {
+            let started = Instant::now();
             let study = study::load(&study)?;
             if replay.is_some() && record.is_some() {
                 return Err(Error::Input(InputError::file(
@@ -126,11 +129,11 @@ fn execute(command: Command) -> Result<i32, Error> {
                     if executor == Executor::Slurm {
                         eprintln!("note: `{}` has a closed-form simulation; nothing to submit to Slurm", study.name);
                     }
-                    run(&study, &out)
+                    run(&study, &out, started)
                 }
                 Simulation::Solver(sim) => {
                     let modes = Modes { replay: replay_dir(sim, replay), record, slurm: executor == Executor::Slurm };
-                    run_solver(&study, sim, &out, jobs.unwrap_or_else(default_jobs), &modes)
+                    run_solver(&study, sim, &out, jobs.unwrap_or_else(default_jobs), &modes, started)
                 }
             }
         }
@@ -191,7 +194,16 @@ fn execute(command: Command) -> Result<i32, Error> {
             let results = Results::read(&dir.join("results.json")).map_err(|e| {
                 Error::Failed(format!("{}: {e} (run `lab run` first)", dir.join("results.json").display()))
             })?;
-            write_report(&dir, &results)?;
+            let data_file = dir.join(ReportData::FILE_NAME);
+            let data = match ReportData::read(&data_file) {
+                Ok(d) => Some(d),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+                Err(e) => {
+                    eprintln!("warning: {}: {e}; the report leaves out what it holds", data_file.display());
+                    None
+                }
+            };
+            write_report(&dir, &results, data.as_ref())?;
             println!("wrote {}", dir.join("report.html").display());
             Ok(0)
         }
@@ -202,7 +214,7 @@ fn default_jobs() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
-fn run(study: &Study, out: &Path) -> Result<i32, Error> {
+fn run(study: &Study, out: &Path, started: Instant) -> Result<i32, Error> {
     std::fs::create_dir_all(out)
         .map_err(|e| InputError::file(out, format!("cannot create the output directory: {e}")))?;
     let Some(model) = pipeline::model(study) else {
@@ -212,7 +224,9 @@ fn run(study: &Study, out: &Path) -> Result<i32, Error> {
     let calibration = pipeline::calibrate(study, &problem, None);
     let diagnosis = pipeline::diagnose(study, model.as_ref());
     let results = Results::build(study, model.as_ref(), &calibration, diagnosis);
-    finish(out, &results)
+    let mut data = ReportData::build(study, model.as_ref(), &calibration);
+    data.wall_time_s = Some(started.elapsed().as_secs_f64());
+    finish(out, &results, &data)
 }
 
 /// Where runs come from besides the solver, and where they go.
@@ -249,7 +263,14 @@ fn on_path(program: &str) -> bool {
 }
 
 /// Plans, renders, runs (or replays) what is not finished, fits the surrogates, calibrates, writes.
-fn run_solver(study: &Study, sim: &SolverSimulation, out: &Path, jobs: usize, modes: &Modes) -> Result<i32, Error> {
+fn run_solver(
+    study: &Study,
+    sim: &SolverSimulation,
+    out: &Path,
+    jobs: usize,
+    modes: &Modes,
+    started: Instant,
+) -> Result<i32, Error> {
     let plan = Plan::new(study, sim);
     let prepared = sweep::prepare(study, sim, &plan)?;
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
@@ -301,7 +322,16 @@ fn run_solver(study: &Study, sim: &SolverSimulation, out: &Path, jobs: usize, mo
     let succeeded = swept.responses.iter().filter(|r| r.is_some()).count();
     let planned = plan.runs.len();
     results.runs = Some(report::results::RunsResult { planned, succeeded, failed: planned - succeeded });
-    let code = finish(out, &results)?;
+    let mut data = ReportData::build(study, &surrogates, &calibration).with_runs(
+        study,
+        &plan,
+        &prepared.keys,
+        &swept.responses,
+        &surrogates,
+        &store,
+    );
+    data.wall_time_s = Some(started.elapsed().as_secs_f64());
+    let code = finish(out, &results, &data)?;
     if let Some(splits) = &results.splits {
         print!("{}", splits_table(splits));
     }
@@ -410,17 +440,18 @@ fn status(study: &Study, sim: &SolverSimulation, out: &Path) -> Result<i32, Erro
     Ok(0)
 }
 
-/// Writes results.json and report.html, prints the summary; 1 when a method failed.
-fn finish(out: &Path, results: &Results) -> Result<i32, Error> {
+/// Writes results.json, report-data.json and report.html, prints the summary; 1 when a method failed.
+fn finish(out: &Path, results: &Results, data: &ReportData) -> Result<i32, Error> {
     results.write(&out.join("results.json"))?;
-    write_report(out, results)?;
+    data.write(&out.join(ReportData::FILE_NAME))?;
+    write_report(out, results, Some(data))?;
     print!("{}", report::summary::render(results));
     println!("\nwrote {}", out.join("results.json").display());
     Ok(if results.any_failed() { 1 } else { 0 })
 }
 
-fn write_report(dir: &Path, results: &Results) -> Result<(), Error> {
-    report::write_atomic(&dir.join("report.html"), report::html::render(results).as_bytes())?;
+fn write_report(dir: &Path, results: &Results, data: Option<&ReportData>) -> Result<(), Error> {
+    report::write_atomic(&dir.join("report.html"), report::html::render(results, data).as_bytes())?;
     Ok(())
 }
 

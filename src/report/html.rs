@@ -1,74 +1,804 @@
-//! `report.html`: one self-contained page (no external assets) rendered from [`Results`] alone, so
-//! `lab report` can rewrite it from what is recorded. Tables only for now; plots come later.
+//! `report.html`: one self-contained page (inline SVG and CSS, no script, no external asset),
+//! printable, rendered from [`Results`] and, when recorded, [`ReportData`] — so `lab report`
+//! rebuilds it from what `lab run` wrote.
+//!
+//! Sections (element ids): `study`, `force-displacement`, `surrogates`, `calibration`,
+//! `identifiability`, `diagnosis`, `runs`. A section whose data are absent says why instead of
+//! drawing. Figures are `<figure class=plot id=…>` holding one `<svg>` each.
 
 use std::fmt::Write;
 
+use super::data::{ReportData, StudyInfo, Variable};
+use super::plots::{self, Band, BarPlot, Series, Style, VLine, XyPlot, short};
 use super::results::{Results, Role};
 use super::summary::significant;
 
-pub fn render(results: &Results) -> String {
+/// Section ids, in page order (the browser test checks them).
+pub const SECTIONS: [&str; 7] =
+    ["study", "force-displacement", "surrogates", "calibration", "identifiability", "diagnosis", "runs"];
+
+pub fn render(results: &Results, data: Option<&ReportData>) -> String {
+    let page = Page { r: results, d: data };
     let mut body = String::new();
-    let _ = write!(body, "<h1>Calibration report — {}</h1>", escape(&results.study));
-    let _ = write!(body, "<h2>Calibrated parameters</h2><table><tr><th>method</th><th>parameters</th>\
-        <th>95 % interval</th><th>discrepancy</th><th>training error</th><th>validation error</th></tr>");
-    for (method, r) in &results.calibration {
-        if let Some(e) = &r.error {
-            let _ = write!(body, "<tr><td>{}</td><td colspan=5>failed: {}</td></tr>", escape(method), escape(e));
-            continue;
-        }
-        let params: Vec<String> =
-            r.parameters.iter().map(|(n, v)| format!("{} = {}", escape(n), significant(*v, 6))).collect();
-        let interval = r.interval95.as_ref().map_or(String::new(), |iv| {
-            iv.iter()
-                .map(|(n, [lo, hi])| format!("{}: [{}, {}]", escape(n), significant(*lo, 5), significant(*hi, 5)))
-                .collect::<Vec<_>>()
-                .join("<br>")
-        });
-        let discrepancy = r.discrepancy.as_ref().map_or("none".to_string(), |d| escape(&d.to_string()));
-        let _ = write!(
-            body,
-            "<tr><td>{}</td><td>{}</td><td>{interval}</td><td>{discrepancy}</td><td>{}</td><td>{}</td></tr>",
-            escape(method),
-            params.join("<br>"),
-            percent(r.training_error),
-            percent(r.validation_error)
+    let _ = write!(body, "<header><h1>Calibration report — {}</h1>", escape(&results.study));
+    if data.is_none() {
+        body.push_str(
+            "<p class=warn>No report-data.json was recorded beside results.json (written by an older lab?): \
+             the plots that need it are left out. Run <code>lab run</code> again to get them.</p>",
         );
     }
-    body.push_str("</table><h2>Predictions</h2><table><tr><th>design</th><th>role</th><th>measured</th>");
-    for method in results.calibration.keys() {
-        let _ = write!(body, "<th>{}</th>", escape(method));
+    body.push_str("<nav><ol>");
+    for (id, title) in SECTIONS.iter().zip(TITLES) {
+        let _ = write!(body, "<li><a href=#{id}>{title}</a></li>");
     }
-    body.push_str("</tr>");
-    if let Some(first) = results.calibration.values().find(|m| m.error.is_none()) {
-        for (i, p) in first.predictions.iter().enumerate() {
-            let role = if p.role == Role::Training { "training" } else { "validation" };
-            let _ = write!(body, "<tr><td>{}</td><td>{role}</td><td>{}</td>", escape(&p.design), significant(p.measured, 6));
-            for r in results.calibration.values() {
-                let cell = r.predictions.get(i).map_or("–".into(), |q| {
-                    format!("{} ({:+.2} %)", significant(q.predicted, 6), 100.0 * q.relative_error)
-                });
-                let _ = write!(body, "<td>{cell}</td>");
-            }
-            body.push_str("</tr>");
-        }
+    body.push_str("</ol></nav></header>");
+    let sections = [
+        page.study(),
+        page.force_displacement(),
+        page.surrogates(),
+        page.calibration(),
+        page.identifiability(),
+        page.diagnosis(),
+        page.runs(),
+    ];
+    for ((id, title), content) in SECTIONS.iter().zip(TITLES).zip(sections) {
+        let _ = write!(body, "<section id={id}><h2>{title}</h2>{content}</section>");
     }
-    body.push_str("</table>");
-    let id = &results.identifiability;
-    let class = if id.identifiable { "ok" } else { "warn" };
-    let _ = write!(body, "<h2>Identifiability</h2><p class={class}>{}</p>", escape(&id.note));
     format!(
-        "<!DOCTYPE html><html lang=en><head><meta charset=utf-8><title>lab — {}</title><style>{STYLE}</style></head>\
-         <body>{body}</body></html>\n",
+        "<!DOCTYPE html><html lang=en><head><meta charset=utf-8>\
+         <meta name=viewport content=\"width=device-width, initial-scale=1\">\
+         <title>lab — {}</title><style>{STYLE}</style></head><body>{body}</body></html>\n",
         escape(&results.study)
     )
 }
 
-const STYLE: &str = "body{font-family:system-ui,sans-serif;max-width:70em;margin:2em auto;color:#222}\
-table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:.3em .6em;text-align:right}\
-th{background:#f3f3f3}.warn{color:#a40}.ok{color:#264}";
+const TITLES: [&str; 7] = [
+    "Study",
+    "Force–displacement curves",
+    "Response surfaces",
+    "Calibration",
+    "Identifiability",
+    "Diagnosis",
+    "Runs",
+];
 
-fn percent(x: Option<f64>) -> String {
-    x.map_or("–".to_string(), |v| format!("{:.2} %", 100.0 * v))
+const STYLE: &str = "body{font-family:system-ui,sans-serif;max-width:76em;margin:1.5em auto;padding:0 1em;color:#222;\
+line-height:1.4}h1{font-size:1.6em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:1.6em}\
+h3{font-size:1.05em;margin:1.2em 0 .4em}\
+nav ol{display:flex;flex-wrap:wrap;gap:.3em 1.4em;padding-left:1.2em}\
+table{border-collapse:collapse;margin:.6em 0}td,th{border:1px solid #ccc;padding:.25em .6em;text-align:right;\
+vertical-align:top}th{background:#f3f3f3}td.l,th.l{text-align:left}\
+.grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(30em,1fr));gap:1em}\
+figure.plot{margin:0;border:1px solid #eee;padding:.3em}figure.plot svg{width:100%;height:auto;display:block}\
+figcaption{font-size:.85em;color:#555;padding:.2em .4em}.warn{color:#a40;font-weight:600}.ok{color:#264}\
+.note{color:#555;font-style:italic}p.summary{border-left:4px solid #264;padding:.2em .8em;background:#f6faf7}\
+p.summary.flag{border-color:#a40;background:#fdf6f0}tr.failed td{background:#fff3f0}code{font-size:.95em}\
+@media print{body{max-width:none;margin:0}nav{display:none}figure,table,tr{break-inside:avoid}\
+.grid{grid-template-columns:1fr 1fr}h2{break-after:avoid}}";
+
+struct Page<'a> {
+    r: &'a Results,
+    d: Option<&'a ReportData>,
+}
+
+fn method_name(key: &str) -> String {
+    match key {
+        "least_squares" => "least squares".into(),
+        "sensitivity" => "sensitivity".into(),
+        "bayesian" => "Bayesian".into(),
+        other => other.replace('_', " "),
+    }
+}
+
+/// Colour of a method in every plot.
+fn method_color(key: &str) -> usize {
+    match key {
+        "least_squares" => 0,
+        "sensitivity" => 1,
+        "bayesian" => 2,
+        _ => 3,
+    }
+}
+
+fn figure(id: &str, svg: String, caption: &str) -> String {
+    format!("<figure class=plot id={id}>{svg}<figcaption>{}</figcaption></figure>", escape(caption))
+}
+
+fn note(text: &str) -> String {
+    format!("<p class=note>{}</p>", escape(text))
+}
+
+/// A value with its unit, `sig` significant figures.
+fn with_unit(v: f64, unit: Option<&str>, sig: usize) -> String {
+    match unit {
+        Some(u) => format!("{} {}", significant(v, sig), escape(u)),
+        None => significant(v, sig),
+    }
+}
+
+/// A relative error as a percentage with three significant figures.
+fn pct(x: Option<f64>) -> String {
+    x.map_or("–".to_string(), |v| if v.abs() < 1e-9 { "0 %".into() } else { format!("{} %", short(100.0 * v, 3)) })
+}
+
+fn seconds(s: f64) -> String {
+    if s >= 100.0 { format!("{s:.0} s") } else { format!("{} s", significant(s, 3)) }
+}
+
+fn id_part(s: &str) -> String {
+    s.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect()
+}
+
+impl Page<'_> {
+    fn study_info(&self) -> Option<&StudyInfo> {
+        self.d.map(|d| &d.study)
+    }
+
+    /// The response axis label: name and unit when known.
+    fn response_label(&self) -> String {
+        match self.study_info() {
+            Some(s) => match &s.response_unit {
+                Some(u) => format!("{} ({u})", s.response),
+                None => s.response.clone(),
+            },
+            None => "response".into(),
+        }
+    }
+
+    fn response_unit(&self) -> Option<&str> {
+        self.study_info().and_then(|s| s.response_unit.as_deref())
+    }
+
+    fn parameter(&self, name: &str) -> Option<&Variable> {
+        self.study_info()?.parameters.iter().find(|p| p.name == name)
+    }
+
+    fn parameter_label(&self, name: &str) -> String {
+        self.parameter(name).map_or(name.to_string(), Variable::label)
+    }
+
+    fn study(&self) -> String {
+        let mut s = String::new();
+        let Some(info) = self.study_info() else {
+            let _ = write!(s, "{}", note("the study description is recorded in report-data.json, which is missing"));
+            return s + &self.runs_summary();
+        };
+        s.push_str("<table><tr><th class=l>item</th><th class=l>value</th></tr>");
+        let sim = match &info.solver {
+            None => format!("closed form: <code>{}</code>", escape(&info.simulation)),
+            Some(solver) => format!(
+                "solver (adapter <code>{}</code>): <code>{}</code><br>{} surrogate per design; {}",
+                escape(&solver.adapter),
+                escape(&info.simulation),
+                escape(&solver.surrogate),
+                escape(&solver.sampling)
+            ),
+        };
+        let _ = write!(s, "<tr><td class=l>simulation</td><td class=l>{sim}</td></tr>");
+        let _ = write!(s, "<tr><td class=l>response</td><td class=l>{}</td></tr>", escape(&self.response_label()));
+        if !info.constants.is_empty() {
+            let c: Vec<String> =
+                info.constants.iter().map(|(k, v)| format!("{} = {}", escape(k), short(*v, 6))).collect();
+            let _ = write!(s, "<tr><td class=l>constants</td><td class=l>{}</td></tr>", c.join(", "));
+        }
+        let bounds = |vars: &[Variable]| -> String {
+            vars.iter()
+                .map(|v| {
+                    let range = match (v.min, v.max) {
+                        (Some(lo), Some(hi)) => format!(" ∈ [{}, {}]", short(lo, 6), short(hi, 6)),
+                        _ => String::new(),
+                    };
+                    format!("{}{range}{}", escape(&v.name), v.unit.as_ref().map_or(String::new(), |u| format!(" {}", escape(u))))
+                })
+                .collect::<Vec<_>>()
+                .join("<br>")
+        };
+        let _ = write!(s, "<tr><td class=l>design variables</td><td class=l>{}</td></tr>", bounds(&info.design));
+        let _ = write!(s, "<tr><td class=l>parameters (bounds)</td><td class=l>{}</td></tr>", bounds(&info.parameters));
+        if let Some(runs) = &self.r.runs {
+            let _ = write!(
+                s,
+                "<tr><td class=l>solver runs</td><td class=l>{} planned: {} done, {} failed</td></tr>",
+                runs.planned, runs.succeeded, runs.failed
+            );
+        } else {
+            s.push_str("<tr><td class=l>solver runs</td><td class=l>none (closed form)</td></tr>");
+        }
+        if let Some(t) = self.d.and_then(|d| d.wall_time_s) {
+            let _ = write!(s, "<tr><td class=l>wall time</td><td class=l>{}</td></tr>", seconds(t));
+        }
+        s.push_str("</table><h3>Tests</h3><table><tr><th class=l>design</th><th class=l>role</th>");
+        for v in &info.design {
+            let _ = write!(s, "<th>{}</th>", escape(&v.label()));
+        }
+        let _ = write!(s, "<th>tests</th><th>mean {}</th><th>std dev</th></tr>", escape(&self.response_label()));
+        for t in &info.tests {
+            let _ = write!(s, "<tr><td class=l>{}</td><td class=l>{}</td>", escape(&t.name), escape(&t.role));
+            for v in &t.values {
+                let _ = write!(s, "<td>{}</td>", short(*v, 5));
+            }
+            let n = t.replicates.len();
+            let mean = t.replicates.iter().sum::<f64>() / n.max(1) as f64;
+            let sd = (n > 1).then(|| (t.replicates.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
+            let _ = write!(s, "<td>{n}</td><td>{}</td><td>{}</td></tr>", significant(mean, 5), sd.map_or("–".into(), |v| significant(v, 3)));
+        }
+        s.push_str("</table>");
+        s
+    }
+
+    fn runs_summary(&self) -> String {
+        match &self.r.runs {
+            Some(r) => format!("<p>{} planned solver runs: {} done, {} failed.</p>", r.planned, r.succeeded, r.failed),
+            None => String::new(),
+        }
+    }
+
+    fn force_displacement(&self) -> String {
+        let curves = self.d.map(|d| d.force_displacement.as_slice()).unwrap_or_default();
+        if curves.is_empty() {
+            return note("no force–displacement curves were recorded for this study (its response is not a crush force)");
+        }
+        let mut s = String::from("<div class=grid>");
+        for dc in curves {
+            let mut series = Vec::new();
+            for (i, c) in dc.simulations.iter().enumerate() {
+                let label = if i < 6 { c.label.clone() } else { String::new() };
+                series.push(Series::new(label, i % 6, Style::Line, c.displacement.iter().copied().zip(c.force.iter().copied()).collect()));
+            }
+            for (i, c) in dc.tests.iter().enumerate() {
+                let colour = if i == 0 { plots::BLACK_ } else { plots::GREY };
+                series.push(Series::new(c.label.clone(), colour, Style::Dashed, c.displacement.iter().copied().zip(c.force.iter().copied()).collect()));
+            }
+            let bands = dc
+                .window
+                .map(|[a, b]| Band { label: format!("stroke window {}–{} mm", significant(a, 3), significant(b, 3)), x0: a, x1: b })
+                .into_iter()
+                .collect();
+            let plot = XyPlot {
+                title: format!("Force–displacement, design {}", dc.design),
+                x_label: "displacement (mm)".into(),
+                y_label: "force (kN)".into(),
+                series,
+                bands,
+                ..Default::default()
+            };
+            let caption = format!(
+                "Design {}: {} simulation curve(s) (solid), {} test curve(s) (dashed); shaded: the stroke window the mean crush force is taken over.",
+                dc.design,
+                dc.simulations.len(),
+                dc.tests.len()
+            );
+            s.push_str(&figure(&format!("fd-{}", id_part(&dc.design)), plot.render(), &caption));
+        }
+        s + "</div>"
+    }
+
+    fn surrogates(&self) -> String {
+        let Some(table) = &self.r.surrogates else {
+            return note("closed-form simulation: evaluated directly, no response surfaces were fitted");
+        };
+        let mut s = String::from(
+            "<table><tr><th class=l>design</th><th class=l>surrogate</th><th>sample runs</th><th>check runs</th>\
+             <th>max check error</th><th>mean check error</th></tr>",
+        );
+        for (design, sr) in table {
+            let _ = write!(
+                s,
+                "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                escape(design),
+                escape(&sr.kind),
+                sr.samples,
+                sr.check_runs,
+                pct(sr.check_max_relative_error),
+                pct(sr.check_mean_relative_error)
+            );
+        }
+        s.push_str("</table>");
+        let Some(d) = self.d.filter(|d| !d.surrogates.is_empty()) else {
+            return s + &note("the surrogates' samples were not recorded (report-data.json missing)");
+        };
+        let params: Vec<String> = d.study.parameters.iter().map(|p| p.name.clone()).collect();
+        let y_label = self.response_label();
+        s.push_str("<div class=grid>");
+        for sd in &d.surrogates {
+            let err = table.get(&sd.design).and_then(|t| t.check_max_relative_error);
+            let title = format!("Response surface, design {} (max check error {})", sd.design, pct(err));
+            let plot = if let Some((x, y)) = &sd.curve {
+                XyPlot {
+                    title,
+                    x_label: self.parameter_label(&params[0]),
+                    y_label: y_label.clone(),
+                    series: vec![
+                        Series::new(format!("{} surrogate", sd.kind), 0, Style::Line, x.iter().copied().zip(y.iter().copied()).collect()),
+                        Series::new("sample runs", plots::BLACK_, Style::Markers, sd.samples.iter().map(|(t, y)| (t[0], *y)).collect()),
+                        Series::new("check runs", 1, Style::Hollow, sd.checks.iter().map(|(t, y, _)| (t[0], *y)).collect()),
+                    ],
+                    ..Default::default()
+                }
+            } else {
+                // Several parameters: surrogate against run at the check points (parity).
+                let pts: Vec<(f64, f64)> = sd.checks.iter().map(|(_, y, p)| (*y, *p)).collect();
+                let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0.min(p.1)), b.max(p.0.max(p.1))));
+                let diag = if lo.is_finite() { vec![(lo, lo), (hi, hi)] } else { vec![] };
+                XyPlot {
+                    title,
+                    x_label: format!("{y_label}, solver run"),
+                    y_label: format!("{y_label}, surrogate"),
+                    series: vec![
+                        Series::new("surrogate = run", plots::GREY, Style::Dashed, diag),
+                        Series::new("check runs", 1, Style::Hollow, pts),
+                    ],
+                    ..Default::default()
+                }
+            };
+            let caption = format!(
+                "Design {}: {} surrogate fitted to {} sample run(s) (filled), checked at {} run(s) it was not fitted to (hollow).",
+                sd.design,
+                sd.kind,
+                sd.samples.len(),
+                sd.checks.len()
+            );
+            s.push_str(&figure(&format!("surrogate-{}", id_part(&sd.design)), plot.render(), &caption));
+        }
+        s + "</div>"
+    }
+
+    fn calibration(&self) -> String {
+        let mut s = self.parameter_table();
+        s.push_str("<div class=grid>");
+        s.push_str(&self.posterior_plots());
+        s.push_str(&self.prediction_plot());
+        s.push_str(&self.split_plot());
+        s.push_str("</div>");
+        s
+    }
+
+    fn parameter_table(&self) -> String {
+        let r = self.r;
+        let mut s = String::from("<table><tr><th class=l></th>");
+        for method in r.calibration.keys() {
+            let _ = write!(s, "<th data-method=\"{}\">{}</th>", escape(method), escape(&method_name(method)));
+        }
+        s.push_str("</tr>");
+        let names: Vec<String> = r
+            .calibration
+            .values()
+            .find(|m| m.error.is_none())
+            .map(|m| m.parameters.keys().cloned().collect())
+            .unwrap_or_default();
+        let row = |label: String, cell: &dyn Fn(&super::results::MethodResult) -> String| {
+            let mut line = format!("<tr><td class=l>{label}</td>");
+            for m in r.calibration.values() {
+                let c = if m.error.is_some() { "failed".to_string() } else { cell(m) };
+                let _ = write!(line, "<td>{c}</td>");
+            }
+            line + "</tr>"
+        };
+        for name in &names {
+            s.push_str(&row(escape(&self.parameter_label(name)), &|m| {
+                m.parameters.get(name).map_or("–".into(), |v| significant(*v, 5))
+            }));
+            s.push_str(&row(format!("{} 95 % interval", escape(name)), &|m| {
+                m.interval95.as_ref().and_then(|iv| iv.get(name)).map_or("–".into(), |[lo, hi]| {
+                    format!("[{}, {}]", significant(*lo, 4), significant(*hi, 4))
+                })
+            }));
+            s.push_str(&row(format!("{} posterior median", escape(name)), &|m| {
+                m.median.as_ref().and_then(|md| md.get(name)).map_or("–".into(), |v| significant(*v, 5))
+            }));
+        }
+        let unit = self.response_unit().map(str::to_string);
+        s.push_str(&row("discrepancy".into(), &|m| match &m.discrepancy {
+            None => "none".into(),
+            Some(d) => {
+                if let Some(c) = d.get("constant").and_then(|c| c.as_f64()) {
+                    format!("constant {}", with_unit(c, unit.as_deref(), 4))
+                } else if let Some(gp) = d.get("gaussian_process") {
+                    let f = |k: &str| gp.get(k).and_then(|v| v.as_f64()).map_or("–".into(), |v| significant(v, 3));
+                    format!("GP: mean {}, std dev {}", f("mean"), f("std_dev"))
+                } else {
+                    escape(&d.to_string())
+                }
+            }
+        }));
+        s.push_str(&row("calibration (training) error".into(), &|m| pct(m.training_error)));
+        s.push_str(&row("validation error".into(), &|m| pct(m.validation_error)));
+        s.push_str("</table>");
+        for (method, m) in &r.calibration {
+            if let Some(e) = &m.error {
+                let _ = write!(s, "<p class=warn>{} failed: {}</p>", escape(&method_name(method)), escape(e));
+            }
+        }
+        s
+    }
+
+    /// Paper Fig. 12: the posterior of each parameter with its 95 % interval and every method's estimate.
+    fn posterior_plots(&self) -> String {
+        let Some(post) = self.d.and_then(|d| d.posterior.as_ref()) else {
+            return if self.r.calibration.contains_key("bayesian") {
+                note("the Bayesian posterior samples were not recorded")
+            } else {
+                String::new()
+            };
+        };
+        let bayes = self.r.calibration.get("bayesian");
+        let mut s = String::new();
+        for (k, name) in post.parameters.iter().enumerate() {
+            let band = bayes.and_then(|b| b.interval95.as_ref()).and_then(|iv| iv.get(name)).map(|[lo, hi]| Band {
+                label: format!("95 % interval [{}, {}]", significant(*lo, 4), significant(*hi, 4)),
+                x0: *lo,
+                x1: *hi,
+            });
+            let marks: Vec<VLine> = self
+                .r
+                .calibration
+                .iter()
+                .filter_map(|(m, res)| {
+                    let v = *res.parameters.get(name)?;
+                    Some(VLine { label: format!("{} {}", method_name(m), significant(v, 5)), x: v, color: method_color(m) })
+                })
+                .collect();
+            let samples = post.samples.get(k).map(Vec::as_slice).unwrap_or_default();
+            let svg = plots::histogram(&format!("Posterior of {name}"), &self.parameter_label(name), samples, 30, band, &marks);
+            let caption = format!(
+                "Bayesian posterior of {name} ({} thinned samples) with its 95 % interval (shaded) and each method's estimate (dashed) — the paper's Fig. 12.",
+                samples.len()
+            );
+            s.push_str(&figure(&format!("posterior-{}", id_part(name)), svg, &caption));
+        }
+        s
+    }
+
+    /// Paper Figs 4–6: each method's prediction over the design range against the measurements.
+    fn prediction_plot(&self) -> String {
+        let first = self.r.calibration.values().find(|m| m.error.is_none());
+        let Some(first) = first else { return note("no method produced an estimate: nothing to predict") };
+        let response = self.response_label();
+        let design = self.study_info().filter(|s| s.design.len() == 1).map(|s| &s.design[0]);
+        let mut series = Vec::new();
+        let measured = |role: Role| -> (Vec<(f64, f64)>, Vec<f64>) {
+            first
+                .predictions
+                .iter()
+                .filter(|p| p.role == role)
+                .filter_map(|p| {
+                    let x = self.design_value(&p.design)?;
+                    Some(((x, p.measured), p.measured_std.unwrap_or(0.0)))
+                })
+                .unzip()
+        };
+        if let (Some(var), Some(d)) = (design, self.d.filter(|d| !d.prediction_curves.is_empty())) {
+            for c in &d.prediction_curves {
+                let style = if c.x.len() < 6 { Style::LineMarkers } else { Style::Line };
+                series.push(Series::new(method_name(&c.method), method_color(&c.method), style, c.x.iter().copied().zip(c.y.iter().copied()).collect()));
+            }
+            for (role, label, style) in [(Role::Training, "measured, training", Style::Markers), (Role::Validation, "measured, validation", Style::Hollow)] {
+                let (pts, err) = measured(role);
+                if !pts.is_empty() {
+                    series.push(Series { label: label.into(), color: plots::BLACK_, style, points: pts, y_err: Some(err) });
+                }
+            }
+            let plot = XyPlot {
+                title: format!("Calibrated predictions over {}", var.name),
+                x_label: var.label(),
+                y_label: response.clone(),
+                series,
+                ..Default::default()
+            };
+            let caption = "Each method's calibrated prediction over the design range (a solver study's point methods exist only at the \
+                           tested designs) against the measurements (filled: training, hollow: validation; bars: ± one replicate std dev) — the paper's Figs 4–6.";
+            return figure("predictions", plot.render(), caption);
+        }
+        // No design curve: predicted against measured at every tested design.
+        let mut all = Vec::new();
+        for (m, res) in &self.r.calibration {
+            let pts: Vec<(f64, f64)> = res.predictions.iter().map(|p| (p.measured, p.predicted)).collect();
+            all.extend(pts.iter().flat_map(|p| [p.0, p.1]));
+            series.push(Series::new(method_name(m), method_color(m), Style::Markers, pts));
+        }
+        let (lo, hi) = all.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+        if lo.is_finite() {
+            series.insert(0, Series::new("prediction = measurement", plots::GREY, Style::Dashed, vec![(lo, lo), (hi, hi)]));
+        }
+        let plot = XyPlot {
+            title: "Calibrated predictions against measurements".into(),
+            x_label: format!("measured {response}"),
+            y_label: format!("predicted {response}"),
+            series,
+            ..Default::default()
+        };
+        figure("predictions", plot.render(), "Each method's calibrated prediction at every tested design against the measured mean.")
+    }
+
+    fn design_value(&self, design: &str) -> Option<f64> {
+        self.study_info()?.tests.iter().find(|t| t.name == design)?.values.first().copied()
+    }
+
+    /// Paper Fig. 13: calibration and validation error per method for each train/validate split.
+    fn split_plot(&self) -> String {
+        let r = self.r;
+        let training: Vec<String> = self.split_names(Role::Training);
+        let validation: Vec<String> = self.split_names(Role::Validation);
+        let mut splits: Vec<(String, Vec<(String, [Option<f64>; 2])>)> = vec![(
+            format!("train {} / validate {}", list(&training), list(&validation)),
+            r.calibration.iter().filter(|(_, m)| m.error.is_none()).map(|(k, m)| (k.clone(), [m.training_error, m.validation_error])).collect(),
+        )];
+        for sp in self.d.map(|d| d.splits.as_slice()).unwrap_or_default() {
+            splits.push((
+                format!("train {} / validate {}", list(&sp.training), list(&sp.validation)),
+                sp.methods.iter().map(|(k, v)| (k.clone(), *v)).collect(),
+            ));
+        }
+        let many = splits.len() > 1;
+        let mut categories = Vec::new();
+        let (mut cal, mut val) = (Vec::new(), Vec::new());
+        for (i, (_, methods)) in splits.iter().enumerate() {
+            for (m, [c, v]) in methods {
+                categories.push(if many { format!("split {}: {}", i + 1, method_name(m)) } else { method_name(m) });
+                cal.push(*c);
+                val.push(*v);
+            }
+        }
+        let plot = BarPlot {
+            title: "Calibration and validation errors".into(),
+            value_label: "mean |relative error| (%)".into(),
+            categories,
+            groups: vec![("calibration (training)".into(), 0, cal), ("validation".into(), 1, val)],
+            percent: true,
+        };
+        let names: Vec<String> = splits.iter().enumerate().map(|(i, (n, _))| format!("split {}: {n}", i + 1)).collect();
+        let caption = format!(
+            "Mean |relative error| of each method on the designs it was calibrated to and on the held-out designs — the paper's Fig. 13. {}{}",
+            names.join("; "),
+            if many { "" } else { ". Only the study's own split is recorded." }
+        );
+        figure("splits", plot.render(), &caption)
+    }
+
+    fn split_names(&self, role: Role) -> Vec<String> {
+        self.r
+            .calibration
+            .values()
+            .find(|m| m.error.is_none())
+            .map(|m| m.predictions.iter().filter(|p| p.role == role).map(|p| p.design.clone()).collect())
+            .unwrap_or_default()
+    }
+
+    fn identifiability(&self) -> String {
+        let id = &self.r.identifiability;
+        let weak = id.note.contains("weakly");
+        let class = if id.identifiable && !weak { "ok" } else { "warn" };
+        let mut s = format!("<p class={class}>{}{}</p>", if class == "warn" { "⚠ " } else { "✓ " }, escape(&id.note));
+        if !id.combinations.is_empty() {
+            let _ = write!(s, "<p>Determined combinations: {}</p>", id.combinations.iter().map(|c| format!("<code>{}</code>", escape(c))).collect::<Vec<_>>().join(", "));
+        }
+        if !id.singular_values.is_empty() {
+            let sv: Vec<String> = id.singular_values.iter().map(|v| significant(*v, 3)).collect();
+            let _ = write!(s, "<p>Singular values of the scaled sensitivity matrix ∂ln y/∂ln θ: {}</p>", sv.join(", "));
+        }
+        s
+    }
+
+    fn diagnosis(&self) -> String {
+        let Some(dg) = &self.r.diagnosis else {
+            return note(&format!(
+                "no diagnosis: {}",
+                self.r.diagnosis_error.as_deref().unwrap_or("it did not run")
+            ));
+        };
+        let mut s = format!(
+            "<p class=\"summary {}\">{}{}</p>",
+            if dg.discrepancy_detected { "flag" } else { "clear" },
+            if dg.discrepancy_detected { "⚠ model error detected. " } else { "" },
+            escape(&dg.summary)
+        );
+        let response = self.response_label();
+        s.push_str("<div class=grid>");
+        // Residuals against each design variable.
+        let names: Vec<String> = dg.residuals.first().map(|r| r.values.keys().cloned().collect()).unwrap_or_default();
+        for name in &names {
+            let label = self
+                .study_info()
+                .and_then(|i| i.design.iter().find(|v| &v.name == name))
+                .map_or(name.clone(), Variable::label);
+            let mut series = Vec::new();
+            for (role, lab, style) in [
+                (crate::diagnose::Role::Training, "training", Style::Markers),
+                (crate::diagnose::Role::Validation, "validation", Style::Hollow),
+            ] {
+                let rs: Vec<_> = dg.residuals.iter().filter(|r| r.role == role).collect();
+                if rs.is_empty() {
+                    continue;
+                }
+                series.push(Series {
+                    label: lab.into(),
+                    color: if role == crate::diagnose::Role::Training { 0 } else { 1 },
+                    style,
+                    points: rs.iter().map(|r| (r.values[name], r.residual)).collect(),
+                    y_err: Some(rs.iter().map(|r| r.sigma).collect()),
+                });
+            }
+            let plot = XyPlot {
+                title: format!("Residuals against {name}"),
+                x_label: label,
+                y_label: format!("measured − predicted {response}"),
+                series,
+                hline: Some(0.0),
+                ..Default::default()
+            };
+            let trend = dg.structure.iter().find(|t| &t.against == name).map_or(String::new(), |t| {
+                format!(
+                    " Rank correlation {} (p = {}){}.",
+                    significant(t.rank_correlation, 2),
+                    significant(t.rank_p_value, 2),
+                    if t.significant { ": a significant trend" } else { "" }
+                )
+            });
+            let caption = format!(
+                "Residuals of the uncorrected model (calibrated by weighted least squares on the training designs); bars: ± σ of the mean measurement ({} noise).{trend}",
+                noise_kind(&dg.noise.kind)
+            );
+            s.push_str(&figure(&format!("residuals-{}", id_part(name)), plot.render(), &caption));
+        }
+        // Candidate ranking.
+        if dg.candidates.is_empty() {
+            s.push_str("</div>");
+            s.push_str(&note("no candidate causes were ranked (see the notes below)"));
+            s.push_str("<div class=grid>");
+        } else {
+            s.push_str(&self.candidate_plot(dg));
+        }
+        if let Some(ext) = &dg.extended {
+            let plot = BarPlot {
+                title: format!("Validation error before and after adding {}", ext.cause),
+                value_label: format!("mean |relative error| (%), {}", ext.measured_on),
+                categories: vec!["uncorrected".into(), format!("with {}", ext.cause)],
+                groups: vec![(String::new(), 0, vec![Some(ext.validation_error_before), Some(ext.validation_error_after)])],
+                percent: true,
+            };
+            let caption = format!(
+                "Validation error of the uncorrected model and of the model extended with {} (term {}), measured on {}; gain {}.",
+                ext.cause,
+                ext.term,
+                ext.measured_on,
+                pct(ext.gain)
+            );
+            s.push_str(&figure("before-after", plot.render(), &caption));
+        }
+        s.push_str("</div>");
+        if dg.extended.is_none() {
+            s.push_str(&note("no cause was named, so there is no extended model to compare before/after"));
+        }
+        if !dg.candidates.is_empty() {
+            s.push_str("<h3>Candidates</h3><table><tr><th>rank</th><th class=l>candidate</th><th class=l>term</th><th>weight</th>\
+                <th>amplitude</th><th>p-value</th><th class=l>explains misfit</th><th class=l>confounded with</th></tr>");
+            for (i, c) in dg.candidates.iter().enumerate() {
+                let _ = write!(
+                    s,
+                    "<tr><td>{}</td><td class=l>{}</td><td class=l><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td><td class=l>{}</td></tr>",
+                    i + 1,
+                    escape(&c.name),
+                    escape(&c.term),
+                    significant(c.weight, 3),
+                    significant(c.amplitude, 3),
+                    significant(c.p_value, 2),
+                    if c.explains_misfit { "yes" } else { "no" },
+                    escape(&c.confounded_with.join(", "))
+                );
+            }
+            s.push_str("</table>");
+        }
+        s.push_str("<h3>Recommended next test</h3>");
+        match &dg.next_test {
+            Some(nt) => {
+                let at: Vec<String> = nt
+                    .design
+                    .iter()
+                    .map(|(k, v)| {
+                        let unit = self.study_info().and_then(|i| i.design.iter().find(|d| &d.name == k)).and_then(|d| d.unit.clone());
+                        format!("{} = {}", escape(k), with_unit(*v, unit.as_deref(), 3))
+                    })
+                    .collect();
+                let _ = write!(s, "<p id=next-test><strong>Test at {}.</strong> {}</p>", at.join(", "), escape(&nt.why));
+            }
+            None => s.push_str(&note("no next test recommended")),
+        }
+        for n in &dg.notes {
+            s.push_str(&note(n));
+        }
+        s
+    }
+
+    fn candidate_plot(&self, dg: &crate::diagnose::Diagnosis) -> String {
+        let mut s = String::new();
+        let mut categories: Vec<String> = dg.candidates.iter().map(|c| c.name.clone()).collect();
+        let mut weights: Vec<Option<f64>> = dg.candidates.iter().map(|c| Some(c.weight)).collect();
+        if let Some(w) = dg.uncorrected.weight {
+            categories.push("uncorrected model".into());
+            weights.push(Some(w));
+        }
+        let plot = BarPlot {
+            title: "Candidate causes, ranked".into(),
+            value_label: "weight (probability-like, sums to 1)".into(),
+            categories,
+            groups: vec![(String::new(), 0, weights)],
+            percent: false,
+        };
+        s.push_str(&figure(
+            "candidates",
+            plot.render(),
+            "Weights exp(−Δscore/2) of each candidate and of the uncorrected model, score = (AICc + leave-one-design-out deviance)/2; best first.",
+        ));
+        s
+    }
+
+    fn runs(&self) -> String {
+        let rows = self.d.map(|d| d.runs.as_slice()).unwrap_or_default();
+        if rows.is_empty() {
+            return if self.r.runs.is_some() {
+                self.runs_summary() + &note("the run table was not recorded (report-data.json missing)")
+            } else {
+                note("closed-form simulation: no solver runs")
+            };
+        }
+        let params: Vec<String> = self.study_info().map(|i| i.parameters.iter().map(|p| p.label()).collect()).unwrap_or_default();
+        let mut order: Vec<usize> = (0..rows.len()).collect();
+        // Failures first (then runs without a record), each group in plan order.
+        order.sort_by_key(|&i| match rows[i].class.as_deref() {
+            Some("success") => 2,
+            Some(_) => 0,
+            None => 1,
+        });
+        let failed = rows.iter().filter(|r| r.class.as_deref().is_some_and(|c| c != "success")).count();
+        let total: f64 = rows.iter().filter_map(|r| r.seconds).sum();
+        let mut s = format!(
+            "<p>{} runs, {failed} failed; {} of solver time in all.</p><table><tr><th class=l>key</th><th class=l>design</th><th class=l>role</th>",
+            rows.len(),
+            seconds(total)
+        );
+        for p in &params {
+            let _ = write!(s, "<th>{}</th>", escape(p));
+        }
+        let _ = write!(s, "<th class=l>status</th><th>attempts</th><th>time</th><th>{}</th><th class=l>outcome</th></tr>", escape(&self.response_label()));
+        for &i in &order {
+            let r = &rows[i];
+            let ok = r.class.as_deref() == Some("success");
+            let _ = write!(
+                s,
+                "<tr{}><td class=l><code title=\"{}\">{}</code></td><td class=l>{}</td><td class=l>{}</td>",
+                if ok { "" } else { " class=failed" },
+                escape(&r.key),
+                escape(&r.key[..r.key.len().min(12)]),
+                escape(&r.design),
+                escape(&r.role)
+            );
+            for v in &r.theta {
+                let _ = write!(s, "<td>{}</td>", significant(*v, 5));
+            }
+            let _ = write!(
+                s,
+                "<td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
+                escape(r.class.as_deref().unwrap_or("no record")),
+                r.attempts,
+                r.seconds.map_or("–".into(), seconds),
+                r.response.map_or("–".into(), |v| significant(v, 5)),
+                if ok { String::new() } else { escape(&r.outcome) }
+            );
+        }
+        s + "</table>"
+    }
+}
+
+fn noise_kind(kind: &crate::diagnose::NoiseKind) -> &'static str {
+    match kind {
+        crate::diagnose::NoiseKind::Absolute => "absolute",
+        crate::diagnose::NoiseKind::Relative => "relative",
+        crate::diagnose::NoiseKind::FromResiduals => "estimated from the residuals",
+    }
+}
+
+fn list(names: &[String]) -> String {
+    if names.is_empty() { "none".into() } else { names.join(", ") }
 }
 
 pub fn escape(s: &str) -> String {

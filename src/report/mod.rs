@@ -1,6 +1,9 @@
-//! What `lab` hands back: `results.json` (the contract), the terminal summary, the HTML report.
+//! What `lab` hands back: `results.json` (the contract), the terminal summary, the HTML report
+//! (drawn from `results.json` plus `report-data.json`, both recorded by `lab run`).
 
+pub mod data;
 pub mod html;
+pub mod plots;
 pub mod results;
 pub mod summary;
 

@@ -1,0 +1,208 @@
+//! The HTML report in a real browser: `lab run` then `lab report` (rebuilt from what is recorded)
+//! on the closed-form cantilever, the diagnosis cantilever (every diagnosis plot) and the solver
+//! cantilever; each page opened in headless Chromium, a screenshot saved under
+//! `target/tmp/report-screenshots/`, the DOM checked for every section and plot, the page's
+//! errors (a hook injected into a copy of the page, and Chromium's console log) required empty.
+//!
+//! Without Chromium the browser part is skipped with a message, except under CI=true, where a
+//! missing Chromium fails (`.ci/run` installs Debian's `chromium`).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::Instant;
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn lab(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lab")).args(args).current_dir(repo()).output().expect("lab runs")
+}
+
+fn chromium() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("LAB_CHROMIUM") {
+        return Some(PathBuf::from(p));
+    }
+    let path = std::env::var_os("PATH")?;
+    std::env::split_paths(&path)
+        .flat_map(|d| ["chromium", "chromium-browser"].map(|n| d.join(n)))
+        .find(|p| p.is_file())
+}
+
+/// Records uncaught errors, failed resource loads and console.error calls, and the load time, into
+/// a `<pre id=lab-test-hook>` appended at the load event.
+const HOOK: &str = r#"<script>
+window.__labErrors = [];
+window.addEventListener('error', function (e) {
+  window.__labErrors.push(e.message ? String(e.message) : 'failed to load ' + (e.target && (e.target.src || e.target.href)));
+}, true);
+(function () { var ce = console.error; console.error = function () {
+  window.__labErrors.push(Array.prototype.join.call(arguments, ' ')); return ce.apply(console, arguments); }; })();
+window.addEventListener('load', function () {
+  var d = document.createElement('pre'); d.id = 'lab-test-hook';
+  d.textContent = JSON.stringify({ errors: window.__labErrors, load_ms: performance.now() });
+  document.body.appendChild(d);
+});
+</script>"#;
+
+struct Case {
+    study: &'static str,
+    /// Figure ids expected on the page (each holds one <svg>).
+    figures: &'static [&'static str],
+}
+
+const CASES: [Case; 3] = [
+    Case {
+        study: "cantilever",
+        figures: &["posterior-E", "predictions", "splits", "residuals-h"],
+    },
+    Case {
+        study: "cantilever-diagnosis",
+        figures: &["predictions", "splits", "residuals-h", "candidates", "before-after"],
+    },
+    Case {
+        study: "cantilever-command",
+        figures: &[
+            "surrogate-h8",
+            "surrogate-h10",
+            "surrogate-h13",
+            "posterior-E",
+            "predictions",
+            "splits",
+            "residuals-h",
+        ],
+    },
+];
+
+const SECTIONS: [&str; 7] =
+    ["study", "force-displacement", "surrogates", "calibration", "identifiability", "diagnosis", "runs"];
+
+/// Runs the study, then rebuilds the report from the recorded files; returns the out dir.
+fn render(case: &Case, root: &Path) -> PathBuf {
+    let out = root.join(case.study);
+    let study = format!("studies/{}.yaml", case.study);
+    let o = lab(&["run", &study, "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}: {}", case.study, String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("report-data.json").is_file(), "lab run records report-data.json");
+    let written = std::fs::read(out.join("report.html")).unwrap();
+    let started = Instant::now();
+    let o = lab(&["report", &study, "--out", out.to_str().unwrap()]);
+    let took = started.elapsed();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let rebuilt = std::fs::read(out.join("report.html")).unwrap();
+    assert!(written == rebuilt, "{}: `lab report` rebuilds the same page from the recorded data", case.study);
+    let size = rebuilt.len();
+    eprintln!("{}: report.html {} kB, `lab report` {:.0} ms", case.study, size / 1024, took.as_secs_f64() * 1e3);
+    assert!(size < 2 * 1024 * 1024, "{}: report is {size} bytes (limit 2 MB)", case.study);
+    out
+}
+
+/// Static checks on the page as written: sections, figures, no external asset, no script.
+fn check_html(case: &Case, html: &str) {
+    for id in SECTIONS {
+        assert!(html.contains(&format!("<section id={id}>")), "{}: section `{id}` missing", case.study);
+    }
+    for id in case.figures {
+        let at = html.find(&format!("<figure class=plot id={id}>")).unwrap_or_else(|| panic!("{}: figure `{id}` missing", case.study));
+        assert!(html[at..].starts_with(&format!("<figure class=plot id={id}><svg")), "{}: figure `{id}` holds no <svg>", case.study);
+    }
+    for needle in ["<script", "src=", "http://", "https://", "<link", "@import", "url("] {
+        assert!(!html.contains(needle), "{}: the page must be self-contained (found `{needle}`)", case.study);
+    }
+}
+
+fn browser(chromium: &Path, user_data: &Path, extra: &[String], page: &Path) -> Output {
+    let mut args: Vec<String> = [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--no-first-run",
+        "--disable-quic",
+        "--disable-dev-shm-usage",
+        "--enable-logging=stderr",
+        "--v=0",
+    ]
+    .map(String::from)
+    .to_vec();
+    args.push(format!("--user-data-dir={}", user_data.display()));
+    args.extend(extra.iter().cloned());
+    args.push(format!("file://{}", page.display()));
+    let o = Command::new(chromium).args(&args).output().expect("chromium starts");
+    assert!(o.status.success(), "chromium {args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    o
+}
+
+/// Console errors in Chromium's log (`CONSOLE` lines at error level, or uncaught exceptions).
+fn console_errors(stderr: &str) -> Vec<String> {
+    stderr
+        .lines()
+        .filter(|l| (l.contains("CONSOLE") && (l.contains(":ERROR:") || l.contains("Uncaught"))) || l.contains("Uncaught "))
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn reports_render_in_chromium_with_every_section_and_plot() {
+    let tmp = tempfile::tempdir().unwrap();
+    let outs: Vec<PathBuf> = CASES.iter().map(|c| render(c, tmp.path())).collect();
+    for (case, out) in CASES.iter().zip(&outs) {
+        check_html(case, &std::fs::read_to_string(out.join("report.html")).unwrap());
+    }
+    let Some(chromium) = chromium() else {
+        if std::env::var("CI").is_ok_and(|v| v == "true") {
+            panic!("CI=true but chromium is not installed: .ci/run must install Debian's `chromium`");
+        }
+        eprintln!("SKIPPED the browser part of the report test: no `chromium` on PATH (apt-get install chromium)");
+        return;
+    };
+    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("report-screenshots");
+    std::fs::create_dir_all(&shots).unwrap();
+    for (case, out) in CASES.iter().zip(&outs) {
+        let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+        // A copy with the error hook at the top of <head>; the report itself carries no script.
+        let hooked = out.join("report-hooked.html");
+        std::fs::write(&hooked, html.replacen("<head>", &format!("<head>{HOOK}"), 1)).unwrap();
+
+        let shot = shots.join(format!("{}.png", case.study));
+        let _ = std::fs::remove_file(&shot);
+        let o = browser(
+            &chromium,
+            &tmp.path().join(format!("profile-shot-{}", case.study)),
+            &[format!("--screenshot={}", shot.display()), "--window-size=1280,4000".into(), "--hide-scrollbars".into()],
+            &out.join("report.html"),
+        );
+        assert!(shot.is_file(), "{}: no screenshot: {}", case.study, String::from_utf8_lossy(&o.stderr));
+        let errors = console_errors(&String::from_utf8_lossy(&o.stderr));
+        assert!(errors.is_empty(), "{}: console errors: {errors:#?}", case.study);
+
+        let o = browser(&chromium, &tmp.path().join(format!("profile-dom-{}", case.study)), &["--dump-dom".into()], &hooked);
+        let dom = String::from_utf8_lossy(&o.stdout).into_owned();
+        let errors = console_errors(&String::from_utf8_lossy(&o.stderr));
+        assert!(errors.is_empty(), "{}: console errors: {errors:#?}", case.study);
+        for id in SECTIONS {
+            assert!(dom.contains(&format!("<section id=\"{id}\">")), "{}: section `{id}` not in the DOM", case.study);
+        }
+        for id in case.figures {
+            let at = dom.find(&format!("id=\"{id}\"")).unwrap_or_else(|| panic!("{}: figure `{id}` not in the DOM", case.study));
+            let end = dom[at..].find("</figure>").map_or(dom.len(), |e| at + e);
+            assert!(dom[at..end].contains("<svg"), "{}: figure `{id}` has no <svg> in the DOM", case.study);
+        }
+        let svgs = dom.matches("<svg").count();
+        assert_eq!(svgs, html.matches("<svg").count(), "{}: every <svg> of the page is in the DOM", case.study);
+        assert!(svgs >= case.figures.len(), "{}: {svgs} <svg>", case.study);
+        let hook = dom
+            .split("<pre id=\"lab-test-hook\">")
+            .nth(1)
+            .and_then(|s| s.split("</pre>").next())
+            .unwrap_or_else(|| panic!("{}: the load hook did not run", case.study))
+            .replace("&quot;", "\"");
+        let hook: serde_json::Value = serde_json::from_str(&hook).expect("hook JSON");
+        assert_eq!(hook["errors"], serde_json::json!([]), "{}: page errors", case.study);
+        let load_ms = hook["load_ms"].as_f64().unwrap();
+        eprintln!("{}: {svgs} plots, loaded in {load_ms:.0} ms, screenshot {}", case.study, shot.display());
+        assert!(load_ms < 1000.0, "{}: the page took {load_ms} ms to load (limit 1 s)", case.study);
+    }
+}
