@@ -209,9 +209,7 @@ pub fn replay_runs(
         let record = RunRecord { key: key.clone(), outcome, attempts: 1, started_ms: started, ended_ms: now_ms(), response };
         store.commit(record)?;
     }
-    let responses = prepared.keys.iter().map(|k| store.record(k).and_then(|r| r.response)).collect();
-    let classes = prepared.keys.iter().map(|k| store.record(k).map(|r| r.outcome.class())).collect();
-    Ok((SweepResult { responses, classes, reused, errors: Vec::new() }, misses))
+    Ok((SweepResult::from_store(store, prepared, reused, Vec::new()), misses))
 }
 
 fn now_ms() -> u64 {
@@ -281,6 +279,15 @@ pub struct SweepResult {
     pub errors: Vec<String>,
 }
 
+impl SweepResult {
+    /// Every planned run's response and outcome class as the store now holds them, in plan order.
+    fn from_store(store: &RunStore, prepared: &Prepared, reused: usize, errors: Vec<String>) -> SweepResult {
+        let responses = prepared.keys.iter().map(|k| store.record(k).and_then(|r| r.response)).collect();
+        let classes = prepared.keys.iter().map(|k| store.record(k).map(|r| r.outcome.class())).collect();
+        SweepResult { responses, classes, reused, errors }
+    }
+}
+
 /// Runs every planned run that has no success in the store, `jobs` at once.
 pub fn run(
     runtime: &tokio::runtime::Runtime,
@@ -325,22 +332,7 @@ pub fn run(
     for record in summary.records {
         store.remember(record);
     }
-    let responses = prepared
-        .keys
-        .iter()
-        .map(|k| store.record(k).and_then(|r| r.response))
-        .collect();
-    let classes = prepared
-        .keys
-        .iter()
-        .map(|k| store.record(k).map(|r| r.outcome.class()))
-        .collect();
-    Ok(SweepResult {
-        responses,
-        classes,
-        reused,
-        errors: summary.errors,
-    })
+    Ok(SweepResult::from_store(store, prepared, reused, summary.errors))
 }
 
 pub fn spec(sim: &SolverSimulation, key: &str, dir: PathBuf) -> Result<RunSpec, Error> {
@@ -383,22 +375,7 @@ pub fn run_slurm(
             study.path.display()
         );
     }
-    let responses = prepared
-        .keys
-        .iter()
-        .map(|k| store.record(k).and_then(|r| r.response))
-        .collect();
-    let classes = prepared
-        .keys
-        .iter()
-        .map(|k| store.record(k).map(|r| r.outcome.class()))
-        .collect();
-    Ok(SweepResult {
-        responses,
-        classes,
-        reused,
-        errors: summary.errors,
-    })
+    Ok(SweepResult::from_store(store, prepared, reused, summary.errors))
 }
 
 /// [`RunStore::prepare`] without the store (the store is borrowed by the Slurm pass).
