@@ -3,6 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
+mod common;
+
+use common::{assert_located, column_of};
 use lab::error::InputError;
 use lab::study::{self, Method};
 
@@ -72,28 +75,14 @@ fn load_err(case: &Case) -> InputError {
     err
 }
 
-/// Column (from 1) of the first `needle` on line `line` (from 1) of `text`.
-fn column_of(text: &str, line: usize, needle: &str) -> usize {
-    let l = text.lines().nth(line - 1).unwrap();
-    l[..l.find(needle).unwrap_or_else(|| panic!("`{needle}` not on line {line}: {l}"))].chars().count() + 1
-}
-
-/// Asserts the error names `file`, `line`, `column` (if given), contains `phrase`, and that its
-/// rendering shows the offending line with a caret.
+/// Asserts the error is located (see `common::assert_located`) and its message starts with
+/// `file:line:column`.
 #[track_caller]
 fn assert_error(err: &InputError, file: &Path, line: usize, column: Option<usize>, phrase: &str) {
-    let shown = err.to_string();
-    assert_eq!(err.file, file, "wrong file in:\n{shown}");
-    let span = err.span.as_ref().unwrap_or_else(|| panic!("no line in:\n{shown}"));
-    assert_eq!(span.line, line, "wrong line in:\n{shown}");
-    if let Some(column) = column {
-        assert_eq!(span.column, column, "wrong column in:\n{shown}");
-    }
-    assert!(shown.contains(phrase), "`{phrase}` not in:\n{shown}");
+    assert_located(err, file, line, column, phrase);
+    let span = err.span.as_ref().expect("located");
     let location = format!("{}:{}:{}", file.display(), span.line, span.column);
-    assert!(shown.starts_with(&location), "no `{location}` in:\n{shown}");
-    let excerpt = err.excerpt.as_deref().unwrap_or_else(|| panic!("no excerpt in:\n{shown}"));
-    assert!(excerpt.contains('^'), "no caret in:\n{shown}");
+    assert!(err.to_string().starts_with(&location), "no `{location}` in:\n{err}");
 }
 
 /// A bad study (with the good CSV): the error is in the study file.

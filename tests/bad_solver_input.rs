@@ -4,7 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use lab::error::InputError;
+mod common;
+
+use common::{assert_located, column_of};
 use lab::study::{self, Simulation};
 
 /// A valid solver study; each bad case changes one thing. Line numbers are referred to below.
@@ -53,30 +55,12 @@ fn with(old: &str, new: &str) -> String {
     STUDY.replacen(old, new, 1)
 }
 
-fn column_of(text: &str, line: usize, needle: &str) -> usize {
-    let l = text.lines().nth(line - 1).unwrap();
-    l[..l.find(needle).unwrap_or_else(|| panic!("`{needle}` not on line {line}: {l}"))].chars().count() + 1
-}
-
-#[track_caller]
-fn assert_at(err: &InputError, file: &Path, line: usize, column: Option<usize>, phrase: &str) {
-    let shown = err.to_string();
-    assert_eq!(err.file, file, "wrong file in:\n{shown}");
-    let span = err.span.as_ref().unwrap_or_else(|| panic!("no line in:\n{shown}"));
-    assert_eq!(span.line, line, "wrong line in:\n{shown}");
-    if let Some(column) = column {
-        assert_eq!(span.column, column, "wrong column in:\n{shown}");
-    }
-    assert!(shown.contains(phrase), "`{phrase}` not in:\n{shown}");
-    assert!(err.excerpt.as_deref().is_some_and(|e| e.contains('^')), "no caret in:\n{shown}");
-}
-
 #[track_caller]
 fn study_error(yaml: &str, line: usize, needle: Option<&str>, phrase: &str) {
     let c = case(yaml, TEMPLATE);
     let err = study::load(&c.study).err().unwrap_or_else(|| panic!("expected an error for:\n{yaml}"));
     let column = needle.map(|n| column_of(yaml, line, n));
-    assert_at(&err, &c.study, line, column, phrase);
+    assert_located(&err, &c.study, line, column, phrase);
 }
 
 #[test]
@@ -215,7 +199,7 @@ fn unknown_retry_class_and_zero_timeout() {
 fn template_syntax_error_names_the_template_file_and_line() {
     let c = case(STUDY, "h = {{ h }}\n\nE = {{ E \n");
     let err = study::load(&c.study).expect_err("a template syntax error");
-    assert_at(&err, &c.dir.path().join("beam.txt.tera"), 3, None, "template syntax error");
+    assert_located(&err, &c.dir.path().join("beam.txt.tera"), 3, None, "template syntax error");
 }
 
 #[test]
