@@ -365,7 +365,8 @@ fn lsdyna_adapter_classifies_the_outcomes() {
             disp_to_mm: 1.0,
         },
     };
-    let cases: [(&str, Option<(&'static str, f64)>, OutcomeClass); 5] = [
+    type Switch = (&'static str, Option<(&'static str, f64)>, OutcomeClass);
+    let cases: [Switch; 5] = [
         ("ok", None, OutcomeClass::Success),
         ("error", Some(("error", 0.0)), OutcomeClass::FailureText),
         ("exit", Some(("exit", 3.0)), OutcomeClass::NonZeroExit),

@@ -229,10 +229,10 @@ pub fn job_states(ids: &[String]) -> BTreeMap<String, JobState> {
 /// The id of the job named `lab-<token>`, if Slurm (or its jobcomp record) knows one.
 fn find_by_name(token: &str) -> Option<String> {
     let name = format!("lab-{token}");
-    if let Ok(text) = slurm_cmd("squeue", &["-h", "-t", "all", "-n", &name, "-o", "%i"]) {
-        if let Some(id) = text.split_whitespace().next() {
-            return Some(id.to_string());
-        }
+    if let Ok(text) = slurm_cmd("squeue", &["-h", "-t", "all", "-n", &name, "-o", "%i"])
+        && let Some(id) = text.split_whitespace().next()
+    {
+        return Some(id.to_string());
     }
     let text = std::fs::read_to_string(jobcomp_file()?).ok()?;
     text.lines()

@@ -98,8 +98,11 @@ impl std::error::Error for DatError {}
 
 const ID_NAMES: [&str; 3] = ["elem", "integ.pnt.", "node"];
 
+/// A block header: kind words, component names, set, time.
+type Header = (String, Vec<String>, String, f64);
+
 /// Reads a header line: `<kind words> (<names>) for set <SET> and time <T>`.
-fn header(line: &str) -> Option<Result<(String, Vec<String>, String, f64), String>> {
+fn header(line: &str) -> Option<Result<Header, String>> {
     let open = line.find('(')?;
     let close = open + line[open..].find(')')?;
     let kind: Vec<&str> = line[..open].split_whitespace().collect();

@@ -519,7 +519,9 @@ impl Page<'_> {
         let r = self.r;
         let training: Vec<String> = self.split_names(Role::Training);
         let validation: Vec<String> = self.split_names(Role::Validation);
-        let mut splits: Vec<(String, Vec<(String, [Option<f64>; 2])>)> = vec![(
+        // (split label, [(method, [training error, validation error])])
+        type SplitErrors = (String, Vec<(String, [Option<f64>; 2])>);
+        let mut splits: Vec<SplitErrors> = vec![(
             format!("train {} / validate {}", list(&training), list(&validation)),
             r.calibration.iter().filter(|(_, m)| m.error.is_none()).map(|(k, m)| (k.clone(), [m.training_error, m.validation_error])).collect(),
         )];

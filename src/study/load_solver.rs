@@ -16,8 +16,6 @@ use super::Checker;
 use crate::error::InputError;
 use crate::execute::{Backoff, CommandAdapter, OutcomeClass, RetryPolicy};
 
-/// Adapters named by the contract whose implementation is not in this version.
-
 /// Outcome classes a retry policy may name, by their study-file names.
 const RETRY_CLASSES: [(&str, OutcomeClass); 5] = [
     ("non_zero_exit", OutcomeClass::NonZeroExit),
