@@ -34,7 +34,9 @@ fn methods(c: &mut Criterion) {
     let design_bounds = Bounds::new(vec![7.0], vec![13.0]);
     let settings = bayesian::Settings::default();
     let samples = bayesian::emulator_samples(&problem, &design_bounds, &settings);
-    c.bench_function("least_squares", |b| b.iter(|| least_squares::calibrate(&problem).unwrap()));
+    c.bench_function("least_squares", |b| {
+        b.iter(|| least_squares::calibrate(&problem).unwrap())
+    });
     c.bench_function("sensitivity", |b| b.iter(|| sensitivity::calibrate(&problem).unwrap()));
     let mut group = c.benchmark_group("bayesian");
     group.sample_size(10);

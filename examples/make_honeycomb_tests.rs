@@ -22,7 +22,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use lab::extract::crush::{self, CsvOptions, SimSource, Sign, Window};
+use lab::extract::crush::{self, CsvOptions, Sign, SimSource, Window};
 use lab::extract::lsdyna::{nodout, rcforc};
 use lab::render::Renderer;
 use lab::render::mesh::{self, TubeSpec};
@@ -71,7 +71,12 @@ fn parse_designs(list: &str) -> Vec<(String, f64, f64)> {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (out, crushsim, designs, specimens) = match &args[..] {
-        [out, crushsim] => (out, crushsim, DESIGNS.iter().map(|&(n, c, t)| (n.to_string(), c, t)).collect(), SPECIMENS),
+        [out, crushsim] => (
+            out,
+            crushsim,
+            DESIGNS.iter().map(|&(n, c, t)| (n.to_string(), c, t)).collect(),
+            SPECIMENS,
+        ),
         [out, crushsim, list] => (out, crushsim, parse_designs(list), SPECIMENS),
         [out, crushsim, list, n] => (
             out,
@@ -92,7 +97,12 @@ fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let file = root.join("templates/honeycomb/main.k.tera");
     let source = std::fs::read_to_string(&file).unwrap();
-    let renderer = Renderer::new(&[Template { file, output: "main.k".into(), source }]).unwrap();
+    let renderer = Renderer::new(&[Template {
+        file,
+        output: "main.k".into(),
+        source,
+    }])
+    .unwrap();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(SEED);
     let mut experiments = String::from("design,c,t,force\n");
     for (name, c, t) in designs {
@@ -101,7 +111,15 @@ fn main() {
         let (mesh_text, _) = mesh::include(&TubeSpec::paper(c, ELEMENT)).unwrap();
         std::fs::write(dir.path().join("mesh.k"), mesh_text).unwrap();
         let mut ctx = tera::Context::new();
-        for (k, v) in [("c", c), ("t", t), ("sigma_y", SIGMA_Y), ("etan", ETAN), ("ribbon_factor", 2.0), ("term_time", TERM_TIME), ("dt_out", DT_OUT)] {
+        for (k, v) in [
+            ("c", c),
+            ("t", t),
+            ("sigma_y", SIGMA_Y),
+            ("etan", ETAN),
+            ("ribbon_factor", 2.0),
+            ("term_time", TERM_TIME),
+            ("dt_out", DT_OUT),
+        ] {
             ctx.insert(k, &v);
         }
         ctx.insert("design_name", name);

@@ -109,7 +109,14 @@ pub fn main() -> i32 {
 
 fn execute(command: Command) -> Result<i32, Error> {
     match command {
-        Command::Run { study, out, executor, jobs, replay, record } => {
+        Command::Run {
+            study,
+            out,
+            executor,
+            jobs,
+            replay,
+            record,
+        } => {
             let started = Instant::now();
             let study = study::load(&study)?;
             if replay.is_some() && record.is_some() {
@@ -122,17 +129,27 @@ fn execute(command: Command) -> Result<i32, Error> {
             if let Simulation::Expression(_) = &study.simulation
                 && (replay.is_some() || record.is_some())
             {
-                eprintln!("note: `{}` has a closed-form simulation; nothing to record or replay", study.name);
+                eprintln!(
+                    "note: `{}` has a closed-form simulation; nothing to record or replay",
+                    study.name
+                );
             }
             match &study.simulation {
                 Simulation::Expression(_) => {
                     if executor == Executor::Slurm {
-                        eprintln!("note: `{}` has a closed-form simulation; nothing to submit to Slurm", study.name);
+                        eprintln!(
+                            "note: `{}` has a closed-form simulation; nothing to submit to Slurm",
+                            study.name
+                        );
                     }
                     run(&study, &out, started)
                 }
                 Simulation::Solver(sim) => {
-                    let modes = Modes { replay: replay_dir(sim, replay), record, slurm: executor == Executor::Slurm };
+                    let modes = Modes {
+                        replay: replay_dir(sim, replay),
+                        record,
+                        slurm: executor == Executor::Slurm,
+                    };
                     run_solver(&study, sim, &out, jobs.unwrap_or_else(default_jobs), &modes, started)
                 }
             }
@@ -178,7 +195,10 @@ fn execute(command: Command) -> Result<i32, Error> {
             use crate::extract::crush;
             let bad = || InputError::file(&curve, format!("--window `{window}`: give S0:S1 in mm, e.g. 5:60"));
             let (a, b) = window.split_once(':').ok_or_else(bad)?;
-            let (s0, s1) = (a.trim().parse::<f64>().map_err(|_| bad())?, b.trim().parse::<f64>().map_err(|_| bad())?);
+            let (s0, s1) = (
+                a.trim().parse::<f64>().map_err(|_| bad())?,
+                b.trim().parse::<f64>().map_err(|_| bad())?,
+            );
             let data = crush::read_test_csv(&curve, crush::CsvOptions::default())?;
             let r = crush::crush_force(&data, crush::Window { s0, s1 })
                 .map_err(|e| InputError::file(&curve, e.to_string()))?;
@@ -192,14 +212,20 @@ fn execute(command: Command) -> Result<i32, Error> {
             let study = study::load(&study)?;
             let dir = out_dir(&study, out);
             let results = Results::read(&dir.join("results.json")).map_err(|e| {
-                Error::Failed(format!("{}: {e} (run `lab run` first)", dir.join("results.json").display()))
+                Error::Failed(format!(
+                    "{}: {e} (run `lab run` first)",
+                    dir.join("results.json").display()
+                ))
             })?;
             let data_file = dir.join(ReportData::FILE_NAME);
             let data = match ReportData::read(&data_file) {
                 Ok(d) => Some(d),
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
                 Err(e) => {
-                    eprintln!("warning: {}: {e}; the report leaves out what it holds", data_file.display());
+                    eprintln!(
+                        "warning: {}: {e}; the report leaves out what it holds",
+                        data_file.display()
+                    );
                     None
                 }
             };
@@ -248,14 +274,20 @@ fn replay_dir(sim: &SolverSimulation, replay: Option<PathBuf>) -> Option<PathBuf
     if on_path(program) {
         return None;
     }
-    eprintln!("note: solver `{program}` is not on PATH: replaying the study's recordings in {}", default.display());
+    eprintln!(
+        "note: solver `{program}` is not on PATH: replaying the study's recordings in {}",
+        default.display()
+    );
     Some(default)
 }
 
 /// Whether `program` would be found: a path that exists, or an executable file on PATH.
 fn on_path(program: &str) -> bool {
     use std::os::unix::fs::PermissionsExt;
-    let executable = |p: &Path| p.metadata().is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0);
+    let executable = |p: &Path| {
+        p.metadata()
+            .is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
+    };
     if program.contains('/') {
         return executable(Path::new(program));
     }
@@ -280,12 +312,19 @@ fn run_solver(
     let swept = match &modes.replay {
         Some(dir) => {
             if !dir.is_dir() {
-                return Err(Error::Failed(format!("replay directory {} does not exist", dir.display())));
+                return Err(Error::Failed(format!(
+                    "replay directory {} does not exist",
+                    dir.display()
+                )));
             }
             let (swept, misses) = sweep::replay_runs(study, sim, &plan, &prepared, &mut store, dir)?;
             if !misses.is_empty() {
                 let shown: Vec<&String> = misses.iter().take(5).collect();
-                let more = if misses.len() > 5 { format!("\n... and {} more", misses.len() - 5) } else { String::new() };
+                let more = if misses.len() > 5 {
+                    format!("\n... and {} more", misses.len() - 5)
+                } else {
+                    String::new()
+                };
                 return Err(Error::Failed(format!(
                     "{} planned run(s) have no recording:\n{}{more}",
                     misses.len(),
@@ -304,7 +343,10 @@ fn run_solver(
     }
     let failed = print_outcomes(&plan, &prepared.keys, &swept, &store);
     if signals.interrupted() {
-        eprintln!("interrupted: finished runs are kept in {}; `lab run` again resumes", out.display());
+        eprintln!(
+            "interrupted: finished runs are kept in {}; `lab run` again resumes",
+            out.display()
+        );
         return Err(Error::Interrupted);
     }
     if !swept.errors.is_empty() {
@@ -317,11 +359,21 @@ fn run_solver(
     let diagnosis = pipeline::diagnose_solver(study, sim, &plan, &swept.responses, &surrogates);
     let mut results = Results::build(study, &surrogates, &calibration, diagnosis).with_surrogates(&surrogates);
     if !study.splits.is_empty() {
-        results.splits = Some(study.splits.iter().map(|split| calibrate_split(study, split, &surrogates, &runs)).collect());
+        results.splits = Some(
+            study
+                .splits
+                .iter()
+                .map(|split| calibrate_split(study, split, &surrogates, &runs))
+                .collect(),
+        );
     }
     let succeeded = swept.responses.iter().filter(|r| r.is_some()).count();
     let planned = plan.runs.len();
-    results.runs = Some(report::results::RunsResult { planned, succeeded, failed: planned - succeeded });
+    results.runs = Some(report::results::RunsResult {
+        planned,
+        succeeded,
+        failed: planned - succeeded,
+    });
     let mut data = ReportData::build(study, &surrogates, &calibration).with_runs(
         study,
         &plan,
@@ -350,7 +402,9 @@ fn calibrate_split(
     s.validation = split.validation.clone();
     let problem = pipeline::problem(&s, surrogates as &dyn Model);
     let calibration = pipeline::calibrate(&s, &problem, Some(runs));
-    let not_diagnosed = Err(crate::calibrate::CalibrationError::Numerics("not diagnosed per split".into()));
+    let not_diagnosed = Err(crate::calibrate::CalibrationError::Numerics(
+        "not diagnosed per split".into(),
+    ));
     let results = Results::build(&s, surrogates, &calibration, not_diagnosed);
     report::results::SplitResult::from_results(&s, &results)
 }
@@ -360,7 +414,12 @@ fn splits_table(splits: &[report::results::SplitResult]) -> String {
     use std::fmt::Write;
     let mut t = String::from("\ntrain/validate splits:\n");
     for split in splits {
-        let _ = writeln!(t, "  train {} / validate {}", split.training.join(", "), split.validation.join(", "));
+        let _ = writeln!(
+            t,
+            "  train {} / validate {}",
+            split.training.join(", "),
+            split.validation.join(", ")
+        );
         for (method, m) in &split.methods {
             if let Some(e) = &m.error {
                 let _ = writeln!(t, "    {method:<14} failed: {e}");
@@ -378,7 +437,11 @@ fn splits_table(splits: &[report::results::SplitResult]) -> String {
                 t,
                 "    {method:<14} {}{}  training error {}  validation error {}",
                 params.join(", "),
-                if truth.is_empty() { String::new() } else { format!(" ({})", truth.join(", ")) },
+                if truth.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", truth.join(", "))
+                },
                 pct(m.training_error),
                 pct(m.validation_error)
             );
@@ -398,8 +461,9 @@ fn print_outcomes(plan: &Plan, keys: &[String], swept: &sweep::SweepResult, stor
     }
     let missing = swept.classes.iter().filter(|c| c.is_none()).count();
     eprint!("{}", progress::summary_table(&classes, swept.reused, missing));
-    let failed: Vec<usize> =
-        (0..plan.runs.len()).filter(|&i| swept.classes[i].is_some() && swept.responses[i].is_none()).collect();
+    let failed: Vec<usize> = (0..plan.runs.len())
+        .filter(|&i| swept.classes[i].is_some() && swept.responses[i].is_none())
+        .collect();
     for &i in failed.iter().take(5) {
         let (run, key) = (&plan.runs[i], &keys[i]);
         let why = store.record(key).map(|r| r.outcome.to_string()).unwrap_or_default();
@@ -434,7 +498,9 @@ fn status(study: &Study, sim: &SolverSimulation, out: &Path) -> Result<i32, Erro
         plan.runs.len()
     );
     if let Some(holder) = holder {
-        let who = holder.map_or("holder not yet written".to_string(), |h| format!("pid {} on host {}", h.pid, h.host));
+        let who = holder.map_or("holder not yet written".to_string(), |h| {
+            format!("pid {} on host {}", h.pid, h.host)
+        });
         println!("a lab is running on {} ({who})", out.display());
     }
     Ok(0)
@@ -457,5 +523,12 @@ fn write_report(dir: &Path, results: &Results, data: Option<&ReportData>) -> Res
 
 /// `--out`, or `lab-out/<study name>` beside the study file.
 fn out_dir(study: &Study, out: Option<PathBuf>) -> PathBuf {
-    out.unwrap_or_else(|| study.path.parent().unwrap_or(Path::new(".")).join("lab-out").join(&study.name))
+    out.unwrap_or_else(|| {
+        study
+            .path
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join("lab-out")
+            .join(&study.name)
+    })
 }

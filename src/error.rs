@@ -23,7 +23,12 @@ pub struct InputError {
 impl InputError {
     /// An error about the whole file (missing, unreadable).
     pub fn file(file: &Path, message: impl Into<String>) -> Self {
-        InputError { file: file.to_path_buf(), span: None, message: message.into(), excerpt: None }
+        InputError {
+            file: file.to_path_buf(),
+            span: None,
+            message: message.into(),
+            excerpt: None,
+        }
     }
 
     /// An error at `line:column` of `source` (the file's text), with an excerpt and caret.

@@ -71,14 +71,25 @@ pub fn surrogates(
                 .filter_map(|(r, y)| y.map(|y| (r.theta.clone(), y)))
                 .collect()
         };
-        let Some(values) = plan.runs.iter().find(|r| &r.design == name).map(|r| r.design_values.clone()) else {
+        let Some(values) = plan
+            .runs
+            .iter()
+            .find(|r| &r.design == name)
+            .map(|r| r.design_values.clone())
+        else {
             continue;
         };
         let samples = runs(RunRole::Sample);
         let surrogate = Surrogate::fit(sim.surrogate, &samples, &bounds)
             .map_err(|e| Error::Failed(format!("design `{name}`: cannot fit its surrogate: {e}")))?;
         let check = surrogate.check(&runs(RunRole::Check));
-        designs.push(DesignSurrogate { design: name.clone(), values, surrogate, check, samples: samples.len() });
+        designs.push(DesignSurrogate {
+            design: name.clone(),
+            values,
+            surrogate,
+            check,
+            samples: samples.len(),
+        });
     }
     Ok(SurrogateModel { designs })
 }
@@ -105,7 +116,12 @@ pub fn problem<'a>(study: &Study, model: &'a dyn Model) -> Problem<'a> {
     let tests: Vec<_> = study
         .training
         .iter()
-        .map(|name| study.experiments.get(name).expect("validated: training designs are in the experiments"))
+        .map(|name| {
+            study
+                .experiments
+                .get(name)
+                .expect("validated: training designs are in the experiments")
+        })
         .collect();
     let designs = DMatrix::from_fn(tests.len(), study.design.len(), |i, j| tests[i].values[j]);
     Problem {
@@ -120,14 +136,23 @@ pub fn problem<'a>(study: &Study, model: &'a dyn Model) -> Problem<'a> {
 /// `runs`: a solver study's sample runs, which the Bayesian method's emulator is fitted to; without
 /// them it samples the model (a closed form) on a Latin hypercube.
 pub fn calibrate(study: &Study, problem: &Problem, runs: Option<&bayesian::SimulationData>) -> Calibration {
-    let methods: Vec<_> =
-        study.calibration.methods.iter().map(|&method| (method, run_method(study, problem, method, runs))).collect();
+    let methods: Vec<_> = study
+        .calibration
+        .methods
+        .iter()
+        .map(|&method| (method, run_method(study, problem, method, runs)))
+        .collect();
     let at = match methods.iter().find(|(m, _)| *m == Method::LeastSquares) {
         Some((_, Ok(c))) => c.theta().clone(),
-        _ => least_squares::calibrate(problem).map(|e| e.theta).unwrap_or_else(|_| problem.bounds.center()),
+        _ => least_squares::calibrate(problem)
+            .map(|e| e.theta)
+            .unwrap_or_else(|_| problem.bounds.center()),
     };
     let names: Vec<String> = study.parameters.iter().map(|p| p.name.clone()).collect();
-    Calibration { methods, identifiability: identifiability::analyse(problem, &names, &at) }
+    Calibration {
+        methods,
+        identifiability: identifiability::analyse(problem, &names, &at),
+    }
 }
 
 fn run_method(
@@ -173,7 +198,12 @@ pub fn extension_surrogates(
     responses: &[Option<f64>],
 ) -> Vec<(usize, SurrogateModel)> {
     let bounds = study.parameter_bounds();
-    let extensions = study.diagnosis.hypotheses.iter().enumerate().filter(|(_, h)| h.extension().is_some());
+    let extensions = study
+        .diagnosis
+        .hypotheses
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| h.extension().is_some());
     extensions
         .map(|(k, _)| {
             let mut designs = Vec::new();

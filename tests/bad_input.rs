@@ -52,7 +52,13 @@ fn case(yaml: &str, csv: &str) -> Case {
     let csv_path = dir.path().join("tests.csv");
     std::fs::write(&study, yaml).unwrap();
     std::fs::write(&csv_path, csv).unwrap();
-    Case { _dir: dir, study, csv: csv_path, yaml: yaml.to_string(), csv_text: csv.to_string() }
+    Case {
+        _dir: dir,
+        study,
+        csv: csv_path,
+        yaml: yaml.to_string(),
+        csv_text: csv.to_string(),
+    }
 }
 
 /// `STUDY` with `old` replaced by `new` (which must occur).
@@ -67,10 +73,17 @@ fn load_err(case: &Case) -> InputError {
         Ok(_) => panic!("expected an error for:\n{}\n---\n{}", case.yaml, case.csv_text),
         Err(e) => e,
     };
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lab")).arg("check").arg(&case.study).output().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lab"))
+        .arg("check")
+        .arg(&case.study)
+        .output()
+        .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "`lab check` exit code; stderr:\n{stderr}");
-    assert!(stderr.contains(&err.to_string()), "`lab check` did not print the error:\n{stderr}");
+    assert!(
+        stderr.contains(&err.to_string()),
+        "`lab check` did not print the error:\n{stderr}"
+    );
     assert!(!stderr.contains("panicked"), "{stderr}");
     err
 }
@@ -139,17 +152,29 @@ fn cantilever_loads_in_file_order() {
     assert_eq!(s.experiments.get("h8").unwrap().values, [8.0]);
     assert_eq!(s.training, ["h8", "h10"]);
     assert_eq!(s.validation, ["h13"]);
-    assert_eq!(s.calibration.methods, [Method::LeastSquares, Method::Sensitivity, Method::Bayesian]);
+    assert_eq!(
+        s.calibration.methods,
+        [Method::LeastSquares, Method::Sensitivity, Method::Bayesian]
+    );
     assert_eq!(s.calibration.bayesian.emulator_samples, 24);
     assert_eq!(s.calibration.bayesian.seed, 1);
     let hypotheses: Vec<&str> = s.diagnosis.hypotheses.iter().map(|h| h.name.as_str()).collect();
     assert_eq!(hypotheses, ["shear deformation", "root rotation", "offset"]);
 
     // The simulation evaluates with the study's symbol order.
-    let study::Simulation::Expression(expr) = &s.simulation else { panic!("a closed-form study") };
+    let study::Simulation::Expression(expr) = &s.simulation else {
+        panic!("a closed-form study")
+    };
     let symbols = s.symbols();
     let mut values = vec![0.0; symbols.len()];
-    for (name, v) in [("h", 8.0), ("E", 68000.0), ("F", 600.0), ("L", 20.0), ("b", 2.0), ("nu", 0.36)] {
+    for (name, v) in [
+        ("h", 8.0),
+        ("E", 68000.0),
+        ("F", 600.0),
+        ("L", 20.0),
+        ("b", 2.0),
+        ("nu", 0.36),
+    ] {
         values[symbols.index(name).unwrap()] = v;
     }
     let expected = 4.0 * 600.0 * 20f64.powi(3) / (68000.0 * 2.0 * 512.0);
@@ -187,7 +212,10 @@ fn calibration_defaults_to_all_methods() {
     let yaml = study_with("calibration:\n  methods: [least_squares, sensitivity, bayesian]\n", "");
     let c = case(&yaml, CSV);
     let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(s.calibration.methods, [Method::LeastSquares, Method::Sensitivity, Method::Bayesian]);
+    assert_eq!(
+        s.calibration.methods,
+        [Method::LeastSquares, Method::Sensitivity, Method::Bayesian]
+    );
     let defaults = lab::calibrate::bayesian::Settings::default();
     assert_eq!(s.calibration.bayesian.mcmc_steps, defaults.mcmc_steps);
     assert_eq!(s.calibration.bayesian.emulator_samples, defaults.emulator_samples);
@@ -242,7 +270,10 @@ fn unknown_key_in_calibration() {
 
 #[test]
 fn duplicate_key() {
-    let yaml = study_with("  h: {unit: mm, min: 7, max: 13}\n", "  h: {unit: mm, min: 7, max: 13}\n  h: {unit: mm}\n");
+    let yaml = study_with(
+        "  h: {unit: mm, min: 7, max: 13}\n",
+        "  h: {unit: mm, min: 7, max: 13}\n  h: {unit: mm}\n",
+    );
     study_error(&yaml, 5, Some(3), "duplicate");
 }
 
@@ -293,7 +324,10 @@ fn name_defined_twice_across_sections() {
     // `h` is a constant (line 2) and a design variable (line 4): the later one is reported.
     let yaml = study_with("b: 2}", "b: 2, h: 3}");
     let err = study_error(&yaml, 4, Some(3), "`h` is defined twice");
-    assert!(err.message.contains("constant") && err.message.contains("design variable"), "{err}");
+    assert!(
+        err.message.contains("constant") && err.message.contains("design variable"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -357,7 +391,12 @@ fn expression_syntax_error() {
 #[test]
 fn expression_without_parameter() {
     let yaml = study_with("4*F*L^3/(E*b*h^3)", "4*F*L^3/(b*h^3)");
-    study_error(&yaml, 8, Some(column_of(&yaml, 8, "\"")), "uses no calibration parameter");
+    study_error(
+        &yaml,
+        8,
+        Some(column_of(&yaml, 8, "\"")),
+        "uses no calibration parameter",
+    );
 }
 
 #[test]
@@ -384,7 +423,12 @@ fn unknown_method() {
 #[test]
 fn sensitivity_needs_two_training_designs() {
     let yaml = study_with("training: [h8, h10]", "training: [h8]");
-    study_error(&yaml, 15, Some(column_of(&yaml, 15, "sensitivity")), "at least 2 training designs");
+    study_error(
+        &yaml,
+        15,
+        Some(column_of(&yaml, 15, "sensitivity")),
+        "at least 2 training designs",
+    );
 }
 
 #[test]
@@ -392,7 +436,10 @@ fn default_methods_need_two_training_designs() {
     let yaml = study_with("calibration:\n  methods: [least_squares, sensitivity, bayesian]\n", "")
         .replace("training: [h8, h10]", "training: [h8]");
     study_error(&yaml, 12, Some(11), "default calibration methods include sensitivity");
-    let yaml = yaml.replace("validation: [h13]\n", "validation: [h13]\ncalibration: {methods: [least_squares]}\n");
+    let yaml = yaml.replace(
+        "validation: [h13]\n",
+        "validation: [h13]\ncalibration: {methods: [least_squares]}\n",
+    );
     let c = case(&yaml, CSV);
     let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.calibration.methods, [Method::LeastSquares]);
@@ -414,7 +461,10 @@ fn csv_with_bom_and_crlf_loads() {
 
 #[test]
 fn bad_bayesian_settings() {
-    let yaml = study_with("bayesian]\n", "bayesian]\n  bayesian: {mcmc_steps: 100, mcmc_burn_in: 100}\n");
+    let yaml = study_with(
+        "bayesian]\n",
+        "bayesian]\n  bayesian: {mcmc_steps: 100, mcmc_burn_in: 100}\n",
+    );
     study_error(&yaml, 16, Some(column_of(&yaml, 16, "100}")), "must be less than");
     let yaml = study_with("bayesian]\n", "bayesian]\n  bayesian: {seed: -1}\n");
     study_error(&yaml, 16, Some(column_of(&yaml, 16, "-1")), "whole number");
@@ -429,20 +479,35 @@ fn missing_experiments_file() {
 #[test]
 fn unknown_training_design() {
     let yaml = study_with("training: [h8, h10]", "training: [h8, h99]");
-    let err = study_error(&yaml, 12, Some(column_of(&yaml, 12, "h99")), "not in the experiments file");
+    let err = study_error(
+        &yaml,
+        12,
+        Some(column_of(&yaml, 12, "h99")),
+        "not in the experiments file",
+    );
     assert!(err.message.contains("h7, h8, h10, h13"), "{err}");
 }
 
 #[test]
 fn unknown_validation_design() {
     let yaml = study_with("validation: [h13]", "validation: [h13, h42]");
-    study_error(&yaml, 13, Some(column_of(&yaml, 13, "h42")), "validation design `h42` is not in");
+    study_error(
+        &yaml,
+        13,
+        Some(column_of(&yaml, 13, "h42")),
+        "validation design `h42` is not in",
+    );
 }
 
 #[test]
 fn design_in_training_and_validation() {
     let yaml = study_with("validation: [h13]", "validation: [h13, h10]");
-    study_error(&yaml, 13, Some(column_of(&yaml, 13, "h10")), "both training and validation");
+    study_error(
+        &yaml,
+        13,
+        Some(column_of(&yaml, 13, "h10")),
+        "both training and validation",
+    );
 }
 
 #[test]
@@ -457,7 +522,10 @@ fn no_training_designs() {
 #[test]
 fn csv_missing_response_column() {
     let err = csv_error("design,h,defl\nh8,8,0.3\n", 1, Some(1), "missing column `deflection`");
-    assert!(err.message.contains("`design`, `h`, `defl`"), "header not listed: {err}");
+    assert!(
+        err.message.contains("`design`, `h`, `defl`"),
+        "header not listed: {err}"
+    );
 }
 
 #[test]
@@ -499,7 +567,12 @@ fn csv_header_only() {
 
 #[test]
 fn csv_row_with_wrong_field_count() {
-    csv_error("design,h,deflection\nh8,8,0.3\nh10,10\n", 3, Some(1), "has 2 fields but the header has 3");
+    csv_error(
+        "design,h,deflection\nh8,8,0.3\nh10,10\n",
+        3,
+        Some(1),
+        "has 2 fields but the header has 3",
+    );
 }
 
 #[test]
@@ -515,8 +588,10 @@ fn truncated_and_mangled_studies_never_panic() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("tests.csv"), CSV).unwrap();
     let path = dir.path().join("study.yaml");
-    let mut inputs: Vec<String> =
-        (0..=STUDY.len()).filter(|&i| STUDY.is_char_boundary(i)).map(|i| STUDY[..i].to_string()).collect();
+    let mut inputs: Vec<String> = (0..=STUDY.len())
+        .filter(|&i| STUDY.is_char_boundary(i))
+        .map(|i| STUDY[..i].to_string())
+        .collect();
     for (i, _) in STUDY.char_indices() {
         for junk in ["\"", "[", "}", ":", "\t", "-", "*x", "&a", "\u{feff}"] {
             let mut s = STUDY.to_string();

@@ -58,7 +58,9 @@ fn with(old: &str, new: &str) -> String {
 #[track_caller]
 fn study_error(yaml: &str, line: usize, needle: Option<&str>, phrase: &str) {
     let c = case(yaml, TEMPLATE);
-    let err = study::load(&c.study).err().unwrap_or_else(|| panic!("expected an error for:\n{yaml}"));
+    let err = study::load(&c.study)
+        .err()
+        .unwrap_or_else(|| panic!("expected an error for:\n{yaml}"));
     let column = needle.map(|n| column_of(yaml, line, n));
     assert_located(&err, &c.study, line, column, phrase);
 }
@@ -67,7 +69,9 @@ fn study_error(yaml: &str, line: usize, needle: Option<&str>, phrase: &str) {
 fn base_solver_study_loads() {
     let c = case(STUDY, TEMPLATE);
     let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
-    let Simulation::Solver(sim) = &s.simulation else { panic!("not a solver study") };
+    let Simulation::Solver(sim) = &s.simulation else {
+        panic!("not a solver study")
+    };
     assert_eq!(sim.command, ["python3", "beam.py"]);
     assert_eq!(sim.templates[0].output, Path::new("beam.txt"));
     assert_eq!(sim.retry.max_attempts, 2);
@@ -76,7 +80,12 @@ fn base_solver_study_loads() {
 
 #[test]
 fn unknown_adapter() {
-    study_error(&with("adapter: command", "adapter: abaqus"), 9, Some("abaqus"), "unknown adapter `abaqus`");
+    study_error(
+        &with("adapter: command", "adapter: abaqus"),
+        9,
+        Some("abaqus"),
+        "unknown adapter `abaqus`",
+    );
 }
 
 #[test]
@@ -85,20 +94,34 @@ fn calculix_keys_are_checked_where_they_are() {
     let yaml = with("adapter: command", "adapter: calculix");
     study_error(&yaml, 14, Some("out.txt"), "does not go with `adapter: calculix`");
     let dat = r#"response: {dat: {block: displacements, set: NTIP, component: fy}}"#;
-    let yaml = with(r#"response: {file: out.txt, regex: "y = (\\S+)"}"#, dat).replace("adapter: command", "adapter: calculix");
+    let yaml =
+        with(r#"response: {file: out.txt, regex: "y = (\\S+)"}"#, dat).replace("adapter: command", "adapter: calculix");
     // No .inp input: the job cannot be named.
     study_error(&yaml, 8, None, "`.inp` input");
-    let yaml = yaml.replace("    templates: [beam.txt.tera]\n", "    templates: [beam.txt.tera]\n    job: beam\n");
+    let yaml = yaml.replace(
+        "    templates: [beam.txt.tera]\n",
+        "    templates: [beam.txt.tera]\n    job: beam\n",
+    );
     study_error(&yaml, 11, Some("beam"), "no template or file gives `beam.inp`");
     // `dat` with the command adapter.
     let yaml = with(r#"response: {file: out.txt, regex: "y = (\\S+)"}"#, dat);
-    study_error(&yaml, 14, Some("{block"), "`response.dat` goes with `adapter: calculix`");
+    study_error(
+        &yaml,
+        14,
+        Some("{block"),
+        "`response.dat` goes with `adapter: calculix`",
+    );
 }
 
 #[test]
 fn lsdyna_response_keys_are_checked_where_written() {
     // The command adapter's {file, regex} response does not suit lsdyna.
-    study_error(&with("adapter: command", "adapter: lsdyna"), 14, Some("out.txt"), "reads rcforc and nodout itself");
+    study_error(
+        &with("adapter: command", "adapter: lsdyna"),
+        14,
+        Some("out.txt"),
+        "reads rcforc and nodout itself",
+    );
     let lsdyna = with("adapter: command", "adapter: lsdyna");
     let bad_window = with_in(
         &lsdyna,
@@ -123,7 +146,11 @@ fn lsdyna_response_keys_are_checked_where_written() {
         r#"response: {file: out.txt, regex: "y = (\\S+)"}"#,
         "response: {kind: crush_force, window: [5, 60], node: 9000005}",
     );
-    let bad_mesh = with_in(&ok, "  surrogate: quadratic", "  surrogate: quadratic\n  mesh: {kind: honeycomb_tube, element_size: 2, cell: d}");
+    let bad_mesh = with_in(
+        &ok,
+        "  surrogate: quadratic",
+        "  surrogate: quadratic\n  mesh: {kind: honeycomb_tube, element_size: 2, cell: d}",
+    );
     study_error(&bad_mesh, 17, Some("d}"), "design variable `d`");
 }
 
@@ -134,12 +161,22 @@ fn with_in(text: &str, from: &str, to: &str) -> String {
 
 #[test]
 fn empty_command() {
-    study_error(&with("command: [python3, beam.py]", "command: []"), 11, Some("["), "empty `solver.command`");
+    study_error(
+        &with("command: [python3, beam.py]", "command: []"),
+        11,
+        Some("["),
+        "empty `solver.command`",
+    );
 }
 
 #[test]
 fn missing_template_file() {
-    study_error(&with("[beam.txt.tera]", "[nope.tera]"), 10, Some("nope"), "template `nope.tera` does not exist");
+    study_error(
+        &with("[beam.txt.tera]", "[nope.tera]"),
+        10,
+        Some("nope"),
+        "template `nope.tera` does not exist",
+    );
 }
 
 #[test]
@@ -170,8 +207,18 @@ fn grid_count_must_be_a_power() {
 
 #[test]
 fn unknown_surrogate_and_sampling_method() {
-    study_error(&with("surrogate: quadratic", "surrogate: cubic"), 16, Some("cubic"), "unknown surrogate `cubic`");
-    study_error(&with("method: lhs", "method: sobol"), 15, Some("sobol"), "unknown sampling method `sobol`");
+    study_error(
+        &with("surrogate: quadratic", "surrogate: cubic"),
+        16,
+        Some("cubic"),
+        "unknown surrogate `cubic`",
+    );
+    study_error(
+        &with("method: lhs", "method: sobol"),
+        15,
+        Some("sobol"),
+        "unknown sampling method `sobol`",
+    );
 }
 
 #[test]
@@ -191,7 +238,12 @@ fn solver_keys_without_solver() {
 
 #[test]
 fn unknown_retry_class_and_zero_timeout() {
-    study_error(&with("on: [non_zero_exit]", "on: [oops]"), 13, Some("oops"), "unknown outcome class `oops`");
+    study_error(
+        &with("on: [non_zero_exit]", "on: [oops]"),
+        13,
+        Some("oops"),
+        "unknown outcome class `oops`",
+    );
     study_error(&with("timeout: 30", "timeout: 0"), 12, Some("0"), "more than zero");
 }
 
@@ -199,13 +251,23 @@ fn unknown_retry_class_and_zero_timeout() {
 fn template_syntax_error_names_the_template_file_and_line() {
     let c = case(STUDY, "h = {{ h }}\n\nE = {{ E \n");
     let err = study::load(&c.study).expect_err("a template syntax error");
-    assert_located(&err, &c.dir.path().join("beam.txt.tera"), 3, None, "template syntax error");
+    assert_located(
+        &err,
+        &c.dir.path().join("beam.txt.tera"),
+        3,
+        None,
+        "template syntax error",
+    );
 }
 
 #[test]
 fn undefined_template_variable_is_caught_by_lab_check() {
     let c = case(STUDY, "h = {{ h }}\nE = {{ Young }}\n");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lab")).arg("check").arg(&c.study).output().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lab"))
+        .arg("check")
+        .arg(&c.study)
+        .output()
+        .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     let location = format!("{}:2:", c.dir.path().join("beam.txt.tera").display());

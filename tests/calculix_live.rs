@@ -105,7 +105,10 @@ fn fake(dat: Option<&str>, script: &str) -> (Outcome, Option<f64>, tempfile::Tem
 #[test]
 fn classification_without_ccx() {
     // Exit 0, but *ERROR in the output: failure text, even with a good .dat.
-    let (o, _, _out) = fake(Some(DAT_OK), "echo ' *ERROR in calinput: unknown keyword'; echo ' Job finished'");
+    let (o, _, _out) = fake(
+        Some(DAT_OK),
+        "echo ' *ERROR in calinput: unknown keyword'; echo ' Job finished'",
+    );
     assert!(
         matches!(&o, Outcome::FailureText { file, line } if file == STDOUT_FILE && line.starts_with("*ERROR")),
         "{o:?}"
@@ -122,10 +125,28 @@ fn classification_without_ccx() {
     );
     // No .dat at all.
     let (o, _, _out) = fake(None, "true");
-    assert!(matches!(&o, Outcome::BadResponse { problem: ResponseProblem::Missing, .. }), "{o:?}");
+    assert!(
+        matches!(
+            &o,
+            Outcome::BadResponse {
+                problem: ResponseProblem::Missing,
+                ..
+            }
+        ),
+        "{o:?}"
+    );
     // A truncated block: the header without rows.
     let (o, _, _out) = fake(Some(" displacements (vx,vy,vz) for set NTIP and time 1.0\n"), "true");
-    assert!(matches!(&o, Outcome::BadResponse { problem: ResponseProblem::Empty, .. }), "{o:?}");
+    assert!(
+        matches!(
+            &o,
+            Outcome::BadResponse {
+                problem: ResponseProblem::Empty,
+                ..
+            }
+        ),
+        "{o:?}"
+    );
     // Success.
     let (o, r, _out) = fake(Some(DAT_OK), "true");
     assert_eq!((o, r), (Outcome::Success, Some(0.3)));

@@ -15,20 +15,31 @@ fn repo() -> PathBuf {
 }
 
 fn lab(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lab")).args(args).current_dir(repo()).output().expect("lab runs")
+    Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args(args)
+        .current_dir(repo())
+        .output()
+        .expect("lab runs")
 }
 
 /// Runs a study into a fresh directory; returns the parsed results.json.
 fn run(study: &str) -> (Value, tempfile::TempDir) {
     let out = tempfile::tempdir().unwrap();
     let o = lab(&["run", study, "--out", out.path().to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "stderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let json = std::fs::read_to_string(out.path().join("results.json")).unwrap();
     (serde_json::from_str(&json).unwrap(), out)
 }
 
 fn param(results: &Value, method: &str, name: &str) -> f64 {
-    results["calibration"][method]["parameters"][name].as_f64().unwrap_or_else(|| panic!("{method}.{name}"))
+    results["calibration"][method]["parameters"][name]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{method}.{name}"))
 }
 
 fn prediction<'a>(results: &'a Value, method: &str, design: &str) -> &'a Value {
@@ -49,7 +60,9 @@ fn two_tests_three_methods_match_the_paper() {
     assert!(r["calibration"]["least_squares"]["discrepancy"].is_null());
 
     let sens = param(&r, "sensitivity", "E");
-    let d = r["calibration"]["sensitivity"]["discrepancy"]["constant"].as_f64().unwrap();
+    let d = r["calibration"]["sensitivity"]["discrepancy"]["constant"]
+        .as_f64()
+        .unwrap();
     assert!((sens - 64_914.0).abs() <= 2.0, "sensitivity E = {sens}");
     assert!((d - 0.018877).abs() <= 2e-6, "d = {d}");
 
@@ -63,7 +76,11 @@ fn two_tests_three_methods_match_the_paper() {
     // and the sensitivity prediction includes its constant discrepancy.
     for design in ["h8", "h10", "h13"] {
         let p = prediction(&r, "sensitivity", design);
-        let (m, y, e) = (p["measured"].as_f64().unwrap(), p["predicted"].as_f64().unwrap(), p["relative_error"].as_f64().unwrap());
+        let (m, y, e) = (
+            p["measured"].as_f64().unwrap(),
+            p["predicted"].as_f64().unwrap(),
+            p["relative_error"].as_f64().unwrap(),
+        );
         assert!((e - (y - m) / m).abs() < 1e-12);
         let h: f64 = design[1..].parse().unwrap();
         let euler = 4.0 * 600.0 * 8000.0 / (sens * 2.0 * h.powi(3));
@@ -72,9 +89,14 @@ fn two_tests_three_methods_match_the_paper() {
     assert_eq!(prediction(&r, "least_squares", "h13")["role"], "validation");
     assert_eq!(prediction(&r, "least_squares", "h8")["role"], "training");
     // Paper Fig. 5: least squares is ~13 % off at h = 13; the sensitivity method much closer.
-    let ls13 = prediction(&r, "least_squares", "h13")["relative_error"].as_f64().unwrap();
+    let ls13 = prediction(&r, "least_squares", "h13")["relative_error"]
+        .as_f64()
+        .unwrap();
     let sens13 = prediction(&r, "sensitivity", "h13")["relative_error"].as_f64().unwrap();
-    assert!(ls13 < -0.10 && sens13.abs() < 0.03, "h13: least squares {ls13}, sensitivity {sens13}");
+    assert!(
+        ls13 < -0.10 && sens13.abs() < 0.03,
+        "h13: least squares {ls13}, sensitivity {sens13}"
+    );
     assert_eq!(r["identifiability"]["identifiable"], true);
     assert!(out.path().join("report.html").is_file());
 }
@@ -117,7 +139,13 @@ fn check_accepts_every_shipped_study() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "yaml") {
             let o = lab(&["check", path.to_str().unwrap()]);
-            assert_eq!(o.status.code(), Some(0), "{}: {}", path.display(), String::from_utf8_lossy(&o.stderr));
+            assert_eq!(
+                o.status.code(),
+                Some(0),
+                "{}: {}",
+                path.display(),
+                String::from_utf8_lossy(&o.stderr)
+            );
         }
     }
 }
@@ -125,7 +153,11 @@ fn check_accepts_every_shipped_study() {
 #[test]
 fn bad_study_exits_2_naming_file_and_line() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(repo().join("studies/cantilever-tests.csv"), dir.path().join("cantilever-tests.csv")).unwrap();
+    std::fs::copy(
+        repo().join("studies/cantilever-tests.csv"),
+        dir.path().join("cantilever-tests.csv"),
+    )
+    .unwrap();
     let text = std::fs::read_to_string(repo().join("studies/cantilever.yaml")).unwrap();
     let broken = text.replace("\"4*F*L^3/(E*b*h^3)\"", "\"4*F*L^3/(Ee*b*h^3)\"");
     let line = broken.lines().position(|l| l.contains("Ee*b")).unwrap() + 1;
@@ -139,7 +171,10 @@ fn bad_study_exits_2_naming_file_and_line() {
         assert!(stderr.contains("Ee"), "{stderr}");
         assert!(!stderr.contains("panicked"), "{stderr}");
     }
-    assert!(!dir.path().join("lab-out").exists(), "a rejected study must not create output");
+    assert!(
+        !dir.path().join("lab-out").exists(),
+        "a rejected study must not create output"
+    );
 }
 
 #[test]
@@ -154,11 +189,19 @@ fn report_is_rewritten_from_results() {
     let (_, out) = run("studies/cantilever-one-test.yaml");
     let html = out.path().join("report.html");
     std::fs::remove_file(&html).unwrap();
-    let o = lab(&["report", "studies/cantilever-one-test.yaml", "--out", out.path().to_str().unwrap()]);
+    let o = lab(&[
+        "report",
+        "studies/cantilever-one-test.yaml",
+        "--out",
+        out.path().to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     let page = std::fs::read_to_string(&html).unwrap();
     assert!(page.contains("least_squares") && page.contains("h13"));
-    assert!(!page.contains("http://") && !page.contains("https://"), "report must be self-contained");
+    assert!(
+        !page.contains("http://") && !page.contains("https://"),
+        "report must be self-contained"
+    );
 }
 
 #[test]
@@ -175,7 +218,10 @@ fn diagnosis_names_shear_deformation_through_the_binary() {
     // Issue 5: the extended E within 0.5 % of the true 68,000.
     let e = d["extended"]["parameters"]["E"].as_f64().unwrap();
     assert!((e / 68_000.0 - 1.0).abs() < 0.005, "extended E = {e}");
-    let (before, after) = (d["extended"]["validation_error_before"].as_f64().unwrap(), d["extended"]["validation_error_after"].as_f64().unwrap());
+    let (before, after) = (
+        d["extended"]["validation_error_before"].as_f64().unwrap(),
+        d["extended"]["validation_error_after"].as_f64().unwrap(),
+    );
     let gain = d["extended"]["gain"].as_f64().unwrap();
     assert!((gain - (1.0 - after / before)).abs() < 1e-12);
     assert!(d["next_test"]["design"]["h"].is_number());

@@ -348,7 +348,7 @@ fn write_sample() {
 #[test]
 fn lsdyna_adapter_classifies_the_outcomes() {
     use lab::execute::{Executor, LsDynaAdapter, OutcomeClass, RetryPolicy, RunSpec, RunStore};
-    use lab::extract::crush::{SimSource, Sign, Window};
+    use lab::extract::crush::{Sign, SimSource, Window};
     use lab::extract::lsdyna::rcforc::Side;
     use std::sync::Arc;
     let adapter = LsDynaAdapter {
@@ -401,6 +401,12 @@ fn lsdyna_adapter_classifies_the_outcomes() {
         assert_eq!(r.outcome.class(), *class, "{key}: {}", r.outcome);
         assert_eq!(r.response.is_some(), *class == OutcomeClass::Success, "{key}");
     }
-    let ok = summary.records.iter().find(|r| r.key == "ok").unwrap().response.unwrap();
+    let ok = summary
+        .records
+        .iter()
+        .find(|r| r.key == "ok")
+        .unwrap()
+        .response
+        .unwrap();
     assert!(ok > 1.0 && ok < 2.0, "C6T5 single walls at 185 MPa: {ok} kN");
 }

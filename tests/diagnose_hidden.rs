@@ -28,7 +28,9 @@ const SIGMA: f64 = 185.0;
 const SEEDS: u64 = 10;
 
 /// The candidate terms the engineer suspects; every hidden shape below is one of them.
-const POOL: [&str; 13] = ["1", "y", "y^2", "t^0.5", "t^2", "t^3", "1/t", "c^0.5", "c^2", "1/c", "t*c", "t/c", "c/t"];
+const POOL: [&str; 13] = [
+    "1", "y", "y^2", "t^0.5", "t^2", "t^3", "1/t", "c^0.5", "c^2", "1/c", "t*c", "t/c", "c/t",
+];
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Family {
@@ -123,7 +125,11 @@ fn generate(family: Family, seed: u64) -> (Case, Base) {
 /// As [`generate`], with `replicates` tests per design.
 fn generate_with(family: Family, seed: u64, replicates: usize) -> (Case, Base) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed * 1000 + family as u64);
-    let base = if family == Family::ScaleIdentifiable { Base::Exponent } else { Base::Sigma };
+    let base = if family == Family::ScaleIdentifiable {
+        Base::Exponent
+    } else {
+        Base::Sigma
+    };
     let theta = base.truth();
     let train = training_designs();
     let level = train.iter().map(|d| base.predict(d, &theta)).sum::<f64>() / train.len() as f64;
@@ -134,7 +140,11 @@ fn generate_with(family: Family, seed: u64, replicates: usize) -> (Case, Base) {
         Family::None => None,
         Family::Offset => Some("1"),
         Family::Scale | Family::ScaleIdentifiable => Some("y"),
-        Family::Power => Some(*["t^0.5", "t^2", "t^3", "1/t", "c^0.5", "c^2", "1/c"].choose(&mut rng).unwrap()),
+        Family::Power => Some(
+            *["t^0.5", "t^2", "t^3", "1/t", "c^0.5", "c^2", "1/c"]
+                .choose(&mut rng)
+                .unwrap(),
+        ),
         Family::Saturation => Some("y^2"),
         Family::Interaction => Some("t*c"),
     };
@@ -159,7 +169,10 @@ fn generate_with(family: Family, seed: u64, replicates: usize) -> (Case, Base) {
     let noise_relative = rng.random_bool(0.5);
     let cv: f64 = rng.random_range(0.005..0.015);
     let mut obs = Vec::new();
-    let designs = train.iter().map(|d| (d, Role::Training)).chain(VALIDATION.iter().map(|d| (d, Role::Validation)));
+    let designs = train
+        .iter()
+        .map(|d| (d, Role::Training))
+        .chain(VALIDATION.iter().map(|d| (d, Role::Validation)));
     for (k, (d, role)) in designs.enumerate() {
         let mu = truth(d);
         let sd = if noise_relative { cv * mu.abs() } else { cv * level };
@@ -178,7 +191,16 @@ fn generate_with(family: Family, seed: u64, replicates: usize) -> (Case, Base) {
         .map(|(term, name)| Shape::from_term(name.clone(), term, &design_names, &[pname.to_string()], &[]).unwrap())
         .collect();
     let hidden_name = hidden.map(|h| names[terms.iter().position(|t| *t == h).unwrap()].clone());
-    (Case { inputs_obs: obs, hypotheses, hidden_name, noise_relative, magnitude: m }, base)
+    (
+        Case {
+            inputs_obs: obs,
+            hypotheses,
+            hidden_name,
+            noise_relative,
+            magnitude: m,
+        },
+        base,
+    )
 }
 
 /// Standard normal by Box–Muller.
@@ -212,18 +234,32 @@ struct Tally {
 }
 
 fn tally(family: Family, right: impl Fn(&Case, &Diagnosis) -> bool) -> Tally {
-    let mut t = Tally { right: 0, gain: 0, noise_right: 0, lines: Vec::new() };
+    let mut t = Tally {
+        right: 0,
+        gain: 0,
+        noise_right: 0,
+        lines: Vec::new(),
+    };
     for seed in 0..SEEDS {
         let (case, base) = generate(family, seed);
         let d = diagnose_case(&case, base);
         let ok = right(&case, &d);
         let gain = d.extended.as_ref().and_then(|e| e.gain);
-        let expected_noise = if case.noise_relative { NoiseKind::Relative } else { NoiseKind::Absolute };
+        let expected_noise = if case.noise_relative {
+            NoiseKind::Relative
+        } else {
+            NoiseKind::Absolute
+        };
         t.right += usize::from(ok);
         t.gain += usize::from(gain.is_some_and(|g| g >= 0.5));
         t.noise_right += usize::from(d.noise.kind == expected_noise);
-        let term_of =
-            |name: &str| d.candidates.iter().find(|c| c.name == name).map(|c| c.term.clone()).unwrap_or_default();
+        let term_of = |name: &str| {
+            d.candidates
+                .iter()
+                .find(|c| c.name == name)
+                .map(|c| c.term.clone())
+                .unwrap_or_default()
+        };
         t.lines.push(format!(
             "{family:?} seed {seed}: hidden {:?} ({}) m {:.3} | detected {} cause {:?} ({}) | top3 {:?} | gain {:?} ({:?}) | noise {:?} | {}",
             case.hidden_name,
@@ -259,13 +295,23 @@ fn check_named(family: Family) {
     assert!(t.gain >= 9, "{family:?}: gain ≥ 50 % in {}/{SEEDS} seeds", t.gain);
     // 16 designs × 2 degrees of freedom and levels spanning a factor of ~10: the replicate
     // likelihoods separate absolute from relative noise almost always.
-    assert!(t.noise_right >= 9, "{family:?}: noise model right in {}/{SEEDS} seeds", t.noise_right);
+    assert!(
+        t.noise_right >= 9,
+        "{family:?}: noise model right in {}/{SEEDS} seeds",
+        t.noise_right
+    );
 }
 
 #[test]
 fn no_effect_is_not_a_discrepancy() {
-    let t = tally(Family::None, |_, d| !d.discrepancy_detected && d.cause.is_none() && d.extended.is_none());
-    assert!(t.right >= 9, "false alarms in {} of {SEEDS} seeds", SEEDS as usize - t.right);
+    let t = tally(Family::None, |_, d| {
+        !d.discrepancy_detected && d.cause.is_none() && d.extended.is_none()
+    });
+    assert!(
+        t.right >= 9,
+        "false alarms in {} of {SEEDS} seeds",
+        SEEDS as usize - t.right
+    );
     assert!(t.noise_right >= 9);
 }
 
@@ -300,10 +346,17 @@ fn identifiable_scale_error_is_named() {
 fn scale_error_on_a_multiplicative_parameter_is_confounded_not_named() {
     let t = tally(Family::Scale, |case, d| {
         let name = case.hidden_name.as_deref().unwrap();
-        let flagged = d.candidates.iter().any(|c| c.name == name && c.confounded_with == vec!["sigma".to_string()]);
+        let flagged = d
+            .candidates
+            .iter()
+            .any(|c| c.name == name && c.confounded_with == vec!["sigma".to_string()]);
         !d.discrepancy_detected && d.cause.is_none() && flagged
     });
-    assert!(t.right >= 9, "scale error handled as confounded in {}/{SEEDS} seeds", t.right);
+    assert!(
+        t.right >= 9,
+        "scale error handled as confounded in {}/{SEEDS} seeds",
+        t.right
+    );
 }
 
 /// The false-alarm rate over more seeds than the ten: the rule's two tests at α = 0.01 give
@@ -332,7 +385,10 @@ fn without_replicates_no_effect_is_rarely_flagged_and_effects_are_named() {
         let d = diagnose_case(&case, base);
         assert_eq!(d.noise.kind, NoiseKind::FromResiduals);
         alarms += usize::from(d.discrepancy_detected);
-        for (k, family) in [Family::Offset, Family::Interaction, Family::Power].into_iter().enumerate() {
+        for (k, family) in [Family::Offset, Family::Interaction, Family::Power]
+            .into_iter()
+            .enumerate()
+        {
             let (case, base) = generate_with(family, seed, 1);
             let d = diagnose_case(&case, base);
             if !named_correctly(&case, &d) {

@@ -40,9 +40,17 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
     assert_eq!(offset.replaces.as_deref(), Some("constant offset"));
     assert!(d.candidates.iter().all(|c| c.name != "constant offset"));
     // The scale error is proportional to ∂y/∂E (y ∝ 1/E): confounded with E, and said so.
-    let scale = d.candidates.iter().find(|c| c.name == "scale error").expect("scale error ranked");
+    let scale = d
+        .candidates
+        .iter()
+        .find(|c| c.name == "scale error")
+        .expect("scale error ranked");
     assert_eq!(scale.confounded_with, vec!["E".to_string()]);
-    assert!(d.confounded.iter().any(|s| s.contains("scale error") && s.contains("E")));
+    assert!(
+        d.confounded
+            .iter()
+            .any(|s| s.contains("scale error") && s.contains("E"))
+    );
     // The next test lies inside the design bounds [7, 13].
     let next = d.next_test.as_ref().expect("a next test");
     let h = next.design["h"];
@@ -85,7 +93,13 @@ fn output_has_the_contract_keys_and_round_trips() {
     for key in ["name", "loo_error", "bic", "aicc", "weight"] {
         assert!(!v["candidates"][0][key].is_null(), "candidates[0].{key}");
     }
-    for key in ["cause", "parameters", "validation_error_before", "validation_error_after", "gain"] {
+    for key in [
+        "cause",
+        "parameters",
+        "validation_error_before",
+        "validation_error_after",
+        "gain",
+    ] {
         assert!(!v["extended"][key].is_null(), "extended.{key}");
     }
     assert!(v["next_test"]["design"]["h"].is_f64());

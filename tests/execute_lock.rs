@@ -64,5 +64,8 @@ fn sigkilled_holder_does_not_leave_the_lock_stuck() {
     child.wait().unwrap();
     let lock = OutLock::acquire(out.path()).expect("the lock dies with its SIGKILLed holder");
     let text = std::fs::read_to_string(lock.path()).unwrap();
-    assert!(text.contains(&format!("\"pid\":{}", std::process::id())), "lock file names the new holder: {text}");
+    assert!(
+        text.contains(&format!("\"pid\":{}", std::process::id())),
+        "lock file names the new holder: {text}"
+    );
 }

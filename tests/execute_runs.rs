@@ -50,10 +50,19 @@ async fn every_outcome_class_is_produced_and_classified() {
     let (ex, _rx) = executor(&store, 4);
     let summary = ex.run(all).await;
     assert!(summary.errors.is_empty() && summary.cancelled.is_none(), "{summary:?}");
-    let by_key = |k: &str| summary.records.iter().find(|r| r.key == k).unwrap_or_else(|| panic!("no record for {k}"));
+    let by_key = |k: &str| {
+        summary
+            .records
+            .iter()
+            .find(|r| r.key == k)
+            .unwrap_or_else(|| panic!("no record for {k}"))
+    };
 
     let ok = by_key(&keys[0]);
-    assert_eq!((&ok.outcome, ok.response, ok.attempts), (&Outcome::Success, Some(0.30472), 1));
+    assert_eq!(
+        (&ok.outcome, ok.response, ok.attempts),
+        (&Outcome::Success, Some(0.30472), 1)
+    );
     assert_eq!(by_key(&keys[1]).outcome, Outcome::NonZeroExit { code: 3 });
     match &by_key(&keys[2]).outcome {
         // The solver exited 0 and wrote a valid response: the failure text alone marks it failed.
@@ -76,7 +85,11 @@ async fn every_outcome_class_is_produced_and_classified() {
 }
 
 fn retry_policy(max_attempts: u32, retry_on: Vec<OutcomeClass>) -> RetryPolicy {
-    RetryPolicy { max_attempts, retry_on, backoff: Backoff::Fixed(Duration::from_millis(10)) }
+    RetryPolicy {
+        max_attempts,
+        retry_on,
+        backoff: Backoff::Fixed(Duration::from_millis(10)),
+    }
 }
 
 #[tokio::test]
@@ -89,11 +102,19 @@ async fn retries_follow_the_policy() {
     s.retry = retry_policy(3, vec![OutcomeClass::NonZeroExit]);
     let key = s.key.clone();
     let (rec, events) = run_one(&store, s).await;
-    assert_eq!((&rec.outcome, rec.response, rec.attempts), (&Outcome::Success, Some(7.5), 3));
+    assert_eq!(
+        (&rec.outcome, rec.response, rec.attempts),
+        (&Outcome::Success, Some(7.5), 3)
+    );
     let retrying: Vec<u32> = events
         .iter()
         .filter_map(|e| match e {
-            Event::Retrying { key: k, attempt, outcome, .. } if *k == key => {
+            Event::Retrying {
+                key: k,
+                attempt,
+                outcome,
+                ..
+            } if *k == key => {
                 assert_eq!(outcome, &Outcome::NonZeroExit { code: 1 });
                 Some(*attempt)
             }
@@ -131,7 +152,10 @@ async fn timeout_kills_the_solver_and_its_grandchild() {
     assert_eq!(rec.response, None);
     for name in ["solver.pid", "grandchild.pid"] {
         let pid = read_pid(&dir.join(name));
-        assert!(wait_gone(pid, Duration::from_secs(2)), "{name} {pid} still alive after the timeout");
+        assert!(
+            wait_gone(pid, Duration::from_secs(2)),
+            "{name} {pid} still alive after the timeout"
+        );
     }
 }
 
@@ -148,7 +172,10 @@ async fn timeout_escalates_to_sigkill_when_sigterm_is_ignored() {
     assert_eq!(summary.records[0].outcome, Outcome::Timeout);
     for name in ["solver.pid", "grandchild.pid"] {
         let pid = read_pid(&dir.join(name));
-        assert!(wait_gone(pid, Duration::from_secs(2)), "{name} {pid} survived SIGTERM + SIGKILL");
+        assert!(
+            wait_gone(pid, Duration::from_secs(2)),
+            "{name} {pid} survived SIGTERM + SIGKILL"
+        );
     }
 }
 
@@ -157,7 +184,9 @@ async fn cancel_keeps_finished_results_and_ends_running_children() {
     let out = tempfile::tempdir().unwrap();
     let store = RunStore::open(out.path()).unwrap();
     let quick = vec![spec(&store, "q1", &["ok", "1"]), spec(&store, "q2", &["ok", "2"])];
-    let slow: Vec<RunSpec> = (0..3).map(|i| spec(&store, &format!("s{i}"), &["slow", "60", "9"])).collect();
+    let slow: Vec<RunSpec> = (0..3)
+        .map(|i| spec(&store, &format!("s{i}"), &["slow", "60", "9"]))
+        .collect();
     let never = spec(&store, "never", &["ok", "3"]);
     let mut all = quick.clone();
     all.extend(slow.iter().cloned());
@@ -176,7 +205,11 @@ async fn cancel_keeps_finished_results_and_ends_running_children() {
             }
         }
         for p in &slow_pids {
-            assert!(wait_for_file(p, Duration::from_secs(10)).await, "slow run never started: {}", p.display());
+            assert!(
+                wait_for_file(p, Duration::from_secs(10)).await,
+                "slow run never started: {}",
+                p.display()
+            );
         }
         canceller.cancel(CancelReason::Signal);
     };
@@ -197,7 +230,10 @@ async fn cancel_keeps_finished_results_and_ends_running_children() {
     assert_eq!(summary.not_started, vec![never.key.clone()]);
     for p in &slow_pids {
         let pid = read_pid(p);
-        assert!(wait_gone(pid, Duration::from_secs(2)), "slow solver {pid} still alive after cancel");
+        assert!(
+            wait_gone(pid, Duration::from_secs(2)),
+            "slow solver {pid} still alive after cancel"
+        );
     }
     drop(store);
 

@@ -26,7 +26,10 @@ async fn sigterm_cancels_and_a_second_one_skips_the_grace_period() {
     let canceller = ex.canceller.clone();
     let me = Pid::this();
     let driver = async {
-        assert!(wait_for_file(&pid_files[1], Duration::from_secs(10)).await, "solver never started");
+        assert!(
+            wait_for_file(&pid_files[1], Duration::from_secs(10)).await,
+            "solver never started"
+        );
         kill(me, Signal::SIGTERM).unwrap();
         while canceller.reason().is_none() {
             tokio::time::sleep(Duration::from_millis(10)).await;
@@ -35,15 +38,20 @@ async fn sigterm_cancels_and_a_second_one_skips_the_grace_period() {
         kill(me, Signal::SIGTERM).unwrap();
     };
     // 20 s: generous against a loaded machine, still far below the 60 s grace period.
-    let (summary, ()) =
-        tokio::time::timeout(Duration::from_secs(20), async { tokio::join!(ex.run(vec![s.clone()]), driver) })
-            .await
-            .expect("the second signal did not SIGKILL the stubborn solver");
+    let (summary, ()) = tokio::time::timeout(Duration::from_secs(20), async {
+        tokio::join!(ex.run(vec![s.clone()]), driver)
+    })
+    .await
+    .expect("the second signal did not SIGKILL the stubborn solver");
     assert_eq!(summary.cancelled, Some(CancelReason::SecondSignal));
     assert_eq!(summary.interrupted, vec![s.key.clone()]);
     assert!(summary.records.is_empty());
     for p in &pid_files {
         let pid = read_pid(p);
-        assert!(wait_gone(pid, Duration::from_secs(2)), "{} ({pid}) still alive", p.display());
+        assert!(
+            wait_gone(pid, Duration::from_secs(2)),
+            "{} ({pid}) still alive",
+            p.display()
+        );
     }
 }

@@ -24,7 +24,14 @@ fn commit_is_durable_exact_and_leaves_no_temp_files() {
     let out = tempfile::tempdir().unwrap();
     // Values whose shortest decimal form needs 17 digits or sits near the subnormal range: a
     // round trip through JSON must give back the same bits (results are compared bit for bit).
-    let values = [0.1 + 0.2, 1.0 / 3.0, 5e-324, 1.7976931348623157e308, -2.2250738585072014e-308, 0.30472];
+    let values = [
+        0.1 + 0.2,
+        1.0 / 3.0,
+        5e-324,
+        1.7976931348623157e308,
+        -2.2250738585072014e-308,
+        0.30472,
+    ];
     {
         let mut store = RunStore::open(out.path()).unwrap();
         for (i, v) in values.iter().enumerate() {
@@ -32,9 +39,14 @@ fn commit_is_durable_exact_and_leaves_no_temp_files() {
         }
     }
     let results = out.path().join(RESULTS_DIR);
-    let names: Vec<String> =
-        std::fs::read_dir(&results).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into()).collect();
-    assert!(names.iter().all(|n| n.ends_with(".json") && !n.starts_with('.')), "{names:?}");
+    let names: Vec<String> = std::fs::read_dir(&results)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into())
+        .collect();
+    assert!(
+        names.iter().all(|n| n.ends_with(".json") && !n.starts_with('.')),
+        "{names:?}"
+    );
     let store = RunStore::open(out.path()).unwrap();
     for (i, v) in values.iter().enumerate() {
         let got = store.record(&format!("k{i}")).unwrap().response.unwrap();
@@ -79,7 +91,13 @@ fn half_done_run_directories_are_cleaned_finished_ones_kept() {
 fn started_keys(events: &[Event]) -> Vec<String> {
     let mut keys: Vec<String> = events
         .iter()
-        .filter_map(|e| if let Event::Started { key, .. } = e { Some(key.clone()) } else { None })
+        .filter_map(|e| {
+            if let Event::Started { key, .. } = e {
+                Some(key.clone())
+            } else {
+                None
+            }
+        })
         .collect();
     keys.sort();
     keys
@@ -129,7 +147,10 @@ async fn resume_reruns_only_failures_and_changed_inputs() {
     // Second pass: only the failed run (its record is kept for `status` until replaced).
     {
         let store = RunStore::open(out.path()).unwrap();
-        assert_eq!(store.record(&failed_key).unwrap().outcome, Outcome::NonZeroExit { code: 4 });
+        assert_eq!(
+            store.record(&failed_key).unwrap().outcome,
+            Outcome::NonZeroExit { code: 4 }
+        );
         let (todo, _) = pending(&store, &sweep);
         let (ex, mut rx) = executor(&store, 2);
         ex.run(todo).await;

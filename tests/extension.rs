@@ -21,7 +21,12 @@ fn repo() -> PathBuf {
 /// The study, its template, the solver and the tests CSV in a fresh directory.
 fn setup() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    for rel in [STUDY, "cantilever-tests.csv", "cantilever-extension/beam.txt.tera", "solvers/beam.py"] {
+    for rel in [
+        STUDY,
+        "cantilever-tests.csv",
+        "cantilever-extension/beam.txt.tera",
+        "solvers/beam.py",
+    ] {
         let to = dir.path().join(rel);
         std::fs::create_dir_all(to.parent().unwrap()).unwrap();
         std::fs::copy(repo().join("studies").join(rel), to).unwrap();
@@ -40,7 +45,11 @@ fn lab(dir: &Path, args: &[&str], log: &Path) -> std::process::Output {
 }
 
 fn starts(log: &Path) -> usize {
-    std::fs::read_to_string(log).unwrap_or_default().lines().filter(|l| l.starts_with("start ")).count()
+    std::fs::read_to_string(log)
+        .unwrap_or_default()
+        .lines()
+        .filter(|l| l.starts_with("start "))
+        .count()
 }
 
 /// 7 designs × (8 samples + 2 checks) baseline runs, plus 7 × 8 runs with shear = 1.
@@ -51,16 +60,29 @@ fn cantilever_shear_extension_is_named_with_gamma_one_and_e0() {
     let dir = setup();
     let log = dir.path().join("solver.log");
     let out = lab(dir.path(), &["run", STUDY, "--out", "out", "--jobs", "4"], &log);
-    let text = format!("{}\n{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    let text = format!(
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(out.status.code(), Some(0), "{text}");
-    assert_eq!(starts(&log), PLANNED, "every planned run, extension runs included, is run once");
+    assert_eq!(
+        starts(&log),
+        PLANNED,
+        "every planned run, extension runs included, is run once"
+    );
 
     let results: Value = serde_json::from_slice(&std::fs::read(dir.path().join("out/results.json")).unwrap()).unwrap();
     assert_eq!(results["runs"]["planned"], PLANNED, "{}", results["runs"]);
     let d = &results["diagnosis"];
     assert_eq!(d["discrepancy_detected"], true);
     assert_eq!(d["cause"], "shear deformation", "{}", d["summary"]);
-    let names: Vec<&str> = d["candidates"].as_array().unwrap().iter().map(|c| c["name"].as_str().unwrap()).collect();
+    let names: Vec<&str> = d["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["name"].as_str().unwrap())
+        .collect();
     assert_eq!(names[0], "shear deformation");
     for h in ["root rotation", "offset"] {
         assert!(names.contains(&h), "{h} not ranked: {names:?}");
@@ -71,7 +93,10 @@ fn cantilever_shear_extension_is_named_with_gamma_one_and_e0() {
     assert_eq!(x["cause"], "shear deformation");
     let gamma = x["amplitude"].as_f64().unwrap();
     let e = x["parameters"]["E"].as_f64().unwrap();
-    assert!((gamma - 1.0).abs() < 0.01, "γ = {gamma}: the tests are the extension exactly (shear = 1)");
+    assert!(
+        (gamma - 1.0).abs() < 0.01,
+        "γ = {gamma}: the tests are the extension exactly (shear = 1)"
+    );
     assert!((e / 68_000.0 - 1.0).abs() < 0.005, "extended E = {e}");
     assert_eq!(x["extension"]["variables"]["shear"], 1.0);
     assert_eq!(x["extension"]["amplitude"].as_f64(), Some(gamma));
@@ -83,30 +108,55 @@ fn cantilever_shear_extension_is_named_with_gamma_one_and_e0() {
 
     // Extension runs are stored like any run: running again reuses all of them.
     let again = lab(dir.path(), &["run", STUDY, "--out", "out", "--jobs", "4"], &log);
-    assert_eq!(again.status.code(), Some(0), "{}", String::from_utf8_lossy(&again.stderr));
+    assert_eq!(
+        again.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&again.stderr)
+    );
     assert_eq!(starts(&log), PLANNED, "nothing is run twice");
     let status = lab(dir.path(), &["status", STUDY, "--out", "out"], &log);
     let status = String::from_utf8_lossy(&status.stdout);
-    assert!(status.contains(&format!("{PLANNED} planned run(s): done {PLANNED}")), "{status}");
+    assert!(
+        status.contains(&format!("{PLANNED} planned run(s): done {PLANNED}")),
+        "{status}"
+    );
 }
 
 #[test]
 fn extension_runs_repeat_the_samples_with_their_own_keys() {
     let dir = setup();
     let s = study::load(&dir.path().join(STUDY)).unwrap_or_else(|e| panic!("{e}"));
-    let Simulation::Solver(sim) = &s.simulation else { panic!("a solver study") };
+    let Simulation::Solver(sim) = &s.simulation else {
+        panic!("a solver study")
+    };
     let plan = Plan::new(&s, sim);
     let prepared = sweep::prepare(&s, sim, &plan).unwrap();
-    let base: Vec<usize> = (0..plan.runs.len()).filter(|&i| plan.runs[i].role == RunRole::Sample).collect();
-    let ext: Vec<usize> = (0..plan.runs.len()).filter(|&i| plan.runs[i].role == RunRole::Extension(0)).collect();
+    let base: Vec<usize> = (0..plan.runs.len())
+        .filter(|&i| plan.runs[i].role == RunRole::Sample)
+        .collect();
+    let ext: Vec<usize> = (0..plan.runs.len())
+        .filter(|&i| plan.runs[i].role == RunRole::Extension(0))
+        .collect();
     assert_eq!(base.len(), ext.len());
-    assert!(ext.iter().all(|&i| i >= 70), "extension runs come after every baseline run");
+    assert!(
+        ext.iter().all(|&i| i >= 70),
+        "extension runs come after every baseline run"
+    );
     for (&b, &x) in base.iter().zip(&ext) {
         let (rb, rx) = (&plan.runs[b], &plan.runs[x]);
-        assert_eq!((&rb.design, &rb.theta), (&rx.design, &rx.theta), "same design and parameter sample");
+        assert_eq!(
+            (&rb.design, &rb.theta),
+            (&rx.design, &rx.theta),
+            "same design and parameter sample"
+        );
         assert_ne!(prepared.keys[b], prepared.keys[x], "different inputs, different key");
         let input = |i: usize| String::from_utf8(prepared.inputs[&prepared.keys[i]][0].1.clone()).unwrap();
-        assert!(input(b).contains("shear = 0\n") && input(x).contains("shear = 1.0\n"), "{}", input(x));
+        assert!(
+            input(b).contains("shear = 0\n") && input(x).contains("shear = 1.0\n"),
+            "{}",
+            input(x)
+        );
     }
 
     // Without the extension hypothesis the baseline plans (and keys) the same runs.
@@ -115,7 +165,9 @@ fn extension_runs_repeat_the_samples_with_their_own_keys() {
     assert_ne!(without, yaml);
     std::fs::write(dir.path().join("without.yaml"), without).unwrap();
     let s2 = study::load(&dir.path().join("without.yaml")).unwrap_or_else(|e| panic!("{e}"));
-    let Simulation::Solver(sim2) = &s2.simulation else { panic!() };
+    let Simulation::Solver(sim2) = &s2.simulation else {
+        panic!()
+    };
     let plan2 = Plan::new(&s2, sim2);
     let keys2 = sweep::prepare(&s2, sim2, &plan2).unwrap().keys;
     assert_eq!(keys2[..], prepared.keys[..70]);
@@ -159,7 +211,9 @@ fn write_case(yaml: &str, template: &str) -> (tempfile::TempDir, PathBuf) {
 #[track_caller]
 fn error_at(yaml: &str, template: &str, line: usize, needle: &str, phrase: &str) -> InputError {
     let (_dir, path) = write_case(yaml, template);
-    let err = study::load(&path).err().unwrap_or_else(|| panic!("expected an error for:\n{yaml}"));
+    let err = study::load(&path)
+        .err()
+        .unwrap_or_else(|| panic!("expected an error for:\n{yaml}"));
     let shown = err.to_string();
     assert_eq!(err.file, path, "{shown}");
     let span = err.span.as_ref().unwrap_or_else(|| panic!("no line in:\n{shown}"));
@@ -167,7 +221,10 @@ fn error_at(yaml: &str, template: &str, line: usize, needle: &str, phrase: &str)
     let column = text[..text.find(needle).unwrap()].chars().count() + 1;
     assert_eq!((span.line, span.column), (line, column), "{shown}");
     assert!(shown.contains(phrase), "`{phrase}` not in:\n{shown}");
-    assert!(err.excerpt.as_deref().is_some_and(|e| e.contains('^')), "no caret in:\n{shown}");
+    assert!(
+        err.excerpt.as_deref().is_some_and(|e| e.contains('^')),
+        "no caret in:\n{shown}"
+    );
     err
 }
 
@@ -175,7 +232,10 @@ fn error_at(yaml: &str, template: &str, line: usize, needle: &str, phrase: &str)
 fn solver_study_with_an_extension_loads() {
     let (_dir, path) = write_case(SOLVER, TEMPLATE);
     let s = study::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(s.diagnosis.hypotheses[0].extension(), Some(&[("shear".to_string(), 1.0)][..]));
+    assert_eq!(
+        s.diagnosis.hypotheses[0].extension(),
+        Some(&[("shear".to_string(), 1.0)][..])
+    );
 }
 
 #[test]
@@ -184,10 +244,18 @@ fn extension_in_a_closed_form_study_is_a_located_error() {
     let yaml = yaml.replace("      term: \"1/h\"\n", "      extension: {shear: 1}\n");
     let line = yaml.lines().position(|l| l.contains("extension:")).unwrap() + 1;
     let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(repo().join("studies/cantilever-tests.csv"), dir.path().join("cantilever-tests.csv")).unwrap();
+    std::fs::copy(
+        repo().join("studies/cantilever-tests.csv"),
+        dir.path().join("cantilever-tests.csv"),
+    )
+    .unwrap();
     let path = dir.path().join("study.yaml");
     std::fs::write(&path, &yaml).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_lab")).arg("check").arg(&path).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lab"))
+        .arg("check")
+        .arg(&path)
+        .output()
+        .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     let column = yaml.lines().nth(line - 1).unwrap().find("extension").unwrap() + 1;
@@ -199,7 +267,10 @@ fn extension_in_a_closed_form_study_is_a_located_error() {
 
 #[test]
 fn term_and_extension_together_or_neither() {
-    let both = SOLVER.replace("      extension: {shear: 1}\n", "      term: \"1/h\"\n      extension: {shear: 1}\n");
+    let both = SOLVER.replace(
+        "      extension: {shear: 1}\n",
+        "      term: \"1/h\"\n      extension: {shear: 1}\n",
+    );
     error_at(&both, TEMPLATE, 19, "extension", "both `term` and `extension`");
     let neither = SOLVER.replace("      extension: {shear: 1}\n", "");
     error_at(&neither, TEMPLATE, 17, "shear", "needs `term:`");
@@ -208,18 +279,46 @@ fn term_and_extension_together_or_neither() {
 #[test]
 fn extension_variable_no_template_uses_is_an_error() {
     let unused = SOLVER.replace("{shear: 1}", "{shear: 1, kappa: 0.8}");
-    error_at(&unused, TEMPLATE, 18, "kappa", "`kappa` does not change what the templates render");
+    error_at(
+        &unused,
+        TEMPLATE,
+        18,
+        "kappa",
+        "`kappa` does not change what the templates render",
+    );
     // Used without a default: the baseline does not render, which `lab check` reports.
     let (_dir, path) = write_case(SOLVER, "h = {{ h }}\nE = {{ E }}\nshear = {{ shear }}\n");
     let s = study::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    let Simulation::Solver(sim) = &s.simulation else { panic!() };
-    let e = sweep::prepare(&s, sim, &Plan::new(&s, sim)).err().expect("baseline runs cannot render `shear`");
+    let Simulation::Solver(sim) = &s.simulation else {
+        panic!()
+    };
+    let e = sweep::prepare(&s, sim, &Plan::new(&s, sim))
+        .err()
+        .expect("baseline runs cannot render `shear`");
     assert!(e.to_string().contains("beam.txt.tera:3:"), "{e}");
 }
 
 #[test]
 fn extension_cannot_set_a_design_variable_or_parameter_or_nothing() {
-    error_at(&SOLVER.replace("{shear: 1}", "{shear: 1, E: 70000}"), TEMPLATE, 18, "E:", "calibration parameter");
-    error_at(&SOLVER.replace("{shear: 1}", "{h: 9}"), TEMPLATE, 18, "h:", "design variable");
-    error_at(&SOLVER.replace("{shear: 1}", "{}"), TEMPLATE, 18, "extension", "empty `extension`");
+    error_at(
+        &SOLVER.replace("{shear: 1}", "{shear: 1, E: 70000}"),
+        TEMPLATE,
+        18,
+        "E:",
+        "calibration parameter",
+    );
+    error_at(
+        &SOLVER.replace("{shear: 1}", "{h: 9}"),
+        TEMPLATE,
+        18,
+        "h:",
+        "design variable",
+    );
+    error_at(
+        &SOLVER.replace("{shear: 1}", "{}"),
+        TEMPLATE,
+        18,
+        "extension",
+        "empty `extension`",
+    );
 }

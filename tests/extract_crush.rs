@@ -18,8 +18,18 @@ fn constant_plus_sinusoid_over_whole_periods_gives_the_constant() {
     let n = periods * per;
     let d: Vec<f64> = (0..=n).map(|i| lambda * i as f64 / per as f64).collect();
     let f: Vec<f64> = d.iter().map(|x| c + a * (2.0 * PI * x / lambda).sin()).collect();
-    let curve = ForceDisplacement { displacement: d, force: f };
-    let r = crush_force(&curve, Window { s0: 0.0, s1: lambda * periods as f64 }).unwrap();
+    let curve = ForceDisplacement {
+        displacement: d,
+        force: f,
+    };
+    let r = crush_force(
+        &curve,
+        Window {
+            s0: 0.0,
+            s1: lambda * periods as f64,
+        },
+    )
+    .unwrap();
     assert!(rel(r.mean_force, c) < 1e-9, "{}", r.mean_force);
     assert!(rel(r.energy, c * lambda * periods as f64) < 1e-9);
     assert!(rel(r.peak_force, c + a) < 1e-12);
@@ -28,7 +38,10 @@ fn constant_plus_sinusoid_over_whole_periods_gives_the_constant() {
 #[test]
 fn triangle_is_exact_and_window_ends_are_interpolated() {
     // 0 -> 20 kN at 10 mm -> 0 at 20 mm.
-    let curve = ForceDisplacement { displacement: vec![0.0, 10.0, 20.0], force: vec![0.0, 20.0, 0.0] };
+    let curve = ForceDisplacement {
+        displacement: vec![0.0, 10.0, 20.0],
+        force: vec![0.0, 20.0, 0.0],
+    };
     let full = crush_force(&curve, Window { s0: 0.0, s1: 20.0 }).unwrap();
     assert_eq!(full.energy, 200.0);
     assert_eq!(full.mean_force, 10.0);
@@ -46,18 +59,30 @@ fn triangle_is_exact_and_window_ends_are_interpolated() {
 
 #[test]
 fn window_errors() {
-    let curve = ForceDisplacement { displacement: vec![0.0, 10.0], force: vec![1.0, 1.0] };
+    let curve = ForceDisplacement {
+        displacement: vec![0.0, 10.0],
+        force: vec![1.0, 1.0],
+    };
     for (s0, s1) in [(0.0, 11.0), (-1.0, 5.0), (5.0, 5.0), (6.0, 2.0), (f64::NAN, 1.0)] {
-        assert!(matches!(crush_force(&curve, Window { s0, s1 }), Err(CrushError::Data { .. })), "{s0} {s1}");
+        assert!(
+            matches!(crush_force(&curve, Window { s0, s1 }), Err(CrushError::Data { .. })),
+            "{s0} {s1}"
+        );
     }
-    let bad = ForceDisplacement { displacement: vec![0.0, 1.0, 2.0], force: vec![1.0, f64::NAN, 1.0] };
+    let bad = ForceDisplacement {
+        displacement: vec![0.0, 1.0, 2.0],
+        force: vec![1.0, f64::NAN, 1.0],
+    };
     assert!(crush_force(&bad, Window { s0: 0.0, s1: 2.0 }).is_err());
 }
 
 #[test]
 fn rebound_counts_with_its_sign_and_the_first_crossing_ends_the_window() {
     // Goes to 10, back to 6, then to 14; window [0, 12] with F = 1 everywhere: the path integral is 12.
-    let curve = ForceDisplacement { displacement: vec![0.0, 10.0, 6.0, 14.0], force: vec![1.0; 4] };
+    let curve = ForceDisplacement {
+        displacement: vec![0.0, 10.0, 6.0, 14.0],
+        force: vec![1.0; 4],
+    };
     let r = crush_force(&curve, Window { s0: 0.0, s1: 12.0 }).unwrap();
     assert!(rel(r.energy, 12.0) < 1e-12);
 }
@@ -84,8 +109,28 @@ fn time_synchronisation_interpolates_onto_common_times() {
     let c2 = from_histories(&tf, &f, &td, &d, Sign::Plus, Sign::Plus).unwrap();
     assert!(c2.displacement[1] < 0.0 && c2.force[1] < 0.0);
     // No overlap, non-increasing times.
-    assert!(from_histories(&[0.0, 1.0], &[1.0, 1.0], &[2.0, 3.0], &[0.0, 1.0], Sign::Auto, Sign::Auto).is_err());
-    assert!(from_histories(&[0.0, 0.0], &[1.0, 1.0], &[0.0, 1.0], &[0.0, 1.0], Sign::Auto, Sign::Auto).is_err());
+    assert!(
+        from_histories(
+            &[0.0, 1.0],
+            &[1.0, 1.0],
+            &[2.0, 3.0],
+            &[0.0, 1.0],
+            Sign::Auto,
+            Sign::Auto
+        )
+        .is_err()
+    );
+    assert!(
+        from_histories(
+            &[0.0, 0.0],
+            &[1.0, 1.0],
+            &[0.0, 1.0],
+            &[0.0, 1.0],
+            Sign::Auto,
+            Sign::Auto
+        )
+        .is_err()
+    );
 }
 
 #[test]
@@ -109,8 +154,16 @@ fn from_the_lsdyna_samples() {
     assert_eq!(c.force, vec![0.0, 123.456, 246.912]);
     let res = crush_force(&c, Window { s0: 0.0, s1: 2.0 }).unwrap();
     assert!(rel(res.energy, 246.912) < 1e-12);
-    let missing = SimSource { interface: 9, ..src.clone() };
-    assert!(from_lsdyna(&r, &n, &missing).unwrap_err().to_string().contains("interface 9"));
+    let missing = SimSource {
+        interface: 9,
+        ..src.clone()
+    };
+    assert!(
+        from_lsdyna(&r, &n, &missing)
+            .unwrap_err()
+            .to_string()
+            .contains("interface 9")
+    );
 }
 
 #[test]
@@ -130,10 +183,23 @@ fn csv_without_header_needs_a_unit_setting() {
     let text = "0 0\n1 1000\n2 2000\n";
     let e = parse_test_csv(f, text, CsvOptions::default()).unwrap_err().to_string();
     assert!(e.contains("force unit"), "{e}");
-    let c = parse_test_csv(f, text, CsvOptions { force_unit: Some(ForceUnit::Newton) }).unwrap();
+    let c = parse_test_csv(
+        f,
+        text,
+        CsvOptions {
+            force_unit: Some(ForceUnit::Newton),
+        },
+    )
+    .unwrap();
     assert_eq!(c.force, vec![0.0, 1.0, 2.0]);
     // Header and setting disagree.
-    let e = parse_test_csv(f, "disp [mm],force [kN]\n0,1\n1,2\n", CsvOptions { force_unit: Some(ForceUnit::Newton) });
+    let e = parse_test_csv(
+        f,
+        "disp [mm],force [kN]\n0,1\n1,2\n",
+        CsvOptions {
+            force_unit: Some(ForceUnit::Newton),
+        },
+    );
     assert!(e.is_err());
     // Displacement in metres is converted to mm.
     let c = parse_test_csv(f, "disp [m],force [kN]\n0,1\n0.001,2\n", CsvOptions::default()).unwrap();
@@ -143,12 +209,20 @@ fn csv_without_header_needs_a_unit_setting() {
 #[test]
 fn csv_errors_name_the_line() {
     let f = Path::new("machine.csv");
-    let e = parse_test_csv(f, "displacement,force [kN]\n0,1\n1,x\n", CsvOptions::default()).unwrap_err().to_string();
+    let e = parse_test_csv(f, "displacement,force [kN]\n0,1\n1,x\n", CsvOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.starts_with("machine.csv:3:"), "{e}");
-    let e = parse_test_csv(f, "displacement,force [kN]\n0,1\n1\n", CsvOptions::default()).unwrap_err().to_string();
+    let e = parse_test_csv(f, "displacement,force [kN]\n0,1\n1\n", CsvOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.starts_with("machine.csv:3:"), "{e}");
-    let e = parse_test_csv(f, "time,temperature\n0,1\n", CsvOptions::default()).unwrap_err().to_string();
+    let e = parse_test_csv(f, "time,temperature\n0,1\n", CsvOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.starts_with("machine.csv:1:"), "{e}");
-    let e = parse_test_csv(f, "disp,force [lbf]\n0,1\n1,2\n", CsvOptions::default()).unwrap_err().to_string();
+    let e = parse_test_csv(f, "disp,force [lbf]\n0,1\n1,2\n", CsvOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("lbf"), "{e}");
 }

@@ -6,7 +6,9 @@ use lab::extract::lsdyna::{bndout, glstat, nodout, rcforc, secforc, spcforc, ter
 use std::path::{Path, PathBuf};
 
 fn sample(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/format-samples").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/format-samples")
+        .join(name)
 }
 
 #[test]
@@ -80,7 +82,10 @@ fn bndout_sample() {
     assert_eq!(s.entries.len(), 3);
     assert_eq!(s.entries[0].force, [0.0, 0.0, -12.345]);
     assert_eq!(s.entries[0].energy, 6.1725);
-    assert_eq!(s.entries[0].source, "velocity boundary condition forces/rigid body moments");
+    assert_eq!(
+        s.entries[0].source,
+        "velocity boundary condition forces/rigid body moments"
+    );
     assert_eq!(s.entries[2].kind, "mat");
     assert_eq!(s.entries[2].moment, Some([0.0, 1.0, -1.0]));
     assert_eq!(s.totals[0].force, [1.0e-2, 0.0, -49.38]);
@@ -118,9 +123,18 @@ fn spcforc_sample() {
 
 #[test]
 fn termination_lines() {
-    assert_eq!(termination::read(&sample("d3hsp_normal")).unwrap(), Termination::Normal("01/15/26 10:02:11".into()));
-    assert_eq!(termination::read(&sample("messag_error")).unwrap(), Termination::Error("01/15/26 10:01:02".into()));
-    assert_eq!(termination::read(&sample("stdout_missing")).unwrap(), Termination::Missing);
+    assert_eq!(
+        termination::read(&sample("d3hsp_normal")).unwrap(),
+        Termination::Normal("01/15/26 10:02:11".into())
+    );
+    assert_eq!(
+        termination::read(&sample("messag_error")).unwrap(),
+        Termination::Error("01/15/26 10:01:02".into())
+    );
+    assert_eq!(
+        termination::read(&sample("stdout_missing")).unwrap(),
+        Termination::Missing
+    );
     let missing = sample("no-such-file");
     let s = termination::scan(&[&missing, &sample("stdout_missing"), &sample("d3hsp_normal")]).unwrap();
     assert!(matches!(s, Termination::Normal(_)));

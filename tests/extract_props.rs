@@ -22,7 +22,12 @@ const SAMPLES: &[&str] = &[
 ];
 
 fn sample(name: &str) -> Vec<u8> {
-    std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/format-samples").join(name)).unwrap()
+    std::fs::read(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fixtures/format-samples")
+            .join(name),
+    )
+    .unwrap()
 }
 
 /// Run every reader; errors must name the file.
@@ -42,7 +47,16 @@ fn all_readers(bytes: &[u8]) {
     check(spcforc::parse(f, &text).map(|_| ()));
     let _ = termination::parse(&text);
     check(parse_test_csv(f, &text, CsvOptions::default()).map(|_| ()));
-    check(parse_test_csv(f, &text, CsvOptions { force_unit: Some(ForceUnit::Newton) }).map(|_| ()));
+    check(
+        parse_test_csv(
+            f,
+            &text,
+            CsvOptions {
+                force_unit: Some(ForceUnit::Newton),
+            },
+        )
+        .map(|_| ()),
+    );
 }
 
 #[test]

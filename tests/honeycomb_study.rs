@@ -18,7 +18,12 @@ fn lab(args: &[&str], with_crushsim: bool) -> std::process::Output {
     if with_crushsim {
         path = format!("{}:{path}", Path::new(CRUSHSIM).parent().unwrap().display());
     }
-    Command::new(LAB).args(args).current_dir(root()).env("PATH", path).output().unwrap()
+    Command::new(LAB)
+        .args(args)
+        .current_dir(root())
+        .env("PATH", path)
+        .output()
+        .unwrap()
 }
 
 fn results(out: &Path) -> serde_json::Value {
@@ -28,9 +33,17 @@ fn results(out: &Path) -> serde_json::Value {
 #[test]
 fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
     let out = tempfile::tempdir().unwrap();
-    let o = lab(&["run", "studies/honeycomb.yaml", "--out", out.path().to_str().unwrap()], false);
+    let o = lab(
+        &["run", "studies/honeycomb.yaml", "--out", out.path().to_str().unwrap()],
+        false,
+    );
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(0), "{stderr}\n{}", String::from_utf8_lossy(&o.stdout));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{stderr}\n{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
     assert!(stderr.contains("not on PATH: replaying"), "{stderr}");
     // Nothing ran: no run directory was made, every record came from a recording.
     assert_eq!(std::fs::read_dir(out.path().join("runs")).unwrap().count(), 0);
@@ -51,7 +64,10 @@ fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
     assert_eq!(splits.len(), 3);
     for split in splits {
         for m in ["least_squares", "sensitivity", "bayesian"] {
-            assert!(split["methods"][m]["parameter_error"]["sigma_y"].as_f64().is_some(), "{split}");
+            assert!(
+                split["methods"][m]["parameter_error"]["sigma_y"].as_f64().is_some(),
+                "{split}"
+            );
             assert!(split["methods"][m]["validation_error"].as_f64().is_some(), "{split}");
         }
     }
@@ -61,12 +77,33 @@ fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
 #[test]
 fn crushsim_live_gives_the_replayed_numbers() {
     let (live, replayed) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-    let o = lab(&["run", "studies/honeycomb.yaml", "--out", live.path().to_str().unwrap(), "--jobs", "2"], true);
+    let o = lab(
+        &[
+            "run",
+            "studies/honeycomb.yaml",
+            "--out",
+            live.path().to_str().unwrap(),
+            "--jobs",
+            "2",
+        ],
+        true,
+    );
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(!String::from_utf8_lossy(&o.stderr).contains("replaying"));
-    assert_eq!(std::fs::read_dir(live.path().join("runs")).unwrap().count(), 51, "live runs have run directories");
+    assert_eq!(
+        std::fs::read_dir(live.path().join("runs")).unwrap().count(),
+        51,
+        "live runs have run directories"
+    );
     let o = lab(
-        &["run", "studies/honeycomb.yaml", "--out", replayed.path().to_str().unwrap(), "--replay", "fixtures/honeycomb"],
+        &[
+            "run",
+            "studies/honeycomb.yaml",
+            "--out",
+            replayed.path().to_str().unwrap(),
+            "--replay",
+            "fixtures/honeycomb",
+        ],
         true,
     );
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
@@ -89,13 +126,27 @@ fn a_replay_miss_names_the_run_and_the_changed_input() {
         .replace("../fixtures/honeycomb", fixtures.to_str().unwrap());
     std::fs::write(dir.path().join("honeycomb.yaml"), study).unwrap();
     let out = dir.path().join("out");
-    let o = lab(&["run", dir.path().join("honeycomb.yaml").to_str().unwrap(), "--out", out.to_str().unwrap()], false);
+    let o = lab(
+        &[
+            "run",
+            dir.path().join("honeycomb.yaml").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        false,
+    );
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("51 planned run(s) have no recording"), "{stderr}");
-    assert!(stderr.contains("design `C6T5`") && stderr.contains("sigma_y = "), "{stderr}");
+    assert!(
+        stderr.contains("design `C6T5`") && stderr.contains("sigma_y = "),
+        "{stderr}"
+    );
     assert!(stderr.contains("same design and parameters"), "{stderr}");
-    assert!(stderr.contains("input main.k changed") && stderr.contains("`$ an edit`"), "{stderr}");
+    assert!(
+        stderr.contains("input main.k changed") && stderr.contains("`$ an edit`"),
+        "{stderr}"
+    );
 }
 
 #[test]

@@ -16,7 +16,11 @@ fn repo() -> PathBuf {
 }
 
 fn lab(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lab")).args(args).current_dir(repo()).output().expect("lab runs")
+    Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args(args)
+        .current_dir(repo())
+        .output()
+        .expect("lab runs")
 }
 
 fn chromium() -> Option<PathBuf> {
@@ -74,40 +78,83 @@ const CASES: [Case; 3] = [
     },
 ];
 
-const SECTIONS: [&str; 7] =
-    ["study", "force-displacement", "surrogates", "calibration", "identifiability", "diagnosis", "runs"];
+const SECTIONS: [&str; 7] = [
+    "study",
+    "force-displacement",
+    "surrogates",
+    "calibration",
+    "identifiability",
+    "diagnosis",
+    "runs",
+];
 
 /// Runs the study, then rebuilds the report from the recorded files; returns the out dir.
 fn render(case: &Case, root: &Path) -> PathBuf {
     let out = root.join(case.study);
     let study = format!("studies/{}.yaml", case.study);
     let o = lab(&["run", &study, "--out", out.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}: {}", case.study, String::from_utf8_lossy(&o.stderr));
-    assert!(out.join("report-data.json").is_file(), "lab run records report-data.json");
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}: {}",
+        case.study,
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        out.join("report-data.json").is_file(),
+        "lab run records report-data.json"
+    );
     let written = std::fs::read(out.join("report.html")).unwrap();
     let started = Instant::now();
     let o = lab(&["report", &study, "--out", out.to_str().unwrap()]);
     let took = started.elapsed();
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     let rebuilt = std::fs::read(out.join("report.html")).unwrap();
-    assert!(written == rebuilt, "{}: `lab report` rebuilds the same page from the recorded data", case.study);
+    assert!(
+        written == rebuilt,
+        "{}: `lab report` rebuilds the same page from the recorded data",
+        case.study
+    );
     let size = rebuilt.len();
-    eprintln!("{}: report.html {} kB, `lab report` {:.0} ms", case.study, size / 1024, took.as_secs_f64() * 1e3);
-    assert!(size < 2 * 1024 * 1024, "{}: report is {size} bytes (limit 2 MB)", case.study);
+    eprintln!(
+        "{}: report.html {} kB, `lab report` {:.0} ms",
+        case.study,
+        size / 1024,
+        took.as_secs_f64() * 1e3
+    );
+    assert!(
+        size < 2 * 1024 * 1024,
+        "{}: report is {size} bytes (limit 2 MB)",
+        case.study
+    );
     out
 }
 
 /// Static checks on the page as written: sections, figures, no external asset, no script.
 fn check_html(case: &Case, html: &str) {
     for id in SECTIONS {
-        assert!(html.contains(&format!("<section id={id}>")), "{}: section `{id}` missing", case.study);
+        assert!(
+            html.contains(&format!("<section id={id}>")),
+            "{}: section `{id}` missing",
+            case.study
+        );
     }
     for id in case.figures {
-        let at = html.find(&format!("<figure class=plot id={id}>")).unwrap_or_else(|| panic!("{}: figure `{id}` missing", case.study));
-        assert!(html[at..].starts_with(&format!("<figure class=plot id={id}><svg")), "{}: figure `{id}` holds no <svg>", case.study);
+        let at = html
+            .find(&format!("<figure class=plot id={id}>"))
+            .unwrap_or_else(|| panic!("{}: figure `{id}` missing", case.study));
+        assert!(
+            html[at..].starts_with(&format!("<figure class=plot id={id}><svg")),
+            "{}: figure `{id}` holds no <svg>",
+            case.study
+        );
     }
     for needle in ["<script", "src=", "http://", "https://", "<link", "@import", "url("] {
-        assert!(!html.contains(needle), "{}: the page must be self-contained (found `{needle}`)", case.study);
+        assert!(
+            !html.contains(needle),
+            "{}: the page must be self-contained (found `{needle}`)",
+            case.study
+        );
     }
 }
 
@@ -131,7 +178,11 @@ fn browser(chromium: &Path, user_data: &Path, extra: &[String], page: &Path) -> 
     args.extend(extra.iter().cloned());
     args.push(format!("file://{}", page.display()));
     let o = Command::new(chromium).args(&args).output().expect("chromium starts");
-    assert!(o.status.success(), "chromium {args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "chromium {args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     o
 }
 
@@ -139,7 +190,9 @@ fn browser(chromium: &Path, user_data: &Path, extra: &[String], page: &Path) -> 
 fn console_errors(stderr: &str) -> Vec<String> {
     stderr
         .lines()
-        .filter(|l| (l.contains("CONSOLE") && (l.contains(":ERROR:") || l.contains("Uncaught"))) || l.contains("Uncaught "))
+        .filter(|l| {
+            (l.contains("CONSOLE") && (l.contains(":ERROR:") || l.contains("Uncaught"))) || l.contains("Uncaught ")
+        })
         .map(str::to_string)
         .collect()
 }
@@ -171,27 +224,56 @@ fn reports_render_in_chromium_with_every_section_and_plot() {
         let o = browser(
             &chromium,
             &tmp.path().join(format!("profile-shot-{}", case.study)),
-            &[format!("--screenshot={}", shot.display()), "--window-size=1280,4000".into(), "--hide-scrollbars".into()],
+            &[
+                format!("--screenshot={}", shot.display()),
+                "--window-size=1280,4000".into(),
+                "--hide-scrollbars".into(),
+            ],
             &out.join("report.html"),
         );
-        assert!(shot.is_file(), "{}: no screenshot: {}", case.study, String::from_utf8_lossy(&o.stderr));
+        assert!(
+            shot.is_file(),
+            "{}: no screenshot: {}",
+            case.study,
+            String::from_utf8_lossy(&o.stderr)
+        );
         let errors = console_errors(&String::from_utf8_lossy(&o.stderr));
         assert!(errors.is_empty(), "{}: console errors: {errors:#?}", case.study);
 
-        let o = browser(&chromium, &tmp.path().join(format!("profile-dom-{}", case.study)), &["--dump-dom".into()], &hooked);
+        let o = browser(
+            &chromium,
+            &tmp.path().join(format!("profile-dom-{}", case.study)),
+            &["--dump-dom".into()],
+            &hooked,
+        );
         let dom = String::from_utf8_lossy(&o.stdout).into_owned();
         let errors = console_errors(&String::from_utf8_lossy(&o.stderr));
         assert!(errors.is_empty(), "{}: console errors: {errors:#?}", case.study);
         for id in SECTIONS {
-            assert!(dom.contains(&format!("<section id=\"{id}\">")), "{}: section `{id}` not in the DOM", case.study);
+            assert!(
+                dom.contains(&format!("<section id=\"{id}\">")),
+                "{}: section `{id}` not in the DOM",
+                case.study
+            );
         }
         for id in case.figures {
-            let at = dom.find(&format!("id=\"{id}\"")).unwrap_or_else(|| panic!("{}: figure `{id}` not in the DOM", case.study));
+            let at = dom
+                .find(&format!("id=\"{id}\""))
+                .unwrap_or_else(|| panic!("{}: figure `{id}` not in the DOM", case.study));
             let end = dom[at..].find("</figure>").map_or(dom.len(), |e| at + e);
-            assert!(dom[at..end].contains("<svg"), "{}: figure `{id}` has no <svg> in the DOM", case.study);
+            assert!(
+                dom[at..end].contains("<svg"),
+                "{}: figure `{id}` has no <svg> in the DOM",
+                case.study
+            );
         }
         let svgs = dom.matches("<svg").count();
-        assert_eq!(svgs, html.matches("<svg").count(), "{}: every <svg> of the page is in the DOM", case.study);
+        assert_eq!(
+            svgs,
+            html.matches("<svg").count(),
+            "{}: every <svg> of the page is in the DOM",
+            case.study
+        );
         assert!(svgs >= case.figures.len(), "{}: {svgs} <svg>", case.study);
         let hook = dom
             .split("<pre id=\"lab-test-hook\">")
@@ -202,7 +284,15 @@ fn reports_render_in_chromium_with_every_section_and_plot() {
         let hook: serde_json::Value = serde_json::from_str(&hook).expect("hook JSON");
         assert_eq!(hook["errors"], serde_json::json!([]), "{}: page errors", case.study);
         let load_ms = hook["load_ms"].as_f64().unwrap();
-        eprintln!("{}: {svgs} plots, loaded in {load_ms:.0} ms, screenshot {}", case.study, shot.display());
-        assert!(load_ms < 1000.0, "{}: the page took {load_ms} ms to load (limit 1 s)", case.study);
+        eprintln!(
+            "{}: {svgs} plots, loaded in {load_ms:.0} ms, screenshot {}",
+            case.study,
+            shot.display()
+        );
+        assert!(
+            load_ms < 1000.0,
+            "{}: the page took {load_ms} ms to load (limit 1 s)",
+            case.study
+        );
     }
 }

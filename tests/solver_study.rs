@@ -29,7 +29,12 @@ fn repo() -> PathBuf {
 /// a test may edit the template).
 fn setup() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    for rel in [STUDY, "cantilever-tests.csv", "cantilever-compliance/beam.txt.tera", "solvers/beam.py"] {
+    for rel in [
+        STUDY,
+        "cantilever-tests.csv",
+        "cantilever-compliance/beam.txt.tera",
+        "solvers/beam.py",
+    ] {
         let to = dir.path().join(rel);
         std::fs::create_dir_all(to.parent().unwrap()).unwrap();
         std::fs::copy(repo().join("studies").join(rel), to).unwrap();
@@ -39,7 +44,9 @@ fn setup() -> tempfile::TempDir {
 
 fn lab(dir: &Path, args: &[&str], log: Option<&Path>, sleep: f64) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_lab"));
-    c.args(args).current_dir(dir).env("LAB_TEST_SOLVER_SLEEP", sleep.to_string());
+    c.args(args)
+        .current_dir(dir)
+        .env("LAB_TEST_SOLVER_SLEEP", sleep.to_string());
     match log {
         Some(log) => c.env("LAB_TEST_SOLVER_LOG", log),
         None => c.env_remove("LAB_TEST_SOLVER_LOG"),
@@ -48,7 +55,9 @@ fn lab(dir: &Path, args: &[&str], log: Option<&Path>, sleep: f64) -> Command {
 }
 
 fn run(dir: &Path, out: &str, log: Option<&Path>) -> Output {
-    lab(dir, &["run", STUDY, "--out", out, "--jobs", "2"], log, 0.0).output().unwrap()
+    lab(dir, &["run", STUDY, "--out", out, "--jobs", "2"], log, 0.0)
+        .output()
+        .unwrap()
 }
 
 fn spawn(dir: &Path, out: &str, log: Option<&Path>, sleep: f64) -> Child {
@@ -71,7 +80,9 @@ fn log_keys(log: &Path) -> Vec<String> {
 
 /// Committed successful records: key → the record file's bytes.
 fn successes(out: &Path) -> BTreeMap<String, Vec<u8>> {
-    let Ok(entries) = std::fs::read_dir(out.join("results")) else { return BTreeMap::new() };
+    let Ok(entries) = std::fs::read_dir(out.join("results")) else {
+        return BTreeMap::new();
+    };
     entries
         .filter_map(|e| e.ok())
         .filter_map(|e| {
@@ -91,8 +102,12 @@ fn kill_orphans(out: &Path) {
     for _ in 0..100 {
         let mut found = false;
         for entry in std::fs::read_dir("/proc").unwrap().filter_map(|e| e.ok()) {
-            let Ok(pid) = entry.file_name().to_string_lossy().parse::<i32>() else { continue };
-            let Ok(cwd) = std::fs::read_link(entry.path().join("cwd")) else { continue };
+            let Ok(pid) = entry.file_name().to_string_lossy().parse::<i32>() else {
+                continue;
+            };
+            let Ok(cwd) = std::fs::read_link(entry.path().join("cwd")) else {
+                continue;
+            };
             if cwd.starts_with(&runs) {
                 found = true;
                 let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), nix::sys::signal::Signal::SIGKILL);
@@ -119,7 +134,9 @@ fn wait_until(limit: Duration, mut cond: impl FnMut() -> bool) -> bool {
 }
 
 fn param(results: &Value, method: &str, name: &str) -> f64 {
-    results["calibration"][method]["parameters"][name].as_f64().unwrap_or_else(|| panic!("{method}.{name}"))
+    results["calibration"][method]["parameters"][name]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{method}.{name}"))
 }
 
 #[test]
@@ -133,10 +150,16 @@ fn solver_study_calibrates_like_its_closed_form() {
     let closed = std::fs::read_to_string(dir.path().join(STUDY)).unwrap();
     let start = closed.find("  solver:").unwrap();
     let end = closed.find("experiments:").unwrap();
-    let closed = format!("{}  expression: \"4*F*L^3*C/(b*h^3)\"\n{}", &closed[..start], &closed[end..])
-        .replace("name: cantilever-compliance", "name: closed");
+    let closed = format!(
+        "{}  expression: \"4*F*L^3*C/(b*h^3)\"\n{}",
+        &closed[..start],
+        &closed[end..]
+    )
+    .replace("name: cantilever-compliance", "name: closed");
     std::fs::write(dir.path().join("closed.yaml"), closed).unwrap();
-    let o = lab(dir.path(), &["run", "closed.yaml", "--out", "closed-out"], None, 0.0).output().unwrap();
+    let o = lab(dir.path(), &["run", "closed.yaml", "--out", "closed-out"], None, 0.0)
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let c: Value = serde_json::from_slice(&std::fs::read(dir.path().join("closed-out/results.json")).unwrap()).unwrap();
 
@@ -144,7 +167,10 @@ fn solver_study_calibrates_like_its_closed_form() {
         let (via_runs, exact) = (param(&r, method, "C"), param(&c, method, "C"));
         // The surrogate equals the closed form to ~1e-16 relative; the optimisers stop within their
         // tolerances (≈1e-8 relative) of the same optimum.
-        assert!((via_runs / exact - 1.0).abs() < 1e-6, "{method}: C = {via_runs} vs closed form {exact}");
+        assert!(
+            (via_runs / exact - 1.0).abs() < 1e-6,
+            "{method}: C = {via_runs} vs closed form {exact}"
+        );
     }
     // The paper's numbers (facts.md): E = 60,200 (least squares), 64,914 (sensitivity), ±1 MPa.
     assert!((1.0 / param(&r, "least_squares", "C") - 60_200.8).abs() < 1.0);
@@ -192,14 +218,24 @@ fn killed_sweeps_resume_without_rerunning_or_losing_runs() {
     assert_eq!(last.len(), PLANNED, "every planned run has its result");
     for (i, (finished, seen)) in snapshots.iter().enumerate() {
         let rerun: BTreeSet<&String> = keys[*seen..].iter().filter(|k| finished.contains_key(*k)).collect();
-        assert!(rerun.is_empty(), "after kill {i}, finished runs were run again: {rerun:?}");
+        assert!(
+            rerun.is_empty(),
+            "after kill {i}, finished runs were run again: {rerun:?}"
+        );
         for (key, bytes) in finished {
-            assert_eq!(last.get(key), Some(bytes), "after kill {i}, the record of {key} was lost or rewritten");
+            assert_eq!(
+                last.get(key),
+                Some(bytes),
+                "after kill {i}, the record of {key} was lost or rewritten"
+            );
         }
     }
     let straight = std::fs::read(dir.path().join("straight/results.json")).unwrap();
     let resumed = std::fs::read(out.join("results.json")).unwrap();
-    assert!(straight == resumed, "results.json differs between the killed-and-resumed and the straight sweep");
+    assert!(
+        straight == resumed,
+        "results.json differs between the killed-and-resumed and the straight sweep"
+    );
 }
 
 #[test]
@@ -215,17 +251,29 @@ fn editing_a_template_reruns_exactly_the_affected_runs() {
     // A comment that only design h13's inputs get: its 6 runs change key, the others do not.
     let template = dir.path().join("cantilever-compliance/beam.txt.tera");
     let text = std::fs::read_to_string(&template).unwrap();
-    std::fs::write(&template, format!("{text}{{% if design_name == \"h13\" %}}# edited\n{{% endif %}}")).unwrap();
+    std::fs::write(
+        &template,
+        format!("{text}{{% if design_name == \"h13\" %}}# edited\n{{% endif %}}"),
+    )
+    .unwrap();
     let o = run(dir.path(), "out", Some(&log));
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 
     let rerun: BTreeSet<String> = log_keys(&log)[PLANNED..].iter().cloned().collect();
     let after = successes(&dir.path().join("out"));
     let new: BTreeSet<String> = after.keys().filter(|k| !before.contains_key(*k)).cloned().collect();
-    assert_eq!(rerun.len(), 6, "exactly h13's 4 samples and 2 check runs rerun: {rerun:?}");
+    assert_eq!(
+        rerun.len(),
+        6,
+        "exactly h13's 4 samples and 2 check runs rerun: {rerun:?}"
+    );
     assert_eq!(rerun, new, "the rerun runs are exactly the runs with new keys");
     for rec in new.iter().map(|k| dir.path().join("out/runs").join(k).join("beam.txt")) {
-        assert!(std::fs::read_to_string(&rec).unwrap().contains("# edited"), "{}", rec.display());
+        assert!(
+            std::fs::read_to_string(&rec).unwrap().contains("# edited"),
+            "{}",
+            rec.display()
+        );
     }
     // A comment does not change any response.
     assert!(results_before == std::fs::read(dir.path().join("out/results.json")).unwrap());
@@ -245,7 +293,10 @@ fn second_run_on_the_same_out_is_refused_naming_the_holder() {
     let message = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{message}");
     assert!(message.contains("another lab is running"), "{message}");
-    assert!(message.contains(&format!("pid {pid}")), "the holder is not named: {message}");
+    assert!(
+        message.contains(&format!("pid {pid}")),
+        "the holder is not named: {message}"
+    );
     nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid as i32), nix::sys::signal::Signal::SIGINT).unwrap();
     assert_eq!(first.wait().unwrap().code(), Some(130));
 }
@@ -255,22 +306,36 @@ fn ctrl_c_exits_130_keeps_finished_runs_and_status_counts_them() {
     let dir = setup();
     let (out, log) = (dir.path().join("out"), dir.path().join("solver.log"));
     let mut child = spawn(dir.path(), "out", Some(&log), 0.3);
-    assert!(wait_until(Duration::from_secs(60), || successes(&out).len() >= 2), "no run finished");
+    assert!(
+        wait_until(Duration::from_secs(60), || successes(&out).len() >= 2),
+        "no run finished"
+    );
 
     // While it runs, status sees the live holder (the lock is held until lab exits).
-    let o = lab(dir.path(), &["status", STUDY, "--out", "out"], None, 0.0).output().unwrap();
+    let o = lab(dir.path(), &["status", STUDY, "--out", "out"], None, 0.0)
+        .output()
+        .unwrap();
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(text.contains("a lab is running"), "{text}");
 
-    nix::sys::signal::kill(nix::unistd::Pid::from_raw(child.id() as i32), nix::sys::signal::Signal::SIGINT).unwrap();
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(child.id() as i32),
+        nix::sys::signal::Signal::SIGINT,
+    )
+    .unwrap();
     let status = child.wait().unwrap();
     assert_eq!(status.code(), Some(130));
     let kept = successes(&out);
     assert!(kept.len() >= 2 && kept.len() < PLANNED, "{} runs kept", kept.len());
-    assert!(!out.join("results.json").exists(), "an interrupted sweep calibrates nothing");
+    assert!(
+        !out.join("results.json").exists(),
+        "an interrupted sweep calibrates nothing"
+    );
 
-    let o = lab(dir.path(), &["status", STUDY, "--out", "out"], None, 0.0).output().unwrap();
+    let o = lab(dir.path(), &["status", STUDY, "--out", "out"], None, 0.0)
+        .output()
+        .unwrap();
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert_eq!(o.status.code(), Some(0));
     let pending = PLANNED - kept.len();
@@ -280,11 +345,20 @@ fn ctrl_c_exits_130_keeps_finished_runs_and_status_counts_them() {
     let seen = log_keys(&log).len();
     let o = run(dir.path(), "out", Some(&log));
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let again: Vec<String> = log_keys(&log)[seen..].iter().filter(|k| kept.contains_key(*k)).cloned().collect();
+    let again: Vec<String> = log_keys(&log)[seen..]
+        .iter()
+        .filter(|k| kept.contains_key(*k))
+        .cloned()
+        .collect();
     assert!(again.is_empty(), "finished runs were run again: {again:?}");
-    let o = lab(dir.path(), &["status", STUDY, "--out", "out"], None, 0.0).output().unwrap();
+    let o = lab(dir.path(), &["status", STUDY, "--out", "out"], None, 0.0)
+        .output()
+        .unwrap();
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
-    assert!(text.contains(&format!("done {PLANNED}, failed 0, running 0, pending 0")), "{text}");
+    assert!(
+        text.contains(&format!("done {PLANNED}, failed 0, running 0, pending 0")),
+        "{text}"
+    );
 }
 
 #[test]
@@ -294,8 +368,11 @@ fn failed_runs_exit_1_with_the_outcome_table_after_writing_results() {
     // leaving 3 (≥ 2, enough for a linear surrogate) per design.
     let template = dir.path().join("cantilever-compliance/beam.txt.tera");
     let text = std::fs::read_to_string(&template).unwrap();
-    std::fs::write(&template, format!("{text}fail = {{% if C * 100000 > 1.9 %}}1{{% else %}}0{{% endif %}}\n"))
-        .unwrap();
+    std::fs::write(
+        &template,
+        format!("{text}fail = {{% if C * 100000 > 1.9 %}}1{{% else %}}0{{% endif %}}\n"),
+    )
+    .unwrap();
     let o = run(dir.path(), "out", None);
     let message = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{message}");
@@ -304,9 +381,14 @@ fn failed_runs_exit_1_with_the_outcome_table_after_writing_results() {
     let r: Value = serde_json::from_slice(&std::fs::read(dir.path().join("out/results.json")).unwrap()).unwrap();
     let failed = r["runs"]["failed"].as_u64().unwrap();
     assert!(failed >= 1, "the template should have failed some runs");
-    let o = lab(dir.path(), &["status", STUDY, "--out", "out"], None, 0.0).output().unwrap();
+    let o = lab(dir.path(), &["status", STUDY, "--out", "out"], None, 0.0)
+        .output()
+        .unwrap();
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
-    assert!(text.contains(&format!("failed {failed}, running 0, pending 0")), "{text}");
+    assert!(
+        text.contains(&format!("failed {failed}, running 0, pending 0")),
+        "{text}"
+    );
 }
 
 #[test]

@@ -36,10 +36,15 @@ pub fn analyse(problem: &Problem, names: &[String], theta: &DVector<f64>) -> Ide
     let largest = values.first().copied().unwrap_or(0.0);
     let p = names.len();
     // With fewer tests than parameters the SVD has fewer than p values: the rest are zero.
-    let seen = values.iter().filter(|&&s| s > RANK_TOLERANCE * largest && largest > 0.0).count();
+    let seen = values
+        .iter()
+        .filter(|&&s| s > RANK_TOLERANCE * largest && largest > 0.0)
+        .count();
     let v_t = svd.v_t.expect("requested V");
-    let combinations: Vec<String> =
-        order[..seen].iter().map(|&k| combination(names, v_t.row(k).transpose().as_slice())).collect();
+    let combinations: Vec<String> = order[..seen]
+        .iter()
+        .map(|&k| combination(names, v_t.row(k).transpose().as_slice()))
+        .collect();
 
     if seen == p {
         let weakest = values[p - 1] / largest;
@@ -51,7 +56,12 @@ pub fn analyse(problem: &Problem, names: &[String], theta: &DVector<f64>) -> Ide
         } else {
             format!("the training tests determine every parameter ({})", names.join(", "))
         };
-        return Identifiability { identifiable: true, note, singular_values: values, combinations: vec![] };
+        return Identifiability {
+            identifiable: true,
+            note,
+            singular_values: values,
+            combinations: vec![],
+        };
     }
     let note = if seen == 0 {
         "the training predictions do not depend on the parameters".to_string()
@@ -64,7 +74,12 @@ pub fn analyse(problem: &Problem, names: &[String], theta: &DVector<f64>) -> Ide
             if seen == 1 { "value of it" } else { "values of these" },
         )
     };
-    Identifiability { identifiable: false, note, singular_values: values, combinations }
+    Identifiability {
+        identifiable: false,
+        note,
+        singular_values: values,
+        combinations,
+    }
 }
 
 /// S_ij = (θ_j / y_i) ∂y_i/∂θ_j by central differences in the unit cube.
@@ -74,17 +89,26 @@ fn scaled_jacobian(problem: &Problem, theta: &DVector<f64>) -> DMatrix<f64> {
     let y = predict(&u);
     let width = problem.bounds.width();
     let raw = optimize::jacobian(&predict, &u);
-    DMatrix::from_fn(raw.nrows(), raw.ncols(), |i, j| raw[(i, j)] / width[j] * theta[j] / y[i])
+    DMatrix::from_fn(raw.nrows(), raw.ncols(), |i, j| {
+        raw[(i, j)] / width[j] * theta[j] / y[i]
+    })
 }
 
 /// Π θ_j^{v_j} written with small exponents, e.g. `L^3/E`.
 fn combination(names: &[String], direction: &[f64]) -> String {
     let biggest = direction.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let significant: Vec<(usize, f64)> =
-        direction.iter().copied().enumerate().filter(|(_, v)| v.abs() > 1e-3 * biggest).collect();
+    let significant: Vec<(usize, f64)> = direction
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|(_, v)| v.abs() > 1e-3 * biggest)
+        .collect();
     let smallest = significant.iter().fold(f64::INFINITY, |m, (_, v)| m.min(v.abs()));
     // Orient so the largest exponent is positive; scale so the smallest is ±1.
-    let sign = significant.iter().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).map_or(1.0, |(_, v)| v.signum());
+    let sign = significant
+        .iter()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .map_or(1.0, |(_, v)| v.signum());
     let power = |name: &str, e: f64| {
         let e = e.abs();
         if (e - 1.0).abs() < 1e-3 {
@@ -98,9 +122,17 @@ fn combination(names: &[String], direction: &[f64]) -> String {
     let (mut num, mut den) = (vec![], vec![]);
     for (j, v) in significant {
         let e = sign * v / smallest;
-        if e > 0.0 { num.push(power(&names[j], e)) } else { den.push(power(&names[j], e)) }
+        if e > 0.0 {
+            num.push(power(&names[j], e))
+        } else {
+            den.push(power(&names[j], e))
+        }
     }
-    let num = if num.is_empty() { "1".to_string() } else { num.join("·") };
+    let num = if num.is_empty() {
+        "1".to_string()
+    } else {
+        num.join("·")
+    };
     match den.len() {
         0 => num,
         1 => format!("{num}/{}", den[0]),
@@ -128,15 +160,27 @@ mod tests {
 
     #[test]
     fn one_parameter_from_two_tests_is_identifiable() {
-        let result = analyse(&cantilever(&[8.0, 10.0]), &names(&["E"]), &DVector::from_vec(vec![60_000.0]));
+        let result = analyse(
+            &cantilever(&[8.0, 10.0]),
+            &names(&["E"]),
+            &DVector::from_vec(vec![60_000.0]),
+        );
         assert!(result.identifiable, "{}", result.note);
         // ∂ln y/∂ln E = −1 at both designs: singular value √2 (±1e-6 for finite differences).
-        assert!((result.singular_values[0] - 2f64.sqrt()).abs() < 1e-6, "{:?}", result.singular_values);
+        assert!(
+            (result.singular_values[0] - 2f64.sqrt()).abs() < 1e-6,
+            "{:?}",
+            result.singular_values
+        );
     }
 
     #[test]
     fn two_parameters_from_one_test_are_not() {
-        let result = analyse(&cantilever_el(&[8.0]), &names(&["E", "L"]), &DVector::from_vec(vec![60_000.0, 20.0]));
+        let result = analyse(
+            &cantilever_el(&[8.0]),
+            &names(&["E", "L"]),
+            &DVector::from_vec(vec![60_000.0, 20.0]),
+        );
         assert!(!result.identifiable);
         assert_eq!(result.combinations, vec!["L^3/E".to_string()]);
     }

@@ -8,11 +8,18 @@ use super::{CalibrationError, Discrepancy, Estimate, Problem, optimize};
 /// Eq. 3 with equal weights.
 pub fn calibrate(problem: &Problem) -> Result<Estimate, CalibrationError> {
     if problem.measured.is_empty() {
-        return Err(CalibrationError::TooFewDesigns { method: "least_squares", needed: 1, given: 0 });
+        return Err(CalibrationError::TooFewDesigns {
+            method: "least_squares",
+            needed: 1,
+            given: 0,
+        });
     }
     let residuals = |theta: &nalgebra::DVector<f64>| &problem.measured - problem.predictions(theta);
     let best = optimize::least_squares(&residuals, &problem.bounds)?;
-    Ok(Estimate { theta: best.theta, discrepancy: Discrepancy::None })
+    Ok(Estimate {
+        theta: best.theta,
+        discrepancy: Discrepancy::None,
+    })
 }
 
 #[cfg(test)]

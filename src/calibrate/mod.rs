@@ -44,7 +44,10 @@ pub struct Bounds {
 impl Bounds {
     pub fn new(lower: Vec<f64>, upper: Vec<f64>) -> Self {
         assert_eq!(lower.len(), upper.len(), "bounds need as many lower as upper values");
-        Bounds { lower: DVector::from_vec(lower), upper: DVector::from_vec(upper) }
+        Bounds {
+            lower: DVector::from_vec(lower),
+            upper: DVector::from_vec(upper),
+        }
     }
 
     pub fn dim(&self) -> usize {
@@ -127,7 +130,11 @@ impl Discrepancy {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CalibrationError {
     #[error("{method} needs at least {needed} training designs, the study gives {given}")]
-    TooFewDesigns { method: &'static str, needed: usize, given: usize },
+    TooFewDesigns {
+        method: &'static str,
+        needed: usize,
+        given: usize,
+    },
     #[error("the model returned a non-finite value at the starting point ({0})")]
     NonFinite(String),
     #[error("{0}")]

@@ -44,14 +44,20 @@ pub fn least_squares(problem: &impl Residuals, bounds: &Bounds) -> Result<Minimu
 
     let first = in_box(&starts[0]);
     if first.iter().any(|v| !v.is_finite()) {
-        return Err(CalibrationError::NonFinite(format!("θ = {}", bounds.from_unit(&starts[0]).transpose())));
+        return Err(CalibrationError::NonFinite(format!(
+            "θ = {}",
+            bounds.from_unit(&starts[0]).transpose()
+        )));
     }
     let best = starts
         .iter()
         .map(|u0| levenberg_marquardt(&in_box, u0.clone()))
         .min_by(|a, b| a.cost.total_cmp(&b.cost))
         .expect("at least one start");
-    Ok(Minimum { theta: bounds.from_unit(&best.theta), cost: best.cost })
+    Ok(Minimum {
+        theta: bounds.from_unit(&best.theta),
+        cost: best.cost,
+    })
 }
 
 /// Levenberg–Marquardt in the unit cube from `u`, with projected steps.
@@ -125,7 +131,11 @@ mod tests {
         // Rosenbrock as residuals: minimum at (1, 1).
         let rosen = |x: &DVector<f64>| DVector::from_vec(vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]]);
         let m = least_squares(&rosen, &Bounds::new(vec![-2.0, -1.0], vec![2.0, 3.0])).unwrap();
-        assert!((m.theta[0] - 1.0).abs() < 1e-8 && (m.theta[1] - 1.0).abs() < 1e-8, "{}", m.theta);
+        assert!(
+            (m.theta[0] - 1.0).abs() < 1e-8 && (m.theta[1] - 1.0).abs() < 1e-8,
+            "{}",
+            m.theta
+        );
     }
 
     #[test]

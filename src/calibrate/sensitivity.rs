@@ -13,13 +13,20 @@ use super::{CalibrationError, Discrepancy, Estimate, Problem, optimize};
 pub fn calibrate(problem: &Problem) -> Result<Estimate, CalibrationError> {
     let n = problem.measured.len();
     if n < 2 {
-        return Err(CalibrationError::TooFewDesigns { method: "sensitivity", needed: 2, given: n });
+        return Err(CalibrationError::TooFewDesigns {
+            method: "sensitivity",
+            needed: 2,
+            given: n,
+        });
     }
     let measured_steps = differences(&problem.measured);
     let residuals = |theta: &DVector<f64>| &measured_steps - differences(&problem.predictions(theta));
     let theta = optimize::least_squares(&residuals, &problem.bounds)?.theta;
     let d = (&problem.measured - problem.predictions(&theta)).mean();
-    Ok(Estimate { theta, discrepancy: Discrepancy::Constant(d) })
+    Ok(Estimate {
+        theta,
+        discrepancy: Discrepancy::Constant(d),
+    })
 }
 
 /// y_i − y_{i+1} for consecutive entries.
@@ -36,7 +43,9 @@ mod tests {
     fn two_points_h8_h10_match_the_paper() {
         // Paper Sec. 3.2.2: E = 64,914, d = 0.0189; facts.md: d = 0.018877 (exact from Eqs. 6–7).
         let est = calibrate(&cantilever(&[8.0, 10.0])).unwrap();
-        let Discrepancy::Constant(d) = est.discrepancy else { panic!("no constant discrepancy") };
+        let Discrepancy::Constant(d) = est.discrepancy else {
+            panic!("no constant discrepancy")
+        };
         assert!((est.theta[0] - 64_914.0).abs() <= 2.0, "E = {}", est.theta[0]);
         assert!((d - 0.018877).abs() <= 2e-6, "d = {d}");
     }
@@ -58,7 +67,11 @@ mod tests {
     fn one_design_is_refused() {
         assert!(matches!(
             calibrate(&cantilever(&[8.0])),
-            Err(CalibrationError::TooFewDesigns { needed: 2, given: 1, .. })
+            Err(CalibrationError::TooFewDesigns {
+                needed: 2,
+                given: 1,
+                ..
+            })
         ));
     }
 }

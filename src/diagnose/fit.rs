@@ -53,7 +53,10 @@ impl Data<'_> {
         } else {
             0.0
         };
-        (gamma, DVector::from_iterator(idx.len(), r.iter().zip(&g).map(|(ri, gi)| ri - gamma * gi)))
+        (
+            gamma,
+            DVector::from_iterator(idx.len(), r.iter().zip(&g).map(|(ri, gi)| ri - gamma * gi)),
+        )
     }
 
     /// Weighted least squares over the designs `idx`, jointly in θ and (with a shape) γ.
@@ -61,7 +64,11 @@ impl Data<'_> {
         let residuals = |theta: &DVector<f64>| self.profile(shape, theta, idx).1;
         let best = optimize::least_squares(&residuals, self.bounds)?;
         let (gamma, r) = self.profile(shape, &best.theta, idx);
-        Ok(Fit { theta: best.theta, gamma, wrss: r.norm_squared() })
+        Ok(Fit {
+            theta: best.theta,
+            gamma,
+            wrss: r.norm_squared(),
+        })
     }
 
     /// Leave-one-design-out: for each design of `idx`, the prediction there of a fit to the others.

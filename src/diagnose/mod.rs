@@ -87,7 +87,14 @@ impl Observation {
         let mean = replicates.iter().sum::<f64>() / n as f64;
         let std_dev =
             (n > 1).then(|| (replicates.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
-        Observation { name: name.into(), design, role, mean, count: n, std_dev }
+        Observation {
+            name: name.into(),
+            design,
+            role,
+            mean,
+            count: n,
+            std_dev,
+        }
     }
 }
 
@@ -153,7 +160,12 @@ pub fn inputs_with_extensions<'a>(
         .chain(study.validation.iter().map(|n| (n, Role::Validation)))
         .filter_map(|(name, role)| {
             let t = study.experiments.get(name)?;
-            Some(Observation::from_replicates(name.clone(), t.values.clone(), role, &t.replicates))
+            Some(Observation::from_replicates(
+                name.clone(),
+                t.values.clone(),
+                role,
+                &t.replicates,
+            ))
         })
         .collect();
     Inputs {
@@ -168,10 +180,12 @@ pub fn inputs_with_extensions<'a>(
             .hypotheses
             .iter()
             .enumerate()
-            .map(|(k, h)| match (h.extension(), extensions.iter().find(|(j, _)| *j == k)) {
-                (Some(variables), Some((_, ext))) => Shape::from_extension(h.name.clone(), variables, ext.clone()),
-                _ => Shape::from_hypothesis(h, study),
-            })
+            .map(
+                |(k, h)| match (h.extension(), extensions.iter().find(|(j, _)| *j == k)) {
+                    (Some(variables), Some((_, ext))) => Shape::from_extension(h.name.clone(), variables, ext.clone()),
+                    _ => Shape::from_hypothesis(h, study),
+                },
+            )
             .collect(),
         settings: Settings::default(),
     }
@@ -363,7 +377,11 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
     let p = inputs.parameter_names.len();
     let n = train.len();
     if n == 0 {
-        return Err(CalibrationError::TooFewDesigns { method: "diagnosis", needed: 1, given: 0 });
+        return Err(CalibrationError::TooFewDesigns {
+            method: "diagnosis",
+            needed: 1,
+            given: 0,
+        });
     }
     let mut notes = Vec::new();
 
@@ -390,7 +408,11 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
     let nu = replicate_noise.as_ref().map_or(0, |nm| nm.dof) as f64;
     // Weighted RSS below this counts as zero (floating-point-exact data).
     let rss_floor = {
-        let ms = train.iter().map(|&i| (data.weights[i] * data.means[i]).powi(2)).sum::<f64>() / n as f64;
+        let ms = train
+            .iter()
+            .map(|&i| (data.weights[i] * data.means[i]).powi(2))
+            .sum::<f64>()
+            / n as f64;
         (1e-12_f64).powi(2) * ms * n as f64
     };
 
@@ -403,7 +425,12 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
     // 3. Candidate shapes: study hypotheses first, then built-ins not duplicated by one.
     let sens = data.sensitivities(&fit0.theta, &train);
     let mut shapes: Vec<(Shape, Option<String>, Vec<f64>)> = Vec::new();
-    for shape in inputs.hypotheses.iter().cloned().chain(Shape::built_ins(&inputs.design_names)) {
+    for shape in inputs
+        .hypotheses
+        .iter()
+        .cloned()
+        .chain(Shape::built_ins(&inputs.design_names))
+    {
         let v = data.shape_vector(&shape, &fit0.theta, &train);
         if v.iter().any(|x| !x.is_finite()) {
             notes.push(format!(
@@ -441,7 +468,15 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
                  needs at least {min_n} (leave-one-design-out and AICc need spare designs)"
             ));
         }
-        return Ok(unranked(inputs, &data, &fit0, replicate_noise, &train, notes, rss_floor));
+        return Ok(unranked(
+            inputs,
+            &data,
+            &fit0,
+            replicate_noise,
+            &train,
+            notes,
+            rss_floor,
+        ));
     }
 
     // 4. Fit and score every model.
@@ -450,7 +485,11 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
         let loo = data.leave_one_out(shape, &train)?;
         let k = (p + usize::from(shape.is_some()) + k_extra) as f64;
         let nf = n as f64;
-        let press: f64 = train.iter().zip(&loo).map(|(&i, yh)| (data.weights[i] * (data.means[i] - yh)).powi(2)).sum();
+        let press: f64 = train
+            .iter()
+            .zip(&loo)
+            .map(|(&i, yh)| (data.weights[i] * (data.means[i] - yh)).powi(2))
+            .sum();
         let (m2ll, dloo) = if known {
             (fit.wrss, press)
         } else {
@@ -460,7 +499,14 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
         let aicc = m2ll + 2.0 * k + 2.0 * k * (k + 1.0) / (nf - k - 1.0);
         let bic = m2ll + k * nf.ln();
         let loo_error = mean_abs_rel(train.iter().zip(&loo).map(|(&i, &yh)| (yh, data.means[i])));
-        Ok(Scored { fit, loo_error, aicc, bic, loo_deviance: dloo, score: 0.5 * (aicc + dloo) })
+        Ok(Scored {
+            fit,
+            loo_error,
+            aicc,
+            bic,
+            loo_deviance: dloo,
+            score: 0.5 * (aicc + dloo),
+        })
     };
     let base = score_model(None)?;
     let mut scored = Vec::new();
@@ -471,10 +517,21 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
         }
     }
     if scored.is_empty() {
-        return Ok(unranked(inputs, &data, &fit0, replicate_noise, &train, notes, rss_floor));
+        return Ok(unranked(
+            inputs,
+            &data,
+            &fit0,
+            replicate_noise,
+            &train,
+            notes,
+            rss_floor,
+        ));
     }
     let best_score = scored.iter().map(|c| c.3.score).fold(base.score, f64::min);
-    let total: f64 = scored.iter().map(|c| (-0.5 * (c.3.score - best_score)).exp()).sum::<f64>()
+    let total: f64 = scored
+        .iter()
+        .map(|c| (-0.5 * (c.3.score - best_score)).exp())
+        .sum::<f64>()
         + (-0.5 * (base.score - best_score)).exp();
     let weight = |score: f64| (-0.5 * (score - best_score)).exp() / total;
     scored.sort_by(|a, b| a.3.score.total_cmp(&b.3.score));
@@ -521,7 +578,11 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
             stats::f_sf(drop, 1.0, nu)
         } else {
             let df2 = (n - p - 1) as f64;
-            if drop <= 0.0 { 1.0 } else { stats::f_sf(drop / (sc.fit.wrss.max(rss_floor) / df2), 1.0, df2) }
+            if drop <= 0.0 {
+                1.0
+            } else {
+                stats::f_sf(drop / (sc.fit.wrss.max(rss_floor) / df2), 1.0, df2)
+            }
         }
     };
     let lack_of_fit = known.then(|| {
@@ -606,10 +667,12 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
             (base.loo_error, sc.loo_error, "leave-one-out")
         } else {
             let err = |sh: Option<&Shape>, f: &fit::Fit| {
-                mean_abs_rel(
-                    val.iter()
-                        .map(|&i| (data.predict(sh, f.theta.as_slice(), f.gamma, &data.designs[i]), data.means[i])),
-                )
+                mean_abs_rel(val.iter().map(|&i| {
+                    (
+                        data.predict(sh, f.theta.as_slice(), f.gamma, &data.designs[i]),
+                        data.means[i],
+                    )
+                }))
             };
             (err(None, &base.fit), err(Some(shape), &sc.fit), "validation")
         };
@@ -636,16 +699,30 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
     });
 
     // 8. Next test: the two leading non-confounded explanations, or the leader against no correction.
-    let plausible: Vec<usize> = (0..candidates.len()).filter(|&k| candidates[k].confounded_with.is_empty()).collect();
+    let plausible: Vec<usize> = (0..candidates.len())
+        .filter(|&k| candidates[k].confounded_with.is_empty())
+        .collect();
     let next_test = match (plausible.first(), plausible.get(1)) {
         (Some(&a), Some(&b)) if detected => {
             let (sa, fa) = (&shapes_ranked[a].0, &shapes_ranked[a].1.fit);
             let (sb, fb) = (&shapes_ranked[b].0, &shapes_ranked[b].1.fit);
-            next_test(inputs, &data, (&sa.name, Some(sa), fa), (&sb.name, Some(sb), fb), &sigma_of_one)
+            next_test(
+                inputs,
+                &data,
+                (&sa.name, Some(sa), fa),
+                (&sb.name, Some(sb), fb),
+                &sigma_of_one,
+            )
         }
         (Some(&a), _) => {
             let (sa, fa) = (&shapes_ranked[a].0, &shapes_ranked[a].1.fit);
-            next_test(inputs, &data, (&sa.name, Some(sa), fa), ("uncorrected", None, &base.fit), &sigma_of_one)
+            next_test(
+                inputs,
+                &data,
+                (&sa.name, Some(sa), fa),
+                ("uncorrected", None, &base.fit),
+                &sigma_of_one,
+            )
         }
         _ => None,
     };
@@ -704,7 +781,11 @@ fn unranked(
     });
     let noise_model = replicate_noise.unwrap_or_else(|| {
         let dof = n.saturating_sub(p);
-        let sigma = if dof > 0 { (fit0.wrss.max(rss_floor) / dof as f64).sqrt() } else { f64::NAN };
+        let sigma = if dof > 0 {
+            (fit0.wrss.max(rss_floor) / dof as f64).sqrt()
+        } else {
+            f64::NAN
+        };
         NoiseModel {
             kind: NoiseKind::FromResiduals,
             scale: if sigma.is_finite() { sigma } else { 0.0 },
@@ -712,7 +793,10 @@ fn unranked(
             loglik_absolute: None,
             loglik_relative: None,
             note: if dof > 0 {
-                format!("no replicates: σ = {} estimated from the residuals of the uncorrected model", text::num(sigma))
+                format!(
+                    "no replicates: σ = {} estimated from the residuals of the uncorrected model",
+                    text::num(sigma)
+                )
             } else {
                 "no replicates and no spare designs: the noise cannot be estimated".to_string()
             },
@@ -737,7 +821,11 @@ fn unranked(
         extended: None,
         confounded: &[],
     });
-    let summary = if notes.is_empty() { summary } else { format!("{summary} {}", notes.join("; ")) };
+    let summary = if notes.is_empty() {
+        summary
+    } else {
+        format!("{summary} {}", notes.join("; "))
+    };
     Diagnosis {
         discrepancy_detected: detected,
         cause: None,
@@ -796,7 +884,12 @@ fn residual_table(inputs: &Inputs, data: &Data, fit: &fit::Fit, sigma_of_one: &d
             Residual {
                 design: o.name.clone(),
                 role: o.role,
-                values: inputs.design_names.iter().cloned().zip(o.design.iter().copied()).collect(),
+                values: inputs
+                    .design_names
+                    .iter()
+                    .cloned()
+                    .zip(o.design.iter().copied())
+                    .collect(),
                 measured: o.mean,
                 count: o.count,
                 std_dev: o.std_dev,
@@ -822,7 +915,10 @@ fn trends(inputs: &Inputs, residuals: &[Residual], known: bool, alpha: f64) -> V
         .enumerate()
         .map(|(j, name)| (name.clone(), inputs.observations.iter().map(|o| o.design[j]).collect()))
         .collect();
-    against.push(("prediction".to_string(), residuals.iter().map(|r| r.predicted).collect()));
+    against.push((
+        "prediction".to_string(),
+        residuals.iter().map(|r| r.predicted).collect(),
+    ));
     let n = z.len();
     against
         .into_iter()
@@ -838,7 +934,11 @@ fn trends(inputs: &Inputs, residuals: &[Residual], known: bool, alpha: f64) -> V
             } else {
                 let ss: f64 = x.iter().zip(&z).map(|(a, b)| (b - mz - slope * (a - mx)).powi(2)).sum();
                 let se = (ss / (nf - 2.0) / sxx).sqrt();
-                if se > 0.0 { stats::t_two_sided(slope / se, nf - 2.0) } else { 0.0 }
+                if se > 0.0 {
+                    stats::t_two_sided(slope / se, nf - 2.0)
+                } else {
+                    0.0
+                }
             };
             Trend {
                 against: name,
@@ -883,7 +983,9 @@ fn next_test(
             .collect()
     } else {
         let plan = crate::plan::latin_hypercube(inputs.settings.search_points, dim, 0);
-        plan.row_iter().map(|r| bounds.from_unit(&r.transpose()).iter().copied().collect()).collect()
+        plan.row_iter()
+            .map(|r| bounds.from_unit(&r.transpose()).iter().copied().collect())
+            .collect()
     };
     let mut best: Option<(f64, Vec<f64>, f64, f64)> = None;
     for d in points {

@@ -81,7 +81,10 @@ pub fn from_replicates(observations: &[Observation]) -> Option<NoiseModel> {
         (None, f64::NAN)
     };
     let designs = with.len();
-    let levels = with.iter().map(|w| w.2.abs()).fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let levels = with
+        .iter()
+        .map(|w| w.2.abs())
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
     let (kind, scale, note) = match ll_rel {
         Some(lr) if lr > ll_abs => (
             NoiseKind::Relative,
@@ -101,7 +104,9 @@ pub fn from_replicates(observations: &[Observation]) -> Option<NoiseModel> {
                  (constant σ = {:.4}; log-likelihood {ll_abs:.1}{})",
                 nu as usize,
                 var_abs.sqrt(),
-                ll_rel.map(|l| format!(" against {l:.1} for a constant coefficient of variation")).unwrap_or_default()
+                ll_rel
+                    .map(|l| format!(" against {l:.1} for a constant coefficient of variation"))
+                    .unwrap_or_default()
             ),
         ),
     };
@@ -110,7 +115,14 @@ pub fn from_replicates(observations: &[Observation]) -> Option<NoiseModel> {
     } else {
         note
     };
-    Some(NoiseModel { kind, scale, dof: nu as usize, loglik_absolute: Some(ll_abs), loglik_relative: ll_rel, note })
+    Some(NoiseModel {
+        kind,
+        scale,
+        dof: nu as usize,
+        loglik_absolute: Some(ll_abs),
+        loglik_relative: ll_rel,
+        note,
+    })
 }
 
 #[cfg(test)]

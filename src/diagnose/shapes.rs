@@ -60,7 +60,13 @@ impl Shape {
         origin: Origin,
         f: impl Fn(&[f64], &[f64], f64) -> f64 + Send + Sync + 'static,
     ) -> Shape {
-        Shape { name: name.into(), term: term.into(), origin, extension: None, f: Arc::new(f) }
+        Shape {
+            name: name.into(),
+            term: term.into(),
+            origin,
+            extension: None,
+            f: Arc::new(f),
+        }
     }
 
     /// `g(design, θ, y)`, where `y` is the simulation's prediction at `design` and `θ`.
@@ -81,10 +87,21 @@ impl Shape {
             }
         };
         let constants: Vec<f64> = study.constants.iter().map(|(_, v)| *v).collect();
-        Shape::new(hypothesis.name.clone(), expr.text().to_string(), Origin::Study, move |d, theta, y| {
-            let values: Vec<f64> = d.iter().chain(theta).chain(&constants).copied().chain(std::iter::once(y)).collect();
-            expr.eval(&values)
-        })
+        Shape::new(
+            hypothesis.name.clone(),
+            expr.text().to_string(),
+            Origin::Study,
+            move |d, theta, y| {
+                let values: Vec<f64> = d
+                    .iter()
+                    .chain(theta)
+                    .chain(&constants)
+                    .copied()
+                    .chain(std::iter::once(y))
+                    .collect();
+                expr.eval(&values)
+            },
+        )
     }
 
     /// A model extension: `g(d, θ, y) = y_ext(d, θ) − y`, where `extension` predicts the response
@@ -94,7 +111,11 @@ impl Shape {
         variables: &[(String, f64)],
         extension: Arc<dyn Model + Send>,
     ) -> Shape {
-        let set = variables.iter().map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ");
+        let set = variables
+            .iter()
+            .map(|(k, v)| format!("{k} = {v}"))
+            .collect::<Vec<_>>()
+            .join(", ");
         let mut shape = Shape::new(name, format!("y[{set}] - y"), Origin::Study, move |d, theta, y| {
             extension.predict(d, theta) - y
         });
@@ -105,7 +126,11 @@ impl Shape {
     /// What a fitted amplitude γ of this extension means, in words (`None` for a term).
     pub fn amplitude_meaning(&self, gamma: f64) -> Option<String> {
         let variables = self.extension.as_ref()?;
-        let set = variables.iter().map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ");
+        let set = variables
+            .iter()
+            .map(|(k, v)| format!("{k} = {v}"))
+            .collect::<Vec<_>>()
+            .join(", ");
         let g = super::text::num(gamma);
         let mut s = format!(
             "γ = {g}: the tests want {g} × the effect of the extension as specified ({set}); γ = 1 is the \
@@ -143,7 +168,13 @@ impl Shape {
         let expr = Expression::compile(term, &symbols)?;
         let values: Vec<f64> = constants.iter().map(|(_, v)| *v).collect();
         Ok(Shape::new(name, term, Origin::Study, move |d, theta, y| {
-            let all: Vec<f64> = d.iter().chain(theta).chain(&values).copied().chain(std::iter::once(y)).collect();
+            let all: Vec<f64> = d
+                .iter()
+                .chain(theta)
+                .chain(&values)
+                .copied()
+                .chain(std::iter::once(y))
+                .collect();
             expr.eval(&all)
         }))
     }
@@ -156,7 +187,12 @@ impl Shape {
             Shape::new("scale error", "y", Origin::BuiltIn, |_, _, y| y),
         ];
         for (j, name) in design_names.iter().enumerate() {
-            shapes.push(Shape::new(format!("linear in {name}"), name.clone(), Origin::BuiltIn, move |d, _, _| d[j]));
+            shapes.push(Shape::new(
+                format!("linear in {name}"),
+                name.clone(),
+                Origin::BuiltIn,
+                move |d, _, _| d[j],
+            ));
         }
         shapes
     }

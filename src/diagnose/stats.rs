@@ -82,7 +82,11 @@ pub fn pearson(x: &[f64], y: &[f64]) -> f64 {
         sxx += (a - mx).powi(2);
         syy += (b - my).powi(2);
     }
-    if sxx <= 0.0 || syy <= 0.0 { 0.0 } else { sxy / (sxx * syy).sqrt() }
+    if sxx <= 0.0 || syy <= 0.0 {
+        0.0
+    } else {
+        sxy / (sxx * syy).sqrt()
+    }
 }
 
 /// Spearman's rank correlation and its two-sided p-value (t approximation with n − 2 degrees of
@@ -116,9 +120,17 @@ mod tests {
     #[test]
     fn tail_probabilities_match_reference_values() {
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-8 * b.abs().max(1e-300) + 1e-14;
-        assert!(close(chi2_sf(3.841458820694124, 1.0), 0.05), "{}", chi2_sf(3.841458820694124, 1.0));
+        assert!(
+            close(chi2_sf(3.841458820694124, 1.0), 0.05),
+            "{}",
+            chi2_sf(3.841458820694124, 1.0)
+        );
         assert!(close(chi2_sf(18.307038053275146, 10.0), 0.05));
-        assert!(close(f_sf(4.964602743730711, 1.0, 10.0), 0.05), "{}", f_sf(4.964602743730711, 1.0, 10.0));
+        assert!(
+            close(f_sf(4.964602743730711, 1.0, 10.0), 0.05),
+            "{}",
+            f_sf(4.964602743730711, 1.0, 10.0)
+        );
         // F with 2 numerator degrees of freedom has a closed form: P(F > f) = (1 + 2f/d2)^(−d2/2).
         for (f, d2) in [(0.3f64, 4.0f64), (4.1, 10.0), (25.0, 7.0)] {
             let exact = (1.0 + 2.0 * f / d2).powf(-d2 / 2.0);

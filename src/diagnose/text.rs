@@ -14,7 +14,11 @@ pub fn num(v: f64) -> String {
     }
     let decimals = (3 - mag).max(0) as usize;
     let s = format!("{v:.decimals$}");
-    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }
 
 /// |v| as a percentage with sensible digits.
@@ -34,7 +38,11 @@ fn pct(v: f64) -> String {
 }
 
 fn p_text(p: f64) -> String {
-    if p < 1e-6 { "p < 1e-6".to_string() } else { format!("p = {}", num(p)) }
+    if p < 1e-6 {
+        "p < 1e-6".to_string()
+    } else {
+        format!("p = {}", num(p))
+    }
 }
 
 pub struct Facts<'a> {
@@ -52,7 +60,11 @@ pub struct Facts<'a> {
 }
 
 fn direction(mean_rel: f64) -> &'static str {
-    if mean_rel < 0.0 { "under-predicts" } else { "over-predicts" }
+    if mean_rel < 0.0 {
+        "under-predicts"
+    } else {
+        "over-predicts"
+    }
 }
 
 pub fn summary(f: &Facts) -> String {
@@ -60,9 +72,16 @@ pub fn summary(f: &Facts) -> String {
     let r = f.residuals;
     let n_train = r.iter().filter(|x| x.role == Role::Training).count();
     let mean_rel = r.iter().map(|x| x.relative_error).sum::<f64>() / r.len() as f64;
-    let worst = r.iter().max_by(|a, b| a.relative_error.abs().total_cmp(&b.relative_error.abs()));
+    let worst = r
+        .iter()
+        .max_by(|a, b| a.relative_error.abs().total_cmp(&b.relative_error.abs()));
     if let Some(w) = worst {
-        let at = w.values.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect::<Vec<_>>().join(", ");
+        let at = w
+            .values
+            .iter()
+            .map(|(k, v)| format!("{k} = {}", num(*v)))
+            .collect::<Vec<_>>()
+            .join(", ");
         out.push(format!(
             "Calibrated on {n_train} training designs, the simulation {} the tests by {} on average; the largest error \
              is at {} ({at}): it {} by {}.",
@@ -75,12 +94,30 @@ pub fn summary(f: &Facts) -> String {
     }
 
     // The strongest trend against a design variable: compare the low and the high third.
-    let mut trends: Vec<&Trend> = f.structure.iter().filter(|t| t.significant && t.against != "prediction").collect();
-    trends.sort_by(|a, b| a.slope_p_value.min(a.rank_p_value).total_cmp(&b.slope_p_value.min(b.rank_p_value)));
+    let mut trends: Vec<&Trend> = f
+        .structure
+        .iter()
+        .filter(|t| t.significant && t.against != "prediction")
+        .collect();
+    trends.sort_by(|a, b| {
+        a.slope_p_value
+            .min(a.rank_p_value)
+            .total_cmp(&b.slope_p_value.min(b.rank_p_value))
+    });
     if let Some(t) = trends.first() {
-        let j = f.inputs.design_names.iter().position(|n| *n == t.against).expect("a design variable");
-        let mut by: Vec<(f64, f64)> =
-            f.inputs.observations.iter().zip(r).map(|(o, x)| (o.design[j], x.relative_error)).collect();
+        let j = f
+            .inputs
+            .design_names
+            .iter()
+            .position(|n| *n == t.against)
+            .expect("a design variable");
+        let mut by: Vec<(f64, f64)> = f
+            .inputs
+            .observations
+            .iter()
+            .zip(r)
+            .map(|(o, x)| (o.design[j], x.relative_error))
+            .collect();
         by.sort_by(|a, b| a.0.total_cmp(&b.0));
         let third = (by.len() / 3).max(1);
         let low = &by[..third];
@@ -120,7 +157,11 @@ pub fn summary(f: &Facts) -> String {
     if let Some(l) = f.lack_of_fit {
         out.push(format!(
             "The misfit is {} the replicate noise (χ² = {} on {} degrees of freedom, {}).",
-            if l.p_value < f.inputs.settings.alpha { "beyond" } else { "within" },
+            if l.p_value < f.inputs.settings.alpha {
+                "beyond"
+            } else {
+                "within"
+            },
             num(l.chi2),
             l.dof,
             p_text(l.p_value)
@@ -138,11 +179,19 @@ pub fn summary(f: &Facts) -> String {
                 p_text(c.p_value)
             );
             if let Some(e) = f.extended {
-                let params =
-                    e.parameters.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect::<Vec<_>>().join(", ");
+                let params = e
+                    .parameters
+                    .iter()
+                    .map(|(k, v)| format!("{k} = {}", num(*v)))
+                    .collect::<Vec<_>>()
+                    .join(", ");
                 s.push_str(&format!(
                     " With it, {params}, and the {} error drops from {} to {}.",
-                    if e.measured_on == "validation" { "validation" } else { "leave-one-out" },
+                    if e.measured_on == "validation" {
+                        "validation"
+                    } else {
+                        "leave-one-out"
+                    },
                     pct(e.validation_error_before),
                     pct(e.validation_error_after)
                 ));

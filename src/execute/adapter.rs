@@ -59,14 +59,27 @@ impl CommandAdapter {
     ) -> Result<Self, regex::Error> {
         let regex = Regex::new(regex)?;
         if regex.captures_len() < 2 {
-            return Err(regex::Error::Syntax(format!("response regex `{regex}` has no capture group for the number")));
+            return Err(regex::Error::Syntax(format!(
+                "response regex `{regex}` has no capture group for the number"
+            )));
         }
-        let failure_patterns = failure_patterns.iter().map(|p| Regex::new(p)).collect::<Result<_, _>>()?;
-        Ok(CommandAdapter { response_file: response_file.into(), regex, failure_patterns })
+        let failure_patterns = failure_patterns
+            .iter()
+            .map(|p| Regex::new(p))
+            .collect::<Result<_, _>>()?;
+        Ok(CommandAdapter {
+            response_file: response_file.into(),
+            regex,
+            failure_patterns,
+        })
     }
 
     fn scanned_files(&self) -> [PathBuf; 3] {
-        [PathBuf::from(STDOUT_FILE), PathBuf::from(STDERR_FILE), self.response_file.clone()]
+        [
+            PathBuf::from(STDOUT_FILE),
+            PathBuf::from(STDERR_FILE),
+            self.response_file.clone(),
+        ]
     }
 }
 
@@ -91,7 +104,10 @@ impl Adapter for CommandAdapter {
         // serde_json quotes each part, so no choice of strings can make two settings collide.
         let failures: Vec<&str> = self.failure_patterns.iter().map(Regex::as_str).collect();
         let parts = (self.response_file.to_string_lossy(), self.regex.as_str(), failures);
-        format!("command/1 {}", serde_json::to_string(&parts).expect("strings serialize"))
+        format!(
+            "command/1 {}",
+            serde_json::to_string(&parts).expect("strings serialize")
+        )
     }
 
     fn find_failure(&self, dir: &Path) -> Option<Outcome> {
@@ -99,12 +115,17 @@ impl Adapter for CommandAdapter {
             return None;
         }
         for rel in self.scanned_files() {
-            let Ok(bytes) = std::fs::read(dir.join(&rel)) else { continue };
+            let Ok(bytes) = std::fs::read(dir.join(&rel)) else {
+                continue;
+            };
             let text = String::from_utf8_lossy(&bytes);
             for line in text.lines() {
                 if self.failure_patterns.iter().any(|p| p.is_match(line)) {
                     let line: String = line.trim().chars().take(200).collect();
-                    return Some(Outcome::FailureText { file: rel.to_string_lossy().into_owned(), line });
+                    return Some(Outcome::FailureText {
+                        file: rel.to_string_lossy().into_owned(),
+                        line,
+                    });
                 }
             }
         }
@@ -125,7 +146,10 @@ impl Adapter for CommandAdapter {
             return Err(bad(ResponseProblem::Empty, format!("{name} is empty")));
         }
         let Some(caps) = self.regex.captures(&text) else {
-            return Err(bad(ResponseProblem::Unparseable, format!("`{}` does not match {name}", self.regex)));
+            return Err(bad(
+                ResponseProblem::Unparseable,
+                format!("`{}` does not match {name}", self.regex),
+            ));
         };
         let Some(m) = caps.get(1) else {
             return Err(bad(
@@ -135,7 +159,10 @@ impl Adapter for CommandAdapter {
         };
         match m.as_str().trim().parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
-            _ => Err(bad(ResponseProblem::Unparseable, format!("`{}` in {name} is not a finite number", m.as_str()))),
+            _ => Err(bad(
+                ResponseProblem::Unparseable,
+                format!("`{}` in {name} is not a finite number", m.as_str()),
+            )),
         }
     }
 }
@@ -176,7 +203,11 @@ mod tests {
     fn failure_text_names_file_and_line() {
         let dir = tempfile::tempdir().unwrap();
         let a = adapter();
-        std::fs::write(dir.path().join(STDOUT_FILE), "ok\n E r r o r    t e r m i n a t i o n\n").unwrap();
+        std::fs::write(
+            dir.path().join(STDOUT_FILE),
+            "ok\n E r r o r    t e r m i n a t i o n\n",
+        )
+        .unwrap();
         match a.find_failure(dir.path()) {
             Some(Outcome::FailureText { file, line }) => {
                 assert_eq!(file, STDOUT_FILE);
@@ -194,6 +225,9 @@ mod tests {
         let c = CommandAdapter::new("s", r"(\d+)", &[]).unwrap();
         assert_ne!(a.identity(), b.identity());
         assert_ne!(a.identity(), c.identity());
-        assert_eq!(a.identity(), CommandAdapter::new("r", r"(\d+)", &[]).unwrap().identity());
+        assert_eq!(
+            a.identity(),
+            CommandAdapter::new("r", r"(\d+)", &[]).unwrap().identity()
+        );
     }
 }

@@ -48,7 +48,9 @@ pub struct Canceller {
 
 impl Default for Canceller {
     fn default() -> Self {
-        Canceller { tx: Arc::new(watch::Sender::new(None)) }
+        Canceller {
+            tx: Arc::new(watch::Sender::new(None)),
+        }
     }
 }
 
@@ -103,7 +105,12 @@ pub enum Event {
     /// Attempt `attempt` (from 1) of `key` is starting.
     Started { key: String, attempt: u32 },
     /// Attempt `attempt` ended in `outcome`; the next attempt starts after `delay`.
-    Retrying { key: String, attempt: u32, outcome: Outcome, delay: Duration },
+    Retrying {
+        key: String,
+        attempt: u32,
+        outcome: Outcome,
+        delay: Duration,
+    },
     /// The run's record is committed (durable) — successful or not.
     Finished { record: RunRecord },
     /// The run was stopped by cancellation; nothing was committed for it.
@@ -159,7 +166,14 @@ enum UnitEnd {
 
 impl Executor {
     pub fn new(jobs: usize, adapter: Arc<dyn Adapter>, committer: Committer) -> Self {
-        Executor { jobs, grace: Duration::from_secs(5), adapter, committer, canceller: Canceller::new(), events: None }
+        Executor {
+            jobs,
+            grace: Duration::from_secs(5),
+            adapter,
+            committer,
+            canceller: Canceller::new(),
+            events: None,
+        }
     }
 
     /// Runs every spec (unless cancelled) and returns what happened. Never prints.
@@ -224,7 +238,10 @@ impl Executor {
 }
 
 fn now_ms() -> u64 {
-    SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as u64).unwrap_or(0)
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_millis() as u64)
+        .unwrap_or(0)
 }
 
 async fn unit(spec: RunSpec, ctx: Arc<Ctx>, mut cancel: watch::Receiver<Option<CancelReason>>) -> UnitEnd {
@@ -235,7 +252,10 @@ async fn unit(spec: RunSpec, ctx: Arc<Ctx>, mut cancel: watch::Receiver<Option<C
             ctx.send(Event::Cancelled { key: spec.key.clone() });
             return UnitEnd::Cancelled(spec.key);
         }
-        ctx.send(Event::Started { key: spec.key.clone(), attempt });
+        ctx.send(Event::Started {
+            key: spec.key.clone(),
+            attempt,
+        });
         let (outcome, response) = match run_attempt(&spec, &ctx, &mut cancel).await {
             Attempt::Judged(outcome, response) => (outcome, response),
             Attempt::Cancelled => {
@@ -246,7 +266,12 @@ async fn unit(spec: RunSpec, ctx: Arc<Ctx>, mut cancel: watch::Receiver<Option<C
         };
         if spec.retry.retries(attempt, &outcome) {
             let delay = spec.retry.backoff.delay(attempt);
-            ctx.send(Event::Retrying { key: spec.key.clone(), attempt, outcome, delay });
+            ctx.send(Event::Retrying {
+                key: spec.key.clone(),
+                attempt,
+                outcome,
+                delay,
+            });
             tokio::select! {
                 _ = tokio::time::sleep(delay) => {}
                 _ = cancel.wait_for(Option::is_some) => {}  // the check at the loop's top reports it
@@ -254,8 +279,14 @@ async fn unit(spec: RunSpec, ctx: Arc<Ctx>, mut cancel: watch::Receiver<Option<C
             attempt += 1;
             continue;
         }
-        let record =
-            RunRecord { key: spec.key.clone(), outcome, attempts: attempt, started_ms, ended_ms: now_ms(), response };
+        let record = RunRecord {
+            key: spec.key.clone(),
+            outcome,
+            attempts: attempt,
+            started_ms,
+            ended_ms: now_ms(),
+            response,
+        };
         let committer = ctx.committer.clone();
         let to_commit = record.clone();
         match tokio::task::spawn_blocking(move || committer.commit(&to_commit)).await {
@@ -328,7 +359,12 @@ async fn sleep_until(at: Option<Instant>) {
 
 async fn run_attempt(spec: &RunSpec, ctx: &Ctx, cancel: &mut watch::Receiver<Option<CancelReason>>) -> Attempt {
     let dir = &spec.dir;
-    for rel in spec.outputs.iter().map(|p| p.as_path()).chain([Path::new(STDOUT_FILE), Path::new(STDERR_FILE)]) {
+    for rel in spec
+        .outputs
+        .iter()
+        .map(|p| p.as_path())
+        .chain([Path::new(STDOUT_FILE), Path::new(STDERR_FILE)])
+    {
         if let Err(e) = remove_if_present(&dir.join(rel)) {
             return Attempt::Error(format!("removing {}: {e}", dir.join(rel).display()));
         }
@@ -341,7 +377,13 @@ async fn run_attempt(spec: &RunSpec, ctx: &Ctx, cancel: &mut watch::Receiver<Opt
         return Attempt::Error("empty argv".to_string());
     };
     let mut command = tokio::process::Command::new(program);
-    command.args(args).current_dir(dir).stdin(Stdio::null()).stdout(stdout).stderr(stderr).process_group(0);
+    command
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(stdout)
+        .stderr(stderr)
+        .process_group(0);
     let mut child = match command.spawn() {
         Ok(c) => c,
         Err(e) => {
@@ -425,7 +467,10 @@ fn on_cancel(phase: Phase, reason: Option<CancelReason>, group: &GroupGuard, gra
         }
         Phase::Running => {
             group.signal(Signal::SIGTERM);
-            Phase::Terminating { why: Why::Cancel, kill_at: Instant::now() + grace }
+            Phase::Terminating {
+                why: Why::Cancel,
+                kill_at: Instant::now() + grace,
+            }
         }
         // Already being stopped (timeout): it ends as it was going to; it is not retried (the
         // unit checks the cancel reason before every attempt).

@@ -31,9 +31,18 @@ pub struct Holder {
 
 impl Holder {
     fn me() -> Self {
-        let host = nix::unistd::gethostname().map(|h| h.to_string_lossy().into_owned()).unwrap_or_else(|_| "?".into());
-        let started = SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
-        Holder { pid: std::process::id(), host, started }
+        let host = nix::unistd::gethostname()
+            .map(|h| h.to_string_lossy().into_owned())
+            .unwrap_or_else(|_| "?".into());
+        let started = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map(|d| d.as_secs())
+            .unwrap_or(0);
+        Holder {
+            pid: std::process::id(),
+            host,
+            started,
+        }
     }
 }
 
@@ -48,7 +57,10 @@ pub enum LockError {
 fn describe(holder: &Option<Holder>) -> String {
     match holder {
         Some(h) => {
-            let now = SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+            let now = SystemTime::now()
+                .duration_since(UNIX_EPOCH)
+                .map(|d| d.as_secs())
+                .unwrap_or(0);
             format!(
                 "pid {} on host {}, started {} s ago (unix time {})",
                 h.pid,
@@ -72,15 +84,26 @@ impl OutLock {
     /// Takes the lock on `out` (which must exist) without waiting; refuses if another process holds it.
     pub fn acquire(out: &Path) -> Result<OutLock, LockError> {
         let path = out.join(LOCK_FILE);
-        let io = |source| LockError::Io { path: path.clone(), source };
+        let io = |source| LockError::Io {
+            path: path.clone(),
+            source,
+        };
         // Not truncated on open: the text belongs to the current holder until we hold the lock.
-        let mut file =
-            OpenOptions::new().read(true).write(true).create(true).truncate(false).open(&path).map_err(io)?;
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(io)?;
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) => {
                 let mut text = String::new();
-                let holder = file.read_to_string(&mut text).ok().and_then(|_| serde_json::from_str(&text).ok());
+                let holder = file
+                    .read_to_string(&mut text)
+                    .ok()
+                    .and_then(|_| serde_json::from_str(&text).ok());
                 return Err(LockError::Held { path, holder });
             }
             Err(TryLockError::Error(e)) => return Err(io(e)),
@@ -103,7 +126,10 @@ impl OutLock {
 /// no lock file yet); `Some(holder)` when someone does (`holder` may be unreadable: `None` inside).
 pub fn probe(out: &Path) -> Result<Option<Option<Holder>>, LockError> {
     let path = out.join(LOCK_FILE);
-    let io = |source| LockError::Io { path: path.clone(), source };
+    let io = |source| LockError::Io {
+        path: path.clone(),
+        source,
+    };
     let mut file = match OpenOptions::new().read(true).open(&path) {
         Ok(f) => f,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
@@ -117,7 +143,11 @@ pub fn probe(out: &Path) -> Result<Option<Option<Holder>>, LockError> {
         }
         Err(TryLockError::WouldBlock) => {
             let mut text = String::new();
-            Ok(Some(file.read_to_string(&mut text).ok().and_then(|_| serde_json::from_str(&text).ok())))
+            Ok(Some(
+                file.read_to_string(&mut text)
+                    .ok()
+                    .and_then(|_| serde_json::from_str(&text).ok()),
+            ))
         }
         Err(TryLockError::Error(e)) => Err(io(e)),
     }

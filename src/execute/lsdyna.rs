@@ -31,7 +31,10 @@ pub struct LsDynaAdapter {
 }
 
 fn bad(problem: ResponseProblem, detail: impl Into<String>) -> Outcome {
-    Outcome::BadResponse { problem, detail: detail.into() }
+    Outcome::BadResponse {
+        problem,
+        detail: detail.into(),
+    }
 }
 
 impl LsDynaAdapter {
@@ -69,7 +72,10 @@ impl Adapter for LsDynaAdapter {
             format!("{:?}", s.disp_sign),
             s.disp_to_mm,
         );
-        format!("lsdyna/1 crush_force {}", serde_json::to_string(&parts).expect("settings serialize"))
+        format!(
+            "lsdyna/1 crush_force {}",
+            serde_json::to_string(&parts).expect("settings serialize")
+        )
     }
 
     fn outputs(&self) -> Vec<PathBuf> {
@@ -77,14 +83,18 @@ impl Adapter for LsDynaAdapter {
     }
 
     fn cleared(&self) -> Vec<PathBuf> {
-        ["messag", "d3hsp", "rcforc", "nodout", "glstat"].into_iter().map(PathBuf::from).collect()
+        ["messag", "d3hsp", "rcforc", "nodout", "glstat"]
+            .into_iter()
+            .map(PathBuf::from)
+            .collect()
     }
 
     fn find_failure(&self, dir: &Path) -> Option<Outcome> {
         match self.termination(dir) {
-            Some((file, termination::Termination::Error(date))) => {
-                Some(Outcome::FailureText { file, line: format!("E r r o r    t e r m i n a t i o n {date}").trim().into() })
-            }
+            Some((file, termination::Termination::Error(date))) => Some(Outcome::FailureText {
+                file,
+                line: format!("E r r o r    t e r m i n a t i o n {date}").trim().into(),
+            }),
             _ => None,
         }
     }
@@ -103,8 +113,12 @@ impl Adapter for LsDynaAdapter {
             let path = dir.join(name);
             match std::fs::read(&path) {
                 Ok(b) if b.is_empty() => Err(bad(ResponseProblem::Empty, format!("{name} is empty"))),
-                Ok(b) => String::from_utf8(b)
-                    .map_err(|_| bad(ResponseProblem::Unparseable, format!("{name} is not text (invalid UTF-8)"))),
+                Ok(b) => String::from_utf8(b).map_err(|_| {
+                    bad(
+                        ResponseProblem::Unparseable,
+                        format!("{name} is not text (invalid UTF-8)"),
+                    )
+                }),
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                     Err(bad(ResponseProblem::Missing, format!("{name} was not written")))
                 }

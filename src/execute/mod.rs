@@ -68,9 +68,9 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 pub use adapter::{Adapter, CommandAdapter};
-pub use lsdyna::LsDynaAdapter;
 pub use executor::{CancelReason, Canceller, Event, Executor, Summary, cancel_on_signals};
 pub use lock::{Holder, LockError, OutLock};
+pub use lsdyna::LsDynaAdapter;
 pub use store::RunStore;
 
 /// File (in the run directory) that receives the solver's standard output.
@@ -207,7 +207,11 @@ pub struct RetryPolicy {
 impl RetryPolicy {
     /// One attempt, no retries.
     pub fn none() -> Self {
-        RetryPolicy { max_attempts: 1, retry_on: Vec::new(), backoff: Backoff::Fixed(Duration::ZERO) }
+        RetryPolicy {
+            max_attempts: 1,
+            retry_on: Vec::new(),
+            backoff: Backoff::Fixed(Duration::ZERO),
+        }
     }
 
     /// Whether an attempt numbered `attempt` (from 1) that ended in `outcome` is tried again.
@@ -252,7 +256,10 @@ mod tests {
 
     #[test]
     fn exponential_backoff_doubles_then_caps() {
-        let b = Backoff::Exponential { initial: Duration::from_millis(100), max: Duration::from_millis(350) };
+        let b = Backoff::Exponential {
+            initial: Duration::from_millis(100),
+            max: Duration::from_millis(350),
+        };
         assert_eq!(b.delay(1), Duration::from_millis(100));
         assert_eq!(b.delay(2), Duration::from_millis(200));
         assert_eq!(b.delay(3), Duration::from_millis(350));

@@ -22,8 +22,11 @@ pub struct Tally {
 
 /// A progress bar over `total` runs; hidden unless stderr is a terminal.
 pub fn bar(total: u64) -> ProgressBar {
-    let target =
-        if std::io::stderr().is_terminal() { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() };
+    let target = if std::io::stderr().is_terminal() {
+        ProgressDrawTarget::stderr()
+    } else {
+        ProgressDrawTarget::hidden()
+    };
     let bar = ProgressBar::with_draw_target(Some(total), target);
     let style = ProgressStyle::with_template("{bar:30} {pos}/{len} runs  {msg}  {per_sec}  ETA {eta}")
         .unwrap_or_else(|_| ProgressStyle::default_bar());
@@ -54,7 +57,12 @@ pub async fn report(mut events: mpsc::UnboundedReceiver<Event>, bar: ProgressBar
                 tally.running.remove(&key);
             }
         }
-        bar.set_message(format!("{} done, {} running, {} failed", tally.done, tally.running.len(), tally.failed));
+        bar.set_message(format!(
+            "{} done, {} running, {} failed",
+            tally.done,
+            tally.running.len(),
+            tally.failed
+        ));
     }
     bar.finish_and_clear();
     tally
@@ -69,7 +77,10 @@ pub fn summary_table(classes: &BTreeMap<OutcomeClass, usize>, reused: usize, mis
     }
     for (class, n) in classes.iter().filter(|(_, n)| **n > 0) {
         rows.push((
-            serde_json::to_value(class).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+            serde_json::to_value(class)
+                .ok()
+                .and_then(|v| v.as_str().map(String::from))
+                .unwrap_or_default(),
             *n,
         ));
     }

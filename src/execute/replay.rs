@@ -56,8 +56,13 @@ pub struct InputDigest {
 
 impl InputDigest {
     pub fn of(bytes: &[u8]) -> Self {
-        let text = (bytes.len() <= KEEP_TEXT).then(|| String::from_utf8(bytes.to_vec()).ok()).flatten();
-        InputDigest { blake3: blake3::hash(bytes).to_hex().to_string(), text }
+        let text = (bytes.len() <= KEEP_TEXT)
+            .then(|| String::from_utf8(bytes.to_vec()).ok())
+            .flatten();
+        InputDigest {
+            blake3: blake3::hash(bytes).to_hex().to_string(),
+            text,
+        }
     }
 }
 
@@ -86,7 +91,9 @@ pub fn record(dir: &Path, run_dir: &Path, manifest: &Manifest) -> std::io::Resul
 
 /// Every readable manifest in `dir`.
 pub fn manifests(dir: &Path) -> Vec<Manifest> {
-    let Ok(entries) = fs::read_dir(dir) else { return Vec::new() };
+    let Ok(entries) = fs::read_dir(dir) else {
+        return Vec::new();
+    };
     let mut out: Vec<Manifest> = entries
         .filter_map(|e| e.ok())
         .filter_map(|e| fs::read(e.path().join(MANIFEST)).ok())
@@ -116,14 +123,19 @@ pub fn explain_miss(dir: &Path, wanted: &Manifest, recorded: &[Manifest]) -> Str
         ));
         return text;
     }
-    let same_point = recorded.iter().find(|m| m.design == wanted.design && m.parameters == wanted.parameters);
+    let same_point = recorded
+        .iter()
+        .find(|m| m.design == wanted.design && m.parameters == wanted.parameters);
     let same_design = recorded.iter().find(|m| m.design == wanted.design);
     let Some(m) = same_point.or(same_design) else {
         text.push_str(&format!("; no recording has design `{}`", wanted.design));
         return text;
     };
     if same_point.is_some() {
-        text.push_str(&format!("; recording {} has the same design and parameters but ", m.key));
+        text.push_str(&format!(
+            "; recording {} has the same design and parameters but ",
+            m.key
+        ));
     } else {
         let p: Vec<String> = m.parameters.iter().map(|(k, v)| format!("{k} = {v}")).collect();
         text.push_str(&format!(
@@ -140,14 +152,24 @@ pub fn explain_miss(dir: &Path, wanted: &Manifest, recorded: &[Manifest]) -> Str
 pub fn differences(recorded: &Manifest, now: &Manifest) -> Vec<String> {
     let mut out = Vec::new();
     if recorded.command != now.command {
-        out.push(format!("the command changed: recorded {:?}, now {:?}", recorded.command, now.command));
+        out.push(format!(
+            "the command changed: recorded {:?}, now {:?}",
+            recorded.command, now.command
+        ));
     }
     if recorded.adapter != now.adapter {
-        out.push(format!("the adapter settings changed: recorded `{}`, now `{}`", recorded.adapter, now.adapter));
+        out.push(format!(
+            "the adapter settings changed: recorded `{}`, now `{}`",
+            recorded.adapter, now.adapter
+        ));
     }
     for (name, was) in &recorded.shared {
         match now.shared.get(name) {
-            Some(is) if is != was => out.push(format!("shared file {name} changed (hash {} → {})", short(was), short(is))),
+            Some(is) if is != was => out.push(format!(
+                "shared file {name} changed (hash {} → {})",
+                short(was),
+                short(is)
+            )),
             None => out.push(format!("shared file {name} is no longer used")),
             _ => {}
         }
@@ -173,11 +195,19 @@ fn short(hash: &str) -> &str {
 }
 
 fn changed_input(path: &str, recorded: &InputDigest, now: &InputDigest) -> String {
-    let head = format!("input {path} changed (hash {} → {})", short(&recorded.blake3), short(&now.blake3));
-    let (Some(a), Some(b)) = (&recorded.text, &now.text) else { return head };
+    let head = format!(
+        "input {path} changed (hash {} → {})",
+        short(&recorded.blake3),
+        short(&now.blake3)
+    );
+    let (Some(a), Some(b)) = (&recorded.text, &now.text) else {
+        return head;
+    };
     let (la, lb): (Vec<&str>, Vec<&str>) = (a.lines().collect(), b.lines().collect());
     let n = la.len().max(lb.len());
-    let Some(i) = (0..n).find(|&i| la.get(i) != lb.get(i)) else { return head };
+    let Some(i) = (0..n).find(|&i| la.get(i) != lb.get(i)) else {
+        return head;
+    };
     let changed = (i..n).filter(|&k| la.get(k) != lb.get(k)).count();
     let show = |l: Option<&&str>| l.map_or("(none)".to_string(), |s| format!("`{}`", s.trim_end()));
     format!(
@@ -185,7 +215,11 @@ fn changed_input(path: &str, recorded: &InputDigest, now: &InputDigest) -> Strin
         i + 1,
         show(la.get(i)),
         show(lb.get(i)),
-        if changed > 1 { format!(" ({changed} lines differ)") } else { String::new() }
+        if changed > 1 {
+            format!(" ({changed} lines differ)")
+        } else {
+            String::new()
+        }
     )
 }
 

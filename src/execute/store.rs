@@ -50,7 +50,10 @@ impl From<StoreError> for crate::error::Error {
 }
 
 fn io_at(path: &Path) -> impl FnOnce(std::io::Error) -> StoreError + '_ {
-    move |source| StoreError::Io { path: path.to_path_buf(), source }
+    move |source| StoreError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 /// The key of a run: hash of its inputs `(relative path, bytes)`, argv and adapter identity.
@@ -146,7 +149,12 @@ impl RunStore {
             }
         }
         cleaned.sort();
-        Ok(RunStore { out: out.to_path_buf(), records, cleaned, _lock: lock })
+        Ok(RunStore {
+            out: out.to_path_buf(),
+            records,
+            cleaned,
+            _lock: lock,
+        })
     }
 
     pub fn out(&self) -> &Path {
@@ -204,7 +212,9 @@ impl RunStore {
 
     /// A committer into this store's results directory, for the executor.
     pub fn committer(&self) -> Committer {
-        Committer { results: self.out.join(RESULTS_DIR) }
+        Committer {
+            results: self.out.join(RESULTS_DIR),
+        }
     }
 
     /// Commits `record` durably and remembers it.
@@ -248,10 +258,14 @@ fn load_records(results: &Path, clean: bool) -> Result<BTreeMap<String, RunRecor
             }
             continue;
         }
-        let Some(key) = name.strip_suffix(".json") else { continue };
+        let Some(key) = name.strip_suffix(".json") else {
+            continue;
+        };
         let bytes = fs::read(&path).map_err(io_at(&path))?;
-        let record: RunRecord =
-            serde_json::from_slice(&bytes).map_err(|source| StoreError::Corrupt { path: path.clone(), source })?;
+        let record: RunRecord = serde_json::from_slice(&bytes).map_err(|source| StoreError::Corrupt {
+            path: path.clone(),
+            source,
+        })?;
         records.insert(key.to_string(), record);
     }
     Ok(records)
@@ -270,9 +284,10 @@ impl Snapshot {
         let records = load_records(&out.join(RESULTS_DIR), false)?;
         let runs = out.join(RUNS_DIR);
         let run_dirs = match fs::read_dir(&runs) {
-            Ok(entries) => {
-                entries.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect()
-            }
+            Ok(entries) => entries
+                .filter_map(|e| e.ok())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect(),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Default::default(),
             Err(e) => return Err(io_at(&runs)(e)),
         };
@@ -282,7 +297,11 @@ impl Snapshot {
 
 fn remove_any(path: &Path) -> Result<(), StoreError> {
     let meta = fs::symlink_metadata(path).map_err(io_at(path))?;
-    let r = if meta.is_dir() { fs::remove_dir_all(path) } else { fs::remove_file(path) };
+    let r = if meta.is_dir() {
+        fs::remove_dir_all(path)
+    } else {
+        fs::remove_file(path)
+    };
     r.map_err(io_at(path))
 }
 
@@ -291,7 +310,10 @@ mod tests {
     use super::*;
 
     fn inputs(pairs: &[(&str, &str)]) -> Vec<(PathBuf, Vec<u8>)> {
-        pairs.iter().map(|(p, b)| (PathBuf::from(p), b.as_bytes().to_vec())).collect()
+        pairs
+            .iter()
+            .map(|(p, b)| (PathBuf::from(p), b.as_bytes().to_vec()))
+            .collect()
     }
 
     #[test]
@@ -305,7 +327,10 @@ mod tests {
         assert_ne!(k, run_key(&inputs(&[("a", "1"), ("b", "2")]), &argv[..1], "id"));
         assert_ne!(k, run_key(&inputs(&[("a", "1"), ("b", "2")]), &argv, "id2"));
         // Length prefixes: moving bytes between a name and its content changes the key.
-        assert_ne!(run_key(&inputs(&[("ab", "c")]), &argv, "id"), run_key(&inputs(&[("a", "bc")]), &argv, "id"));
+        assert_ne!(
+            run_key(&inputs(&[("ab", "c")]), &argv, "id"),
+            run_key(&inputs(&[("a", "bc")]), &argv, "id")
+        );
     }
 
     #[test]
@@ -313,7 +338,13 @@ mod tests {
         let out = tempfile::tempdir().unwrap();
         let store = RunStore::open(out.path()).unwrap();
         for bad in ["../x", "/etc/x", "a/../../x", ""] {
-            assert!(matches!(store.prepare("k", &inputs(&[(bad, "1")])), Err(StoreError::BadInputPath(_))), "{bad}");
+            assert!(
+                matches!(
+                    store.prepare("k", &inputs(&[(bad, "1")])),
+                    Err(StoreError::BadInputPath(_))
+                ),
+                "{bad}"
+            );
         }
         let dir = store.prepare("k", &inputs(&[("sub/in.txt", "1")])).unwrap();
         assert_eq!(fs::read_to_string(dir.join("sub/in.txt")).unwrap(), "1");

@@ -47,10 +47,13 @@ pub struct Prepared {
 /// The study's adapter: `command` (response file + regex), `lsdyna` (crush force) or `calculix`.
 pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
     Ok(match &sim.response {
-        Response::Regex { file, regex } => Arc::new(
-            CommandAdapter::new(file, regex, &[]).map_err(|e| Error::Failed(format!("response regex: {e}")))?,
-        ),
-        Response::CrushForce { window, source } => Arc::new(LsDynaAdapter { window: *window, source: source.clone() }),
+        Response::Regex { file, regex } => {
+            Arc::new(CommandAdapter::new(file, regex, &[]).map_err(|e| Error::Failed(format!("response regex: {e}")))?)
+        }
+        Response::CrushForce { window, source } => Arc::new(LsDynaAdapter {
+            window: *window,
+            source: source.clone(),
+        }),
         Response::Dat(ccx) => Arc::new(ccx.clone()),
     })
 }
@@ -85,8 +88,8 @@ pub fn prepare(study: &Study, sim: &SolverSimulation, plan: &Plan) -> Result<Pre
                             length: spec.length,
                             element: spec.element_size,
                         };
-                        let (text, _) = mesh::include(&tube)
-                            .map_err(|e| Error::Failed(format!("design `{}`: {e}", run.design)))?;
+                        let (text, _) =
+                            mesh::include(&tube).map_err(|e| Error::Failed(format!("design `{}`: {e}", run.design)))?;
                         let hash = blake3::hash(text.as_bytes()).to_hex();
                         let path = PathBuf::from(MESHES_DIR).join(format!("{}-{}.k", run.design, &hash[..16]));
                         prepared.meshes.insert(path.clone(), text.into_bytes());
@@ -124,7 +127,13 @@ pub fn write_meshes(out: &std::path::Path, prepared: &Prepared) -> Result<(), Er
 }
 
 /// The manifest of planned run `i`: what a recording of it holds and what a miss compares.
-pub fn manifest(study: &Study, sim: &SolverSimulation, plan: &Plan, prepared: &Prepared, i: usize) -> Result<Manifest, Error> {
+pub fn manifest(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    prepared: &Prepared,
+    i: usize,
+) -> Result<Manifest, Error> {
     let run = &plan.runs[i];
     let key = &prepared.keys[i];
     let adapter = adapter(sim)?;
@@ -143,7 +152,12 @@ pub fn manifest(study: &Study, sim: &SolverSimulation, plan: &Plan, prepared: &P
         key: key.clone(),
         design: run.design.clone(),
         role: run.role.key().to_string(),
-        parameters: study.parameters.iter().map(|p| p.name.clone()).zip(run.theta.iter().copied()).collect(),
+        parameters: study
+            .parameters
+            .iter()
+            .map(|p| p.name.clone())
+            .zip(run.theta.iter().copied())
+            .collect(),
         command: sim.command.clone(),
         adapter: adapter.identity(),
         inputs,
@@ -195,7 +209,11 @@ pub fn replay_runs(
         }
         let Some(at) = replay::find(dir, key) else {
             let all = recorded.get_or_insert_with(|| replay::manifests(dir));
-            misses.push(replay::explain_miss(dir, &manifest(study, sim, plan, prepared, i)?, all));
+            misses.push(replay::explain_miss(
+                dir,
+                &manifest(study, sim, plan, prepared, i)?,
+                all,
+            ));
             continue;
         };
         let started = now_ms();
@@ -206,14 +224,23 @@ pub fn replay_runs(
                 Err(o) => (o, None),
             },
         };
-        let record = RunRecord { key: key.clone(), outcome, attempts: 1, started_ms: started, ended_ms: now_ms(), response };
+        let record = RunRecord {
+            key: key.clone(),
+            outcome,
+            attempts: 1,
+            started_ms: started,
+            ended_ms: now_ms(),
+            response,
+        };
         store.commit(record)?;
     }
     Ok((SweepResult::from_store(store, prepared, reused, Vec::new()), misses))
 }
 
 fn now_ms() -> u64 {
-    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64)
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64)
 }
 
 fn with_run(mut e: InputError, design: &str) -> InputError {
@@ -282,9 +309,22 @@ pub struct SweepResult {
 impl SweepResult {
     /// Every planned run's response and outcome class as the store now holds them, in plan order.
     fn from_store(store: &RunStore, prepared: &Prepared, reused: usize, errors: Vec<String>) -> SweepResult {
-        let responses = prepared.keys.iter().map(|k| store.record(k).and_then(|r| r.response)).collect();
-        let classes = prepared.keys.iter().map(|k| store.record(k).map(|r| r.outcome.class())).collect();
-        SweepResult { responses, classes, reused, errors }
+        let responses = prepared
+            .keys
+            .iter()
+            .map(|k| store.record(k).and_then(|r| r.response))
+            .collect();
+        let classes = prepared
+            .keys
+            .iter()
+            .map(|k| store.record(k).map(|r| r.outcome.class()))
+            .collect();
+        SweepResult {
+            responses,
+            classes,
+            reused,
+            errors,
+        }
     }
 }
 

@@ -64,7 +64,10 @@ pub enum CrushError {
 }
 
 fn data(what: &str, message: impl Into<String>) -> CrushError {
-    CrushError::Data { what: what.to_string(), message: message.into() }
+    CrushError::Data {
+        what: what.to_string(),
+        message: message.into(),
+    }
 }
 
 /// Which simulation histories make the curve, and their units.
@@ -97,7 +100,12 @@ fn check_series(what: &str, t: &[f64], v: &[f64]) -> Result<(), CrushError> {
     if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
         return Err(data(
             what,
-            format!("time must increase strictly; sample {} is at {} after {}", i + 2, t[i + 1], t[i]),
+            format!(
+                "time must increase strictly; sample {} is at {} after {}",
+                i + 2,
+                t[i + 1],
+                t[i]
+            ),
         ));
     }
     Ok(())
@@ -134,15 +142,26 @@ pub fn from_histories(
     let lo = force_time[0].max(disp_time[0]);
     let hi = force_time[force_time.len() - 1].min(disp_time[disp_time.len() - 1]);
     if hi <= lo {
-        return Err(data("histories", format!("force and displacement times do not overlap ({lo} .. {hi})")));
+        return Err(data(
+            "histories",
+            format!("force and displacement times do not overlap ({lo} .. {hi})"),
+        ));
     }
-    let mut times: Vec<f64> = force_time.iter().chain(disp_time).copied().filter(|&t| t >= lo && t <= hi).collect();
+    let mut times: Vec<f64> = force_time
+        .iter()
+        .chain(disp_time)
+        .copied()
+        .filter(|&t| t >= lo && t <= hi)
+        .collect();
     times.sort_by(f64::total_cmp);
     times.dedup();
     let mut d: Vec<f64> = times.iter().map(|&t| interp(disp_time, disp, t)).collect();
     let mut f: Vec<f64> = times.iter().map(|&t| interp(force_time, force, t)).collect();
     apply_signs(&mut d, &mut f, force_sign, disp_sign);
-    Ok(ForceDisplacement { displacement: d, force: f })
+    Ok(ForceDisplacement {
+        displacement: d,
+        force: f,
+    })
 }
 
 fn apply_signs(d: &mut [f64], f: &mut [f64], force_sign: Sign, disp_sign: Sign) {
@@ -173,7 +192,10 @@ fn apply_signs(d: &mut [f64], f: &mut [f64], force_sign: Sign, disp_sign: Sign) 
 }
 
 fn trapezoid(d: &[f64], f: &[f64]) -> f64 {
-    d.windows(2).zip(f.windows(2)).map(|(dd, ff)| 0.5 * (ff[0] + ff[1]) * (dd[1] - dd[0])).sum()
+    d.windows(2)
+        .zip(f.windows(2))
+        .map(|(dd, ff)| 0.5 * (ff[0] + ff[1]) * (dd[1] - dd[0]))
+        .sum()
 }
 
 /// The curve from parsed rcforc and nodout files.
@@ -182,13 +204,23 @@ pub fn from_lsdyna(rcforc: &Rcforc, nodout: &Nodout, src: &SimSource) -> Result<
         Side::SurfA => "SURFA/slave",
         Side::SurfB => "SURFB/master",
     };
-    let s = rcforc
-        .interfaces
-        .get(&(src.side, src.interface))
-        .ok_or_else(|| data("rcforc", format!("no {side_name} resultants for interface {}", src.interface)))?;
-    let comp = s.component(src.force_axis).ok_or_else(|| data("settings", "force axis must be 0, 1 or 2"))?;
-    let n = nodout.nodes.get(&src.node).ok_or_else(|| data("nodout", format!("no node {}", src.node)))?;
-    let disp = n.disp.get(src.disp_axis).ok_or_else(|| data("settings", "displacement axis must be 0, 1 or 2"))?;
+    let s = rcforc.interfaces.get(&(src.side, src.interface)).ok_or_else(|| {
+        data(
+            "rcforc",
+            format!("no {side_name} resultants for interface {}", src.interface),
+        )
+    })?;
+    let comp = s
+        .component(src.force_axis)
+        .ok_or_else(|| data("settings", "force axis must be 0, 1 or 2"))?;
+    let n = nodout
+        .nodes
+        .get(&src.node)
+        .ok_or_else(|| data("nodout", format!("no node {}", src.node)))?;
+    let disp = n
+        .disp
+        .get(src.disp_axis)
+        .ok_or_else(|| data("settings", "displacement axis must be 0, 1 or 2"))?;
     if !(src.force_to_kn.is_finite() && src.force_to_kn > 0.0 && src.disp_to_mm.is_finite() && src.disp_to_mm > 0.0) {
         return Err(data("settings", "unit factors must be positive and finite"));
     }
@@ -202,11 +234,17 @@ pub fn crush_force(curve: &ForceDisplacement, w: Window) -> Result<CrushResult, 
     let (d, f) = (&curve.displacement, &curve.force);
     check_series_pairs(d, f)?;
     if !(w.s0.is_finite() && w.s1.is_finite() && w.s1 > w.s0) {
-        return Err(data("stroke window", format!("needs finite s0 < s1, got [{}, {}]", w.s0, w.s1)));
+        return Err(data(
+            "stroke window",
+            format!("needs finite s0 < s1, got [{}, {}]", w.s0, w.s1),
+        ));
     }
     let max_d = d.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     if d[0] > w.s0 {
-        return Err(data("stroke window", format!("the curve starts at {} mm, after s0 = {} mm", d[0], w.s0)));
+        return Err(data(
+            "stroke window",
+            format!("the curve starts at {} mm, after s0 = {} mm", d[0], w.s0),
+        ));
     }
     let n = d.len();
     // Start: the first point where the stroke reaches s0 (segment i0, fraction g0).
@@ -214,14 +252,22 @@ pub fn crush_force(curve: &ForceDisplacement, w: Window) -> Result<CrushResult, 
         (0, 0.0)
     } else {
         let i = (0..n - 1).find(|&i| d[i] < w.s0 && w.s0 <= d[i + 1]).ok_or_else(|| {
-            data("stroke window", format!("s0 = {} mm is never reached (max stroke {max_d} mm)", w.s0))
+            data(
+                "stroke window",
+                format!("s0 = {} mm is never reached (max stroke {max_d} mm)", w.s0),
+            )
         })?;
         (i, (w.s0 - d[i]) / (d[i + 1] - d[i]))
     };
     // End: the first point after the start where the stroke reaches s1.
     let j = (i0..n - 1)
         .find(|&k| (k == i0 || d[k] < w.s1) && w.s1 <= d[k + 1])
-        .ok_or_else(|| data("stroke window", format!("s1 = {} mm is never reached (max stroke {max_d} mm)", w.s1)))?;
+        .ok_or_else(|| {
+            data(
+                "stroke window",
+                format!("s1 = {} mm is never reached (max stroke {max_d} mm)", w.s1),
+            )
+        })?;
     let h = if j == i0 {
         let start = d[i0] + g0 * (d[i0 + 1] - d[i0]);
         g0 + (1.0 - g0) * (w.s1 - start) / (d[i0 + 1] - start)
@@ -246,12 +292,21 @@ pub fn crush_force(curve: &ForceDisplacement, w: Window) -> Result<CrushResult, 
             peak_at = *x;
         }
     }
-    Ok(CrushResult { mean_force: energy / stroke, energy, stroke, peak_force: peak, peak_at })
+    Ok(CrushResult {
+        mean_force: energy / stroke,
+        energy,
+        stroke,
+        peak_force: peak,
+        peak_at,
+    })
 }
 
 fn check_series_pairs(d: &[f64], f: &[f64]) -> Result<(), CrushError> {
     if d.len() != f.len() {
-        return Err(data("curve", format!("{} displacements but {} forces", d.len(), f.len())));
+        return Err(data(
+            "curve",
+            format!("{} displacements but {} forces", d.len(), f.len()),
+        ));
     }
     if d.len() < 2 {
         return Err(data("curve", "needs at least two points"));
@@ -344,9 +399,12 @@ pub fn parse_test_csv(file: &Path, text: &str, opts: CsvOptions) -> Result<Force
             }
             header_seen = true;
             let lower: Vec<String> = cells.iter().map(|c| c.to_ascii_lowercase()).collect();
-            let dcol =
-                lower.iter().position(|c| ["disp", "stroke", "travel", "extension"].iter().any(|k| c.contains(k)));
-            let fcol = lower.iter().position(|c| ["force", "load"].iter().any(|k| c.contains(k)));
+            let dcol = lower
+                .iter()
+                .position(|c| ["disp", "stroke", "travel", "extension"].iter().any(|k| c.contains(k)));
+            let fcol = lower
+                .iter()
+                .position(|c| ["force", "load"].iter().any(|k| c.contains(k)));
             match (dcol, fcol) {
                 (Some(a), Some(b)) if a != b => cols = (a, b),
                 _ => {
@@ -365,7 +423,11 @@ pub fn parse_test_csv(file: &Path, text: &str, opts: CsvOptions) -> Result<Force
                 };
                 match (hu, opts.force_unit) {
                     (Some(h), Some(s)) if h != s => {
-                        return Err(at(no, 1, format!("header says force in {u} but the setting says {s:?}")));
+                        return Err(at(
+                            no,
+                            1,
+                            format!("header says force in {u} but the setting says {s:?}"),
+                        ));
                     }
                     (Some(h), _) => unit = Some(h),
                     (None, _) if !u.is_empty() && u != "force" && u != "load" => {
@@ -379,14 +441,24 @@ pub fn parse_test_csv(file: &Path, text: &str, opts: CsvOptions) -> Result<Force
                     "mm" => disp_scale = 1.0,
                     "m" => disp_scale = 1000.0,
                     "disp" | "displacement" | "stroke" | "travel" | "extension" | "" => {}
-                    other => return Err(at(no, 1, format!("unknown displacement unit `{other}`: expected mm or m"))),
+                    other => {
+                        return Err(at(
+                            no,
+                            1,
+                            format!("unknown displacement unit `{other}`: expected mm or m"),
+                        ));
+                    }
                 }
             }
             continue;
         }
         let need = cols.0.max(cols.1) + 1;
         if cells.len() < need {
-            return Err(at(no, 1, format!("expected at least {need} columns, found {}", cells.len())));
+            return Err(at(
+                no,
+                1,
+                format!("expected at least {need} columns, found {}", cells.len()),
+            ));
         }
         let dv = parse_number(cells[cols.0]).unwrap_or(f64::NAN);
         let fv = parse_number(cells[cols.1]).unwrap_or(f64::NAN);
@@ -403,8 +475,14 @@ pub fn parse_test_csv(file: &Path, text: &str, opts: CsvOptions) -> Result<Force
         ));
     };
     if d.len() < 2 {
-        return Err(InputError::file(file, "expected at least two data rows of displacement and force"));
+        return Err(InputError::file(
+            file,
+            "expected at least two data rows of displacement and force",
+        ));
     }
     let k = unit.to_kn();
-    Ok(ForceDisplacement { displacement: d, force: f.into_iter().map(|x| x * k).collect() })
+    Ok(ForceDisplacement {
+        displacement: d,
+        force: f.into_iter().map(|x| x * k).collect(),
+    })
 }

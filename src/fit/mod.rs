@@ -34,7 +34,11 @@ pub struct Surrogate {
 
 #[derive(Debug, Clone)]
 enum Fitted {
-    Polynomial { bounds: Bounds, quadratic: bool, coefficients: DVector<f64> },
+    Polynomial {
+        bounds: Bounds,
+        quadratic: bool,
+        coefficients: DVector<f64>,
+    },
     Gp(Box<Emulator>),
 }
 
@@ -42,7 +46,12 @@ enum Fitted {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FitError {
     #[error("{kind} surrogate over {p} parameter(s) needs at least {needed} successful runs, got {given}")]
-    TooFewRuns { kind: &'static str, p: usize, needed: usize, given: usize },
+    TooFewRuns {
+        kind: &'static str,
+        p: usize,
+        needed: usize,
+        given: usize,
+    },
     #[error("a response is not a finite number")]
     NonFinite,
     #[error("{0}")]
@@ -51,8 +60,11 @@ pub enum FitError {
 
 /// Polynomial features of `theta` scaled to [-1, 1]: 1, t_k, then t_j t_k (j ≤ k) if quadratic.
 fn features(bounds: &Bounds, quadratic: bool, theta: &[f64]) -> Vec<f64> {
-    let t: Vec<f64> =
-        theta.iter().enumerate().map(|(k, v)| 2.0 * (v - bounds.lower[k]) / bounds.width()[k] - 1.0).collect();
+    let t: Vec<f64> = theta
+        .iter()
+        .enumerate()
+        .map(|(k, v)| 2.0 * (v - bounds.lower[k]) / bounds.width()[k] - 1.0)
+        .collect();
     let mut f = vec![1.0];
     f.extend(&t);
     if quadratic {
@@ -69,9 +81,17 @@ impl Surrogate {
         let p = bounds.dim();
         let needed = kind.min_samples(p);
         if samples.len() < needed {
-            return Err(FitError::TooFewRuns { kind: kind.key(), p, needed, given: samples.len() });
+            return Err(FitError::TooFewRuns {
+                kind: kind.key(),
+                p,
+                needed,
+                given: samples.len(),
+            });
         }
-        if samples.iter().any(|(t, y)| !y.is_finite() || t.iter().any(|v| !v.is_finite())) {
+        if samples
+            .iter()
+            .any(|(t, y)| !y.is_finite() || t.iter().any(|v| !v.is_finite()))
+        {
             return Err(FitError::NonFinite);
         }
         let fitted = match kind {
@@ -90,9 +110,15 @@ impl Surrogate {
 
     pub fn predict(&self, theta: &[f64]) -> f64 {
         match &self.fitted {
-            Fitted::Polynomial { bounds, quadratic, coefficients } => {
-                features(bounds, *quadratic, theta).iter().zip(coefficients.iter()).map(|(f, c)| f * c).sum()
-            }
+            Fitted::Polynomial {
+                bounds,
+                quadratic,
+                coefficients,
+            } => features(bounds, *quadratic, theta)
+                .iter()
+                .zip(coefficients.iter())
+                .map(|(f, c)| f * c)
+                .sum(),
             Fitted::Gp(emulator) => emulator.mean(&DMatrix::from_row_slice(1, theta.len(), theta))[0],
         }
     }
@@ -117,7 +143,11 @@ fn polynomial(samples: &[(Vec<f64>, f64)], bounds: &Bounds, quadratic: bool) -> 
         .svd(true, true)
         .solve(&b, 1e-12)
         .map_err(|e| FitError::Numerics(format!("least squares of the surrogate: {e}")))?;
-    Ok(Fitted::Polynomial { bounds: bounds.clone(), quadratic, coefficients })
+    Ok(Fitted::Polynomial {
+        bounds: bounds.clone(),
+        quadratic,
+        coefficients,
+    })
 }
 
 /// A surrogate's error at the check runs (`None` without check runs).
@@ -148,7 +178,10 @@ pub struct SurrogateModel {
 
 impl Model for SurrogateModel {
     fn predict(&self, design: &[f64], theta: &[f64]) -> f64 {
-        self.designs.iter().find(|d| d.values == design).map_or(f64::NAN, |d| d.surrogate.predict(theta))
+        self.designs
+            .iter()
+            .find(|d| d.values == design)
+            .map_or(f64::NAN, |d| d.surrogate.predict(theta))
     }
 }
 
@@ -201,6 +234,16 @@ mod tests {
     #[test]
     fn too_few_runs_is_an_error() {
         let e = Surrogate::fit(SurrogateKind::Quadratic, &samples(|a, _| a)[..5], &bounds()).unwrap_err();
-        assert!(matches!(e, FitError::TooFewRuns { needed: 6, given: 5, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                FitError::TooFewRuns {
+                    needed: 6,
+                    given: 5,
+                    ..
+                }
+            ),
+            "{e}"
+        );
     }
 }

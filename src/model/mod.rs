@@ -17,7 +17,9 @@ pub struct ExpressionModel {
 impl ExpressionModel {
     /// The closed form of `study`, or `None` when its simulation is a solver.
     pub fn new(study: &Study) -> Option<Self> {
-        let Simulation::Expression(expr) = &study.simulation else { return None };
+        let Simulation::Expression(expr) = &study.simulation else {
+            return None;
+        };
         Some(ExpressionModel {
             expr: expr.clone(),
             n_design: study.design.len(),

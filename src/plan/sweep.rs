@@ -60,7 +60,11 @@ impl Plan {
         let p = bounds.dim();
         let scale = |unit: DMatrix<f64>| -> Vec<Vec<f64>> {
             (0..unit.nrows())
-                .map(|i| (0..p).map(|k| bounds.lower[k] + unit[(i, k)] * bounds.width()[k]).collect())
+                .map(|i| {
+                    (0..p)
+                        .map(|k| bounds.lower[k] + unit[(i, k)] * bounds.width()[k])
+                        .collect()
+                })
                 .collect()
         };
         // A solver with fixed-width number fields reads a rounded value: plan that value, so the
@@ -102,13 +106,21 @@ impl Plan {
 /// surrogate lives on the baseline's points. They come after all baseline runs, so adding an
 /// extension leaves the baseline's plan (and its run keys) as it was.
 fn extension_runs(study: &Study, baseline: &[PlannedRun]) -> Vec<PlannedRun> {
-    let extensions = study.diagnosis.hypotheses.iter().enumerate().filter(|(_, h)| h.extension().is_some());
+    let extensions = study
+        .diagnosis
+        .hypotheses
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| h.extension().is_some());
     extensions
         .flat_map(|(k, _)| {
             baseline
                 .iter()
                 .filter(|r| r.role == RunRole::Sample)
-                .map(move |r| PlannedRun { role: RunRole::Extension(k), ..r.clone() })
+                .map(move |r| PlannedRun {
+                    role: RunRole::Extension(k),
+                    ..r.clone()
+                })
         })
         .collect()
 }
@@ -138,8 +150,9 @@ mod tests {
     fn grid_covers_every_combination_with_ends() {
         let g = grid(3, 2);
         assert_eq!(g.nrows(), 9);
-        let mut points: Vec<(u32, u32)> =
-            (0..9).map(|i| ((g[(i, 0)] * 2.0).round() as u32, (g[(i, 1)] * 2.0).round() as u32)).collect();
+        let mut points: Vec<(u32, u32)> = (0..9)
+            .map(|i| ((g[(i, 0)] * 2.0).round() as u32, (g[(i, 1)] * 2.0).round() as u32))
+            .collect();
         points.sort();
         points.dedup();
         assert_eq!(points.len(), 9);

@@ -53,7 +53,10 @@ impl Renderer {
         for (i, t) in templates.iter().enumerate() {
             tera.add_raw_template(&name(i), &t.source).map_err(|e| located(t, &e))?;
         }
-        Ok(Renderer { tera, templates: templates.to_vec() })
+        Ok(Renderer {
+            tera,
+            templates: templates.to_vec(),
+        })
     }
 
     /// Renders every template with `context`, in the study's order.
@@ -81,7 +84,13 @@ fn located(template: &Template, error: &tera::Error) -> InputError {
     if span.start_line == 0 {
         return InputError::file(&template.file, message);
     }
-    InputError::at(&template.file, &template.source, span.start_line, span.start_col + 1, message)
+    InputError::at(
+        &template.file,
+        &template.source,
+        span.start_line,
+        span.start_col + 1,
+        message,
+    )
 }
 
 /// The template context of a run: design variables, parameters, constants, `design_name`.
@@ -132,12 +141,18 @@ mod tests {
     use super::*;
 
     fn template(source: &str) -> Template {
-        Template { file: "dir/in.txt.tera".into(), output: "in.txt".into(), source: source.into() }
+        Template {
+            file: "dir/in.txt.tera".into(),
+            output: "in.txt".into(),
+            source: source.into(),
+        }
     }
 
     #[test]
     fn syntax_error_names_file_and_line() {
-        let e = Renderer::new(&[template("a\nb = {{ E \n")]).err().expect("syntax error");
+        let e = Renderer::new(&[template("a\nb = {{ E \n")])
+            .err()
+            .expect("syntax error");
         assert_eq!(e.file, PathBuf::from("dir/in.txt.tera"));
         assert_eq!(e.span.as_ref().map(|s| s.line), Some(2), "{e}");
         assert!(e.message.contains("syntax"), "{e}");

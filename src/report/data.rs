@@ -183,7 +183,10 @@ impl ReportData {
 
     /// The study part and, from the calibration, the posterior and prediction curves.
     pub fn build(study: &Study, model: &dyn Model, calibration: &Calibration) -> ReportData {
-        let mut data = ReportData { study: StudyInfo::from(study), ..Default::default() };
+        let mut data = ReportData {
+            study: StudyInfo::from(study),
+            ..Default::default()
+        };
         for (method, outcome) in &calibration.methods {
             let Ok(calibrated) = outcome else { continue };
             if let Calibrated::Bayesian(fit) = calibrated {
@@ -196,7 +199,8 @@ impl ReportData {
                 data.posterior = Some(Posterior { parameters, samples });
             }
             if study.design.len() == 1 {
-                data.prediction_curves.push(prediction_curve(study, model, method.key(), calibrated));
+                data.prediction_curves
+                    .push(prediction_curve(study, model, method.key(), calibrated));
             }
         }
         data
@@ -265,11 +269,16 @@ impl ReportData {
 }
 
 fn class_key(class: crate::execute::OutcomeClass) -> String {
-    serde_json::to_value(class).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()
+    serde_json::to_value(class)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_string))
+        .unwrap_or_default()
 }
 
 fn grid(lo: f64, hi: f64) -> Vec<f64> {
-    (0..CURVE_POINTS).map(|i| lo + (hi - lo) * i as f64 / (CURVE_POINTS - 1) as f64).collect()
+    (0..CURVE_POINTS)
+        .map(|i| lo + (hi - lo) * i as f64 / (CURVE_POINTS - 1) as f64)
+        .collect()
 }
 
 /// The method's prediction over the design range plus at every tested design; points where the
@@ -280,8 +289,17 @@ fn prediction_curve(study: &Study, model: &dyn Model, method: &str, calibrated: 
     x.extend(study.experiments.designs.iter().map(|t| t.values[0]));
     x.sort_by(f64::total_cmp);
     x.dedup();
-    let (x, y) = x.into_iter().map(|v| (v, calibrated.predict(model, &[v]))).filter(|(_, y)| y.is_finite()).unzip();
-    PredictionCurve { method: method.to_string(), design_variable: study.design[0].name.clone(), x, y }
+    let (x, y) = x
+        .into_iter()
+        .map(|v| (v, calibrated.predict(model, &[v])))
+        .filter(|(_, y)| y.is_finite())
+        .unzip();
+    PredictionCurve {
+        method: method.to_string(),
+        design_variable: study.design[0].name.clone(),
+        x,
+        y,
+    }
 }
 
 impl From<&Study> for StudyInfo {
@@ -301,7 +319,12 @@ impl From<&Study> for StudyInfo {
         let parameters = study
             .parameters
             .iter()
-            .map(|p| Variable { name: p.name.clone(), unit: p.unit.clone(), min: Some(p.min), max: Some(p.max) })
+            .map(|p| Variable {
+                name: p.name.clone(),
+                unit: p.unit.clone(),
+                min: Some(p.min),
+                max: Some(p.max),
+            })
             .collect();
         let (simulation, solver) = match &study.simulation {
             Simulation::Expression(e) => (e.text().to_string(), None),
@@ -350,6 +373,9 @@ fn solver_info(sim: &SolverSimulation) -> SolverInfo {
     SolverInfo {
         adapter: sim.adapter.clone(),
         surrogate: sim.surrogate.key().to_string(),
-        sampling: format!("{method}, {} samples + {} check runs per design, seed {}", s.count, s.check_runs, s.seed),
+        sampling: format!(
+            "{method}, {} samples + {} check runs per design, seed {}",
+            s.count, s.check_runs, s.seed
+        ),
     }
 }

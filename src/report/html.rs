@@ -14,8 +14,15 @@ use super::results::{Results, Role};
 use super::summary::significant;
 
 /// Section ids, in page order (the browser test checks them).
-pub const SECTIONS: [&str; 7] =
-    ["study", "force-displacement", "surrogates", "calibration", "identifiability", "diagnosis", "runs"];
+pub const SECTIONS: [&str; 7] = [
+    "study",
+    "force-displacement",
+    "surrogates",
+    "calibration",
+    "identifiability",
+    "diagnosis",
+    "runs",
+];
 
 pub fn render(results: &Results, data: Option<&ReportData>) -> String {
     let page = Page { r: results, d: data };
@@ -101,7 +108,10 @@ fn method_color(key: &str) -> usize {
 }
 
 fn figure(id: &str, svg: String, caption: &str) -> String {
-    format!("<figure class=plot id={id}>{svg}<figcaption>{}</figcaption></figure>", escape(caption))
+    format!(
+        "<figure class=plot id={id}>{svg}<figcaption>{}</figcaption></figure>",
+        escape(caption)
+    )
 }
 
 fn note(text: &str) -> String {
@@ -118,15 +128,27 @@ fn with_unit(v: f64, unit: Option<&str>, sig: usize) -> String {
 
 /// A relative error as a percentage with three significant figures.
 fn pct(x: Option<f64>) -> String {
-    x.map_or("–".to_string(), |v| if v.abs() < 1e-9 { "0 %".into() } else { format!("{} %", short(100.0 * v, 3)) })
+    x.map_or("–".to_string(), |v| {
+        if v.abs() < 1e-9 {
+            "0 %".into()
+        } else {
+            format!("{} %", short(100.0 * v, 3))
+        }
+    })
 }
 
 fn seconds(s: f64) -> String {
-    if s >= 100.0 { format!("{s:.0} s") } else { format!("{} s", significant(s, 3)) }
+    if s >= 100.0 {
+        format!("{s:.0} s")
+    } else {
+        format!("{} s", significant(s, 3))
+    }
 }
 
 fn id_part(s: &str) -> String {
-    s.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect()
+    s.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
+        .collect()
 }
 
 impl Page<'_> {
@@ -160,7 +182,11 @@ impl Page<'_> {
     fn study(&self) -> String {
         let mut s = String::new();
         let Some(info) = self.study_info() else {
-            let _ = write!(s, "{}", note("the study description is recorded in report-data.json, which is missing"));
+            let _ = write!(
+                s,
+                "{}",
+                note("the study description is recorded in report-data.json, which is missing")
+            );
             return s + &self.runs_summary();
         };
         s.push_str("<table><tr><th class=l>item</th><th class=l>value</th></tr>");
@@ -175,11 +201,22 @@ impl Page<'_> {
             ),
         };
         let _ = write!(s, "<tr><td class=l>simulation</td><td class=l>{sim}</td></tr>");
-        let _ = write!(s, "<tr><td class=l>response</td><td class=l>{}</td></tr>", escape(&self.response_label()));
+        let _ = write!(
+            s,
+            "<tr><td class=l>response</td><td class=l>{}</td></tr>",
+            escape(&self.response_label())
+        );
         if !info.constants.is_empty() {
-            let c: Vec<String> =
-                info.constants.iter().map(|(k, v)| format!("{} = {}", escape(k), short(*v, 6))).collect();
-            let _ = write!(s, "<tr><td class=l>constants</td><td class=l>{}</td></tr>", c.join(", "));
+            let c: Vec<String> = info
+                .constants
+                .iter()
+                .map(|(k, v)| format!("{} = {}", escape(k), short(*v, 6)))
+                .collect();
+            let _ = write!(
+                s,
+                "<tr><td class=l>constants</td><td class=l>{}</td></tr>",
+                c.join(", ")
+            );
         }
         let bounds = |vars: &[Variable]| -> String {
             vars.iter()
@@ -188,13 +225,25 @@ impl Page<'_> {
                         (Some(lo), Some(hi)) => format!(" ∈ [{}, {}]", short(lo, 6), short(hi, 6)),
                         _ => String::new(),
                     };
-                    format!("{}{range}{}", escape(&v.name), v.unit.as_ref().map_or(String::new(), |u| format!(" {}", escape(u))))
+                    format!(
+                        "{}{range}{}",
+                        escape(&v.name),
+                        v.unit.as_ref().map_or(String::new(), |u| format!(" {}", escape(u)))
+                    )
                 })
                 .collect::<Vec<_>>()
                 .join("<br>")
         };
-        let _ = write!(s, "<tr><td class=l>design variables</td><td class=l>{}</td></tr>", bounds(&info.design));
-        let _ = write!(s, "<tr><td class=l>parameters (bounds)</td><td class=l>{}</td></tr>", bounds(&info.parameters));
+        let _ = write!(
+            s,
+            "<tr><td class=l>design variables</td><td class=l>{}</td></tr>",
+            bounds(&info.design)
+        );
+        let _ = write!(
+            s,
+            "<tr><td class=l>parameters (bounds)</td><td class=l>{}</td></tr>",
+            bounds(&info.parameters)
+        );
         if let Some(runs) = &self.r.runs {
             let _ = write!(
                 s,
@@ -211,16 +260,31 @@ impl Page<'_> {
         for v in &info.design {
             let _ = write!(s, "<th>{}</th>", escape(&v.label()));
         }
-        let _ = write!(s, "<th>tests</th><th>mean {}</th><th>std dev</th></tr>", escape(&self.response_label()));
+        let _ = write!(
+            s,
+            "<th>tests</th><th>mean {}</th><th>std dev</th></tr>",
+            escape(&self.response_label())
+        );
         for t in &info.tests {
-            let _ = write!(s, "<tr><td class=l>{}</td><td class=l>{}</td>", escape(&t.name), escape(&t.role));
+            let _ = write!(
+                s,
+                "<tr><td class=l>{}</td><td class=l>{}</td>",
+                escape(&t.name),
+                escape(&t.role)
+            );
             for v in &t.values {
                 let _ = write!(s, "<td>{}</td>", short(*v, 5));
             }
             let n = t.replicates.len();
             let mean = t.replicates.iter().sum::<f64>() / n.max(1) as f64;
-            let sd = (n > 1).then(|| (t.replicates.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
-            let _ = write!(s, "<td>{n}</td><td>{}</td><td>{}</td></tr>", significant(mean, 5), sd.map_or("–".into(), |v| significant(v, 3)));
+            let sd =
+                (n > 1).then(|| (t.replicates.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
+            let _ = write!(
+                s,
+                "<td>{n}</td><td>{}</td><td>{}</td></tr>",
+                significant(mean, 5),
+                sd.map_or("–".into(), |v| significant(v, 3))
+            );
         }
         s.push_str("</table>");
         s
@@ -228,7 +292,10 @@ impl Page<'_> {
 
     fn runs_summary(&self) -> String {
         match &self.r.runs {
-            Some(r) => format!("<p>{} planned solver runs: {} done, {} failed.</p>", r.planned, r.succeeded, r.failed),
+            Some(r) => format!(
+                "<p>{} planned solver runs: {} done, {} failed.</p>",
+                r.planned, r.succeeded, r.failed
+            ),
             None => String::new(),
         }
     }
@@ -236,22 +303,38 @@ impl Page<'_> {
     fn force_displacement(&self) -> String {
         let curves = self.d.map(|d| d.force_displacement.as_slice()).unwrap_or_default();
         if curves.is_empty() {
-            return note("no force–displacement curves were recorded for this study (its response is not a crush force)");
+            return note(
+                "no force–displacement curves were recorded for this study (its response is not a crush force)",
+            );
         }
         let mut s = String::from("<div class=grid>");
         for dc in curves {
             let mut series = Vec::new();
             for (i, c) in dc.simulations.iter().enumerate() {
                 let label = if i < 6 { c.label.clone() } else { String::new() };
-                series.push(Series::new(label, i % 6, Style::Line, c.displacement.iter().copied().zip(c.force.iter().copied()).collect()));
+                series.push(Series::new(
+                    label,
+                    i % 6,
+                    Style::Line,
+                    c.displacement.iter().copied().zip(c.force.iter().copied()).collect(),
+                ));
             }
             for (i, c) in dc.tests.iter().enumerate() {
                 let colour = if i == 0 { plots::BLACK_ } else { plots::GREY };
-                series.push(Series::new(c.label.clone(), colour, Style::Dashed, c.displacement.iter().copied().zip(c.force.iter().copied()).collect()));
+                series.push(Series::new(
+                    c.label.clone(),
+                    colour,
+                    Style::Dashed,
+                    c.displacement.iter().copied().zip(c.force.iter().copied()).collect(),
+                ));
             }
             let bands = dc
                 .window
-                .map(|[a, b]| Band { label: format!("stroke window {}–{} mm", significant(a, 3), significant(b, 3)), x0: a, x1: b })
+                .map(|[a, b]| Band {
+                    label: format!("stroke window {}–{} mm", significant(a, 3), significant(b, 3)),
+                    x0: a,
+                    x1: b,
+                })
                 .into_iter()
                 .collect();
             let plot = XyPlot {
@@ -309,17 +392,38 @@ impl Page<'_> {
                     x_label: self.parameter_label(&params[0]),
                     y_label: y_label.clone(),
                     series: vec![
-                        Series::new(format!("{} surrogate", sd.kind), 0, Style::Line, x.iter().copied().zip(y.iter().copied()).collect()),
-                        Series::new("sample runs", plots::BLACK_, Style::Markers, sd.samples.iter().map(|(t, y)| (t[0], *y)).collect()),
-                        Series::new("check runs", 1, Style::Hollow, sd.checks.iter().map(|(t, y, _)| (t[0], *y)).collect()),
+                        Series::new(
+                            format!("{} surrogate", sd.kind),
+                            0,
+                            Style::Line,
+                            x.iter().copied().zip(y.iter().copied()).collect(),
+                        ),
+                        Series::new(
+                            "sample runs",
+                            plots::BLACK_,
+                            Style::Markers,
+                            sd.samples.iter().map(|(t, y)| (t[0], *y)).collect(),
+                        ),
+                        Series::new(
+                            "check runs",
+                            1,
+                            Style::Hollow,
+                            sd.checks.iter().map(|(t, y, _)| (t[0], *y)).collect(),
+                        ),
                     ],
                     ..Default::default()
                 }
             } else {
                 // Several parameters: surrogate against run at the check points (parity).
                 let pts: Vec<(f64, f64)> = sd.checks.iter().map(|(_, y, p)| (*y, *p)).collect();
-                let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0.min(p.1)), b.max(p.0.max(p.1))));
-                let diag = if lo.is_finite() { vec![(lo, lo), (hi, hi)] } else { vec![] };
+                let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                    (a.min(p.0.min(p.1)), b.max(p.0.max(p.1)))
+                });
+                let diag = if lo.is_finite() {
+                    vec![(lo, lo), (hi, hi)]
+                } else {
+                    vec![]
+                };
                 XyPlot {
                     title,
                     x_label: format!("{y_label}, solver run"),
@@ -338,7 +442,11 @@ impl Page<'_> {
                 sd.samples.len(),
                 sd.checks.len()
             );
-            s.push_str(&figure(&format!("surrogate-{}", id_part(&sd.design)), plot.render(), &caption));
+            s.push_str(&figure(
+                &format!("surrogate-{}", id_part(&sd.design)),
+                plot.render(),
+                &caption,
+            ));
         }
         s + "</div>"
     }
@@ -357,7 +465,12 @@ impl Page<'_> {
         let r = self.r;
         let mut s = String::from("<table><tr><th class=l></th>");
         for method in r.calibration.keys() {
-            let _ = write!(s, "<th data-method=\"{}\">{}</th>", escape(method), escape(&method_name(method)));
+            let _ = write!(
+                s,
+                "<th data-method=\"{}\">{}</th>",
+                escape(method),
+                escape(&method_name(method))
+            );
         }
         s.push_str("</tr>");
         let names: Vec<String> = r
@@ -369,7 +482,11 @@ impl Page<'_> {
         let row = |label: String, cell: &dyn Fn(&super::results::MethodResult) -> String| {
             let mut line = format!("<tr><td class=l>{label}</td>");
             for m in r.calibration.values() {
-                let c = if m.error.is_some() { "failed".to_string() } else { cell(m) };
+                let c = if m.error.is_some() {
+                    "failed".to_string()
+                } else {
+                    cell(m)
+                };
                 let _ = write!(line, "<td>{c}</td>");
             }
             line + "</tr>"
@@ -379,12 +496,18 @@ impl Page<'_> {
                 m.parameters.get(name).map_or("–".into(), |v| significant(*v, 5))
             }));
             s.push_str(&row(format!("{} 95 % interval", escape(name)), &|m| {
-                m.interval95.as_ref().and_then(|iv| iv.get(name)).map_or("–".into(), |[lo, hi]| {
-                    format!("[{}, {}]", significant(*lo, 4), significant(*hi, 4))
-                })
+                m.interval95
+                    .as_ref()
+                    .and_then(|iv| iv.get(name))
+                    .map_or("–".into(), |[lo, hi]| {
+                        format!("[{}, {}]", significant(*lo, 4), significant(*hi, 4))
+                    })
             }));
             s.push_str(&row(format!("{} posterior median", escape(name)), &|m| {
-                m.median.as_ref().and_then(|md| md.get(name)).map_or("–".into(), |v| significant(*v, 5))
+                m.median
+                    .as_ref()
+                    .and_then(|md| md.get(name))
+                    .map_or("–".into(), |v| significant(*v, 5))
             }));
         }
         let unit = self.response_unit().map(str::to_string);
@@ -394,7 +517,11 @@ impl Page<'_> {
                 if let Some(c) = d.get("constant").and_then(|c| c.as_f64()) {
                     format!("constant {}", with_unit(c, unit.as_deref(), 4))
                 } else if let Some(gp) = d.get("gaussian_process") {
-                    let f = |k: &str| gp.get(k).and_then(|v| v.as_f64()).map_or("–".into(), |v| significant(v, 3));
+                    let f = |k: &str| {
+                        gp.get(k)
+                            .and_then(|v| v.as_f64())
+                            .map_or("–".into(), |v| significant(v, 3))
+                    };
                     format!("GP: mean {}, std dev {}", f("mean"), f("std_dev"))
                 } else {
                     escape(&d.to_string())
@@ -406,7 +533,12 @@ impl Page<'_> {
         s.push_str("</table>");
         for (method, m) in &r.calibration {
             if let Some(e) = &m.error {
-                let _ = write!(s, "<p class=warn>{} failed: {}</p>", escape(&method_name(method)), escape(e));
+                let _ = write!(
+                    s,
+                    "<p class=warn>{} failed: {}</p>",
+                    escape(&method_name(method)),
+                    escape(e)
+                );
             }
         }
         s
@@ -424,22 +556,36 @@ impl Page<'_> {
         let bayes = self.r.calibration.get("bayesian");
         let mut s = String::new();
         for (k, name) in post.parameters.iter().enumerate() {
-            let band = bayes.and_then(|b| b.interval95.as_ref()).and_then(|iv| iv.get(name)).map(|[lo, hi]| Band {
-                label: format!("95 % interval [{}, {}]", significant(*lo, 4), significant(*hi, 4)),
-                x0: *lo,
-                x1: *hi,
-            });
+            let band = bayes
+                .and_then(|b| b.interval95.as_ref())
+                .and_then(|iv| iv.get(name))
+                .map(|[lo, hi]| Band {
+                    label: format!("95 % interval [{}, {}]", significant(*lo, 4), significant(*hi, 4)),
+                    x0: *lo,
+                    x1: *hi,
+                });
             let marks: Vec<VLine> = self
                 .r
                 .calibration
                 .iter()
                 .filter_map(|(m, res)| {
                     let v = *res.parameters.get(name)?;
-                    Some(VLine { label: format!("{} {}", method_name(m), significant(v, 5)), x: v, color: method_color(m) })
+                    Some(VLine {
+                        label: format!("{} {}", method_name(m), significant(v, 5)),
+                        x: v,
+                        color: method_color(m),
+                    })
                 })
                 .collect();
             let samples = post.samples.get(k).map(Vec::as_slice).unwrap_or_default();
-            let svg = plots::histogram(&format!("Posterior of {name}"), &self.parameter_label(name), samples, 30, band, &marks);
+            let svg = plots::histogram(
+                &format!("Posterior of {name}"),
+                &self.parameter_label(name),
+                samples,
+                30,
+                band,
+                &marks,
+            );
             let caption = format!(
                 "Bayesian posterior of {name} ({} thinned samples) with its 95 % interval (shaded) and each method's estimate (dashed) — the paper's Fig. 12.",
                 samples.len()
@@ -452,7 +598,9 @@ impl Page<'_> {
     /// Paper Figs 4–6: each method's prediction over the design range against the measurements.
     fn prediction_plot(&self) -> String {
         let first = self.r.calibration.values().find(|m| m.error.is_none());
-        let Some(first) = first else { return note("no method produced an estimate: nothing to predict") };
+        let Some(first) = first else {
+            return note("no method produced an estimate: nothing to predict");
+        };
         let response = self.response_label();
         let design = self.study_info().filter(|s| s.design.len() == 1).map(|s| &s.design[0]);
         let mut series = Vec::new();
@@ -470,12 +618,26 @@ impl Page<'_> {
         if let (Some(var), Some(d)) = (design, self.d.filter(|d| !d.prediction_curves.is_empty())) {
             for c in &d.prediction_curves {
                 let style = if c.x.len() < 6 { Style::LineMarkers } else { Style::Line };
-                series.push(Series::new(method_name(&c.method), method_color(&c.method), style, c.x.iter().copied().zip(c.y.iter().copied()).collect()));
+                series.push(Series::new(
+                    method_name(&c.method),
+                    method_color(&c.method),
+                    style,
+                    c.x.iter().copied().zip(c.y.iter().copied()).collect(),
+                ));
             }
-            for (role, label, style) in [(Role::Training, "measured, training", Style::Markers), (Role::Validation, "measured, validation", Style::Hollow)] {
+            for (role, label, style) in [
+                (Role::Training, "measured, training", Style::Markers),
+                (Role::Validation, "measured, validation", Style::Hollow),
+            ] {
                 let (pts, err) = measured(role);
                 if !pts.is_empty() {
-                    series.push(Series { label: label.into(), color: plots::BLACK_, style, points: pts, y_err: Some(err) });
+                    series.push(Series {
+                        label: label.into(),
+                        color: plots::BLACK_,
+                        style,
+                        points: pts,
+                        y_err: Some(err),
+                    });
                 }
             }
             let plot = XyPlot {
@@ -496,9 +658,19 @@ impl Page<'_> {
             all.extend(pts.iter().flat_map(|p| [p.0, p.1]));
             series.push(Series::new(method_name(m), method_color(m), Style::Markers, pts));
         }
-        let (lo, hi) = all.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+        let (lo, hi) = all
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
         if lo.is_finite() {
-            series.insert(0, Series::new("prediction = measurement", plots::GREY, Style::Dashed, vec![(lo, lo), (hi, hi)]));
+            series.insert(
+                0,
+                Series::new(
+                    "prediction = measurement",
+                    plots::GREY,
+                    Style::Dashed,
+                    vec![(lo, lo), (hi, hi)],
+                ),
+            );
         }
         let plot = XyPlot {
             title: "Calibrated predictions against measurements".into(),
@@ -507,11 +679,21 @@ impl Page<'_> {
             series,
             ..Default::default()
         };
-        figure("predictions", plot.render(), "Each method's calibrated prediction at every tested design against the measured mean.")
+        figure(
+            "predictions",
+            plot.render(),
+            "Each method's calibrated prediction at every tested design against the measured mean.",
+        )
     }
 
     fn design_value(&self, design: &str) -> Option<f64> {
-        self.study_info()?.tests.iter().find(|t| t.name == design)?.values.first().copied()
+        self.study_info()?
+            .tests
+            .iter()
+            .find(|t| t.name == design)?
+            .values
+            .first()
+            .copied()
     }
 
     /// Paper Fig. 13: calibration and validation error per method for each train/validate split.
@@ -523,7 +705,11 @@ impl Page<'_> {
         type SplitErrors = (String, Vec<(String, [Option<f64>; 2])>);
         let mut splits: Vec<SplitErrors> = vec![(
             format!("train {} / validate {}", list(&training), list(&validation)),
-            r.calibration.iter().filter(|(_, m)| m.error.is_none()).map(|(k, m)| (k.clone(), [m.training_error, m.validation_error])).collect(),
+            r.calibration
+                .iter()
+                .filter(|(_, m)| m.error.is_none())
+                .map(|(k, m)| (k.clone(), [m.training_error, m.validation_error]))
+                .collect(),
         )];
         for sp in self.d.map(|d| d.splits.as_slice()).unwrap_or_default() {
             splits.push((
@@ -536,7 +722,11 @@ impl Page<'_> {
         let (mut cal, mut val) = (Vec::new(), Vec::new());
         for (i, (_, methods)) in splits.iter().enumerate() {
             for (m, [c, v]) in methods {
-                categories.push(if many { format!("split {}: {}", i + 1, method_name(m)) } else { method_name(m) });
+                categories.push(if many {
+                    format!("split {}: {}", i + 1, method_name(m))
+                } else {
+                    method_name(m)
+                });
                 cal.push(*c);
                 val.push(*v);
             }
@@ -548,11 +738,19 @@ impl Page<'_> {
             groups: vec![("calibration (training)".into(), 0, cal), ("validation".into(), 1, val)],
             percent: true,
         };
-        let names: Vec<String> = splits.iter().enumerate().map(|(i, (n, _))| format!("split {}: {n}", i + 1)).collect();
+        let names: Vec<String> = splits
+            .iter()
+            .enumerate()
+            .map(|(i, (n, _))| format!("split {}: {n}", i + 1))
+            .collect();
         let caption = format!(
             "Mean |relative error| of each method on the designs it was calibrated to and on the held-out designs — the paper's Fig. 13. {}{}",
             names.join("; "),
-            if many { "" } else { ". Only the study's own split is recorded." }
+            if many {
+                ""
+            } else {
+                ". Only the study's own split is recorded."
+            }
         );
         figure("splits", plot.render(), &caption)
     }
@@ -562,7 +760,13 @@ impl Page<'_> {
             .calibration
             .values()
             .find(|m| m.error.is_none())
-            .map(|m| m.predictions.iter().filter(|p| p.role == role).map(|p| p.design.clone()).collect())
+            .map(|m| {
+                m.predictions
+                    .iter()
+                    .filter(|p| p.role == role)
+                    .map(|p| p.design.clone())
+                    .collect()
+            })
             .unwrap_or_default()
     }
 
@@ -570,13 +774,29 @@ impl Page<'_> {
         let id = &self.r.identifiability;
         let weak = id.note.contains("weakly");
         let class = if id.identifiable && !weak { "ok" } else { "warn" };
-        let mut s = format!("<p class={class}>{}{}</p>", if class == "warn" { "⚠ " } else { "✓ " }, escape(&id.note));
+        let mut s = format!(
+            "<p class={class}>{}{}</p>",
+            if class == "warn" { "⚠ " } else { "✓ " },
+            escape(&id.note)
+        );
         if !id.combinations.is_empty() {
-            let _ = write!(s, "<p>Determined combinations: {}</p>", id.combinations.iter().map(|c| format!("<code>{}</code>", escape(c))).collect::<Vec<_>>().join(", "));
+            let _ = write!(
+                s,
+                "<p>Determined combinations: {}</p>",
+                id.combinations
+                    .iter()
+                    .map(|c| format!("<code>{}</code>", escape(c)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
         }
         if !id.singular_values.is_empty() {
             let sv: Vec<String> = id.singular_values.iter().map(|v| significant(*v, 3)).collect();
-            let _ = write!(s, "<p>Singular values of the scaled sensitivity matrix ∂ln y/∂ln θ: {}</p>", sv.join(", "));
+            let _ = write!(
+                s,
+                "<p>Singular values of the scaled sensitivity matrix ∂ln y/∂ln θ: {}</p>",
+                sv.join(", ")
+            );
         }
         s
     }
@@ -591,13 +811,21 @@ impl Page<'_> {
         let mut s = format!(
             "<p class=\"summary {}\">{}{}</p>",
             if dg.discrepancy_detected { "flag" } else { "clear" },
-            if dg.discrepancy_detected { "⚠ model error detected. " } else { "" },
+            if dg.discrepancy_detected {
+                "⚠ model error detected. "
+            } else {
+                ""
+            },
             escape(&dg.summary)
         );
         let response = self.response_label();
         s.push_str("<div class=grid>");
         // Residuals against each design variable.
-        let names: Vec<String> = dg.residuals.first().map(|r| r.values.keys().cloned().collect()).unwrap_or_default();
+        let names: Vec<String> = dg
+            .residuals
+            .first()
+            .map(|r| r.values.keys().cloned().collect())
+            .unwrap_or_default();
         for name in &names {
             let label = self
                 .study_info()
@@ -628,19 +856,27 @@ impl Page<'_> {
                 hline: Some(0.0),
                 ..Default::default()
             };
-            let trend = dg.structure.iter().find(|t| &t.against == name).map_or(String::new(), |t| {
-                format!(
-                    " Rank correlation {} (p = {}){}.",
-                    significant(t.rank_correlation, 2),
-                    significant(t.rank_p_value, 2),
-                    if t.significant { ": a significant trend" } else { "" }
-                )
-            });
+            let trend = dg
+                .structure
+                .iter()
+                .find(|t| &t.against == name)
+                .map_or(String::new(), |t| {
+                    format!(
+                        " Rank correlation {} (p = {}){}.",
+                        significant(t.rank_correlation, 2),
+                        significant(t.rank_p_value, 2),
+                        if t.significant { ": a significant trend" } else { "" }
+                    )
+                });
             let caption = format!(
                 "Residuals of the uncorrected model (calibrated by weighted least squares on the training designs); bars: ± σ of the mean measurement ({} noise).{trend}",
                 noise_kind(&dg.noise.kind)
             );
-            s.push_str(&figure(&format!("residuals-{}", id_part(name)), plot.render(), &caption));
+            s.push_str(&figure(
+                &format!("residuals-{}", id_part(name)),
+                plot.render(),
+                &caption,
+            ));
         }
         // Candidate ranking.
         if dg.candidates.is_empty() {
@@ -655,7 +891,11 @@ impl Page<'_> {
                 title: format!("Validation error before and after adding {}", ext.cause),
                 value_label: format!("mean |relative error| (%), {}", ext.measured_on),
                 categories: vec!["uncorrected".into(), format!("with {}", ext.cause)],
-                groups: vec![(String::new(), 0, vec![Some(ext.validation_error_before), Some(ext.validation_error_after)])],
+                groups: vec![(
+                    String::new(),
+                    0,
+                    vec![Some(ext.validation_error_before), Some(ext.validation_error_after)],
+                )],
                 percent: true,
             };
             let caption = format!(
@@ -669,7 +909,9 @@ impl Page<'_> {
         }
         s.push_str("</div>");
         if dg.extended.is_none() {
-            s.push_str(&note("no cause was named, so there is no extended model to compare before/after"));
+            s.push_str(&note(
+                "no cause was named, so there is no extended model to compare before/after",
+            ));
         }
         if !dg.candidates.is_empty() {
             s.push_str("<h3>Candidates</h3><table><tr><th>rank</th><th class=l>candidate</th><th class=l>term</th><th>weight</th>\
@@ -697,11 +939,19 @@ impl Page<'_> {
                     .design
                     .iter()
                     .map(|(k, v)| {
-                        let unit = self.study_info().and_then(|i| i.design.iter().find(|d| &d.name == k)).and_then(|d| d.unit.clone());
+                        let unit = self
+                            .study_info()
+                            .and_then(|i| i.design.iter().find(|d| &d.name == k))
+                            .and_then(|d| d.unit.clone());
                         format!("{} = {}", escape(k), with_unit(*v, unit.as_deref(), 3))
                     })
                     .collect();
-                let _ = write!(s, "<p id=next-test><strong>Test at {}.</strong> {}</p>", at.join(", "), escape(&nt.why));
+                let _ = write!(
+                    s,
+                    "<p id=next-test><strong>Test at {}.</strong> {}</p>",
+                    at.join(", "),
+                    escape(&nt.why)
+                );
             }
             None => s.push_str(&note("no next test recommended")),
         }
@@ -743,7 +993,10 @@ impl Page<'_> {
                 note("closed-form simulation: no solver runs")
             };
         }
-        let params: Vec<String> = self.study_info().map(|i| i.parameters.iter().map(|p| p.label()).collect()).unwrap_or_default();
+        let params: Vec<String> = self
+            .study_info()
+            .map(|i| i.parameters.iter().map(|p| p.label()).collect())
+            .unwrap_or_default();
         let mut order: Vec<usize> = (0..rows.len()).collect();
         // Failures first (then runs without a record), each group in plan order.
         order.sort_by_key(|&i| match rows[i].class.as_deref() {
@@ -751,7 +1004,10 @@ impl Page<'_> {
             Some(_) => 0,
             None => 1,
         });
-        let failed = rows.iter().filter(|r| r.class.as_deref().is_some_and(|c| c != "success")).count();
+        let failed = rows
+            .iter()
+            .filter(|r| r.class.as_deref().is_some_and(|c| c != "success"))
+            .count();
         let total: f64 = rows.iter().filter_map(|r| r.seconds).sum();
         let mut s = format!(
             "<p>{} runs, {failed} failed; {} of solver time in all.</p><table><tr><th class=l>key</th><th class=l>design</th><th class=l>role</th>",
@@ -761,7 +1017,11 @@ impl Page<'_> {
         for p in &params {
             let _ = write!(s, "<th>{}</th>", escape(p));
         }
-        let _ = write!(s, "<th class=l>status</th><th>attempts</th><th>time</th><th>{}</th><th class=l>outcome</th></tr>", escape(&self.response_label()));
+        let _ = write!(
+            s,
+            "<th class=l>status</th><th>attempts</th><th>time</th><th>{}</th><th class=l>outcome</th></tr>",
+            escape(&self.response_label())
+        );
         for &i in &order {
             let r = &rows[i];
             let ok = r.class.as_deref() == Some("success");
@@ -800,9 +1060,16 @@ fn noise_kind(kind: &crate::diagnose::NoiseKind) -> &'static str {
 }
 
 fn list(names: &[String]) -> String {
-    if names.is_empty() { "none".into() } else { names.join(", ") }
+    if names.is_empty() {
+        "none".into()
+    } else {
+        names.join(", ")
+    }
 }
 
 pub fn escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }

@@ -56,7 +56,13 @@ pub struct Series {
 
 impl Series {
     pub fn new(label: impl Into<String>, color: usize, style: Style, points: Vec<(f64, f64)>) -> Series {
-        Series { label: label.into(), color, style, points, y_err: None }
+        Series {
+            label: label.into(),
+            color,
+            style,
+            points,
+            y_err: None,
+        }
     }
 }
 
@@ -95,10 +101,13 @@ fn svg(draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>) -> Stri
     let mut out = String::new();
     let outcome = {
         let root = SVGBackend::with_string(&mut out, (WIDTH, HEIGHT)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string().into()).and_then(|_| draw(&root)).and_then(|_| {
-            root.present()?;
-            Ok(())
-        })
+        root.fill(&WHITE)
+            .map_err(|e| e.to_string().into())
+            .and_then(|_| draw(&root))
+            .and_then(|_| {
+                root.present()?;
+                Ok(())
+            })
     };
     match outcome {
         // Inline SVG in HTML needs no namespace declaration; leaving it out keeps the page free of URLs.
@@ -109,7 +118,9 @@ fn svg(draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>) -> Stri
 
 /// A padded range around `values` (never empty, never inverted).
 fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
-    let (lo, hi) = values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
     if !lo.is_finite() {
         return (0.0, 1.0);
     }
@@ -164,7 +175,11 @@ fn legend_corner(points: &[(f64, f64)], x: (f64, f64), y: (f64, f64)) -> SeriesL
         (count(true, false), SeriesLabelPosition::LowerRight),
         (count(false, false), SeriesLabelPosition::LowerLeft),
     ];
-    corners.into_iter().min_by_key(|c| c.0).map(|c| c.1).unwrap_or(SeriesLabelPosition::UpperRight)
+    corners
+        .into_iter()
+        .min_by_key(|c| c.0)
+        .map(|c| c.1)
+        .unwrap_or(SeriesLabelPosition::UpperRight)
 }
 
 const TITLE_SIZE: u32 = 20;
@@ -177,7 +192,9 @@ impl XyPlot {
 
     fn draw(&self, root: &DrawingArea<SVGBackend, Shift>) -> Result<()> {
         let xs = self.series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
-        let xs = xs.chain(self.bands.iter().flat_map(|b| [b.x0, b.x1])).chain(self.vlines.iter().map(|v| v.x));
+        let xs = xs
+            .chain(self.bands.iter().flat_map(|b| [b.x0, b.x1]))
+            .chain(self.vlines.iter().map(|v| v.x));
         let x = range(xs, 0.04);
         let ys = self.series.iter().flat_map(|s| {
             s.points.iter().enumerate().flat_map(move |(i, p)| {
@@ -214,26 +231,35 @@ impl XyPlot {
             let a = chart.draw_series([Rectangle::new([(band.x0, y.0), (band.x1, y.1)], style)])?;
             if !band.label.is_empty() {
                 legend = true;
-                a.label(&band.label).legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], style));
+                a.label(&band.label)
+                    .legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], style));
             }
         }
         if let Some(h) = self.hline {
-            chart.draw_series(LineSeries::new([(x.0, h), (x.1, h)], RGBColor(150, 150, 150).stroke_width(1)))?;
+            chart.draw_series(LineSeries::new(
+                [(x.0, h), (x.1, h)],
+                RGBColor(150, 150, 150).stroke_width(1),
+            ))?;
         }
         for v in &self.vlines {
             let c = color(v.color);
             let a = chart.draw_series(DashedLineSeries::new([(v.x, y.0), (v.x, y.1)], 6, 4, c.stroke_width(2)))?;
             if !v.label.is_empty() {
                 legend = true;
-                a.label(&v.label).legend(move |(px, py)| PathElement::new([(px, py), (px + 16, py)], c.stroke_width(2)));
+                a.label(&v.label)
+                    .legend(move |(px, py)| PathElement::new([(px, py), (px + 16, py)], c.stroke_width(2)));
             }
         }
         for s in &self.series {
             let c = color(s.color);
             if let Some(errs) = &s.y_err {
-                chart.draw_series(s.points.iter().zip(errs).filter(|(_, e)| **e > 0.0).map(|(&(px, py), &e)| {
-                    ErrorBar::new_vertical(px, py - e, py, py + e, c.stroke_width(1), 8)
-                }))?;
+                chart.draw_series(
+                    s.points
+                        .iter()
+                        .zip(errs)
+                        .filter(|(_, e)| **e > 0.0)
+                        .map(|(&(px, py), &e)| ErrorBar::new_vertical(px, py - e, py, py + e, c.stroke_width(1), 8)),
+                )?;
             }
             let pts = s.points.iter().copied();
             let a = match s.style {
@@ -249,13 +275,14 @@ impl XyPlot {
             if !s.label.is_empty() {
                 legend = true;
                 let style = s.style;
-                a.label(&s.label).legend(move |(px, py)| -> DynElement<'static, SVGBackend, (i32, i32)> {
-                    match style {
-                        Style::Markers => Circle::new((px + 8, py), 4, c.filled()).into_dyn(),
-                        Style::Hollow => Circle::new((px + 8, py), 5, c.stroke_width(2)).into_dyn(),
-                        _ => PathElement::new([(px, py), (px + 16, py)], c.stroke_width(2)).into_dyn(),
-                    }
-                });
+                a.label(&s.label)
+                    .legend(move |(px, py)| -> DynElement<'static, SVGBackend, (i32, i32)> {
+                        match style {
+                            Style::Markers => Circle::new((px + 8, py), 4, c.filled()).into_dyn(),
+                            Style::Hollow => Circle::new((px + 8, py), 5, c.stroke_width(2)).into_dyn(),
+                            _ => PathElement::new([(px, py), (px + 16, py)], c.stroke_width(2)).into_dyn(),
+                        }
+                    });
             }
         }
         if legend {
@@ -272,7 +299,14 @@ impl XyPlot {
 }
 
 /// A histogram of `samples` (density, `bins` equal bins) with shaded `band` and marked values.
-pub fn histogram(title: &str, x_label: &str, samples: &[f64], bins: usize, band: Option<Band>, marks: &[VLine]) -> String {
+pub fn histogram(
+    title: &str,
+    x_label: &str,
+    samples: &[f64],
+    bins: usize,
+    band: Option<Band>,
+    marks: &[VLine],
+) -> String {
     let finite: Vec<f64> = samples.iter().copied().filter(|v| v.is_finite()).collect();
     let (lo, hi) = range(finite.iter().copied(), 0.0);
     let bins = bins.max(1);
@@ -284,7 +318,10 @@ pub fn histogram(title: &str, x_label: &str, samples: &[f64], bins: usize, band:
     let n = finite.len().max(1) as f64;
     let density: Vec<f64> = counts.iter().map(|&c| c as f64 / (n * width)).collect();
     let top = density.iter().copied().fold(0.0, f64::max).max(f64::MIN_POSITIVE) * 1.12;
-    let xs = [lo, hi].into_iter().chain(marks.iter().map(|m| m.x)).chain(band.iter().flat_map(|b| [b.x0, b.x1]));
+    let xs = [lo, hi]
+        .into_iter()
+        .chain(marks.iter().map(|m| m.x))
+        .chain(band.iter().flat_map(|b| [b.x0, b.x1]));
     let x = range(xs, 0.04);
     svg(|root| {
         let mut chart = ChartBuilder::on(root)
@@ -329,7 +366,11 @@ pub fn histogram(title: &str, x_label: &str, samples: &[f64], bins: usize, band:
         }
         // The legend goes where the histogram is lowest: left or right of the bulk.
         let left_mass: usize = counts[..bins / 2].iter().sum();
-        let corner = if 2 * left_mass > finite.len() { SeriesLabelPosition::UpperRight } else { SeriesLabelPosition::UpperLeft };
+        let corner = if 2 * left_mass > finite.len() {
+            SeriesLabelPosition::UpperRight
+        } else {
+            SeriesLabelPosition::UpperLeft
+        };
         chart
             .configure_series_labels()
             .position(corner)
@@ -372,12 +413,20 @@ impl BarPlot {
             .y_label_area_size((longest * 7 + 16).clamp(40, 260))
             .build_cartesian_2d(0.0..max, -0.5..(n as f64 - 0.5))?;
         let percent = self.percent;
-        let xfmt = move |v: &f64| if percent { format!("{} %", tick_on(100.0 * v, 100.0 * max)) } else { tick_on(*v, max) };
+        let xfmt = move |v: &f64| {
+            if percent {
+                format!("{} %", tick_on(100.0 * v, 100.0 * max))
+            } else {
+                tick_on(*v, max)
+            }
+        };
         let cats = &self.categories;
         // Category 0 at the top.
         let yfmt = |v: &f64| {
             let i = v.round();
-            if (v - i).abs() > 1e-6 || i < 0.0 { return String::new() }
+            if (v - i).abs() > 1e-6 || i < 0.0 {
+                return String::new();
+            }
             cats.get(n - 1 - i as usize).cloned().unwrap_or_default()
         };
         chart
@@ -403,7 +452,8 @@ impl BarPlot {
             });
             let a = chart.draw_series(rects.collect::<Vec<_>>())?;
             if !label.is_empty() {
-                a.label(label).legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], c.filled()));
+                a.label(label)
+                    .legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], c.filled()));
             }
             // Value at the bar's end.
             let texts = vals.iter().enumerate().filter_map(|(i, v)| {
@@ -411,8 +461,19 @@ impl BarPlot {
                 let row = (n - 1 - i) as f64;
                 let mid = row + 0.4 - (k as f64 + 0.45) * thick;
                 let v = if v.abs() < 1e-9 * max { 0.0 } else { v };
-                let text = if percent { format!("{} %", short(100.0 * v, 3)) } else { short(v, 3) };
-                Some(Text::new(text, (v, mid), ("sans-serif", 12).into_font().color(&BLACK).pos(Pos::new(HPos::Left, VPos::Center))))
+                let text = if percent {
+                    format!("{} %", short(100.0 * v, 3))
+                } else {
+                    short(v, 3)
+                };
+                Some(Text::new(
+                    text,
+                    (v, mid),
+                    ("sans-serif", 12)
+                        .into_font()
+                        .color(&BLACK)
+                        .pos(Pos::new(HPos::Left, VPos::Center)),
+                ))
             });
             chart.draw_series(texts.collect::<Vec<_>>())?;
         }
@@ -460,7 +521,10 @@ mod tests {
 
     #[test]
     fn degenerate_data_draws() {
-        let plot = XyPlot { title: "empty".into(), ..Default::default() };
+        let plot = XyPlot {
+            title: "empty".into(),
+            ..Default::default()
+        };
         assert!(plot.render().starts_with("<svg"));
         assert!(histogram("one", "x", &[5.0, 5.0], 10, None, &[]).starts_with("<svg"));
     }

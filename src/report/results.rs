@@ -83,7 +83,11 @@ impl SplitResult {
                 (name.clone(), entry)
             })
             .collect();
-        SplitResult { training: study.training.clone(), validation: study.validation.clone(), methods }
+        SplitResult {
+            training: study.training.clone(),
+            validation: study.validation.clone(),
+            methods,
+        }
     }
 }
 
@@ -250,7 +254,11 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
     let names = || study.parameters.iter().map(|p| p.name.clone());
     let predictions = predictions(study, model, calibrated);
     let mean_error = |role| {
-        let errors: Vec<f64> = predictions.iter().filter(|p| p.role == role).map(|p| p.relative_error.abs()).collect();
+        let errors: Vec<f64> = predictions
+            .iter()
+            .filter(|p| p.role == role)
+            .map(|p| p.relative_error.abs())
+            .collect();
         (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64)
     };
     let (training_error, validation_error) = (mean_error(Role::Training), mean_error(Role::Validation));
@@ -291,7 +299,10 @@ fn predictions(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> Vec
         .chain(study.validation.iter().map(|n| (n, Role::Validation)));
     roles
         .map(|(name, role)| {
-            let test = study.experiments.get(name).expect("validated: designs are in the experiments");
+            let test = study
+                .experiments
+                .get(name)
+                .expect("validated: designs are in the experiments");
             let (measured, predicted) = (test.mean(), calibrated.predict(model, &test.values));
             Prediction {
                 design: name.clone(),

@@ -19,7 +19,11 @@ pub fn render(results: &Results) -> String {
     for n in &names {
         let _ = write!(header, " {:>12}", n);
     }
-    let _ = writeln!(out, "{header} {:>30} {:>10} {:>10}", "95 % interval / discrepancy", "train err", "valid err");
+    let _ = writeln!(
+        out,
+        "{header} {:>30} {:>10} {:>10}",
+        "95 % interval / discrepancy", "train err", "valid err"
+    );
     for (method, r) in &results.calibration {
         let mut line = format!("{method:<15}");
         if let Some(e) = &r.error {
@@ -35,10 +39,19 @@ pub fn render(results: &Results) -> String {
                 .map(|[lo, hi]| format!("[{}, {}]", significant(*lo, 5), significant(*hi, 5)))
                 .collect::<Vec<_>>()
                 .join(" "),
-            (None, Some(d)) => d.get("constant").and_then(|c| c.as_f64()).map(|c| format!("d = {}", significant(c, 5))).unwrap_or_default(),
+            (None, Some(d)) => d
+                .get("constant")
+                .and_then(|c| c.as_f64())
+                .map(|c| format!("d = {}", significant(c, 5)))
+                .unwrap_or_default(),
             _ => String::new(),
         };
-        let _ = writeln!(out, "{line} {extra:>30} {:>10} {:>10}", percent(r.training_error), percent(r.validation_error));
+        let _ = writeln!(
+            out,
+            "{line} {extra:>30} {:>10} {:>10}",
+            percent(r.training_error),
+            percent(r.validation_error)
+        );
     }
 
     let _ = writeln!(out, "\npredictions (relative error)");
@@ -78,9 +91,17 @@ fn write_diagnosis(out: &mut String, results: &Results) {
     };
     let _ = writeln!(out, "\ndiagnosis: {}", d.summary);
     if !d.candidates.is_empty() {
-        let _ = writeln!(out, "  {:<24} {:>8} {:>10} {:>10}", "candidate", "weight", "LOO error", "BIC");
+        let _ = writeln!(
+            out,
+            "  {:<24} {:>8} {:>10} {:>10}",
+            "candidate", "weight", "LOO error", "BIC"
+        );
         for c in d.candidates.iter().take(5) {
-            let flag = if c.confounded_with.is_empty() { String::new() } else { format!("  (confounded with {})", c.confounded_with.join(", ")) };
+            let flag = if c.confounded_with.is_empty() {
+                String::new()
+            } else {
+                format!("  (confounded with {})", c.confounded_with.join(", "))
+            };
             let _ = writeln!(
                 out,
                 "  {:<24} {:>8.3} {:>10} {:>10.1}{flag}",
@@ -92,7 +113,11 @@ fn write_diagnosis(out: &mut String, results: &Results) {
         }
     }
     if let Some(x) = &d.extended {
-        let params: Vec<String> = x.parameters.iter().map(|(n, v)| format!("{n} = {}", significant(*v, 6))).collect();
+        let params: Vec<String> = x
+            .parameters
+            .iter()
+            .map(|(n, v)| format!("{n} = {}", significant(*v, 6)))
+            .collect();
         let _ = writeln!(
             out,
             "  extended with `{}`: {}; validation error {:.2} % -> {:.2} % (gain {})",

@@ -54,8 +54,11 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
         .map_err(|e| InputError::file(file, format!("cannot read the experiments file: {e}")))?;
     let at = |line: usize, column: usize, message: String| InputError::at(file, &source, line, column, message);
 
-    let mut reader =
-        csv::ReaderBuilder::new().has_headers(true).flexible(true).trim(csv::Trim::All).from_reader(source.as_bytes());
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(source.as_bytes());
     let header = reader.headers().map_err(|e| csv_error(file, &source, &e))?.clone();
     if header.iter().all(str::is_empty) {
         return Err(InputError::file(
@@ -70,9 +73,13 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
     let listed = header.iter().map(|h| format!("`{h}`")).collect::<Vec<_>>().join(", ");
     let column_of = |name: &str| -> Result<usize, InputError> {
         let mut found = header.iter().enumerate().filter(|(_, h)| *h == name).map(|(i, _)| i);
-        let first = found
-            .next()
-            .ok_or_else(|| at(header_line, 1, format!("missing column `{name}`; the header has: {listed}")))?;
+        let first = found.next().ok_or_else(|| {
+            at(
+                header_line,
+                1,
+                format!("missing column `{name}`; the header has: {listed}"),
+            )
+        })?;
         if let Some(again) = found.next() {
             return Err(at(
                 header_line,
@@ -83,8 +90,10 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
         Ok(first)
     };
     let design_col = column_of("design")?;
-    let value_cols =
-        design_variables.iter().map(|v| column_of(v).map(|c| (v.as_str(), c))).collect::<Result<Vec<_>, _>>()?;
+    let value_cols = design_variables
+        .iter()
+        .map(|v| column_of(v).map(|c| (v.as_str(), c)))
+        .collect::<Result<Vec<_>, _>>()?;
     let response_col = column_of(response)?;
 
     let mut designs: Vec<TestDesign> = Vec::new();
@@ -103,12 +112,20 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
             return Err(at(
                 line,
                 1,
-                format!("this row has {} fields but the header has {}", record.len(), header.len()),
+                format!(
+                    "this row has {} fields but the header has {}",
+                    record.len(),
+                    header.len()
+                ),
             ));
         }
         let name = &record[design_col];
         if name.is_empty() {
-            return Err(at(line, field_column(text, design_col), "empty design name".to_string()));
+            return Err(at(
+                line,
+                field_column(text, design_col),
+                "empty design name".to_string(),
+            ));
         }
         let number = |column: &str, index: usize| -> Result<f64, InputError> {
             let raw = &record[index];
@@ -121,7 +138,10 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
                 )),
             }
         };
-        let values = value_cols.iter().map(|&(v, c)| number(v, c)).collect::<Result<Vec<_>, _>>()?;
+        let values = value_cols
+            .iter()
+            .map(|&(v, c)| number(v, c))
+            .collect::<Result<Vec<_>, _>>()?;
         let measured = number(response, response_col)?;
         match designs.iter().position(|d| d.name == name) {
             Some(k) => {
@@ -141,15 +161,27 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
                 designs[k].replicates.push(measured);
             }
             None => {
-                designs.push(TestDesign { name: name.to_string(), values, replicates: vec![measured] });
+                designs.push(TestDesign {
+                    name: name.to_string(),
+                    values,
+                    replicates: vec![measured],
+                });
                 first_lines.push(line);
             }
         }
     }
     if designs.is_empty() {
-        return Err(at(header_line, 1, "no data rows after the header: expected one row per test".to_string()));
+        return Err(at(
+            header_line,
+            1,
+            "no data rows after the header: expected one row per test".to_string(),
+        ));
     }
-    Ok(Experiments { file: file.to_path_buf(), response: response.to_string(), designs })
+    Ok(Experiments {
+        file: file.to_path_buf(),
+        response: response.to_string(),
+        designs,
+    })
 }
 
 /// Equal up to rounding of the printed values.

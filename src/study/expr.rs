@@ -12,7 +12,10 @@ pub struct NoConstants;
 
 impl MakeOperators<f64> for NoConstants {
     fn make<'a>() -> Vec<Operator<'a, f64>> {
-        FloatOpsFactory::<f64>::make().into_iter().filter(|op| op.constant().is_none()).collect()
+        FloatOpsFactory::<f64>::make()
+            .into_iter()
+            .filter(|op| op.constant().is_none())
+            .collect()
     }
 }
 
@@ -26,7 +29,9 @@ pub struct Symbols {
 
 impl Symbols {
     pub fn new(names: impl IntoIterator<Item = impl Into<String>>) -> Self {
-        Symbols { names: names.into_iter().map(Into::into).collect() }
+        Symbols {
+            names: names.into_iter().map(Into::into).collect(),
+        }
     }
 
     pub fn names(&self) -> &[String] {
@@ -64,7 +69,10 @@ pub struct Expression {
 
 impl Expression {
     pub fn compile(text: &str, symbols: &Symbols) -> Result<Expression, ExprError> {
-        let flat = Flat::parse(text).map_err(|e| ExprError { message: e.msg().to_string(), offset: None })?;
+        let flat = Flat::parse(text).map_err(|e| ExprError {
+            message: e.msg().to_string(),
+            offset: None,
+        })?;
         let slots = flat
             .var_names()
             .iter()
@@ -72,13 +80,21 @@ impl Expression {
                 symbols.index(name).ok_or_else(|| ExprError {
                     message: format!(
                         "unknown symbol `{name}`; defined are: {}",
-                        if symbols.is_empty() { "(none)".to_string() } else { symbols.names().join(", ") }
+                        if symbols.is_empty() {
+                            "(none)".to_string()
+                        } else {
+                            symbols.names().join(", ")
+                        }
                     ),
                     offset: find_identifier(text, name),
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;
-        Ok(Expression { text: text.to_string(), flat, slots })
+        Ok(Expression {
+            text: text.to_string(),
+            flat,
+            slots,
+        })
     }
 
     pub fn text(&self) -> &str {

@@ -16,10 +16,10 @@ use super::{
 use crate::calibrate::bayesian::Settings as BayesianSettings;
 use crate::error::InputError;
 
-#[path = "load_solver.rs"]
-mod solver;
 #[path = "load_cluster.rs"]
 mod cluster;
+#[path = "load_solver.rs"]
+mod solver;
 
 #[path = "load_extension.rs"]
 mod extension;
@@ -54,7 +54,9 @@ impl Checker<'_> {
 
     /// Line `line` (from 1) of the study file.
     fn line(&self, line: usize) -> &str {
-        line.checked_sub(1).and_then(|i| self.source.lines().nth(i)).unwrap_or("")
+        line.checked_sub(1)
+            .and_then(|i| self.source.lines().nth(i))
+            .unwrap_or("")
     }
 
     /// Where the key `key:` whose value is `value` is written: on the value's line before it, or on
@@ -63,12 +65,20 @@ impl Checker<'_> {
         let pattern = format!("{key}:");
         for line in (value.line.saturating_sub(3).max(1)..=value.line).rev() {
             let text = self.line(line);
-            let found = text.match_indices(&pattern).map(|(at, _)| text[..at].chars().count()).filter(|&col| {
-                let before = text[..text.char_indices().nth(col).map_or(text.len(), |(b, _)| b)].chars().next_back();
-                !before.is_some_and(|c| c.is_alphanumeric() || c == '_')
-            });
-            let found =
-                if line == value.line { found.filter(|&col| col + 1 < value.column).last() } else { found.last() };
+            let found = text
+                .match_indices(&pattern)
+                .map(|(at, _)| text[..at].chars().count())
+                .filter(|&col| {
+                    let before = text[..text.char_indices().nth(col).map_or(text.len(), |(b, _)| b)]
+                        .chars()
+                        .next_back();
+                    !before.is_some_and(|c| c.is_alphanumeric() || c == '_')
+                });
+            let found = if line == value.line {
+                found.filter(|&col| col + 1 < value.column).last()
+            } else {
+                found.last()
+            };
             if let Some(col) = found {
                 return (line, col + 1);
             }
@@ -89,7 +99,10 @@ impl Checker<'_> {
             Some(_) => format!("{what}: {}", error.message),
             None => format!("{what} does not parse: {}", error.message),
         };
-        let column = error.offset.and_then(|offset| self.column_in_string(node, offset)).unwrap_or(node.column);
+        let column = error
+            .offset
+            .and_then(|offset| self.column_in_string(node, offset))
+            .unwrap_or(node.column);
         self.at_position(node.line, column, message)
     }
 
@@ -124,16 +137,25 @@ impl Checker<'_> {
             .map(|(name, spec)| {
                 let spec = spec.as_ref();
                 let what = format!("design variable `{}`", name.value);
-                let min =
-                    spec.and_then(|s| s.min.as_ref()).map(|m| self.finite(m, &format!("{what}: min"))).transpose()?;
-                let max =
-                    spec.and_then(|s| s.max.as_ref()).map(|m| self.finite(m, &format!("{what}: max"))).transpose()?;
+                let min = spec
+                    .and_then(|s| s.min.as_ref())
+                    .map(|m| self.finite(m, &format!("{what}: min")))
+                    .transpose()?;
+                let max = spec
+                    .and_then(|s| s.max.as_ref())
+                    .map(|m| self.finite(m, &format!("{what}: max")))
+                    .transpose()?;
                 if let (Some(lo), Some(hi), Some(node)) = (min, max, spec.and_then(|s| s.min.as_ref()))
                     && lo >= hi
                 {
                     return Err(self.at(node, format!("{what}: min ({lo}) must be less than max ({hi})")));
                 }
-                Ok(DesignVariable { name: name.value.clone(), unit: spec.and_then(|s| s.unit.clone()), min, max })
+                Ok(DesignVariable {
+                    name: name.value.clone(),
+                    unit: spec.and_then(|s| s.unit.clone()),
+                    min,
+                    max,
+                })
             })
             .collect::<Result<Vec<_>, InputError>>()?;
 
@@ -155,7 +177,12 @@ impl Checker<'_> {
                 if min >= max {
                     return Err(self.at(&spec.min, format!("{what}: min ({min}) must be less than max ({max})")));
                 }
-                Ok(Parameter { name: name.value.clone(), min, max, unit: spec.unit.clone() })
+                Ok(Parameter {
+                    name: name.value.clone(),
+                    min,
+                    max,
+                    unit: spec.unit.clone(),
+                })
             })
             .collect::<Result<Vec<_>, InputError>>()?;
 
@@ -196,10 +223,17 @@ impl Checker<'_> {
                 let known: Vec<&str> = parameters.iter().map(|p| p.name.as_str()).collect();
                 return Err(self.at(
                     name,
-                    format!("`truth` names `{}`, which is not a parameter; parameters: {}", name.value, known.join(", ")),
+                    format!(
+                        "`truth` names `{}`, which is not a parameter; parameters: {}",
+                        name.value,
+                        known.join(", ")
+                    ),
                 ));
             }
-            truth.push((name.value.clone(), self.finite(value, &format!("truth `{}`", name.value))?));
+            truth.push((
+                name.value.clone(),
+                self.finite(value, &format!("truth `{}`", name.value))?,
+            ));
         }
 
         let mut study = Study {
@@ -223,8 +257,15 @@ impl Checker<'_> {
     }
 
     fn name(&self, name: &Spanned<String>) -> Result<String, InputError> {
-        let valid = name.value.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-')
-            && name.value.chars().next().is_some_and(|c| c.is_ascii_lowercase() || c.is_ascii_digit());
+        let valid = name
+            .value
+            .chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-')
+            && name
+                .value
+                .chars()
+                .next()
+                .is_some_and(|c| c.is_ascii_lowercase() || c.is_ascii_digit());
         if !valid {
             return Err(self.at(
                 name,
@@ -268,13 +309,21 @@ impl Checker<'_> {
                 ));
             }
             if text == "design" && kind == "a design variable" {
-                return Err(
-                    self.at(name, "`design` is reserved: the experiments file's `design` column holds design names")
-                );
+                return Err(self.at(
+                    name,
+                    "`design` is reserved: the experiments file's `design` column holds design names",
+                ));
             }
             if let Some((first, first_kind)) = seen.get(text) {
-                let where_ = if first.line > 0 { format!(" on line {}", first.line) } else { String::new() };
-                return Err(self.at(name, format!("`{text}` is defined twice: as {first_kind}{where_} and as {kind}")));
+                let where_ = if first.line > 0 {
+                    format!(" on line {}", first.line)
+                } else {
+                    String::new()
+                };
+                return Err(self.at(
+                    name,
+                    format!("`{text}` is defined twice: as {first_kind}{where_} and as {kind}"),
+                ));
             }
             seen.insert(text, (name, kind));
         }
@@ -305,7 +354,9 @@ impl Checker<'_> {
                     "`simulation` has both `expression` and `solver`: give exactly one",
                 ));
             }
-            return self.solver(node, solver, &symbols.names()[..n_design], n_parameters).map(|s| Simulation::Solver(Box::new(s)));
+            return self
+                .solver(node, solver, &symbols.names()[..n_design], n_parameters)
+                .map(|s| Simulation::Solver(Box::new(s)));
         }
         self.no_solver_keys(sim)?;
         let Some(text) = &sim.expression else {
@@ -333,13 +384,17 @@ impl Checker<'_> {
     fn experiments(&self, file: &StudyFile, design: &[DesignVariable]) -> Result<Experiments, InputError> {
         let spec = &file.experiments;
         if spec.file.value.trim().is_empty() {
-            return Err(self.at(&spec.file, "`experiments.file` is empty: name the CSV file of measured tests"));
+            return Err(self.at(
+                &spec.file,
+                "`experiments.file` is empty: name the CSV file of measured tests",
+            ));
         }
         let response = &spec.response;
         if response.value.trim().is_empty() {
-            return Err(
-                self.at(response, "`experiments.response` is empty: name the CSV column of the measured response")
-            );
+            return Err(self.at(
+                response,
+                "`experiments.response` is empty: name the CSV column of the measured response",
+            ));
         }
         if response.value == "design" || design.iter().any(|d| d.name == response.value) {
             return Err(self.at(
@@ -353,7 +408,11 @@ impl Checker<'_> {
         let dir = self.path.parent().unwrap_or(Path::new(""));
         let csv = dir.join(&spec.file.value);
         if !csv.is_file() {
-            let why = if csv.exists() { "is not a file" } else { "does not exist" };
+            let why = if csv.exists() {
+                "is not a file"
+            } else {
+                "does not exist"
+            };
             return Err(self.at(
                 &spec.file,
                 format!(
@@ -399,9 +458,15 @@ impl Checker<'_> {
                 }
             }
             if calibration.methods.contains(&Method::Sensitivity) && t.len() < 2 {
-                return Err(self.at(&split.training, "the sensitivity method needs at least 2 training designs per split"));
+                return Err(self.at(
+                    &split.training,
+                    "the sensitivity method needs at least 2 training designs per split",
+                ));
             }
-            out.push(super::Split { training: t, validation: v });
+            out.push(super::Split {
+                training: t,
+                validation: v,
+            });
         }
         Ok(out)
     }
@@ -453,16 +518,20 @@ impl Checker<'_> {
             }
             Some(list) => {
                 if list.value.is_empty() {
-                    return Err(
-                        self.at(list, "no calibration methods: choose from least_squares, sensitivity, bayesian")
-                    );
+                    return Err(self.at(
+                        list,
+                        "no calibration methods: choose from least_squares, sensitivity, bayesian",
+                    ));
                 }
                 let mut methods = Vec::new();
                 for key in &list.value {
                     let method = Method::from_key(&key.value).ok_or_else(|| {
                         self.at(
                             key,
-                            format!("unknown method `{}`: choose from least_squares, sensitivity, bayesian", key.value),
+                            format!(
+                                "unknown method `{}`: choose from least_squares, sensitivity, bayesian",
+                                key.value
+                            ),
                         )
                     })?;
                     if methods.contains(&method) {
@@ -482,7 +551,10 @@ impl Checker<'_> {
                 methods
             }
         };
-        Ok(CalibrationSettings { methods, bayesian: self.bayesian(spec.map(|c| &c.bayesian))? })
+        Ok(CalibrationSettings {
+            methods,
+            bayesian: self.bayesian(spec.map(|c| &c.bayesian))?,
+        })
     }
 
     fn bayesian(&self, spec: Option<&BayesianFile>) -> Result<BayesianSettings, InputError> {
@@ -554,7 +626,10 @@ impl Checker<'_> {
                     ));
                 }
             };
-            hypotheses.push(Hypothesis { name: h.name.value.clone(), kind });
+            hypotheses.push(Hypothesis {
+                name: h.name.value.clone(),
+                kind,
+            });
         }
         Ok(DiagnosisSettings { hypotheses })
     }

@@ -76,7 +76,10 @@ impl Checker<'_> {
                 ));
             }
             if !value.value.is_finite() {
-                return Err(self.at(value, format!("{who}: `{text}` must be a finite number, not {}", value.value)));
+                return Err(self.at(
+                    value,
+                    format!("{who}: `{text}` must be a finite number, not {}", value.value),
+                ));
             }
             vars.push((text.to_string(), value.value));
         }
@@ -84,7 +87,11 @@ impl Checker<'_> {
         // The render test, at the first training design and the centre of the parameter box.
         let renderer = crate::render::Renderer::new(&sim.templates)?;
         let design = &study.training[0];
-        let values = study.experiments.get(design).map(|t| t.values.clone()).unwrap_or_default();
+        let values = study
+            .experiments
+            .get(design)
+            .map(|t| t.values.clone())
+            .unwrap_or_default();
         let theta: Vec<f64> = study.parameter_bounds().center().iter().copied().collect();
         let render = |vars: &[(String, f64)]| {
             let mut ctx = crate::render::context(study, design, &values, &theta);
@@ -96,8 +103,12 @@ impl Checker<'_> {
             e
         })?;
         for (i, (var, _)) in node.value.iter().enumerate() {
-            let without: Vec<(String, f64)> =
-                vars.iter().enumerate().filter(|&(k, _)| k != i).map(|(_, v)| v.clone()).collect();
+            let without: Vec<(String, f64)> = vars
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| k != i)
+                .map(|(_, v)| v.clone())
+                .collect();
             if render(&without).is_ok_and(|inputs| inputs == full) {
                 return Err(self.at(
                     var,

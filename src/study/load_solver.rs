@@ -9,12 +9,12 @@ use super::super::schema::{MeshFile, ResponseFile, RetriesFile, SamplingFile, Si
 use super::super::solver::{
     CopiedFile, MeshSpec, Response, Sampling, SamplingMethod, SolverSimulation, SurrogateKind, Template,
 };
-use crate::extract::crush::{SimSource, Sign, Window};
-use crate::extract::lsdyna::rcforc::Side;
 use super::super::yaml::Spanned;
 use super::Checker;
 use crate::error::InputError;
 use crate::execute::{Backoff, CommandAdapter, OutcomeClass, RetryPolicy};
+use crate::extract::crush::{Sign, SimSource, Window};
+use crate::extract::lsdyna::rcforc::Side;
 
 /// Outcome classes a retry policy may name, by their study-file names.
 const RETRY_CLASSES: [(&str, OutcomeClass); 5] = [
@@ -73,8 +73,16 @@ impl Checker<'_> {
         let adapter = self.adapter(&spec.adapter)?;
         let lsdyna = adapter == "lsdyna";
         let mut outputs: Vec<PathBuf> = Vec::new();
-        let templates = spec.templates.iter().map(|t| self.template(t, &mut outputs)).collect::<Result<Vec<_>, _>>()?;
-        let files = spec.files.iter().map(|f| self.copied(f, &mut outputs)).collect::<Result<Vec<_>, _>>()?;
+        let templates = spec
+            .templates
+            .iter()
+            .map(|t| self.template(t, &mut outputs))
+            .collect::<Result<Vec<_>, _>>()?;
+        let files = spec
+            .files
+            .iter()
+            .map(|f| self.copied(f, &mut outputs))
+            .collect::<Result<Vec<_>, _>>()?;
         let command = match &spec.command {
             Some(c) => self.command(c)?,
             None if lsdyna => {
@@ -85,7 +93,11 @@ impl Checker<'_> {
                         "an `lsdyna` solver needs `templates: [main.k.tera, ...]` (the first is the main deck)",
                     ));
                 };
-                vec!["ls-dyna".to_string(), format!("i={}", main.output.display()), "ncpu=1".to_string()]
+                vec![
+                    "ls-dyna".to_string(),
+                    format!("i={}", main.output.display()),
+                    "ncpu=1".to_string(),
+                ]
             }
             // `calculix`: `[ccx, -i, JOB]`, filled in once the job is known (load_cluster.rs).
             None if adapter == "calculix" => Vec::new(),
@@ -97,8 +109,17 @@ impl Checker<'_> {
                 ));
             }
         };
-        let timeout = spec.timeout.as_ref().map(|t| self.seconds(t, "solver.timeout", false)).transpose()?;
-        let retry = spec.retries.as_ref().map(|r| self.retries(r)).transpose()?.unwrap_or_default();
+        let timeout = spec
+            .timeout
+            .as_ref()
+            .map(|t| self.seconds(t, "solver.timeout", false))
+            .transpose()?;
+        let retry = spec
+            .retries
+            .as_ref()
+            .map(|r| self.retries(r))
+            .transpose()?
+            .unwrap_or_default();
         let Some(response) = &sim.response else {
             let want = if lsdyna {
                 "an `lsdyna` solver needs `simulation.response: {kind: crush_force, window: [5, 60], node: ...}`"
@@ -121,7 +142,10 @@ impl Checker<'_> {
         let surrogate = match &sim.surrogate {
             None => SurrogateKind::Linear,
             Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
-                self.at(s, format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value))
+                self.at(
+                    s,
+                    format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value),
+                )
             })?,
         };
         let Some(sampling) = &sim.sampling else {
@@ -135,7 +159,10 @@ impl Checker<'_> {
         let mesh = sim.mesh.as_ref().map(|m| self.mesh(m, design_names)).transpose()?;
         let replay = sim.replay.as_ref().map(|r| {
             if r.value.trim().is_empty() {
-                return Err(self.at(r, "`simulation.replay` is empty: give a directory relative to the study file"));
+                return Err(self.at(
+                    r,
+                    "`simulation.replay` is empty: give a directory relative to the study file",
+                ));
             }
             Ok(self.path.parent().unwrap_or(Path::new("")).join(&r.value))
         });
@@ -160,15 +187,25 @@ impl Checker<'_> {
     fn regex_response(&self, node: &Spanned<ResponseFile>) -> Result<Response, InputError> {
         let r = &node.value;
         if let Some(kind) = &r.kind {
-            return Err(self.at(kind, "`response.kind` goes with `adapter: lsdyna`; the command adapter reads {file, regex}"));
+            return Err(self.at(
+                kind,
+                "`response.kind` goes with `adapter: lsdyna`; the command adapter reads {file, regex}",
+            ));
         }
         let (Some(file), Some(regex)) = (&r.file, &r.regex) else {
-            return Err(self.at_key("response", node, "the command adapter needs `simulation.response: {file, regex}`"));
+            return Err(self.at_key(
+                "response",
+                node,
+                "the command adapter needs `simulation.response: {file, regex}`",
+            ));
         };
         let response_file = self.relative_path(file, "response.file")?;
         CommandAdapter::new(&response_file, &regex.value, &[])
             .map_err(|e| self.at(regex, format!("response regex: {e}")))?;
-        Ok(Response::Regex { file: response_file, regex: regex.value.clone() })
+        Ok(Response::Regex {
+            file: response_file,
+            regex: regex.value.clone(),
+        })
     }
 
     fn crush_response(&self, node: &Spanned<ResponseFile>) -> Result<Response, InputError> {
@@ -182,18 +219,40 @@ impl Checker<'_> {
         }
         match &r.kind {
             Some(k) if k.value == "crush_force" => {}
-            Some(k) => return Err(self.at(k, format!("unknown response kind `{}`: the lsdyna adapter has crush_force", k.value))),
-            None => return Err(self.at_key("response", node, "the lsdyna adapter needs `response.kind: crush_force`")),
+            Some(k) => {
+                return Err(self.at(
+                    k,
+                    format!(
+                        "unknown response kind `{}`: the lsdyna adapter has crush_force",
+                        k.value
+                    ),
+                ));
+            }
+            None => {
+                return Err(self.at_key(
+                    "response",
+                    node,
+                    "the lsdyna adapter needs `response.kind: crush_force`",
+                ));
+            }
         }
         let Some(window) = &r.window else {
-            return Err(self.at_key("response", node, "`response.window: [s0, s1]` (stroke window, mm) is missing"));
+            return Err(self.at_key(
+                "response",
+                node,
+                "`response.window: [s0, s1]` (stroke window, mm) is missing",
+            ));
         };
         let w: Vec<f64> = window.value.iter().map(|v| v.value).collect();
         if w.len() != 2 || !w.iter().all(|v| v.is_finite()) || w[0] < 0.0 || w[1] <= w[0] {
             return Err(self.at(window, "`response.window` must be [s0, s1] in mm with 0 <= s0 < s1"));
         }
         let Some(node_id) = &r.node else {
-            return Err(self.at_key("response", node, "`response.node` (the striker's nodout node id) is missing"));
+            return Err(self.at_key(
+                "response",
+                node,
+                "`response.node` (the striker's nodout node id) is missing",
+            ));
         };
         let axis = |n: &Option<Spanned<String>>, default: usize| -> Result<usize, InputError> {
             match n {
@@ -234,13 +293,19 @@ impl Checker<'_> {
             disp_sign: Sign::Auto,
             disp_to_mm: factor(&r.disp_to_mm, "disp_to_mm")?,
         };
-        Ok(Response::CrushForce { window: Window { s0: w[0], s1: w[1] }, source })
+        Ok(Response::CrushForce {
+            window: Window { s0: w[0], s1: w[1] },
+            source,
+        })
     }
 
     fn mesh(&self, node: &Spanned<MeshFile>, design_names: &[String]) -> Result<MeshSpec, InputError> {
         let m = &node.value;
         if m.kind.value != "honeycomb_tube" {
-            return Err(self.at(&m.kind, format!("unknown mesh kind `{}`: choose honeycomb_tube", m.kind.value)));
+            return Err(self.at(
+                &m.kind,
+                format!("unknown mesh kind `{}`: choose honeycomb_tube", m.kind.value),
+            ));
         }
         let positive = |v: &Spanned<f64>, key: &str| -> Result<f64, InputError> {
             if v.value.is_finite() && v.value > 0.0 {
@@ -262,23 +327,42 @@ impl Checker<'_> {
                 None => self.at_key("mesh", node, msg),
             });
         };
-        let diameter = m.diameter.as_ref().map(|v| positive(v, "diameter")).transpose()?.unwrap_or(57.35);
-        let length = m.length.as_ref().map(|v| positive(v, "length")).transpose()?.unwrap_or(150.0);
-        Ok(MeshSpec { cell_variable, element_size, diameter, length })
+        let diameter = m
+            .diameter
+            .as_ref()
+            .map(|v| positive(v, "diameter"))
+            .transpose()?
+            .unwrap_or(57.35);
+        let length = m
+            .length
+            .as_ref()
+            .map(|v| positive(v, "length"))
+            .transpose()?
+            .unwrap_or(150.0);
+        Ok(MeshSpec {
+            cell_variable,
+            element_size,
+            diameter,
+            length,
+        })
     }
 
     fn adapter(&self, node: &Spanned<String>) -> Result<String, InputError> {
         match node.value.as_str() {
             "command" | "lsdyna" | "calculix" => Ok(node.value.clone()),
-            name => Err(self.at(node, format!("unknown adapter `{name}`: choose from command, lsdyna, calculix"))),
+            name => Err(self.at(
+                node,
+                format!("unknown adapter `{name}`: choose from command, lsdyna, calculix"),
+            )),
         }
     }
 
     fn command(&self, node: &Spanned<Vec<Spanned<String>>>) -> Result<Vec<String>, InputError> {
         let Some(program) = node.value.first() else {
-            return Err(
-                self.at(node, "empty `solver.command`: give the program and its arguments, e.g. [ccx, -i, job]")
-            );
+            return Err(self.at(
+                node,
+                "empty `solver.command`: give the program and its arguments, e.g. [ccx, -i, job]",
+            ));
         };
         if program.value.trim().is_empty() {
             return Err(self.at(program, "the solver's program name is empty"));
@@ -290,7 +374,11 @@ impl Checker<'_> {
     fn referenced_file(&self, node: &Spanned<String>, what: &str) -> Result<PathBuf, InputError> {
         let path = self.path.parent().unwrap_or(Path::new("")).join(&node.value);
         if !path.is_file() {
-            let why = if path.exists() { "is not a file" } else { "does not exist" };
+            let why = if path.exists() {
+                "is not a file"
+            } else {
+                "does not exist"
+            };
             return Err(self.at(
                 node,
                 format!(
@@ -310,14 +398,25 @@ impl Checker<'_> {
         file: &Path,
         outputs: &mut Vec<PathBuf>,
     ) -> Result<PathBuf, InputError> {
-        let name = file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let name = file
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
         let output = PathBuf::from(name.strip_suffix(".tera").unwrap_or(&name));
         if output.as_os_str().is_empty() {
-            return Err(self.at(node, format!("`{}` leaves no file name in the run directory", node.value)));
+            return Err(self.at(
+                node,
+                format!("`{}` leaves no file name in the run directory", node.value),
+            ));
         }
         if outputs.contains(&output) {
-            return Err(self
-                .at(node, format!("two inputs would both be written to `{}` in the run directory", output.display())));
+            return Err(self.at(
+                node,
+                format!(
+                    "two inputs would both be written to `{}` in the run directory",
+                    output.display()
+                ),
+            ));
         }
         outputs.push(output.clone());
         Ok(output)
@@ -344,7 +443,10 @@ impl Checker<'_> {
         let path = PathBuf::from(&node.value);
         let inside = path.components().all(|c| matches!(c, Component::Normal(_)));
         if node.value.is_empty() || !inside {
-            return Err(self.at(node, format!("`{key}` must be a relative path inside the run directory")));
+            return Err(self.at(
+                node,
+                format!("`{key}` must be a relative path inside the run directory"),
+            ));
         }
         Ok(path)
     }
@@ -362,10 +464,21 @@ impl Checker<'_> {
     fn retries(&self, node: &Spanned<RetriesFile>) -> Result<RetryPolicy, InputError> {
         let spec = &node.value;
         if spec.max_attempts.value < 1 {
-            return Err(self.at(&spec.max_attempts, "`retries.max_attempts` counts the first attempt: at least 1"));
+            return Err(self.at(
+                &spec.max_attempts,
+                "`retries.max_attempts` counts the first attempt: at least 1",
+            ));
         }
-        let initial = spec.backoff.as_ref().map(|b| self.seconds(b, "retries.backoff", true)).transpose()?;
-        let max = spec.max_backoff.as_ref().map(|b| self.seconds(b, "retries.max_backoff", true)).transpose()?;
+        let initial = spec
+            .backoff
+            .as_ref()
+            .map(|b| self.seconds(b, "retries.backoff", true))
+            .transpose()?;
+        let max = spec
+            .max_backoff
+            .as_ref()
+            .map(|b| self.seconds(b, "retries.max_backoff", true))
+            .transpose()?;
         let initial = initial.unwrap_or(Duration::ZERO);
         let max = max.unwrap_or(Duration::from_secs(60)).max(initial);
         let retry_on = match &spec.on {
@@ -380,10 +493,21 @@ impl Checker<'_> {
     }
 
     fn outcome_class(&self, node: &Spanned<String>) -> Result<OutcomeClass, InputError> {
-        RETRY_CLASSES.iter().find(|(name, _)| *name == node.value).map(|(_, c)| *c).ok_or_else(|| {
-            let names: Vec<&str> = RETRY_CLASSES.iter().map(|(n, _)| *n).collect();
-            self.at(node, format!("unknown outcome class `{}`: choose from {}", node.value, names.join(", ")))
-        })
+        RETRY_CLASSES
+            .iter()
+            .find(|(name, _)| *name == node.value)
+            .map(|(_, c)| *c)
+            .ok_or_else(|| {
+                let names: Vec<&str> = RETRY_CLASSES.iter().map(|(n, _)| *n).collect();
+                self.at(
+                    node,
+                    format!(
+                        "unknown outcome class `{}`: choose from {}",
+                        node.value,
+                        names.join(", ")
+                    ),
+                )
+            })
     }
 
     fn sampling(
@@ -397,7 +521,10 @@ impl Checker<'_> {
             "lhs" => SamplingMethod::Lhs,
             "grid" => SamplingMethod::Grid,
             other => {
-                return Err(self.at(&spec.method, format!("unknown sampling method `{other}`: choose lhs or grid")));
+                return Err(self.at(
+                    &spec.method,
+                    format!("unknown sampling method `{other}`: choose lhs or grid"),
+                ));
             }
         };
         let count = spec.count.value;
@@ -419,6 +546,11 @@ impl Checker<'_> {
             ));
         }
         let check_runs = spec.check_runs.as_ref().map_or(DEFAULT_CHECK_RUNS, |c| c.value);
-        Ok(Sampling { method, count, seed: spec.seed, check_runs })
+        Ok(Sampling {
+            method,
+            count,
+            seed: spec.seed,
+            check_runs,
+        })
     }
 }

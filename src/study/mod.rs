@@ -100,7 +100,9 @@ impl Method {
     }
 
     pub fn from_key(key: &str) -> Option<Method> {
-        [Method::LeastSquares, Method::Sensitivity, Method::Bayesian].into_iter().find(|m| m.key() == key)
+        [Method::LeastSquares, Method::Sensitivity, Method::Bayesian]
+            .into_iter()
+            .find(|m| m.key() == key)
     }
 }
 
@@ -163,7 +165,10 @@ impl Study {
     }
 
     pub fn parameter_bounds(&self) -> Bounds {
-        Bounds::new(self.parameters.iter().map(|p| p.min).collect(), self.parameters.iter().map(|p| p.max).collect())
+        Bounds::new(
+            self.parameters.iter().map(|p| p.min).collect(),
+            self.parameters.iter().map(|p| p.max).collect(),
+        )
     }
 
     /// Design bounds: the study's `min`/`max` where given, else the range of the tested designs.

@@ -40,7 +40,10 @@ pub enum Response {
     /// `command`: the first capture group of `regex` in `file` (relative to the run directory).
     Regex { file: PathBuf, regex: String },
     /// `lsdyna`: mean crush force (kN) over a stroke window, from rcforc and nodout.
-    CrushForce { window: crate::extract::crush::Window, source: crate::extract::crush::SimSource },
+    CrushForce {
+        window: crate::extract::crush::Window,
+        source: crate::extract::crush::SimSource,
+    },
     /// `calculix`: a value from a block of `JOB.dat` (`response.dat`), judged by the ccx adapter.
     Dat(crate::execute::calculix::CalculixAdapter),
 }
@@ -109,7 +112,9 @@ impl SurrogateKind {
     }
 
     pub fn from_key(key: &str) -> Option<Self> {
-        [SurrogateKind::Linear, SurrogateKind::Quadratic, SurrogateKind::Gp].into_iter().find(|k| k.key() == key)
+        [SurrogateKind::Linear, SurrogateKind::Quadratic, SurrogateKind::Gp]
+            .into_iter()
+            .find(|k| k.key() == key)
     }
 
     /// Fewest samples per design that determine the surrogate over `p` parameters.

@@ -82,9 +82,12 @@ fn friendlier(message: &str) -> String {
 
 /// Whether `message` is the crate's "invalid u64" (etc.) for a scalar that is not an integer.
 fn is_integer_message(message: &str) -> bool {
-    const KINDS: [&str; 13] =
-        ["integer", "u8", "u16", "u32", "u64", "u128", "usize", "i8", "i16", "i32", "i64", "i128", "isize"];
-    message.strip_prefix("invalid ").is_some_and(|kind| KINDS.contains(&kind))
+    const KINDS: [&str; 13] = [
+        "integer", "u8", "u16", "u32", "u64", "u128", "usize", "i8", "i16", "i32", "i64", "i128", "isize",
+    ];
+    message
+        .strip_prefix("invalid ")
+        .is_some_and(|kind| KINDS.contains(&kind))
 }
 
 #[cfg(test)]

@@ -14,7 +14,14 @@ pub fn fake_solver() -> PathBuf {
 }
 
 pub fn adapter() -> Arc<CommandAdapter> {
-    Arc::new(CommandAdapter::new("resp.txt", r"value\s*=\s*(\S+)", &[r"E r r o r\s+t e r m i n a t i o n"]).unwrap())
+    Arc::new(
+        CommandAdapter::new(
+            "resp.txt",
+            r"value\s*=\s*(\S+)",
+            &[r"E r r o r\s+t e r m i n a t i o n"],
+        )
+        .unwrap(),
+    )
 }
 
 /// A run of the fake solver in `mode`; `input` is the content of its one input file (so runs with
@@ -58,7 +65,9 @@ pub fn is_gone(pid: i32) -> bool {
     }
     match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
         // Field 3 is the state; the command name in field 2 is parenthesised and may hold spaces.
-        Ok(stat) => stat.rsplit_once(')').is_some_and(|(_, rest)| rest.trim_start().starts_with('Z')),
+        Ok(stat) => stat
+            .rsplit_once(')')
+            .is_some_and(|(_, rest)| rest.trim_start().starts_with('Z')),
         Err(_) => true,
     }
 }

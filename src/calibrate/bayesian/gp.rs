@@ -19,7 +19,9 @@ const STARTS: usize = 8;
 /// Gaussian correlation `exp(-Σ λ_k (a_k − b_k)²)` between the rows of `a` and `b` (A4, A7).
 pub fn gauss_corr(a: &DMatrix<f64>, b: &DMatrix<f64>, roughness: &[f64]) -> DMatrix<f64> {
     DMatrix::from_fn(a.nrows(), b.nrows(), |i, j| {
-        let d2: f64 = (0..a.ncols()).map(|k| roughness[k] * (a[(i, k)] - b[(j, k)]).powi(2)).sum();
+        let d2: f64 = (0..a.ncols())
+            .map(|k| roughness[k] * (a[(i, k)] - b[(j, k)]).powi(2))
+            .sum();
         (-d2).exp()
     })
 }
@@ -102,7 +104,15 @@ fn gls(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>, roughness: &[f64]) 
     let alpha = chol.solve(&(z - f * &beta));
     let log_det: f64 = l.diagonal().iter().map(|v| v.ln()).sum();
     let neg_log_lik = 0.5 * n * sigma2.max(1e-300).ln() + log_det;
-    neg_log_lik.is_finite().then_some(GlsFit { chol, lf, chol_a, beta, alpha, sigma2, neg_log_lik })
+    neg_log_lik.is_finite().then_some(GlsFit {
+        chol,
+        lf,
+        chol_a,
+        beta,
+        alpha,
+        sigma2,
+        neg_log_lik,
+    })
 }
 
 /// Which coordinate transforms the emulator may use; each applies only where the data allow it.
@@ -116,7 +126,10 @@ pub(crate) struct Transforms {
 }
 
 /// What [`Emulator::fit`] uses: see its doc comment for the measurement behind the choice.
-const TRANSFORMS: Transforms = Transforms { log_output: true, log_inputs: true };
+const TRANSFORMS: Transforms = Transforms {
+    log_output: true,
+    log_inputs: true,
+};
 
 /// Largest upper/lower ratio of an input that is scaled through ln: the runs are uniform in x, and
 /// over wider boxes ln x crowds them into the top of the unit cube (measured in `emulator_transforms`:
@@ -146,7 +159,11 @@ impl InputMap {
     /// points lie far outside the box the emulator was fitted on.
     fn unit(&self, points: &DMatrix<f64>) -> DMatrix<f64> {
         DMatrix::from_fn(points.nrows(), points.ncols(), |i, k| {
-            let v = if self.log[k] { points[(i, k)].ln() } else { points[(i, k)] };
+            let v = if self.log[k] {
+                points[(i, k)].ln()
+            } else {
+                points[(i, k)]
+            };
             (v - self.lower[k]) / self.width[k]
         })
     }
@@ -202,7 +219,11 @@ impl Emulator {
         let input_map = InputMap::new(bounds, transforms.log_inputs);
         let x = input_map.unit(inputs);
         let log_output = transforms.log_output && outputs.iter().all(|&v| v > 0.0);
-        let t = if log_output { outputs.map(f64::ln) } else { outputs.clone() };
+        let t = if log_output {
+            outputs.map(f64::ln)
+        } else {
+            outputs.clone()
+        };
         let t_mean = t.mean();
         let t_sd = t.variance().sqrt().max(1e-300);
         let z = t.map(|v| (v - t_mean) / t_sd);
@@ -210,12 +231,23 @@ impl Emulator {
         let quadratic = basis_len(p, true) + 2 <= n;
         let f = basis(&x, quadratic);
         if basis_len(p, quadratic) >= n {
-            return Err(CalibrationError::Numerics(format!("{n} emulator samples are too few for {p} inputs")));
+            return Err(CalibrationError::Numerics(format!(
+                "{n} emulator samples are too few for {p} inputs"
+            )));
         }
         let roughness = fit_roughness(&x, &z, &f);
         let fit = gls(&x, &z, &f, &roughness)
             .ok_or_else(|| CalibrationError::Numerics("emulator correlation matrix is singular".into()))?;
-        Ok(Emulator { inputs: input_map, log_output, t_mean, t_sd, x, quadratic, roughness, fit })
+        Ok(Emulator {
+            inputs: input_map,
+            log_output,
+            t_mean,
+            t_sd,
+            x,
+            quadratic,
+            roughness,
+            fit,
+        })
     }
 
     pub fn roughness(&self) -> &[f64] {
@@ -271,7 +303,9 @@ impl Emulator {
 fn fit_roughness(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>) -> Vec<f64> {
     let p = x.ncols();
     let to_roughness = |u: &[f64]| -> Vec<f64> {
-        u.iter().map(|v| (LOG_ROUGHNESS.0 + v * (LOG_ROUGHNESS.1 - LOG_ROUGHNESS.0)).exp()).collect()
+        u.iter()
+            .map(|v| (LOG_ROUGHNESS.0 + v * (LOG_ROUGHNESS.1 - LOG_ROUGHNESS.0)).exp())
+            .collect()
     };
     let cost = |u: &[f64]| gls(x, z, f, &to_roughness(u)).map_or(FAILED, |g| g.neg_log_lik);
     let starts = crate::plan::latin_hypercube(STARTS, p, 0x5eed);
@@ -294,7 +328,10 @@ mod tests {
         (x, y, bounds)
     }
 
-    const PLAIN: Transforms = Transforms { log_output: false, log_inputs: false };
+    const PLAIN: Transforms = Transforms {
+        log_output: false,
+        log_inputs: false,
+    };
 
     fn euler(h: f64, e: f64, l: f64) -> f64 {
         4.0 * 600.0 * l.powi(3) / (e * 2.0 * h.powi(3))
@@ -312,7 +349,9 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 1000);
         let pts = DMatrix::from_fn(50, p, |_, k| bounds.lower[k] + rng.random::<f64>() * bounds.width()[k]);
         let m = emu.mean(&pts);
-        let rel: Vec<f64> = (0..50).map(|i| (m[i] / f(pts.row(i).transpose().as_slice()) - 1.0).abs()).collect();
+        let rel: Vec<f64> = (0..50)
+            .map(|i| (m[i] / f(pts.row(i).transpose().as_slice()) - 1.0).abs())
+            .collect();
         let rms = (rel.iter().map(|r| r * r).sum::<f64>() / 50.0).sqrt();
         (rel.iter().copied().fold(0.0, f64::max), rms)
     }
@@ -336,18 +375,50 @@ mod tests {
         // uniform runs into the top of the unit cube.
         let timoshenko = |x: &[f64]| euler(x[0], x[1], x[2]) + 600.0 * x[2] * 5.8 / (2.0 * x[1] * 2.0 * x[0]);
         let cases: [Case; 6] = [
-            ("cantilever (h, E)", cantilever_box(), &|x: &[f64]| euler(x[0], x[1], 20.0)),
+            ("cantilever (h, E)", cantilever_box(), &|x: &[f64]| {
+                euler(x[0], x[1], 20.0)
+            }),
             ("table 1 (h, E, L)", table1_box(), &|x: &[f64]| euler(x[0], x[1], x[2])),
             ("timoshenko h, E, L", table1_box(), &timoshenko),
-            ("2 + a + b, [.01, 1]²", Bounds::new(vec![0.01, 0.01], vec![1.0, 1.0]), &|x: &[f64]| 2.0 + x[0] + x[1]),
-            ("2 + a + b, [.1, 1]²", Bounds::new(vec![0.1, 0.1], vec![1.0, 1.0]), &|x: &[f64]| 2.0 + x[0] + x[1]),
-            ("2 + a + b, [.25, 1]²", Bounds::new(vec![0.25, 0.25], vec![1.0, 1.0]), &|x: &[f64]| 2.0 + x[0] + x[1]),
+            (
+                "2 + a + b, [.01, 1]²",
+                Bounds::new(vec![0.01, 0.01], vec![1.0, 1.0]),
+                &|x: &[f64]| 2.0 + x[0] + x[1],
+            ),
+            (
+                "2 + a + b, [.1, 1]²",
+                Bounds::new(vec![0.1, 0.1], vec![1.0, 1.0]),
+                &|x: &[f64]| 2.0 + x[0] + x[1],
+            ),
+            (
+                "2 + a + b, [.25, 1]²",
+                Bounds::new(vec![0.25, 0.25], vec![1.0, 1.0]),
+                &|x: &[f64]| 2.0 + x[0] + x[1],
+            ),
         ];
         let options = [
             ("none", PLAIN),
-            ("ln y", Transforms { log_output: true, log_inputs: false }),
-            ("ln y, ln x", Transforms { log_output: true, log_inputs: true }),
-            ("ln x", Transforms { log_output: false, log_inputs: true }),
+            (
+                "ln y",
+                Transforms {
+                    log_output: true,
+                    log_inputs: false,
+                },
+            ),
+            (
+                "ln y, ln x",
+                Transforms {
+                    log_output: true,
+                    log_inputs: true,
+                },
+            ),
+            (
+                "ln x",
+                Transforms {
+                    log_output: false,
+                    log_inputs: true,
+                },
+            ),
         ];
         for (name, bounds, f) in &cases {
             for (label, tr) in options {
@@ -409,7 +480,16 @@ mod tests {
         let f = |h: f64, e: f64| euler(h, e, 20.0) * (1.0 + 0.05 * (h / 2.0).sin());
         let (x, y, b) = grid_data(f, 12);
         let emu = Emulator::fit(&x, &y, &b).unwrap();
-        let logs = Emulator::fit_with(&x, &y.map(f64::ln), &b, Transforms { log_output: false, ..TRANSFORMS }).unwrap();
+        let logs = Emulator::fit_with(
+            &x,
+            &y.map(f64::ln),
+            &b,
+            Transforms {
+                log_output: false,
+                ..TRANSFORMS
+            },
+        )
+        .unwrap();
         assert!(emu.log_output() && !logs.log_output());
         let p = DMatrix::from_row_slice(2, 2, &[9.1, 71_000.0, 9.4, 69_000.0]);
         let ((m, c), (mt, ct)) = (emu.mean_cov(&p).unwrap(), logs.mean_cov(&p).unwrap());
@@ -439,7 +519,10 @@ mod tests {
         let emu = Emulator::fit_with(&x, &y, &b, PLAIN).unwrap();
         let p = DMatrix::from_row_slice(2, 2, &[9.0, 61_000.0, 12.5, 52_000.0]);
         let m = emu.mean(&p);
-        assert!((m[0] - f(9.0, 61_000.0)).abs() < 1e-6 && (m[1] - f(12.5, 52_000.0)).abs() < 1e-6, "{m}");
+        assert!(
+            (m[0] - f(9.0, 61_000.0)).abs() < 1e-6 && (m[1] - f(12.5, 52_000.0)).abs() < 1e-6,
+            "{m}"
+        );
         // At a training point the variance is ~0 (nugget only).
         let (_, c) = emu.mean_cov(&x.rows(0, 1).into_owned()).unwrap();
         assert!(c[(0, 0)].abs() < 1e-8, "{c}");

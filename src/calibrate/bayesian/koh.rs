@@ -79,7 +79,9 @@ impl<'a> Koh<'a> {
         // The floor keeps the box sensible when the model happens to fit exactly at the centre.
         let s = (r.norm() / (r.len() as f64).sqrt()).max(1e-3 * y_rms).max(1e-150);
         if !s.is_finite() {
-            return Err(CalibrationError::NonFinite("emulator at the centre of the parameter box".into()));
+            return Err(CalibrationError::NonFinite(
+                "emulator at the centre of the parameter box".into(),
+            ));
         }
         koh.hyper = HyperBox::from_scale(s);
         koh.scale2 = s * s;
@@ -96,7 +98,8 @@ impl<'a> Koh<'a> {
     }
 
     pub fn theta(&self, u: &[f64]) -> DVector<f64> {
-        self.theta_bounds.from_unit(&DVector::from_column_slice(&u[..self.n_theta()]))
+        self.theta_bounds
+            .from_unit(&DVector::from_column_slice(&u[..self.n_theta()]))
     }
 
     pub fn theta_to_unit(&self, theta: &DVector<f64>) -> Vec<f64> {
@@ -108,13 +111,18 @@ impl<'a> Koh<'a> {
     }
 
     fn roughness(&self, u: &[f64]) -> Vec<f64> {
-        u[self.n_theta() + 1..].iter().map(|&v| lerp(self.hyper.log_roughness, v).exp()).collect()
+        u[self.n_theta() + 1..]
+            .iter()
+            .map(|&v| lerp(self.hyper.log_roughness, v).exp())
+            .collect()
     }
 
     /// Emulator inputs: each training design followed by θ.
     fn inputs(&self, theta: &DVector<f64>) -> DMatrix<f64> {
         let (m, pd) = self.designs.shape();
-        DMatrix::from_fn(m, pd + theta.len(), |i, k| if k < pd { self.designs[(i, k)] } else { theta[k - pd] })
+        DMatrix::from_fn(m, pd + theta.len(), |i, k| {
+            if k < pd { self.designs[(i, k)] } else { theta[k - pd] }
+        })
     }
 
     /// Negative log-likelihood (constants dropped) and the GLS β_d at the unit-box point `u`.

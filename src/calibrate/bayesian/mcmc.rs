@@ -63,7 +63,10 @@ pub fn stretch_sample(
 /// start itself if ten tries fail.
 fn initial_walker(log_post: &dyn Fn(&[f64]) -> f64, start: &[f64], rng: &mut ChaCha8Rng) -> (Vec<f64>, f64) {
     for _ in 0..10 {
-        let x: Vec<f64> = start.iter().map(|&s| reflect(s + 0.04 * (rng.random::<f64>() - 0.5))).collect();
+        let x: Vec<f64> = start
+            .iter()
+            .map(|&s| reflect(s + 0.04 * (rng.random::<f64>() - 0.5)))
+            .collect();
         let l = log_post(&x);
         if l.is_finite() {
             return (x, l);

@@ -50,7 +50,13 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Self {
-        Settings { emulator_samples: 24, seed: 1, mcmc_walkers: 32, mcmc_steps: 3000, mcmc_burn_in: 500 }
+        Settings {
+            emulator_samples: 24,
+            seed: 1,
+            mcmc_walkers: 32,
+            mcmc_steps: 3000,
+            mcmc_burn_in: 500,
+        }
     }
 }
 
@@ -90,8 +96,9 @@ impl BayesianFit {
 pub fn emulator_samples(problem: &Problem, design_bounds: &Bounds, settings: &Settings) -> SimulationData {
     let bounds = joint_bounds(design_bounds, &problem.bounds);
     let plan = crate::plan::latin_hypercube(settings.emulator_samples, bounds.dim(), settings.seed);
-    let inputs =
-        DMatrix::from_fn(plan.nrows(), plan.ncols(), |i, k| bounds.lower[k] + plan[(i, k)] * bounds.width()[k]);
+    let inputs = DMatrix::from_fn(plan.nrows(), plan.ncols(), |i, k| {
+        bounds.lower[k] + plan[(i, k)] * bounds.width()[k]
+    });
     let pd = design_bounds.dim();
     let outputs = DVector::from_fn(inputs.nrows(), |i, _| {
         let row: Vec<f64> = inputs.row(i).iter().copied().collect();
@@ -131,7 +138,11 @@ pub fn calibrate(
         .ok_or_else(|| CalibrationError::Numerics("discrepancy covariance is singular".into()))?;
 
     let log_post = |u: &[f64]| {
-        if u.iter().all(|v| (0.0..=1.0).contains(v)) { -koh.cost(u, Trend::Marginal) } else { f64::NEG_INFINITY }
+        if u.iter().all(|v| (0.0..=1.0).contains(v)) {
+            -koh.cost(u, Trend::Marginal)
+        } else {
+            f64::NEG_INFINITY
+        }
     };
     let walkers = settings.mcmc_walkers.max(2 * koh.dim()).next_multiple_of(2);
     let steps = settings.mcmc_steps.max(2);
@@ -146,13 +157,25 @@ pub fn calibrate(
     let every = thetas.len().div_ceil(MAX_POSTERIOR_ROWS).max(1);
     let kept: Vec<&DVector<f64>> = thetas.iter().step_by(every).collect();
     let posterior = DMatrix::from_fn(kept.len(), p, |i, k| kept[i][k]);
-    Ok(BayesianFit { theta, interval95, median, posterior, emulator, discrepancy, acceptance: chain.acceptance })
+    Ok(BayesianFit {
+        theta,
+        interval95,
+        median,
+        posterior,
+        emulator,
+        discrepancy,
+        acceptance: chain.acceptance,
+    })
 }
 
 fn check_inputs(problem: &Problem, design_bounds: &Bounds, sim: &SimulationData) -> Result<(), CalibrationError> {
     let m = problem.designs.nrows();
     if m < 2 {
-        return Err(CalibrationError::TooFewDesigns { method: "bayesian", needed: 2, given: m });
+        return Err(CalibrationError::TooFewDesigns {
+            method: "bayesian",
+            needed: 2,
+            given: m,
+        });
     }
     let cols = design_bounds.dim() + problem.bounds.dim();
     if problem.designs.ncols() != design_bounds.dim()
@@ -186,7 +209,11 @@ fn quantile(mut v: Vec<f64>, q: f64) -> f64 {
     v.sort_by(f64::total_cmp);
     let h = q * (v.len() - 1) as f64;
     let (i, frac) = (h.floor() as usize, h - h.floor());
-    if i + 1 < v.len() { v[i] + frac * (v[i + 1] - v[i]) } else { v[i] }
+    if i + 1 < v.len() {
+        v[i] + frac * (v[i + 1] - v[i])
+    } else {
+        v[i]
+    }
 }
 
 #[cfg(test)]

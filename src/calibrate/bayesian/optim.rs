@@ -42,8 +42,12 @@ pub fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, start: &[f64], step: f64, max_iter
         simplex.push(p);
     }
     let fallback = (start.clone(), finite_or_failed(f(&start)));
-    let Ok(solver) = NelderMead::new(simplex).with_sd_tolerance(1e-10) else { return fallback };
-    let run = Executor::new(BoxCost { f }, solver).configure(|s| s.max_iters(max_iters)).run();
+    let Ok(solver) = NelderMead::new(simplex).with_sd_tolerance(1e-10) else {
+        return fallback;
+    };
+    let run = Executor::new(BoxCost { f }, solver)
+        .configure(|s| s.max_iters(max_iters))
+        .run();
     match run {
         Ok(res) => match res.state().get_best_param() {
             Some(p) => {
@@ -85,7 +89,9 @@ pub fn line_search(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, grid: usize) -> (f6
     }
     let (a, b) = ((best_x - h).max(lo), (best_x + h).min(hi));
     let solver = BrentOpt::new(a, b).set_tolerance(1e-10, 1e-12);
-    if let Ok(res) = Executor::new(LineCost { f }, solver).configure(|s| s.max_iters(200)).run()
+    if let Ok(res) = Executor::new(LineCost { f }, solver)
+        .configure(|s| s.max_iters(200))
+        .run()
         && let Some(&x) = res.state().get_best_param()
     {
         let c = finite_or_failed(f(x));

@@ -43,7 +43,10 @@ fn run(p: &Problem, settings: &Settings) -> BayesianFit {
 }
 
 fn cantilever_fit(seed: u64) -> BayesianFit {
-    cantilever_fit_with(Settings { seed, ..Settings::default() })
+    cantilever_fit_with(Settings {
+        seed,
+        ..Settings::default()
+    })
 }
 
 fn cantilever_fit_with(settings: Settings) -> BayesianFit {
@@ -55,7 +58,12 @@ fn cantilever_fit_with(settings: Settings) -> BayesianFit {
 
 /// A short chain: enough for reproducibility checks, quick in debug builds.
 fn short(seed: u64) -> Settings {
-    Settings { seed, mcmc_steps: 300, mcmc_burn_in: 100, ..Settings::default() }
+    Settings {
+        seed,
+        mcmc_steps: 300,
+        mcmc_burn_in: 100,
+        ..Settings::default()
+    }
 }
 
 #[test]
@@ -81,7 +89,11 @@ fn cantilever_matches_paper() {
 
 #[test]
 fn seeded_and_reproducible() {
-    let (a, b, c) = (cantilever_fit_with(short(1)), cantilever_fit_with(short(1)), cantilever_fit_with(short(2)));
+    let (a, b, c) = (
+        cantilever_fit_with(short(1)),
+        cantilever_fit_with(short(1)),
+        cantilever_fit_with(short(2)),
+    );
     assert_eq!(a.median, b.median);
     assert_eq!(a.theta, b.theta);
     assert_eq!(a.posterior, b.posterior);
@@ -94,7 +106,12 @@ fn perfect_model_recovers_e() {
     // Tests from the simulation itself at E = 70,000: no discrepancy, so θ̂ must find E.
     let model = euler;
     let hs = [8.0, 10.0, 12.0];
-    let p = problem(&hs, hs.iter().map(|&h| euler(&[h], &[70_000.0])).collect(), e_bounds(), &model);
+    let p = problem(
+        &hs,
+        hs.iter().map(|&h| euler(&[h], &[70_000.0])).collect(),
+        e_bounds(),
+        &model,
+    );
     let fit = run(&p, &short(1));
     eprintln!("perfect model: E = {:.1}, 95 % {:?}", fit.theta[0], fit.interval95[0]);
     assert!((fit.theta[0] / 70_000.0 - 1.0).abs() < 0.01, "E = {}", fit.theta[0]);
@@ -108,7 +125,11 @@ fn two_parameters_stay_finite_and_inside() {
     let bounds = Bounds::new(vec![50_000.0, 18.0], vec![80_000.0, 22.0]);
     let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), bounds.clone(), &model);
     let fit = run(&p, &short(1));
-    eprintln!("two parameters: θ = {:?}, 95 % {:?}", fit.theta.as_slice(), fit.interval95);
+    eprintln!(
+        "two parameters: θ = {:?}, 95 % {:?}",
+        fit.theta.as_slice(),
+        fit.interval95
+    );
     for k in 0..2 {
         let inside = |v: f64| v.is_finite() && bounds.lower[k] <= v && v <= bounds.upper[k];
         assert!(inside(fit.theta[k]) && inside(fit.median[k]), "{k}: {}", fit.theta[k]);
@@ -135,7 +156,11 @@ fn table1_predicts_validation() {
     // h = 12 carries most of the error), 1 % at the training designs (the discrepancy interpolates).
     let fit = table1_fit(&short(1));
     let valid = fit.predict(&[13.0]) / 0.083942 - 1.0;
-    eprintln!("table 1: θ = {:?}, h = 13: {:+.2} %", fit.theta.as_slice(), 100.0 * valid);
+    eprintln!(
+        "table 1: θ = {:?}, h = 13: {:+.2} %",
+        fit.theta.as_slice(),
+        100.0 * valid
+    );
     assert!(valid.abs() < 0.03, "h = 13: {valid}");
     for h in [8.0, 10.0, 12.0] {
         let rel = fit.predict(&[h]) / timoshenko(h) - 1.0;
@@ -149,9 +174,17 @@ fn negative_response_falls_back_to_y() {
     // emulator stays in y; the shift cancels in the residuals, so E is the cantilever's again.
     let model = |d: &[f64], th: &[f64]| euler(d, th) - 0.2;
     let hs = [8.0, 10.0];
-    let p = problem(&hs, hs.iter().map(|&h| timoshenko(h) - 0.2).collect(), e_bounds(), &model);
+    let p = problem(
+        &hs,
+        hs.iter().map(|&h| timoshenko(h) - 0.2).collect(),
+        e_bounds(),
+        &model,
+    );
     let fit = run(&p, &short(1));
-    eprintln!("negative response: E = {:.1}, 95 % {:?}", fit.theta[0], fit.interval95[0]);
+    eprintln!(
+        "negative response: E = {:.1}, 95 % {:?}",
+        fit.theta[0], fit.interval95[0]
+    );
     assert!(!fit.emulator.log_output());
     assert!((fit.theta[0] / 64_911.0 - 1.0).abs() < 0.015, "E = {}", fit.theta[0]);
 }
@@ -162,7 +195,17 @@ fn one_design_is_too_few() {
     let p = problem(&[8.0], vec![timoshenko(8.0)], e_bounds(), &model);
     let sim = emulator_samples(&p, &design_bounds(), &Settings::default());
     let err = calibrate(&p, &design_bounds(), &sim, &Settings::default()).unwrap_err();
-    assert!(matches!(err, CalibrationError::TooFewDesigns { needed: 2, given: 1, .. }), "{err:?}");
+    assert!(
+        matches!(
+            err,
+            CalibrationError::TooFewDesigns {
+                needed: 2,
+                given: 1,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
 }
 
 /// Spread of θ̂ over emulator designs (`cargo test --release -- --ignored --nocapture`).
@@ -211,8 +254,12 @@ fn long_chain_interval() {
             lo.push(fit.interval95[0].0);
             hi.push(fit.interval95[0].1);
         }
-        let range =
-            |v: &[f64]| (v.iter().copied().fold(f64::INFINITY, f64::min), v.iter().copied().fold(0.0, f64::max));
+        let range = |v: &[f64]| {
+            (
+                v.iter().copied().fold(f64::INFINITY, f64::min),
+                v.iter().copied().fold(0.0, f64::max),
+            )
+        };
         let sd = |v: &[f64]| {
             let m = v.iter().sum::<f64>() / v.len() as f64;
             (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
@@ -234,14 +281,25 @@ fn two_design_variables() {
     let model = |d: &[f64], th: &[f64]| 16.5 * th[0] * (d[1] / d[0]).powf(5.0 / 3.0);
     let designs = DMatrix::from_row_slice(4, 2, &[6.0, 0.05, 3.0, 0.07, 3.0, 0.08, 4.5, 0.06]);
     let measured = DVector::from_fn(4, |i, _| 1.03 * model(&[designs[(i, 0)], designs[(i, 1)]], &[185.0]));
-    let p = Problem { designs, measured, bounds: Bounds::new(vec![100.0], vec![200.0]), model: &model };
+    let p = Problem {
+        designs,
+        measured,
+        bounds: Bounds::new(vec![100.0], vec![200.0]),
+        model: &model,
+    };
     let db = Bounds::new(vec![3.0, 0.05], vec![6.0, 0.08]);
     // 40 runs: with 24 in three inputs the emulator is off by up to 2.7 % at the corner design
     // (3, 0.08), which moves θ̂ by about 3 %.
-    let settings = Settings { emulator_samples: 40, ..Settings::default() };
+    let settings = Settings {
+        emulator_samples: 40,
+        ..Settings::default()
+    };
     let sim = emulator_samples(&p, &db, &settings);
     let fit = calibrate(&p, &db, &sim, &settings).unwrap();
-    eprintln!("two design variables: σ0 = {:.2}, 95 % {:?}", fit.theta[0], fit.interval95[0]);
+    eprintln!(
+        "two design variables: σ0 = {:.2}, 95 % {:?}",
+        fit.theta[0], fit.interval95[0]
+    );
     // The bias is proportional, so σ0 = 1.03 · 185 = 190.55 explains the tests with no discrepancy.
     assert!((fit.theta[0] / 190.55 - 1.0).abs() < 0.02, "{}", fit.theta[0]);
     let (lo, hi) = fit.interval95[0];
@@ -255,9 +313,14 @@ fn two_design_variables() {
 #[ignore]
 fn table1_over_seeds() {
     for seed in 1..=8 {
-        let fit = table1_fit(&Settings { seed, ..Settings::default() });
-        let train =
-            [8.0, 10.0, 12.0].iter().map(|&h| (fit.predict(&[h]) / timoshenko(h) - 1.0).abs()).fold(0.0, f64::max);
+        let fit = table1_fit(&Settings {
+            seed,
+            ..Settings::default()
+        });
+        let train = [8.0, 10.0, 12.0]
+            .iter()
+            .map(|&h| (fit.predict(&[h]) / timoshenko(h) - 1.0).abs())
+            .fold(0.0, f64::max);
         eprintln!(
             "seed {seed}: θ = [{:.0}, {:.3}], h = 13: {:+.2} %, training max {:.1e} %",
             fit.theta[0],

@@ -79,7 +79,10 @@ pub(crate) fn keyed(t: &[Tok], keys: &[&str]) -> Result<Vec<f64>, String> {
 
 pub fn parse(file: &Path, text: &str) -> Result<Bndout, InputError> {
     let b = body(file, text, "bndout")?;
-    let mut out = Bndout { title: b.title.to_string(), steps: Vec::new() };
+    let mut out = Bndout {
+        title: b.title.to_string(),
+        steps: Vec::new(),
+    };
     let mut source = String::new();
     for &(no, line) in &b.lines {
         let trimmed = line.trim();
@@ -90,7 +93,11 @@ pub fn parse(file: &Path, text: &str) -> Result<Bndout, InputError> {
         if let Some(rest) = sq.strip_prefix("nodalforce/energyoutputt=") {
             let time = super::text::parse_number(rest)
                 .ok_or_else(|| err(file, text, no, "expected a time after `t=` in the bndout heading"))?;
-            out.steps.push(BndoutStep { time, entries: Vec::new(), totals: Vec::new() });
+            out.steps.push(BndoutStep {
+                time,
+                entries: Vec::new(),
+                totals: Vec::new(),
+            });
             continue;
         }
         let t = tokens(line);
@@ -129,7 +136,11 @@ pub fn parse(file: &Path, text: &str) -> Result<Bndout, InputError> {
             }
             "xtotal=" => {
                 let v = keyed(&t, &["xtotal=", "ytotal=", "ztotal=", "etotal="]).map_err(located)?;
-                step.totals.push(BndTotal { source: source.clone(), force: [v[0], v[1], v[2]], energy: v[3] });
+                step.totals.push(BndTotal {
+                    source: source.clone(),
+                    force: [v[0], v[1], v[2]],
+                    energy: v[3],
+                });
             }
             _ => {
                 if t.iter().any(|x| matches!(x, Tok::Num(..))) {

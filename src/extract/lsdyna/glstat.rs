@@ -59,7 +59,10 @@ pub fn read(file: &Path) -> Result<Glstat, InputError> {
 
 pub fn parse(file: &Path, text: &str) -> Result<Glstat, InputError> {
     let b = body(file, text, "glstat")?;
-    let mut out = Glstat { title: b.title.to_string(), steps: Vec::new() };
+    let mut out = Glstat {
+        title: b.title.to_string(),
+        steps: Vec::new(),
+    };
     let mut pending_cycle: Option<u64> = None;
     let mut in_mass_props = false;
     for &(no, line) in &b.lines {
@@ -86,20 +89,37 @@ pub fn parse(file: &Path, text: &str) -> Result<Glstat, InputError> {
             continue;
         }
         let Some(c) = LABEL_VALUE.captures(line) else {
-            return Err(err(file, text, no, "expected a `label ....... value` line (or ` dt of cycle N ...`)"));
+            return Err(err(
+                file,
+                text,
+                no,
+                "expected a `label ....... value` line (or ` dt of cycle N ...`)",
+            ));
         };
         let label = c[1].split_whitespace().collect::<Vec<_>>().join(" ");
         let value = parse_number(&c[2]).ok_or_else(|| err(file, text, no, "expected a number after the label"))?;
-        let key = match c.get(3).map(|m| m.as_str().split_whitespace().collect::<Vec<_>>().join(" ")) {
+        let key = match c
+            .get(3)
+            .map(|m| m.as_str().split_whitespace().collect::<Vec<_>>().join(" "))
+        {
             Some(rest) if !rest.is_empty() => format!("{label} {rest}"),
             _ => label,
         };
         if key == "time" {
-            out.steps.push(GlstatStep { cycle: pending_cycle.take(), time: value, values: BTreeMap::new() });
+            out.steps.push(GlstatStep {
+                cycle: pending_cycle.take(),
+                time: value,
+                values: BTreeMap::new(),
+            });
             continue;
         }
         let Some(step) = out.steps.last_mut() else {
-            return Err(err(file, text, no, format!("`{key}` before the first ` time....` line of a step")));
+            return Err(err(
+                file,
+                text,
+                no,
+                format!("`{key}` before the first ` time....` line of a step"),
+            ));
         };
         if step.values.insert(key.clone(), value).is_some() {
             return Err(err(file, text, no, format!("`{key}` appears twice in one step")));

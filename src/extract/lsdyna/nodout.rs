@@ -60,7 +60,10 @@ enum Block {
 
 pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
     let b = body(file, text, "nodout")?;
-    let mut out = Nodout { title: b.title.to_string(), ..Default::default() };
+    let mut out = Nodout {
+        title: b.title.to_string(),
+        ..Default::default()
+    };
     let mut state = Block::None;
     let mut time = 0.0;
     for &(no, line) in &b.lines {
@@ -68,9 +71,17 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
             continue;
         }
         if let Some(c) = HEADING.captures(line) {
-            let step: u64 = c[1].parse().map_err(|_| err(file, text, no, "time step number out of range"))?;
-            time = parse_number(&c[2])
-                .ok_or_else(|| err(file, text, no, format!("expected a time after `at time`, found `{}`", &c[2])))?;
+            let step: u64 = c[1]
+                .parse()
+                .map_err(|_| err(file, text, no, "time step number out of range"))?;
+            time = parse_number(&c[2]).ok_or_else(|| {
+                err(
+                    file,
+                    text,
+                    no,
+                    format!("expected a time after `at time`, found `{}`", &c[2]),
+                )
+            })?;
             out.steps.push((step, time));
             state = Block::Heading;
             continue;
@@ -78,9 +89,18 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
         let t = tokens(line);
         if t[0].text().eq_ignore_ascii_case("nodal") {
             if state == Block::None {
-                return Err(err(file, text, no, "column header before any ` n o d a l   p r i n t   o u t` heading"));
+                return Err(err(
+                    file,
+                    text,
+                    no,
+                    "column header before any ` n o d a l   p r i n t   o u t` heading",
+                ));
             }
-            state = if line.contains("x-rot") { Block::Rot } else { Block::Trans };
+            state = if line.contains("x-rot") {
+                Block::Rot
+            } else {
+                Block::Trans
+            };
             continue;
         }
         if line.to_ascii_lowercase().contains("n o d a l") {
@@ -94,12 +114,33 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
         let want = match state {
             Block::Trans => 12,
             Block::Rot => 9,
-            Block::None => return Err(err(file, text, no, "data before any ` n o d a l   p r i n t   o u t` heading")),
-            Block::Heading => return Err(err(file, text, no, "expected the ` nodal point  x-disp ...` column header")),
+            Block::None => {
+                return Err(err(
+                    file,
+                    text,
+                    no,
+                    "data before any ` n o d a l   p r i n t   o u t` heading",
+                ));
+            }
+            Block::Heading => {
+                return Err(err(
+                    file,
+                    text,
+                    no,
+                    "expected the ` nodal point  x-disp ...` column header",
+                ));
+            }
         };
         let id = match t[0] {
             Tok::Num(v, _) if v >= 0.0 && v.fract() == 0.0 && v < 1e18 => v as u64,
-            _ => return Err(err(file, text, no, format!("expected a node id, found `{}`", t[0].text()))),
+            _ => {
+                return Err(err(
+                    file,
+                    text,
+                    no,
+                    format!("expected a node id, found `{}`", t[0].text()),
+                ));
+            }
         };
         let vals: Option<Vec<f64>> = t[1..].iter().map(Tok::num).collect();
         let vals = match vals {

@@ -69,7 +69,10 @@ pub fn read(file: &Path) -> Result<Rcforc, InputError> {
 
 pub fn parse(file: &Path, text: &str) -> Result<Rcforc, InputError> {
     let b = body(file, text, "rcforc")?;
-    let mut out = Rcforc { title: b.title.to_string(), ..Default::default() };
+    let mut out = Rcforc {
+        title: b.title.to_string(),
+        ..Default::default()
+    };
     for &(no, line) in &b.lines {
         if line.trim().is_empty() {
             continue;
@@ -84,7 +87,14 @@ pub fn parse(file: &Path, text: &str) -> Result<Rcforc, InputError> {
             let n = t.iter().find_map(|k| k.num()).filter(|v| v.fract() == 0.0 && *v >= 0.0);
             match n {
                 Some(n) => out.single_surface.push(n as u64),
-                None => return Err(err(file, text, no, "expected `interface number, N,is single surface...`")),
+                None => {
+                    return Err(err(
+                        file,
+                        text,
+                        no,
+                        "expected `interface number, N,is single surface...`",
+                    ));
+                }
             }
             continue;
         }
@@ -167,7 +177,10 @@ fn data_row(t: &[Tok]) -> Result<Row, String> {
             }
             other => return Err(format!("unknown label `{other}` in an rcforc data line")),
         };
-        let v = t.get(i + 1).and_then(Tok::num).ok_or_else(|| format!("expected a number after `{label}`"))?;
+        let v = t
+            .get(i + 1)
+            .and_then(Tok::num)
+            .ok_or_else(|| format!("expected a number after `{label}`"))?;
         if vals.insert(key, v).is_some() {
             return Err(format!("label `{label}` appears twice"));
         }
@@ -183,5 +196,11 @@ fn data_row(t: &[Tok]) -> Result<Row, String> {
         (None, None, None) => None,
         _ => return Err("expected all three moments `mx my mz` or none".into()),
     };
-    Ok(Row { id, time: need("time")?, f: [need("x")?, need("y")?, need("z")?], mass: need("mass")?, moments })
+    Ok(Row {
+        id,
+        time: need("time")?,
+        f: [need("x")?, need("y")?, need("z")?],
+        mass: need("mass")?,
+        moments,
+    })
 }

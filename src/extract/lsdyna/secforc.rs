@@ -57,7 +57,10 @@ fn last_numbers(t: &[Tok], n: usize) -> Option<(String, Vec<f64>)> {
 
 pub fn parse(file: &Path, text: &str) -> Result<Secforc, InputError> {
     let b = body(file, text, "secforc")?;
-    let mut out = Secforc { title: b.title.to_string(), sections: BTreeMap::new() };
+    let mut out = Secforc {
+        title: b.title.to_string(),
+        sections: BTreeMap::new(),
+    };
     let lines: Vec<(usize, &str)> = b
         .lines
         .iter()
@@ -83,16 +86,36 @@ pub fn parse(file: &Path, text: &str) -> Result<Secforc, InputError> {
             }
         };
         let Some(&(no2, l2)) = lines.get(i + 1) else {
-            return Err(err(file, text, no1, "record ends early: expected a moment line after this line"));
+            return Err(err(
+                file,
+                text,
+                no1,
+                "record ends early: expected a moment line after this line",
+            ));
         };
         let (system, m) = last_numbers(&tokens(l2), 4).ok_or_else(|| {
-            err(file, text, no2, "expected a system label and 4 numbers (moments x, y, z, magnitude)")
+            err(
+                file,
+                text,
+                no2,
+                "expected a system label and 4 numbers (moments x, y, z, magnitude)",
+            )
         })?;
         if system.chars().any(|c| c.is_ascii_digit()) && !system.to_ascii_lowercase().contains("id") {
-            return Err(err(file, text, no2, "expected a system label and 4 numbers (moments x, y, z, magnitude)"));
+            return Err(err(
+                file,
+                text,
+                no2,
+                "expected a system label and 4 numbers (moments x, y, z, magnitude)",
+            ));
         }
         let Some(&(no3, l3)) = lines.get(i + 2) else {
-            return Err(err(file, text, no2, "record ends early: expected a centroid line after this line"));
+            return Err(err(
+                file,
+                text,
+                no2,
+                "record ends early: expected a centroid line after this line",
+            ));
         };
         let c: Vec<f64> = match tokens(l3).iter().map(Tok::num).collect::<Option<Vec<f64>>>() {
             Some(v) if v.len() == 4 => v,

@@ -45,7 +45,10 @@ fn whole(v: f64) -> Option<u64> {
 
 pub fn parse(file: &Path, text: &str) -> Result<Spcforc, InputError> {
     let b = body(file, text, "spcforc")?;
-    let mut out = Spcforc { title: b.title.to_string(), steps: Vec::new() };
+    let mut out = Spcforc {
+        title: b.title.to_string(),
+        steps: Vec::new(),
+    };
     for &(no, line) in &b.lines {
         let trimmed = line.trim();
         if trimmed.is_empty() {
@@ -58,8 +61,16 @@ pub fn parse(file: &Path, text: &str) -> Result<Spcforc, InputError> {
         let t = tokens(line);
         let located = |m: &str| err(file, text, no, m.to_string());
         if lower.starts_with("output at time") {
-            let time = t.last().and_then(Tok::num).ok_or_else(|| located("expected ` output at time = T`"))?;
-            out.steps.push(SpcStep { time, forces: Vec::new(), moments: Vec::new(), resultant: None });
+            let time = t
+                .last()
+                .and_then(Tok::num)
+                .ok_or_else(|| located("expected ` output at time = T`"))?;
+            out.steps.push(SpcStep {
+                time,
+                forces: Vec::new(),
+                moments: Vec::new(),
+                resultant: None,
+            });
             continue;
         }
         let Some(step) = out.steps.last_mut() else {
@@ -97,7 +108,10 @@ pub fn parse(file: &Path, text: &str) -> Result<Spcforc, InputError> {
             continue;
         }
         if lower.starts_with("force resultants") {
-            let key = t.iter().position(|x| x.text() == "=").ok_or_else(|| located("expected `force resultants =`"))?;
+            let key = t
+                .iter()
+                .position(|x| x.text() == "=")
+                .ok_or_else(|| located("expected `force resultants =`"))?;
             let v = three_after(&t, key).ok_or_else(|| located("expected 3 numbers after `force resultants =`"))?;
             if t.len() != key + 4 {
                 return Err(located("expected exactly 3 numbers after `force resultants =`"));
@@ -105,7 +119,9 @@ pub fn parse(file: &Path, text: &str) -> Result<Spcforc, InputError> {
             step.resultant = Some(v);
             continue;
         }
-        return Err(located("expected ` node= ...`, ` force resultants = ...` or ` output at time = T`"));
+        return Err(located(
+            "expected ` node= ...`, ` force resultants = ...` or ` output at time = T`",
+        ));
     }
     Ok(out)
 }

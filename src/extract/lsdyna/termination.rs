@@ -21,7 +21,11 @@ pub enum Termination {
 pub fn parse(text: &str) -> Termination {
     let mut found = Termination::Missing;
     for line in text.lines() {
-        let squashed: String = line.chars().filter(|c| !c.is_whitespace()).flat_map(char::to_lowercase).collect();
+        let squashed: String = line
+            .chars()
+            .filter(|c| !c.is_whitespace())
+            .flat_map(char::to_lowercase)
+            .collect();
         let kind = if squashed.starts_with("normaltermination") {
             Some(true)
         } else if squashed.starts_with("errortermination") {
@@ -31,7 +35,11 @@ pub fn parse(text: &str) -> Termination {
         };
         let Some(normal) = kind else { continue };
         let date = after_phrase(line).trim().to_string();
-        found = if normal { Termination::Normal(date) } else { Termination::Error(date) };
+        found = if normal {
+            Termination::Normal(date)
+        } else {
+            Termination::Error(date)
+        };
     }
     found
 }

@@ -103,7 +103,12 @@ pub fn number_value(t: &str) -> Option<f64> {
     let mut s: String = t.replace(['D', 'd'], "E");
     // Letterless exponent: insert the E before the sign of the exponent.
     if !s.contains(['E', 'e'])
-        && let Some(pos) = s.char_indices().skip(1).filter(|(_, c)| *c == '+' || *c == '-').map(|(i, _)| i).last()
+        && let Some(pos) = s
+            .char_indices()
+            .skip(1)
+            .filter(|(_, c)| *c == '+' || *c == '-')
+            .map(|(i, _)| i)
+            .last()
     {
         s.insert(pos, 'E');
     }
@@ -228,9 +233,18 @@ pub fn body<'a>(file: &Path, text: &'a str, what: &str) -> Result<Body<'a>, Inpu
         lines.push((no, l));
     }
     if let Some(start) = legend_start {
-        return Err(err(file, text, start, "legend block never ends: expected `{END LEGEND}`"));
+        return Err(err(
+            file,
+            text,
+            start,
+            "legend block never ends: expected `{END LEGEND}`",
+        ));
     }
-    Ok(Body { title: title.trim(), version: version.trim(), lines })
+    Ok(Body {
+        title: title.trim(),
+        version: version.trim(),
+        lines,
+    })
 }
 
 /// Read a file as text; invalid UTF-8 is replaced (the formats are ASCII; bad bytes then fail to parse).
@@ -241,7 +255,10 @@ pub fn read_text(file: &Path) -> Result<String, InputError> {
 
 /// Collapse the letter-spaced headings LS-DYNA writes (` n o d a l   p r i n t`) to `nodalprint`.
 pub fn squash(line: &str) -> String {
-    line.chars().filter(|c| !c.is_whitespace()).flat_map(char::to_lowercase).collect()
+    line.chars()
+        .filter(|c| !c.is_whitespace())
+        .flat_map(char::to_lowercase)
+        .collect()
 }
 
 #[cfg(test)]
