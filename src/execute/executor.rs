@@ -4,9 +4,13 @@
 //! dispatcher: for each spec ── select!(biased) ─┬─ cancel set      → stop launching (rest: not started)
 //!                                               ├─ a unit ended    → collect; a store error cancels the rest
 //!                                               └─ permit free     → spawn unit(spec, permit)
-//! unit:       attempt ─► judge ─► retry? ─ yes ─► Retrying, backoff (cancellable) ─► attempt
+//! unit:       attempt ─► judge ─► retry? ─ yes ─► Retrying, backoff (cancellable) ─► slot ─► attempt
 //!                                        └ no ──► commit (durable) ─► Finished
 //! ```
+//!
+//! A permit of the semaphore is a solver slot (`--jobs`): a unit holds it only while its solver's
+//! process lives. Judging the outputs and the fsynced commit happen after the slot is given back,
+//! so lab's bookkeeping never keeps a solver waiting (benches/engine/utilisation.sh).
 //!
 //! A solver that cannot be started (program not found, not executable) counts as exit code 127,
 //! as a shell would report it, with the reason written to the run's `lab.stderr`.
@@ -20,7 +24,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use nix::sys::signal::{Signal, killpg};
 use nix::unistd::Pid;
-use tokio::sync::{Semaphore, mpsc, watch};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore, mpsc, watch};
 use tokio::task::JoinSet;
 use tokio::time::Instant;
 
@@ -145,6 +149,8 @@ pub struct Executor {
 
 struct Ctx {
     grace: Duration,
+    /// Solver slots: one permit per running solver process.
+    slots: Arc<Semaphore>,
     adapter: Arc<dyn Adapter>,
     committer: Committer,
     events: Option<mpsc::UnboundedSender<Event>>,
@@ -178,13 +184,14 @@ impl Executor {
 
     /// Runs every spec (unless cancelled) and returns what happened. Never prints.
     pub async fn run(&self, specs: Vec<RunSpec>) -> Summary {
+        let permits = Arc::new(Semaphore::new(self.jobs.max(1)));
         let ctx = Arc::new(Ctx {
             grace: self.grace,
+            slots: permits.clone(),
             adapter: self.adapter.clone(),
             committer: self.committer.clone(),
             events: self.events.clone(),
         });
-        let permits = Arc::new(Semaphore::new(self.jobs.max(1)));
         let mut cancel = self.canceller.subscribe();
         let mut units: JoinSet<UnitEnd> = JoinSet::new();
         let mut summary = Summary::default();
@@ -205,10 +212,7 @@ impl Executor {
                     permit = permits.clone().acquire_owned() => {
                         let permit = permit.expect("the semaphore is never closed");
                         let (ctx, rx) = (ctx.clone(), self.canceller.subscribe());
-                        units.spawn(async move {
-                            let _permit = permit;
-                            unit(spec, ctx, rx).await
-                        });
+                        units.spawn(unit(spec, permit, ctx, rx));
                         break;
                     }
                 }
@@ -244,19 +248,32 @@ fn now_ms() -> u64 {
         .unwrap_or(0)
 }
 
-async fn unit(spec: RunSpec, ctx: Arc<Ctx>, mut cancel: watch::Receiver<Option<CancelReason>>) -> UnitEnd {
+async fn unit(
+    spec: RunSpec,
+    first_slot: OwnedSemaphorePermit,
+    ctx: Arc<Ctx>,
+    mut cancel: watch::Receiver<Option<CancelReason>>,
+) -> UnitEnd {
     let started_ms = now_ms();
     let mut attempt = 1;
+    let mut slot = Some(first_slot);
     loop {
-        if cancel.borrow_and_update().is_some() {
+        let held = match slot.take() {
+            Some(s) => Some(s),
+            None => tokio::select! {
+                s = ctx.slots.clone().acquire_owned() => s.ok(),
+                _ = cancel.wait_for(Option::is_some) => None,
+            },
+        };
+        let Some(held) = held.filter(|_| cancel.borrow_and_update().is_none()) else {
             ctx.send(Event::Cancelled { key: spec.key.clone() });
             return UnitEnd::Cancelled(spec.key);
-        }
+        };
         ctx.send(Event::Started {
             key: spec.key.clone(),
             attempt,
         });
-        let (outcome, response) = match run_attempt(&spec, &ctx, &mut cancel).await {
+        let (outcome, response) = match run_attempt(&spec, held, &ctx, &mut cancel).await {
             Attempt::Judged(outcome, response) => (outcome, response),
             Attempt::Cancelled => {
                 ctx.send(Event::Cancelled { key: spec.key.clone() });
@@ -357,7 +374,13 @@ async fn sleep_until(at: Option<Instant>) {
     }
 }
 
-async fn run_attempt(spec: &RunSpec, ctx: &Ctx, cancel: &mut watch::Receiver<Option<CancelReason>>) -> Attempt {
+/// One attempt: start the solver, supervise it, give its slot back as soon as it has exited, judge.
+async fn run_attempt(
+    spec: &RunSpec,
+    slot: OwnedSemaphorePermit,
+    ctx: &Ctx,
+    cancel: &mut watch::Receiver<Option<CancelReason>>,
+) -> Attempt {
     let dir = &spec.dir;
     for rel in spec
         .outputs
@@ -439,6 +462,7 @@ async fn run_attempt(spec: &RunSpec, ctx: &Ctx, cancel: &mut watch::Receiver<Opt
         }
     };
     group.0 = None;
+    drop(slot);
     let status = match status {
         Ok(s) => s,
         Err(e) => return Attempt::Error(format!("waiting for the solver: {e}")),
