@@ -118,5 +118,8 @@ fn two_tests_are_too_few_to_rank_and_say_so() {
     assert!(!d.discrepancy_detected);
     assert!(d.cause.is_none() && d.candidates.is_empty() && d.extended.is_none());
     assert!(d.notes.iter().any(|n| n.contains("cannot rank")), "{:?}", d.notes);
+    // Not detecting is not a finding here: no test was possible, and the summary must not sound like one.
+    assert!(d.summary.contains("cannot tell"), "{}", d.summary);
+    assert!(!d.summary.contains("No significant discrepancy"), "{}", d.summary);
     assert_eq!(d.residuals.len(), 3);
 }

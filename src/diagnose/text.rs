@@ -213,6 +213,14 @@ pub fn summary(f: &Facts) -> String {
         _ if f.detected => {
             out.push("The simulation misses something beyond the noise; no candidate was ranked.".to_string())
         }
+        // Neither a pure-error test (needs replicates) nor a ranking (needs spare designs) was possible:
+        // saying "no discrepancy" would report a test that was never made.
+        _ if f.lack_of_fit.is_none() && f.candidates.is_empty() => out.push(
+            "The data cannot tell whether the simulation misses something beyond the noise: without replicate \
+             tests or spare training designs there is nothing to measure the misfit against. Replicate tests, or \
+             more training designs, would settle it."
+                .to_string(),
+        ),
         _ => out.push(
             "No significant discrepancy: no candidate beats the uncorrected simulation beyond the noise.".to_string(),
         ),
