@@ -168,6 +168,11 @@ pub fn summary(f: &Facts) -> String {
         ));
     }
 
+    // Nothing detected, and the best-ranked candidate is a parameter change in disguise.
+    let confounded_leader = (f.cause.is_none() && !f.detected)
+        .then(|| f.candidates.first())
+        .flatten()
+        .filter(|c| !c.confounded_with.is_empty() && c.weight > 0.5);
     match (f.cause, f.leader) {
         (Some(cause), Some(k)) => {
             let c = &f.candidates[k];
@@ -221,11 +226,30 @@ pub fn summary(f: &Facts) -> String {
              more training designs, would settle it."
                 .to_string(),
         ),
+        // The best explanation is a change of a parameter in disguise: "no discrepancy" would hide that
+        // the calibrated parameter may have absorbed a model error.
+        _ if let Some(c) = confounded_leader => out.push(format!(
+            "Best ranked: '{}' ({}; weight {:.2}), but over these designs it has the shape of a change of {}: \
+                 the calibration absorbs it into {} and the data cannot separate the two. An independent measurement \
+                 of {}, or tests at designs where the shapes differ more, would.",
+            c.name,
+            c.term,
+            c.weight,
+            c.confounded_with.join(" and "),
+            c.confounded_with.join(" and "),
+            c.confounded_with.join(" and ")
+        )),
         _ => out.push(
             "No significant discrepancy: no candidate beats the uncorrected simulation beyond the noise.".to_string(),
         ),
     }
-    for c in f.confounded {
+    // The best-ranked confounded candidate was already explained above.
+    let explained = confounded_leader.map(|c| format!("'{}' ", c.name));
+    for c in f
+        .confounded
+        .iter()
+        .filter(|c| explained.as_ref().is_none_or(|e| !c.starts_with(e)))
+    {
         out.push(format!("Note: {c}."));
     }
     out.join(" ")
