@@ -236,7 +236,7 @@ pub fn extension_surrogates(
         .collect()
 }
 
-/// [`diagnose`] for a solver study: its model-extension hypotheses become candidates
+/// [`diagnose()`] for a solver study: its model-extension hypotheses become candidates
 /// `y_ext(d, θ) − y(d, θ)` from the surrogates of their runs.
 pub fn diagnose_solver(
     study: &Study,

@@ -372,7 +372,7 @@ fn header_unit(cell: &str) -> Option<String> {
     c.rsplit(['_', ' ', '/']).next().filter(|u| *u != c).map(str::to_string)
 }
 
-/// A test machine's force–displacement CSV: columns displacement [mm] and force [kN or N], an optional
+/// A test machine's force–displacement CSV: columns displacement \[mm\] and force \[kN or N\], an optional
 /// header (recognised by non-numeric cells; it must name the columns: `disp`/`stroke`/`travel`/`extension`
 /// and `force`/`load`; without a header the first two columns are displacement and force), `#` comments, separators `,` `;` tab or spaces.
 pub fn parse_test_csv(file: &Path, text: &str, opts: CsvOptions) -> Result<ForceDisplacement, InputError> {

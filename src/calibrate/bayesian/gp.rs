@@ -199,7 +199,7 @@ impl Emulator {
     /// - Table 1 y(h, E, L): 196 % / 2.3 % / 2e-14;
     /// - Timoshenko (Euler plus shear, no longer a power law) in (h, E, L): 134 % / 1.9 % / 0.65 %;
     /// - 2 + a + b on [0.25, 1]²: 3e-16 / 0.02 % / 0.05 %, the price of the logs when the response
-    ///   is already linear; on wider boxes ln x is not used ([`MAX_LOG_RATIO`]).
+    ///   is already linear; on wider boxes ln x is not used (`MAX_LOG_RATIO`).
     ///
     /// So both: ln x is clearly better for power laws and costs little otherwise.
     pub fn fit(inputs: &DMatrix<f64>, outputs: &DVector<f64>, bounds: &Bounds) -> Result<Self, CalibrationError> {

@@ -1,5 +1,5 @@
 //! LS-DYNA keyword decks: fixed-width fields ([`field`]), Tera filters that write them
-//! ([`filters`]), a reader for keyword text ([`deck`]) and a deck lint ([`lint`]).
+//! ([`filters`]), a reader for keyword text ([`deck`]) and a deck lint ([`lint()`]).
 //!
 //! ```
 //! use lab::render::lsdyna::{field, lint};
