@@ -125,9 +125,6 @@ mod tests {
 
     #[test]
     fn a_zero_grace_gives_up_at_the_first_absence() {
-        assert_eq!(
-            verdict(&[(5, Absent)], Duration::ZERO),
-            Verdict::Lost { absent_ms: 0 }
-        );
+        assert_eq!(verdict(&[(5, Absent)], Duration::ZERO), Verdict::Lost { absent_ms: 0 });
     }
 }

@@ -486,10 +486,6 @@ fn watch(
     let mut last_report = Instant::now();
     let mut watches: BTreeMap<String, lost::Watch> = BTreeMap::new();
     while !active.is_empty() {
-        if canceller.reason().is_some() {
-            summary.left_running = active.iter().filter_map(|j| j.job_id.clone()).collect();
-            break;
-        }
         let ids: Vec<String> = active.iter().filter_map(|j| j.job_id.clone()).collect();
         let poll = job_states(&ids);
         let mut still = Vec::new();
@@ -502,10 +498,11 @@ fn watch(
                 (None, false) => lost::Sighting::NoAnswer,
             };
             let was_missing = watches.get(&entry.token).is_some_and(|w| *w != lost::Watch::default());
-            let verdict = watches
-                .entry(entry.token.clone())
-                .or_default()
-                .observe(sighting, now_ms(), settings.lost_after);
+            let verdict =
+                watches
+                    .entry(entry.token.clone())
+                    .or_default()
+                    .observe(sighting, now_ms(), settings.lost_after);
             if !was_missing && matches!(verdict, lost::Verdict::Missing { .. }) {
                 eprintln!(
                     "Slurm job {id} is unknown to squeue, scontrol and the jobcomp record; its runs are given up \
@@ -524,6 +521,11 @@ fn watch(
             }
         }
         active = still;
+        // Checked after a poll, so that the jobs left running are those still queued or running.
+        if canceller.reason().is_some() {
+            summary.left_running = active.iter().filter_map(|j| j.job_id.clone()).collect();
+            break;
+        }
         if active.is_empty() {
             break;
         }
@@ -531,10 +533,22 @@ fn watch(
             eprintln!("waiting for {} Slurm job(s)...", active.len());
             last_report = Instant::now();
         }
-        std::thread::sleep(delay);
+        sleep_unless_cancelled(delay, canceller);
         delay = (delay * 3 / 2).min(Duration::from_secs(2));
     }
     Ok(())
+}
+
+/// Sleeps `total`, waking early when the pass is cancelled (Ctrl-C is answered at once).
+fn sleep_unless_cancelled(total: Duration, canceller: &Canceller) {
+    let end = Instant::now() + total;
+    while canceller.reason().is_none() {
+        let left = end.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return;
+        }
+        std::thread::sleep(left.min(Duration::from_millis(50)));
+    }
 }
 
 /// The `lost` outcome's message: the job, what was checked, for how long.
