@@ -115,8 +115,9 @@ fn start_on_a_terminal(conf: &str, dir: &Path, log: &Path, sleep: &str) -> (Term
     cmd.env("LAB_TEST_SOLVER_LOG", log).env("LAB_TEST_SOLVER_SLEEP", sleep);
     let term = Terminal::spawn(cmd);
     term.wait_for("submitted 18 run(s) in 9 Slurm job(s)", Duration::from_secs(60));
+    // Normally all 9 are still journaled here; a job that already ended has left the journal.
     let ids = journaled_ids(&dir.join("out"));
-    assert_eq!(ids.len(), 9);
+    assert!(!ids.is_empty(), "{}", term.screen());
     (term, ids)
 }
 
@@ -226,7 +227,18 @@ fn sigint_without_a_terminal_leaves_the_jobs_without_asking() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    assert!(wait_until(Duration::from_secs(60), || journaled_ids(&out).len() == 9));
+    // All 9 batch scripts written (each before its journal entry and sbatch) and jobs journaled.
+    let scripts = || {
+        std::fs::read_dir(out.join("slurm")).map_or(0, |d| {
+            d.filter(|e| {
+                e.as_ref()
+                    .is_ok_and(|e| e.path().extension().is_some_and(|x| x == "sh"))
+            })
+            .count()
+        })
+    };
+    assert!(wait_until(Duration::from_secs(60), || scripts() == 9
+        && !journaled_ids(&out).is_empty()));
     let ids = journaled_ids(&out);
     let pid = nix::unistd::Pid::from_raw(child.id() as i32);
     nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT).unwrap();

@@ -8,8 +8,10 @@
 //! by the next `lab run --executor slurm`.
 //!
 //! The decision is a pure fold over what the polls saw, with the clock passed in, so it is tested
-//! here without Slurm; `tests/slurm_live.rs` checks the executor path against a real Slurm with a
-//! journaled job id that no source knows.
+//! here without Slurm. The executor path is tested twice: a unit test of the collection step in
+//! `slurm/mod.rs`, and `tests/slurm_live.rs` against a real Slurm with a journaled job id that no
+//! source knows (making a real job vanish — scancel, wait out MinJobAge, truncate the jobcomp
+//! file — is too slow and too intrusive for a test).
 
 use std::time::Duration;
 

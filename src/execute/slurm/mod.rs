@@ -608,3 +608,65 @@ fn collect(
     }
     Ok(open)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unknown_id_is_an_answer_a_missing_controller_is_not() {
+        assert!(squeue_answered(&Ok(String::new())));
+        let unknown = "`squeue -h -t all -j 9 -o %i %T`: slurm_load_jobs error: Invalid job id specified";
+        assert!(squeue_answered(&Err(unknown.into())));
+        let down = "`squeue ...`: slurm_load_jobs error: Unable to contact slurm controller (connect failure)";
+        assert!(!squeue_answered(&Err(down.into())));
+        assert!(!squeue_answered(&Err(
+            "cannot run `squeue`: No such file or directory".into()
+        )));
+    }
+
+    fn entry(keys: &[&str]) -> JobEntry {
+        JobEntry {
+            token: "t".into(),
+            job_id: Some("42".into()),
+            keys: keys.iter().map(|k| k.to_string()).collect(),
+            submitted_ms: 1000,
+        }
+    }
+
+    #[test]
+    fn a_lost_job_gives_its_unrecorded_runs_the_lost_outcome() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut store = RunStore::open(dir.path()).unwrap();
+        let done = RunRecord {
+            key: "a".into(),
+            outcome: Outcome::Success,
+            attempts: 1,
+            started_ms: 2000,
+            ended_ms: 3000,
+            response: Some(1.5),
+        };
+        super::super::store::Committer::new(dir.path().join(RESULTS_DIR))
+            .commit(&done)
+            .unwrap();
+        let job = entry(&["a", "b"]);
+        let mut summary = SlurmSummary::default();
+        // Absent but not yet lost: the run without a record keeps the job awaited.
+        assert!(collect(dir.path(), &mut store, &job, None, None, &mut summary).unwrap());
+        assert!(store.is_finished("a"));
+        assert!(store.record("b").is_none());
+        // Lost: `b` gets the outcome, `a` keeps its success, the job is no longer awaited.
+        assert!(!collect(dir.path(), &mut store, &job, None, Some("gone"), &mut summary).unwrap());
+        assert_eq!(
+            store.record("b").unwrap().outcome,
+            Outcome::Lost {
+                job: "42".into(),
+                detail: "gone".into()
+            }
+        );
+        assert!(!store.is_finished("b"), "a lost run is submitted again");
+        assert!(store.is_finished("a"));
+        let reread = read_record(dir.path(), "b").unwrap();
+        assert_eq!(reread.outcome.class(), crate::execute::OutcomeClass::Lost);
+    }
+}
