@@ -450,14 +450,17 @@ fn leave_or_cancel(store: &mut RunStore, study: &Study, signals: &Signals, ids: 
         Answer::Cancel => {
             let out = store.out().to_path_buf();
             eprintln!("cancelling Slurm job(s) {} with scancel...", ids.join(", "));
-            let done = interrupt::cancel(&out, store)?;
-            eprintln!(
-                "cancelled {} Slurm job(s): {} run(s) marked cancelled, {} run record(s) kept; \
-                 `{again}` runs the rest",
-                done.jobs.len(),
-                done.cancelled_runs,
-                done.kept_runs
-            );
+            match interrupt::cancel(&out, store) {
+                Ok(done) => eprintln!(
+                    "cancelled {} Slurm job(s): {} run(s) marked cancelled, {} run record(s) kept; \
+                     `{again}` runs the rest",
+                    done.jobs.len(),
+                    done.cancelled_runs,
+                    done.kept_runs
+                ),
+                // Still an interrupt (exit 130): what is left is journaled and re-attached to.
+                Err(e) => eprintln!("error: {e}\nRe-attach with:\n  {again}"),
+            }
         }
     }
     Ok(())
