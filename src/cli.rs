@@ -333,7 +333,7 @@ fn run_solver(
             }
             swept
         }
-        None if modes.slurm => sweep::run_slurm(&mut store, study, sim, &prepared, &signals.canceller)?,
+        None if modes.slurm => sweep::run_slurm(&mut store, study, sim, &prepared, &signals)?,
         None => sweep::run(&runtime, &mut store, sim, &prepared, jobs, &signals.canceller)?,
     };
     signals.sweep_done();

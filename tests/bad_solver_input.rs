@@ -273,3 +273,29 @@ fn undefined_template_variable_is_caught_by_lab_check() {
     let location = format!("{}:2:", c.dir.path().join("beam.txt.tera").display());
     assert!(stderr.contains(&location), "no `{location}` in:\n{stderr}");
 }
+
+#[test]
+fn slurm_lost_after_loads_and_is_checked() {
+    let slurm = |v: &str| {
+        with(
+            "    timeout: 30\n",
+            &format!("    timeout: 30\n    slurm: {{runs_per_job: 3, lost_after: {v}}}\n"),
+        )
+    };
+    let load = |yaml: &str| {
+        let c = case(yaml, TEMPLATE);
+        let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
+        let Simulation::Solver(sim) = s.simulation else {
+            panic!("not a solver study")
+        };
+        sim.slurm
+    };
+    let settings = load(&slurm("45")).unwrap();
+    assert_eq!(settings.lost_after, std::time::Duration::from_secs(45));
+    assert_eq!(settings.runs_per_job, 3);
+    // Without the key: the default grace period, two minutes.
+    let settings = load(&with("    timeout: 30\n", "    timeout: 30\n    slurm: {cpus: 2}\n")).unwrap();
+    assert_eq!(settings.lost_after, std::time::Duration::from_secs(120));
+    study_error(&slurm("0"), 13, Some("0}"), "`slurm.lost_after` must be at least 1");
+    study_error(&slurm("soon"), 13, None, "lost_after");
+}

@@ -267,6 +267,33 @@ fn switch_signal_kills_itself() {
     assert_eq!(out.status.signal(), Some(9));
 }
 
+#[test]
+fn the_start_log_hook_appends_one_line_per_start() {
+    let dir = Case::new(6.0, 0.05, 2).write();
+    let log = dir.path().join("starts.log");
+    let start = || {
+        Command::new(env!("CARGO_BIN_EXE_crushsim"))
+            .arg("i=main.k")
+            .current_dir(dir.path())
+            .env("LAB_TEST_SOLVER_LOG", &log)
+            .output()
+            .unwrap()
+    };
+    assert_eq!(start().status.code(), Some(0));
+    assert_eq!(start().status.code(), Some(0));
+    let name = dir.path().file_name().unwrap().to_string_lossy().into_owned();
+    assert_eq!(read(dir.path(), "starts.log"), format!("start {name}\nstart {name}\n"));
+    // Without the variable nothing is logged.
+    let out = Command::new(env!("CARGO_BIN_EXE_crushsim"))
+        .arg("i=main.k")
+        .current_dir(dir.path())
+        .env_remove("LAB_TEST_SOLVER_LOG")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    assert_eq!(read(dir.path(), "starts.log").lines().count(), 2);
+}
+
 fn bad_deck(edit: impl Fn(String) -> String) -> (tempfile::TempDir, String) {
     let dir = Case::new(6.0, 0.05, 1).write();
     let main: PathBuf = dir.path().join("main.k");

@@ -20,6 +20,10 @@
 //! | `garbage` | normal termination, exit 0, rcforc is deterministic binary garbage | outputs parse |
 //! | `hang` | sleeps `value` seconds (default 3600) before running | time limit |
 //! | `signal` | kills itself with signal `value` (default 9) after the banner | killed |
+//!
+//! **Start log** (a test hook, as in `studies/solvers/beam.py`): when `LAB_TEST_SOLVER_LOG` names a
+//! file, each start appends one line `start <name of the current directory>` to it, so a test can
+//! count how often each run was executed (e.g. exactly once across a `lab` killed and rerun).
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -72,6 +76,9 @@ pub fn main(args: &[String]) -> i32 {
             return 2;
         }
     };
+    if let Some(log) = std::env::var_os("LAB_TEST_SOLVER_LOG") {
+        log_start(Path::new(&log));
+    }
     println!("{}", output::banner());
     println!(" {}", output::version_line().trim());
     println!(
@@ -86,6 +93,23 @@ pub fn main(args: &[String]) -> i32 {
     match assemble::load(&args.input) {
         Ok(model) => run_model(&model),
         Err(e) => deck_error(&e),
+    }
+}
+
+/// Appends `start <cwd name>` to the test hook's log: one `write` of one line with O_APPEND, so
+/// concurrent runs' lines do not interleave.
+fn log_start(log: &Path) {
+    use std::io::Write;
+    let cwd = std::env::current_dir().unwrap_or_default();
+    let name = cwd.file_name().unwrap_or_default().to_string_lossy();
+    let line = format!("start {name}\n");
+    let written = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(log)
+        .and_then(|mut f| f.write_all(line.as_bytes()));
+    if let Err(e) = written {
+        eprintln!("crushsim: LAB_TEST_SOLVER_LOG {}: {e}", log.display());
     }
 }
 

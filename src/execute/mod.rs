@@ -119,6 +119,17 @@ pub enum Outcome {
     Signal {
         signal: i32,
     },
+    /// `--executor slurm`: the run's job was cancelled with scancel from `lab`'s Ctrl-C question
+    /// before the run finished.
+    Cancelled {
+        job: String,
+    },
+    /// `--executor slurm`: the run's job vanished from every place Slurm reports jobs for longer
+    /// than `slurm.lost_after`, without the run committing a record.
+    Lost {
+        job: String,
+        detail: String,
+    },
 }
 
 /// Why a response could not be read.
@@ -140,6 +151,8 @@ pub enum OutcomeClass {
     BadResponse,
     Timeout,
     Signal,
+    Cancelled,
+    Lost,
 }
 
 impl Outcome {
@@ -151,6 +164,8 @@ impl Outcome {
             Outcome::BadResponse { .. } => OutcomeClass::BadResponse,
             Outcome::Timeout => OutcomeClass::Timeout,
             Outcome::Signal { .. } => OutcomeClass::Signal,
+            Outcome::Cancelled { .. } => OutcomeClass::Cancelled,
+            Outcome::Lost { .. } => OutcomeClass::Lost,
         }
     }
 
@@ -175,6 +190,8 @@ impl std::fmt::Display for Outcome {
             }
             Outcome::Timeout => write!(f, "timeout"),
             Outcome::Signal { signal } => write!(f, "killed by signal {signal}"),
+            Outcome::Cancelled { job } => write!(f, "cancelled with scancel (Slurm job {job})"),
+            Outcome::Lost { detail, .. } => write!(f, "lost: {detail}"),
         }
     }
 }

@@ -254,6 +254,8 @@ fn with_run(mut e: InputError, design: &str) -> InputError {
 pub struct Signals {
     pub canceller: Canceller,
     after_sweep: Arc<AtomicBool>,
+    /// Whether the first signal was SIGINT (Ctrl-C) rather than SIGTERM.
+    first_was_interrupt: Arc<AtomicBool>,
 }
 
 impl Signals {
@@ -265,13 +267,17 @@ impl Signals {
         let mut int = signal(SignalKind::interrupt())?;
         let canceller = Canceller::new();
         let after_sweep = Arc::new(AtomicBool::new(false));
-        let (c, after) = (canceller.clone(), after_sweep.clone());
+        let first_was_interrupt = Arc::new(AtomicBool::new(false));
+        let (c, after, first) = (canceller.clone(), after_sweep.clone(), first_was_interrupt.clone());
         runtime.spawn(async move {
             let mut reason = CancelReason::Signal;
             loop {
-                tokio::select! {
-                    _ = term.recv() => {}
-                    _ = int.recv() => {}
+                let interrupt = tokio::select! {
+                    _ = term.recv() => false,
+                    _ = int.recv() => true,
+                };
+                if reason == CancelReason::Signal {
+                    first.store(interrupt, Ordering::SeqCst);
                 }
                 if after.load(Ordering::SeqCst) {
                     eprintln!("\ninterrupted");
@@ -281,7 +287,11 @@ impl Signals {
                 reason = CancelReason::SecondSignal;
             }
         });
-        Ok(Signals { canceller, after_sweep })
+        Ok(Signals {
+            canceller,
+            after_sweep,
+            first_was_interrupt,
+        })
     }
 
     /// From now on a signal exits 130 at once.
@@ -291,6 +301,11 @@ impl Signals {
 
     pub fn interrupted(&self) -> bool {
         self.canceller.reason().is_some_and(|r| r >= CancelReason::Signal)
+    }
+
+    /// Whether the sweep was stopped by Ctrl-C (SIGINT), not SIGTERM: only then is a person asked.
+    pub fn by_ctrl_c(&self) -> bool {
+        self.interrupted() && self.first_was_interrupt.load(Ordering::SeqCst)
     }
 }
 
@@ -392,7 +407,7 @@ pub fn run_slurm(
     study: &Study,
     sim: &SolverSimulation,
     prepared: &Prepared,
-    canceller: &Canceller,
+    signals: &Signals,
 ) -> Result<SweepResult, Error> {
     let reused = prepared.keys.iter().filter(|k| store.is_finished(k)).count();
     let settings = sim.slurm.clone().unwrap_or_default();
@@ -406,16 +421,49 @@ pub fn run_slurm(
     }
     let out = store.out().to_path_buf();
     let prepare = |key: &str| -> Result<(), Error> { store_prepare(&out, key, &prepared.inputs[key]) };
-    let summary = super::slurm::run(&settings, &study_path, store, &distinct, canceller, &prepare)?;
+    let summary = super::slurm::run(&settings, &study_path, store, &distinct, &signals.canceller, &prepare)?;
     if !summary.left_running.is_empty() {
-        let ids = summary.left_running.join(",");
-        eprintln!(
-            "left {} Slurm job(s) running ({ids}): `lab run {} --executor slurm` again re-attaches; `scancel {ids}` cancels them",
-            summary.left_running.len(),
-            study.path.display()
-        );
+        leave_or_cancel(store, study, signals, &summary.left_running)?;
     }
     Ok(SweepResult::from_store(store, prepared, reused, summary.errors))
+}
+
+/// After an interrupt with jobs still queued or running: asks a person at a terminal whether to
+/// cancel them (Ctrl-C only); otherwise leaves them and says how to re-attach.
+fn leave_or_cancel(store: &mut RunStore, study: &Study, signals: &Signals, ids: &[String]) -> Result<(), Error> {
+    use super::slurm::interrupt::{self, Answer};
+    let answer = if signals.by_ctrl_c() && interrupt::interactive() {
+        let second = || signals.canceller.reason() == Some(CancelReason::SecondSignal);
+        let input = std::io::BufReader::new(std::io::stdin());
+        interrupt::ask(ids.len(), input, interrupt::QUESTION_TIMEOUT, &second)
+    } else {
+        Answer::Leave
+    };
+    let again = interrupt::reattach_command(&study.path, store.out());
+    match answer {
+        Answer::Leave => eprintln!(
+            "left {} Slurm job(s) queued or running ({}). Re-attach with:\n  {again}\n(`scancel {}` cancels them)",
+            ids.len(),
+            ids.join(", "),
+            ids.join(" ")
+        ),
+        Answer::Cancel => {
+            let out = store.out().to_path_buf();
+            eprintln!("cancelling Slurm job(s) {} with scancel...", ids.join(", "));
+            match interrupt::cancel(&out, store) {
+                Ok(done) => eprintln!(
+                    "cancelled {} Slurm job(s): {} run(s) marked cancelled, {} run record(s) kept; \
+                     `{again}` runs the rest",
+                    done.jobs.len(),
+                    done.cancelled_runs,
+                    done.kept_runs
+                ),
+                // Still an interrupt (exit 130): what is left is journaled and re-attached to.
+                Err(e) => eprintln!("error: {e}\nRe-attach with:\n  {again}"),
+            }
+        }
+    }
+    Ok(())
 }
 
 /// [`RunStore::prepare`] without the store (the store is borrowed by the Slurm pass).

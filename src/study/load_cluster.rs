@@ -184,6 +184,9 @@ impl Checker<'_> {
             }
             settings.runs_per_job = r.value;
         }
+        if let Some(l) = &s.lost_after {
+            settings.lost_after = std::time::Duration::from_secs(u64::from(positive(l, "lost_after")?));
+        }
         for o in &s.options {
             if !o.value.starts_with('-') {
                 return Err(self.at(

@@ -231,4 +231,6 @@ pub struct SlurmFile {
     /// More sbatch options, each one argv element (`--account=x`).
     #[serde(default)]
     pub options: Vec<Spanned<String>>,
+    /// Seconds a job may be unknown to squeue, scontrol and jobcomp before its runs are `lost`.
+    pub lost_after: Option<Spanned<u32>>,
 }

@@ -1,4 +1,11 @@
 //! The Slurm executor (`lab run --executor slurm`).
+//!
+//! - this module: submitting (journal before sbatch), watching and re-attaching;
+//! - [`lost`]: when a job that every Slurm source has forgotten is given up;
+//! - [`interrupt`]: Ctrl-C — the question whether to leave the jobs running or scancel them.
+
+pub mod interrupt;
+pub mod lost;
 
 /// `simulation.solver.slurm`: how runs are submitted.
 #[derive(Debug, Clone, PartialEq)]
@@ -12,7 +19,14 @@ pub struct SlurmSettings {
     pub runs_per_job: usize,
     /// More sbatch options, one argv element each.
     pub options: Vec<String>,
+    /// How long a job may be unknown to squeue, scontrol and the jobcomp record before its
+    /// unfinished runs are given up as `lost` (see [`lost`]).
+    pub lost_after: Duration,
 }
+
+/// Default of `slurm.lost_after`: two minutes — far above the few seconds between sbatch and
+/// squeue showing the job, and short enough that a vanished job does not stall a study for long.
+pub const DEFAULT_LOST_AFTER: Duration = Duration::from_secs(120);
 
 impl Default for SlurmSettings {
     fn default() -> Self {
@@ -23,6 +37,7 @@ impl Default for SlurmSettings {
             memory_mb: None,
             runs_per_job: 8,
             options: Vec::new(),
+            lost_after: DEFAULT_LOST_AFTER,
         }
     }
 }
@@ -176,17 +191,39 @@ fn jobcomp_file() -> Option<PathBuf> {
     })
 }
 
-/// States of `ids`: `squeue -h -t all`, then `scontrol -o show job`, then the jobcomp record
-/// (after MinJobAge the first two forget the job). Ids no source knows are left out.
-pub fn job_states(ids: &[String]) -> BTreeMap<String, JobState> {
-    let mut states = BTreeMap::new();
-    if ids.is_empty() {
-        return states;
+/// What one poll of Slurm learnt about a set of jobs.
+#[derive(Debug, Default)]
+pub struct Poll {
+    /// The jobs some source knows; ids no source knows are left out.
+    pub states: BTreeMap<String, JobState>,
+    /// Whether squeue answered (with the jobs, or that it does not know them): without an answer
+    /// a job's absence means nothing (see [`lost`]).
+    pub answered: bool,
+}
+
+/// Whether a failed squeue still answered: for a single unknown id it exits 1 with "Invalid job id
+/// specified"; anything else (no controller, no config) is no answer.
+fn squeue_answered(result: &Result<String, String>) -> bool {
+    match result {
+        Ok(_) => true,
+        Err(e) => e.contains("Invalid job id"),
     }
-    if let Ok(text) = slurm_cmd("squeue", &["-h", "-t", "all", "-j", &ids.join(","), "-o", "%i %T"]) {
+}
+
+/// States of `ids`: `squeue -h -t all`, then `scontrol -o show job`, then the jobcomp record
+/// (after MinJobAge the first two forget the job).
+pub fn job_states(ids: &[String]) -> Poll {
+    let mut poll = Poll::default();
+    if ids.is_empty() {
+        poll.answered = true;
+        return poll;
+    }
+    let squeue = slurm_cmd("squeue", &["-h", "-t", "all", "-j", &ids.join(","), "-o", "%i %T"]);
+    poll.answered = squeue_answered(&squeue);
+    if let Ok(text) = squeue {
         for line in text.lines() {
             if let Some((id, state)) = line.trim().split_once(' ') {
-                states.insert(
+                poll.states.insert(
                     id.to_string(),
                     JobState {
                         state: state.trim().to_string(),
@@ -198,7 +235,7 @@ pub fn job_states(ids: &[String]) -> BTreeMap<String, JobState> {
     }
     let mut jobcomp: Option<String> = None;
     for id in ids {
-        let known = states.get(id).cloned();
+        let known = poll.states.get(id).cloned();
         if known.as_ref().is_some_and(|s| !s.is_final()) {
             continue;
         }
@@ -220,10 +257,10 @@ pub fn job_states(ids: &[String]) -> BTreeMap<String, JobState> {
         if let Some(line) = line {
             let state = field(&line, "JobState").unwrap_or("UNKNOWN").to_string();
             let exit_code = field(&line, "ExitCode").and_then(|c| c.split(':').next()?.parse().ok());
-            states.insert(id.clone(), JobState { state, exit_code });
+            poll.states.insert(id.clone(), JobState { state, exit_code });
         }
     }
-    states
+    poll
 }
 
 /// The id of the job named `lab-<token>`, if Slurm (or its jobcomp record) knows one.
@@ -431,52 +468,64 @@ pub fn run(
             summary.submitted_jobs
         );
     }
-    // Poll.
+    watch(settings, &out, store, active, canceller, &mut summary)?;
+    Ok(summary)
+}
+
+/// Polls the `active` jobs until every run has a record or the pass is cancelled (then the jobs
+/// still active are left running, in `summary.left_running`).
+fn watch(
+    settings: &SlurmSettings,
+    out: &Path,
+    store: &mut RunStore,
+    mut active: Vec<JobEntry>,
+    canceller: &Canceller,
+    summary: &mut SlurmSummary,
+) -> Result<(), Error> {
     let mut delay = Duration::from_millis(200);
     let mut last_report = Instant::now();
+    let mut watches: BTreeMap<String, lost::Watch> = BTreeMap::new();
     while !active.is_empty() {
+        let ids: Vec<String> = active.iter().filter_map(|j| j.job_id.clone()).collect();
+        let poll = job_states(&ids);
+        let mut still = Vec::new();
+        for entry in active {
+            let id = entry.job_id.clone().unwrap_or_default();
+            let state = poll.states.get(&id);
+            let sighting = match (state, poll.answered) {
+                (Some(_), _) => lost::Sighting::Known,
+                (None, true) => lost::Sighting::Absent,
+                (None, false) => lost::Sighting::NoAnswer,
+            };
+            let was_missing = watches.get(&entry.token).is_some_and(|w| *w != lost::Watch::default());
+            let verdict =
+                watches
+                    .entry(entry.token.clone())
+                    .or_default()
+                    .observe(sighting, now_ms(), settings.lost_after);
+            if !was_missing && matches!(verdict, lost::Verdict::Missing { .. }) {
+                eprintln!(
+                    "Slurm job {id} is unknown to squeue, scontrol and the jobcomp record; its runs are given up \
+                     as lost if it stays so for {} s (slurm.lost_after)",
+                    settings.lost_after.as_secs()
+                );
+            }
+            let gone = match verdict {
+                lost::Verdict::Lost { absent_ms } => Some(lost_detail(&id, absent_ms, settings.lost_after)),
+                _ => None,
+            };
+            if collect(out, store, &entry, state, gone.as_deref(), summary)? {
+                still.push(entry);
+            } else {
+                remove_entry(out, &entry.token);
+            }
+        }
+        active = still;
+        // Checked after a poll, so that the jobs left running are those still queued or running.
         if canceller.reason().is_some() {
             summary.left_running = active.iter().filter_map(|j| j.job_id.clone()).collect();
             break;
         }
-        let ids: Vec<String> = active.iter().filter_map(|j| j.job_id.clone()).collect();
-        let states = job_states(&ids);
-        let mut still = Vec::new();
-        for entry in active {
-            let id = entry.job_id.clone().unwrap_or_default();
-            let state = states.get(&id);
-            let ended = state.is_some_and(JobState::is_final);
-            let mut open = false;
-            for key in &entry.keys {
-                if store.is_finished(key) || (store.record(key).is_some() && ended) {
-                    continue;
-                }
-                if let Some(record) = read_record(&out, key).filter(|r| r.ended_ms >= entry.submitted_ms) {
-                    store.remember(record.clone());
-                    summary.records.push(record);
-                } else if ended {
-                    let state = state.expect("ended implies a state");
-                    let record = RunRecord {
-                        key: key.clone(),
-                        outcome: lost_outcome(state),
-                        attempts: 1,
-                        started_ms: entry.submitted_ms,
-                        ended_ms: now_ms(),
-                        response: None,
-                    };
-                    store.commit(record.clone()).map_err(Error::from)?;
-                    summary.records.push(record);
-                } else {
-                    open = true;
-                }
-            }
-            if open || (!ended && state.is_none() && entry.keys.iter().any(|k| store.record(k).is_none())) {
-                still.push(entry);
-            } else {
-                remove_entry(&out, &entry.token);
-            }
-        }
-        active = still;
         if active.is_empty() {
             break;
         }
@@ -484,8 +533,140 @@ pub fn run(
             eprintln!("waiting for {} Slurm job(s)...", active.len());
             last_report = Instant::now();
         }
-        std::thread::sleep(delay);
+        sleep_unless_cancelled(delay, canceller);
         delay = (delay * 3 / 2).min(Duration::from_secs(2));
     }
-    Ok(summary)
+    Ok(())
+}
+
+/// Sleeps `total`, waking early when the pass is cancelled (Ctrl-C is answered at once).
+fn sleep_unless_cancelled(total: Duration, canceller: &Canceller) {
+    let end = Instant::now() + total;
+    while canceller.reason().is_none() {
+        let left = end.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return;
+        }
+        std::thread::sleep(left.min(Duration::from_millis(50)));
+    }
+}
+
+/// The `lost` outcome's message: the job, what was checked, for how long.
+fn lost_detail(id: &str, absent_ms: u64, lost_after: Duration) -> String {
+    let jobcomp = jobcomp_file().map_or("no JobCompLoc configured".to_string(), |p| p.display().to_string());
+    format!(
+        "Slurm job {id} was unknown to squeue, scontrol and the jobcomp record ({jobcomp}) for {:.0} s \
+         (slurm.lost_after: {} s) and the run committed no record; the next `lab run --executor slurm` \
+         submits it again",
+        absent_ms as f64 / 1000.0,
+        lost_after.as_secs()
+    )
+}
+
+/// Collects the records of one job's runs. A run without a record gets one when its job has
+/// ended (the outcome Slurm gives) or is lost (`gone`: the message). Returns whether the job is
+/// still awaited.
+fn collect(
+    out: &Path,
+    store: &mut RunStore,
+    entry: &JobEntry,
+    state: Option<&JobState>,
+    gone: Option<&str>,
+    summary: &mut SlurmSummary,
+) -> Result<bool, Error> {
+    let ended = state.is_some_and(JobState::is_final);
+    let mut open = false;
+    for key in &entry.keys {
+        if store.is_finished(key) || (store.record(key).is_some() && ended) {
+            continue;
+        }
+        let outcome = if let Some(record) = read_record(out, key).filter(|r| r.ended_ms >= entry.submitted_ms) {
+            store.remember(record.clone());
+            summary.records.push(record);
+            continue;
+        } else if let (true, Some(state)) = (ended, state) {
+            lost_outcome(state)
+        } else if let Some(detail) = gone {
+            Outcome::Lost {
+                job: entry.job_id.clone().unwrap_or_default(),
+                detail: detail.to_string(),
+            }
+        } else {
+            open = true;
+            continue;
+        };
+        let record = RunRecord {
+            key: key.clone(),
+            outcome,
+            attempts: 1,
+            started_ms: entry.submitted_ms,
+            ended_ms: now_ms(),
+            response: None,
+        };
+        store.commit(record.clone()).map_err(Error::from)?;
+        summary.records.push(record);
+    }
+    Ok(open)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unknown_id_is_an_answer_a_missing_controller_is_not() {
+        assert!(squeue_answered(&Ok(String::new())));
+        let unknown = "`squeue -h -t all -j 9 -o %i %T`: slurm_load_jobs error: Invalid job id specified";
+        assert!(squeue_answered(&Err(unknown.into())));
+        let down = "`squeue ...`: slurm_load_jobs error: Unable to contact slurm controller (connect failure)";
+        assert!(!squeue_answered(&Err(down.into())));
+        assert!(!squeue_answered(&Err(
+            "cannot run `squeue`: No such file or directory".into()
+        )));
+    }
+
+    fn entry(keys: &[&str]) -> JobEntry {
+        JobEntry {
+            token: "t".into(),
+            job_id: Some("42".into()),
+            keys: keys.iter().map(|k| k.to_string()).collect(),
+            submitted_ms: 1000,
+        }
+    }
+
+    #[test]
+    fn a_lost_job_gives_its_unrecorded_runs_the_lost_outcome() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut store = RunStore::open(dir.path()).unwrap();
+        let done = RunRecord {
+            key: "a".into(),
+            outcome: Outcome::Success,
+            attempts: 1,
+            started_ms: 2000,
+            ended_ms: 3000,
+            response: Some(1.5),
+        };
+        super::super::store::Committer::new(dir.path().join(RESULTS_DIR))
+            .commit(&done)
+            .unwrap();
+        let job = entry(&["a", "b"]);
+        let mut summary = SlurmSummary::default();
+        // Absent but not yet lost: the run without a record keeps the job awaited.
+        assert!(collect(dir.path(), &mut store, &job, None, None, &mut summary).unwrap());
+        assert!(store.is_finished("a"));
+        assert!(store.record("b").is_none());
+        // Lost: `b` gets the outcome, `a` keeps its success, the job is no longer awaited.
+        assert!(!collect(dir.path(), &mut store, &job, None, Some("gone"), &mut summary).unwrap());
+        assert_eq!(
+            store.record("b").unwrap().outcome,
+            Outcome::Lost {
+                job: "42".into(),
+                detail: "gone".into()
+            }
+        );
+        assert!(!store.is_finished("b"), "a lost run is submitted again");
+        assert!(store.is_finished("a"));
+        let reread = read_record(dir.path(), "b").unwrap();
+        assert_eq!(reread.outcome.class(), crate::execute::OutcomeClass::Lost);
+    }
 }
