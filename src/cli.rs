@@ -178,6 +178,14 @@ fn execute(command: Command) -> Result<i32, Error> {
                 study.training.len(),
                 study.validation.len()
             );
+            let curves = &study.experiments.curves;
+            if !curves.is_empty() {
+                println!(
+                    "ok: {} force-displacement curve(s) of {} design(s) read",
+                    curves.iter().map(|c| c.specimens.len()).sum::<usize>(),
+                    curves.len()
+                );
+            }
             Ok(0)
         }
         Command::Status { study, out } => {
