@@ -56,7 +56,7 @@ const ALL: [(&str, &str); 4] = [
 
 /// The load error, also printed by `lab check` with exit 2.
 fn load_err(study: &Path) -> InputError {
-    let err = study::load(study).err().expect("a bad study");
+    let err = study::load(study).expect_err("a bad study");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_lab"))
         .arg("check")
         .arg(study)
