@@ -6,6 +6,11 @@ use super::{Page, figure, id_part, method_name, note};
 use crate::report::data::DesignCurves;
 use crate::report::plots::{self, Band, Series, Style, XyPlot, short};
 
+/// Specimens labelled one by one in a legend; more share one entry.
+const MAX_TEST_LABELS: usize = 4;
+/// A nearest run further than this fraction of a parameter's range from the estimate is said to be far.
+const FAR: f64 = 0.05;
+
 impl Page<'_> {
     pub(super) fn force_displacement(&self) -> String {
         let curves = self.d.map(|d| d.force_displacement.as_slice()).unwrap_or_default();
@@ -17,11 +22,13 @@ impl Page<'_> {
         }
         let mut s = String::from("<div class=grid>");
         for dc in curves {
+            let series = self.curve_series(dc);
+            let legend_room = legend_room(&series);
             let plot = XyPlot {
                 title: format!("Force–displacement, {}", self.design_title(&dc.design)),
                 x_label: "displacement (mm)".into(),
                 y_label: "force (kN)".into(),
-                series: self.curve_series(dc),
+                series,
                 bands: dc
                     .window
                     .map(|[a, b]| Band {
@@ -32,7 +39,7 @@ impl Page<'_> {
                     .into_iter()
                     .collect(),
                 y_floor: Some(0.0),
-                legend_room: 0.45,
+                legend_room,
                 ..Default::default()
             };
             let id = format!("fd-{}", id_part(&dc.design));
@@ -90,10 +97,17 @@ impl Page<'_> {
                 points(c),
             ));
         }
+        // Beyond a few specimens one legend entry stands for all: a legend line each would cover the plot.
+        let many = dc.tests.len() > MAX_TEST_LABELS;
         for (i, c) in dc.tests.iter().enumerate() {
             // Colours 1.. of the palette: 0 (blue) stays the methods' first colour elsewhere.
             let colour = [1, 2, 3, 4, 5][i % 5];
-            series.push(Series::new(format!("test {}", c.label), colour, Style::Line, points(c)));
+            let label = match (many, i) {
+                (false, _) => format!("test {}", c.label),
+                (true, 0) => format!("{} test specimens", dc.tests.len()),
+                (true, _) => String::new(),
+            };
+            series.push(Series::new(label, colour, Style::Line, points(c)));
         }
         series
     }
@@ -120,6 +134,13 @@ impl Page<'_> {
                     c.label,
                     kn(c.mean_force)
                 ));
+                if let Some(far) = self.offset(&c.parameters, &r.parameters).filter(|f| *f > FAR) {
+                    parts.push(format!(
+                        "no run lies near the estimate: the nearest is {} % of the parameter range away, so the \
+                         black curve shows the trend, not the calibrated model",
+                        short(100.0 * far, 2)
+                    ));
+                }
             }
         }
         if !dc.tests.is_empty() {
@@ -145,6 +166,16 @@ impl Page<'_> {
         text
     }
 
+    /// The largest difference between two parameter vectors, each as a fraction of its range.
+    fn offset(&self, a: &[f64], b: &[f64]) -> Option<f64> {
+        let params = self.study_info()?.parameters.as_slice();
+        let fractions = params.iter().zip(a.iter().zip(b)).filter_map(|(p, (x, y))| {
+            let range = p.max? - p.min?;
+            (range > 0.0).then(|| (x - y).abs() / range)
+        });
+        fractions.reduce(f64::max)
+    }
+
     /// `sigma_y = 199.2 MPa`: calibrated parameters with their units.
     fn parameters_text(&self, values: &[f64]) -> String {
         let names = self.study_info().map(|i| i.parameters.as_slice()).unwrap_or_default();
@@ -161,6 +192,13 @@ impl Page<'_> {
             .collect::<Vec<_>>()
             .join(", ")
     }
+}
+
+/// Room above the curves for the legend, as a fraction of the force span: about one legend line
+/// (plus the stroke window's) per 6 % of it.
+fn legend_room(series: &[Series]) -> f64 {
+    let lines = 1 + series.iter().filter(|s| !s.label.is_empty()).count();
+    0.06 * lines as f64 + 0.08
 }
 
 fn kn(v: Option<f64>) -> String {
@@ -261,6 +299,31 @@ mod tests {
         }
         // One legend entry for all the grey runs.
         assert_eq!(html.matches("other simulated runs").count(), 1);
+    }
+
+    #[test]
+    fn many_specimens_share_a_legend_entry_and_a_far_nearest_run_is_said_to_be_far() {
+        let r = results();
+        let mut d = data();
+        d.study.parameters[0].min = Some(100.0);
+        d.study.parameters[0].max = Some(250.0);
+        let dc = &mut d.force_displacement[0];
+        dc.tests = (1..=5).map(|i| curve(&format!("C6T5-{i}"), vec![], 2.8)).collect();
+        dc.simulations[1].parameters = vec![249.0];
+        let html = Page { r: &r, d: Some(&d) }.force_displacement();
+        assert!(
+            html.contains("5 test specimens") && !html.contains("test C6T5-1"),
+            "{html}"
+        );
+        // (249 − 199.23) / (250 − 100) = 33 %.
+        assert!(
+            html.contains("the nearest is 33 % of the parameter range away"),
+            "{html}"
+        );
+        // Near enough (within 5 % of the range): nothing said.
+        d.force_displacement[0].simulations[1].parameters = vec![198.9];
+        let html = Page { r: &r, d: Some(&d) }.force_displacement();
+        assert!(!html.contains("no run lies near"), "{html}");
     }
 
     #[test]
