@@ -178,6 +178,14 @@ fn execute(command: Command) -> Result<i32, Error> {
                 study.training.len(),
                 study.validation.len()
             );
+            let curves = &study.experiments.curves;
+            if !curves.is_empty() {
+                println!(
+                    "ok: {} force-displacement curve(s) of {} design(s) read",
+                    curves.iter().map(|c| c.specimens.len()).sum::<usize>(),
+                    curves.len()
+                );
+            }
             Ok(0)
         }
         Command::Status { study, out } => {
@@ -251,6 +259,7 @@ fn run(study: &Study, out: &Path, started: Instant) -> Result<i32, Error> {
     let diagnosis = pipeline::diagnose(study, model.as_ref());
     let results = Results::build(study, model.as_ref(), &calibration, diagnosis);
     let mut data = ReportData::build(study, model.as_ref(), &calibration);
+    data.force_displacement = report::curves::design_curves(study, None, None);
     data.wall_time_s = Some(started.elapsed().as_secs_f64());
     finish(out, &results, &data)
 }
@@ -382,12 +391,33 @@ fn run_solver(
         &surrogates,
         &store,
     );
+    let outputs = report::curves::RunOutputs {
+        plan: &plan,
+        keys: &prepared.keys,
+        responses: &swept.responses,
+        dirs: output_dirs(&store, sim, modes),
+    };
+    let reference = report::data::reference(&calibration);
+    data.force_displacement = report::curves::design_curves(study, Some(&outputs), reference.as_ref());
     data.wall_time_s = Some(started.elapsed().as_secs_f64());
     let code = finish(out, &results, &data)?;
     if let Some(splits) = &results.splits {
         print!("{}", splits_table(splits));
     }
     Ok(if failed > 0 { 1 } else { code })
+}
+
+/// Where finished runs' outputs are, as `<dir>/<key>/`: the store's run directories (live runs),
+/// then `--replay` and the study's `simulation.replay` (runs replayed now or by an earlier `lab run`).
+fn output_dirs(store: &RunStore, sim: &SolverSimulation, modes: &Modes) -> Vec<PathBuf> {
+    let mut dirs = vec![store.out().join(crate::execute::store::RUNS_DIR)];
+    dirs.extend(modes.replay.iter().cloned());
+    if let Some(d) = &sim.replay
+        && !dirs.contains(d)
+    {
+        dirs.push(d.clone());
+    }
+    dirs
 }
 
 /// Calibrates the study again with a split's training and validation designs.

@@ -1,6 +1,7 @@
 //! The honeycomb study (studies/honeycomb.yaml) end to end through the `lab` binary: replayed from
-//! fixtures/honeycomb with no solver on PATH, live with crushsim equal to the replay, a replay miss
-//! that names the run and what changed, and the extractor on a fixture's test-machine CSV.
+//! fixtures/honeycomb with no solver on PATH (with the force–displacement curves the report draws),
+//! live with crushsim equal to the replay, a replay miss that names the run and what changed, and
+//! the extractor on a fixture's test-machine CSV.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -28,6 +29,84 @@ fn lab(args: &[&str], with_crushsim: bool) -> std::process::Output {
 
 fn results(out: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap()
+}
+
+fn report_data(out: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(out.join("report-data.json")).unwrap()).unwrap()
+}
+
+fn numbers(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
+}
+
+/// The recorded force–displacement curves: per design its 3 specimens, whose mean crush force over
+/// the window is exactly experiments.csv's (the same extractor made it), and 9 of its 17 runs —
+/// the lowest and highest response and the run nearest the least-squares estimate, whose mean
+/// crush force is exactly the response its run recorded.
+fn check_curves(results: &serde_json::Value, data: &serde_json::Value) {
+    let experiments = std::fs::read_to_string(root().join("fixtures/honeycomb/tests/experiments.csv")).unwrap();
+    let ls = results["calibration"]["least_squares"]["parameters"]["sigma_y"]
+        .as_f64()
+        .unwrap();
+    let fd = data["force_displacement"].as_array().unwrap();
+    let designs: Vec<&str> = fd.iter().map(|d| d["design"].as_str().unwrap()).collect();
+    assert_eq!(designs, ["C6T5", "C3T8", "C3T7"], "training then validation designs");
+    for d in fd {
+        let design = d["design"].as_str().unwrap();
+        assert_eq!(numbers(&d["window"]), [5.0, 60.0], "{design}");
+        let measured: Vec<f64> = experiments
+            .lines()
+            .filter(|l| l.starts_with(&format!("{design},")))
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect();
+        let tests = d["tests"].as_array().unwrap();
+        assert_eq!((tests.len(), d["tests_total"].as_u64()), (3, Some(3)), "{design}");
+        for (i, t) in tests.iter().enumerate() {
+            assert_eq!(t["label"], format!("{design}-{}", i + 1));
+            assert_eq!(
+                t["mean_force"].as_f64().unwrap(),
+                measured[i],
+                "{design} specimen {}",
+                i + 1
+            );
+        }
+        let runs: Vec<(f64, f64)> = data["runs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|r| r["design"] == design && r["class"] == "success")
+            .map(|r| (r["theta"][0].as_f64().unwrap(), r["response"].as_f64().unwrap()))
+            .collect();
+        assert_eq!((runs.len(), d["runs"].as_u64()), (17, Some(17)), "{design}");
+        let sims = d["simulations"].as_array().unwrap();
+        assert_eq!(sims.len(), 9, "{design}");
+        let mean = |c: &serde_json::Value| c["mean_force"].as_f64().unwrap();
+        assert!(
+            sims.windows(2).all(|w| mean(&w[0]) <= mean(&w[1])),
+            "{design}: by response"
+        );
+        let lowest = runs.iter().map(|r| r.1).fold(f64::INFINITY, f64::min);
+        let highest = runs.iter().map(|r| r.1).fold(f64::NEG_INFINITY, f64::max);
+        assert_eq!(
+            (mean(&sims[0]), mean(&sims[8])),
+            (lowest, highest),
+            "{design}: the envelope"
+        );
+        for c in sims.iter().chain(tests) {
+            let n = c["displacement"].as_array().unwrap().len();
+            assert!(
+                n <= 300 && n == c["force"].as_array().unwrap().len(),
+                "{design}: {n} points"
+            );
+        }
+        let near = &sims[d["nearest"].as_u64().unwrap() as usize];
+        let at = near["parameters"][0].as_f64().unwrap();
+        let closest = runs.iter().map(|r| (r.0 - ls).abs()).fold(f64::INFINITY, f64::min);
+        assert_eq!((at - ls).abs(), closest, "{design}: the run nearest {ls}");
+        let response = runs.iter().find(|r| r.0 == at).unwrap().1;
+        assert_eq!(mean(near), response, "{design}: the curve is the run's own");
+        assert_eq!(d["reference"]["method"], "least_squares");
+    }
 }
 
 #[test]
@@ -72,6 +151,7 @@ fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
         }
     }
     assert_eq!(r["runs"]["succeeded"], 51);
+    check_curves(&r, &report_data(out.path()));
 }
 
 #[test]
@@ -111,6 +191,10 @@ fn crushsim_live_gives_the_replayed_numbers() {
     assert_eq!(a["calibration"], b["calibration"]);
     assert_eq!(a["splits"], b["splits"]);
     assert_eq!(a["surrogates"], b["surrogates"]);
+    // Curves read from the live run directories equal those read from the recordings.
+    let (a, b) = (report_data(live.path()), report_data(replayed.path()));
+    assert_eq!(a["force_displacement"], b["force_displacement"]);
+    assert_eq!(a["force_displacement"].as_array().unwrap().len(), 3);
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! The HTML report in a real browser: `lab run` then `lab report` (rebuilt from what is recorded)
-//! on the closed-form cantilever, the diagnosis cantilever (every diagnosis plot) and the solver
-//! cantilever; each page opened in headless Chromium, a screenshot saved under
+//! on the closed-form cantilever, the diagnosis cantilever (every diagnosis plot), the solver
+//! cantilever and the honeycomb study (replayed: force–displacement curves, every train/validate
+//! split); each page opened in headless Chromium, a screenshot saved under
 //! `target/tmp/report-screenshots/`, the DOM checked for every section and plot, the page's
 //! errors (a hook injected into a copy of the page, and Chromium's console log) required empty.
 //!
@@ -15,12 +16,15 @@ fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn lab(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args(args)
-        .current_dir(repo())
-        .output()
-        .expect("lab runs")
+/// `lab` with the test's PATH, or with `path` (a PATH without crushsim makes the honeycomb study
+/// replay its recordings).
+fn lab(args: &[&str], path: Option<&str>) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_lab"));
+    command.args(args).current_dir(repo());
+    if let Some(path) = path {
+        command.env("PATH", path);
+    }
+    command.output().expect("lab runs")
 }
 
 fn chromium() -> Option<PathBuf> {
@@ -53,16 +57,32 @@ struct Case {
     study: &'static str,
     /// Figure ids expected on the page (each holds one <svg>).
     figures: &'static [&'static str],
+    /// Text the page must show: units on axes and in tables, legends, split headings.
+    texts: &'static [&'static str],
+    /// PATH for `lab run`, when it must not be the test's.
+    path: Option<&'static str>,
+    /// Screenshot height in pixels: the whole page.
+    height: u32,
 }
 
-const CASES: [Case; 3] = [
+const CASES: [Case; 4] = [
     Case {
         study: "cantilever",
         figures: &["posterior-E", "predictions", "splits", "residuals-h"],
+        texts: &[
+            "deflection (mm)",
+            "no force–displacement curves were recorded",
+            "posterior density (per MPa)",
+        ],
+        path: None,
+        height: 4000,
     },
     Case {
         study: "cantilever-diagnosis",
         figures: &["predictions", "splits", "residuals-h", "candidates", "before-after"],
+        texts: &["measured − predicted deflection (mm)"],
+        path: None,
+        height: 4000,
     },
     Case {
         study: "cantilever-command",
@@ -75,6 +95,39 @@ const CASES: [Case; 3] = [
             "splits",
             "residuals-h",
         ],
+        texts: &["deflection (mm)"],
+        path: None,
+        height: 4000,
+    },
+    Case {
+        study: "honeycomb",
+        figures: &[
+            "fd-C6T5",
+            "fd-C3T8",
+            "fd-C3T7",
+            "surrogate-C6T5",
+            "surrogate-C3T8",
+            "surrogate-C3T7",
+            "posterior-sigma-y",
+            "predictions",
+            "splits",
+            "residuals-c",
+            "residuals-t",
+        ],
+        texts: &[
+            "force (kN)",
+            "displacement (mm)",
+            "stroke window 5–60 mm",
+            "test C3T7-3",
+            "run nearest the estimate: sigma_y = ",
+            "1. train C6T5, C3T8 → validate C3T7",
+            "2. train C6T5, C3T7 → validate C3T8",
+            "3. train C3T7, C3T8 → validate C6T5",
+            "<table id=split-table>",
+        ],
+        // No crushsim: the study replays fixtures/honeycomb.
+        path: Some("/usr/bin:/bin"),
+        height: 7200,
     },
 ];
 
@@ -92,7 +145,7 @@ const SECTIONS: [&str; 7] = [
 fn render(case: &Case, root: &Path) -> PathBuf {
     let out = root.join(case.study);
     let study = format!("studies/{}.yaml", case.study);
-    let o = lab(&["run", &study, "--out", out.to_str().unwrap()]);
+    let o = lab(&["run", &study, "--out", out.to_str().unwrap()], case.path);
     assert_eq!(
         o.status.code(),
         Some(0),
@@ -106,7 +159,7 @@ fn render(case: &Case, root: &Path) -> PathBuf {
     );
     let written = std::fs::read(out.join("report.html")).unwrap();
     let started = Instant::now();
-    let o = lab(&["report", &study, "--out", out.to_str().unwrap()]);
+    let o = lab(&["report", &study, "--out", out.to_str().unwrap()], case.path);
     let took = started.elapsed();
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     let rebuilt = std::fs::read(out.join("report.html")).unwrap();
@@ -148,6 +201,9 @@ fn check_html(case: &Case, html: &str) {
             "{}: figure `{id}` holds no <svg>",
             case.study
         );
+    }
+    for text in case.texts {
+        assert!(html.contains(text), "{}: `{text}` not on the page", case.study);
     }
     for needle in ["<script", "src=", "http://", "https://", "<link", "@import", "url("] {
         assert!(
@@ -226,7 +282,7 @@ fn reports_render_in_chromium_with_every_section_and_plot() {
             &tmp.path().join(format!("profile-shot-{}", case.study)),
             &[
                 format!("--screenshot={}", shot.display()),
-                "--window-size=1280,4000".into(),
+                format!("--window-size=1280,{}", case.height),
                 "--hide-scrollbars".into(),
             ],
             &out.join("report.html"),

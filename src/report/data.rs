@@ -8,7 +8,8 @@
 //!   surrogates of a solver study) the points are those designs;
 //! - solver studies: per design the surrogate's samples, check points and (one parameter) its curve;
 //!   the run table;
-//! - hooks filled by other stages: force–displacement curves per design, extra train/validate splits.
+//! - force–displacement curves per design: simulated runs and test specimens ([`super::curves`]);
+//! - a hook for extra train/validate splits (the study's `splits` are in `results.json`).
 //!
 //! Every field but `study` is optional or may be empty: an older or partial file still renders.
 
@@ -47,7 +48,7 @@ pub struct ReportData {
     /// Solver studies: every planned run.
     #[serde(default)]
     pub runs: Vec<RunRow>,
-    /// Hook: force–displacement curves per design (filled by studies that extract them).
+    /// Force–displacement curves per design: runs of a `crush_force` response, `experiments.curves`.
     #[serde(default)]
     pub force_displacement: Vec<DesignCurves>,
     /// Hook: calibration and validation errors of further train/validate splits (paper Fig. 13);
@@ -152,13 +153,24 @@ pub struct RunRow {
     pub response: Option<f64>,
 }
 
+/// A force–displacement curve as drawn: thinned to at most [`super::curves::MAX_POINTS`] points.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Curve {
+    /// A run's parameters in words, or a specimen's file stem.
     pub label: String,
     /// mm.
     pub displacement: Vec<f64>,
     /// kN.
     pub force: Vec<f64>,
+    /// A run's parameters (empty for a test).
+    #[serde(default)]
+    pub parameters: Vec<f64>,
+    /// Mean crush force over the stroke window, kN, when there is a window.
+    #[serde(default)]
+    pub mean_force: Option<f64>,
+    /// Points of the curve before thinning.
+    #[serde(default)]
+    pub points: usize,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -166,8 +178,28 @@ pub struct DesignCurves {
     pub design: String,
     /// The stroke window [s0, s1] in mm.
     pub window: Option<[f64; 2]>,
+    /// Drawn runs, by increasing response: a subset of the design's runs (see `report::curves`).
     pub simulations: Vec<Curve>,
     pub tests: Vec<Curve>,
+    /// Successful runs of the design, drawn or not.
+    #[serde(default)]
+    pub runs: usize,
+    /// Index in `simulations` of the run nearest `reference`.
+    #[serde(default)]
+    pub nearest: Option<usize>,
+    #[serde(default)]
+    pub reference: Option<Reference>,
+    /// Specimens of the design, drawn or not.
+    #[serde(default)]
+    pub tests_total: usize,
+}
+
+/// The calibrated parameters the highlighted run is nearest to.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Reference {
+    /// The method that calibrated them (`least_squares`, …).
+    pub method: String,
+    pub parameters: Vec<f64>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -268,6 +300,17 @@ impl ReportData {
     }
 }
 
+/// The parameters of the first method (in the study's order) that calibrated: the force–displacement
+/// plots highlight the run nearest them.
+pub fn reference(calibration: &Calibration) -> Option<Reference> {
+    calibration.methods.iter().find_map(|(method, outcome)| {
+        outcome.as_ref().ok().map(|c| Reference {
+            method: method.key().to_string(),
+            parameters: c.theta().iter().copied().collect(),
+        })
+    })
+}
+
 fn class_key(class: crate::execute::OutcomeClass) -> String {
     serde_json::to_value(class)
         .ok()
@@ -353,7 +396,7 @@ impl From<&Study> for StudyInfo {
         StudyInfo {
             name: study.name.clone(),
             response: study.experiments.response.clone(),
-            response_unit: None,
+            response_unit: study.experiments.unit.clone(),
             design,
             parameters,
             simulation,

@@ -4,7 +4,9 @@
 //!
 //! Sections (element ids): `study`, `force-displacement`, `surrogates`, `calibration`,
 //! `identifiability`, `diagnosis`, `runs`. A section whose data are absent says why instead of
-//! drawing. Figures are `<figure class=plot id=…>` holding one `<svg>` each.
+//! drawing. Figures are `<figure class=plot id=…>` holding one `<svg>` each. The force–displacement
+//! section is in `html_curves.rs`, the paper's Fig. 13 over every train/validate split in
+//! `html_splits.rs`.
 
 use std::fmt::Write;
 
@@ -12,6 +14,11 @@ use super::data::{ReportData, StudyInfo, Variable};
 use super::plots::{self, Band, BarPlot, Series, Style, VLine, XyPlot, short};
 use super::results::{Results, Role};
 use super::summary::significant;
+
+#[path = "html_curves.rs"]
+mod curves;
+#[path = "html_splits.rs"]
+mod splits;
 
 /// Section ids, in page order (the browser test checks them).
 pub const SECTIONS: [&str; 7] = [
@@ -126,22 +133,26 @@ fn with_unit(v: f64, unit: Option<&str>, sig: usize) -> String {
     }
 }
 
-/// A relative error as a percentage with three significant figures.
+/// A relative error as a percentage with three significant figures (trailing zeros kept: 1.40 %
+/// beside 0.739 % reads as the same precision).
 fn pct(x: Option<f64>) -> String {
     x.map_or("–".to_string(), |v| {
         if v.abs() < 1e-9 {
             "0 %".into()
         } else {
-            format!("{} %", short(100.0 * v, 3))
+            format!("{} %", significant(100.0 * v, 3))
         }
     })
 }
 
+/// A duration: whole seconds from 100 s, milliseconds below 1 s.
 fn seconds(s: f64) -> String {
     if s >= 100.0 {
         format!("{s:.0} s")
-    } else {
+    } else if s >= 1.0 {
         format!("{} s", significant(s, 3))
+    } else {
+        format!("{} ms", short(1000.0 * s, 3))
     }
 }
 
@@ -260,10 +271,15 @@ impl Page<'_> {
         for v in &info.design {
             let _ = write!(s, "<th>{}</th>", escape(&v.label()));
         }
+        let sd = match self.response_unit() {
+            Some(u) => format!("std dev ({u})"),
+            None => "std dev".into(),
+        };
         let _ = write!(
             s,
-            "<th>tests</th><th>mean {}</th><th>std dev</th></tr>",
-            escape(&self.response_label())
+            "<th>tests</th><th>mean {}</th><th>{}</th></tr>",
+            escape(&self.response_label()),
+            escape(&sd)
         );
         for t in &info.tests {
             let _ = write!(
@@ -298,62 +314,6 @@ impl Page<'_> {
             ),
             None => String::new(),
         }
-    }
-
-    fn force_displacement(&self) -> String {
-        let curves = self.d.map(|d| d.force_displacement.as_slice()).unwrap_or_default();
-        if curves.is_empty() {
-            return note(
-                "no force–displacement curves were recorded for this study (its response is not a crush force)",
-            );
-        }
-        let mut s = String::from("<div class=grid>");
-        for dc in curves {
-            let mut series = Vec::new();
-            for (i, c) in dc.simulations.iter().enumerate() {
-                let label = if i < 6 { c.label.clone() } else { String::new() };
-                series.push(Series::new(
-                    label,
-                    i % 6,
-                    Style::Line,
-                    c.displacement.iter().copied().zip(c.force.iter().copied()).collect(),
-                ));
-            }
-            for (i, c) in dc.tests.iter().enumerate() {
-                let colour = if i == 0 { plots::BLACK_ } else { plots::GREY };
-                series.push(Series::new(
-                    c.label.clone(),
-                    colour,
-                    Style::Dashed,
-                    c.displacement.iter().copied().zip(c.force.iter().copied()).collect(),
-                ));
-            }
-            let bands = dc
-                .window
-                .map(|[a, b]| Band {
-                    label: format!("stroke window {}–{} mm", significant(a, 3), significant(b, 3)),
-                    x0: a,
-                    x1: b,
-                })
-                .into_iter()
-                .collect();
-            let plot = XyPlot {
-                title: format!("Force–displacement, design {}", dc.design),
-                x_label: "displacement (mm)".into(),
-                y_label: "force (kN)".into(),
-                series,
-                bands,
-                ..Default::default()
-            };
-            let caption = format!(
-                "Design {}: {} simulation curve(s) (solid), {} test curve(s) (dashed); shaded: the stroke window the mean crush force is taken over.",
-                dc.design,
-                dc.simulations.len(),
-                dc.tests.len()
-            );
-            s.push_str(&figure(&format!("fd-{}", id_part(&dc.design)), plot.render(), &caption));
-        }
-        s + "</div>"
     }
 
     fn surrogates(&self) -> String {
@@ -458,6 +418,7 @@ impl Page<'_> {
         s.push_str(&self.prediction_plot());
         s.push_str(&self.split_plot());
         s.push_str("</div>");
+        s.push_str(&self.split_table());
         s
     }
 
@@ -520,7 +481,7 @@ impl Page<'_> {
                     let f = |k: &str| {
                         gp.get(k)
                             .and_then(|v| v.as_f64())
-                            .map_or("–".into(), |v| significant(v, 3))
+                            .map_or("–".into(), |v| with_unit(v, unit.as_deref(), 3))
                     };
                     format!("GP: mean {}, std dev {}", f("mean"), f("std_dev"))
                 } else {
@@ -578,9 +539,14 @@ impl Page<'_> {
                 })
                 .collect();
             let samples = post.samples.get(k).map(Vec::as_slice).unwrap_or_default();
+            let density = match self.parameter(name).and_then(|p| p.unit.as_deref()) {
+                Some(u) => format!("posterior density (per {u})"),
+                None => "posterior density".into(),
+            };
             let svg = plots::histogram(
                 &format!("Posterior of {name}"),
                 &self.parameter_label(name),
+                &density,
                 samples,
                 30,
                 band,
@@ -694,80 +660,6 @@ impl Page<'_> {
             .values
             .first()
             .copied()
-    }
-
-    /// Paper Fig. 13: calibration and validation error per method for each train/validate split.
-    fn split_plot(&self) -> String {
-        let r = self.r;
-        let training: Vec<String> = self.split_names(Role::Training);
-        let validation: Vec<String> = self.split_names(Role::Validation);
-        // (split label, [(method, [training error, validation error])])
-        type SplitErrors = (String, Vec<(String, [Option<f64>; 2])>);
-        let mut splits: Vec<SplitErrors> = vec![(
-            format!("train {} / validate {}", list(&training), list(&validation)),
-            r.calibration
-                .iter()
-                .filter(|(_, m)| m.error.is_none())
-                .map(|(k, m)| (k.clone(), [m.training_error, m.validation_error]))
-                .collect(),
-        )];
-        for sp in self.d.map(|d| d.splits.as_slice()).unwrap_or_default() {
-            splits.push((
-                format!("train {} / validate {}", list(&sp.training), list(&sp.validation)),
-                sp.methods.iter().map(|(k, v)| (k.clone(), *v)).collect(),
-            ));
-        }
-        let many = splits.len() > 1;
-        let mut categories = Vec::new();
-        let (mut cal, mut val) = (Vec::new(), Vec::new());
-        for (i, (_, methods)) in splits.iter().enumerate() {
-            for (m, [c, v]) in methods {
-                categories.push(if many {
-                    format!("split {}: {}", i + 1, method_name(m))
-                } else {
-                    method_name(m)
-                });
-                cal.push(*c);
-                val.push(*v);
-            }
-        }
-        let plot = BarPlot {
-            title: "Calibration and validation errors".into(),
-            value_label: "mean |relative error| (%)".into(),
-            categories,
-            groups: vec![("calibration (training)".into(), 0, cal), ("validation".into(), 1, val)],
-            percent: true,
-        };
-        let names: Vec<String> = splits
-            .iter()
-            .enumerate()
-            .map(|(i, (n, _))| format!("split {}: {n}", i + 1))
-            .collect();
-        let caption = format!(
-            "Mean |relative error| of each method on the designs it was calibrated to and on the held-out designs — the paper's Fig. 13. {}{}",
-            names.join("; "),
-            if many {
-                ""
-            } else {
-                ". Only the study's own split is recorded."
-            }
-        );
-        figure("splits", plot.render(), &caption)
-    }
-
-    fn split_names(&self, role: Role) -> Vec<String> {
-        self.r
-            .calibration
-            .values()
-            .find(|m| m.error.is_none())
-            .map(|m| {
-                m.predictions
-                    .iter()
-                    .filter(|p| p.role == role)
-                    .map(|p| p.design.clone())
-                    .collect()
-            })
-            .unwrap_or_default()
     }
 
     fn identifiability(&self) -> String {
@@ -897,6 +789,7 @@ impl Page<'_> {
                     vec![Some(ext.validation_error_before), Some(ext.validation_error_after)],
                 )],
                 percent: true,
+                headings: vec![],
             };
             let caption = format!(
                 "Validation error of the uncorrected model and of the model extended with {} (term {}), measured on {}; gain {}.",
@@ -975,6 +868,7 @@ impl Page<'_> {
             categories,
             groups: vec![(String::new(), 0, weights)],
             percent: false,
+            headings: vec![],
         };
         s.push_str(&figure(
             "candidates",

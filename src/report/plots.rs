@@ -37,6 +37,8 @@ pub const GREY: usize = 7;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Style {
     Line,
+    /// A thin line (one of many: simulated runs behind the highlighted one).
+    Thin,
     Dashed,
     Markers,
     /// Hollow markers (check points, validation designs).
@@ -92,15 +94,23 @@ pub struct XyPlot {
     pub vlines: Vec<VLine>,
     /// A horizontal reference line (zero residual, the parity diagonal is a series instead).
     pub hline: Option<f64>,
+    /// The y axis starts exactly here when every value is above it (forces from 0).
+    pub y_floor: Option<f64>,
+    /// Extra room above the data, as a fraction of the y span, for the legend to sit in.
+    pub legend_room: f64,
 }
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 /// Draws into an SVG string; a drawing error becomes a visible message, never a panic.
 fn svg(draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>) -> String {
+    svg_sized((WIDTH, HEIGHT), draw)
+}
+
+fn svg_sized(size: (u32, u32), draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>) -> String {
     let mut out = String::new();
     let outcome = {
-        let root = SVGBackend::with_string(&mut out, (WIDTH, HEIGHT)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
         root.fill(&WHITE)
             .map_err(|e| e.to_string().into())
             .and_then(|_| draw(&root))
@@ -202,7 +212,12 @@ impl XyPlot {
                 [p.1 - e, p.1 + e]
             })
         });
-        let y = range(ys.chain(self.hline), 0.08);
+        let y = range(ys.clone().chain(self.hline), 0.08);
+        let y = match self.y_floor {
+            Some(floor) if ys.chain(self.hline).all(|v| !v.is_finite() || v >= floor) && floor < y.1 => (floor, y.1),
+            _ => y,
+        };
+        let y = (y.0, y.1 + self.legend_room * (y.1 - y.0));
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, ("sans-serif", TITLE_SIZE))
             .margin(12)
@@ -227,7 +242,8 @@ impl XyPlot {
         let all: Vec<(f64, f64)> = self.series.iter().flat_map(|s| s.points.iter().copied()).collect();
         let corner = legend_corner(&all, x, y);
         for band in &self.bands {
-            let style = RGBColor(120, 120, 120).mix(0.15).filled();
+            // Pale yellow: grey lines (simulated runs) stay visible over it.
+            let style = RGBColor(230, 159, 0).mix(0.12).filled();
             let a = chart.draw_series([Rectangle::new([(band.x0, y.0), (band.x1, y.1)], style)])?;
             if !band.label.is_empty() {
                 legend = true;
@@ -264,6 +280,7 @@ impl XyPlot {
             let pts = s.points.iter().copied();
             let a = match s.style {
                 Style::Line => chart.draw_series(LineSeries::new(pts, c.stroke_width(2)))?,
+                Style::Thin => chart.draw_series(LineSeries::new(pts, c.mix(0.7).stroke_width(1)))?,
                 Style::Dashed => chart.draw_series(DashedLineSeries::new(pts, 8, 5, c.stroke_width(2)))?,
                 Style::Markers => chart.draw_series(pts.map(|p| Circle::new(p, 4, c.filled())))?,
                 Style::Hollow => chart.draw_series(pts.map(|p| Circle::new(p, 5, c.stroke_width(2))))?,
@@ -302,6 +319,7 @@ impl XyPlot {
 pub fn histogram(
     title: &str,
     x_label: &str,
+    y_label: &str,
     samples: &[f64],
     bins: usize,
     band: Option<Band>,
@@ -334,7 +352,7 @@ pub fn histogram(
         chart
             .configure_mesh()
             .x_desc(x_label)
-            .y_desc("posterior density (per unit)")
+            .y_desc(y_label)
             .x_labels(6)
             .x_label_formatter(&fmt)
             .y_label_formatter(&fmt)
@@ -393,24 +411,52 @@ pub struct BarPlot {
     pub groups: Vec<(String, usize, Vec<Option<f64>>)>,
     /// Value axis formatter: percent when true.
     pub percent: bool,
+    /// Categories drawn as a heading row across the plot (bold, no bars) instead of an axis label.
+    pub headings: Vec<usize>,
 }
 
 impl BarPlot {
+    /// The right-hand corner beside the shorter bars: lower right unless the bottom third's longest
+    /// bar is longer than the top third's.
+    fn legend_corner(&self) -> SeriesLabelPosition {
+        let n = self.categories.len();
+        let third = n.div_ceil(3).max(1);
+        let longest = |rows: std::ops::Range<usize>| {
+            let values = self
+                .groups
+                .iter()
+                .flat_map(|g| rows.clone().filter_map(|i| g.2.get(i).copied().flatten()));
+            values.fold(0.0_f64, f64::max)
+        };
+        if longest(n.saturating_sub(third)..n) > longest(0..third.min(n)) {
+            SeriesLabelPosition::UpperRight
+        } else {
+            SeriesLabelPosition::LowerRight
+        }
+    }
+
     pub fn render(&self) -> String {
-        svg(|root| self.draw(root))
+        // Rows keep a readable height: the plot grows beyond the standard size when there are many.
+        let rows = self.categories.len() as u32;
+        svg_sized((WIDTH, HEIGHT.max(110 + 28 * rows)), |root| self.draw(root))
     }
 
     fn draw(&self, root: &DrawingArea<SVGBackend, Shift>) -> Result<()> {
         let n = self.categories.len().max(1);
+        let heading = |i: usize| self.headings.contains(&i);
         let values = self.groups.iter().flat_map(|g| g.2.iter().flatten().copied());
         let max = values.fold(0.0_f64, |m, v| m.max(v));
         let max = if max > 0.0 { max * 1.2 } else { 1.0 };
-        let longest = self.categories.iter().map(|c| c.chars().count()).max().unwrap_or(4) as u32;
+        let longest = (self.categories.iter().enumerate())
+            .filter(|(i, _)| !heading(*i))
+            .map(|(_, c)| c.chars().count())
+            .max()
+            .unwrap_or(4) as u32;
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, ("sans-serif", TITLE_SIZE))
             .margin(12)
             .x_label_area_size(44)
-            .y_label_area_size((longest * 7 + 16).clamp(40, 260))
+            .y_label_area_size((longest * 8 + 16).clamp(40, 280))
             .build_cartesian_2d(0.0..max, -0.5..(n as f64 - 0.5))?;
         let percent = self.percent;
         let xfmt = move |v: &f64| {
@@ -427,7 +473,11 @@ impl BarPlot {
             if (v - i).abs() > 1e-6 || i < 0.0 {
                 return String::new();
             }
-            cats.get(n - 1 - i as usize).cloned().unwrap_or_default()
+            let k = n - 1 - i as usize;
+            if heading(k) {
+                return String::new();
+            }
+            cats.get(k).cloned().unwrap_or_default()
         };
         chart
             .configure_mesh()
@@ -437,9 +487,20 @@ impl BarPlot {
             .y_labels(n + 1)
             .disable_y_mesh()
             .light_line_style(RGBColor(238, 238, 238))
-            .label_style(("sans-serif", 13))
+            .label_style(("sans-serif", 14))
             .axis_desc_style(("sans-serif", LABEL_SIZE))
             .draw()?;
+        let titles = self.headings.iter().filter_map(|&k| {
+            let text = self.categories.get(k)?;
+            let row = (n - 1 - k) as f64;
+            let font = ("sans-serif", 14)
+                .into_font()
+                .style(FontStyle::Bold)
+                .color(&BLACK)
+                .pos(Pos::new(HPos::Left, VPos::Center));
+            Some(Text::new(text.clone(), (0.0, row), font))
+        });
+        chart.draw_series(titles.collect::<Vec<_>>())?;
         let g = self.groups.len().max(1) as f64;
         let thick = 0.8 / g;
         for (k, (label, ci, vals)) in self.groups.iter().enumerate() {
@@ -461,15 +522,18 @@ impl BarPlot {
                 let row = (n - 1 - i) as f64;
                 let mid = row + 0.4 - (k as f64 + 0.45) * thick;
                 let v = if v.abs() < 1e-9 * max { 0.0 } else { v };
-                let text = if percent {
-                    format!("{} %", short(100.0 * v, 3))
+                // Two significant figures: the bars compare errors, the tables hold the digits.
+                let text = if percent && v == 0.0 {
+                    "0 %".to_string()
+                } else if percent {
+                    format!("{} %", significant(100.0 * v, 2))
                 } else {
                     short(v, 3)
                 };
                 Some(Text::new(
                     text,
                     (v, mid),
-                    ("sans-serif", 12)
+                    ("sans-serif", 13)
                         .into_font()
                         .color(&BLACK)
                         .pos(Pos::new(HPos::Left, VPos::Center)),
@@ -480,7 +544,7 @@ impl BarPlot {
         if self.groups.iter().any(|g| !g.0.is_empty()) {
             chart
                 .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
+                .position(self.legend_corner())
                 .background_style(WHITE.mix(0.85))
                 .border_style(RGBColor(200, 200, 200))
                 .label_font(("sans-serif", 13))
@@ -507,7 +571,7 @@ mod tests {
         assert!(s.starts_with("<svg"), "{s}");
         assert!(s.contains("h (mm)") && s.contains("deflection (mm)"));
         assert!(s.contains("t &lt;1&gt;"), "title escaped");
-        let h = histogram("post", "E (MPa)", &[1.0, 2.0, 2.5, 3.0], 5, None, &[]);
+        let h = histogram("post", "E (MPa)", "density", &[1.0, 2.0, 2.5, 3.0], 5, None, &[]);
         assert!(h.starts_with("<svg") && h.contains("E (MPa)"));
         let b = BarPlot {
             title: "w".into(),
@@ -515,6 +579,7 @@ mod tests {
             categories: vec!["x".into(), "y".into()],
             groups: vec![("".into(), 0, vec![Some(0.3), None])],
             percent: false,
+            headings: vec![],
         };
         assert!(b.render().starts_with("<svg"));
     }
@@ -526,7 +591,7 @@ mod tests {
             ..Default::default()
         };
         assert!(plot.render().starts_with("<svg"));
-        assert!(histogram("one", "x", &[5.0, 5.0], 10, None, &[]).starts_with("<svg"));
+        assert!(histogram("one", "x", "density", &[5.0, 5.0], 10, None, &[]).starts_with("<svg"));
     }
 
     #[test]

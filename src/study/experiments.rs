@@ -1,9 +1,12 @@
 //! Measured tests: a CSV with a `design` column, one column per design variable and the response.
 //! Rows with the same `design` are replicates: averaged, their scatter kept as the noise estimate.
+//! Optionally the response's unit and, per design, the test machine's force–displacement curves of
+//! its specimens (`experiments.unit`, `experiments.curves`; checked by the study loader).
 
 use std::path::{Path, PathBuf};
 
 use crate::error::InputError;
+use crate::extract::crush::ForceDisplacement;
 
 /// All tested designs of a study, in the order they first appear in the CSV.
 #[derive(Debug, Clone, PartialEq)]
@@ -11,7 +14,20 @@ pub struct Experiments {
     pub file: PathBuf,
     /// The CSV column holding the measured response.
     pub response: String,
+    /// The response's unit (`experiments.unit`), for labels.
+    pub unit: Option<String>,
     pub designs: Vec<TestDesign>,
+    /// `experiments.curves`: the specimens' force–displacement curves, per tested design that has
+    /// any, in the experiments' design order.
+    pub curves: Vec<SpecimenCurves>,
+}
+
+/// The test-machine curves of one tested design (mm, kN, compression positive).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpecimenCurves {
+    pub design: String,
+    /// (file, its curve), in file-name order.
+    pub specimens: Vec<(PathBuf, ForceDisplacement)>,
 }
 
 /// One tested design and its replicate measurements.
@@ -180,7 +196,9 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
     Ok(Experiments {
         file: file.to_path_buf(),
         response: response.to_string(),
+        unit: None,
         designs,
+        curves: Vec::new(),
     })
 }
 

@@ -24,6 +24,9 @@ mod solver;
 #[path = "load_extension.rs"]
 mod extension;
 
+#[path = "load_curves.rs"]
+mod curves;
+
 /// Loads and validates a study file and everything it references.
 pub fn load(path: &Path) -> Result<Study, InputError> {
     let source = std::fs::read_to_string(path)
@@ -196,7 +199,8 @@ impl Checker<'_> {
         );
         let simulation = self.simulation(&file.simulation, &symbols, design.len(), parameters.len())?;
 
-        let experiments = self.experiments(&file, &design)?;
+        let mut experiments = self.experiments(&file, &design)?;
+        experiments.unit = self.response_unit(file.experiments.unit.as_ref(), &simulation)?;
         let training = self.designs(&file.training.value, "training", &experiments)?;
         if training.is_empty() {
             return Err(self.at(
@@ -214,6 +218,9 @@ impl Checker<'_> {
                 ),
             ));
         }
+
+        let planned: Vec<String> = training.iter().chain(&validation).cloned().collect();
+        experiments.curves = self.specimen_curves(file.experiments.curves.as_ref(), &experiments, &planned)?;
 
         let calibration = self.calibration(file.calibration.as_ref(), &file.training, training.len())?;
         let splits = self.splits(file.splits.as_ref(), &experiments, &training, &validation, &calibration)?;

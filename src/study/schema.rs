@@ -166,6 +166,11 @@ pub struct SamplingFile {
 pub struct ExperimentsFile {
     pub file: Spanned<String>,
     pub response: Spanned<String>,
+    /// The response's unit (axis labels, tables).
+    pub unit: Option<Spanned<String>>,
+    /// Test-machine force–displacement CSVs per design: a path pattern relative to the study file,
+    /// `{design}` for the design name and `*` in the file name (`tests/{design}-*.csv`).
+    pub curves: Option<Spanned<String>>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -1,0 +1,172 @@
+//! Validation of `experiments.unit` (the response's unit) and `experiments.curves` (the test
+//! machine's force–displacement CSVs of each specimen). Every error is at the offending node or,
+//! for a bad CSV, at its line.
+//!
+//! `curves` is a path pattern relative to the study file: `{design}` stands for a design name and
+//! `*` for any characters of the file name (not of a directory), e.g. `tests/{design}-*.csv`. Each
+//! training and validation design must match at least one file — a pattern that finds nothing for
+//! a design is far likelier a typo than a design tested without a recorded curve.
+
+use std::path::{Path, PathBuf};
+
+use super::super::experiments::SpecimenCurves;
+use super::super::yaml::Spanned;
+use super::super::{Experiments, Response, Simulation};
+use super::Checker;
+use crate::error::InputError;
+use crate::extract::crush;
+
+/// The stand-in for the design name in `experiments.curves`.
+const DESIGN: &str = "{design}";
+
+impl Checker<'_> {
+    /// `experiments.unit`: not blank; with a crush-force response it must be the extractor's kN.
+    pub(super) fn response_unit(
+        &self,
+        node: Option<&Spanned<String>>,
+        simulation: &Simulation,
+    ) -> Result<Option<String>, InputError> {
+        let Some(node) = node else { return Ok(None) };
+        let unit = node.value.trim();
+        if unit.is_empty() {
+            return Err(self.at_key(
+                "unit",
+                node,
+                "`experiments.unit` is empty: give the response's unit (e.g. `mm`, `kN`) or leave the key out",
+            ));
+        }
+        if let Simulation::Solver(sim) = simulation
+            && let Response::CrushForce { .. } = sim.response
+            && unit != "kN"
+        {
+            return Err(self.at(
+                node,
+                format!(
+                    "`experiments.unit` is `{unit}`, but the `crush_force` response is extracted in kN \
+                     (solver forces are converted with `force_to_kn`): write `unit: kN` and give the tests in kN"
+                ),
+            ));
+        }
+        Ok(Some(unit.to_string()))
+    }
+
+    /// `experiments.curves`: every file the pattern matches for each tested design, read as a test
+    /// machine's CSV; each of `required` (the training and validation designs) must have one.
+    pub(super) fn specimen_curves(
+        &self,
+        node: Option<&Spanned<String>>,
+        experiments: &Experiments,
+        required: &[String],
+    ) -> Result<Vec<SpecimenCurves>, InputError> {
+        let Some(node) = node else { return Ok(Vec::new()) };
+        let pattern = node.value.trim();
+        if !pattern.contains(DESIGN) {
+            return Err(self.at(
+                node,
+                format!(
+                    "`experiments.curves` must contain `{DESIGN}` (replaced by each design's name), \
+                     e.g. `tests/{DESIGN}-*.csv`"
+                ),
+            ));
+        }
+        let dir = self.path.parent().unwrap_or(Path::new(""));
+        let mut out = Vec::new();
+        for test in &experiments.designs {
+            let files = self.curve_files(node, dir, &pattern.replace(DESIGN, &test.name))?;
+            if files.is_empty() {
+                if required.contains(&test.name) {
+                    return Err(self.at(
+                        node,
+                        format!(
+                            "`experiments.curves`: no file matches `{}` for design `{}` (looked in {}; \
+                             paths are relative to the study file)",
+                            pattern.replace(DESIGN, &test.name),
+                            test.name,
+                            dir.join(pattern.replace(DESIGN, &test.name))
+                                .parent()
+                                .unwrap_or(dir)
+                                .display()
+                        ),
+                    ));
+                }
+                continue;
+            }
+            let specimens = files
+                .into_iter()
+                .map(|f| crush::read_test_csv(&f, crush::CsvOptions::default()).map(|c| (f, c)))
+                .collect::<Result<Vec<_>, _>>()?;
+            out.push(SpecimenCurves {
+                design: test.name.clone(),
+                specimens,
+            });
+        }
+        Ok(out)
+    }
+
+    /// The files matching `pattern` (one design's), sorted by name.
+    fn curve_files(&self, node: &Spanned<String>, dir: &Path, pattern: &str) -> Result<Vec<PathBuf>, InputError> {
+        let full = dir.join(pattern);
+        let (Some(parent), Some(name)) = (full.parent(), full.file_name().and_then(|n| n.to_str())) else {
+            return Err(self.at(node, "`experiments.curves` must end in a file name pattern"));
+        };
+        if parent.to_string_lossy().contains('*') {
+            return Err(self.at(
+                node,
+                "`experiments.curves`: `*` may only stand in the file name, not in a directory",
+            ));
+        }
+        let Ok(entries) = std::fs::read_dir(parent) else {
+            return Ok(Vec::new());
+        };
+        let mut files: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok())
+            .filter(|e| e.path().is_file())
+            .filter(|e| e.file_name().to_str().is_some_and(|n| wildcard(name, n)))
+            .map(|e| e.path())
+            .collect();
+        files.sort();
+        Ok(files)
+    }
+}
+
+/// Whether `text` matches `pattern`, where `*` matches any run of characters (none included).
+fn wildcard(pattern: &str, text: &str) -> bool {
+    let (p, t): (Vec<char>, Vec<char>) = (pattern.chars().collect(), text.chars().collect());
+    let (mut i, mut j) = (0, 0);
+    // The last `*` seen and the text position it was tried at: backtrack there on a mismatch.
+    let mut star: Option<(usize, usize)> = None;
+    while j < t.len() {
+        if i < p.len() && p[i] != '*' && p[i] == t[j] {
+            i += 1;
+            j += 1;
+        } else if i < p.len() && p[i] == '*' {
+            star = Some((i, j));
+            i += 1;
+        } else if let Some((si, sj)) = star {
+            i = si + 1;
+            j = sj + 1;
+            star = Some((si, sj + 1));
+        } else {
+            return false;
+        }
+    }
+    p[i..].iter().all(|&c| c == '*')
+}
+
+#[cfg(test)]
+mod tests {
+    use super::wildcard;
+
+    #[test]
+    fn wildcards_match_runs_of_characters() {
+        assert!(wildcard("C3T7-*.csv", "C3T7-1.csv"));
+        assert!(wildcard("C3T7-*.csv", "C3T7-.csv"));
+        assert!(!wildcard("C3T7-*.csv", "C3T75-1.csv"));
+        assert!(!wildcard("C3T7-*.csv", "C3T7-1.csv.bak"));
+        assert!(wildcard("*", "anything"));
+        assert!(wildcard("a*b*c", "aXbYbc"));
+        assert!(!wildcard("a*b*c", "aXbYb"));
+        assert!(wildcard("exact.csv", "exact.csv"));
+        assert!(!wildcard("exact.csv", "exact.csvx"));
+    }
+}
