@@ -382,6 +382,7 @@ fn run_solver(
         planned,
         succeeded,
         failed: planned - succeeded,
+        replayed_from: modes.replay.as_ref().map(|d| d.display().to_string()),
     });
     let mut data = ReportData::build(study, &surrogates, &calibration).with_runs(
         study,

@@ -188,6 +188,9 @@ fn crushsim_live_gives_the_replayed_numbers() {
     );
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     let (a, b) = (results(live.path()), results(replayed.path()));
+    // Only the replay says where its runs came from (its run times are not the solver's).
+    assert!(a["runs"].get("replayed_from").is_none(), "{}", a["runs"]);
+    assert_eq!(b["runs"]["replayed_from"], "fixtures/honeycomb");
     assert_eq!(a["calibration"], b["calibration"]);
     assert_eq!(a["splits"], b["splits"]);
     assert_eq!(a["surrogates"], b["surrogates"]);

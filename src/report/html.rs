@@ -903,10 +903,16 @@ impl Page<'_> {
             .filter(|r| r.class.as_deref().is_some_and(|c| c != "success"))
             .count();
         let total: f64 = rows.iter().filter_map(|r| r.seconds).sum();
+        let time = match self.r.runs.as_ref().and_then(|r| r.replayed_from.as_deref()) {
+            Some(dir) => format!(
+                "replayed from the recordings in {} (times are the replay's, not the solver's)",
+                escape(dir)
+            ),
+            None => format!("{} of solver time in all", seconds(total)),
+        };
         let mut s = format!(
-            "<p>{} runs, {failed} failed; {} of solver time in all.</p><table><tr><th class=l>key</th><th class=l>design</th><th class=l>role</th>",
-            rows.len(),
-            seconds(total)
+            "<p>{} runs, {failed} failed; {time}.</p><table><tr><th class=l>key</th><th class=l>design</th><th class=l>role</th>",
+            rows.len()
         );
         for p in &params {
             let _ = write!(s, "<th>{}</th>", escape(p));

@@ -109,6 +109,10 @@ pub struct RunsResult {
     pub planned: usize,
     pub succeeded: usize,
     pub failed: usize,
+    /// The recordings the runs were replayed from (`--replay` or the study's `simulation.replay`);
+    /// absent when a solver ran. Run times of a replay are the replay's, not the solver's.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub replayed_from: Option<String>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
