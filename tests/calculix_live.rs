@@ -212,21 +212,25 @@ fn live_cantilever_deflection_converges_within_one_percent_of_timoshenko() {
     eprintln!("{report}");
 }
 
-#[test]
-fn live_cantilever_study_recovers_e_within_one_percent() {
-    if !have_ccx() {
-        return;
-    }
+/// `lab run STUDY --jobs 2` from the repository root into a temporary directory; its results.json.
+fn run_study(study: &str) -> serde_json::Value {
     let out = tempfile::tempdir().unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args(["run", "studies/cantilever-ccx.yaml", "--jobs", "2", "--out"])
+        .args(["run", study, "--jobs", "2", "--out"])
         .arg(out.path())
         .current_dir(repo())
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
-    let results: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap();
+    serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn live_cantilever_study_recovers_e_within_one_percent() {
+    if !have_ccx() {
+        return;
+    }
+    let results = run_study("studies/cantilever-ccx.yaml");
     let e = results["calibration"]["least_squares"]["parameters"]["E"]
         .as_f64()
         .unwrap();
@@ -243,16 +247,7 @@ fn live_root_rotation_ranks_first_and_is_reported_as_absorbed_by_e() {
     if !have_ccx() {
         return;
     }
-    let out = tempfile::tempdir().unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args(["run", "studies/cantilever-ccx-root.yaml", "--jobs", "2", "--out"])
-        .arg(out.path())
-        .current_dir(repo())
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
-    let results: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap();
+    let results = run_study("studies/cantilever-ccx-root.yaml");
     let d = &results["diagnosis"];
     assert_eq!(d["candidates"][0]["name"], "root rotation", "{d}");
     assert_eq!(d["candidates"][0]["confounded_with"], serde_json::json!(["E"]), "{d}");

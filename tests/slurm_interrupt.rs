@@ -202,15 +202,10 @@ fn ctrl_c_at_a_terminal_then_enter_leaves_the_jobs_and_says_how_to_reattach() {
     );
     // The printed command re-attaches and finishes; every run executed exactly once.
     let args: Vec<&str> = argv[1..].iter().map(String::as_str).collect();
-    let o = lab(&conf, tmp.path(), &args)
-        .env("LAB_TEST_SOLVER_LOG", &log)
-        .stdin(Stdio::null())
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(0), "{err}");
-    assert!(err.contains("re-attached"), "{err}");
-    assert_eq!(started_once(&log).len(), 18);
+    let mut rerun = lab(&conf, tmp.path(), &args);
+    rerun.stdin(Stdio::null());
+    let (_, started) = rerun_reattaches(rerun, &log);
+    assert_eq!(started.len(), 18);
 }
 
 #[test]
@@ -249,14 +244,8 @@ fn sigint_without_a_terminal_leaves_the_jobs_without_asking() {
     assert!(!queued(&conf, &ids).is_empty(), "the jobs were left running: {err}");
     let argv = reattach_argv(&err);
     let args: Vec<&str> = argv[1..].iter().map(String::as_str).collect();
-    let o = lab(&conf, tmp.path(), &args)
-        .env("LAB_TEST_SOLVER_LOG", &log)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(0), "{err}");
-    assert!(err.contains("re-attached"), "{err}");
-    assert_eq!(started_once(&log).len(), 18);
+    let (_, started) = rerun_reattaches(lab(&conf, tmp.path(), &args), &log);
+    assert_eq!(started.len(), 18);
 }
 
 /// The child's output once it exits within `limit` (killed and failed otherwise).

@@ -39,12 +39,22 @@ fn slurm_gives_the_local_results() {
     assert!(runs.iter().all(|d| d.join("lab.job.sh").is_file()));
 }
 
-/// Kills `child` once `out` holds `n` journal entries (jobs submitted, runs not yet done).
+/// Kills `child` once `out` holds `n` journal entries (jobs submitted, runs not yet done). Its
+/// stderr goes to `out/../lab-killed.stderr`, shown when the entries never appear.
 fn kill_when_journaled(child: &mut std::process::Child, out: &Path, n: usize) {
-    let submitted = wait_until(Duration::from_secs(30), || journal_files(out).len() >= n);
-    child.kill().unwrap();
-    child.wait().unwrap();
-    assert!(submitted, "lab never journaled {n} Slurm jobs");
+    let submitted = wait_until(Duration::from_secs(60), || {
+        journal_files(out).len() >= n || child.try_wait().is_ok_and(|s| s.is_some())
+    }) && journal_files(out).len() >= n;
+    let _ = child.kill();
+    let status = child.wait().unwrap();
+    let stderr = std::fs::read_to_string(out.with_file_name("lab-killed.stderr")).unwrap_or_default();
+    assert!(submitted, "lab never journaled {n} Slurm jobs ({status}):\n{stderr}");
+}
+
+/// `lab` with stderr to the file [`kill_when_journaled`] shows.
+fn spawn_to_be_killed(mut cmd: std::process::Command, dir: &Path) -> std::process::Child {
+    let stderr = std::fs::File::create(dir.join("lab-killed.stderr")).unwrap();
+    cmd.stdout(Stdio::null()).stderr(stderr).spawn().unwrap()
 }
 
 #[test]
@@ -62,22 +72,12 @@ fn killed_lab_reattaches_and_every_run_executes_once() {
         "--out",
         "out",
     ];
-    let mut child = lab(&conf, tmp.path(), &args)
-        .env("LAB_TEST_SOLVER_LOG", &log)
-        .env("LAB_TEST_SOLVER_SLEEP", "0.3")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut cmd = lab(&conf, tmp.path(), &args);
+    cmd.env("LAB_TEST_SOLVER_LOG", &log).env("LAB_TEST_SOLVER_SLEEP", "0.3");
+    let mut child = spawn_to_be_killed(cmd, tmp.path());
     kill_when_journaled(&mut child, &tmp.path().join("out"), 3);
-    let o = lab(&conf, tmp.path(), &args)
-        .env("LAB_TEST_SOLVER_LOG", &log)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(0), "{err}");
-    assert!(err.contains("re-attached"), "{err}");
-    assert_eq!(started_once(&log).len(), 18);
+    let (_, started) = rerun_reattaches(lab(&conf, tmp.path(), &args), &log);
+    assert_eq!(started.len(), 18);
 }
 
 /// The three methods' results of the honeycomb study.
@@ -164,6 +164,10 @@ fn honeycomb_study(to: &Path, slurm: &str) {
                 "../fixtures/honeycomb/tests/experiments.csv",
                 &abs("fixtures/honeycomb/tests/experiments.csv"),
             ),
+            (
+                "../fixtures/honeycomb/tests/{design}-*.csv",
+                &abs("fixtures/honeycomb/tests/{design}-*.csv"),
+            ),
             ("    timeout: 600\n", &format!("    timeout: 600\n    slurm: {slurm}\n")),
         ],
     );
@@ -177,27 +181,17 @@ fn honeycomb_killed_lab_reattaches_and_every_run_executes_once() {
     honeycomb_study(tmp.path(), "{runs_per_job: 3}");
     let (log, out) = (tmp.path().join("crushsim.log"), tmp.path().join("out"));
     let args = ["run", "honeycomb.yaml", "--executor", "slurm", "--out", "out"];
-    let mut child = lab(&conf, tmp.path(), &args)
-        .env("PATH", path_with_crushsim())
-        .env("LAB_TEST_SOLVER_LOG", &log)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut cmd = lab(&conf, tmp.path(), &args);
+    cmd.env("PATH", path_with_crushsim()).env("LAB_TEST_SOLVER_LOG", &log);
+    let mut child = spawn_to_be_killed(cmd, tmp.path());
     kill_when_journaled(&mut child, &out, 3);
     // Killed while jobs were queued: entries remain and runs are unfinished.
     assert!(!journal_files(&out).is_empty());
     assert!(keys_with(&out, "success").len() < 51);
-    let o = lab(&conf, tmp.path(), &args)
-        .env("PATH", path_with_crushsim())
-        .env("LAB_TEST_SOLVER_LOG", &log)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(0), "{err}");
-    assert!(err.contains("re-attached"), "{err}");
+    let mut rerun = lab(&conf, tmp.path(), &args);
+    rerun.env("PATH", path_with_crushsim());
+    let (err, started) = rerun_reattaches(rerun, &log);
     assert!(!err.contains("replaying"), "{err}");
-    let started = started_once(&log);
     assert_eq!(started.len(), 51);
     assert_eq!(
         started,

@@ -186,3 +186,13 @@ pub fn scancel(conf: &str, ids: &[String]) {
         let _ = Command::new("scancel").env("SLURM_CONF", conf).args(ids).output();
     }
 }
+
+/// Runs `lab` again (`cmd`, solver starts logged to `log`): it must finish (exit 0) after re-attaching
+/// to the jobs left by the previous `lab`. Returns its stderr and the distinct runs started in all.
+pub fn rerun_reattaches(mut cmd: Command, log: &Path) -> (String, BTreeSet<String>) {
+    let o = cmd.env("LAB_TEST_SOLVER_LOG", log).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(err.contains("re-attached"), "{err}");
+    (err, started_once(log))
+}
