@@ -124,6 +124,11 @@ fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
         String::from_utf8_lossy(&o.stdout)
     );
     assert!(stderr.contains("not on PATH: replaying"), "{stderr}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("sigma_y [MPa]") && stdout.contains("measured [kN]"),
+        "units: {stdout}"
+    );
     // Nothing ran: no run directory was made, every record came from a recording.
     assert_eq!(std::fs::read_dir(out.path().join("runs")).unwrap().count(), 0);
     let r = results(out.path());
@@ -151,6 +156,10 @@ fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
         }
     }
     assert_eq!(r["runs"]["succeeded"], 51);
+    assert_eq!(
+        r["units"],
+        serde_json::json!({"parameters": {"sigma_y": "MPa"}, "response": "kN"})
+    );
     check_curves(&r, &report_data(out.path()));
 }
 

@@ -36,6 +36,40 @@ pub struct Results {
     /// The study's extra train/validate splits, each calibrated from the same simulations.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub splits: Option<Vec<SplitResult>>,
+    /// The units the study states: each parameter's (`unit:`) and the response's (`experiments.unit`).
+    #[serde(skip_serializing_if = "Units::is_empty", default)]
+    pub units: Units,
+}
+
+/// Units as the study states them (absent when it states none).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct Units {
+    #[serde(skip_serializing_if = "IndexMap::is_empty", default)]
+    pub parameters: IndexMap<String, String>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub response: Option<String>,
+}
+
+impl Units {
+    fn is_empty(&self) -> bool {
+        self.parameters.is_empty() && self.response.is_none()
+    }
+
+    fn of(study: &Study) -> Units {
+        Units {
+            parameters: study
+                .parameters
+                .iter()
+                .filter_map(|p| Some((p.name.clone(), p.unit.clone()?)))
+                .collect(),
+            response: study.experiments.unit.clone(),
+        }
+    }
+
+    /// `name [unit]`, or `name` when the unit is not stated.
+    pub fn label(unit: Option<&String>, name: &str) -> String {
+        unit.map_or_else(|| name.to_string(), |u| format!("{name} [{u}]"))
+    }
 }
 
 /// One train/validate split: each method's estimate and errors.
@@ -204,6 +238,7 @@ impl Results {
             runs: None,
             truth: (!study.truth.is_empty()).then(|| study.truth.iter().cloned().collect()),
             splits: None,
+            units: Units::of(study),
         }
     }
 

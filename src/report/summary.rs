@@ -2,7 +2,7 @@
 
 use std::fmt::Write;
 
-use super::results::{Results, Role};
+use super::results::{Results, Role, Units};
 
 /// Renders the summary as plain text (no colour: it is also what a log file gets).
 pub fn render(results: &Results) -> String {
@@ -17,7 +17,7 @@ pub fn render(results: &Results) -> String {
     let _ = writeln!(out, "study {}\n", results.study);
     let mut header = format!("{:<15}", "method");
     for n in &names {
-        let _ = write!(header, " {:>12}", n);
+        let _ = write!(header, " {:>14}", Units::label(results.units.parameters.get(*n), n));
     }
     let _ = writeln!(
         out,
@@ -31,7 +31,7 @@ pub fn render(results: &Results) -> String {
             continue;
         }
         for n in &names {
-            let _ = write!(line, " {:>12}", significant(r.parameters[*n], 6));
+            let _ = write!(line, " {:>14}", significant(r.parameters[*n], 6));
         }
         let extra = match (&r.interval95, &r.discrepancy) {
             (Some(iv), _) => iv
@@ -42,7 +42,14 @@ pub fn render(results: &Results) -> String {
             (None, Some(d)) => d
                 .get("constant")
                 .and_then(|c| c.as_f64())
-                .map(|c| format!("d = {}", significant(c, 5)))
+                .map(|c| {
+                    let unit = results
+                        .units
+                        .response
+                        .as_ref()
+                        .map_or(String::new(), |u| format!(" {u}"));
+                    format!("d = {}{unit}", significant(c, 5))
+                })
                 .unwrap_or_default(),
             _ => String::new(),
         };
@@ -55,7 +62,8 @@ pub fn render(results: &Results) -> String {
     }
 
     let _ = writeln!(out, "\npredictions (relative error)");
-    let mut header = format!("{:<12} {:<10} {:>12}", "design", "role", "measured");
+    let measured = Units::label(results.units.response.as_ref(), "measured");
+    let mut header = format!("{:<12} {:<10} {:>14}", "design", "role", measured);
     for method in results.calibration.keys() {
         let _ = write!(header, " {:>24}", method);
     }
@@ -66,7 +74,7 @@ pub fn render(results: &Results) -> String {
                 Role::Training => "training",
                 Role::Validation => "validation",
             };
-            let mut line = format!("{:<12} {:<10} {:>12}", p.design, role, significant(p.measured, 6));
+            let mut line = format!("{:<12} {:<10} {:>14}", p.design, role, significant(p.measured, 6));
             for r in results.calibration.values() {
                 let cell = r.predictions.get(i).map_or("-".to_string(), |q| {
                     format!("{} ({:+.2} %)", significant(q.predicted, 6), 100.0 * q.relative_error)
