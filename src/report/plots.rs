@@ -143,6 +143,17 @@ fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
     (lo - half, hi + half)
 }
 
+/// A bar's label. Errors (percent): two significant figures, the tables hold the digits. Weights
+/// (fractions of 1): two decimals, and "< 0.01" rather than a "0" that would read as impossible.
+fn bar_text(v: f64, percent: bool, max: f64) -> String {
+    match (percent, v) {
+        (true, v) if v.abs() < 1e-9 * max => "0 %".to_string(),
+        (true, v) => format!("{} %", significant(100.0 * v, 2)),
+        (false, v) if v > 0.0 && v < 0.005 => "< 0.01".to_string(),
+        (false, v) => format!("{v:.2}"),
+    }
+}
+
 /// `sig` significant figures without trailing zeros (`7`, `0.25`, `6.02e-5`).
 pub fn short(v: f64, sig: usize) -> String {
     if v == 0.0 {
@@ -521,15 +532,8 @@ impl BarPlot {
                 let v = (*v)?;
                 let row = (n - 1 - i) as f64;
                 let mid = row + 0.4 - (k as f64 + 0.45) * thick;
+                let text = bar_text(v, percent, max);
                 let v = if v.abs() < 1e-9 * max { 0.0 } else { v };
-                // Two significant figures: the bars compare errors, the tables hold the digits.
-                let text = if percent && v == 0.0 {
-                    "0 %".to_string()
-                } else if percent {
-                    format!("{} %", significant(100.0 * v, 2))
-                } else {
-                    short(v, 3)
-                };
                 Some(Text::new(
                     text,
                     (v, mid),
@@ -582,6 +586,16 @@ mod tests {
             headings: vec![],
         };
         assert!(b.render().starts_with("<svg"));
+    }
+
+    #[test]
+    fn bar_labels_keep_small_weights_visible_and_errors_short() {
+        assert_eq!(bar_text(1.0, false, 1.0), "1.00");
+        assert_eq!(bar_text(0.843, false, 1.0), "0.84");
+        assert_eq!(bar_text(2.7e-58, false, 1.0), "< 0.01");
+        assert_eq!(bar_text(0.0, false, 1.0), "0.00");
+        assert_eq!(bar_text(0.1234, true, 0.2), "12 %");
+        assert_eq!(bar_text(1e-14, true, 0.2), "0 %");
     }
 
     #[test]
