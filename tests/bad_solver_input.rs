@@ -299,3 +299,43 @@ fn slurm_lost_after_loads_and_is_checked() {
     study_error(&slurm("0"), 13, Some("0}"), "`slurm.lost_after` must be at least 1");
     study_error(&slurm("soon"), 13, None, "lost_after");
 }
+
+#[test]
+fn calculix_dat_window_is_checked_where_written() {
+    // A calculix study: the template renders `beam.inp`; the response is a windowed mean.
+    let calculix = |window: &str| {
+        let dat = format!("response: {{dat: {{block: total force, set: NBOT, component: fz, window: {window}}}}}");
+        with(r#"response: {file: out.txt, regex: "y = (\\S+)"}"#, &dat)
+            .replace("adapter: command", "adapter: calculix")
+            .replace("templates: [beam.txt.tera]", "templates: [beam.inp.tera]")
+            .replace("    command: [python3, beam.py]\n", "")
+    };
+    let load = |yaml: &str| {
+        let c = case(yaml, TEMPLATE);
+        std::fs::write(c.dir.path().join("beam.inp.tera"), TEMPLATE).unwrap();
+        (study::load(&c.study), c)
+    };
+    let (ok, _c) = load(&calculix("[0.1, 0.9]"));
+    let Simulation::Solver(sim) = &ok.unwrap_or_else(|e| panic!("{e}")).simulation else {
+        panic!("not a solver study")
+    };
+    let study::solver::Response::Dat(ccx) = &sim.response else {
+        panic!("not a .dat response")
+    };
+    assert_eq!(ccx.response.window, Some((0.1, 0.9)));
+    for bad in ["[0.9, 0.1]", "[0.5]", "[-0.1, 0.5]"] {
+        let yaml = calculix(bad);
+        let (err, c) = load(&yaml);
+        let err = err
+            .err()
+            .unwrap_or_else(|| panic!("expected an error for window {bad}"));
+        // The response is on line 13 once `command` is gone; the error points at the window.
+        assert_located(
+            &err,
+            &c.study,
+            13,
+            Some(column_of(&yaml, 13, bad)),
+            "`dat.window` must be [t0, t1]",
+        );
+    }
+}

@@ -40,6 +40,7 @@ fn adapter() -> CalculixAdapter {
             set: "NTIP".into(),
             component: "vy".into(),
             reduce: Reduce::Mean,
+            window: None,
         },
     )
 }

@@ -9,7 +9,8 @@
 //! use lab::execute::{Adapter, calculix::{CalculixAdapter, DatResponse}};
 //! use lab::extract::calculix::Reduce;
 //! let a = CalculixAdapter::new("beam", DatResponse {
-//!     block: "displacements".into(), set: "NTIP".into(), component: "vy".into(), reduce: Reduce::Mean });
+//!     block: "displacements".into(), set: "NTIP".into(), component: "vy".into(), reduce: Reduce::Mean,
+//!     window: None });
 //! assert_eq!(a.argv(), ["ccx", "-i", "beam"]);
 //! let dir = tempfile::tempdir().unwrap();
 //! std::fs::write(dir.path().join("beam.dat"),
@@ -20,7 +21,7 @@
 use std::path::{Path, PathBuf};
 
 use super::{Adapter, Outcome, ResponseProblem, STDERR_FILE, STDOUT_FILE};
-use crate::extract::calculix::{Missing, Reduce, find, parse_dat};
+use crate::extract::calculix::{Missing, Reduce, WindowMissing, find, parse_dat, window_mean};
 
 /// The text CalculiX starts its error messages with.
 pub const ERROR_TEXT: &str = "*ERROR";
@@ -34,6 +35,9 @@ pub struct DatResponse {
     /// Component name as in the header, lowercase: `vx`, `vy`, `fz`, `sxx`, ...
     pub component: String,
     pub reduce: Reduce,
+    /// Step-time window `[t0, t1]`: when given, the response is the mean of every block's reduced
+    /// value over the window (`window_mean`), not the last block's value.
+    pub window: Option<(f64, f64)>,
 }
 
 #[derive(Debug, Clone)]
@@ -77,10 +81,12 @@ impl Adapter for CalculixAdapter {
     fn identity(&self) -> String {
         let r = &self.response;
         let parts = (&self.job, &r.block, &r.set, &r.component, r.reduce.key());
-        format!(
-            "calculix/1 {}",
-            serde_json::to_string(&parts).expect("strings serialize")
-        )
+        let parts = serde_json::to_string(&parts).expect("strings serialize");
+        // Without a window the identity is what it was before windows existed (recorded runs stay).
+        match r.window {
+            None => format!("calculix/1 {parts}"),
+            Some((t0, t1)) => format!("calculix/1 {parts} window [{t0}, {t1}]"),
+        }
     }
 
     fn find_failure(&self, dir: &Path) -> Option<Outcome> {
@@ -127,26 +133,45 @@ impl Adapter for CalculixAdapter {
                 ),
             ));
         };
-        let at = format!("{}:{}", rel.display(), block.line);
-        match block.reduce(&r.component, r.reduce) {
-            Ok(v) => Ok(v),
-            Err(Missing::NoRows) => Err(bad(
-                ResponseProblem::Empty,
-                format!("{at}: `{}` block has no rows", r.block),
-            )),
-            Err(Missing::NoComponent(names)) => Err(bad(
-                ResponseProblem::Missing,
-                format!(
-                    "{at}: `{}` block has no component `{}` (it has {})",
-                    r.block,
-                    r.component,
-                    names.join(", ")
+        if let Some(w) = r.window {
+            return window_mean(&blocks, &r.block, &r.set, &r.component, r.reduce, w).map_err(|m| match m {
+                WindowMissing::Block(line, m) => missing(&format!("{}:{line}", rel.display()), r, m),
+                WindowMissing::NotCovered(span) => bad(
+                    ResponseProblem::Missing,
+                    format!(
+                        "{}: the `{}` blocks for set {} span step times {} but the window is [{}, {}] (did the run \
+                         stop early?)",
+                        rel.display(),
+                        r.block,
+                        r.set,
+                        span.map_or("nothing".into(), |(a, b)| format!("{a}..{b}")),
+                        w.0,
+                        w.1
+                    ),
                 ),
-            )),
-            Err(Missing::SeveralRows(n)) => Err(bad(
-                ResponseProblem::Unparseable,
-                format!("{at}: `reduce: value` needs a single row; the block has {n}"),
-            )),
+            });
         }
+        let at = format!("{}:{}", rel.display(), block.line);
+        block.reduce(&r.component, r.reduce).map_err(|m| missing(&at, r, m))
+    }
+}
+
+/// A block that could not be reduced, as a bad response at `at` (file:line).
+fn missing(at: &str, r: &DatResponse, m: Missing) -> Outcome {
+    match m {
+        Missing::NoRows => bad(ResponseProblem::Empty, format!("{at}: `{}` block has no rows", r.block)),
+        Missing::NoComponent(names) => bad(
+            ResponseProblem::Missing,
+            format!(
+                "{at}: `{}` block has no component `{}` (it has {})",
+                r.block,
+                r.component,
+                names.join(", ")
+            ),
+        ),
+        Missing::SeveralRows(n) => bad(
+            ResponseProblem::Unparseable,
+            format!("{at}: `reduce: value` needs a single row; the block has {n}"),
+        ),
     }
 }

@@ -259,6 +259,67 @@ impl DatBlock {
     }
 }
 
+/// Why a windowed mean could not be taken.
+#[derive(Debug, Clone, PartialEq)]
+pub enum WindowMissing {
+    /// A block in the history could not be reduced (no rows, no such component, several rows).
+    Block(usize, Missing),
+    /// The blocks' times do not cover `[t0, t1]`: (first time, last time), `None` without blocks.
+    NotCovered(Option<(f64, f64)>),
+}
+
+/// The mean of the history of `kind` for `set` (every block's column `component`, reduced) over the
+/// step-time window `[t0, t1]`: the integral of the piecewise-linear history between the blocks'
+/// times, divided by `t1 - t0`. Automatic increments are uneven, so a plain mean of the rows would
+/// weight the slowly converging parts (the peak) more. Under a displacement ramped linearly with
+/// step time this is the mean force over the stroke window (energy / stroke). Blocks at the same
+/// time (a repeated print) keep the later one.
+pub fn window_mean(
+    blocks: &[DatBlock],
+    kind: &str,
+    set: &str,
+    component: &str,
+    reduce: Reduce,
+    (t0, t1): (f64, f64),
+) -> Result<f64, WindowMissing> {
+    let mut history: Vec<(f64, f64)> = Vec::new();
+    for b in blocks
+        .iter()
+        .filter(|b| b.kind == kind && b.set.eq_ignore_ascii_case(set))
+    {
+        let v = b
+            .reduce(component, reduce)
+            .map_err(|m| WindowMissing::Block(b.line, m))?;
+        match history.last_mut() {
+            Some(last) if last.0 == b.time => *last = (b.time, v),
+            _ => history.push((b.time, v)),
+        }
+    }
+    history.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (Some(first), Some(last)) = (history.first(), history.last()) else {
+        return Err(WindowMissing::NotCovered(None));
+    };
+    if first.0 > t0 || last.0 < t1 {
+        return Err(WindowMissing::NotCovered(Some((first.0, last.0))));
+    }
+    let at = |t: f64, (ta, va): (f64, f64), (tb, vb): (f64, f64)| {
+        if tb == ta {
+            vb
+        } else {
+            va + (vb - va) * (t - ta) / (tb - ta)
+        }
+    };
+    let mut integral = 0.0;
+    for pair in history.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        let (lo, hi) = (a.0.max(t0), b.0.min(t1));
+        if hi > lo {
+            integral += 0.5 * (at(lo, a, b) + at(hi, a, b)) * (hi - lo);
+        }
+    }
+    Ok(integral / (t1 - t0))
+}
+
 /// The last block (latest time) of `kind` for `set`, if any.
 pub fn find<'a>(blocks: &'a [DatBlock], kind: &str, set: &str) -> Option<&'a DatBlock> {
     blocks
@@ -351,6 +412,31 @@ mod tests {
                 .message
                 .contains("not an id")
         );
+    }
+
+    #[test]
+    fn window_mean_integrates_the_history_between_increments() {
+        // A peak at t = 0.1, then a plateau of 10 from 0.3: uneven increments, as ccx writes them.
+        let mut text = String::new();
+        for (t, f) in [(0.05, 20.0), (0.1, 40.0), (0.3, 10.0), (0.6, 10.0), (1.0, 10.0)] {
+            text.push_str(&format!(
+                " total force (fx,fy,fz) for set NBOT and time {t}\n\n 0 0 {f}\n"
+            ));
+        }
+        let b = parse_dat(Path::new("j.dat"), &text).unwrap();
+        let mean = |w| window_mean(&b, "total force", "nbot", "fz", Reduce::Value, w);
+        assert!((mean((0.3, 1.0)).unwrap() - 10.0).abs() < 1e-12);
+        // 0.2..0.3: linear from 25 to 10, mean 17.5; 0.3..0.4: 10.
+        assert!((mean((0.2, 0.4)).unwrap() - 13.75).abs() < 1e-12);
+        assert_eq!(mean((0.0, 1.0)), Err(WindowMissing::NotCovered(Some((0.05, 1.0)))));
+        assert_eq!(
+            window_mean(&b, "total force", "NTOP", "fz", Reduce::Value, (0.3, 1.0)),
+            Err(WindowMissing::NotCovered(None))
+        );
+        assert!(matches!(
+            window_mean(&b, "total force", "NBOT", "vz", Reduce::Value, (0.3, 1.0)),
+            Err(WindowMissing::Block(1, Missing::NoComponent(_)))
+        ));
     }
 
     #[test]

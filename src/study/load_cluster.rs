@@ -149,11 +149,26 @@ impl Checker<'_> {
                 )
             })?,
         };
+        let window = match &d.window {
+            None => None,
+            Some(w) => {
+                let v: Vec<f64> = w.value.iter().map(|x| x.value).collect();
+                if v.len() != 2 || !v.iter().all(|x| x.is_finite()) || v[0] < 0.0 || v[1] <= v[0] {
+                    return Err(self.at(
+                        w,
+                        "`dat.window` must be [t0, t1], step times with 0 <= t0 < t1 (the response is the mean of \
+                         the block's history over them)",
+                    ));
+                }
+                Some((v[0], v[1]))
+            }
+        };
         Ok(DatResponse {
             block,
             set,
             component,
             reduce,
+            window,
         })
     }
 

@@ -218,6 +218,8 @@ pub struct DatFile {
     pub set: Spanned<String>,
     pub component: Spanned<String>,
     pub reduce: Option<Spanned<String>>,
+    /// Step-time window `[t0, t1]`: the response is the mean of the block's history over it.
+    pub window: Option<Spanned<Vec<Spanned<f64>>>>,
 }
 
 /// `simulation.solver.slurm`: how runs are submitted by `--executor slurm`.
