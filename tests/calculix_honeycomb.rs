@@ -7,6 +7,9 @@
 //! and bottom reactions balance; the mean force grows with sigma_y and with the foil thickness; and
 //! least squares finds the synthetic tests' sigma_y = 185 MPa within 5 %.
 
+mod ccx_common;
+
+use ccx_common::{have_ccx, repo};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -17,22 +20,6 @@ use lab::extract::calculix::{DatBlock, Reduce, parse_dat, window_mean};
 const TRUTH: f64 = 185.0;
 /// The study's `dat.window` (step times).
 const WINDOW: (f64, f64) = (0.1, 0.9);
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn have_ccx() -> bool {
-    let ok = Command::new("ccx").arg("-v").output().is_ok();
-    if !ok {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "ccx (Debian package calculix-ccx) is missing in CI: .ci/run must install it"
-        );
-        eprintln!("SKIPPED: ccx is not installed (apt-get install calculix-ccx); set CI=true to make this fail");
-    }
-    ok
-}
 
 /// One run as the test sees it: its design and sigma_y (from the deck's heading, which the template
 /// writes) and its parsed .dat.

@@ -4,6 +4,9 @@
 //! Tests that need `ccx` skip with a message when it is missing, except in CI (`CI=true`), where
 //! a missing `ccx` is a failure: `.ci/run` installs it.
 
+mod ccx_common;
+
+use ccx_common::{have_ccx, repo};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Arc;
@@ -14,23 +17,6 @@ use lab::extract::calculix::{Reduce, parse_dat};
 use lab::render::{self, Renderer};
 use lab::study::{Simulation, Study};
 use proptest::prelude::*;
-
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// Whether `ccx` can be run; in CI its absence fails the test.
-fn have_ccx() -> bool {
-    let ok = Command::new("ccx").arg("-v").output().is_ok();
-    if !ok {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "ccx (Debian package calculix-ccx) is missing in CI: .ci/run must install it"
-        );
-        eprintln!("SKIPPED: ccx is not installed (apt-get install calculix-ccx); set CI=true to make this fail");
-    }
-    ok
-}
 
 fn adapter() -> CalculixAdapter {
     CalculixAdapter::new(
