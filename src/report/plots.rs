@@ -314,16 +314,25 @@ impl XyPlot {
             }
         }
         if legend {
-            chart
-                .configure_series_labels()
-                .position(corner)
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(200, 200, 200))
-                .label_font(("sans-serif", 13))
-                .draw()?;
+            draw_legend(&mut chart, corner)?;
         }
         Ok(())
     }
+}
+
+/// The legend every plot draws: framed, translucent over the data, 13 px text.
+fn draw_legend<'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, SVGBackend<'a>, CT>,
+    corner: SeriesLabelPosition,
+) -> Result<()> {
+    chart
+        .configure_series_labels()
+        .position(corner)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(200, 200, 200))
+        .label_font(("sans-serif", 13))
+        .draw()?;
+    Ok(())
 }
 
 /// A histogram of `samples` (density, `bins` equal bins) with shaded `band` and marked values.
@@ -400,13 +409,7 @@ pub fn histogram(
         } else {
             SeriesLabelPosition::UpperLeft
         };
-        chart
-            .configure_series_labels()
-            .position(corner)
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(200, 200, 200))
-            .label_font(("sans-serif", 13))
-            .draw()?;
+        draw_legend(&mut chart, corner)?;
         Ok(())
     })
 }
@@ -546,13 +549,7 @@ impl BarPlot {
             chart.draw_series(texts.collect::<Vec<_>>())?;
         }
         if self.groups.iter().any(|g| !g.0.is_empty()) {
-            chart
-                .configure_series_labels()
-                .position(self.legend_corner())
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(200, 200, 200))
-                .label_font(("sans-serif", 13))
-                .draw()?;
+            draw_legend(&mut chart, self.legend_corner())?;
         }
         Ok(())
     }
