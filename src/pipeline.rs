@@ -198,13 +198,8 @@ pub fn extension_surrogates(
     responses: &[Option<f64>],
 ) -> Vec<(usize, SurrogateModel)> {
     let bounds = study.parameter_bounds();
-    let extensions = study
-        .diagnosis
-        .hypotheses
-        .iter()
-        .enumerate()
-        .filter(|(_, h)| h.extension().is_some());
-    extensions
+    study
+        .extension_hypotheses()
         .map(|(k, _)| {
             let mut designs = Vec::new();
             for name in study.training.iter().chain(&study.validation) {

@@ -106,13 +106,8 @@ impl Plan {
 /// surrogate lives on the baseline's points. They come after all baseline runs, so adding an
 /// extension leaves the baseline's plan (and its run keys) as it was.
 fn extension_runs(study: &Study, baseline: &[PlannedRun]) -> Vec<PlannedRun> {
-    let extensions = study
-        .diagnosis
-        .hypotheses
-        .iter()
-        .enumerate()
-        .filter(|(_, h)| h.extension().is_some());
-    extensions
+    study
+        .extension_hypotheses()
         .flat_map(|(k, _)| {
             baseline
                 .iter()

@@ -164,6 +164,16 @@ impl Study {
         Symbols::new(self.symbols().names().iter().cloned().chain(["y".to_string()]))
     }
 
+    /// The hypotheses that are model extensions, with their index in `diagnosis.hypotheses` (the
+    /// index names their runs and surrogates).
+    pub fn extension_hypotheses(&self) -> impl Iterator<Item = (usize, &Hypothesis)> {
+        self.diagnosis
+            .hypotheses
+            .iter()
+            .enumerate()
+            .filter(|(_, h)| h.extension().is_some())
+    }
+
     pub fn parameter_bounds(&self) -> Bounds {
         Bounds::new(
             self.parameters.iter().map(|p| p.min).collect(),
