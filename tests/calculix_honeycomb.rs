@@ -147,6 +147,9 @@ fn live_quarter_cell_crush_peaks_plateaus_and_calibrates_sigma_y() {
     let sigma = results["calibration"]["least_squares"]["parameters"]["sigma_y"]
         .as_f64()
         .unwrap();
+    // 5 %: the tests carry 3 % noise per specimen (about 1.7 % on a mean of 3) at 2 training designs,
+    // and the mean force grows less than proportionally with sigma_y (hardening), which amplifies
+    // a force error on sigma_y; the deterministic model gives 186.2 (+0.7 %).
     assert!(
         ((sigma - TRUTH) / TRUTH).abs() < 0.05,
         "least squares sigma_y = {sigma}, truth {TRUTH}"
