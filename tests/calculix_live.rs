@@ -5,6 +5,7 @@
 //! a missing `ccx` is a failure: `.ci/run` installs it.
 
 mod ccx_common;
+mod verdict_common;
 
 use ccx_common::{have_ccx, repo};
 use std::path::{Path, PathBuf};
@@ -226,22 +227,29 @@ fn live_cantilever_study_recovers_e_within_one_percent() {
 }
 
 /// The solid model against tests with a compliant clamp (studies/cantilever-ccx-root.yaml): over
-/// h = 7..12 root rotation (1/h^2) ranks first, but its shape is within the confounding cosine of
-/// the sensitivity to E, so the diagnosis says E absorbs it instead of naming a cause; shear
-/// deformation, which the solid model already has, is not named either.
+/// h = 7..12 root rotation (1/h²) is nearly collinear with the sensitivity to E. Whatever these data
+/// say, the verdict must come from the evidence recorded beside it (the amplitude tests against a
+/// refit of E, the encompassing tests against the rivals, the lack of fit), never from the angle
+/// between the shapes; and shear deformation, which the solid model already has, is not named.
 #[test]
-fn live_root_rotation_ranks_first_and_is_reported_as_absorbed_by_e() {
+fn live_root_rotation_verdict_follows_the_evidence() {
     if !have_ccx() {
         return;
     }
     let results = run_study("studies/cantilever-ccx-root.yaml");
     let d = &results["diagnosis"];
+    println!("{}", d["summary"]);
+    verdict_common::assert_verdict_follows_evidence(d);
+    assert_ne!(d["cause"], "shear deformation", "{d}");
+    // Root rotation leads the ranking: its shape is what the tests carry.
     assert_eq!(d["candidates"][0]["name"], "root rotation", "{d}");
-    assert_eq!(d["candidates"][0]["confounded_with"], serde_json::json!(["E"]), "{d}");
-    assert!(d["cause"].is_null(), "{d}");
-    let summary = d["summary"].as_str().unwrap();
-    assert!(summary.contains("Best ranked: 'root rotation'"), "{summary}");
-    assert!(summary.contains("absorbs it into E"), "{summary}");
+    if d["cause"].is_null() {
+        let open = d["leading"].as_array().unwrap();
+        assert!(
+            d["verdict"] == "no_model_error" || open.iter().any(|n| n == "root rotation"),
+            "{d}"
+        );
+    }
 }
 
 proptest! {

@@ -1,418 +1,796 @@
-//! Hidden-effect tests: a generator draws, from a seed, a hidden model error out of a family and a
-//! magnitude, makes "measured" data with replicate noise from a base model, and hands the diagnosis
-//! only what an engineer would have: the data, the base model, and a list of candidate terms with
-//! neutral names in shuffled order (the true shape among them). Only this file knows what was hidden.
+//! Hidden-effect tests. A generator draws, from a seed, a hidden model error out of a family and a
+//! magnitude, makes "measured" data with replicate noise (absolute or relative, drawn), and hands
+//! the diagnosis only what an engineer would have: the data, the base model, and candidate terms
+//! under neutral names in shuffled order. Only this file knows what was hidden.
 //!
-//! Base model (honeycomb crush force, one Y junction, Wierzbicki): F = k σ t^(5/3) / c^(1/3) with
-//! k = 8.61 fixed and σ calibrated (true 185, bounds [100, 300]). Design box t ∈ [0.5, 2], c ∈ [3, 12];
-//! a 4 × 3 training grid over t ∈ [0.5, 1.4], c ∈ [3, 8], and 4 validation designs beyond it (t = 2 or
-//! c = 12), 3 replicates each. Noise: absolute
-//! or relative (drawn), 1–2 % of the level (of the mean training level when absolute).
-//! Effect magnitude: drawn in [8 %, 20 %] of the mean training level at the designs where the shape
-//! is largest; the sign is drawn where the family allows.
+//! Whether the data *can* tell the hidden shape apart is not assumed: an oracle in this file,
+//! independent of lab's fitting code, computes it from the noise-free truth and the true noise by
+//! projections (the linearised least-squares algebra of the tests the diagnosis should make). For
+//! a hidden shape h, weighted effect e and weighted sensitivities J at the true θ:
+//! - detect = ‖(I − P_J) e‖² − ‖(I − P_[J,h]) e‖², the noncentrality of "h beats a refit of θ";
+//! - enc(r) = ‖(I − P_[J,r]) e‖² − ‖(I − P_[J,h,r]) e‖², of "h still counts with rival r in";
+//! - remaining = ‖(I − P_[J,h]) e‖², what the right shape leaves.
 //!
-//! Assertions (the issue's): the right cause in ≥ 9 of 10 seeds per family; no discrepancy
-//! detected on effect-free data in ≥ 9 of 10 seeds; gain ≥ 50 % in ≥ 9 of 10 seeds where an effect
-//! was hidden. A scale error on this base is, by construction, a change of σ (F ∝ σ): there the right
-//! answer is "no discrepancy, and the scale term is confounded with σ", and a second base with the
-//! exponent of t calibrated instead of σ checks that a scale error is named when it is identifiable.
+//! A case is *separable* when detect and every enc(r) are ≥ 30 (power > 0.95 for tests at α/K and α)
+//! and remaining ≤ 10; *inseparable* when detect or some enc(r) is ≤ 1 (power ≈ α); anything between
+//! is not asserted. The assertions are the issue's: the right cause in ≥ 9/10 of separable cases,
+//! with the extended parameters within 3 % of the truth; no named cause and a next test in ≥ 9/10
+//! of inseparable cases; "partly explained" in ≥ 9/10 of effects outside the hypotheses; no false
+//! alarm in ≥ 9/10 of clean cases. Every family also asserts that enough of its seeds fell in the
+//! class it was built for, so that no assertion passes on an empty class.
+
+mod verdict_common;
 
 use lab::calibrate::Bounds;
-use lab::diagnose::{self, Diagnosis, Inputs, NoiseKind, Observation, Role, Settings, Shape};
-use rand::seq::{IndexedRandom, SliceRandom};
+use lab::diagnose::verdict::Verdict;
+use lab::diagnose::{self, Diagnosis, Inputs, Observation, Role, Settings, Shape};
+use nalgebra::{DMatrix, DVector};
+use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-const K: f64 = 8.61;
-const SIGMA: f64 = 185.0;
 const SEEDS: u64 = 10;
 
-/// The candidate terms the engineer suspects; every hidden shape below is one of them.
+/// One parameter: name, bounds, truth.
+#[derive(Clone, Copy)]
+struct Param {
+    name: &'static str,
+    lo: f64,
+    hi: f64,
+    truth: f64,
+}
+
+/// The experimental set-up of a family: the base model, its designs and the candidate terms.
+#[derive(Clone)]
+struct Setup {
+    design_names: Vec<&'static str>,
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    train: Vec<Vec<f64>>,
+    val: Vec<Vec<f64>>,
+    params: Vec<Param>,
+    model: fn(&[f64], &[f64]) -> f64,
+    pool: Vec<&'static str>,
+    replicates: usize,
+    /// Range of the noise's coefficient of variation.
+    cv: (f64, f64),
+}
+
+impl Setup {
+    fn truth(&self) -> Vec<f64> {
+        self.params.iter().map(|p| p.truth).collect()
+    }
+    fn names(&self) -> Vec<String> {
+        self.design_names.iter().map(|s| s.to_string()).collect()
+    }
+    fn param_names(&self) -> Vec<String> {
+        self.params.iter().map(|p| p.name.to_string()).collect()
+    }
+    fn shape(&self, name: &str, term: &str) -> Shape {
+        Shape::from_term(name.to_string(), term, &self.names(), &self.param_names(), &[]).unwrap()
+    }
+}
+
+/// Honeycomb crush force of one Y junction (Wierzbicki): F = 8.61 σ t^(5/3) / c^(1/3), σ calibrated.
+fn honeycomb(d: &[f64], th: &[f64]) -> f64 {
+    8.61 * th[0] * d[0].powf(5.0 / 3.0) / d[1].powf(1.0 / 3.0)
+}
+
+/// The same with the exponent of t calibrated instead (σ = 185 known): a scale error is identifiable.
+fn honeycomb_exponent(d: &[f64], th: &[f64]) -> f64 {
+    8.61 * 185.0 * d[0].powf(th[0]) / d[1].powf(1.0 / 3.0)
+}
+
+/// Two parameters calibrated together: σ and the exponent of t.
+fn honeycomb_two(d: &[f64], th: &[f64]) -> f64 {
+    8.61 * th[0] * d[0].powf(th[1]) / d[1].powf(1.0 / 3.0)
+}
+
+/// The paper's cantilever, Timoshenko (bending + shear), E calibrated: F = 600, L = 20, b = 2, ν = 0.36.
+fn timoshenko(d: &[f64], th: &[f64]) -> f64 {
+    let (f, l, b, nu, h, e): (f64, f64, f64, f64, f64, f64) = (600.0, 20.0, 2.0, 0.36, d[0], th[0]);
+    4.0 * f * l.powi(3) / (e * b * h.powi(3)) + f * l * (4.0 + 5.0 * nu) / (2.0 * e * b * h)
+}
+
 const POOL: [&str; 13] = [
     "1", "y", "y^2", "t^0.5", "t^2", "t^3", "1/t", "c^0.5", "c^2", "1/c", "t*c", "t/c", "c/t",
 ];
 
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Family {
+fn sigma_param() -> Param {
+    Param {
+        name: "sigma",
+        lo: 100.0,
+        hi: 300.0,
+        truth: 185.0,
+    }
+}
+
+/// A 4 × 3 training grid over t ∈ [0.5, 1.6], c ∈ [3, 10] and four validation designs beyond it.
+fn honeycomb_setup(model: fn(&[f64], &[f64]) -> f64, params: Vec<Param>, replicates: usize) -> Setup {
+    let mut train = Vec::new();
+    for t in [0.5, 0.75, 1.1, 1.6] {
+        for c in [3.0, 5.5, 10.0] {
+            train.push(vec![t, c]);
+        }
+    }
+    Setup {
+        design_names: vec!["t", "c"],
+        lower: vec![0.5, 3.0],
+        upper: vec![2.0, 12.0],
+        train,
+        val: vec![vec![2.0, 3.0], vec![2.0, 8.0], vec![0.5, 12.0], vec![1.3, 12.0]],
+        params,
+        model,
+        pool: POOL.to_vec(),
+        replicates,
+        cv: (0.005, 0.015),
+    }
+}
+
+/// The issue's example with precise tests (0.1–0.3 % scatter: deflections read by a dial gauge):
+/// the replicates can then separate 1/h² from 1/h and from a change of E.
+fn precise_cantilever_setup() -> Setup {
+    Setup {
+        cv: (0.001, 0.003),
+        ..cantilever_setup()
+    }
+}
+
+/// The issue's example: h = 7 … 13, three replicates each, hypotheses 1/h, 1/h², constant.
+fn cantilever_setup() -> Setup {
+    Setup {
+        design_names: vec!["h"],
+        lower: vec![7.0],
+        upper: vec![13.0],
+        train: (7..=13).map(|h| vec![h as f64]).collect(),
+        val: vec![],
+        params: vec![Param {
+            name: "E",
+            lo: 50_000.0,
+            hi: 90_000.0,
+            truth: 68_000.0,
+        }],
+        model: timoshenko,
+        pool: vec!["1/h", "1/h^2", "1"],
+        replicates: 3,
+        cv: (0.005, 0.015),
+    }
+}
+
+/// What is hidden.
+#[derive(Clone, Copy, Debug)]
+enum Hidden {
     None,
-    Offset,
-    /// Scale error on the σ-calibrated base (confounded with σ).
-    Scale,
-    /// Scale error on the base with the exponent of t calibrated (identifiable).
-    ScaleIdentifiable,
-    Power,
+    /// A term of the pool, additive: y + a·g.
+    Term(&'static str),
+    /// y / (1 + y/Y): its first-order term is y² (in the pool).
     Saturation,
-    Interaction,
+    /// An effect outside every candidate, as a function of the design.
+    Outside(&'static str, fn(&[f64]) -> f64),
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Base {
-    /// θ = [σ].
-    Sigma,
-    /// θ = [a], the exponent of t; σ = 185 known.
-    Exponent,
-}
-
-impl Base {
-    fn predict(self, d: &[f64], th: &[f64]) -> f64 {
-        match self {
-            Base::Sigma => K * th[0] * d[0].powf(5.0 / 3.0) / d[1].powf(1.0 / 3.0),
-            Base::Exponent => K * SIGMA * d[0].powf(th[0]) / d[1].powf(1.0 / 3.0),
-        }
-    }
-    fn truth(self) -> Vec<f64> {
-        match self {
-            Base::Sigma => vec![SIGMA],
-            Base::Exponent => vec![5.0 / 3.0],
-        }
-    }
-    fn parameter(self) -> (&'static str, f64, f64) {
-        match self {
-            Base::Sigma => ("sigma", 100.0, 300.0),
-            Base::Exponent => ("a", 1.0, 2.5),
-        }
-    }
-}
-
+/// A drawn case: the observations, the candidates under neutral names, and (for the oracle) the truth.
 struct Case {
-    inputs_obs: Vec<Observation>,
+    obs: Vec<Observation>,
     hypotheses: Vec<Shape>,
-    /// The neutral name given to the hidden shape's term (None for no effect).
-    hidden_name: Option<String>,
+    /// The neutral name of the hidden term (None: no effect, or outside the pool).
+    hidden: Option<String>,
+    hidden_term: Option<&'static str>,
+    /// Noise-free mean response at each training design, and σ of one test there.
+    mu: Vec<f64>,
+    sigma: Vec<f64>,
     noise_relative: bool,
     magnitude: f64,
 }
 
-fn training_designs() -> Vec<[f64; 2]> {
-    let mut v = Vec::new();
-    for t in [0.5, 0.75, 1.1, 1.6] {
-        for c in [3.0, 5.5, 10.0] {
-            v.push([t, c]);
-        }
-    }
-    v
-}
-
-/// Validation designs beyond the training grid, as in the paper (train h = 8, 10; validate h = 13):
-/// a model that has found the missing physics extrapolates.
-const VALIDATION: [[f64; 2]; 4] = [[2.0, 3.0], [2.0, 8.0], [0.5, 12.0], [1.3, 12.0]];
-
-fn eval_term(term: &str, d: &[f64], y: f64) -> f64 {
-    let (t, c) = (d[0], d[1]);
-    match term {
-        "1" => 1.0,
-        "y" => y,
-        "y^2" => y * y,
-        "t^0.5" => t.sqrt(),
-        "t^2" => t * t,
-        "t^3" => t.powi(3),
-        "1/t" => 1.0 / t,
-        "c^0.5" => c.sqrt(),
-        "c^2" => c * c,
-        "1/c" => 1.0 / c,
-        "t*c" => t * c,
-        "t/c" => t / c,
-        "c/t" => c / t,
-        _ => unreachable!("{term}"),
-    }
-}
-
-/// Draws the hidden effect and the data. Returns the case and the true base.
-fn generate(family: Family, seed: u64) -> (Case, Base) {
-    generate_with(family, seed, 3)
-}
-
-/// As [`generate`], with `replicates` tests per design.
-fn generate_with(family: Family, seed: u64, replicates: usize) -> (Case, Base) {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed * 1000 + family as u64);
-    let base = if family == Family::ScaleIdentifiable {
-        Base::Exponent
-    } else {
-        Base::Sigma
-    };
-    let theta = base.truth();
-    let train = training_designs();
-    let level = train.iter().map(|d| base.predict(d, &theta)).sum::<f64>() / train.len() as f64;
-    let m: f64 = rng.random_range(0.08..0.20);
-    let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-    // The hidden term (from POOL) and how it changes the response.
-    let hidden: Option<&str> = match family {
-        Family::None => None,
-        Family::Offset => Some("1"),
-        Family::Scale | Family::ScaleIdentifiable => Some("y"),
-        Family::Power => Some(
-            *["t^0.5", "t^2", "t^3", "1/t", "c^0.5", "c^2", "1/c"]
-                .choose(&mut rng)
-                .unwrap(),
-        ),
-        Family::Saturation => Some("y^2"),
-        Family::Interaction => Some("t*c"),
-    };
-    let ymax = train.iter().map(|d| base.predict(d, &theta)).fold(0.0, f64::max);
-    let truth = |d: &[f64]| -> f64 {
-        let y = base.predict(d, &theta);
-        match family {
-            Family::None => y,
-            Family::Scale | Family::ScaleIdentifiable => y * (1.0 + sign * m),
-            // A saturating response y / (1 + y/Y), reduced by the fraction m at the largest level.
-            Family::Saturation => {
-                let cap = ymax * (1.0 - m) / m;
-                y / (1.0 + y / cap)
-            }
-            _ => {
-                let term = hidden.unwrap();
-                let smax = train.iter().map(|e| eval_term(term, e, 0.0).abs()).fold(0.0, f64::max);
-                y + sign * m * level * eval_term(term, d, y) / smax
-            }
-        }
-    };
-    let noise_relative = rng.random_bool(0.5);
-    let cv: f64 = rng.random_range(0.005..0.015);
-    let mut obs = Vec::new();
-    let designs = train
-        .iter()
-        .map(|d| (d, Role::Training))
-        .chain(VALIDATION.iter().map(|d| (d, Role::Validation)));
-    for (k, (d, role)) in designs.enumerate() {
-        let mu = truth(d);
-        let sd = if noise_relative { cv * mu.abs() } else { cv * level };
-        let reps: Vec<f64> = (0..replicates).map(|_| mu + sd * gauss(&mut rng)).collect();
-        obs.push(Observation::from_replicates(format!("d{k}"), d.to_vec(), role, &reps));
-    }
-    // Neutral names, shuffled order.
-    let mut terms: Vec<&str> = POOL.to_vec();
-    terms.shuffle(&mut rng);
-    let names: Vec<String> = (1..=terms.len()).map(|i| format!("H{i}")).collect();
-    let (pname, _, _) = base.parameter();
-    let design_names = vec!["t".to_string(), "c".to_string()];
-    let hypotheses: Vec<Shape> = terms
-        .iter()
-        .zip(&names)
-        .map(|(term, name)| Shape::from_term(name.clone(), term, &design_names, &[pname.to_string()], &[]).unwrap())
-        .collect();
-    let hidden_name = hidden.map(|h| names[terms.iter().position(|t| *t == h).unwrap()].clone());
-    (
-        Case {
-            inputs_obs: obs,
-            hypotheses,
-            hidden_name,
-            noise_relative,
-            magnitude: m,
-        },
-        base,
-    )
-}
-
-/// Standard normal by Box–Muller.
 fn gauss(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = rng.random_range(f64::EPSILON..1.0);
     let u2: f64 = rng.random();
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
 }
 
-fn diagnose_case(case: &Case, base: Base) -> Diagnosis {
-    let (pname, lo, hi) = base.parameter();
-    let model = move |d: &[f64], th: &[f64]| base.predict(d, th);
+/// Draws the effect's magnitude (a fraction of the mean training level where the shape is largest),
+/// its sign, the noise, the replicates and the neutral names.
+fn generate(setup: &Setup, hidden: Hidden, magnitude: (f64, f64), seed: u64, salt: u64) -> Case {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed * 7919 + salt);
+    let theta = setup.truth();
+    let model = setup.model;
+    let level = setup.train.iter().map(|d| model(d, &theta)).sum::<f64>() / setup.train.len() as f64;
+    let ymax = setup.train.iter().map(|d| model(d, &theta)).fold(0.0, f64::max);
+    // Log-uniform magnitude: families span small and large effects evenly.
+    let m = (magnitude.0.ln() + rng.random::<f64>() * (magnitude.1.ln() - magnitude.0.ln())).exp();
+    let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+    let term_shape = |t: &str| setup.shape("hidden", t);
+    let truth = |d: &[f64]| -> f64 {
+        let y = model(d, &theta);
+        match hidden {
+            Hidden::None => y,
+            Hidden::Saturation => y / (1.0 + y / (ymax * (1.0 - m) / m)),
+            Hidden::Term(t) => {
+                let g = term_shape(t);
+                let gmax = setup
+                    .train
+                    .iter()
+                    .map(|e| g.eval(e, &theta, model(e, &theta)).abs())
+                    .fold(0.0, f64::max);
+                y + sign * m * level * g.eval(d, &theta, y) / gmax
+            }
+            Hidden::Outside(_, f) => {
+                let gmax = setup.train.iter().map(|e| f(e).abs()).fold(0.0, f64::max);
+                y + sign * m * level * f(d) / gmax
+            }
+        }
+    };
+    let noise_relative = rng.random_bool(0.5);
+    let cv: f64 = rng.random_range(setup.cv.0..setup.cv.1);
+    let sd = |mu: f64| if noise_relative { cv * mu.abs() } else { cv * level };
+    let mut obs = Vec::new();
+    let designs = setup
+        .train
+        .iter()
+        .map(|d| (d, Role::Training))
+        .chain(setup.val.iter().map(|d| (d, Role::Validation)));
+    for (k, (d, role)) in designs.enumerate() {
+        let mu = truth(d);
+        let reps: Vec<f64> = (0..setup.replicates).map(|_| mu + sd(mu) * gauss(&mut rng)).collect();
+        obs.push(Observation::from_replicates(format!("d{k}"), d.clone(), role, &reps));
+    }
+    let mut terms = setup.pool.clone();
+    terms.shuffle(&mut rng);
+    let names: Vec<String> = (1..=terms.len()).map(|i| format!("H{i}")).collect();
+    let hypotheses = terms.iter().zip(&names).map(|(t, n)| setup.shape(n, t)).collect();
+    let hidden_term = match hidden {
+        Hidden::Term(t) => Some(t),
+        Hidden::Saturation => Some("y^2"),
+        _ => None,
+    };
+    let hidden = hidden_term.map(|h| names[terms.iter().position(|t| *t == h).expect("in the pool")].clone());
+    let mu: Vec<f64> = setup.train.iter().map(|d| truth(d)).collect();
+    let sigma = mu.iter().map(|&m| sd(m)).collect();
+    Case {
+        obs,
+        hypotheses,
+        hidden,
+        hidden_term,
+        mu,
+        sigma,
+        noise_relative,
+        magnitude: m,
+    }
+}
+
+fn run(setup: &Setup, case: &Case) -> Diagnosis {
+    let model = setup.model;
     let inputs = Inputs {
-        observations: case.inputs_obs.clone(),
+        observations: case.obs.clone(),
         model: &model,
-        parameter_names: vec![pname.to_string()],
-        parameter_bounds: Bounds::new(vec![lo], vec![hi]),
-        design_names: vec!["t".to_string(), "c".to_string()],
-        design_bounds: Bounds::new(vec![0.5, 3.0], vec![2.0, 12.0]),
+        parameter_names: setup.param_names(),
+        parameter_bounds: Bounds::new(
+            setup.params.iter().map(|p| p.lo).collect(),
+            setup.params.iter().map(|p| p.hi).collect(),
+        ),
+        design_names: setup.names(),
+        design_bounds: Bounds::new(setup.lower.clone(), setup.upper.clone()),
         hypotheses: case.hypotheses.clone(),
         settings: Settings::default(),
     };
-    diagnose::diagnose(&inputs).expect("diagnosis runs")
+    let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
+    verdict_common::assert_verdict_follows_evidence(&serde_json::to_value(&d).unwrap());
+    d
 }
 
-struct Tally {
-    right: usize,
-    gain: usize,
-    noise_right: usize,
-    lines: Vec<String>,
-}
+// ---- The oracle: linear algebra on the truth, nothing from lab's fits. ----
 
-fn tally(family: Family, right: impl Fn(&Case, &Diagnosis) -> bool) -> Tally {
-    let mut t = Tally {
-        right: 0,
-        gain: 0,
-        noise_right: 0,
-        lines: Vec::new(),
-    };
-    for seed in 0..SEEDS {
-        let (case, base) = generate(family, seed);
-        let d = diagnose_case(&case, base);
-        let ok = right(&case, &d);
-        let gain = d.extended.as_ref().and_then(|e| e.gain);
-        let expected_noise = if case.noise_relative {
-            NoiseKind::Relative
-        } else {
-            NoiseKind::Absolute
-        };
-        t.right += usize::from(ok);
-        t.gain += usize::from(gain.is_some_and(|g| g >= 0.5));
-        t.noise_right += usize::from(d.noise.kind == expected_noise);
-        let term_of = |name: &str| {
-            d.candidates
-                .iter()
-                .find(|c| c.name == name)
-                .map(|c| c.term.clone())
-                .unwrap_or_default()
-        };
-        t.lines.push(format!(
-            "{family:?} seed {seed}: hidden {:?} ({}) m {:.3} | detected {} cause {:?} ({}) | top3 {:?} | gain {:?} ({:?}) | noise {:?} | {}",
-            case.hidden_name,
-            case.hidden_name.as_deref().map(term_of).unwrap_or_default(),
-            case.magnitude,
-            d.discrepancy_detected,
-            d.cause,
-            d.cause.as_deref().map(term_of).unwrap_or_default(),
-            d.candidates.iter().take(3).map(|c| format!("{} {:.2}", c.term, c.weight)).collect::<Vec<_>>(),
-            gain.map(|g| (g * 100.0).round() / 100.0),
-            d.extended.as_ref().map(|e| (e.validation_error_before, e.validation_error_after)),
-            d.noise.kind,
-            if ok { "ok" } else { "WRONG" }
-        ));
+/// ‖v − X X⁺ v‖².
+fn leftover(x: &[&DVector<f64>], v: &DVector<f64>) -> f64 {
+    if x.is_empty() {
+        return v.norm_squared();
     }
-    for l in &t.lines {
-        eprintln!("{l}");
+    let m = DMatrix::from_columns(&x.iter().map(|c| (*c).clone()).collect::<Vec<_>>());
+    let svd = m.clone().svd(true, true);
+    let tol = 1e-10 * svd.singular_values.max();
+    let coef = svd.solve(v, tol).unwrap();
+    (v - m * coef).norm_squared()
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Truth {
+    detect: f64,
+    enc_min: f64,
+    remaining: f64,
+    /// The smallest misfit any single candidate leaves (outside effects).
+    best_remaining: f64,
+    /// The largest detection noncentrality of any candidate.
+    best_detect: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Class {
+    Separable,
+    Inseparable,
+    Between,
+}
+
+fn oracle(setup: &Setup, case: &Case) -> Truth {
+    let theta = setup.truth();
+    let model = setup.model;
+    let n = setup.train.len();
+    let w: Vec<f64> = case
+        .sigma
+        .iter()
+        .map(|s| (setup.replicates as f64).sqrt() / s)
+        .collect();
+    let y: Vec<f64> = setup.train.iter().map(|d| model(d, &theta)).collect();
+    let e = DVector::from_fn(n, |i, _| w[i] * (case.mu[i] - y[i]));
+    let jac: Vec<DVector<f64>> = (0..theta.len())
+        .map(|j| {
+            let h = 1e-6 * theta[j].abs().max(1e-6);
+            DVector::from_fn(n, |i, _| {
+                let (mut up, mut dn) = (theta.clone(), theta.clone());
+                up[j] += h;
+                dn[j] -= h;
+                w[i] * (model(&setup.train[i], &up) - model(&setup.train[i], &dn)) / (2.0 * h)
+            })
+        })
+        .collect();
+    let vector = |term: &str| {
+        let g = setup.shape("g", term);
+        DVector::from_fn(n, |i, _| w[i] * g.eval(&setup.train[i], &theta, y[i]))
+    };
+    // The candidates lab will see: the pool plus its built-ins (1, y, each design variable).
+    let mut terms: Vec<String> = setup.pool.iter().map(|s| s.to_string()).collect();
+    for b in ["1".to_string(), "y".to_string()].into_iter().chain(setup.names()) {
+        if !terms.contains(&b) {
+            terms.push(b);
+        }
+    }
+    let j: Vec<&DVector<f64>> = jac.iter().collect();
+    let base = leftover(&j, &e);
+    let with = |extra: &[&DVector<f64>]| {
+        let mut cols = j.clone();
+        cols.extend_from_slice(extra);
+        leftover(&cols, &e)
+    };
+    let vectors: Vec<(String, DVector<f64>)> = terms.iter().map(|t| (t.clone(), vector(t))).collect();
+    let best_remaining = vectors.iter().map(|(_, v)| with(&[v])).fold(f64::INFINITY, f64::min);
+    let best_detect = vectors.iter().map(|(_, v)| base - with(&[v])).fold(0.0, f64::max);
+    let Some(h) = case.hidden_term else {
+        return Truth {
+            detect: 0.0,
+            enc_min: 0.0,
+            remaining: base,
+            best_remaining,
+            best_detect,
+        };
+    };
+    let hv = vector(h);
+    let remaining = with(&[&hv]);
+    let enc_min = vectors
+        .iter()
+        .filter(|(t, v)| {
+            t != h && (hv.normalize() - v.normalize()).norm() > 1e-9 && (hv.normalize() + v.normalize()).norm() > 1e-9
+        })
+        .map(|(_, v)| with(&[v]) - with(&[&hv, v]))
+        .fold(f64::INFINITY, f64::min);
+    Truth {
+        detect: base - remaining,
+        enc_min,
+        remaining,
+        best_remaining,
+        best_detect,
+    }
+}
+
+fn classify(t: &Truth) -> Class {
+    if t.detect >= 30.0 && t.enc_min >= 30.0 && t.remaining <= 10.0 {
+        Class::Separable
+    } else if t.detect <= 1.0 || t.enc_min <= 1.0 {
+        Class::Inseparable
+    } else {
+        Class::Between
+    }
+}
+
+fn named_right(case: &Case, d: &Diagnosis) -> bool {
+    d.verdict == Verdict::CauseNamed && d.cause.is_some() && d.cause == case.hidden
+}
+
+fn extended_within(setup: &Setup, d: &Diagnosis, tol: f64) -> bool {
+    d.extended.as_ref().is_some_and(|x| {
+        setup
+            .params
+            .iter()
+            .all(|p| (x.parameters[p.name] / p.truth - 1.0).abs() <= tol)
+    })
+}
+
+fn line(family: &str, seed: u64, case: &Case, t: &Truth, d: &Diagnosis) -> String {
+    let term = |n: &str| {
+        d.candidates
+            .iter()
+            .find(|c| c.name == n)
+            .map(|c| c.term.clone())
+            .unwrap_or_default()
+    };
+    format!(
+        "{family} seed {seed}: hidden {:?} m {:.4} rel-noise {} | oracle detect {:.1} enc {:.1} rem {:.1} best-rem {:.1} ({:?}) \
+         | {:?} cause {:?} ({}) leading {:?} | ext {:?}",
+        case.hidden_term,
+        case.magnitude,
+        case.noise_relative,
+        t.detect,
+        t.enc_min,
+        t.remaining,
+        t.best_remaining,
+        classify(t),
+        d.verdict,
+        d.cause,
+        d.cause.as_deref().map(term).unwrap_or_default(),
+        d.leading,
+        d.extended.as_ref().map(|x| x
+            .parameters
+            .values()
+            .map(|v| (v * 1000.0).round() / 1000.0)
+            .collect::<Vec<_>>())
+    )
+}
+
+/// At least 9 in 10.
+fn nine_in_ten(good: usize, of: usize) -> bool {
+    good * 10 >= of * 9
+}
+
+/// Runs a family of in-pool hidden terms and asserts by oracle class. `min_class`: how many seeds
+/// must fall in the class the family was built for.
+fn in_pool_family(
+    family: &str,
+    setup: &Setup,
+    draw: impl Fn(&mut ChaCha8Rng) -> Hidden,
+    magnitude: (f64, f64),
+    built_for: Class,
+    salt: u64,
+) {
+    let mut counts = [(0usize, 0usize); 2]; // (right, of) for separable, inseparable
+    let mut within = (0usize, 0usize);
+    let mut seeds = 0;
+    // Seeds until ten fall in the class the family was built for (at most four times as many).
+    let intended = |c: &[(usize, usize); 2]| if built_for == Class::Separable { c[0].1 } else { c[1].1 };
+    while intended(&counts) < SEEDS as usize && seeds < 4 * SEEDS {
+        let seed = seeds;
+        seeds += 1;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed ^ salt);
+        let hidden = draw(&mut rng);
+        let case = generate(setup, hidden, magnitude, seed, salt);
+        let d = run(setup, &case);
+        let t = oracle(setup, &case);
+        eprintln!("{}", line(family, seed, &case, &t, &d));
+        match classify(&t) {
+            Class::Separable => {
+                counts[0].1 += 1;
+                if named_right(&case, &d) {
+                    counts[0].0 += 1;
+                    within.1 += 1;
+                    within.0 += usize::from(extended_within(setup, &d, 0.03));
+                }
+            }
+            Class::Inseparable => {
+                counts[1].1 += 1;
+                counts[1].0 += usize::from(d.cause.is_none() && d.next_test.is_some());
+            }
+            Class::Between => {}
+        }
     }
     eprintln!(
-        "{family:?}: right {}/{SEEDS}, gain ≥ 50 % {}/{SEEDS}, noise model right {}/{SEEDS}",
-        t.right, t.gain, t.noise_right
+        "{family}: {seeds} seeds; separable named {:?}, inseparable unnamed {:?}, extended within 3 % {within:?}",
+        counts[0], counts[1]
     );
-    t
-}
-
-fn named_correctly(case: &Case, d: &Diagnosis) -> bool {
-    d.discrepancy_detected && d.cause.is_some() && d.cause == case.hidden_name
-}
-
-fn check_named(family: Family) {
-    let t = tally(family, named_correctly);
-    assert!(t.right >= 9, "{family:?}: right cause in {}/{SEEDS} seeds", t.right);
-    assert!(t.gain >= 9, "{family:?}: gain ≥ 50 % in {}/{SEEDS} seeds", t.gain);
-    // 16 designs × 2 degrees of freedom and levels spanning a factor of ~10: the replicate
-    // likelihoods separate absolute from relative noise almost always.
     assert!(
-        t.noise_right >= 9,
-        "{family:?}: noise model right in {}/{SEEDS} seeds",
-        t.noise_right
+        intended(&counts) >= SEEDS as usize,
+        "{family}: only {} of {seeds} seeds in the class it was built for",
+        intended(&counts)
+    );
+    assert!(
+        nine_in_ten(counts[0].0, counts[0].1),
+        "{family}: right cause in {:?} separable cases",
+        counts[0]
+    );
+    assert!(
+        nine_in_ten(counts[1].0, counts[1].1),
+        "{family}: no cause named in {:?} inseparable cases",
+        counts[1]
+    );
+    assert!(
+        nine_in_ten(within.0, within.1),
+        "{family}: extended parameters within 3 % in {within:?}"
     );
 }
 
-#[test]
-fn no_effect_is_not_a_discrepancy() {
-    let t = tally(Family::None, |_, d| {
-        !d.discrepancy_detected && d.cause.is_none() && d.extended.is_none()
-    });
-    assert!(
-        t.right >= 9,
-        "false alarms in {} of {SEEDS} seeds",
-        SEEDS as usize - t.right
-    );
-    assert!(t.noise_right >= 9);
+fn pick(rng: &mut ChaCha8Rng, terms: &[&'static str]) -> Hidden {
+    Hidden::Term(terms[rng.random_range(0..terms.len())])
 }
 
 #[test]
 fn constant_offset_is_named() {
-    check_named(Family::Offset);
+    let s = honeycomb_setup(honeycomb, vec![sigma_param()], 3);
+    in_pool_family("offset", &s, |_| Hidden::Term("1"), (0.08, 0.2), Class::Separable, 1);
 }
 
 #[test]
 fn power_law_in_a_design_variable_is_named() {
-    check_named(Family::Power);
+    let s = honeycomb_setup(honeycomb, vec![sigma_param()], 3);
+    let terms = ["t^0.5", "t^2", "t^3", "1/t", "c^0.5", "c^2", "1/c"];
+    in_pool_family("power", &s, |r| pick(r, &terms), (0.15, 0.3), Class::Separable, 2);
 }
 
 #[test]
 fn saturation_is_named() {
-    check_named(Family::Saturation);
+    let s = honeycomb_setup(honeycomb, vec![sigma_param()], 3);
+    in_pool_family(
+        "saturation",
+        &s,
+        |_| Hidden::Saturation,
+        (0.06, 0.15),
+        Class::Separable,
+        3,
+    );
 }
 
 #[test]
 fn interaction_is_named() {
-    check_named(Family::Interaction);
+    let s = honeycomb_setup(honeycomb, vec![sigma_param()], 3);
+    in_pool_family(
+        "interaction",
+        &s,
+        |_| Hidden::Term("t*c"),
+        (0.08, 0.2),
+        Class::Separable,
+        4,
+    );
 }
 
 #[test]
 fn identifiable_scale_error_is_named() {
-    check_named(Family::ScaleIdentifiable);
-}
-
-/// F ∝ σ: a scale error is exactly a different σ. The right answer is no discrepancy, the scale
-/// term flagged as confounded with σ, and σ absorbing the error.
-#[test]
-fn scale_error_on_a_multiplicative_parameter_is_confounded_not_named() {
-    let t = tally(Family::Scale, |case, d| {
-        let name = case.hidden_name.as_deref().unwrap();
-        let flagged = d
-            .candidates
-            .iter()
-            .any(|c| c.name == name && c.confounded_with == vec!["sigma".to_string()]);
-        !d.discrepancy_detected && d.cause.is_none() && flagged
-    });
-    assert!(
-        t.right >= 9,
-        "scale error handled as confounded in {}/{SEEDS} seeds",
-        t.right
+    let p = Param {
+        name: "a",
+        lo: 1.0,
+        hi: 2.5,
+        truth: 5.0 / 3.0,
+    };
+    let s = honeycomb_setup(honeycomb_exponent, vec![p], 3);
+    in_pool_family(
+        "scale (exponent base)",
+        &s,
+        |_| Hidden::Term("y"),
+        (0.15, 0.3),
+        Class::Separable,
+        5,
     );
 }
 
-/// The false-alarm rate over more seeds than the issue's ten: the rule's two tests at α = 0.01 give
-/// at most ~2 % in theory; allow 5 of 60 (8 %) so that only a real excess fails.
+/// F ∝ σ: a scale error is exactly a change of σ. The oracle finds it inseparable; the diagnosis
+/// names no cause and says the scale term cannot be told from σ.
+#[test]
+fn scale_error_on_a_multiplicative_parameter_is_not_named() {
+    let s = honeycomb_setup(honeycomb, vec![sigma_param()], 3);
+    in_pool_family(
+        "scale (sigma base)",
+        &s,
+        |_| Hidden::Term("y"),
+        (0.08, 0.2),
+        Class::Inseparable,
+        6,
+    );
+    let case = generate(&s, Hidden::Term("y"), (0.1, 0.1), 0, 6);
+    let d = run(&s, &case);
+    let c = d
+        .candidates
+        .iter()
+        .find(|c| Some(&c.name) == case.hidden.as_ref())
+        .unwrap();
+    assert_eq!(c.confounded_with, vec!["sigma".to_string()]);
+}
+
+/// The issue's example: the Timoshenko model as the simulation and a hidden tip rotation at the
+/// root (∝ 1/h²) nearly collinear with the sensitivity to E over h = 7…13. Large rotations: the
+/// replicates separate the shapes and the right one must be named, whatever the angle.
+#[test]
+fn nearly_collinear_shape_that_the_data_separate_is_named() {
+    let s = precise_cantilever_setup();
+    in_pool_family(
+        "root rotation, large",
+        &s,
+        |_| Hidden::Term("1/h^2"),
+        (0.1, 0.4),
+        Class::Separable,
+        7,
+    );
+}
+
+/// Small rotations: the data cannot tell 1/h² from a change of E. No cause, and a next test.
+#[test]
+fn nearly_collinear_shape_that_the_data_cannot_separate_is_not_named() {
+    in_pool_family(
+        "root rotation, small",
+        &cantilever_setup(),
+        |_| Hidden::Term("1/h^2"),
+        (0.002, 0.01),
+        Class::Inseparable,
+        8,
+    );
+}
+
+/// Two calibration parameters (σ and the exponent of t) with a hidden term among the pool.
+#[test]
+fn two_calibration_parameters() {
+    let a = Param {
+        name: "a",
+        lo: 1.0,
+        hi: 2.5,
+        truth: 5.0 / 3.0,
+    };
+    let s = honeycomb_setup(honeycomb_two, vec![sigma_param(), a], 3);
+    let terms = ["1", "1/c", "c^2", "t*c", "c^0.5"];
+    in_pool_family(
+        "two parameters",
+        &s,
+        |r| pick(r, &terms),
+        (0.15, 0.3),
+        Class::Separable,
+        9,
+    );
+}
+
+fn bump(d: &[f64]) -> f64 {
+    (-((d[0] - 1.0) / 0.2).powi(2)).exp()
+}
+fn wave(d: &[f64]) -> f64 {
+    (std::f64::consts::PI * d[1] / 3.5).sin()
+}
+fn step(d: &[f64]) -> f64 {
+    if d[0] > 0.9 { 1.0 } else { 0.0 }
+}
+
+/// An effect that is none of the candidates: never reported as explained.
+#[test]
+fn effect_outside_the_hypotheses_is_partly_explained() {
+    let s = honeycomb_setup(honeycomb, vec![sigma_param()], 3);
+    let shapes: [(&str, fn(&[f64]) -> f64); 3] = [("bump in t", bump), ("wave in c", wave), ("step in t", step)];
+    let (mut partly, mut of, mut named, mut seed) = (0, 0, 0, 0);
+    // Seeds until ten effects are detectable and left largely unexplained by every candidate.
+    while of < SEEDS as usize && seed < 4 * SEEDS {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed + 100);
+        let (name, f) = shapes[rng.random_range(0..shapes.len())];
+        let case = generate(&s, Hidden::Outside(name, f), (0.08, 0.2), seed, 10);
+        seed += 1;
+        let d = run(&s, &case);
+        let t = oracle(&s, &case);
+        eprintln!("{} [{name}]", line("outside", seed, &case, &t, &d));
+        if t.best_remaining >= 60.0 && t.best_detect >= 30.0 {
+            of += 1;
+            partly += usize::from(
+                d.verdict == Verdict::PartlyExplained
+                    && d.extended
+                        .as_ref()
+                        .is_some_and(|x| x.lack_of_fit_p.is_some_and(|p| p < 0.01)),
+            );
+            named += usize::from(d.verdict == Verdict::CauseNamed);
+        }
+    }
+    eprintln!("outside: partly explained {partly}/{of}, named as the whole story {named}");
+    assert!(of >= SEEDS as usize, "only {of} of {seed} outside cases detectable");
+    assert!(nine_in_ten(partly, of), "partly explained in {partly}/{of}");
+}
+
+/// No effect: no false alarm in ≥ 9 of 10, and the verdict says so.
+#[test]
+fn no_effect_is_not_a_discrepancy() {
+    let s = honeycomb_setup(honeycomb, vec![sigma_param()], 3);
+    let mut clean = 0;
+    for seed in 0..SEEDS {
+        let case = generate(&s, Hidden::None, (0.1, 0.1), seed, 11);
+        let d = run(&s, &case);
+        eprintln!("{}", line("none", seed, &case, &oracle(&s, &case), &d));
+        clean += usize::from(!d.discrepancy_detected && d.cause.is_none() && d.verdict == Verdict::NoModelError);
+    }
+    assert!(clean >= 9, "false alarms in {} of {SEEDS}", SEEDS as usize - clean);
+}
+
+/// The false-alarm rate over 60 seeds: the two detection tests at α = 0.01 give at most ~2 % in
+/// theory; allow 5 of 60 (8 %) so that only a real excess fails.
 #[test]
 fn false_alarm_rate_over_sixty_seeds() {
+    let s = honeycomb_setup(honeycomb, vec![sigma_param()], 3);
     let alarms = (100..160)
-        .filter(|&seed| {
-            let (case, base) = generate(Family::None, seed);
-            diagnose_case(&case, base).discrepancy_detected
-        })
+        .filter(|&seed| run(&s, &generate(&s, Hidden::None, (0.1, 0.1), seed, 12)).discrepancy_detected)
         .count();
     eprintln!("false alarms: {alarms}/60");
     assert!(alarms <= 5, "false alarms in {alarms} of 60 seeds");
 }
 
-/// Without replicates the noise comes from the residuals of the best model and the detection test
-/// is the classical extra-sum-of-squares F test (1, n − p − 1). Same generator, one test per design.
-/// Beyond the issue: it checks the no-replicate path on noisy data (the paper cases are noise-free).
+/// Two or three tested designs, one test each: the data cannot tell, so no cause is named, the
+/// verdict says "too few tests", and a next test is given.
 #[test]
-fn without_replicates_no_effect_is_rarely_flagged_and_effects_are_named() {
-    let mut alarms = 0;
-    let mut named = [0usize; 3];
+fn two_or_three_designs_without_replicates_say_too_few_and_give_a_next_test() {
+    let mut good = 0;
     for seed in 0..SEEDS {
-        let (case, base) = generate_with(Family::None, seed, 1);
-        let d = diagnose_case(&case, base);
-        assert_eq!(d.noise.kind, NoiseKind::FromResiduals);
-        alarms += usize::from(d.discrepancy_detected);
-        for (k, family) in [Family::Offset, Family::Interaction, Family::Power]
-            .into_iter()
-            .enumerate()
-        {
-            let (case, base) = generate_with(family, seed, 1);
-            let d = diagnose_case(&case, base);
-            if !named_correctly(&case, &d) {
-                let term = |n: &str| d.candidates.iter().find(|c| c.name == n).map(|c| c.term.clone());
-                eprintln!(
-                    "no replicates, {family:?} seed {seed}: hidden {:?}, cause {:?}, relative noise {}, top {:?}",
-                    case.hidden_name.as_deref().and_then(term),
-                    d.cause.as_deref().and_then(term),
-                    case.noise_relative,
-                    d.candidates
-                        .iter()
-                        .take(3)
-                        .map(|c| format!("{} {:.2} p={:.1e}", c.term, c.weight, c.p_value))
-                        .collect::<Vec<_>>()
-                );
-            }
-            named[k] += usize::from(named_correctly(&case, &d));
+        let mut s = cantilever_setup();
+        let n = 2 + (seed % 2) as usize;
+        s.train = [8.0, 10.0, 12.0][..n].iter().map(|&h| vec![h]).collect();
+        s.val = vec![vec![13.0]];
+        s.replicates = 1;
+        let case = generate(&s, Hidden::Term("1/h^2"), (0.02, 0.2), seed, 13);
+        let d = run(&s, &case);
+        eprintln!("{}", line("few", seed, &case, &oracle(&s, &case), &d));
+        good += usize::from(d.verdict == Verdict::TooFewTests && d.cause.is_none() && d.next_test.is_some());
+    }
+    assert!(good >= 9, "too few + next test in {good}/{SEEDS}");
+}
+
+/// A single validation design placed where the uncorrected model crosses the truth: its "before"
+/// error says nothing. The diagnosis flags it and reports the leave-one-design-out gain, which a
+/// right cause makes large.
+#[test]
+fn validation_design_at_a_crossing_point_is_flagged() {
+    let (mut flagged, mut of) = (0, 0);
+    for seed in 0..SEEDS {
+        let mut s = precise_cantilever_setup();
+        let probe = generate(&s, Hidden::Term("1/h^2"), (0.1, 0.4), seed, 14);
+        // The crossing of the truth and the uncorrected fit to the noise-free truth, by bisection.
+        let h_cross = crossing(&s, &probe);
+        s.val = vec![vec![h_cross]];
+        let case = generate(&s, Hidden::Term("1/h^2"), (0.1, 0.4), seed, 14);
+        let d = run(&s, &case);
+        eprintln!(
+            "{} | crossing h = {h_cross:.3}",
+            line("crossing", seed, &case, &oracle(&s, &case), &d)
+        );
+        if named_right(&case, &d) {
+            of += 1;
+            let x = d.extended.as_ref().unwrap();
+            flagged += usize::from(!x.before_within_noise.is_empty() && x.gain_loo.is_some_and(|g| g >= 0.5));
         }
     }
-    eprintln!("no replicates: false alarms {alarms}/{SEEDS}, named (offset, interaction, power) {named:?}/{SEEDS}");
-    assert!(alarms <= 1, "false alarms in {alarms} of {SEEDS} seeds");
-    // Offset and interaction: the issue's 9 of 10. Power laws: 8 of 10 (measured 8): one test per
-    // design carries √3 times the noise of a mean of three, the weights are those of absolute noise
-    // whatever the truth, and neighbouring power laws (t^0.5 against c^0.5, t^2 against t/c) then
-    // come out close; the weights show it (0.8 against 0.15 in the misses).
-    assert!(named[0] >= 9 && named[1] >= 9 && named[2] >= 8, "{named:?}");
+    assert!(of >= 8, "right cause in only {of}/{SEEDS}");
+    assert!(
+        nine_in_ten(flagged, of),
+        "crossing flagged with a leave-one-out gain ≥ 50 % in {flagged}/{of}"
+    );
+}
+
+/// The h in the design range where the weighted least-squares fit of E alone to the noise-free
+/// truth crosses the truth (the oracle's fit: E enters as 1/E, so it is linear in 1/E).
+fn crossing(s: &Setup, case: &Case) -> f64 {
+    let y1 = |h: f64| timoshenko(&[h], &[1.0]);
+    let w: Vec<f64> = case.sigma.iter().map(|sd| 1.0 / sd).collect();
+    let hs: Vec<f64> = s.train.iter().map(|d| d[0]).collect();
+    // Minimise Σ w² (μ − k y1)² over k = 1/E.
+    let num: f64 = hs
+        .iter()
+        .zip(&case.mu)
+        .zip(&w)
+        .map(|((h, m), w)| w * w * m * y1(*h))
+        .sum();
+    let den: f64 = hs.iter().zip(&w).map(|(h, w)| w * w * y1(*h).powi(2)).sum();
+    let k = num / den;
+    let truth = |h: f64| {
+        let i = hs.iter().position(|x| (x - h).abs() < 1e-12);
+        i.map(|i| case.mu[i])
+    };
+    // The noise-free truth between designs: the model plus the same hidden 1/h² term, interpolated
+    // by the shape itself (the residual r(h) = truth − fit is smooth): find a sign change of r at the
+    // designs, then bisect on the continuous r built from the hidden term.
+    let r_at: Vec<f64> = hs.iter().map(|&h| truth(h).unwrap() - k * y1(h)).collect();
+    let i = (0..hs.len() - 1)
+        .find(|&i| r_at[i] * r_at[i + 1] < 0.0)
+        .expect("the fit crosses the truth");
+    // Between designs, r(h) = (E0-model − k·y1)(h) + a/h²; a from the first design.
+    let e0 = s.params[0].truth;
+    let a = (r_at[0] + k * y1(hs[0]) - timoshenko(&[hs[0]], &[e0])) * hs[0].powi(2);
+    let r = |h: f64| timoshenko(&[h], &[e0]) + a / (h * h) - k * y1(h);
+    let (mut lo, mut hi) = (hs[i], hs[i + 1]);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if r(lo) * r(mid) <= 0.0 { hi = mid } else { lo = mid }
+    }
+    0.5 * (lo + hi)
 }

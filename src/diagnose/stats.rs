@@ -1,6 +1,7 @@
 //! The few distribution functions the diagnosis needs: tail probabilities on top of statrs's
 //! regularised incomplete gamma and beta functions, plus ranks and correlations.
 
+use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 use statrs::function::beta::checked_beta_reg;
 use statrs::function::gamma::checked_gamma_ur;
 
@@ -50,6 +51,24 @@ pub fn t_two_sided(t: f64, nu: f64) -> f64 {
         return 0.0;
     }
     beta_i(nu / 2.0, 0.5, nu / (nu + t * t))
+}
+
+/// The `q` quantile of Student's t with ν degrees of freedom (the normal one for ν = ∞ or 0).
+pub fn t_quantile(q: f64, nu: f64) -> f64 {
+    match StudentsT::new(0.0, 1.0, nu) {
+        Ok(t) if nu.is_finite() && nu > 0.0 => t.inverse_cdf(q),
+        _ => normal_quantile(q),
+    }
+}
+
+/// The `q` quantile of the standard normal.
+pub fn normal_quantile(q: f64) -> f64 {
+    Normal::standard().inverse_cdf(q)
+}
+
+/// P(Z ≤ z) for the standard normal.
+pub fn normal_cdf(z: f64) -> f64 {
+    Normal::standard().cdf(z)
 }
 
 /// Ranks (1-based), ties given their average rank.
@@ -138,6 +157,10 @@ mod tests {
         }
         assert!(close(normal_two_sided(1.959963984540054), 0.05));
         assert!(close(t_two_sided(2.2281388519649385, 10.0), 0.05));
+        // scipy.stats.t.ppf(0.975, 10), norm.ppf(0.99), norm.cdf(1.2815515655446004).
+        assert!((t_quantile(0.975, 10.0) - 2.2281388519649385).abs() < 1e-8);
+        assert!((normal_quantile(0.99) - 2.3263478740408408).abs() < 1e-8);
+        assert!((normal_cdf(1.2815515655446004) - 0.9).abs() < 1e-10);
     }
 
     #[test]

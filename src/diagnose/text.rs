@@ -1,7 +1,11 @@
-//! The plain-language summary, generated from the numbers alone: the only words it knows are the
-//! design variables', parameters' and candidates' names.
+//! The words of the diagnosis, generated from the numbers and the decision alone: a verdict line,
+//! one action, the evidence one fact per line, and the limits. Every word of significance comes from
+//! the test, and the α, that made the decision; the only other words it knows are the design
+//! variables', parameters' and candidates' names.
 
-use super::{Candidate, Extended, Inputs, LackOfFit, NoiseModel, Residual, Role, Trend};
+use super::ranking::RivalTest;
+use super::verdict::{Decision, Verdict};
+use super::{Candidate, Context, Extended, LackOfFit, NextTest, NoiseModel, Residual, Role, Trend};
 
 /// A number with four significant digits, without trailing noise.
 pub fn num(v: f64) -> String {
@@ -45,18 +49,26 @@ fn p_text(p: f64) -> String {
     }
 }
 
-pub struct Facts<'a> {
-    pub inputs: &'a Inputs<'a>,
+pub(crate) struct Facts<'a> {
+    pub cx: &'a Context<'a>,
+    pub noise: &'a NoiseModel,
     pub residuals: &'a [Residual],
     pub structure: &'a [Trend],
-    pub noise: &'a NoiseModel,
-    pub lack_of_fit: Option<&'a LackOfFit>,
     pub candidates: &'a [Candidate],
-    pub leader: Option<usize>,
-    pub cause: Option<&'a str>,
-    pub detected: bool,
+    pub base: &'a super::ranking::Entry,
+    pub decision: &'a Decision,
+    pub rivals: &'a [RivalTest],
     pub extended: Option<&'a Extended>,
+    pub next_test: Option<&'a NextTest>,
     pub confounded: &'a [String],
+}
+
+pub(crate) struct Words {
+    pub headline: String,
+    pub action: String,
+    pub evidence: Vec<String>,
+    pub limits: Vec<String>,
+    pub summary: String,
 }
 
 fn direction(mean_rel: f64) -> &'static str {
@@ -67,190 +79,381 @@ fn direction(mean_rel: f64) -> &'static str {
     }
 }
 
-pub fn summary(f: &Facts) -> String {
-    let mut out: Vec<String> = Vec::new();
-    let r = f.residuals;
-    let n_train = r.iter().filter(|x| x.role == Role::Training).count();
-    let mean_rel = r.iter().map(|x| x.relative_error).sum::<f64>() / r.len() as f64;
-    let worst = r
-        .iter()
-        .max_by(|a, b| a.relative_error.abs().total_cmp(&b.relative_error.abs()));
-    if let Some(w) = worst {
-        let at = w
-            .values
+fn quoted(names: &[String]) -> String {
+    names.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(" and ")
+}
+
+fn params(p: &indexmap::IndexMap<String, f64>) -> String {
+    p.iter()
+        .map(|(k, v)| format!("{k} = {}", num(*v)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+pub(crate) fn describe(f: &Facts) -> Words {
+    let headline = headline(f);
+    let action = action(f);
+    let evidence = evidence(f);
+    let limits = limits(f);
+    let mut summary = format!("{headline}\n{action}");
+    for e in &evidence {
+        summary.push_str(&format!("\n- {e}"));
+    }
+    for l in &limits {
+        summary.push_str(&format!("\n- limit: {l}"));
+    }
+    Words {
+        headline,
+        action,
+        evidence,
+        limits,
+        summary,
+    }
+}
+
+fn lof_text(l: &LackOfFit) -> String {
+    format!(
+        "χ² = {} on {} degrees of freedom, {}",
+        num(l.chi2),
+        l.dof,
+        p_text(l.p_value)
+    )
+}
+
+fn headline(f: &Facts) -> String {
+    let d = f.decision;
+    let c = |k: usize| &f.candidates[k];
+    let words = d.verdict.words();
+    let first_up = |s: &str| {
+        let mut ch = s.chars();
+        ch.next()
+            .map(|x| x.to_uppercase().collect::<String>() + ch.as_str())
+            .unwrap_or_default()
+    };
+    let detail = match d.verdict {
+        Verdict::NoModelError => match &f.base.assessed.lack_of_fit {
+            Some(l) => format!(
+                "the uncorrected simulation fits the tests within their scatter ({})",
+                lof_text(l)
+            ),
+            None => "no candidate improves on the uncorrected simulation beyond the residual scatter".to_string(),
+        },
+        Verdict::CauseNamed => {
+            let k = d.cause.expect("a cause");
+            let worst = f
+                .rivals
+                .iter()
+                .filter_map(|r| r.p_leader_given_rival)
+                .fold(0.0, f64::max);
+            format!(
+                "'{}' ({}; weight {:.2}, {}), decisive: it beats every rival (largest p of the encompassing tests {})",
+                c(k).name,
+                c(k).term,
+                c(k).weight,
+                c(k).p_value.map_or("-".into(), p_text),
+                num(worst)
+            )
+        }
+        Verdict::CannotTellApart => {
+            let open: Vec<usize> = d.leading.iter().flatten().copied().collect();
+            let names: Vec<String> = open.iter().take(3).map(|&k| c(k).name.clone()).collect();
+            let more = match open.len().saturating_sub(3) {
+                0 => String::new(),
+                n => format!(" (and {n} more)"),
+            };
+            format!(
+                "{}{more}: each explains the misfit, but the data cannot tell them apart (weights {})",
+                quoted(&names),
+                open.iter()
+                    .take(3)
+                    .map(|&k| format!("{:.2}", c(k).weight))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        }
+        Verdict::PartlyExplained => {
+            let k = d.cause.expect("a cause");
+            let alpha = f.cx.alpha();
+            let lof = f
+                .extended
+                .and_then(|e| e.lack_of_fit_chi2.zip(e.lack_of_fit_dof).zip(e.lack_of_fit_p))
+                .filter(|(_, p)| *p < alpha)
+                .map(|((chi2, dof), p)| {
+                    format!(
+                        "the extended model still misses the tests beyond the noise (χ² = {} on {dof} degrees of freedom, {})",
+                        num(chi2),
+                        p_text(p)
+                    )
+                });
+            let bound = alpha / f.rivals.len().max(1) as f64;
+            let rival = f
+                .rivals
+                .iter()
+                .filter(|r| r.p_rival_given_leader.is_some_and(|p| p < bound))
+                .min_by(|a, b| {
+                    a.p_rival_given_leader
+                        .unwrap()
+                        .total_cmp(&b.p_rival_given_leader.unwrap())
+                })
+                .map(|r| {
+                    format!(
+                        "'{}' still explains part of what remains with it in the model (encompassing test {})",
+                        r.rival,
+                        p_text(r.p_rival_given_leader.unwrap())
+                    )
+                });
+            format!(
+                "'{}' ({}) explains part of the misfit, but the listed causes do not account for all of it: {}",
+                c(k).name,
+                c(k).term,
+                lof.into_iter().chain(rival).collect::<Vec<_>>().join("; and ")
+            )
+        }
+        Verdict::Unexplained => format!(
+            "the simulation misses the tests beyond the noise{}, and no candidate reduces the misfit significantly",
+            f.base
+                .assessed
+                .lack_of_fit
+                .as_ref()
+                .map_or(String::new(), |l| format!(" ({})", lof_text(l)))
+        ),
+        Verdict::TooFewTests => too_few_reason(f),
+    };
+    format!("{}: {detail}.", first_up(words))
+}
+
+fn too_few_reason(f: &Facts) -> String {
+    let cx = f.cx;
+    let n = cx.train.len();
+    let p = cx.p();
+    if !cx.known() {
+        format!(
+            "{n} training design(s) without replicate tests leave nothing to measure the misfit against (a test of \
+             model error needs replicates, or at least {} training designs for {p} parameter(s))",
+            p + 4
+        )
+    } else {
+        format!(
+            "with {n} training design(s) for {p} parameter(s), every candidate fits the training tests; the misfit is \
+             within the noise{}, but so few designs could hide an error of several times the noise",
+            f.base
+                .assessed
+                .lack_of_fit
+                .as_ref()
+                .map_or(String::new(), |l| format!(" ({})", lof_text(l)))
+        )
+    }
+}
+
+fn action(f: &Facts) -> String {
+    let next = f.next_test.map(|t| {
+        let at = t
+            .design
             .iter()
             .map(|(k, v)| format!("{k} = {}", num(*v)))
             .collect::<Vec<_>>()
             .join(", ");
+        let names: Vec<String> = t.compared.keys().cloned().collect();
+        if names.len() < 2 {
+            format!("test at {at} — {}", t.advice)
+        } else {
+            format!("test at {at} to tell {} apart — {}", quoted(&names), t.advice)
+        }
+    });
+    match (f.decision.verdict, f.extended) {
+        (Verdict::CauseNamed, Some(e)) => format!(
+            "Action: use the model extended with '{}' ({}); to confirm it, {}.",
+            e.cause,
+            params(&e.parameters),
+            next.unwrap_or_else(|| "no further test is needed".into())
+        ),
+        (Verdict::NoModelError, _) => format!(
+            "Action: use the calibrated simulation as it is{}.",
+            next.map_or(String::new(), |n| format!(
+                "; the test most likely to expose a hidden error: {n}"
+            ))
+        ),
+        _ => format!(
+            "Action: {}.",
+            next.unwrap_or_else(|| "more tests at new designs".into())
+        ),
+    }
+}
+
+fn evidence(f: &Facts) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Some(l) = &f.base.assessed.lack_of_fit {
         out.push(format!(
-            "Calibrated on {n_train} training designs, the simulation {} the tests by {} on average; the largest error \
-             is at {} ({at}): it {} by {}.",
+            "Misfit of the uncorrected simulation against the replicate noise: {} ({} α = {}).",
+            lof_text(l),
+            if l.p_value < f.cx.alpha() {
+                "beyond the noise at"
+            } else {
+                "within the noise at"
+            },
+            f.cx.alpha()
+        ));
+    }
+    out.extend(where_it_errs(f));
+    let ranked: Vec<String> = f
+        .candidates
+        .iter()
+        .take(3)
+        .map(|c| {
+            format!(
+                "'{}' {:.2}{}",
+                c.name,
+                c.weight,
+                c.p_value.map_or(String::new(), |p| format!(" ({})", p_text(p)))
+            )
+        })
+        .collect();
+    if !ranked.is_empty() {
+        let base_w = f
+            .base
+            .score
+            .as_ref()
+            .map(|_| format!("; uncorrected {:.2}", f.base.weight));
+        out.push(format!(
+            "Leading candidates (weight): {}{}.",
+            ranked.join(", "),
+            base_w.unwrap_or_default()
+        ));
+    }
+    if let Some(k) = f.decision.cause.or(f.decision.leading.first().copied().flatten()) {
+        out.extend(separation(&f.candidates[k]));
+    }
+    let unbeaten: Vec<&RivalTest> = f.rivals.iter().filter(|r| !r.beaten).collect();
+    for r in unbeaten.iter().take(3) {
+        out.push(match r.p_leader_given_rival {
+            Some(p) => format!(
+                "With '{}' in the model, the leader adds nothing significant (encompassing test p = {} ≥ α = {}).",
+                r.rival,
+                num(p),
+                f.cx.alpha()
+            ),
+            None => format!("'{}' is not rejected by the validation designs either.", r.rival),
+        });
+    }
+    if let Some(e) = f.extended {
+        out.push(format!(
+            "Extended model: {}; {} error {} → {}{}.",
+            params(&e.parameters),
+            e.measured_on,
+            pct(e.validation_error_before),
+            pct(e.validation_error_after),
+            match (e.loo_error_before, e.loo_error_after) {
+                (Some(b), Some(a)) if e.measured_on != "leave-one-out" =>
+                    format!("; leave-one-design-out {} → {}", pct(b), pct(a)),
+                _ => String::new(),
+            }
+        ));
+        if !e.remaining.is_empty() {
+            let at = e
+                .remaining
+                .iter()
+                .map(|(n, z)| format!("{n} ({z:+.1} σ)"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            out.push(format!(
+                "What remains unexplained: the extended model still misses {at}."
+            ));
+        }
+    }
+    out.extend(f.confounded.iter().map(|c| format!("{c}.")));
+    out
+}
+
+/// The mean and largest error of the uncorrected simulation, and the significant trends.
+fn where_it_errs(f: &Facts) -> Vec<String> {
+    let r = f.residuals;
+    let mut out = Vec::new();
+    let n_train = r.iter().filter(|x| x.role == Role::Training).count();
+    let mean_rel = r.iter().map(|x| x.relative_error).sum::<f64>() / r.len().max(1) as f64;
+    if let Some(w) = r
+        .iter()
+        .max_by(|a, b| a.relative_error.abs().total_cmp(&b.relative_error.abs()))
+    {
+        out.push(format!(
+            "Calibrated on {n_train} training design(s), the simulation {} the tests by {} on average; the largest error \
+             is at {} ({}): {} {}{}.",
             direction(mean_rel),
             pct(mean_rel),
             w.design,
+            w.values.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect::<Vec<_>>().join(", "),
             direction(w.relative_error),
-            pct(w.relative_error)
+            pct(w.relative_error),
+            // In units of the noise only where the noise was measured (replicates).
+            if f.noise.from_replicates() { format!(" ({:+.1} σ of the mean)", w.z) } else { String::new() }
         ));
     }
-
-    // The strongest trend against a design variable: compare the low and the high third.
-    let mut trends: Vec<&Trend> = f
+    let trends: Vec<String> = f
         .structure
         .iter()
-        .filter(|t| t.significant && t.against != "prediction")
+        .filter(|t| t.significant)
+        .map(|t| {
+            format!(
+                "{} (rank correlation {:.2}, {})",
+                t.against,
+                t.rank_correlation,
+                p_text(t.rank_p_value.min(t.slope_p_value))
+            )
+        })
         .collect();
-    trends.sort_by(|a, b| {
-        a.slope_p_value
-            .min(a.rank_p_value)
-            .total_cmp(&b.slope_p_value.min(b.rank_p_value))
-    });
-    if let Some(t) = trends.first() {
-        let j = f
-            .inputs
-            .design_names
-            .iter()
-            .position(|n| *n == t.against)
-            .expect("a design variable");
-        let mut by: Vec<(f64, f64)> = f
-            .inputs
-            .observations
-            .iter()
-            .zip(r)
-            .map(|(o, x)| (o.design[j], x.relative_error))
-            .collect();
-        by.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let third = (by.len() / 3).max(1);
-        let low = &by[..third];
-        let high = &by[by.len() - third..];
-        let mean = |s: &[(f64, f64)]| s.iter().map(|x| x.1).sum::<f64>() / s.len() as f64;
-        let (ml, mh) = (mean(low), mean(high));
-        let grows = mh.abs() > ml.abs();
-        out.push(format!(
-            "It {} by {} where {v} is low ({v} ≤ {}) and {} by {} where {v} is high ({v} ≥ {}): the error {} as {v} grows \
-             (rank correlation {:.2}).",
-            direction(ml),
-            pct(ml),
-            num(low.last().unwrap().0),
-            direction(mh),
-            pct(mh),
-            num(high[0].0),
-            if grows { "grows" } else { "shrinks" },
-            t.rank_correlation,
-            v = t.against
-        ));
-        let others: Vec<&str> = trends[1..].iter().map(|t| t.against.as_str()).collect();
-        if !others.is_empty() {
-            out.push(format!("The residuals also trend with {}.", others.join(" and ")));
-        }
+    out.push(if trends.is_empty() {
+        format!("The residuals show no significant trend (α = {}).", f.cx.alpha())
     } else {
-        out.push("The residuals show no trend against any design variable beyond the noise.".to_string());
-    }
-    if let Some(t) = f.structure.iter().find(|t| t.against == "prediction" && t.significant) {
-        out.push(format!(
-            "The standardised residuals {} with the predicted level (rank correlation {:.2}).",
-            if t.rank_correlation > 0.0 { "grow" } else { "fall" },
-            t.rank_correlation
-        ));
-    }
+        format!(
+            "The residuals trend with {} (α = {}).",
+            trends.join(" and "),
+            f.cx.alpha()
+        )
+    });
+    out
+}
 
-    out.push(format!("Noise: {}.", f.noise.note));
-    if let Some(l) = f.lack_of_fit {
-        out.push(format!(
-            "The misfit is {} the replicate noise (χ² = {} on {} degrees of freedom, {}).",
-            if l.p_value < f.inputs.settings.alpha {
-                "beyond"
-            } else {
-                "within"
-            },
-            num(l.chi2),
-            l.dof,
-            p_text(l.p_value)
-        ));
-    }
-
-    // Nothing detected, and the best-ranked candidate is a parameter change in disguise.
-    let confounded_leader = (f.cause.is_none() && !f.detected)
-        .then(|| f.candidates.first())
-        .flatten()
-        .filter(|c| !c.confounded_with.is_empty() && c.weight > 0.5);
-    match (f.cause, f.leader) {
-        (Some(cause), Some(k)) => {
-            let c = &f.candidates[k];
-            let mut s = format!(
-                "Most likely cause: '{cause}' ({}; weight {:.2}, amplitude {}, {}).",
-                c.term,
-                c.weight,
-                num(c.amplitude),
-                p_text(c.p_value)
-            );
-            if let Some(e) = f.extended {
-                let params = e
-                    .parameters
-                    .iter()
-                    .map(|(k, v)| format!("{k} = {}", num(*v)))
-                    .collect::<Vec<_>>()
-                    .join(", ");
-                s.push_str(&format!(
-                    " With it, {params}, and the {} error drops from {} to {}.",
-                    if e.measured_on == "validation" {
-                        "validation"
-                    } else {
-                        "leave-one-out"
-                    },
-                    pct(e.validation_error_before),
-                    pct(e.validation_error_after)
-                ));
-                if let Some(x) = &e.extension {
-                    s.push_str(&format!(" {}", x.meaning));
-                }
-            }
-            if let Some(second) = f.candidates.iter().skip(k + 1).find(|c| c.confounded_with.is_empty()) {
-                s.push_str(&format!(" Runner-up: '{}' (weight {:.2}).", second.name, second.weight));
-            }
-            out.push(s);
-        }
-        (None, Some(k)) if f.detected => out.push(format!(
-            "The simulation misses something, but no candidate explains it significantly better than no correction \
-             (best: '{}', {}).",
-            f.candidates[k].name,
-            p_text(f.candidates[k].p_value)
-        )),
-        _ if f.detected => {
-            out.push("The simulation misses something beyond the noise; no candidate was ranked.".to_string())
-        }
-        // Neither a pure-error test (needs replicates) nor a ranking (needs spare designs) was possible:
-        // saying "no discrepancy" would report a test that was never made.
-        _ if f.lack_of_fit.is_none() && f.candidates.is_empty() => out.push(
-            "The data cannot tell whether the simulation misses something beyond the noise: without replicate \
-             tests or spare training designs there is nothing to measure the misfit against. Replicate tests, or \
-             more training designs, would settle it."
-                .to_string(),
-        ),
-        // The best explanation is a change of a parameter in disguise: "no discrepancy" would hide that
-        // the calibrated parameter may have absorbed a model error.
-        _ if let Some(c) = confounded_leader => out.push(format!(
-            "Best ranked: '{}' ({}; weight {:.2}), but over these designs it has the shape of a change of {}: \
-                 the calibration absorbs it into {} and the data cannot separate the two. An independent measurement \
-                 of {}, or tests at designs where the shapes differ more, would.",
-            c.name,
-            c.term,
-            c.weight,
-            c.confounded_with.join(" and "),
-            c.confounded_with.join(" and "),
-            c.confounded_with.join(" and ")
-        )),
-        _ => out.push(
-            "No significant discrepancy: no candidate beats the uncorrected simulation beyond the noise.".to_string(),
-        ),
-    }
-    // The best-ranked confounded candidate was already explained above.
-    let explained = confounded_leader.map(|c| format!("'{}' ", c.name));
-    for c in f
-        .confounded
+/// The joint fit's figures for a candidate's amplitude.
+fn separation(c: &Candidate) -> Option<String> {
+    let s = &c.separability;
+    let ci = s.amplitude_ci95?;
+    let corr = s
+        .correlation
         .iter()
-        .filter(|c| explained.as_ref().is_none_or(|e| !c.starts_with(e)))
-    {
-        out.push(format!("Note: {c}."));
+        .map(|(k, v)| format!("corr(γ, {k}) = {v:+.3}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    Some(format!(
+        "'{}': γ = {} (95 % interval {} to {}), {corr}, variance inflation {}.",
+        c.name,
+        num(c.amplitude),
+        num(ci[0]),
+        num(ci[1]),
+        s.variance_inflation.map_or("∞".into(), num)
+    ))
+}
+
+fn limits(f: &Facts) -> Vec<String> {
+    let mut out = vec![format!("Noise: {}.", f.noise.note)];
+    if f.cx.mode == super::Mode::Few {
+        out.push(format!(
+            "Only {} training design(s): candidates are ranked by AIC and by their predictions at the validation \
+             designs; leave-one-design-out is not possible.",
+            f.cx.train.len()
+        ));
     }
-    out.join(" ")
+    if let Some(e) = f.extended {
+        if let Some(x) = &e.extension {
+            out.push(x.meaning.clone());
+        }
+        if !e.before_within_noise.is_empty() && e.measured_on == "validation" {
+            out.push(format!(
+                "At {} the uncorrected prediction is already within the noise, so the validation gain there says \
+                 nothing; the leave-one-design-out gain {}.",
+                e.before_within_noise.join(", "),
+                e.gain_loo
+                    .map_or("is not available".into(), |g| format!("is {:.0} %", 100.0 * g))
+            ));
+        }
+    }
+    out
 }

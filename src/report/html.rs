@@ -86,7 +86,10 @@ vertical-align:top}th{background:#f3f3f3}td.l,th.l{text-align:left}\
 figure.plot{margin:0;border:1px solid #eee;padding:.3em}figure.plot svg{width:100%;height:auto;display:block}\
 figcaption{font-size:.85em;color:#555;padding:.2em .4em}.warn{color:#a40;font-weight:600}.ok{color:#264}\
 .note{color:#555;font-style:italic}p.summary{border-left:4px solid #264;padding:.2em .8em;background:#f6faf7}\
-p.summary.flag{border-color:#a40;background:#fdf6f0}tr.failed td{background:#fff3f0}code{font-size:.95em}\
+p.summary.flag{border-color:#a40;background:#fdf6f0}\
+div.verdict{border-left:5px solid #264;padding:.3em .9em;background:#f6faf7;margin:.6em 0}\
+div.verdict.flag{border-color:#a40;background:#fdf6f0}div.verdict.open{border-color:#886;background:#fafaf2}\
+div.verdict p{margin:.3em 0}tr.failed td{background:#fff3f0}code{font-size:.95em}\
 @media print{body{max-width:none;margin:0}nav{display:none}figure,table,tr{break-inside:avoid}\
 .grid{grid-template-columns:1fr 1fr}h2{break-after:avoid}}";
 
@@ -700,16 +703,7 @@ impl Page<'_> {
                 self.r.diagnosis_error.as_deref().unwrap_or("it did not run")
             ));
         };
-        let mut s = format!(
-            "<p class=\"summary {}\">{}{}</p>",
-            if dg.discrepancy_detected { "flag" } else { "clear" },
-            if dg.discrepancy_detected {
-                "⚠ model error detected. "
-            } else {
-                ""
-            },
-            escape(&dg.summary)
-        );
+        let mut s = verdict_block(dg);
         let response = self.response_label();
         s.push_str("<div class=grid>");
         // Residuals against each design variable.
@@ -754,10 +748,16 @@ impl Page<'_> {
                 .find(|t| &t.against == name)
                 .map_or(String::new(), |t| {
                     format!(
-                        " Rank correlation {} (p = {}){}.",
+                        " Rank correlation {} (p = {}; linear trend p = {}): {} at α = {}.",
                         significant(t.rank_correlation, 2),
                         significant(t.rank_p_value, 2),
-                        if t.significant { ": a significant trend" } else { "" }
+                        significant(t.slope_p_value, 2),
+                        if t.significant {
+                            "a significant trend"
+                        } else {
+                            "no significant trend"
+                        },
+                        DIAGNOSIS_ALPHA
                     )
                 });
             let caption = format!(
@@ -806,24 +806,11 @@ impl Page<'_> {
                 "no cause was named, so there is no extended model to compare before/after",
             ));
         }
+        if let Some(ext) = &dg.extended {
+            s.push_str(&remaining_block(ext));
+        }
         if !dg.candidates.is_empty() {
-            s.push_str("<h3>Candidates</h3><table><tr><th>rank</th><th class=l>candidate</th><th class=l>term</th><th>weight</th>\
-                <th>amplitude</th><th>p-value</th><th class=l>explains misfit</th><th class=l>confounded with</th></tr>");
-            for (i, c) in dg.candidates.iter().enumerate() {
-                let _ = write!(
-                    s,
-                    "<tr><td>{}</td><td class=l>{}</td><td class=l><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td><td class=l>{}</td></tr>",
-                    i + 1,
-                    escape(&c.name),
-                    escape(&c.term),
-                    significant(c.weight, 3),
-                    significant(c.amplitude, 3),
-                    significant(c.p_value, 2),
-                    if c.explains_misfit { "yes" } else { "no" },
-                    escape(&c.confounded_with.join(", "))
-                );
-            }
-            s.push_str("</table>");
+            s.push_str(&candidate_table(dg));
         }
         s.push_str("<h3>Recommended next test</h3>");
         match &dg.next_test {
@@ -972,4 +959,131 @@ pub fn escape(s: &str) -> String {
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
+}
+
+/// The significance level of the diagnosis's decisions (its `Settings::default().alpha`): captions
+/// use the same α as the verdict.
+const DIAGNOSIS_ALPHA: f64 = 0.01;
+
+/// The verdict first, then the action, the evidence one fact per line, and the limits.
+fn verdict_block(dg: &crate::diagnose::Diagnosis) -> String {
+    use crate::diagnose::verdict::Verdict;
+    let class = match dg.verdict {
+        Verdict::NoModelError => "clear",
+        Verdict::TooFewTests => "open",
+        _ => "flag",
+    };
+    let mut s = format!(
+        "<div id=verdict class=\"verdict {class}\" data-verdict=\"{}\"><p class=headline><strong>{}</strong></p><p class=action>{}</p></div>",
+        serde_json::to_value(dg.verdict)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default(),
+        escape(&dg.headline),
+        escape(&dg.action)
+    );
+    if !dg.evidence.is_empty() {
+        s.push_str("<h3>Evidence</h3><ul id=evidence>");
+        for e in &dg.evidence {
+            let _ = write!(s, "<li>{}</li>", escape(e));
+        }
+        s.push_str("</ul>");
+    }
+    if !dg.limits.is_empty() {
+        s.push_str("<h3>Limits</h3><ul id=limits class=note>");
+        for l in &dg.limits {
+            let _ = write!(s, "<li>{}</li>", escape(l));
+        }
+        s.push_str("</ul>");
+    }
+    s
+}
+
+/// The extended model's standardised residuals at every design: what the cause leaves unexplained.
+fn remaining_block(ext: &crate::diagnose::Extended) -> String {
+    if ext.residual_z.is_empty() {
+        return String::new();
+    }
+    let plot = BarPlot {
+        title: format!("What remains after adding {}", ext.cause),
+        value_label: "residual of the extended model / σ".into(),
+        categories: ext.residual_z.keys().cloned().collect(),
+        groups: vec![(String::new(), 0, ext.residual_z.values().map(|z| Some(*z)).collect())],
+        percent: false,
+        headings: vec![],
+    };
+    let verdict = match ext.lack_of_fit_p {
+        Some(p) if p < DIAGNOSIS_ALPHA => format!(
+            "beyond the noise: χ² = {} on {} degrees of freedom, p = {} < α = {DIAGNOSIS_ALPHA}",
+            significant(ext.lack_of_fit_chi2.unwrap_or(f64::NAN), 3),
+            ext.lack_of_fit_dof.unwrap_or(0),
+            significant(p, 2)
+        ),
+        Some(p) => format!(
+            "within the noise: χ² = {} on {} degrees of freedom, p = {} ≥ α = {DIAGNOSIS_ALPHA}",
+            significant(ext.lack_of_fit_chi2.unwrap_or(f64::NAN), 3),
+            ext.lack_of_fit_dof.unwrap_or(0),
+            significant(p, 2)
+        ),
+        None => "no replicates, so no test against the noise".into(),
+    };
+    let caption = format!(
+        "Residuals of the model extended with {} in units of σ (training: of the mean; validation: with the \
+         prediction's uncertainty). Beyond ±2 the design is still missed. Lack of fit: {verdict}.",
+        ext.cause
+    );
+    figure("remaining", plot.render(), &caption)
+}
+
+/// Every candidate with the figures the verdict used.
+fn candidate_table(dg: &crate::diagnose::Diagnosis) -> String {
+    let mut s = String::from(
+        "<h3>Candidates</h3><table id=candidate-table><tr><th>rank</th><th class=l>candidate</th><th class=l>term</th>\
+         <th>weight</th><th>amplitude γ</th><th>95 % interval of γ</th><th>p-value</th><th>variance inflation</th>\
+         <th class=l>explains misfit (p &lt; α/K)</th><th class=l>cannot be told from</th></tr>",
+    );
+    let opt = |v: Option<f64>| v.map_or("-".to_string(), |v| significant(v, 3));
+    for (i, c) in dg.candidates.iter().enumerate() {
+        let ci = c.separability.amplitude_ci95.map_or("-".to_string(), |[a, b]| {
+            format!("{} to {}", significant(a, 3), significant(b, 3))
+        });
+        let vif = match (c.separability.variance_inflation, c.separability.amplitude_se) {
+            (Some(v), _) => significant(v, 3),
+            (None, None) if !c.confounded_with.is_empty() => "∞".into(),
+            _ => "-".into(),
+        };
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td class=l>{}</td><td class=l><code>{}</code></td><td>{}</td><td>{}</td><td>{ci}</td>\
+             <td>{}</td><td>{vif}</td><td class=l>{}</td><td class=l>{}</td></tr>",
+            i + 1,
+            escape(&c.name),
+            escape(&c.term),
+            significant(c.weight, 3),
+            significant(c.amplitude, 3),
+            opt(c.p_value),
+            if c.explains_misfit { "yes" } else { "no" },
+            escape(&c.confounded_with.join(", "))
+        );
+    }
+    s.push_str("</table>");
+    if !dg.rivals.is_empty() {
+        s.push_str(
+            "<table id=rivals><tr><th class=l>rival of the leader</th><th>p (leader added to rival)</th>\
+             <th>p (rival added to leader)</th><th class=l>rejected</th><th class=l>by</th></tr>",
+        );
+        for r in &dg.rivals {
+            let _ = write!(
+                s,
+                "<tr><td class=l>{}</td><td>{}</td><td>{}</td><td class=l>{}</td><td class=l>{}</td></tr>",
+                escape(&r.rival),
+                opt(r.p_leader_given_rival),
+                opt(r.p_rival_given_leader),
+                if r.beaten { "yes" } else { "no" },
+                escape(&r.by)
+            );
+        }
+        s.push_str("</table>");
+    }
+    s
 }

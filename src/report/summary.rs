@@ -102,21 +102,21 @@ fn write_diagnosis(out: &mut String, results: &Results) {
         let _ = writeln!(
             out,
             "  {:<24} {:>8} {:>10} {:>10}",
-            "candidate", "weight", "LOO error", "BIC"
+            "candidate", "weight", "p-value", "LOO error"
         );
         for c in d.candidates.iter().take(5) {
             let flag = if c.confounded_with.is_empty() {
                 String::new()
             } else {
-                format!("  (confounded with {})", c.confounded_with.join(", "))
+                format!("  (cannot be told from a change of {})", c.confounded_with.join(", "))
             };
             let _ = writeln!(
                 out,
-                "  {:<24} {:>8.3} {:>10} {:>10.1}{flag}",
+                "  {:<24} {:>8.3} {:>10} {:>10}{flag}",
                 c.name,
                 c.weight,
-                format!("{:.2} %", 100.0 * c.loo_error),
-                c.bic
+                c.p_value.map_or("-".to_string(), |p| significant(p, 2)),
+                percent(c.loo_error)
             );
         }
     }
@@ -135,9 +135,6 @@ fn write_diagnosis(out: &mut String, results: &Results) {
             100.0 * x.validation_error_after,
             x.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g))
         );
-    }
-    if let Some(t) = &d.next_test {
-        let _ = writeln!(out, "  next test: {}", t.why);
     }
 }
 

@@ -1,0 +1,139 @@
+//! Step 5: the verdict, from a fixed vocabulary, decided by the tests of the earlier steps at one α.
+//!
+//! | verdict | when |
+//! |---|---|
+//! | `too_few_tests` | no test of model error is possible (no replicates and no spare designs), or the training designs barely exceed the parameters and nothing was detected (the test had almost no power) |
+//! | `no_model_error` | no candidate's amplitude test is significant at α/K and the uncorrected model's lack of fit does not reject at α |
+//! | `unexplained` | the lack of fit rejects, but no candidate is significant |
+//! | `partly_explained` | the leader is significant, but its extended model's lack of fit still rejects at α, or a rival's shape still reduces the misfit with the leader's in (encompassing test at α / number of rivals): the cause helps, but it is not the whole story |
+//! | `cannot_tell_apart` | the leader is significant, but some rival survives the encompassing test: the data cannot tell them apart |
+//! | `cause_named` | the leader is significant, beats every rival, and its extended model fits within the noise |
+//!
+//! Under no model error each of the two detection tests has false-alarm rate ≤ α, so together
+//! ≤ 2α.
+
+use serde::{Deserialize, Serialize};
+
+use super::ranking::Ranked;
+use super::{Candidate, Context, Mode};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    NoModelError,
+    CauseNamed,
+    CannotTellApart,
+    PartlyExplained,
+    Unexplained,
+    TooFewTests,
+}
+
+impl Verdict {
+    /// The verdict's fixed words.
+    pub fn words(self) -> &'static str {
+        match self {
+            Verdict::NoModelError => "no model error beyond the noise",
+            Verdict::CauseNamed => "model error: cause named",
+            Verdict::CannotTellApart => "model error: leading candidates, cannot tell apart",
+            Verdict::PartlyExplained => "model error: partly explained",
+            Verdict::Unexplained => "model error: no listed cause explains it",
+            Verdict::TooFewTests => "too few tests to tell",
+        }
+    }
+}
+
+/// The verdict and what it leaves open. Indices are into [`Ranked::entries`]; `None` is the
+/// uncorrected model.
+pub(crate) struct Decision {
+    pub verdict: Verdict,
+    pub detected: bool,
+    pub cause: Option<usize>,
+    /// The explanations the verdict leaves open, best first.
+    pub leading: Vec<Option<usize>>,
+    /// The explanations the next test should tell apart.
+    pub compare: Vec<Option<usize>>,
+}
+
+impl Decision {
+    pub fn leading_names(&self, candidates: &[Candidate]) -> Vec<String> {
+        self.leading
+            .iter()
+            .map(|k| k.map_or("uncorrected".to_string(), |k| candidates[k].name.clone()))
+            .collect()
+    }
+}
+
+pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
+    let alpha = cx.alpha();
+    let rejects = |l: Option<&super::LackOfFit>| l.is_some_and(|l| l.p_value < alpha);
+    let base_rejects = rejects(ranked.base.assessed.lack_of_fit.as_ref());
+    let best = (!ranked.entries.is_empty()).then_some(0);
+    let Some(l) = ranked.leader else {
+        let few = cx.mode == Mode::TooFew || cx.mode == Mode::Few && !base_rejects;
+        let verdict = if few {
+            Verdict::TooFewTests
+        } else if base_rejects {
+            Verdict::Unexplained
+        } else {
+            Verdict::NoModelError
+        };
+        // The best candidate against no correction: is there model error at all?
+        let compare: Vec<Option<usize>> = best.map(Some).into_iter().chain([None]).collect();
+        return Decision {
+            verdict,
+            detected: base_rejects,
+            cause: None,
+            leading: if verdict == Verdict::NoModelError {
+                vec![None]
+            } else {
+                vec![best, None]
+            },
+            compare,
+        };
+    };
+    let unbeaten: Vec<usize> = ranked
+        .rivals
+        .iter()
+        .filter(|r| !r.beaten)
+        .filter_map(|r| ranked.entries.iter().position(|e| e.model.name() == r.rival))
+        .collect();
+    // The rival the leader beat least clearly: where a confirming test should look.
+    let closest = ranked
+        .rivals
+        .iter()
+        .max_by(|a, b| {
+            let p = |r: &super::ranking::RivalTest| r.p_leader_given_rival.unwrap_or(1.0);
+            p(a).total_cmp(&p(b))
+        })
+        .and_then(|r| ranked.entries.iter().position(|e| e.model.name() == r.rival));
+    // A rival whose shape still counts with the leader in: the leader alone does not suffice (tested
+    // at α over the rivals, Bonferroni).
+    let bound = alpha / ranked.rivals.len().max(1) as f64;
+    let adds = ranked
+        .rivals
+        .iter()
+        .filter(|r| r.p_rival_given_leader.is_some_and(|p| p < bound))
+        .filter_map(|r| ranked.entries.iter().position(|e| e.model.name() == r.rival))
+        .next();
+    let (verdict, cause, leading, compare) =
+        if rejects(ranked.entries[l].assessed.lack_of_fit.as_ref()) || adds.is_some() {
+            let next = adds.or(unbeaten.first().copied()).or(closest);
+            (Verdict::PartlyExplained, Some(l), vec![Some(l)], vec![Some(l), next])
+        } else if unbeaten.is_empty() {
+            (Verdict::CauseNamed, Some(l), vec![Some(l)], vec![Some(l), closest])
+        } else {
+            let mut tied = vec![l];
+            tied.extend(unbeaten.iter().copied());
+            tied.sort_unstable();
+            let open: Vec<Option<usize>> = tied.iter().map(|&k| Some(k)).collect();
+            let compare = open.iter().take(2).copied().collect();
+            (Verdict::CannotTellApart, None, open, compare)
+        };
+    Decision {
+        verdict,
+        detected: true,
+        cause,
+        leading,
+        compare,
+    }
+}
