@@ -59,3 +59,58 @@ fn every_study_verdict_follows_its_evidence() {
     }
     assert!(checked >= 10, "only {checked} studies checked");
 }
+
+/// The report's text without tags (entities for <, > and & decoded).
+fn page_text(html: &str) -> String {
+    let tags = regex::Regex::new(r"<[^>]*>").unwrap();
+    tags.replace_all(html, "\n")
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&amp;", "&")
+        .replace("&#39;", "'")
+        .replace("&quot;", "\"")
+}
+
+/// Every sentence that calls something significant (not "no significant …") quotes a p-value below
+/// the diagnosis's α = 0.01: the words come from the same test and level as the decision.
+fn significance_is_backed(what: &str, text: &str) {
+    let p_value = regex::Regex::new(r"p (=|<) ?([0-9.]+(e-?[0-9]+)?)").unwrap();
+    let negated = regex::Regex::new(r"(?i)\b(no|not|nothing|without)( \w+)? significant").unwrap();
+    for sentence in text.split(['\n']).flat_map(|l| l.split(". ")) {
+        if !sentence.contains("significant") || negated.is_match(sentence) {
+            continue;
+        }
+        let ps: Vec<f64> = p_value
+            .captures_iter(sentence)
+            .filter_map(|c| c[2].trim_end_matches('.').parse::<f64>().ok())
+            .collect();
+        if ps.is_empty() {
+            continue; // a definition ("explains misfit (p < α/K)"), not a finding
+        }
+        let smallest = ps.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(
+            smallest < 0.01,
+            "{what}: {sentence:?} calls a p-value of {smallest} significant"
+        );
+    }
+}
+
+/// The check itself: the caption the issue found ("p = 0.39: a significant trend") fails it, the
+/// same sentence with the test that decided passes.
+#[test]
+#[should_panic(expected = "calls a p-value of 0.39 significant")]
+fn a_significant_word_above_alpha_is_caught() {
+    significance_is_backed("caption", "Rank correlation 0.39 (p = 0.39): a significant trend.");
+}
+
+#[test]
+fn a_significant_word_backed_by_its_test_passes() {
+    significance_is_backed(
+        "caption",
+        "Rank correlation 0.39 (p = 0.39; linear trend p = 0.0027): a significant trend at α = 0.01.",
+    );
+    significance_is_backed(
+        "caption",
+        "Rank correlation 0.2 (p = 0.5): no significant trend at α = 0.01.",
+    );
+}

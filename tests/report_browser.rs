@@ -65,7 +65,7 @@ struct Case {
     height: u32,
 }
 
-const CASES: [Case; 4] = [
+const CASES: [Case; 5] = [
     Case {
         study: "cantilever",
         figures: &["posterior-E", "predictions", "splits", "residuals-h"],
@@ -128,6 +128,18 @@ const CASES: [Case; 4] = [
         // No crushsim: the study replays fixtures/honeycomb.
         path: Some("/usr/bin:/bin"),
         height: 7200,
+    },
+    Case {
+        study: "honeycomb-diagnosis",
+        figures: &["predictions", "residuals-c", "residuals-t", "candidates"],
+        texts: &[
+            "<div id=verdict",
+            "<ul id=evidence>",
+            "<table id=rivals>",
+            "<p id=next-test>",
+        ],
+        path: Some("/usr/bin:/bin"),
+        height: 9000,
     },
 ];
 
@@ -323,6 +335,7 @@ fn reports_render_in_chromium_with_every_section_and_plot() {
                 case.study
             );
         }
+        verdict_block_matches_results(case, &dom, out);
         let svgs = dom.matches("<svg").count();
         assert_eq!(
             svgs,
@@ -348,6 +361,43 @@ fn reports_render_in_chromium_with_every_section_and_plot() {
         assert!(
             load_ms < 1000.0,
             "{}: the page took {load_ms} ms to load (limit 1 s)",
+            case.study
+        );
+    }
+}
+
+/// The verdict block in the browser's DOM says what results.json says: its verdict key, its
+/// headline and its action, first in the Diagnosis section.
+fn verdict_block_matches_results(case: &Case, dom: &str, out: &Path) {
+    let results: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    let d = &results["diagnosis"];
+    let visible = |s: &str| s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+    let at = dom
+        .find("id=\"verdict\"")
+        .unwrap_or_else(|| panic!("{}: no verdict block in the DOM", case.study));
+    let section = dom.find("<section id=\"diagnosis\">").expect("a diagnosis section");
+    assert!(
+        at > section,
+        "{}: the verdict block sits in the Diagnosis section",
+        case.study
+    );
+    let between = &dom[section..at];
+    assert!(
+        !between.contains("<figure") && !between.contains("<table"),
+        "{}: the verdict comes first",
+        case.study
+    );
+    let block = &dom[at..at + dom[at..].find("</div>").unwrap()];
+    assert!(
+        block.contains(&format!("data-verdict=\"{}\"", d["verdict"].as_str().unwrap())),
+        "{}: {block}",
+        case.study
+    );
+    for key in ["headline", "action"] {
+        let text = visible(d[key].as_str().unwrap());
+        assert!(
+            block.contains(&text),
+            "{}: {key} {text:?} not in the verdict block {block}",
             case.study
         );
     }

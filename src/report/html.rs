@@ -641,6 +641,28 @@ impl Page<'_> {
                 ),
             );
         }
+        // The noise of each measured mean, as bars about the 1:1 line: a prediction outside its bar
+        // misses beyond the noise.
+        let noise: Vec<(f64, f64)> = self
+            .r
+            .diagnosis
+            .iter()
+            .flat_map(|d| d.residuals.iter())
+            .filter(|r| r.sigma.is_finite() && r.sigma > 0.0 && r.count > 1)
+            .map(|r| (r.measured, r.sigma))
+            .collect();
+        if !noise.is_empty() {
+            series.insert(
+                1,
+                Series {
+                    label: "measured mean ± σ of the mean".into(),
+                    color: plots::BLACK_,
+                    style: Style::Hollow,
+                    points: noise.iter().map(|(m, _)| (*m, *m)).collect(),
+                    y_err: Some(noise.iter().map(|(_, s)| *s).collect()),
+                },
+            );
+        }
         let plot = XyPlot {
             title: "Calibrated predictions against measurements".into(),
             x_label: format!("measured {response}"),
@@ -648,11 +670,15 @@ impl Page<'_> {
             series,
             ..Default::default()
         };
-        figure(
-            "predictions",
-            plot.render(),
-            "Each method's calibrated prediction at every tested design against the measured mean.",
-        )
+        let caption = if noise.is_empty() {
+            "Each method's calibrated prediction at every tested design against the measured mean; dashed: 1:1 (no \
+             replicates, so no noise bars)."
+        } else {
+            "Each method's calibrated prediction at every tested design against the measured mean; dashed: 1:1; \
+             hollow circles with bars: each measured mean ± σ of the mean (replicate noise), so a prediction outside \
+             its bar misses beyond the noise."
+        };
+        figure("predictions", plot.render(), caption)
     }
 
     fn design_value(&self, design: &str) -> Option<f64> {
