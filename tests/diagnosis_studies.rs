@@ -55,6 +55,10 @@ fn every_study_verdict_follows_its_evidence() {
             "{}: the terminal does not lead with the verdict",
             study.display()
         );
+        let page = std::fs::read_to_string(out.path().join("report.html")).unwrap();
+        for text in [d["summary"].as_str().unwrap().to_string(), page_text(&page)] {
+            significance_is_backed(&study.display().to_string(), &text);
+        }
         checked += 1;
     }
     assert!(checked >= 10, "only {checked} studies checked");

@@ -152,7 +152,7 @@ impl Data<'_> {
         }
         // Scale the columns to unit length so that the dependence test does not see units.
         let norms: Vec<f64> = a.column_iter().map(|c| c.norm()).collect();
-        if norms.iter().any(|&n| n == 0.0) {
+        if norms.contains(&0.0) {
             return None;
         }
         let scaled = DMatrix::from_fn(a.nrows(), a.ncols(), |i, j| a[(i, j)] / norms[j]);

@@ -231,6 +231,10 @@ fn lambda_at(lambda0: f64, e2: f64, h: f64, m: f64) -> f64 {
     lambda0 + m * e2 / (1.0 + m * h)
 }
 
+/// The hardest direction at one design: specimens needed, the bound on λ as they grow, the pair,
+/// and λ with those specimens.
+type Limit = (Option<usize>, f64, (usize, usize), f64);
+
 /// The design needing the fewest specimens over every compared pair (T-optimal discrimination).
 fn fewest_specimens(cx: &Context, ex: &[Explanation], sigma: &Sigma, target: f64) -> Option<Pick> {
     let unit = if cx.known() { 1.0 } else { 1.0 / sigma(1.0) };
@@ -257,7 +261,7 @@ fn fewest_specimens(cx: &Context, ex: &[Explanation], sigma: &Sigma, target: f64
     let mut best: Option<(Option<usize>, f64, Pick)> = None;
     for d in candidate_points(cx) {
         // For each pair, its weakest direction: specimens needed and the bound as m grows.
-        let mut worst: Option<(Option<usize>, f64, (usize, usize), f64)> = None;
+        let mut worst: Option<Limit> = None;
         for (pair, ds) in &pairs {
             for disc in ds {
                 let (e2, h) = disc.row(cx, &d, sigma);
@@ -266,7 +270,7 @@ fn fewest_specimens(cx: &Context, ex: &[Explanation], sigma: &Sigma, target: f64
                 }
                 let m = specimens_for(disc.lambda0, e2, h, target);
                 let bound = if h > 0.0 { disc.lambda0 + e2 / h } else { f64::INFINITY };
-                let harder = |w: &(Option<usize>, f64, (usize, usize), f64)| match (m, w.0) {
+                let harder = |w: &Limit| match (m, w.0) {
                     (None, Some(_)) => true,
                     (Some(a), Some(b)) => a > b,
                     (None, None) => bound < w.1,
