@@ -391,6 +391,7 @@ fn lsdyna_adapter_classifies_the_outcomes() {
             disp_sign: Sign::Auto,
             disp_to_mm: 1.0,
         },
+        deck: "main.k".into(),
     };
     type Switch = (&'static str, Option<(&'static str, f64)>, OutcomeClass);
     let cases: [Switch; 5] = [

@@ -53,6 +53,7 @@ pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
         Response::CrushForce { window, source } => Arc::new(LsDynaAdapter {
             window: *window,
             source: source.clone(),
+            deck: sim.templates.first().map(|t| t.output.clone()).unwrap_or_default(),
         }),
         Response::Dat(ccx) => Arc::new(ccx.clone()),
     })
@@ -217,10 +218,12 @@ pub fn replay_runs(
             continue;
         };
         let started = now_ms();
-        let (outcome, response) = match adapter.find_failure(&at) {
+        let scratch = judging_dir(store, key, &prepared.inputs[key], &at)?;
+        let dir = &scratch.0;
+        let (outcome, judged) = match adapter.find_failure(dir) {
             Some(failure) => (failure, None),
-            None => match adapter.extract(&at) {
-                Ok(v) => (Outcome::Success, Some(v)),
+            None => match adapter.judge(dir) {
+                Ok(j) => (Outcome::Success, Some(j)),
                 Err(o) => (o, None),
             },
         };
@@ -230,11 +233,56 @@ pub fn replay_runs(
             attempts: 1,
             started_ms: started,
             ended_ms: now_ms(),
-            response,
+            response: judged.map(|j| j.response),
+            quality: judged.and_then(|j| j.quality),
         };
         store.commit(record)?;
     }
     Ok((SweepResult::from_store(store, prepared, reused, Vec::new()), misses))
+}
+
+/// Directory (under `--out`) where a replayed run is judged, then removed.
+pub const REPLAY_SCRATCH: &str = ".replay";
+
+/// A scratch directory laid out as a live run's: the run's rendered inputs (the deck the adapter
+/// reads its output intervals from) and the recording's outputs, copied. Removed after judging
+/// ([`ScratchDir`]), so a replay leaves no run directory behind.
+fn judging_dir(store: &RunStore, key: &str, inputs: &Inputs, recording: &std::path::Path) -> Result<ScratchDir, Error> {
+    let dir = store.out().join(REPLAY_SCRATCH).join(key);
+    let fail = |p: &std::path::Path, e: std::io::Error| Error::Failed(format!("{}: {e}", p.display()));
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir).map_err(|e| fail(&dir, e))?;
+    }
+    let scratch = ScratchDir(dir.clone());
+    for (rel, bytes) in inputs {
+        if !rel.components().all(|c| matches!(c, std::path::Component::Normal(_))) {
+            continue; // refused by RunStore::prepare for live runs as well
+        }
+        let path = dir.join(rel);
+        std::fs::create_dir_all(path.parent().unwrap_or(&dir)).map_err(|e| fail(&path, e))?;
+        std::fs::write(&path, bytes).map_err(|e| fail(&path, e))?;
+    }
+    std::fs::create_dir_all(&dir).map_err(|e| fail(&dir, e))?;
+    for entry in std::fs::read_dir(recording).map_err(|e| fail(recording, e))? {
+        let entry = entry.map_err(|e| fail(recording, e))?;
+        if entry.file_name() == replay::MANIFEST || !entry.path().is_file() {
+            continue;
+        }
+        std::fs::copy(entry.path(), dir.join(entry.file_name())).map_err(|e| fail(&entry.path(), e))?;
+    }
+    Ok(scratch)
+}
+
+/// A directory removed (with its parent, when empty) when dropped.
+struct ScratchDir(PathBuf);
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+        if let Some(parent) = self.0.parent() {
+            let _ = std::fs::remove_dir(parent); // only succeeds when empty
+        }
+    }
 }
 
 fn now_ms() -> u64 {

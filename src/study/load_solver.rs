@@ -17,10 +17,11 @@ use crate::extract::crush::{Sign, SimSource, Window};
 use crate::extract::lsdyna::rcforc::Side;
 
 /// Outcome classes a retry policy may name, by their study-file names.
-const RETRY_CLASSES: [(&str, OutcomeClass); 5] = [
+const RETRY_CLASSES: [(&str, OutcomeClass); 6] = [
     ("non_zero_exit", OutcomeClass::NonZeroExit),
     ("failure_text", OutcomeClass::FailureText),
     ("bad_response", OutcomeClass::BadResponse),
+    ("incomplete_output", OutcomeClass::IncompleteOutput),
     ("timeout", OutcomeClass::Timeout),
     ("signal", OutcomeClass::Signal),
 ];
