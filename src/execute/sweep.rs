@@ -24,10 +24,11 @@ use super::{
     RunSpec, RunStore, progress,
 };
 use crate::error::{Error, InputError};
+use crate::extract::lsdyna::quality::{Flag, Gates, Quality};
 use crate::plan::Plan;
 use crate::render::mesh::{self, TubeSpec};
 use crate::render::{self, Inputs, Renderer};
-use crate::study::{Response, SolverSimulation, Study};
+use crate::study::{QualitySettings, Response, SolverSimulation, Study};
 
 /// Directory (under `--out`) of the generated meshes, one file per design, named by content.
 pub const MESHES_DIR: &str = "meshes";
@@ -363,6 +364,8 @@ pub struct SweepResult {
     pub responses: Vec<Option<f64>>,
     /// Outcome class of each planned run's record, if any.
     pub classes: Vec<Option<OutcomeClass>>,
+    /// Each planned run's sanity figures (glstat energies), when its record has them.
+    pub quality: Vec<Option<Quality>>,
     /// Planned runs that were finished before this pass.
     pub reused: usize,
     /// Errors not tied to a run's outcome (a record that could not be committed).
@@ -382,12 +385,41 @@ impl SweepResult {
             .iter()
             .map(|k| store.record(k).map(|r| r.outcome.class()))
             .collect();
+        let quality = prepared
+            .keys
+            .iter()
+            .map(|k| store.record(k).and_then(|r| r.quality))
+            .collect();
         SweepResult {
             responses,
             classes,
+            quality,
             reused,
             errors,
         }
+    }
+
+    /// The gates each planned run breaks (empty: sound, failed, or no figures to check).
+    pub fn flags(&self, gates: &Gates) -> Vec<Vec<Flag>> {
+        self.responses
+            .iter()
+            .zip(&self.quality)
+            .map(|(y, q)| match (y, q) {
+                (Some(_), Some(q)) => gates.flags(q),
+                _ => Vec::new(),
+            })
+            .collect()
+    }
+
+    /// The responses the surrogates are fitted to: a suspect run's is left out unless the study
+    /// says `quality.suspect: use`.
+    pub fn usable(&self, settings: &QualitySettings) -> Vec<Option<f64>> {
+        let flags = self.flags(&settings.gates);
+        self.responses
+            .iter()
+            .zip(&flags)
+            .map(|(y, f)| if f.is_empty() || settings.use_suspect { *y } else { None })
+            .collect()
     }
 }
 

@@ -59,6 +59,10 @@ impl Checker<'_> {
             let (l, c) = self.key_position("replay", n);
             return Err(at("replay", l, c));
         }
+        if let Some(n) = &sim.quality {
+            let (l, c) = self.key_position("quality", n);
+            return Err(at("quality", l, c));
+        }
         Ok(())
     }
 
@@ -182,6 +186,12 @@ impl Checker<'_> {
             replay,
             parameter_width: lsdyna.then_some(10),
             slurm: cluster.slurm,
+            quality: sim
+                .quality
+                .as_ref()
+                .map(|q| self.quality(q))
+                .transpose()?
+                .unwrap_or_default(),
         })
     }
 

@@ -6,7 +6,7 @@
 //!   output at the termination time), and the last reaches the termination time within one interval.
 //! - **rcforc**: at every output time, every interface the file names has exactly one row per side.
 //! - **nodout**: every block holds every node `*DATABASE_HISTORY_NODE` requests, once.
-//! - **glstat**: every step has the labels of the first step.
+//! - **glstat**: every step has the labels of the first step, and no others.
 //! - **Every file** ends with a line break (a cut-off last line may still parse as numbers).
 //!
 //! A violation is an [`Incomplete`]: the file, the line, and what was missing. The checks read the
@@ -231,6 +231,16 @@ pub fn glstat(gl: &Glstat, want: Expected, last_line: usize) -> Result<(), Incom
                     file: "glstat".into(),
                     line: s.line,
                     detail: format!("the step at time {:e} has no `{label}` line", s.time),
+                });
+            }
+            if let Some((label, line)) = s.lines.iter().find(|(k, _)| !first.values.contains_key(*k)) {
+                return Err(Incomplete {
+                    file: "glstat".into(),
+                    line: *line,
+                    detail: format!(
+                        "`{label}` in the step at time {:e} is not in the first step: the steps must have the same lines",
+                        s.time
+                    ),
                 });
             }
         }
