@@ -68,7 +68,8 @@ pub struct Faults {
     pub unpaired: bool,
     /// nodout: the history nodes' rows are left out of the middle block.
     pub missing_node: bool,
-    /// glstat: this fraction of the internal energy is hourglass energy instead.
+    /// glstat: part of the internal energy is hourglass energy instead, at this ratio to what
+    /// remains internal (their sum unchanged).
     pub hourglass: f64,
     /// glstat: spurious energy growing to this fraction of the balance at the end time.
     pub energy_drift: f64,
@@ -168,8 +169,8 @@ pub fn glstat(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
     let initial = h.steps[0].kinetic;
     for (_, t) in faults.times(m, dt) {
         let s = h.at(t);
-        let hourglass = faults.hourglass * s.internal;
-        let internal = s.internal - hourglass;
+        let internal = s.internal / (1.0 + faults.hourglass);
+        let hourglass = s.internal - internal;
         let reference = initial + s.external;
         let sliding = faults.energy_drift * reference * t / m.end_time;
         let total = s.kinetic + internal + hourglass + sliding;

@@ -23,8 +23,8 @@
 //! | `gap` | output number `value` (default: the middle one) left out of rcforc, nodout and glstat | complete times |
 //! | `early` | histories stop at `value` × the termination time (default 0.5); normal termination | reaches the end time |
 //! | `unpaired` | rcforc lacks the last interface's master row at the middle output | rcforc pairs |
-//! | `nodemissing` | nodout's middle block lacks the history nodes' rows | nodout nodes |
-//! | `hourglass` | `value` (default 0.2) of the internal energy is hourglass energy | hourglass gate |
+//! | `missnode` | nodout's middle block lacks the history nodes' rows | nodout nodes |
+//! | `hourglass` | hourglass / internal energy = `value` (default 0.2), their sum as before | hourglass gate |
 //! | `energy` | spurious sliding energy grows to `value` (default 0.1) of the balance | energy gate |
 //! | `addedmass` | glstat reports `value` (default 0.02) added mass | added-mass gate |
 //!
@@ -167,7 +167,7 @@ fn switch(m: &Model) -> Result<Switch, String> {
         other => Switch::Fault(fault(other, *value).ok_or_else(|| {
             format!(
                 "*CRUSHSIM_TEST: unknown mode {other:?} (error, exit, nooutput, garbage, hang, signal, \
-                 gap, early, unpaired, nodemissing, hourglass, energy, addedmass)"
+                 gap, early, unpaired, missnode, hourglass, energy, addedmass)"
             )
         })?),
     })
@@ -181,7 +181,7 @@ fn fault(mode: &str, value: f64) -> Option<output::Faults> {
         "gap" => f.skip_output = Some(if value > 0.0 { value as usize } else { usize::MAX }),
         "early" => f.stop_at = Some(or(0.5)),
         "unpaired" => f.unpaired = true,
-        "nodemissing" => f.missing_node = true,
+        "missnode" => f.missing_node = true,
         "hourglass" => f.hourglass = or(0.2),
         "energy" => f.energy_drift = or(0.1),
         "addedmass" => f.added_mass = Some(or(0.02)),
