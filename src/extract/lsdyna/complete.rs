@@ -72,7 +72,7 @@ pub fn times(file: &str, points: &[(usize, f64)], want: Expected, last_line: usi
         return Ok(()); // times from a load curve (DT = 0) or unknown: nothing to compare against
     };
     let tol = TIME_TOLERANCE * dt;
-    if !(first.abs() <= tol) {
+    if first.is_nan() || first.abs() > tol {
         return Err(at(
             first_line,
             format!("the first output is at time {first:e}, expected 0"),
@@ -82,7 +82,7 @@ pub fn times(file: &str, points: &[(usize, f64)], want: Expected, last_line: usi
         let ((_, t0), (line, t1)) = (w[0], w[1]);
         let gap = t1 - t0;
         let last = k + 2 == points.len();
-        if !(gap > 0.0) {
+        if gap.is_nan() || gap <= 0.0 {
             return Err(at(
                 line,
                 format!("time {t1:e} does not follow {t0:e}: times must increase"),
@@ -125,10 +125,13 @@ pub fn times(file: &str, points: &[(usize, f64)], want: Expected, last_line: usi
     Ok(())
 }
 
+/// The rows of one output time: its first line, the time, and the line of each (interface, side).
+type TimeGroup = (usize, f64, BTreeMap<(u64, Side), usize>);
+
 /// rcforc: complete master/slave pairs for every interface at every time, then the times.
 pub fn rcforc(rc: &Rcforc, want: Expected, last_line: usize) -> Result<(), Incomplete> {
     let expected: BTreeSet<(u64, Side)> = rc.rows.iter().map(|r| (r.interface, r.side)).collect();
-    let mut groups: Vec<(usize, f64, BTreeMap<(u64, Side), usize>)> = Vec::new();
+    let mut groups: Vec<TimeGroup> = Vec::new();
     for r in &rc.rows {
         let same_time = groups.last().is_some_and(|g| g.1 == r.time);
         if !same_time {

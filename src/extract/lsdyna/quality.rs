@@ -68,7 +68,7 @@ impl Gates {
     pub fn flags(&self, q: &Quality) -> Vec<Flag> {
         let mut out = Vec::new();
         let pct = |v: f64| format!("{:.1} %", 100.0 * v);
-        if let Some(v) = q.hourglass_ratio.filter(|v| !(*v <= self.hourglass)) {
+        if let Some(v) = q.hourglass_ratio.filter(|v| exceeds(*v, self.hourglass)) {
             out.push(Flag {
                 gate: "hourglass".into(),
                 value: v,
@@ -80,7 +80,7 @@ impl Gates {
                 ),
             });
         }
-        if let Some(v) = q.energy_error.filter(|v| !(v.abs() <= self.energy)) {
+        if let Some(v) = q.energy_error.filter(|v| exceeds(v.abs(), self.energy)) {
             out.push(Flag {
                 gate: "energy".into(),
                 value: v,
@@ -92,7 +92,7 @@ impl Gates {
                 ),
             });
         }
-        if let Some(v) = q.added_mass_ratio.filter(|v| !(*v <= self.added_mass)) {
+        if let Some(v) = q.added_mass_ratio.filter(|v| exceeds(*v, self.added_mass)) {
             out.push(Flag {
                 gate: "added_mass".into(),
                 value: v,
@@ -102,6 +102,11 @@ impl Gates {
         }
         out
     }
+}
+
+/// Whether a figure breaks its limit (NaN does: a non-finite figure must not pass a gate).
+fn exceeds(value: f64, limit: f64) -> bool {
+    value.is_nan() || value > limit
 }
 
 /// The figures of a parsed glstat.
@@ -126,7 +131,7 @@ fn worst(values: impl Iterator<Item = f64>) -> Option<f64> {
 fn hourglass_ratio(gl: &Glstat) -> Option<f64> {
     let (hg, ie) = (gl.series("hourglass energy")?, gl.internal_energy()?);
     let peak = ie.iter().copied().fold(0.0, f64::max);
-    if !(peak > 0.0) {
+    if peak <= 0.0 {
         return worst(hg.iter().map(|h| if *h == 0.0 { 0.0 } else { f64::NAN }));
     }
     worst(
