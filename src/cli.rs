@@ -361,11 +361,15 @@ fn run_solver(
     if !swept.errors.is_empty() {
         return Err(Error::Failed(swept.errors.join("\n")));
     }
-    let surrogates = pipeline::surrogates(study, sim, &plan, &swept.responses)?;
+    let flags = swept.flags(&sim.quality.gates);
+    print_suspects(&plan, &flags, sim.quality.use_suspect);
+    // Suspect runs are kept and shown, but feed the models only with `quality.suspect: use`.
+    let usable = swept.usable(&sim.quality);
+    let surrogates = pipeline::surrogates(study, sim, &plan, &usable)?;
     let problem = pipeline::problem(study, &surrogates as &dyn Model);
-    let runs = pipeline::simulation_data(&plan, &swept.responses);
+    let runs = pipeline::simulation_data(&plan, &usable);
     let calibration = pipeline::calibrate(study, &problem, Some(&runs));
-    let diagnosis = pipeline::diagnose_solver(study, sim, &plan, &swept.responses, &surrogates);
+    let diagnosis = pipeline::diagnose_solver(study, sim, &plan, &usable, &surrogates);
     let mut results = Results::build(study, &surrogates, &calibration, diagnosis).with_surrogates(&surrogates);
     if !study.splits.is_empty() {
         results.splits = Some(
@@ -383,6 +387,16 @@ fn run_solver(
         succeeded,
         failed: planned - succeeded,
         replayed_from: modes.replay.as_ref().map(|d| d.display().to_string()),
+        suspect: flags.iter().filter(|f| !f.is_empty()).count(),
+        gates: swept.quality.iter().any(Option::is_some).then_some(sim.quality.gates),
+        suspect_runs: suspect_runs(
+            study,
+            &plan,
+            &prepared.keys,
+            &swept.responses,
+            &flags,
+            sim.quality.use_suspect,
+        ),
     });
     let mut data = ReportData::build(study, &surrogates, &calibration).with_runs(
         study,
@@ -392,6 +406,9 @@ fn run_solver(
         &surrogates,
         &store,
     );
+    for (row, f) in data.runs.iter_mut().zip(&flags) {
+        row.flags = f.iter().map(|f| f.text.clone()).collect();
+    }
     let outputs = report::curves::RunOutputs {
         plan: &plan,
         keys: &prepared.keys,
@@ -406,6 +423,63 @@ fn run_solver(
         print!("{}", splits_table(splits));
     }
     Ok(if failed > 0 { 1 } else { code })
+}
+
+/// Notes on stderr for the runs that break a quality gate (at most 5, then a count).
+fn print_suspects(plan: &Plan, flags: &[Vec<crate::extract::lsdyna::quality::Flag>], used: bool) {
+    let suspect: Vec<usize> = (0..flags.len()).filter(|&i| !flags[i].is_empty()).collect();
+    for &i in suspect.iter().take(5) {
+        let texts: Vec<&str> = flags[i].iter().map(|f| f.text.as_str()).collect();
+        eprintln!(
+            "suspect: design `{}`, parameters {:?}: {}",
+            plan.runs[i].design,
+            plan.runs[i].theta,
+            texts.join("; ")
+        );
+    }
+    if !suspect.is_empty() {
+        eprintln!(
+            "{} suspect run(s) {} (simulation.quality)",
+            suspect.len(),
+            if used {
+                "used by the surrogates as the study says"
+            } else {
+                "left out of the surrogates"
+            }
+        );
+    }
+}
+
+/// The suspect runs for `results.json`, in plan order (each key once).
+fn suspect_runs(
+    study: &Study,
+    plan: &Plan,
+    keys: &[String],
+    responses: &[Option<f64>],
+    flags: &[Vec<crate::extract::lsdyna::quality::Flag>],
+    used: bool,
+) -> Vec<report::results::SuspectRun> {
+    let mut seen = std::collections::BTreeSet::new();
+    (0..plan.runs.len())
+        .filter(|&i| !flags[i].is_empty() && seen.insert(&keys[i]))
+        .filter_map(|i| {
+            let run = &plan.runs[i];
+            Some(report::results::SuspectRun {
+                key: keys[i].clone(),
+                design: run.design.clone(),
+                role: run.role.key().to_string(),
+                parameters: study
+                    .parameters
+                    .iter()
+                    .map(|p| p.name.clone())
+                    .zip(run.theta.iter().copied())
+                    .collect(),
+                response: responses[i]?,
+                flags: flags[i].clone(),
+                used,
+            })
+        })
+        .collect()
 }
 
 /// Where finished runs' outputs are, as `<dir>/<key>/`: the store's run directories (live runs),

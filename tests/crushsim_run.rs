@@ -391,14 +391,18 @@ fn lsdyna_adapter_classifies_the_outcomes() {
             disp_sign: Sign::Auto,
             disp_to_mm: 1.0,
         },
+        deck: "main.k".into(),
     };
     type Switch = (&'static str, Option<(&'static str, f64)>, OutcomeClass);
-    let cases: [Switch; 5] = [
+    let cases: [Switch; 7] = [
         ("ok", None, OutcomeClass::Success),
         ("error", Some(("error", 0.0)), OutcomeClass::FailureText),
         ("exit", Some(("exit", 3.0)), OutcomeClass::NonZeroExit),
         ("nooutput", Some(("nooutput", 0.0)), OutcomeClass::BadResponse),
         ("garbage", Some(("garbage", 0.0)), OutcomeClass::BadResponse),
+        ("gap", Some(("gap", 0.0)), OutcomeClass::IncompleteOutput),
+        // A broken gate is a success with its figures; the study's gates flag it later.
+        ("hourglass", Some(("hourglass", 0.3)), OutcomeClass::Success),
     ];
     let dirs: Vec<tempfile::TempDir> = cases
         .iter()
@@ -436,4 +440,13 @@ fn lsdyna_adapter_classifies_the_outcomes() {
         .response
         .unwrap();
     assert!(ok > 1.0 && ok < 2.0, "C6T5 single walls at 185 MPa: {ok} kN");
+    let record = |key: &str| summary.records.iter().find(|r| r.key == key).unwrap();
+    assert_eq!(record("ok").quality.unwrap().hourglass_ratio, Some(0.0));
+    let hg = record("hourglass").quality.unwrap().hourglass_ratio.unwrap();
+    assert!((hg - 0.3).abs() < 1e-4, "{hg}");
+    assert_eq!(
+        record("hourglass").response,
+        Some(ok),
+        "the gate switch leaves the force as it was"
+    );
 }

@@ -16,6 +16,7 @@ fn record(key: &str, response: f64) -> RunRecord {
         started_ms: 1,
         ended_ms: 2,
         response: Some(response),
+        quality: None,
     }
 }
 

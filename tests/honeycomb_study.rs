@@ -203,6 +203,23 @@ fn crushsim_live_gives_the_replayed_numbers() {
     assert_eq!(a["calibration"], b["calibration"]);
     assert_eq!(a["splits"], b["splits"]);
     assert_eq!(a["surrogates"], b["surrogates"]);
+    // Every run is sound (crushsim's energies balance) and its glstat figures replay to the bit.
+    assert_eq!(
+        (a["runs"]["suspect"].as_u64(), b["runs"]["suspect"].as_u64()),
+        (Some(0), Some(0))
+    );
+    let quality = |out: &Path, key: &std::ffi::OsStr| -> serde_json::Value {
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("results").join(key)).unwrap()).unwrap();
+        r["quality"].clone()
+    };
+    for e in std::fs::read_dir(live.path().join("results")).unwrap() {
+        let key = e.unwrap().file_name();
+        let q = quality(live.path(), &key);
+        assert_eq!(q["hourglass_ratio"], 0.0, "{key:?}: {q}");
+        assert!(q["energy_error"].as_f64().unwrap().abs() < 1e-4, "{key:?}: {q}");
+        assert_eq!(q, quality(replayed.path(), &key), "{key:?}");
+    }
     // Curves read from the live run directories equal those read from the recordings.
     let (a, b) = (report_data(live.path()), report_data(replayed.path()));
     assert_eq!(a["force_displacement"], b["force_displacement"]);

@@ -4,6 +4,11 @@
 //! version text says it is crushsim; formats follow the printf formats in the project's facts
 //! (rcforc `  master%11d time%12.5E  x ...`, nodout `%9d` + 12 × `%12.4E`). Dates are fixed, so
 //! the same deck gives the same bytes.
+//!
+//! glstat balances: total energy = kinetic + internal + hourglass + sliding interface energy, and
+//! equals the initial total energy plus the external work (the work of the prescribed motion).
+//! [`Faults`] (from the test switch) make the histories incomplete or the energies unsound, each
+//! in one way, so the checks that catch them can be tested.
 
 use std::fmt::Write;
 
@@ -52,6 +57,42 @@ pub fn times(m: &Model, dt: f64) -> Vec<f64> {
     t
 }
 
+/// Deliberate defects of the outputs (test switches); the default writes sound, complete files.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Faults {
+    /// Output number `k` (from 0) is left out of every history: a gap.
+    pub skip_output: Option<usize>,
+    /// Histories stop at this time (the run still ends "normally").
+    pub stop_at: Option<f64>,
+    /// rcforc: the master row of the last interface is left out at the middle output.
+    pub unpaired: bool,
+    /// nodout: the history nodes' rows are left out of the middle block.
+    pub missing_node: bool,
+    /// glstat: part of the internal energy is hourglass energy instead, at this ratio to what
+    /// remains internal (their sum unchanged).
+    pub hourglass: f64,
+    /// glstat: spurious energy growing to this fraction of the balance at the end time.
+    pub energy_drift: f64,
+    /// glstat: `added mass` / `percentage increase` lines with this added fraction of the mass.
+    pub added_mass: Option<f64>,
+}
+
+impl Faults {
+    /// The output times a history writes, with their numbers (see [`times`]).
+    pub fn times(&self, m: &Model, dt: f64) -> Vec<(usize, f64)> {
+        times(m, dt)
+            .into_iter()
+            .enumerate()
+            .filter(|&(k, t)| Some(k) != self.skip_output && self.stop_at.is_none_or(|s| t <= s))
+            .collect()
+    }
+
+    /// The output number at the middle of the run.
+    pub fn middle(m: &Model, dt: f64) -> usize {
+        times(m, dt).len() / 2
+    }
+}
+
 /// Resultant force on each side of each contact at a step (x, y, z), slave then master.
 fn contact_forces(m: &Model, k: usize, s: &Step) -> ([f64; 3], [f64; 3]) {
     let c = &m.contacts[k];
@@ -65,7 +106,7 @@ fn contact_forces(m: &Model, k: usize, s: &Step) -> ([f64; 3], [f64; 3]) {
     }
 }
 
-pub fn rcforc(m: &Model, h: &History, dt: f64) -> String {
+pub fn rcforc(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
     let mut out = header(m);
     out.push_str(" r e s u l t a n t   i n t e r f a c e   f o r c e s\n\n{BEGIN LEGEND\n Entity #        Title\n");
     for (k, c) in m.contacts.iter().enumerate() {
@@ -77,9 +118,11 @@ pub fn rcforc(m: &Model, h: &History, dt: f64) -> String {
         .iter()
         .map(|p| p.wall_length * p.thickness * m.tube_length * m.material.rho)
         .sum();
-    for t in times(m, dt) {
+    let middle = Faults::middle(m, dt);
+    for (number, t) in faults.times(m, dt) {
         let s = h.at(t);
         for k in 0..m.contacts.len() {
+            let drop_master = faults.unpaired && number == middle && k + 1 == m.contacts.len();
             let (slave, master) = contact_forces(m, k, s);
             let mass = if s.force > 0.0 { tube_mass } else { 0.0 };
             let _ = writeln!(
@@ -92,6 +135,9 @@ pub fn rcforc(m: &Model, h: &History, dt: f64) -> String {
                 e(slave[2], 12, 5),
                 e(mass, 12, 5)
             );
+            if drop_master {
+                continue;
+            }
             let _ = writeln!(
                 out,
                 "  master{:11} time{}  x {}  y {}  z {} mass {}",
@@ -117,24 +163,27 @@ pub fn cycle(m: &Model, t: f64) -> u64 {
     (t / time_step(m)).round() as u64
 }
 
-pub fn glstat(m: &Model, h: &History, dt: f64) -> String {
+pub fn glstat(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
     let mut out = header(m);
     let step = time_step(m);
     let initial = h.steps[0].kinetic;
-    for t in times(m, dt) {
+    for (_, t) in faults.times(m, dt) {
         let s = h.at(t);
-        let total = s.kinetic + s.internal;
+        let internal = s.internal / (1.0 + faults.hourglass);
+        let hourglass = s.internal - internal;
         let reference = initial + s.external;
+        let sliding = faults.energy_drift * reference * t / m.end_time;
+        let total = s.kinetic + internal + hourglass + sliding;
         let ratio = if reference > 0.0 { total / reference } else { 1.0 };
-        let rows: [(&str, f64); 18] = [
+        let mut rows: Vec<(&str, f64)> = vec![
             ("time", t),
             ("time step", step),
             ("kinetic energy", s.kinetic),
-            ("internal energy", s.internal),
+            ("internal energy", internal),
             ("spring and damper energy", 0.0),
-            ("hourglass energy", 0.0),
+            ("hourglass energy", hourglass),
             ("system damping energy", 0.0),
-            ("sliding interface energy", 0.0),
+            ("sliding interface energy", sliding),
             ("external work", s.external),
             ("eroded kinetic energy", 0.0),
             ("eroded internal energy", 0.0),
@@ -146,6 +195,10 @@ pub fn glstat(m: &Model, h: &History, dt: f64) -> String {
             ("global z velocity", -s.speed),
             ("time per zone cycle.(nanosec)", 0.0),
         ];
+        if let Some(added) = faults.added_mass {
+            rows.push(("added mass", added * model_mass(m)));
+            rows.push(("percentage increase", 100.0 * added));
+        }
         let _ = writeln!(
             out,
             "\n dt of cycle {:10} is controlled by shell {:10} of part {:10}\n",
@@ -160,9 +213,20 @@ pub fn glstat(m: &Model, h: &History, dt: f64) -> String {
     out
 }
 
-pub fn nodout(m: &Model, h: &History, dt: f64) -> String {
+/// The tube's and the striker's mass, t.
+fn model_mass(m: &Model) -> f64 {
+    let tube: f64 = m
+        .tube
+        .iter()
+        .map(|p| p.wall_length * p.thickness * m.tube_length * m.material.rho)
+        .sum();
+    tube + m.striker.mass
+}
+
+pub fn nodout(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
     let mut out = header(m);
-    for t in times(m, dt) {
+    let middle = Faults::middle(m, dt);
+    for (number, t) in faults.times(m, dt) {
         let s = h.at(t);
         let _ = writeln!(
             out,
@@ -171,7 +235,12 @@ pub fn nodout(m: &Model, h: &History, dt: f64) -> String {
             e(t, 12, 7).trim()
         );
         out.push_str(" nodal point  x-disp     y-disp      z-disp      x-vel       y-vel       z-vel      x-accl      y-accl      z-accl      x-coor      y-coor      z-coor\n");
-        for &(id, [x, y, z]) in &m.history_nodes {
+        let rows = if faults.missing_node && number == middle {
+            &[][..]
+        } else {
+            &m.history_nodes[..]
+        };
+        for &(id, [x, y, z]) in rows {
             let moving = Some(id) == m.striker.node;
             let (dz, vz, az) = if moving {
                 (-s.crush, -s.speed, -s.accel)

@@ -20,6 +20,16 @@
 //! | `garbage` | normal termination, exit 0, rcforc is deterministic binary garbage | outputs parse |
 //! | `hang` | sleeps `value` seconds (default 3600) before running | time limit |
 //! | `signal` | kills itself with signal `value` (default 9) after the banner | killed |
+//! | `gap` | output number `value` (default: the middle one) left out of rcforc, nodout and glstat | complete times |
+//! | `early` | histories stop at `value` × the termination time (default 0.5); normal termination | reaches the end time |
+//! | `unpaired` | rcforc lacks the last interface's master row at the middle output | rcforc pairs |
+//! | `missnode` | nodout's middle block lacks the history nodes' rows | nodout nodes |
+//! | `hourglass` | hourglass / internal energy = `value` (default 0.2), their sum as before | hourglass gate |
+//! | `energy` | spurious sliding energy grows to `value` (default 0.1) of the balance | energy gate |
+//! | `addedmass` | glstat reports `value` (default 0.02) added mass | added-mass gate |
+//!
+//! The last seven change only what is written, never the force history: the response of a run
+//! that passes the checks is the same with or without them.
 //!
 //! **Start log** (a test hook, as in `studies/solvers/beam.py`): when `LAB_TEST_SOLVER_LOG` names a
 //! file, each start appends one line `start <name of the current directory>` to it, so a test can
@@ -138,6 +148,8 @@ enum Switch {
     Garbage,
     Hang(f64),
     Signal(i32),
+    /// A defect of the written histories (see [`output::Faults`]).
+    Fault(output::Faults),
 }
 
 fn switch(m: &Model) -> Result<Switch, String> {
@@ -152,12 +164,41 @@ fn switch(m: &Model) -> Result<Switch, String> {
         "garbage" => Switch::Garbage,
         "hang" => Switch::Hang(or(3600.0)),
         "signal" => Switch::Signal(or(9.0) as i32),
-        other => {
-            return Err(format!(
-                "*CRUSHSIM_TEST: unknown mode {other:?} (error, exit, nooutput, garbage, hang, signal)"
-            ));
-        }
+        other => Switch::Fault(fault(other, *value).ok_or_else(|| {
+            format!(
+                "*CRUSHSIM_TEST: unknown mode {other:?} (error, exit, nooutput, garbage, hang, signal, \
+                 gap, early, unpaired, missnode, hourglass, energy, addedmass)"
+            )
+        })?),
     })
+}
+
+/// The output defect a test mode asks for; `value` 0 takes the mode's default.
+fn fault(mode: &str, value: f64) -> Option<output::Faults> {
+    let or = |d: f64| if value == 0.0 { d } else { value };
+    let mut f = output::Faults::default();
+    match mode {
+        "gap" => f.skip_output = Some(if value > 0.0 { value as usize } else { usize::MAX }),
+        "early" => f.stop_at = Some(or(0.5)),
+        "unpaired" => f.unpaired = true,
+        "missnode" => f.missing_node = true,
+        "hourglass" => f.hourglass = or(0.2),
+        "energy" => f.energy_drift = or(0.1),
+        "addedmass" => f.added_mass = Some(or(0.02)),
+        _ => return None,
+    }
+    Some(f)
+}
+
+/// The faults with run-dependent defaults filled in: the gap's middle output, the stop time.
+fn resolve(mut f: output::Faults, m: &Model, dt: f64) -> output::Faults {
+    if f.skip_output == Some(usize::MAX) {
+        f.skip_output = Some(output::Faults::middle(m, dt));
+    }
+    if let Some(fraction) = f.stop_at {
+        f.stop_at = Some(fraction * m.end_time);
+    }
+    f
 }
 
 fn run_model(m: &Model) -> i32 {
@@ -217,18 +258,22 @@ fn write_outputs(m: &Model, h: &History, sw: Switch) -> std::io::Result<i32> {
     } else {
         normal_termination()
     };
+    let faults = match sw {
+        Switch::Fault(f) => f,
+        _ => output::Faults::default(),
+    };
     if sw != Switch::NoOutput {
         if let Some(dt) = m.dt_rcforc {
             match sw {
                 Switch::Garbage => std::fs::write("rcforc", garbage(4096))?,
-                _ => write("rcforc", &output::rcforc(m, h, dt))?,
+                _ => write("rcforc", &output::rcforc(m, h, dt, &resolve(faults, m, dt)))?,
             }
         }
         if let Some(dt) = m.dt_glstat {
-            write("glstat", &output::glstat(m, h, dt))?;
+            write("glstat", &output::glstat(m, h, dt, &resolve(faults, m, dt)))?;
         }
         if let Some(dt) = m.dt_nodout {
-            write("nodout", &output::nodout(m, h, dt))?;
+            write("nodout", &output::nodout(m, h, dt, &resolve(faults, m, dt)))?;
         }
     }
     let mut notes = vec![format!(

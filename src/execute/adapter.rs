@@ -16,7 +16,14 @@ use std::path::{Path, PathBuf};
 
 use regex::Regex;
 
-use super::{Outcome, ResponseProblem, STDERR_FILE, STDOUT_FILE};
+use super::{Outcome, Quality, ResponseProblem, STDERR_FILE, STDOUT_FILE};
+
+/// A successful judgement: the response, and the run's sanity figures when the adapter has them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Judged {
+    pub response: f64,
+    pub quality: Option<Quality>,
+}
 
 /// How a solver's outputs are judged. Implementations must be pure functions of the run directory.
 pub trait Adapter: Send + Sync {
@@ -28,6 +35,14 @@ pub trait Adapter: Send + Sync {
 
     /// The response, or why it could not be read (an `Outcome::BadResponse`).
     fn extract(&self, dir: &Path) -> Result<f64, Outcome>;
+
+    /// The response with the run's sanity figures (default: [`Adapter::extract`], no figures).
+    fn judge(&self, dir: &Path) -> Result<Judged, Outcome> {
+        self.extract(dir).map(|response| Judged {
+            response,
+            quality: None,
+        })
+    }
 
     /// The output files (relative to the run directory) the judgement reads: what `--record`
     /// keeps and `--replay` serves.

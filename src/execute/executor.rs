@@ -302,7 +302,8 @@ async fn unit(
             attempts: attempt,
             started_ms,
             ended_ms: now_ms(),
-            response,
+            response: response.map(|j| j.response),
+            quality: response.and_then(|j| j.quality),
         };
         let committer = ctx.committer.clone();
         let to_commit = record.clone();
@@ -317,7 +318,7 @@ async fn unit(
 }
 
 enum Attempt {
-    Judged(Outcome, Option<f64>),
+    Judged(Outcome, Option<super::Judged>),
     Cancelled,
     Error(String),
 }
@@ -505,7 +506,7 @@ fn on_cancel(phase: Phase, reason: Option<CancelReason>, group: &GroupGuard, gra
 /// Classifies an exited attempt. Order: signal, failure text, exit code, response.
 /// Failure text comes before the exit code because it says more, and because some solvers exit 0
 /// after an error (the exit code is not a reliable signal).
-fn judge(status: ExitStatus, adapter: &dyn Adapter, dir: &Path) -> (Outcome, Option<f64>) {
+fn judge(status: ExitStatus, adapter: &dyn Adapter, dir: &Path) -> (Outcome, Option<super::Judged>) {
     if let Some(signal) = status.signal() {
         return (Outcome::Signal { signal }, None);
     }
@@ -517,8 +518,8 @@ fn judge(status: ExitStatus, adapter: &dyn Adapter, dir: &Path) -> (Outcome, Opt
         Some(code) => return (Outcome::NonZeroExit { code }, None),
         None => return (Outcome::NonZeroExit { code: -1 }, None),
     }
-    match adapter.extract(dir) {
-        Ok(v) => (Outcome::Success, Some(v)),
+    match adapter.judge(dir) {
+        Ok(j) => (Outcome::Success, Some(j)),
         Err(outcome) => (outcome, None),
     }
 }

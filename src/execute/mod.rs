@@ -67,7 +67,8 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-pub use adapter::{Adapter, CommandAdapter};
+pub use crate::extract::lsdyna::quality::Quality;
+pub use adapter::{Adapter, CommandAdapter, Judged};
 pub use executor::{CancelReason, Canceller, Event, Executor, Summary, cancel_on_signals};
 pub use lock::{Holder, LockError, OutLock};
 pub use lsdyna::LsDynaAdapter;
@@ -107,6 +108,14 @@ pub enum Outcome {
     FailureText {
         file: String,
         line: String,
+    },
+    /// A history output parsed but is not complete: a gap in its times, an end short of the
+    /// termination time, unpaired rcforc rows, a nodout block without a requested node, a
+    /// cut-off last line. `line` is 1-based in `file`.
+    IncompleteOutput {
+        file: String,
+        line: usize,
+        detail: String,
     },
     /// The response was missing, empty or not a number.
     BadResponse {
@@ -149,6 +158,7 @@ pub enum OutcomeClass {
     NonZeroExit,
     FailureText,
     BadResponse,
+    IncompleteOutput,
     Timeout,
     Signal,
     Cancelled,
@@ -162,6 +172,7 @@ impl Outcome {
             Outcome::NonZeroExit { .. } => OutcomeClass::NonZeroExit,
             Outcome::FailureText { .. } => OutcomeClass::FailureText,
             Outcome::BadResponse { .. } => OutcomeClass::BadResponse,
+            Outcome::IncompleteOutput { .. } => OutcomeClass::IncompleteOutput,
             Outcome::Timeout => OutcomeClass::Timeout,
             Outcome::Signal { .. } => OutcomeClass::Signal,
             Outcome::Cancelled { .. } => OutcomeClass::Cancelled,
@@ -188,6 +199,9 @@ impl std::fmt::Display for Outcome {
                 };
                 write!(f, "{what} response: {detail}")
             }
+            Outcome::IncompleteOutput { file, line, detail } => {
+                write!(f, "incomplete output: {file}:{line}: {detail}")
+            }
             Outcome::Timeout => write!(f, "timeout"),
             Outcome::Signal { signal } => write!(f, "killed by signal {signal}"),
             Outcome::Cancelled { job } => write!(f, "cancelled with scancel (Slurm job {job})"),
@@ -209,6 +223,9 @@ pub struct RunRecord {
     pub ended_ms: u64,
     /// The extracted response; `Some` exactly when the outcome is a success.
     pub response: Option<f64>,
+    /// The run's physical-sanity figures (glstat energies), when its adapter reports them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quality: Option<Quality>,
 }
 
 /// How often, on which outcomes, and after how long a failed attempt is retried.

@@ -77,6 +77,9 @@ pub fn find(dir: &Path, key: &str) -> Option<PathBuf> {
 pub fn record(dir: &Path, run_dir: &Path, manifest: &Manifest) -> std::io::Result<()> {
     let at = dir.join(&manifest.key);
     fs::create_dir_all(&at)?;
+    // An output the run did not write (glstat of a deck that asks for none) is not recorded.
+    let mut manifest = manifest.clone();
+    manifest.outputs.retain(|rel| run_dir.join(rel).is_file());
     for rel in &manifest.outputs {
         let from = run_dir.join(rel);
         let to = at.join(rel);
@@ -85,7 +88,7 @@ pub fn record(dir: &Path, run_dir: &Path, manifest: &Manifest) -> std::io::Resul
         }
         fs::copy(&from, &to).map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", from.display())))?;
     }
-    let text = serde_json::to_vec_pretty(manifest).expect("manifests serialize");
+    let text = serde_json::to_vec_pretty(&manifest).expect("manifests serialize");
     write_atomic(&at.join(MANIFEST), &text)
 }
 

@@ -24,10 +24,11 @@ use super::{
     RunSpec, RunStore, progress,
 };
 use crate::error::{Error, InputError};
+use crate::extract::lsdyna::quality::{Flag, Gates, Quality};
 use crate::plan::Plan;
 use crate::render::mesh::{self, TubeSpec};
 use crate::render::{self, Inputs, Renderer};
-use crate::study::{Response, SolverSimulation, Study};
+use crate::study::{QualitySettings, Response, SolverSimulation, Study};
 
 /// Directory (under `--out`) of the generated meshes, one file per design, named by content.
 pub const MESHES_DIR: &str = "meshes";
@@ -53,6 +54,7 @@ pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
         Response::CrushForce { window, source } => Arc::new(LsDynaAdapter {
             window: *window,
             source: source.clone(),
+            deck: sim.templates.first().map(|t| t.output.clone()).unwrap_or_default(),
         }),
         Response::Dat(ccx) => Arc::new(ccx.clone()),
     })
@@ -217,10 +219,12 @@ pub fn replay_runs(
             continue;
         };
         let started = now_ms();
-        let (outcome, response) = match adapter.find_failure(&at) {
+        let scratch = judging_dir(store, key, &prepared.inputs[key], &at)?;
+        let dir = &scratch.0;
+        let (outcome, judged) = match adapter.find_failure(dir) {
             Some(failure) => (failure, None),
-            None => match adapter.extract(&at) {
-                Ok(v) => (Outcome::Success, Some(v)),
+            None => match adapter.judge(dir) {
+                Ok(j) => (Outcome::Success, Some(j)),
                 Err(o) => (o, None),
             },
         };
@@ -230,11 +234,56 @@ pub fn replay_runs(
             attempts: 1,
             started_ms: started,
             ended_ms: now_ms(),
-            response,
+            response: judged.map(|j| j.response),
+            quality: judged.and_then(|j| j.quality),
         };
         store.commit(record)?;
     }
     Ok((SweepResult::from_store(store, prepared, reused, Vec::new()), misses))
+}
+
+/// Directory (under `--out`) where a replayed run is judged, then removed.
+pub const REPLAY_SCRATCH: &str = ".replay";
+
+/// A scratch directory laid out as a live run's: the run's rendered inputs (the deck the adapter
+/// reads its output intervals from) and the recording's outputs, copied. Removed after judging
+/// ([`ScratchDir`]), so a replay leaves no run directory behind.
+fn judging_dir(store: &RunStore, key: &str, inputs: &Inputs, recording: &std::path::Path) -> Result<ScratchDir, Error> {
+    let dir = store.out().join(REPLAY_SCRATCH).join(key);
+    let fail = |p: &std::path::Path, e: std::io::Error| Error::Failed(format!("{}: {e}", p.display()));
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir).map_err(|e| fail(&dir, e))?;
+    }
+    let scratch = ScratchDir(dir.clone());
+    for (rel, bytes) in inputs {
+        if !rel.components().all(|c| matches!(c, std::path::Component::Normal(_))) {
+            continue; // refused by RunStore::prepare for live runs as well
+        }
+        let path = dir.join(rel);
+        std::fs::create_dir_all(path.parent().unwrap_or(&dir)).map_err(|e| fail(&path, e))?;
+        std::fs::write(&path, bytes).map_err(|e| fail(&path, e))?;
+    }
+    std::fs::create_dir_all(&dir).map_err(|e| fail(&dir, e))?;
+    for entry in std::fs::read_dir(recording).map_err(|e| fail(recording, e))? {
+        let entry = entry.map_err(|e| fail(recording, e))?;
+        if entry.file_name() == replay::MANIFEST || !entry.path().is_file() {
+            continue;
+        }
+        std::fs::copy(entry.path(), dir.join(entry.file_name())).map_err(|e| fail(&entry.path(), e))?;
+    }
+    Ok(scratch)
+}
+
+/// A directory removed (with its parent, when empty) when dropped.
+struct ScratchDir(PathBuf);
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+        if let Some(parent) = self.0.parent() {
+            let _ = std::fs::remove_dir(parent); // only succeeds when empty
+        }
+    }
 }
 
 fn now_ms() -> u64 {
@@ -315,6 +364,8 @@ pub struct SweepResult {
     pub responses: Vec<Option<f64>>,
     /// Outcome class of each planned run's record, if any.
     pub classes: Vec<Option<OutcomeClass>>,
+    /// Each planned run's sanity figures (glstat energies), when its record has them.
+    pub quality: Vec<Option<Quality>>,
     /// Planned runs that were finished before this pass.
     pub reused: usize,
     /// Errors not tied to a run's outcome (a record that could not be committed).
@@ -334,12 +385,41 @@ impl SweepResult {
             .iter()
             .map(|k| store.record(k).map(|r| r.outcome.class()))
             .collect();
+        let quality = prepared
+            .keys
+            .iter()
+            .map(|k| store.record(k).and_then(|r| r.quality))
+            .collect();
         SweepResult {
             responses,
             classes,
+            quality,
             reused,
             errors,
         }
+    }
+
+    /// The gates each planned run breaks (empty: sound, failed, or no figures to check).
+    pub fn flags(&self, gates: &Gates) -> Vec<Vec<Flag>> {
+        self.responses
+            .iter()
+            .zip(&self.quality)
+            .map(|(y, q)| match (y, q) {
+                (Some(_), Some(q)) => gates.flags(q),
+                _ => Vec::new(),
+            })
+            .collect()
+    }
+
+    /// The responses the surrogates are fitted to: a suspect run's is left out unless the study
+    /// says `quality.suspect: use`.
+    pub fn usable(&self, settings: &QualitySettings) -> Vec<Option<f64>> {
+        let flags = self.flags(&settings.gates);
+        self.responses
+            .iter()
+            .zip(&flags)
+            .map(|(y, f)| if f.is_empty() || settings.use_suspect { *y } else { None })
+            .collect()
     }
 }
 

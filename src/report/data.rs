@@ -151,6 +151,9 @@ pub struct RunRow {
     pub attempts: u32,
     pub seconds: Option<f64>,
     pub response: Option<f64>,
+    /// The quality gates a successful run breaks, in words (empty: sound or not checked).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub flags: Vec<String>,
 }
 
 /// A force–displacement curve as drawn: thinned to at most [`super::curves::MAX_POINTS`] points.
@@ -285,6 +288,7 @@ impl ReportData {
                 attempts: record.map_or(0, |r| r.attempts),
                 seconds: record.map(|r| r.ended_ms.saturating_sub(r.started_ms) as f64 / 1000.0),
                 response: record.and_then(|r| r.response),
+                flags: Vec::new(),
             });
         }
         self

@@ -905,8 +905,9 @@ impl Page<'_> {
             .map(|i| i.parameters.iter().map(|p| p.label()).collect())
             .unwrap_or_default();
         let mut order: Vec<usize> = (0..rows.len()).collect();
-        // Failures first (then runs without a record), each group in plan order.
+        // Failures first, then runs without a record, then suspect runs, each group in plan order.
         order.sort_by_key(|&i| match rows[i].class.as_deref() {
+            Some("success") if rows[i].flags.is_empty() => 3,
             Some("success") => 2,
             Some(_) => 0,
             None => 1,
@@ -915,6 +916,7 @@ impl Page<'_> {
             .iter()
             .filter(|r| r.class.as_deref().is_some_and(|c| c != "success"))
             .count();
+        let suspect = rows.iter().filter(|r| !r.flags.is_empty()).count();
         let total: f64 = rows.iter().filter_map(|r| r.seconds).sum();
         let time = match self.r.runs.as_ref().and_then(|r| r.replayed_from.as_deref()) {
             Some(dir) => format!(
@@ -923,8 +925,15 @@ impl Page<'_> {
             ),
             None => format!("{} of solver time in all", seconds(total)),
         };
+        let suspects = match (suspect, self.r.runs.as_ref().and_then(|r| r.suspect_runs.first())) {
+            (0, _) => String::new(),
+            (n, Some(first)) if first.used => {
+                format!(", {n} suspect (breaking a quality gate; used by the surrogates)")
+            }
+            (n, _) => format!(", {n} suspect (breaking a quality gate; left out of the surrogates)"),
+        };
         let mut s = format!(
-            "<p>{} runs, {failed} failed; {time}.</p><table><tr><th class=l>key</th><th class=l>design</th><th class=l>role</th>",
+            "<p>{} runs, {failed} failed{suspects}; {time}.</p><table><tr><th class=l>key</th><th class=l>design</th><th class=l>role</th>",
             rows.len()
         );
         for p in &params {
@@ -953,11 +962,18 @@ impl Page<'_> {
             let _ = write!(
                 s,
                 "<td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
-                escape(r.class.as_deref().unwrap_or("no record")),
+                escape(match r.class.as_deref() {
+                    Some("success") if !r.flags.is_empty() => "suspect",
+                    other => other.unwrap_or("no record"),
+                }),
                 r.attempts,
                 r.seconds.map_or("–".into(), seconds),
                 r.response.map_or("–".into(), |v| significant(v, 5)),
-                if ok { String::new() } else { escape(&r.outcome) }
+                if ok {
+                    escape(&r.flags.join("; "))
+                } else {
+                    escape(&r.outcome)
+                }
             );
         }
         s + "</table>"

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::calibrate::identifiability::Identifiability;
 use crate::calibrate::{CalibrationError, Discrepancy, Model};
 use crate::diagnose::Diagnosis;
+use crate::extract::lsdyna::quality::{Flag, Gates};
 use crate::pipeline::{Calibrated, Calibration};
 use crate::study::Study;
 
@@ -147,6 +148,29 @@ pub struct RunsResult {
     /// absent when a solver ran. Run times of a replay are the replay's, not the solver's.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub replayed_from: Option<String>,
+    /// Runs that succeeded but break a quality gate (counted in `succeeded` too).
+    #[serde(default)]
+    pub suspect: usize,
+    /// The gates the runs were judged by (`simulation.quality`), when the runs report figures.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub gates: Option<Gates>,
+    /// Every suspect run, with the gates it breaks and whether the surrogates used it.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub suspect_runs: Vec<SuspectRun>,
+}
+
+/// A run that broke a quality gate: kept and shown, used only with `quality.suspect: use`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SuspectRun {
+    pub key: String,
+    pub design: String,
+    /// `sample`, `check` or `extension`.
+    pub role: String,
+    pub parameters: IndexMap<String, f64>,
+    pub response: f64,
+    pub flags: Vec<Flag>,
+    /// Whether the surrogates were fitted with it.
+    pub used: bool,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

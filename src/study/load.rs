@@ -27,6 +27,9 @@ mod extension;
 #[path = "load_curves.rs"]
 mod curves;
 
+#[path = "load_quality.rs"]
+mod quality;
+
 /// Loads and validates a study file and everything it references.
 pub fn load(path: &Path) -> Result<Study, InputError> {
     let source = std::fs::read_to_string(path)

@@ -17,10 +17,11 @@ use crate::extract::crush::{Sign, SimSource, Window};
 use crate::extract::lsdyna::rcforc::Side;
 
 /// Outcome classes a retry policy may name, by their study-file names.
-const RETRY_CLASSES: [(&str, OutcomeClass); 5] = [
+const RETRY_CLASSES: [(&str, OutcomeClass); 6] = [
     ("non_zero_exit", OutcomeClass::NonZeroExit),
     ("failure_text", OutcomeClass::FailureText),
     ("bad_response", OutcomeClass::BadResponse),
+    ("incomplete_output", OutcomeClass::IncompleteOutput),
     ("timeout", OutcomeClass::Timeout),
     ("signal", OutcomeClass::Signal),
 ];
@@ -57,6 +58,10 @@ impl Checker<'_> {
         if let Some(n) = &sim.replay {
             let (l, c) = self.key_position("replay", n);
             return Err(at("replay", l, c));
+        }
+        if let Some(n) = &sim.quality {
+            let (l, c) = self.key_position("quality", n);
+            return Err(at("quality", l, c));
         }
         Ok(())
     }
@@ -181,6 +186,12 @@ impl Checker<'_> {
             replay,
             parameter_width: lsdyna.then_some(10),
             slurm: cluster.slurm,
+            quality: sim
+                .quality
+                .as_ref()
+                .map(|q| self.quality(q))
+                .transpose()?
+                .unwrap_or_default(),
         })
     }
 

@@ -19,7 +19,9 @@ use std::path::PathBuf;
 pub use experiments::{Experiments, TestDesign};
 pub use expr::{Expression, Symbols};
 pub use load::load;
-pub use solver::{CopiedFile, MeshSpec, Response, SamplingMethod, SolverSimulation, SurrogateKind, Template};
+pub use solver::{
+    CopiedFile, MeshSpec, QualitySettings, Response, SamplingMethod, SolverSimulation, SurrogateKind, Template,
+};
 
 use crate::calibrate::Bounds;
 use crate::error::InputError;

@@ -72,6 +72,18 @@ pub struct SimulationFile {
     pub mesh: Option<Spanned<MeshFile>>,
     /// Default replay directory (relative to the study file), used when the solver is not on PATH.
     pub replay: Option<Spanned<String>>,
+    /// The gates a run's glstat energies must keep, and what becomes of runs that break them.
+    pub quality: Option<Spanned<QualityFile>>,
+}
+
+/// `simulation.quality`: limits as fractions, and `suspect: exclude | use`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QualityFile {
+    pub hourglass: Option<Spanned<f64>>,
+    pub energy: Option<Spanned<f64>>,
+    pub added_mass: Option<Spanned<f64>>,
+    pub suspect: Option<Spanned<String>>,
 }
 
 /// `simulation.mesh`.

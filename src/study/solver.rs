@@ -32,6 +32,16 @@ pub struct SolverSimulation {
     pub parameter_width: Option<usize>,
     /// `solver.slurm`: settings of `--executor slurm` (defaults when absent).
     pub slurm: Option<crate::execute::slurm::SlurmSettings>,
+    /// `simulation.quality`: the gates on each run's sanity figures (defaults when absent).
+    pub quality: QualitySettings,
+}
+
+/// `simulation.quality`: a run that breaks a gate is `suspect`; suspect runs feed the surrogates
+/// only with `suspect: use`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct QualitySettings {
+    pub gates: crate::extract::lsdyna::quality::Gates,
+    pub use_suspect: bool,
 }
 
 /// `simulation.response`.

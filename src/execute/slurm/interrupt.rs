@@ -161,6 +161,7 @@ pub fn cancel(out: &Path, store: &mut RunStore) -> Result<Cancelled, Error> {
                 started_ms: entry.submitted_ms,
                 ended_ms: now_ms(),
                 response: None,
+                quality: None,
             };
             store.commit(record).map_err(Error::from)?;
             done.cancelled_runs += 1;

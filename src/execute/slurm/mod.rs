@@ -602,6 +602,7 @@ fn collect(
             started_ms: entry.submitted_ms,
             ended_ms: now_ms(),
             response: None,
+            quality: None,
         };
         store.commit(record.clone()).map_err(Error::from)?;
         summary.records.push(record);
@@ -645,6 +646,7 @@ mod tests {
             started_ms: 2000,
             ended_ms: 3000,
             response: Some(1.5),
+            quality: None,
         };
         super::super::store::Committer::new(dir.path().join(RESULTS_DIR))
             .commit(&done)

@@ -23,6 +23,10 @@ pub struct GlstatStep {
     pub cycle: Option<u64>,
     pub time: f64,
     pub values: BTreeMap<String, f64>,
+    /// The line of the step's ` time....` label.
+    pub line: usize,
+    /// The line of each label, by key (what the completeness check names).
+    pub lines: BTreeMap<String, usize>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -110,6 +114,8 @@ pub fn parse(file: &Path, text: &str) -> Result<Glstat, InputError> {
                 cycle: pending_cycle.take(),
                 time: value,
                 values: BTreeMap::new(),
+                line: no,
+                lines: BTreeMap::new(),
             });
             continue;
         }
@@ -121,6 +127,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Glstat, InputError> {
                 format!("`{key}` before the first ` time....` line of a step"),
             ));
         };
+        step.lines.insert(key.clone(), no);
         if step.values.insert(key.clone(), value).is_some() {
             return Err(err(file, text, no, format!("`{key}` appears twice in one step")));
         }

@@ -5,10 +5,16 @@
 //! Formats come from facts.md and from LSTC's `l2a.c` (the binout-to-ASCII converter, which prints the
 //! same layouts the solver writes); details are in each module's doc and in
 //! `fixtures/format-samples/README.md`. Everything is parsed by tokens, not by columns.
+//!
+//! Beyond parsing: [`controls`] reads what a deck asks of its outputs, [`complete`] checks parsed
+//! histories against it, and [`quality`] computes the energy figures of glstat and their gates.
 
 pub mod bndout;
+pub mod complete;
+pub mod controls;
 pub mod glstat;
 pub mod nodout;
+pub mod quality;
 pub mod rcforc;
 pub mod secforc;
 pub mod spcforc;

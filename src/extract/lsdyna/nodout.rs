@@ -39,6 +39,17 @@ pub struct Nodout {
     pub steps: Vec<(u64, f64)>,
     pub nodes: BTreeMap<u64, NodeSeries>,
     pub rotations: BTreeMap<u64, NodeRotSeries>,
+    /// Each block in file order: its heading's line, time, and the nodes of its translational rows.
+    pub blocks: Vec<NodoutBlock>,
+}
+
+/// One ` n o d a l   p r i n t   o u t` block: what the completeness check walks.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct NodoutBlock {
+    pub line: usize,
+    pub time: f64,
+    /// Node ids of the translational rows, in file order (with repeats, if the file repeats them).
+    pub nodes: Vec<u64>,
 }
 
 static HEADING: LazyLock<Regex> = LazyLock::new(|| {
@@ -83,6 +94,11 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
                 )
             })?;
             out.steps.push((step, time));
+            out.blocks.push(NodoutBlock {
+                line: no,
+                time,
+                nodes: Vec::new(),
+            });
             state = Block::Heading;
             continue;
         }
@@ -155,6 +171,9 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
             }
         };
         if state == Block::Trans {
+            if let Some(b) = out.blocks.last_mut() {
+                b.nodes.push(id);
+            }
             let s = out.nodes.entry(id).or_default();
             s.time.push(time);
             for k in 0..3 {

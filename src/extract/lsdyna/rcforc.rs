@@ -61,6 +61,17 @@ pub struct Rcforc {
     pub interfaces: BTreeMap<(Side, u64), ContactSeries>,
     /// Interface numbers reported as single-surface (resultants undefined).
     pub single_surface: Vec<u64>,
+    /// Every data row in file order, with its line: what the completeness check walks.
+    pub rows: Vec<RowAt>,
+}
+
+/// Where one data row of an rcforc file is, and what it holds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowAt {
+    pub line: usize,
+    pub side: Side,
+    pub interface: u64,
+    pub time: f64,
 }
 
 pub fn read(file: &Path) -> Result<Rcforc, InputError> {
@@ -127,6 +138,12 @@ pub fn parse(file: &Path, text: &str) -> Result<Rcforc, InputError> {
                 ));
             }
         }
+        out.rows.push(RowAt {
+            line: no,
+            side,
+            interface: row.id,
+            time: row.time,
+        });
         s.time.push(row.time);
         s.x.push(row.f[0]);
         s.y.push(row.f[1]);
