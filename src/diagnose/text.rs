@@ -445,6 +445,19 @@ fn limits(f: &Facts) -> Vec<String> {
         if let Some(x) = &e.extension {
             out.push(x.meaning.clone());
         }
+        // Identifiability of the enlarged parameter set: γ nearly a function of one θ_j.
+        let cause = f.candidates.iter().find(|c| c.name == e.cause);
+        for (name, r) in cause.iter().flat_map(|c| c.separability.correlation.iter()) {
+            if r.abs() > 0.99 {
+                let se = e.parameter_se.as_ref().and_then(|s| s.get(name)).copied();
+                out.push(format!(
+                    "In the extended model γ and {name} are correlated at {r:+.3}: the tests fix them mostly together \
+                     ({name} = {} ± {} in the extended fit); an independent measurement of {name} would pin both.",
+                    num(e.parameters[name]),
+                    se.map_or("?".into(), num)
+                ));
+            }
+        }
         if !e.before_within_noise.is_empty() && e.measured_on == "validation" {
             out.push(format!(
                 "At {} the uncorrected prediction is already within the noise, so the validation gain there says \
