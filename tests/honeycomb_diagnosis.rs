@@ -6,6 +6,8 @@
 use std::path::PathBuf;
 use std::process::Command;
 
+mod crushsim_bin;
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -90,7 +92,7 @@ fn names_strain_hardening_and_recovers_the_yield_stress() {
 
 #[test]
 fn crushsim_live_gives_the_replayed_diagnosis() {
-    let crushsim_dir = PathBuf::from(env!("CARGO_BIN_EXE_crushsim"))
+    let crushsim_dir = crushsim_bin::crushsim()
         .parent()
         .unwrap()
         .to_path_buf();
