@@ -967,9 +967,5 @@ fn list(names: &[String]) -> String {
     }
 }
 
-pub fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
+/// Kept under its old name for the page's sections; the plots use it too (see [`super::markup`]).
+pub use super::markup::escape;

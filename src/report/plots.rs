@@ -122,7 +122,10 @@ fn svg_sized(size: (u32, u32), draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>
     match outcome {
         // Inline SVG in HTML needs no namespace declaration; leaving it out keeps the page free of URLs.
         Ok(()) => out.replacen(" xmlns=\"http://www.w3.org/2000/svg\"", "", 1),
-        Err(e) => format!("<p class=warn>plot failed: {}</p>", super::html::escape(&e.to_string())),
+        Err(e) => format!(
+            "<p class=warn>plot failed: {}</p>",
+            super::markup::escape(&e.to_string())
+        ),
     }
 }
 
