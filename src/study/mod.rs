@@ -22,6 +22,8 @@ pub use load::load;
 pub use solver::{CopiedFile, MeshSpec, Response, SamplingMethod, SolverSimulation, SurrogateKind, Template};
 
 use crate::calibrate::Bounds;
+/// The calibration methods a study names (defined beside the calibration they select).
+pub use crate::calibrate::Method;
 use crate::error::InputError;
 
 /// A validated study.
@@ -80,30 +82,6 @@ pub enum Simulation {
     Expression(Expression),
     /// A program run for every planned (design, parameter sample); surrogates fitted to its runs.
     Solver(Box<SolverSimulation>),
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Method {
-    LeastSquares,
-    Sensitivity,
-    Bayesian,
-}
-
-impl Method {
-    /// The name used in the study file and in `results.json`.
-    pub fn key(self) -> &'static str {
-        match self {
-            Method::LeastSquares => "least_squares",
-            Method::Sensitivity => "sensitivity",
-            Method::Bayesian => "bayesian",
-        }
-    }
-
-    pub fn from_key(key: &str) -> Option<Method> {
-        [Method::LeastSquares, Method::Sensitivity, Method::Bayesian]
-            .into_iter()
-            .find(|m| m.key() == key)
-    }
 }
 
 #[derive(Debug, Clone)]
