@@ -316,7 +316,7 @@ fn run_solver(
     let prepared = sweep::prepare(study, sim, &plan)?;
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     let signals = Signals::install(&runtime)?;
-    let mut store = RunStore::open(out)?;
+    let mut store = crate::execute::open_store(out)?;
     sweep::write_meshes(out, &prepared)?;
     let swept = match &modes.replay {
         Some(dir) => {

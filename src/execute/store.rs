@@ -18,7 +18,7 @@
 //! run directories with no record (half-done: the run was interrupted) so they are rerun from
 //! scratch. Only successful records count as finished.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fs::{self, File};
 use std::io::Write;
 use std::path::{Component, Path, PathBuf};
@@ -126,8 +126,16 @@ pub struct RunStore {
 }
 
 impl RunStore {
-    /// Creates `out` if needed, takes its lock, loads the records and cleans half-done runs.
+    /// Creates `out` if needed, takes its lock, loads the records and cleans half-done runs, with
+    /// no other owner of run directories (see [`RunStore::open_keeping`]).
     pub fn open(out: &Path) -> Result<RunStore, StoreError> {
+        Self::open_keeping(out, |_| BTreeSet::new())
+    }
+
+    /// [`RunStore::open`], keeping the run directories that another owner claims: `claimed` is
+    /// read under the lock and returns the keys whose directories are in use without a record yet
+    /// (the Slurm executor's journal: runs handed to jobs). The store does not know who claims.
+    pub fn open_keeping(out: &Path, claimed: impl FnOnce(&Path) -> BTreeSet<String>) -> Result<RunStore, StoreError> {
         fs::create_dir_all(out).map_err(io_at(out))?;
         let lock = OutLock::acquire(out)?;
         let runs = out.join(RUNS_DIR);
@@ -136,8 +144,8 @@ impl RunStore {
         fs::create_dir_all(&results).map_err(io_at(&results))?;
 
         let records = load_records(&results, true)?;
-        // Runs submitted to Slurm and not yet collected: their directories are in use.
-        let submitted = super::slurm::journaled_keys(out);
+        // Runs handed to someone else (Slurm jobs) and not yet collected: their directories are in use.
+        let submitted = claimed(out);
 
         let mut cleaned = Vec::new();
         for entry in fs::read_dir(&runs).map_err(io_at(&runs))? {
