@@ -1,9 +1,9 @@
-//! `lab run`: study → model → calibrate → report, one typed value handed from stage to stage.
+//! The stages' numerics wiring: what [`super::run`] calls between the run engine and the report.
 //!
-//! A closed-form study's model is its expression. A solver study's model is built from runs:
-//! [`crate::plan::Plan`] → [`crate::execute::sweep`] (render, execute) → responses per planned run →
-//! [`surrogates`] (one per design) → the same calibration; the Bayesian method is fed the sample
-//! runs themselves ([`simulation_data`]) instead of sampling the model.
+//! A closed-form study's model is its expression ([`model`]). A solver study's model is built from
+//! runs: responses per planned run → [`surrogates`] (one per design) → the same calibration; the
+//! Bayesian method is fed the sample runs themselves ([`simulation_data`]) instead of sampling the
+//! model. Nothing here reads or writes files.
 
 use nalgebra::{DMatrix, DVector};
 
