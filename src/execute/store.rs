@@ -10,13 +10,36 @@
 //! and its bytes, both length-prefixed), the argv and the adapter identity. Equal inputs give equal
 //! keys, so a run whose inputs did not change is found again; a changed byte gives a new key.
 //!
-//! A record is committed atomically: written to `results/.<key>.json.tmp`, fsynced, renamed over
-//! `results/<key>.json`, then the directory is fsynced. Readers see the old record or the new one,
-//! never a torn file, whatever moment the process dies at.
+//! # Design note
 //!
-//! Opening the store takes the lock, loads every record, deletes leftover temp files and deletes
-//! run directories with no record (half-done: the run was interrupted) so they are rerun from
-//! scratch. Only successful records count as finished.
+//! **States of a run, as the disk shows them.**
+//!
+//! ```text
+//! absent ──prepare──► dir, no record ──commit──► dir + record (success: finished, never rerun)
+//!  (no dir)           (inputs written;           dir + record (failure: kept for `lab status`,
+//!                      solver may be running)                   rerun by the next `lab run`)
+//! ```
+//!
+//! **Invariants.** A record is committed atomically: written to `results/.<key>.json.tmp`,
+//! fsynced, renamed over `results/<key>.json`, then the directory is fsynced. Readers see the old
+//! record or the new one, never a torn file, whatever moment the process dies at. A record is
+//! written only once its run is over (its outputs judged, or the run given up: a lost or cancelled
+//! Slurm job), never while a solver may still change its outcome. Only the lock holder prepares
+//! and deletes directories; only successful records count as finished.
+//!
+//! **What a kill leaves.** At most: a `.tmp` record (never read; deleted at the next open) and run
+//! directories without a record (half-done). Opening the store takes the lock, loads every record,
+//! deletes leftover temp files and deletes the half-done run directories, so they are rerun from
+//! scratch — except the directories that another owner claims ([`RunStore::open_keeping`]: the
+//! Slurm executor's journal of runs handed to jobs, which may be writing there now). A solver
+//! that outlived a SIGKILLed `lab` may still write into a directory the next open deletes; that
+//! run is redone, never mistaken for finished, because only a committed record finishes a run.
+//!
+//! **Why.** Content addressing makes resume and "rerun exactly what changed" the same mechanism,
+//! with no index to keep consistent; the atomic commit is the single point at which a run becomes
+//! finished, so every crash is recoverable by looking at the records alone. The store does not know
+//! who else uses run directories: the claim comes in as a function, so the run engine's executors
+//! (local, Slurm) sit above the store and the store imports neither.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs::{self, File};
