@@ -6,6 +6,16 @@ use super::results::{Results, Role, SplitResult, Units};
 
 /// Renders the summary as plain text (no colour: it is also what a log file gets).
 pub fn render(results: &Results) -> String {
+    let mut out = methods_table(results);
+    out.push_str(&predictions_table(results));
+    let id = &results.identifiability;
+    let _ = writeln!(out, "\nidentifiability: {}", id.note);
+    write_diagnosis(&mut out, results);
+    out
+}
+
+/// Per method: the parameters, the 95 % interval or the constant discrepancy, and the errors.
+fn methods_table(results: &Results) -> String {
     let mut out = String::new();
     let names: Vec<&String> = results
         .calibration
@@ -60,7 +70,12 @@ pub fn render(results: &Results) -> String {
             percent(r.validation_error)
         );
     }
+    out
+}
 
+/// Per tested design: the measurement and each method's prediction with its relative error.
+fn predictions_table(results: &Results) -> String {
+    let mut out = String::new();
     let _ = writeln!(out, "\npredictions (relative error)");
     let measured = Units::label(results.units.response.as_ref(), "measured");
     let mut header = format!("{:<12} {:<10} {:>14}", "design", "role", measured);
@@ -84,9 +99,6 @@ pub fn render(results: &Results) -> String {
             let _ = writeln!(out, "{line}");
         }
     }
-    let id = &results.identifiability;
-    let _ = writeln!(out, "\nidentifiability: {}", id.note);
-    write_diagnosis(&mut out, results);
     out
 }
 
