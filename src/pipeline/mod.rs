@@ -1,9 +1,12 @@
 //! `lab run` as one function: [`run`] is the place to start reading.
 //!
 //! ```text
-//! study ─► plan ─► render ─► execute (+ extract) ─► fit ─► calibrate ─► diagnose ─► splits ─► report ─► write
-//!          Plan    Prepared  Executed               SurrogateModel      Diagnosis  SplitResult Results  files
-//!                                                   (closed form: the expression)            ReportData
+//! solver study:  source ─► plan ─► render ─► execute, extract ─► fit ──┐
+//!                Source    Plan    Prepared  Executed            SurrogateModel
+//! closed form:   closed_form (the expression is the model) ────────────┤
+//!                                                                      ▼
+//! calibrate ─► diagnose ─► splits ─► results ─► report data ─► write
+//! Calibration  Diagnosis   SplitResults  Results  ReportData    OUT/results.json, report-data.json, report.html
 //! ```
 //!
 //! Each stage is one call with a typed input and a typed output. The pipeline never prints and
