@@ -173,7 +173,7 @@ fn run(study: &Study, options: &RunOptions) -> Result<i32, Error> {
     Ok(outcome.exit_code())
 }
 
-/// The pipeline's events on stderr (the run engine's progress bar draws itself there too).
+/// The pipeline's events, and the run engine's progress bar, on stderr.
 struct Stderr;
 
 impl Reporter for Stderr {
@@ -201,6 +201,11 @@ impl Reporter for Stderr {
                 out.display()
             ),
         }
+    }
+
+    /// A progress bar on stderr when it is a terminal.
+    fn progress(&mut self, runs: u64) -> indicatif::ProgressBar {
+        progress::bar(runs)
     }
 }
 

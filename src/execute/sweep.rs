@@ -1,5 +1,5 @@
 //! The sweep of a solver study: every planned run rendered, keyed, and — unless the store already
-//! holds its success — run by the [`Executor`], with progress on stderr.
+//! holds its success — run by the [`Executor`], its progress shown by the caller's display.
 //!
 //! ```text
 //! Plan ──render──► Prepared {key per planned run, inputs per key} ──store.prepare──► RunSpec
@@ -367,7 +367,9 @@ impl SweepResult {
     }
 }
 
-/// Runs every planned run that has no success in the store, `jobs` at once.
+/// Runs every planned run that has no success in the store, `jobs` at once. `display` gives the
+/// display of the runs to do (the caller's reporter decides how progress is shown); the
+/// executor's events drive it.
 pub fn run(
     runtime: &tokio::runtime::Runtime,
     store: &mut RunStore,
@@ -375,6 +377,7 @@ pub fn run(
     prepared: &Prepared,
     jobs: usize,
     canceller: &Canceller,
+    display: &mut dyn FnMut(u64) -> indicatif::ProgressBar,
 ) -> Result<SweepResult, Error> {
     let submitted = super::slurm::journal(store.out());
     if !submitted.is_empty() {
@@ -400,7 +403,7 @@ pub fn run(
     let mut executor = Executor::new(jobs, adapter(sim)?, store.committer());
     executor.canceller = canceller.clone();
     executor.events = Some(tx);
-    let bar = progress::bar(specs.len() as u64);
+    let bar = display(specs.len() as u64);
     let summary = runtime.block_on(async move {
         let reporter = tokio::spawn(progress::report(rx, bar));
         let summary = executor.run(specs).await;

@@ -78,9 +78,16 @@ pub enum Event<'a> {
     Interrupted { out: &'a Path },
 }
 
-/// Consumes the pipeline's [`Event`]s (the command line prints them on stderr).
+/// Consumes the pipeline's [`Event`]s (the command line prints them on stderr) and shows the run
+/// engine's progress.
 pub trait Reporter {
     fn report(&mut self, event: Event<'_>);
+
+    /// The display of a local sweep's progress over `runs` runs, driven by the executor's events;
+    /// none by default.
+    fn progress(&mut self, runs: u64) -> indicatif::ProgressBar {
+        indicatif::ProgressBar::with_draw_target(Some(runs), indicatif::ProgressDrawTarget::hidden())
+    }
 }
 
 /// Everything `lab run` produced, as written to `OUT/results.json` and `OUT/report-data.json`.

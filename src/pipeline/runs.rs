@@ -133,7 +133,9 @@ pub fn execute(
 ) -> Result<Executed, Error> {
     let mut store = execute::open_store(&options.out)?;
     sweep::write_meshes(&options.out, rendered)?;
-    let swept = sweep_runs(study, sim, plan, rendered, source, options, engine, &mut store)?;
+    let swept = sweep_runs(
+        study, sim, plan, rendered, source, options, engine, &mut store, reporter,
+    )?;
     engine.signals.sweep_done();
     if let Some(dir) = &options.record {
         let runs = sweep::record(study, sim, plan, rendered, &store, dir)?;
@@ -171,6 +173,7 @@ fn sweep_runs(
     options: &RunOptions,
     engine: &Engine,
     store: &mut RunStore,
+    reporter: &mut dyn Reporter,
 ) -> Result<SweepResult, Error> {
     match source {
         Source::Replay(dir) => replay(study, sim, plan, rendered, store, dir),
@@ -182,6 +185,7 @@ fn sweep_runs(
             rendered,
             options.jobs,
             &engine.signals.canceller,
+            &mut |runs| reporter.progress(runs),
         ),
     }
 }
