@@ -16,14 +16,15 @@
 //! - [`calibrate`]: the paper's three methods and the identifiability check, as pure numerics.
 //! - [`diagnose`]: what the simulation gets wrong, its likely cause, the extended model.
 //! - [`report`]: `results.json`, the terminal summary, the HTML report.
-//! - [`pipeline`] wires the stages for `lab run`; [`cli`] is the command line.
-//! - [`crushsim`]: the stand-in crush solver (a second binary), not part of the pipeline.
+//! - [`pipeline`]: `lab run` as one function of named stages ([`pipeline::run`]: read it first);
+//!   [`cli`] is the command line around it.
+//!
+//! The stand-in crush solver `crushsim` is its own crate (`crushsim/`): a program lab runs, never links.
 //!
 //! Numerics never read files and never block on I/O; everything else hands them arrays.
 
 pub mod calibrate;
 pub mod cli;
-pub mod crushsim;
 pub mod diagnose;
 pub mod error;
 pub mod execute;

@@ -8,6 +8,8 @@ mod verdict_common;
 use std::path::PathBuf;
 use std::process::Command;
 
+mod crushsim_bin;
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -113,10 +115,7 @@ fn names_strain_hardening_and_recovers_the_yield_stress() {
 
 #[test]
 fn crushsim_live_gives_the_replayed_diagnosis() {
-    let crushsim_dir = PathBuf::from(env!("CARGO_BIN_EXE_crushsim"))
-        .parent()
-        .unwrap()
-        .to_path_buf();
+    let crushsim_dir = crushsim_bin::crushsim().parent().unwrap().to_path_buf();
     let path = format!("{}:/usr/bin:/bin", crushsim_dir.display());
     let (live, replayed) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     let run = |out: &std::path::Path, extra: &[&str]| {

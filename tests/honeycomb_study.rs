@@ -6,8 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod crushsim_bin;
+
 const LAB: &str = env!("CARGO_BIN_EXE_lab");
-const CRUSHSIM: &str = env!("CARGO_BIN_EXE_crushsim");
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -17,7 +18,7 @@ fn root() -> PathBuf {
 fn lab(args: &[&str], with_crushsim: bool) -> std::process::Output {
     let mut path = String::from("/usr/bin:/bin");
     if with_crushsim {
-        path = format!("{}:{path}", Path::new(CRUSHSIM).parent().unwrap().display());
+        path = format!("{}:{path}", crushsim_bin::crushsim().parent().unwrap().display());
     }
     Command::new(LAB)
         .args(args)

@@ -8,6 +8,8 @@
 //!   in results.json and the report, left out of the surrogates unless the study says `use`;
 //! - the study keys of `simulation.quality` are checked with file:line errors.
 
+mod crushsim_bin;
+
 mod common;
 
 use std::path::{Path, PathBuf};
@@ -72,7 +74,7 @@ fn live(switch: Option<(&str, f64)>) -> tempfile::TempDir {
     std::fs::write(dir.path().join("main.k"), tera.render("main.k.tera", &ctx).unwrap()).unwrap();
     let (include, _) = mesh::include(&TubeSpec::paper(6.0, 2.0)).unwrap();
     std::fs::write(dir.path().join("mesh.k"), include).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_crushsim"))
+    let o = Command::new(crushsim_bin::crushsim())
         .args(["i=main.k", "ncpu=1"])
         .current_dir(dir.path())
         .output()

@@ -17,7 +17,10 @@ pub mod bayesian;
 pub mod identifiability;
 pub mod least_squares;
 pub mod optimize;
+pub mod outcome;
 pub mod sensitivity;
+
+pub use outcome::{Calibrated, Calibration, Method};
 
 use nalgebra::{DMatrix, DVector};
 

@@ -14,6 +14,33 @@
 //!
 //! A solver that cannot be started (program not found, not executable) counts as exit code 127,
 //! as a shell would report it, with the reason written to the run's `lab.stderr`.
+//!
+//! # Design note
+//!
+//! **States of a run here.**
+//!
+//! ```text
+//! spec ─► waiting for a slot ─► attempt: Running ─► (Terminating ─► Killed) ─► judged ─┬─► committed ─► Finished
+//!   │            │                                                                   └─► backoff ─► waiting for a slot
+//!   └────────────┴──── cancel ──► not started / Cancelled (no record)
+//! ```
+//!
+//! **Invariants.** The run directory exists (the store prepared it) before the spec arrives. At the
+//! start of every attempt the declared outputs and `lab.stdout`/`lab.stderr` are removed, so an
+//! outcome is judged only from this attempt's files. The record is committed (durable) before
+//! `Finished` is sent, and nothing is committed for a cancelled unit. A slot is held only while
+//! the solver's process lives. The dispatcher and the units share nothing mutable: units send
+//! events and read the cancel reason.
+//!
+//! **What a kill leaves.** A cancel (Ctrl-C, SIGTERM, a store error) sends every running solver's
+//! group SIGTERM, then SIGKILL after the grace period; its run directory stays without a
+//! record and is rerun by the next `lab run`. A `lab` killed by SIGKILL runs no cleanup: its
+//! solvers (in their own process groups) may outlive it and keep writing into directories without
+//! records, which the next open of the store deletes. Committed records are never affected.
+//!
+//! **Why.** Judging after the slot is given back keeps the solvers' slots busy (the utilisation
+//! benchmark); committing before reporting means what the reporter says is finished is finished on
+//! disk; one process group per solver is the only way to stop its grandchildren too.
 
 use std::fs::File;
 use std::os::unix::process::ExitStatusExt;
@@ -382,77 +409,12 @@ async fn run_attempt(
     ctx: &Ctx,
     cancel: &mut watch::Receiver<Option<CancelReason>>,
 ) -> Attempt {
-    let dir = &spec.dir;
-    for rel in spec
-        .outputs
-        .iter()
-        .map(|p| p.as_path())
-        .chain([Path::new(STDOUT_FILE), Path::new(STDERR_FILE)])
-    {
-        if let Err(e) = remove_if_present(&dir.join(rel)) {
-            return Attempt::Error(format!("removing {}: {e}", dir.join(rel).display()));
-        }
-    }
-    let (stdout, stderr) = match (File::create(dir.join(STDOUT_FILE)), File::create(dir.join(STDERR_FILE))) {
-        (Ok(o), Ok(e)) => (o, e),
-        (Err(e), _) | (_, Err(e)) => return Attempt::Error(format!("{}: {e}", dir.display())),
-    };
-    let Some((program, args)) = spec.argv.split_first() else {
-        return Attempt::Error("empty argv".to_string());
-    };
-    let mut command = tokio::process::Command::new(program);
-    command
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(stdout)
-        .stderr(stderr)
-        .process_group(0);
-    let mut child = match command.spawn() {
-        Ok(c) => c,
-        Err(e) => {
-            let _ = std::fs::write(dir.join(STDERR_FILE), format!("lab: cannot start `{program}`: {e}\n"));
-            return Attempt::Judged(Outcome::NonZeroExit { code: 127 }, None);
-        }
+    let mut child = match start(spec) {
+        Ok(child) => child,
+        Err(attempt) => return attempt,
     };
     let group = GroupGuard(child.id().map(|pid| Pid::from_raw(pid as i32)));
-
-    let deadline = spec.timeout.map(|t| Instant::now() + t);
-    let mut phase = Phase::Running;
-    let mut cancel_open = true;
-    // Cancellation already requested before this point is seen by the first `borrow`.
-    let mut pending_cancel = cancel.borrow_and_update().is_some();
-    let status: std::io::Result<ExitStatus> = loop {
-        if std::mem::take(&mut pending_cancel) {
-            phase = on_cancel(phase, *cancel.borrow(), &group, ctx.grace);
-        }
-        let timer = match phase {
-            Phase::Running => deadline,
-            Phase::Terminating { kill_at, .. } => Some(kill_at),
-            Phase::Killed { .. } => None,
-        };
-        tokio::select! {
-            status = child.wait() => break status,
-            _ = sleep_until(timer) => {
-                phase = match phase {
-                    Phase::Running => {
-                        group.signal(Signal::SIGTERM);
-                        Phase::Terminating { why: Why::Timeout, kill_at: Instant::now() + ctx.grace }
-                    }
-                    Phase::Terminating { why, .. } | Phase::Killed { why } => {
-                        group.signal(Signal::SIGKILL);
-                        Phase::Killed { why }
-                    }
-                };
-            }
-            changed = cancel.changed(), if cancel_open => {
-                match changed {
-                    Ok(()) => pending_cancel = cancel.borrow_and_update().is_some(),
-                    Err(_) => cancel_open = false,
-                }
-            }
-        }
-    };
+    let (status, phase) = supervise(&mut child, &group, spec.timeout, ctx.grace, cancel).await;
     let mut group = group;
     let why = match phase {
         Phase::Running => None,
@@ -474,12 +436,100 @@ async fn run_attempt(
         None => {}
     }
     let adapter = ctx.adapter.clone();
-    let dir = dir.clone();
+    let dir = spec.dir.clone();
     let judged = tokio::task::spawn_blocking(move || judge(status, adapter.as_ref(), &dir)).await;
     match judged {
         Ok((outcome, response)) => Attempt::Judged(outcome, response),
         Err(e) => Attempt::Error(format!("judging outputs: {e}")),
     }
+}
+
+/// Clears what a previous attempt left (declared outputs, captured stdout/stderr) and starts the
+/// solver in the run directory, in a process group of its own. A solver that cannot be started is
+/// judged at once (exit code 127, as a shell reports it).
+fn start(spec: &RunSpec) -> Result<tokio::process::Child, Attempt> {
+    let dir = &spec.dir;
+    for rel in spec
+        .outputs
+        .iter()
+        .map(|p| p.as_path())
+        .chain([Path::new(STDOUT_FILE), Path::new(STDERR_FILE)])
+    {
+        if let Err(e) = remove_if_present(&dir.join(rel)) {
+            return Err(Attempt::Error(format!("removing {}: {e}", dir.join(rel).display())));
+        }
+    }
+    let (stdout, stderr) = match (File::create(dir.join(STDOUT_FILE)), File::create(dir.join(STDERR_FILE))) {
+        (Ok(o), Ok(e)) => (o, e),
+        (Err(e), _) | (_, Err(e)) => return Err(Attempt::Error(format!("{}: {e}", dir.display()))),
+    };
+    let Some((program, args)) = spec.argv.split_first() else {
+        return Err(Attempt::Error("empty argv".to_string()));
+    };
+    let mut command = tokio::process::Command::new(program);
+    command
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(stdout)
+        .stderr(stderr)
+        .process_group(0);
+    match command.spawn() {
+        Ok(c) => Ok(c),
+        Err(e) => {
+            let _ = std::fs::write(dir.join(STDERR_FILE), format!("lab: cannot start `{program}`: {e}\n"));
+            Err(Attempt::Judged(Outcome::NonZeroExit { code: 127 }, None))
+        }
+    }
+}
+
+/// Waits for the solver to exit: on timeout or cancel its group gets SIGTERM, then SIGKILL after
+/// the grace period (at once on a second signal). Returns its exit status and the phase it ended
+/// in: `Running` when it exited on its own, else it was stopped (and the phase says why).
+async fn supervise(
+    child: &mut tokio::process::Child,
+    group: &GroupGuard,
+    timeout: Option<Duration>,
+    grace: Duration,
+    cancel: &mut watch::Receiver<Option<CancelReason>>,
+) -> (std::io::Result<ExitStatus>, Phase) {
+    let deadline = timeout.map(|t| Instant::now() + t);
+    let mut phase = Phase::Running;
+    let mut cancel_open = true;
+    // Cancellation already requested before this point is seen by the first `borrow`.
+    let mut pending_cancel = cancel.borrow_and_update().is_some();
+    let status: std::io::Result<ExitStatus> = loop {
+        if std::mem::take(&mut pending_cancel) {
+            phase = on_cancel(phase, *cancel.borrow(), group, grace);
+        }
+        let timer = match phase {
+            Phase::Running => deadline,
+            Phase::Terminating { kill_at, .. } => Some(kill_at),
+            Phase::Killed { .. } => None,
+        };
+        tokio::select! {
+            status = child.wait() => break status,
+            _ = sleep_until(timer) => {
+                phase = match phase {
+                    Phase::Running => {
+                        group.signal(Signal::SIGTERM);
+                        Phase::Terminating { why: Why::Timeout, kill_at: Instant::now() + grace }
+                    }
+                    Phase::Terminating { why, .. } | Phase::Killed { why } => {
+                        group.signal(Signal::SIGKILL);
+                        Phase::Killed { why }
+                    }
+                };
+            }
+            changed = cancel.changed(), if cancel_open => {
+                match changed {
+                    Ok(()) => pending_cancel = cancel.borrow_and_update().is_some(),
+                    Err(_) => cancel_open = false,
+                }
+            }
+        }
+    };
+    (status, phase)
 }
 
 /// The next phase after a cancel request of strength `reason`.

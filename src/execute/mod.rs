@@ -74,6 +74,12 @@ pub use lock::{Holder, LockError, OutLock};
 pub use lsdyna::LsDynaAdapter;
 pub use store::RunStore;
 
+/// The run store of `out` as `lab run` opens it: the directories of runs journaled as handed to
+/// Slurm jobs are kept (the jobs may be using them), whichever executor this `lab run` uses.
+pub fn open_store(out: &std::path::Path) -> Result<RunStore, store::StoreError> {
+    RunStore::open_keeping(out, slurm::journaled_keys)
+}
+
 /// File (in the run directory) that receives the solver's standard output.
 pub const STDOUT_FILE: &str = "lab.stdout";
 /// File (in the run directory) that receives the solver's standard error.

@@ -10,15 +10,38 @@
 //! and its bytes, both length-prefixed), the argv and the adapter identity. Equal inputs give equal
 //! keys, so a run whose inputs did not change is found again; a changed byte gives a new key.
 //!
-//! A record is committed atomically: written to `results/.<key>.json.tmp`, fsynced, renamed over
-//! `results/<key>.json`, then the directory is fsynced. Readers see the old record or the new one,
-//! never a torn file, whatever moment the process dies at.
+//! # Design note
 //!
-//! Opening the store takes the lock, loads every record, deletes leftover temp files and deletes
-//! run directories with no record (half-done: the run was interrupted) so they are rerun from
-//! scratch. Only successful records count as finished.
+//! **States of a run, as the disk shows them.**
+//!
+//! ```text
+//! absent ──prepare──► dir, no record ──commit──► dir + record (success: finished, never rerun)
+//!  (no dir)           (inputs written;           dir + record (failure: kept for `lab status`,
+//!                      solver may be running)                   rerun by the next `lab run`)
+//! ```
+//!
+//! **Invariants.** A record is committed atomically: written to `results/.<key>.json.tmp`,
+//! fsynced, renamed over `results/<key>.json`, then the directory is fsynced. Readers see the old
+//! record or the new one, never a torn file, whatever moment the process dies at. A record is
+//! written only once its run is over (its outputs judged, or the run given up: a lost or cancelled
+//! Slurm job), never while a solver may still change its outcome. Only the lock holder prepares
+//! and deletes directories; only successful records count as finished.
+//!
+//! **What a kill leaves.** At most: a `.tmp` record (never read; deleted at the next open) and run
+//! directories without a record (half-done). Opening the store takes the lock, loads every record,
+//! deletes leftover temp files and deletes the half-done run directories, so they are rerun from
+//! scratch — except the directories that another owner claims ([`RunStore::open_keeping`]: the
+//! Slurm executor's journal of runs handed to jobs, which may be writing there now). A solver
+//! that outlived a SIGKILLed `lab` may still write into a directory the next open deletes; that
+//! run is redone, never mistaken for finished, because only a committed record finishes a run.
+//!
+//! **Why.** Content addressing makes resume and "rerun exactly what changed" the same mechanism,
+//! with no index to keep consistent; the atomic commit is the single point at which a run becomes
+//! finished, so every crash is recoverable by looking at the records alone. The store does not know
+//! who else uses run directories: the claim comes in as a function, so the run engine's executors
+//! (local, Slurm) sit above the store and the store imports neither.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fs::{self, File};
 use std::io::Write;
 use std::path::{Component, Path, PathBuf};
@@ -126,8 +149,16 @@ pub struct RunStore {
 }
 
 impl RunStore {
-    /// Creates `out` if needed, takes its lock, loads the records and cleans half-done runs.
+    /// Creates `out` if needed, takes its lock, loads the records and cleans half-done runs, with
+    /// no other owner of run directories (see [`RunStore::open_keeping`]).
     pub fn open(out: &Path) -> Result<RunStore, StoreError> {
+        Self::open_keeping(out, |_| BTreeSet::new())
+    }
+
+    /// [`RunStore::open`], keeping the run directories that another owner claims: `claimed` is
+    /// read under the lock and returns the keys whose directories are in use without a record yet
+    /// (the Slurm executor's journal: runs handed to jobs). The store does not know who claims.
+    pub fn open_keeping(out: &Path, claimed: impl FnOnce(&Path) -> BTreeSet<String>) -> Result<RunStore, StoreError> {
         fs::create_dir_all(out).map_err(io_at(out))?;
         let lock = OutLock::acquire(out)?;
         let runs = out.join(RUNS_DIR);
@@ -136,8 +167,8 @@ impl RunStore {
         fs::create_dir_all(&results).map_err(io_at(&results))?;
 
         let records = load_records(&results, true)?;
-        // Runs submitted to Slurm and not yet collected: their directories are in use.
-        let submitted = super::slurm::journaled_keys(out);
+        // Runs handed to someone else (Slurm jobs) and not yet collected: their directories are in use.
+        let submitted = claimed(out);
 
         let mut cleaned = Vec::new();
         for entry in fs::read_dir(&runs).map_err(io_at(&runs))? {

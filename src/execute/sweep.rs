@@ -1,5 +1,5 @@
 //! The sweep of a solver study: every planned run rendered, keyed, and — unless the store already
-//! holds its success — run by the [`Executor`], with progress on stderr.
+//! holds its success — run by the [`Executor`], its progress shown by the caller's display.
 //!
 //! ```text
 //! Plan ──render──► Prepared {key per planned run, inputs per key} ──store.prepare──► RunSpec
@@ -9,6 +9,30 @@
 //! Keys are computed from the rendered bytes before anything is written, so a finished run is
 //! found again without touching the disk, and editing a template changes exactly the keys whose
 //! rendered inputs change. Planned runs with equal inputs share one key and one run.
+//!
+//! # Design note
+//!
+//! **States of a planned run in a sweep.** rendered (in memory, keyed) → *finished earlier*
+//! (a success in the store: reused, not touched) or → prepared (directory written) → executed by
+//! one of three sources — the local [`Executor`], Slurm jobs ([`run_slurm`]) or a recording
+//! ([`replay_runs`]: judged by the same adapter, no solver) → committed record → response. The
+//! [`SweepResult`] is read back from the store's records in plan order, so what the pipeline fits
+//! is exactly what is on disk, whichever source ran the runs.
+//!
+//! **Invariants.** Nothing is written before every planned run has rendered (a template error
+//! leaves the output directory as it was). Meshes are written once, named by the hash of their
+//! bytes, before any run that includes them. A local sweep refuses to start while the Slurm
+//! journal lists runs of this output directory (they belong to jobs; `--executor slurm`
+//! re-attaches). Signals ([`Signals`]) cancel the sweep; after the sweep a signal ends `lab` at
+//! once (exit 130), since nothing after it needs cleaning up.
+//!
+//! **What a kill leaves.** What the store and the executor say: committed records, and run
+//! directories without a record that the next `lab run` redoes; a replayed run is committed or
+//! not, never half-replayed. Written meshes are complete (atomic writes) and reused.
+//!
+//! **Why.** Keys from rendered bytes make the three sources interchangeable and a replay exact to
+//! the bit; reading responses back from the records (not from what this pass saw) makes a resumed
+//! sweep and a fresh one give the same numbers.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
@@ -154,12 +178,7 @@ pub fn manifest(
         key: key.clone(),
         design: run.design.clone(),
         role: run.role.key().to_string(),
-        parameters: study
-            .parameters
-            .iter()
-            .map(|p| p.name.clone())
-            .zip(run.theta.iter().copied())
-            .collect(),
+        parameters: study.parameter_values(&run.theta),
         command: sim.command.clone(),
         adapter: adapter.identity(),
         inputs,
@@ -423,7 +442,9 @@ impl SweepResult {
     }
 }
 
-/// Runs every planned run that has no success in the store, `jobs` at once.
+/// Runs every planned run that has no success in the store, `jobs` at once. `display` gives the
+/// display of the runs to do (the caller's reporter decides how progress is shown); the
+/// executor's events drive it.
 pub fn run(
     runtime: &tokio::runtime::Runtime,
     store: &mut RunStore,
@@ -431,6 +452,7 @@ pub fn run(
     prepared: &Prepared,
     jobs: usize,
     canceller: &Canceller,
+    display: &mut dyn FnMut(u64) -> indicatif::ProgressBar,
 ) -> Result<SweepResult, Error> {
     let submitted = super::slurm::journal(store.out());
     if !submitted.is_empty() {
@@ -456,7 +478,7 @@ pub fn run(
     let mut executor = Executor::new(jobs, adapter(sim)?, store.committer());
     executor.canceller = canceller.clone();
     executor.events = Some(tx);
-    let bar = progress::bar(specs.len() as u64);
+    let bar = display(specs.len() as u64);
     let summary = runtime.block_on(async move {
         let reporter = tokio::spawn(progress::report(rx, bar));
         let summary = executor.run(specs).await;

@@ -398,58 +398,8 @@ pub fn parse_test_csv(file: &Path, text: &str, opts: CsvOptions) -> Result<Force
                 return Err(at(no, col, format!("expected a number, found `{}`", cells[bad])));
             }
             header_seen = true;
-            let lower: Vec<String> = cells.iter().map(|c| c.to_ascii_lowercase()).collect();
-            let dcol = lower
-                .iter()
-                .position(|c| ["disp", "stroke", "travel", "extension"].iter().any(|k| c.contains(k)));
-            let fcol = lower
-                .iter()
-                .position(|c| ["force", "load"].iter().any(|k| c.contains(k)));
-            match (dcol, fcol) {
-                (Some(a), Some(b)) if a != b => cols = (a, b),
-                _ => {
-                    return Err(at(
-                        no,
-                        1,
-                        "header must name a displacement column (disp/stroke) and a force column (force/load)".into(),
-                    ));
-                }
-            }
-            if let Some(u) = header_unit(cells[cols.1]) {
-                let hu = match u.as_str() {
-                    "kn" => Some(ForceUnit::KiloNewton),
-                    "n" => Some(ForceUnit::Newton),
-                    _ => None,
-                };
-                match (hu, opts.force_unit) {
-                    (Some(h), Some(s)) if h != s => {
-                        return Err(at(
-                            no,
-                            1,
-                            format!("header says force in {u} but the setting says {s:?}"),
-                        ));
-                    }
-                    (Some(h), _) => unit = Some(h),
-                    (None, _) if !u.is_empty() && u != "force" && u != "load" => {
-                        return Err(at(no, 1, format!("unknown force unit `{u}`: expected kN or N")));
-                    }
-                    _ => {}
-                }
-            }
-            if let Some(u) = header_unit(cells[cols.0]) {
-                match u.as_str() {
-                    "mm" => disp_scale = 1.0,
-                    "m" => disp_scale = 1000.0,
-                    "disp" | "displacement" | "stroke" | "travel" | "extension" | "" => {}
-                    other => {
-                        return Err(at(
-                            no,
-                            1,
-                            format!("unknown displacement unit `{other}`: expected mm or m"),
-                        ));
-                    }
-                }
-            }
+            let header = header(file, text, no, &cells, opts)?;
+            (cols, unit, disp_scale) = (header.cols, header.unit, header.disp_scale);
             continue;
         }
         let need = cols.0.max(cols.1) + 1;
@@ -485,4 +435,73 @@ pub fn parse_test_csv(file: &Path, text: &str, opts: CsvOptions) -> Result<Force
         displacement: d,
         force: f.into_iter().map(|x| x * k).collect(),
     })
+}
+
+/// What a CSV header row says: which columns hold displacement and force, the force unit (the
+/// header's, else the setting's) and the displacement scale to mm.
+struct Header {
+    cols: (usize, usize),
+    unit: Option<ForceUnit>,
+    disp_scale: f64,
+}
+
+/// Reads a header row (line `no`): it must name a displacement and a force column; units in it
+/// must be known and agree with the setting.
+fn header(file: &Path, text: &str, no: usize, cells: &[&str], opts: CsvOptions) -> Result<Header, InputError> {
+    let at = |line: usize, col: usize, m: String| InputError::at(file, text, line, col, m);
+    let lower: Vec<String> = cells.iter().map(|c| c.to_ascii_lowercase()).collect();
+    let dcol = lower
+        .iter()
+        .position(|c| ["disp", "stroke", "travel", "extension"].iter().any(|k| c.contains(k)));
+    let fcol = lower
+        .iter()
+        .position(|c| ["force", "load"].iter().any(|k| c.contains(k)));
+    let cols = match (dcol, fcol) {
+        (Some(a), Some(b)) if a != b => (a, b),
+        _ => {
+            return Err(at(
+                no,
+                1,
+                "header must name a displacement column (disp/stroke) and a force column (force/load)".into(),
+            ));
+        }
+    };
+    let mut unit = opts.force_unit;
+    let mut disp_scale = 1.0;
+    if let Some(u) = header_unit(cells[cols.1]) {
+        let hu = match u.as_str() {
+            "kn" => Some(ForceUnit::KiloNewton),
+            "n" => Some(ForceUnit::Newton),
+            _ => None,
+        };
+        match (hu, opts.force_unit) {
+            (Some(h), Some(s)) if h != s => {
+                return Err(at(
+                    no,
+                    1,
+                    format!("header says force in {u} but the setting says {s:?}"),
+                ));
+            }
+            (Some(h), _) => unit = Some(h),
+            (None, _) if !u.is_empty() && u != "force" && u != "load" => {
+                return Err(at(no, 1, format!("unknown force unit `{u}`: expected kN or N")));
+            }
+            _ => {}
+        }
+    }
+    if let Some(u) = header_unit(cells[cols.0]) {
+        match u.as_str() {
+            "mm" => disp_scale = 1.0,
+            "m" => disp_scale = 1000.0,
+            "disp" | "displacement" | "stroke" | "travel" | "extension" | "" => {}
+            other => {
+                return Err(at(
+                    no,
+                    1,
+                    format!("unknown displacement unit `{other}`: expected mm or m"),
+                ));
+            }
+        }
+    }
+    Ok(Header { cols, unit, disp_scale })
 }

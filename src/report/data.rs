@@ -19,9 +19,9 @@ use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
 use crate::calibrate::Model;
+use crate::calibrate::{Calibrated, Calibration};
 use crate::execute::store::RunStore;
 use crate::fit::SurrogateModel;
-use crate::pipeline::{Calibrated, Calibration};
 use crate::plan::{Plan, RunRole};
 use crate::study::{Simulation, SolverSimulation, Study};
 

@@ -10,9 +10,11 @@
 
 use std::fmt::Write;
 
-use super::data::{ReportData, StudyInfo, Variable};
+use indexmap::IndexMap;
+
+use super::data::{ReportData, StudyInfo, SurrogateData, Variable};
 use super::plots::{self, Band, BarPlot, Series, Style, VLine, XyPlot, short};
-use super::results::{Results, Role};
+use super::results::{MethodResult, Results, Role, SurrogateResult};
 use super::summary::significant;
 
 #[path = "html_curves.rs"]
@@ -194,8 +196,8 @@ impl Page<'_> {
     }
 
     fn study(&self) -> String {
-        let mut s = String::new();
         let Some(info) = self.study_info() else {
+            let mut s = String::new();
             let _ = write!(
                 s,
                 "{}",
@@ -203,6 +205,12 @@ impl Page<'_> {
             );
             return s + &self.runs_summary();
         };
+        self.study_table(info) + &self.tests_table(info)
+    }
+
+    /// The study as run: simulation, response, constants, variables and bounds, runs, wall time.
+    fn study_table(&self, info: &StudyInfo) -> String {
+        let mut s = String::new();
         s.push_str("<table><tr><th class=l>item</th><th class=l>value</th></tr>");
         let sim = match &info.solver {
             None => format!("closed form: <code>{}</code>", escape(&info.simulation)),
@@ -232,31 +240,15 @@ impl Page<'_> {
                 c.join(", ")
             );
         }
-        let bounds = |vars: &[Variable]| -> String {
-            vars.iter()
-                .map(|v| {
-                    let range = match (v.min, v.max) {
-                        (Some(lo), Some(hi)) => format!(" ∈ [{}, {}]", short(lo, 6), short(hi, 6)),
-                        _ => String::new(),
-                    };
-                    format!(
-                        "{}{range}{}",
-                        escape(&v.name),
-                        v.unit.as_ref().map_or(String::new(), |u| format!(" {}", escape(u)))
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join("<br>")
-        };
         let _ = write!(
             s,
             "<tr><td class=l>design variables</td><td class=l>{}</td></tr>",
-            bounds(&info.design)
+            variables_with_bounds(&info.design)
         );
         let _ = write!(
             s,
             "<tr><td class=l>parameters (bounds)</td><td class=l>{}</td></tr>",
-            bounds(&info.parameters)
+            variables_with_bounds(&info.parameters)
         );
         if let Some(runs) = &self.r.runs {
             let _ = write!(
@@ -270,7 +262,14 @@ impl Page<'_> {
         if let Some(t) = self.d.and_then(|d| d.wall_time_s) {
             let _ = write!(s, "<tr><td class=l>wall time</td><td class=l>{}</td></tr>", seconds(t));
         }
-        s.push_str("</table><h3>Tests</h3><table><tr><th class=l>design</th><th class=l>role</th>");
+        s.push_str("</table>");
+        s
+    }
+
+    /// The tested designs: role, design-variable values, replicate count, mean and scatter.
+    fn tests_table(&self, info: &StudyInfo) -> String {
+        let mut s = String::new();
+        s.push_str("<h3>Tests</h3><table><tr><th class=l>design</th><th class=l>role</th>");
         for v in &info.design {
             let _ = write!(s, "<th>{}</th>", escape(&v.label()));
         }
@@ -323,23 +322,7 @@ impl Page<'_> {
         let Some(table) = &self.r.surrogates else {
             return note("closed-form simulation: evaluated directly, no response surfaces were fitted");
         };
-        let mut s = String::from(
-            "<table><tr><th class=l>design</th><th class=l>surrogate</th><th>sample runs</th><th>check runs</th>\
-             <th>max check error</th><th>mean check error</th></tr>",
-        );
-        for (design, sr) in table {
-            let _ = write!(
-                s,
-                "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                escape(design),
-                escape(&sr.kind),
-                sr.samples,
-                sr.check_runs,
-                pct(sr.check_max_relative_error),
-                pct(sr.check_mean_relative_error)
-            );
-        }
-        s.push_str("</table>");
+        let mut s = surrogate_table(table);
         let Some(d) = self.d.filter(|d| !d.surrogates.is_empty()) else {
             return s + &note("the surrogates' samples were not recorded (report-data.json missing)");
         };
@@ -349,55 +332,7 @@ impl Page<'_> {
         for sd in &d.surrogates {
             let err = table.get(&sd.design).and_then(|t| t.check_max_relative_error);
             let title = format!("Response surface, design {} (max check error {})", sd.design, pct(err));
-            let plot = if let Some((x, y)) = &sd.curve {
-                XyPlot {
-                    title,
-                    x_label: self.parameter_label(&params[0]),
-                    y_label: y_label.clone(),
-                    series: vec![
-                        Series::new(
-                            format!("{} surrogate", sd.kind),
-                            0,
-                            Style::Line,
-                            x.iter().copied().zip(y.iter().copied()).collect(),
-                        ),
-                        Series::new(
-                            "sample runs",
-                            plots::BLACK_,
-                            Style::Markers,
-                            sd.samples.iter().map(|(t, y)| (t[0], *y)).collect(),
-                        ),
-                        Series::new(
-                            "check runs",
-                            1,
-                            Style::Hollow,
-                            sd.checks.iter().map(|(t, y, _)| (t[0], *y)).collect(),
-                        ),
-                    ],
-                    ..Default::default()
-                }
-            } else {
-                // Several parameters: surrogate against run at the check points (parity).
-                let pts: Vec<(f64, f64)> = sd.checks.iter().map(|(_, y, p)| (*y, *p)).collect();
-                let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
-                    (a.min(p.0.min(p.1)), b.max(p.0.max(p.1)))
-                });
-                let diag = if lo.is_finite() {
-                    vec![(lo, lo), (hi, hi)]
-                } else {
-                    vec![]
-                };
-                XyPlot {
-                    title,
-                    x_label: format!("{y_label}, solver run"),
-                    y_label: format!("{y_label}, surrogate"),
-                    series: vec![
-                        Series::new("surrogate = run", plots::GREY, Style::Dashed, diag),
-                        Series::new("check runs", 1, Style::Hollow, pts),
-                    ],
-                    ..Default::default()
-                }
-            };
+            let plot = self.surrogate_plot(sd, title, &params[0], &y_label);
             let caption = format!(
                 "Design {}: {} surrogate fitted to {} sample run(s) (filled), checked at {} run(s) it was not fitted to (hollow).",
                 sd.design,
@@ -412,6 +347,60 @@ impl Page<'_> {
             ));
         }
         s + "</div>"
+    }
+
+    /// One design's response surface: the surrogate over the one parameter with its sample and
+    /// check runs, or (several parameters) surrogate against run at the check points.
+    fn surrogate_plot(&self, sd: &SurrogateData, title: String, parameter: &str, y_label: &str) -> XyPlot {
+        if let Some((x, y)) = &sd.curve {
+            XyPlot {
+                title,
+                x_label: self.parameter_label(parameter),
+                y_label: y_label.to_string(),
+                series: vec![
+                    Series::new(
+                        format!("{} surrogate", sd.kind),
+                        0,
+                        Style::Line,
+                        x.iter().copied().zip(y.iter().copied()).collect(),
+                    ),
+                    Series::new(
+                        "sample runs",
+                        plots::BLACK_,
+                        Style::Markers,
+                        sd.samples.iter().map(|(t, y)| (t[0], *y)).collect(),
+                    ),
+                    Series::new(
+                        "check runs",
+                        1,
+                        Style::Hollow,
+                        sd.checks.iter().map(|(t, y, _)| (t[0], *y)).collect(),
+                    ),
+                ],
+                ..Default::default()
+            }
+        } else {
+            // Several parameters: surrogate against run at the check points (parity).
+            let pts: Vec<(f64, f64)> = sd.checks.iter().map(|(_, y, p)| (*y, *p)).collect();
+            let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p.0.min(p.1)), b.max(p.0.max(p.1)))
+            });
+            let diag = if lo.is_finite() {
+                vec![(lo, lo), (hi, hi)]
+            } else {
+                vec![]
+            };
+            XyPlot {
+                title,
+                x_label: format!("{y_label}, solver run"),
+                y_label: format!("{y_label}, surrogate"),
+                series: vec![
+                    Series::new("surrogate = run", plots::GREY, Style::Dashed, diag),
+                    Series::new("check runs", 1, Style::Hollow, pts),
+                ],
+                ..Default::default()
+            }
+        }
     }
 
     fn calibration(&self) -> String {
@@ -475,37 +464,11 @@ impl Page<'_> {
             }));
         }
         let unit = self.response_unit().map(str::to_string);
-        s.push_str(&row("discrepancy".into(), &|m| match &m.discrepancy {
-            None => "none".into(),
-            Some(d) => {
-                if let Some(c) = d.get("constant").and_then(|c| c.as_f64()) {
-                    format!("constant {}", with_unit(c, unit.as_deref(), 4))
-                } else if let Some(gp) = d.get("gaussian_process") {
-                    let f = |k: &str| {
-                        gp.get(k)
-                            .and_then(|v| v.as_f64())
-                            .map_or("–".into(), |v| with_unit(v, unit.as_deref(), 3))
-                    };
-                    format!("GP: mean {}, std dev {}", f("mean"), f("std_dev"))
-                } else {
-                    escape(&d.to_string())
-                }
-            }
-        }));
+        s.push_str(&row("discrepancy".into(), &|m| discrepancy_cell(m, unit.as_deref())));
         s.push_str(&row("calibration (training) error".into(), &|m| pct(m.training_error)));
         s.push_str(&row("validation error".into(), &|m| pct(m.validation_error)));
         s.push_str("</table>");
-        for (method, m) in &r.calibration {
-            if let Some(e) = &m.error {
-                let _ = write!(
-                    s,
-                    "<p class=warn>{} failed: {}</p>",
-                    escape(&method_name(method)),
-                    escape(e)
-                );
-            }
-        }
-        s
+        s + &method_failures(r)
     }
 
     /// Paper Fig. 12: the posterior of each parameter with its 95 % interval and every method's estimate.
@@ -572,6 +535,16 @@ impl Page<'_> {
         };
         let response = self.response_label();
         let design = self.study_info().filter(|s| s.design.len() == 1).map(|s| &s.design[0]);
+        if let (Some(var), Some(d)) = (design, self.d.filter(|d| !d.prediction_curves.is_empty())) {
+            return self.predictions_over_design(first, var, d);
+        }
+        self.predictions_against_measured(&response)
+    }
+
+    /// Each method's prediction over the one design variable, with the measurements and their
+    /// replicate scatter (the paper's Figs 4–6).
+    fn predictions_over_design(&self, first: &MethodResult, var: &Variable, d: &ReportData) -> String {
+        let response = self.response_label();
         let mut series = Vec::new();
         let measured = |role: Role| -> (Vec<(f64, f64)>, Vec<f64>) {
             first
@@ -584,43 +557,45 @@ impl Page<'_> {
                 })
                 .unzip()
         };
-        if let (Some(var), Some(d)) = (design, self.d.filter(|d| !d.prediction_curves.is_empty())) {
-            for c in &d.prediction_curves {
-                let style = if c.x.len() < 6 { Style::LineMarkers } else { Style::Line };
-                series.push(Series::new(
-                    method_name(&c.method),
-                    method_color(&c.method),
-                    style,
-                    c.x.iter().copied().zip(c.y.iter().copied()).collect(),
-                ));
-            }
-            for (role, label, style) in [
-                (Role::Training, "measured, training", Style::Markers),
-                (Role::Validation, "measured, validation", Style::Hollow),
-            ] {
-                let (pts, err) = measured(role);
-                if !pts.is_empty() {
-                    series.push(Series {
-                        label: label.into(),
-                        color: plots::BLACK_,
-                        style,
-                        points: pts,
-                        y_err: Some(err),
-                    });
-                }
-            }
-            let plot = XyPlot {
-                title: format!("Calibrated predictions over {}", var.name),
-                x_label: var.label(),
-                y_label: response.clone(),
-                series,
-                ..Default::default()
-            };
-            let caption = "Each method's calibrated prediction over the design range (a solver study's point methods exist only at the \
-                           tested designs) against the measurements (filled: training, hollow: validation; bars: ± one replicate std dev) — the paper's Figs 4–6.";
-            return figure("predictions", plot.render(), caption);
+        for c in &d.prediction_curves {
+            let style = if c.x.len() < 6 { Style::LineMarkers } else { Style::Line };
+            series.push(Series::new(
+                method_name(&c.method),
+                method_color(&c.method),
+                style,
+                c.x.iter().copied().zip(c.y.iter().copied()).collect(),
+            ));
         }
-        // No design curve: predicted against measured at every tested design.
+        for (role, label, style) in [
+            (Role::Training, "measured, training", Style::Markers),
+            (Role::Validation, "measured, validation", Style::Hollow),
+        ] {
+            let (pts, err) = measured(role);
+            if !pts.is_empty() {
+                series.push(Series {
+                    label: label.into(),
+                    color: plots::BLACK_,
+                    style,
+                    points: pts,
+                    y_err: Some(err),
+                });
+            }
+        }
+        let plot = XyPlot {
+            title: format!("Calibrated predictions over {}", var.name),
+            x_label: var.label(),
+            y_label: response.clone(),
+            series,
+            ..Default::default()
+        };
+        let caption = "Each method's calibrated prediction over the design range (a solver study's point methods exist only at the \
+                       tested designs) against the measurements (filled: training, hollow: validation; bars: ± one replicate std dev) — the paper's Figs 4–6.";
+        figure("predictions", plot.render(), caption)
+    }
+
+    /// No design curve: predicted against measured at every tested design.
+    fn predictions_against_measured(&self, response: &str) -> String {
+        let mut series = Vec::new();
         let mut all = Vec::new();
         for (m, res) in &self.r.calibration {
             let pts: Vec<(f64, f64)> = res.predictions.iter().map(|p| (p.measured, p.predicted)).collect();
@@ -988,19 +963,89 @@ fn noise_kind(kind: &crate::diagnose::NoiseKind) -> &'static str {
     }
 }
 
+/// A method's discrepancy as a table cell: none, a constant, or a GP's mean and std dev.
+fn discrepancy_cell(m: &MethodResult, unit: Option<&str>) -> String {
+    match &m.discrepancy {
+        None => "none".into(),
+        Some(d) => {
+            if let Some(c) = d.get("constant").and_then(|c| c.as_f64()) {
+                format!("constant {}", with_unit(c, unit, 4))
+            } else if let Some(gp) = d.get("gaussian_process") {
+                let f = |k: &str| {
+                    gp.get(k)
+                        .and_then(|v| v.as_f64())
+                        .map_or("–".into(), |v| with_unit(v, unit, 3))
+                };
+                format!("GP: mean {}, std dev {}", f("mean"), f("std_dev"))
+            } else {
+                escape(&d.to_string())
+            }
+        }
+    }
+}
+
+/// A warning per method that failed, with why.
+fn method_failures(r: &Results) -> String {
+    let mut s = String::new();
+    for (method, m) in &r.calibration {
+        if let Some(e) = &m.error {
+            let _ = write!(
+                s,
+                "<p class=warn>{} failed: {}</p>",
+                escape(&method_name(method)),
+                escape(e)
+            );
+        }
+    }
+    s
+}
+
+/// The surrogates' table: kind, sample and check runs, check errors per design.
+fn surrogate_table(table: &IndexMap<String, SurrogateResult>) -> String {
+    let mut s = String::from(
+        "<table><tr><th class=l>design</th><th class=l>surrogate</th><th>sample runs</th><th>check runs</th>\
+         <th>max check error</th><th>mean check error</th></tr>",
+    );
+    for (design, sr) in table {
+        let _ = write!(
+            s,
+            "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            escape(design),
+            escape(&sr.kind),
+            sr.samples,
+            sr.check_runs,
+            pct(sr.check_max_relative_error),
+            pct(sr.check_mean_relative_error)
+        );
+    }
+    s.push_str("</table>");
+    s
+}
+
+/// Variables as `name ∈ [min, max] unit`, one per line.
+fn variables_with_bounds(vars: &[Variable]) -> String {
+    vars.iter()
+        .map(|v| {
+            let range = match (v.min, v.max) {
+                (Some(lo), Some(hi)) => format!(" ∈ [{}, {}]", short(lo, 6), short(hi, 6)),
+                _ => String::new(),
+            };
+            format!(
+                "{}{range}{}",
+                escape(&v.name),
+                v.unit.as_ref().map_or(String::new(), |u| format!(" {}", escape(u)))
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("<br>")
+}
+
 fn list(names: &[String]) -> String {
     if names.is_empty() {
         "none".into()
     } else {
         names.join(", ")
     }
-}
-
-pub fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
 }
 
 /// The significance level of the diagnosis's decisions (its `Settings::default().alpha`): captions
@@ -1129,3 +1174,5 @@ fn candidate_table(dg: &crate::diagnose::Diagnosis) -> String {
     }
     s
 }
+/// Kept under its old name for the page's sections; the plots use it too (see [`super::markup`]).
+pub use super::markup::escape;

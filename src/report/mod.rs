@@ -4,6 +4,7 @@
 pub mod curves;
 pub mod data;
 pub mod html;
+pub mod markup;
 pub mod plots;
 pub mod results;
 pub mod summary;

@@ -122,7 +122,10 @@ fn svg_sized(size: (u32, u32), draw: impl FnOnce(&DrawingArea<SVGBackend, Shift>
     match outcome {
         // Inline SVG in HTML needs no namespace declaration; leaving it out keeps the page free of URLs.
         Ok(()) => out.replacen(" xmlns=\"http://www.w3.org/2000/svg\"", "", 1),
-        Err(e) => format!("<p class=warn>plot failed: {}</p>", super::html::escape(&e.to_string())),
+        Err(e) => format!(
+            "<p class=warn>plot failed: {}</p>",
+            super::markup::escape(&e.to_string())
+        ),
     }
 }
 
@@ -212,23 +215,7 @@ impl XyPlot {
     }
 
     fn draw(&self, root: &DrawingArea<SVGBackend, Shift>) -> Result<()> {
-        let xs = self.series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
-        let xs = xs
-            .chain(self.bands.iter().flat_map(|b| [b.x0, b.x1]))
-            .chain(self.vlines.iter().map(|v| v.x));
-        let x = range(xs, 0.04);
-        let ys = self.series.iter().flat_map(|s| {
-            s.points.iter().enumerate().flat_map(move |(i, p)| {
-                let e = s.y_err.as_ref().and_then(|e| e.get(i)).copied().unwrap_or(0.0);
-                [p.1 - e, p.1 + e]
-            })
-        });
-        let y = range(ys.clone().chain(self.hline), 0.08);
-        let y = match self.y_floor {
-            Some(floor) if ys.chain(self.hline).all(|v| !v.is_finite() || v >= floor) && floor < y.1 => (floor, y.1),
-            _ => y,
-        };
-        let y = (y.0, y.1 + self.legend_room * (y.1 - y.0));
+        let (x, y) = self.ranges();
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, ("sans-serif", TITLE_SIZE))
             .margin(12)
@@ -277,6 +264,41 @@ impl XyPlot {
                     .legend(move |(px, py)| PathElement::new([(px, py), (px + 16, py)], c.stroke_width(2)));
             }
         }
+        if self.draw_data(&mut chart)? {
+            legend = true;
+        }
+        if legend {
+            draw_legend(&mut chart, corner)?;
+        }
+        Ok(())
+    }
+
+    /// The axes' ranges: every point (with its error bar), band and line, padded; the y range
+    /// starts at `y_floor` when everything is above it, and leaves `legend_room` on top.
+    fn ranges(&self) -> ((f64, f64), (f64, f64)) {
+        let xs = self.series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
+        let xs = xs
+            .chain(self.bands.iter().flat_map(|b| [b.x0, b.x1]))
+            .chain(self.vlines.iter().map(|v| v.x));
+        let x = range(xs, 0.04);
+        let ys = self.series.iter().flat_map(|s| {
+            s.points.iter().enumerate().flat_map(move |(i, p)| {
+                let e = s.y_err.as_ref().and_then(|e| e.get(i)).copied().unwrap_or(0.0);
+                [p.1 - e, p.1 + e]
+            })
+        });
+        let y = range(ys.clone().chain(self.hline), 0.08);
+        let y = match self.y_floor {
+            Some(floor) if ys.chain(self.hline).all(|v| !v.is_finite() || v >= floor) && floor < y.1 => (floor, y.1),
+            _ => y,
+        };
+        (x, (y.0, y.1 + self.legend_room * (y.1 - y.0)))
+    }
+
+    /// Draws the series (error bars, then lines or markers) with their legend entries; returns
+    /// whether any has a label.
+    fn draw_data<'a>(&self, chart: &mut XyChart<'a>) -> Result<bool> {
+        let mut legend = false;
         for s in &self.series {
             let c = color(s.color);
             if let Some(errs) = &s.y_err {
@@ -313,12 +335,16 @@ impl XyPlot {
                     });
             }
         }
-        if legend {
-            draw_legend(&mut chart, corner)?;
-        }
-        Ok(())
+        Ok(legend)
     }
 }
+
+/// The chart an [`XyPlot`] draws on.
+type XyChart<'a> = ChartContext<
+    'a,
+    SVGBackend<'a>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
 
 /// The legend every plot draws: framed, translucent over the data, 13 px text.
 fn draw_legend<'a, CT: plotters::coord::CoordTranslate>(

@@ -8,10 +8,10 @@ use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
 use crate::calibrate::identifiability::Identifiability;
+use crate::calibrate::{Calibrated, Calibration};
 use crate::calibrate::{CalibrationError, Discrepancy, Model};
 use crate::diagnose::Diagnosis;
 use crate::extract::lsdyna::quality::{Flag, Gates};
-use crate::pipeline::{Calibrated, Calibration};
 use crate::study::Study;
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

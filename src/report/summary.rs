@@ -2,10 +2,20 @@
 
 use std::fmt::Write;
 
-use super::results::{Results, Role, Units};
+use super::results::{Results, Role, SplitResult, Units};
 
 /// Renders the summary as plain text (no colour: it is also what a log file gets).
 pub fn render(results: &Results) -> String {
+    let mut out = methods_table(results);
+    out.push_str(&predictions_table(results));
+    let id = &results.identifiability;
+    let _ = writeln!(out, "\nidentifiability: {}", id.note);
+    write_diagnosis(&mut out, results);
+    out
+}
+
+/// Per method: the parameters, the 95 % interval or the constant discrepancy, and the errors.
+fn methods_table(results: &Results) -> String {
     let mut out = String::new();
     let names: Vec<&String> = results
         .calibration
@@ -60,7 +70,12 @@ pub fn render(results: &Results) -> String {
             percent(r.validation_error)
         );
     }
+    out
+}
 
+/// Per tested design: the measurement and each method's prediction with its relative error.
+fn predictions_table(results: &Results) -> String {
+    let mut out = String::new();
     let _ = writeln!(out, "\npredictions (relative error)");
     let measured = Units::label(results.units.response.as_ref(), "measured");
     let mut header = format!("{:<12} {:<10} {:>14}", "design", "role", measured);
@@ -84,10 +99,47 @@ pub fn render(results: &Results) -> String {
             let _ = writeln!(out, "{line}");
         }
     }
-    let id = &results.identifiability;
-    let _ = writeln!(out, "\nidentifiability: {}", id.note);
-    write_diagnosis(&mut out, results);
     out
+}
+
+/// The splits as a text table: per split and method, the parameters and the errors.
+pub fn splits(splits: &[SplitResult]) -> String {
+    let mut t = String::from("\ntrain/validate splits:\n");
+    for split in splits {
+        let _ = writeln!(
+            t,
+            "  train {} / validate {}",
+            split.training.join(", "),
+            split.validation.join(", ")
+        );
+        for (method, m) in &split.methods {
+            if let Some(e) = &m.error {
+                let _ = writeln!(t, "    {method:<14} failed: {e}");
+                continue;
+            }
+            let params: Vec<String> = m.parameters.iter().map(|(k, v)| format!("{k} = {v:.1}")).collect();
+            let truth: Vec<String> = m
+                .parameter_error
+                .iter()
+                .flatten()
+                .map(|(k, e)| format!("{k} {:+.1} % vs truth", 100.0 * e))
+                .collect();
+            let pct = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("{:.2} %", 100.0 * e));
+            let _ = writeln!(
+                t,
+                "    {method:<14} {}{}  training error {}  validation error {}",
+                params.join(", "),
+                if truth.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", truth.join(", "))
+                },
+                pct(m.training_error),
+                pct(m.validation_error)
+            );
+        }
+    }
+    t
 }
 
 fn write_diagnosis(out: &mut String, results: &Results) {

@@ -68,64 +68,136 @@ impl Experiments {
 pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<Experiments, InputError> {
     let source = std::fs::read_to_string(file)
         .map_err(|e| InputError::file(file, format!("cannot read the experiments file: {e}")))?;
-    let at = |line: usize, column: usize, message: String| InputError::at(file, &source, line, column, message);
-
+    let csv = Csv { file, source: &source };
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)
         .flexible(true)
         .trim(csv::Trim::All)
         .from_reader(source.as_bytes());
     let header = reader.headers().map_err(|e| csv_error(file, &source, &e))?.clone();
-    if header.iter().all(str::is_empty) {
-        return Err(InputError::file(
-            file,
-            format!(
-                "the experiments file is empty: expected a header row with `design`, {}and `{response}`",
-                design_variables.iter().map(|v| format!("`{v}`, ")).collect::<String>()
-            ),
+    let columns = csv.columns(&header, response, design_variables)?;
+    let mut designs = Designs::default();
+    let mut record = csv::StringRecord::new();
+    while reader
+        .read_record(&mut record)
+        .map_err(|e| csv_error(file, &source, &e))?
+    {
+        let row = csv.row(&record, &header, &columns)?;
+        designs.add(row, &csv, &columns)?;
+    }
+    if designs.designs.is_empty() {
+        return Err(csv.at(
+            columns.header_line,
+            1,
+            "no data rows after the header: expected one row per test".to_string(),
         ));
     }
-    let header_line = header.position().map_or(1, |p| p.line() as usize);
-    let listed = header.iter().map(|h| format!("`{h}`")).collect::<Vec<_>>().join(", ");
-    let column_of = |name: &str| -> Result<usize, InputError> {
+    Ok(Experiments {
+        file: file.to_path_buf(),
+        response: response.to_string(),
+        unit: None,
+        designs: designs.designs,
+        curves: Vec::new(),
+    })
+}
+
+/// The experiments file and its text, for located errors.
+struct Csv<'a> {
+    file: &'a Path,
+    source: &'a str,
+}
+
+/// Where the columns a study needs are in the header.
+struct Columns<'a> {
+    header_line: usize,
+    design: usize,
+    /// Each design variable's name and column, in the study's order.
+    values: Vec<(&'a str, usize)>,
+    response: (&'a str, usize),
+}
+
+/// One data row, checked: its line, design name, design-variable values and measurement.
+struct Row {
+    line: usize,
+    text: String,
+    name: String,
+    values: Vec<f64>,
+    measured: f64,
+}
+
+/// The designs read so far, with the line that first set each one's values.
+#[derive(Default)]
+struct Designs {
+    designs: Vec<TestDesign>,
+    first_lines: Vec<usize>,
+}
+
+impl Csv<'_> {
+    fn at(&self, line: usize, column: usize, message: String) -> InputError {
+        InputError::at(self.file, self.source, line, column, message)
+    }
+
+    /// The header's columns for `design`, each design variable and the response: each present once.
+    fn columns<'a>(
+        &self,
+        header: &csv::StringRecord,
+        response: &'a str,
+        design_variables: &'a [String],
+    ) -> Result<Columns<'a>, InputError> {
+        if header.iter().all(str::is_empty) {
+            return Err(InputError::file(
+                self.file,
+                format!(
+                    "the experiments file is empty: expected a header row with `design`, {}and `{response}`",
+                    design_variables.iter().map(|v| format!("`{v}`, ")).collect::<String>()
+                ),
+            ));
+        }
+        let header_line = header.position().map_or(1, |p| p.line() as usize);
+        let column_of = |name: &str| self.column_of(header, header_line, name);
+        Ok(Columns {
+            header_line,
+            design: column_of("design")?,
+            values: design_variables
+                .iter()
+                .map(|v| column_of(v).map(|c| (v.as_str(), c)))
+                .collect::<Result<Vec<_>, _>>()?,
+            response: (response, column_of(response)?),
+        })
+    }
+
+    /// The column named `name`: present, and only once.
+    fn column_of(&self, header: &csv::StringRecord, header_line: usize, name: &str) -> Result<usize, InputError> {
         let mut found = header.iter().enumerate().filter(|(_, h)| *h == name).map(|(i, _)| i);
         let first = found.next().ok_or_else(|| {
-            at(
+            let listed = header.iter().map(|h| format!("`{h}`")).collect::<Vec<_>>().join(", ");
+            self.at(
                 header_line,
                 1,
                 format!("missing column `{name}`; the header has: {listed}"),
             )
         })?;
         if let Some(again) = found.next() {
-            return Err(at(
+            return Err(self.at(
                 header_line,
-                field_column(source_line(&source, header_line), again),
+                field_column(source_line(self.source, header_line), again),
                 format!("column `{name}` appears twice in the header"),
             ));
         }
         Ok(first)
-    };
-    let design_col = column_of("design")?;
-    let value_cols = design_variables
-        .iter()
-        .map(|v| column_of(v).map(|c| (v.as_str(), c)))
-        .collect::<Result<Vec<_>, _>>()?;
-    let response_col = column_of(response)?;
+    }
 
-    let mut designs: Vec<TestDesign> = Vec::new();
-    // Line of the row that first set each design's values, for the replicate-mismatch message.
-    let mut first_lines: Vec<usize> = Vec::new();
-    let mut record = csv::StringRecord::new();
-    loop {
-        match reader.read_record(&mut record) {
-            Ok(true) => {}
-            Ok(false) => break,
-            Err(e) => return Err(csv_error(file, &source, &e)),
-        }
+    /// A data row: as many fields as the header, a design name, finite numbers.
+    fn row(
+        &self,
+        record: &csv::StringRecord,
+        header: &csv::StringRecord,
+        columns: &Columns,
+    ) -> Result<Row, InputError> {
         let line = record.position().map_or(0, |p| p.line() as usize);
-        let text = source_line(&source, line);
+        let text = source_line(self.source, line);
         if record.len() != header.len() {
-            return Err(at(
+            return Err(self.at(
                 line,
                 1,
                 format!(
@@ -135,11 +207,11 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
                 ),
             ));
         }
-        let name = &record[design_col];
+        let name = &record[columns.design];
         if name.is_empty() {
-            return Err(at(
+            return Err(self.at(
                 line,
-                field_column(text, design_col),
+                field_column(text, columns.design),
                 "empty design name".to_string(),
             ));
         }
@@ -147,59 +219,57 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
             let raw = &record[index];
             match raw.parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(v),
-                _ => Err(at(
+                _ => Err(self.at(
                     line,
                     field_column(text, index),
                     format!("column `{column}`: expected a finite number, found `{raw}`"),
                 )),
             }
         };
-        let values = value_cols
+        let values = columns
+            .values
             .iter()
             .map(|&(v, c)| number(v, c))
             .collect::<Result<Vec<_>, _>>()?;
-        let measured = number(response, response_col)?;
-        match designs.iter().position(|d| d.name == name) {
-            Some(k) => {
-                let known = &designs[k];
-                if let Some(j) = (0..values.len()).find(|&j| !same(values[j], known.values[j])) {
-                    let (var, col) = value_cols[j];
-                    return Err(at(
-                        line,
-                        field_column(text, col),
-                        format!(
-                            "replicate of design `{name}` has {var} = {}, but line {} has {var} = {}; \
-                             rows of one design must agree on the design variables",
-                            values[j], first_lines[k], known.values[j]
-                        ),
-                    ));
-                }
-                designs[k].replicates.push(measured);
-            }
-            None => {
-                designs.push(TestDesign {
-                    name: name.to_string(),
-                    values,
-                    replicates: vec![measured],
-                });
-                first_lines.push(line);
-            }
+        let measured = number(columns.response.0, columns.response.1)?;
+        Ok(Row {
+            line,
+            text: text.to_string(),
+            name: name.to_string(),
+            values,
+            measured,
+        })
+    }
+}
+
+impl Designs {
+    /// A row joins its design as a replicate (its design variables must agree) or starts a new one.
+    fn add(&mut self, row: Row, csv: &Csv, columns: &Columns) -> Result<(), InputError> {
+        let Some(k) = self.designs.iter().position(|d| d.name == row.name) else {
+            self.designs.push(TestDesign {
+                name: row.name,
+                values: row.values,
+                replicates: vec![row.measured],
+            });
+            self.first_lines.push(row.line);
+            return Ok(());
+        };
+        let known = &self.designs[k];
+        if let Some(j) = (0..row.values.len()).find(|&j| !same(row.values[j], known.values[j])) {
+            let (var, col) = columns.values[j];
+            return Err(csv.at(
+                row.line,
+                field_column(&row.text, col),
+                format!(
+                    "replicate of design `{}` has {var} = {}, but line {} has {var} = {}; \
+                     rows of one design must agree on the design variables",
+                    row.name, row.values[j], self.first_lines[k], known.values[j]
+                ),
+            ));
         }
+        self.designs[k].replicates.push(row.measured);
+        Ok(())
     }
-    if designs.is_empty() {
-        return Err(at(
-            header_line,
-            1,
-            "no data rows after the header: expected one row per test".to_string(),
-        ));
-    }
-    Ok(Experiments {
-        file: file.to_path_buf(),
-        response: response.to_string(),
-        unit: None,
-        designs,
-        curves: Vec::new(),
-    })
 }
 
 /// Equal up to rounding of the printed values.

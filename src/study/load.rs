@@ -38,6 +38,25 @@ pub fn load(path: &Path) -> Result<Study, InputError> {
     Checker { path, source: &source }.study(file)
 }
 
+/// The experiments file and the designs a study tests from it.
+struct Tested {
+    experiments: Experiments,
+    training: Vec<String>,
+    validation: Vec<String>,
+}
+
+/// The symbols expressions may use, in the order of `Study::symbols`: design variables,
+/// parameters, constants.
+fn symbols(design: &[DesignVariable], parameters: &[Parameter], constants: &[(String, f64)]) -> Symbols {
+    Symbols::new(
+        design
+            .iter()
+            .map(|d| d.name.clone())
+            .chain(parameters.iter().map(|p| p.name.clone()))
+            .chain(constants.iter().map(|(n, _)| n.clone())),
+    )
+}
+
 /// The study file and its text, for located errors.
 struct Checker<'a> {
     path: &'a Path,
@@ -123,21 +142,59 @@ impl Checker<'_> {
         (written == wanted).then_some(node.column + quote + offset)
     }
 
+    /// The study's checks as named steps, in the order their errors are reported: the names, the
+    /// variables, the simulation, the experiments and the designs tested, the calibration, the
+    /// splits, the truth, then the diagnosis (which needs the rest).
     fn study(&self, file: StudyFile) -> Result<Study, InputError> {
         let name = self.name(&file.name)?;
         self.names(&file)?;
+        let constants = self.constants(&file)?;
+        let design = self.design_variables(&file)?;
+        let parameters = self.parameters(&file)?;
+        let symbols = symbols(&design, &parameters, &constants);
+        let simulation = self.simulation(&file.simulation, &symbols, design.len(), parameters.len())?;
+        let Tested {
+            experiments,
+            training,
+            validation,
+        } = self.tested(&file, &design, &simulation)?;
+        let calibration = self.calibration(file.calibration.as_ref(), &file.training, training.len())?;
+        let splits = self.splits(file.splits.as_ref(), &experiments, &training, &validation, &calibration)?;
+        let truth = self.truth(&file, &parameters)?;
+        let mut study = Study {
+            name,
+            path: self.path.to_path_buf(),
+            constants,
+            design,
+            parameters,
+            simulation,
+            experiments,
+            training,
+            validation,
+            calibration,
+            diagnosis: DiagnosisSettings::default(),
+            splits,
+            truth,
+        };
+        debug_assert_eq!(study.symbols(), symbols);
+        study.diagnosis = self.diagnosis(file.diagnosis.as_ref(), &study)?;
+        Ok(study)
+    }
 
-        let constants = file
-            .constants
+    /// `constants:`, each a finite number.
+    fn constants(&self, file: &StudyFile) -> Result<Vec<(String, f64)>, InputError> {
+        file.constants
             .iter()
             .map(|(name, value)| {
                 let v = self.finite(value, &format!("constant `{}`", name.value))?;
                 Ok((name.value.clone(), v))
             })
-            .collect::<Result<Vec<_>, InputError>>()?;
+            .collect()
+    }
 
-        let design = file
-            .design
+    /// `design:`, each with optional finite bounds, min < max.
+    fn design_variables(&self, file: &StudyFile) -> Result<Vec<DesignVariable>, InputError> {
+        file.design
             .value
             .iter()
             .map(|(name, spec)| {
@@ -163,8 +220,11 @@ impl Checker<'_> {
                     max,
                 })
             })
-            .collect::<Result<Vec<_>, InputError>>()?;
+            .collect()
+    }
 
+    /// `parameters:`, at least one, each with finite bounds, min < max.
+    fn parameters(&self, file: &StudyFile) -> Result<Vec<Parameter>, InputError> {
         if file.parameters.value.is_empty() {
             return Err(self.at_key(
                 "parameters",
@@ -172,8 +232,7 @@ impl Checker<'_> {
                 "no calibration parameters: give at least one, e.g. `E: {min: 50000, max: 80000}`",
             ));
         }
-        let parameters = file
-            .parameters
+        file.parameters
             .value
             .iter()
             .map(|(name, spec)| {
@@ -190,20 +249,19 @@ impl Checker<'_> {
                     unit: spec.unit.clone(),
                 })
             })
-            .collect::<Result<Vec<_>, InputError>>()?;
+            .collect()
+    }
 
-        // The same order as `Study::symbols`: design variables, parameters, constants.
-        let symbols = Symbols::new(
-            design
-                .iter()
-                .map(|d| d.name.clone())
-                .chain(parameters.iter().map(|p| p.name.clone()))
-                .chain(constants.iter().map(|(n, _)| n.clone())),
-        );
-        let simulation = self.simulation(&file.simulation, &symbols, design.len(), parameters.len())?;
-
-        let mut experiments = self.experiments(&file, &design)?;
-        experiments.unit = self.response_unit(file.experiments.unit.as_ref(), &simulation)?;
+    /// The experiments, the training and validation designs among them (disjoint, training not
+    /// empty), and the specimens' curves of those designs.
+    fn tested(
+        &self,
+        file: &StudyFile,
+        design: &[DesignVariable],
+        simulation: &Simulation,
+    ) -> Result<Tested, InputError> {
+        let mut experiments = self.experiments(file, design)?;
+        experiments.unit = self.response_unit(file.experiments.unit.as_ref(), simulation)?;
         let training = self.designs(&file.training.value, "training", &experiments)?;
         if training.is_empty() {
             return Err(self.at(
@@ -224,9 +282,15 @@ impl Checker<'_> {
 
         let planned: Vec<String> = training.iter().chain(&validation).cloned().collect();
         experiments.curves = self.specimen_curves(file.experiments.curves.as_ref(), &experiments, &planned)?;
+        Ok(Tested {
+            experiments,
+            training,
+            validation,
+        })
+    }
 
-        let calibration = self.calibration(file.calibration.as_ref(), &file.training, training.len())?;
-        let splits = self.splits(file.splits.as_ref(), &experiments, &training, &validation, &calibration)?;
+    /// `truth:`: known values of parameters (synthetic tests), each a parameter's.
+    fn truth(&self, file: &StudyFile, parameters: &[Parameter]) -> Result<Vec<(String, f64)>, InputError> {
         let mut truth = Vec::new();
         for (name, value) in &file.truth {
             if !parameters.iter().any(|p| p.name == name.value) {
@@ -245,25 +309,7 @@ impl Checker<'_> {
                 self.finite(value, &format!("truth `{}`", name.value))?,
             ));
         }
-
-        let mut study = Study {
-            name,
-            path: self.path.to_path_buf(),
-            constants,
-            design,
-            parameters,
-            simulation,
-            experiments,
-            training,
-            validation,
-            calibration,
-            diagnosis: DiagnosisSettings::default(),
-            splits,
-            truth,
-        };
-        debug_assert_eq!(study.symbols(), symbols);
-        study.diagnosis = self.diagnosis(file.diagnosis.as_ref(), &study)?;
-        Ok(study)
+        Ok(truth)
     }
 
     fn name(&self, name: &Spanned<String>) -> Result<String, InputError> {

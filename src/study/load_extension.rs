@@ -11,7 +11,7 @@ use indexmap::IndexMap;
 
 use super::super::schema::Name;
 use super::super::yaml::Spanned;
-use super::super::{Simulation, Study};
+use super::super::{Simulation, SolverSimulation, Study};
 use super::Checker;
 use crate::error::InputError;
 
@@ -19,6 +19,8 @@ use crate::error::InputError;
 const RESERVED: [&str; 1] = ["design_name"];
 
 impl Checker<'_> {
+    /// `extension:` of hypothesis `hypothesis`: a solver study's, not empty, each variable valid
+    /// and used by the templates.
     pub(super) fn extension(
         &self,
         study: &Study,
@@ -44,47 +46,72 @@ impl Checker<'_> {
                 format!("{who}: empty `extension`: give the template variables it sets, e.g. {{shear: 1}}"),
             ));
         }
-        let mut vars = Vec::new();
-        for (var, value) in &node.value {
-            let text = var.value.as_str();
-            let identifier = text.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
-                && text.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
-            if !identifier {
-                return Err(self.at(
-                    var,
-                    format!(
-                        "{who}: invalid template variable `{text}`: use letters, digits and '_', starting with a letter"
-                    ),
-                ));
-            }
-            let clash = if study.design.iter().any(|d| d.name == text) {
-                Some("a design variable")
-            } else if study.parameters.iter().any(|p| p.name == text) {
-                Some("a calibration parameter")
-            } else if RESERVED.contains(&text) {
-                Some("set by lab for every run")
-            } else {
-                None
-            };
-            if let Some(what) = clash {
-                return Err(self.at(
-                    var,
-                    format!(
-                        "{who}: `{text}` is {what}; an extension sets a template variable of its own (or overrides a \
-                         constant)"
-                    ),
-                ));
-            }
-            if !value.value.is_finite() {
-                return Err(self.at(
-                    value,
-                    format!("{who}: `{text}` must be a finite number, not {}", value.value),
-                ));
-            }
-            vars.push((text.to_string(), value.value));
-        }
+        let vars = node
+            .value
+            .iter()
+            .map(|(var, value)| self.extension_variable(study, &who, var, value))
+            .collect::<Result<Vec<_>, _>>()?;
+        self.used_by_templates(study, sim, &who, node, &vars)?;
+        Ok(vars)
+    }
 
-        // The render test, at the first training design and the centre of the parameter box.
+    /// One variable of an extension: an identifier of its own (not a design variable, parameter
+    /// or name lab sets), with a finite value.
+    fn extension_variable(
+        &self,
+        study: &Study,
+        who: &str,
+        var: &Name,
+        value: &Spanned<f64>,
+    ) -> Result<(String, f64), InputError> {
+        let text = var.value.as_str();
+        let identifier = text.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+            && text.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+        if !identifier {
+            return Err(self.at(
+                var,
+                format!(
+                    "{who}: invalid template variable `{text}`: use letters, digits and '_', starting with a letter"
+                ),
+            ));
+        }
+        let clash = if study.design.iter().any(|d| d.name == text) {
+            Some("a design variable")
+        } else if study.parameters.iter().any(|p| p.name == text) {
+            Some("a calibration parameter")
+        } else if RESERVED.contains(&text) {
+            Some("set by lab for every run")
+        } else {
+            None
+        };
+        if let Some(what) = clash {
+            return Err(self.at(
+                var,
+                format!(
+                    "{who}: `{text}` is {what}; an extension sets a template variable of its own (or overrides a \
+                     constant)"
+                ),
+            ));
+        }
+        if !value.value.is_finite() {
+            return Err(self.at(
+                value,
+                format!("{who}: `{text}` must be a finite number, not {}", value.value),
+            ));
+        }
+        Ok((text.to_string(), value.value))
+    }
+
+    /// The render test: each variable must change what the templates render, at the first training
+    /// design and the centre of the parameter box.
+    fn used_by_templates(
+        &self,
+        study: &Study,
+        sim: &SolverSimulation,
+        who: &str,
+        node: &Spanned<IndexMap<Name, Spanned<f64>>>,
+        vars: &[(String, f64)],
+    ) -> Result<(), InputError> {
         let renderer = crate::render::Renderer::new(&sim.templates)?;
         let design = &study.training[0];
         let values = study
@@ -98,7 +125,7 @@ impl Checker<'_> {
             crate::render::extend(&mut ctx, vars);
             renderer.render(&ctx)
         };
-        let full = render(&vars).map_err(|mut e| {
+        let full = render(vars).map_err(|mut e| {
             e.message = format!("{} (rendering the extension of {who})", e.message);
             e
         })?;
@@ -121,6 +148,6 @@ impl Checker<'_> {
                 ));
             }
         }
-        Ok(vars)
+        Ok(())
     }
 }

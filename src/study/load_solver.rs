@@ -66,6 +66,9 @@ impl Checker<'_> {
         Ok(())
     }
 
+    /// `simulation.solver` and the keys that go with it, in the order their errors are reported:
+    /// adapter, inputs, command, limits, response (and the cluster keys), surrogate, sampling,
+    /// mesh, replay.
     pub(super) fn solver(
         &self,
         node: &Spanned<SimulationFile>,
@@ -88,43 +91,8 @@ impl Checker<'_> {
             .iter()
             .map(|f| self.copied(f, &mut outputs))
             .collect::<Result<Vec<_>, _>>()?;
-        let command = match &spec.command {
-            Some(c) => self.command(c)?,
-            None if lsdyna => {
-                let Some(main) = templates.first() else {
-                    return Err(self.at_key(
-                        "solver",
-                        solver,
-                        "an `lsdyna` solver needs `templates: [main.k.tera, ...]` (the first is the main deck)",
-                    ));
-                };
-                vec![
-                    "ls-dyna".to_string(),
-                    format!("i={}", main.output.display()),
-                    "ncpu=1".to_string(),
-                ]
-            }
-            // `calculix`: `[ccx, -i, JOB]`, filled in once the job is known (load_cluster.rs).
-            None if adapter == "calculix" => Vec::new(),
-            None => {
-                return Err(self.at_key(
-                    "solver",
-                    solver,
-                    "a `command` solver needs `command: [program, args...]`",
-                ));
-            }
-        };
-        let timeout = spec
-            .timeout
-            .as_ref()
-            .map(|t| self.seconds(t, "solver.timeout", false))
-            .transpose()?;
-        let retry = spec
-            .retries
-            .as_ref()
-            .map(|r| self.retries(r))
-            .transpose()?
-            .unwrap_or_default();
+        let command = self.solver_command(solver, &adapter, &templates)?;
+        let (timeout, retry) = self.limits(spec)?;
         let Some(response) = &sim.response else {
             let want = if lsdyna {
                 "an `lsdyna` solver needs `simulation.response: {kind: crush_force, window: [5, 60], node: ...}`"
@@ -144,15 +112,7 @@ impl Checker<'_> {
             None if lsdyna => self.crush_response(response)?,
             None => self.regex_response(response)?,
         };
-        let surrogate = match &sim.surrogate {
-            None => SurrogateKind::Linear,
-            Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
-                self.at(
-                    s,
-                    format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value),
-                )
-            })?,
-        };
+        let surrogate = self.surrogate_kind(sim)?;
         let Some(sampling) = &sim.sampling else {
             return Err(self.at_key(
                 "solver",
@@ -162,16 +122,7 @@ impl Checker<'_> {
         };
         let sampling = self.sampling(sampling, surrogate, n_parameters)?;
         let mesh = sim.mesh.as_ref().map(|m| self.mesh(m, design_names)).transpose()?;
-        let replay = sim.replay.as_ref().map(|r| {
-            if r.value.trim().is_empty() {
-                return Err(self.at(
-                    r,
-                    "`simulation.replay` is empty: give a directory relative to the study file",
-                ));
-            }
-            Ok(self.path.parent().unwrap_or(Path::new("")).join(&r.value))
-        });
-        let replay = replay.transpose()?;
+        let replay = self.replay_dir(sim)?;
         Ok(SolverSimulation {
             adapter,
             templates,
@@ -193,6 +144,82 @@ impl Checker<'_> {
                 .transpose()?
                 .unwrap_or_default(),
         })
+    }
+
+    /// `solver.command`, or the adapter's default: `lsdyna` runs `ls-dyna i=<first template>`;
+    /// `calculix` gets `[ccx, -i, JOB]` once the job is known (empty here, see load_cluster.rs).
+    fn solver_command(
+        &self,
+        solver: &Spanned<SolverFile>,
+        adapter: &str,
+        templates: &[Template],
+    ) -> Result<Vec<String>, InputError> {
+        match &solver.value.command {
+            Some(c) => self.command(c),
+            None if adapter == "lsdyna" => {
+                let Some(main) = templates.first() else {
+                    return Err(self.at_key(
+                        "solver",
+                        solver,
+                        "an `lsdyna` solver needs `templates: [main.k.tera, ...]` (the first is the main deck)",
+                    ));
+                };
+                Ok(vec![
+                    "ls-dyna".to_string(),
+                    format!("i={}", main.output.display()),
+                    "ncpu=1".to_string(),
+                ])
+            }
+            None if adapter == "calculix" => Ok(Vec::new()),
+            None => Err(self.at_key(
+                "solver",
+                solver,
+                "a `command` solver needs `command: [program, args...]`",
+            )),
+        }
+    }
+
+    /// `solver.timeout` (seconds per attempt) and `solver.retries`.
+    fn limits(&self, spec: &SolverFile) -> Result<(Option<Duration>, RetryPolicy), InputError> {
+        let timeout = spec
+            .timeout
+            .as_ref()
+            .map(|t| self.seconds(t, "solver.timeout", false))
+            .transpose()?;
+        let retry = spec
+            .retries
+            .as_ref()
+            .map(|r| self.retries(r))
+            .transpose()?
+            .unwrap_or_default();
+        Ok((timeout, retry))
+    }
+
+    /// `simulation.surrogate` (default linear).
+    fn surrogate_kind(&self, sim: &SimulationFile) -> Result<SurrogateKind, InputError> {
+        match &sim.surrogate {
+            None => Ok(SurrogateKind::Linear),
+            Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
+                self.at(
+                    s,
+                    format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value),
+                )
+            }),
+        }
+    }
+
+    /// `simulation.replay`, relative to the study file.
+    fn replay_dir(&self, sim: &SimulationFile) -> Result<Option<PathBuf>, InputError> {
+        let Some(r) = &sim.replay else {
+            return Ok(None);
+        };
+        if r.value.trim().is_empty() {
+            return Err(self.at(
+                r,
+                "`simulation.replay` is empty: give a directory relative to the study file",
+            ));
+        }
+        Ok(Some(self.path.parent().unwrap_or(Path::new("")).join(&r.value)))
     }
 
     fn regex_response(&self, node: &Spanned<ResponseFile>) -> Result<Response, InputError> {
@@ -228,6 +255,15 @@ impl Checker<'_> {
                  file/regex",
             ));
         }
+        self.crush_force_kind(node)?;
+        let window = self.stroke_window(node)?;
+        let source = self.crush_source(node)?;
+        Ok(Response::CrushForce { window, source })
+    }
+
+    /// `response.kind`: `crush_force`, the lsdyna adapter's one kind.
+    fn crush_force_kind(&self, node: &Spanned<ResponseFile>) -> Result<(), InputError> {
+        let r = &node.value;
         match &r.kind {
             Some(k) if k.value == "crush_force" => {}
             Some(k) => {
@@ -247,6 +283,12 @@ impl Checker<'_> {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// `response.window: [s0, s1]`, the stroke window in mm.
+    fn stroke_window(&self, node: &Spanned<ResponseFile>) -> Result<Window, InputError> {
+        let r = &node.value;
         let Some(window) = &r.window else {
             return Err(self.at_key(
                 "response",
@@ -258,6 +300,13 @@ impl Checker<'_> {
         if w.len() != 2 || !w.iter().all(|v| v.is_finite()) || w[0] < 0.0 || w[1] <= w[0] {
             return Err(self.at(window, "`response.window` must be [s0, s1] in mm with 0 <= s0 < s1"));
         }
+        Ok(Window { s0: w[0], s1: w[1] })
+    }
+
+    /// Where the crush force and the stroke are read: rcforc interface, side and axis, nodout node
+    /// and axis, unit factors.
+    fn crush_source(&self, node: &Spanned<ResponseFile>) -> Result<SimSource, InputError> {
+        let r = &node.value;
         let Some(node_id) = &r.node else {
             return Err(self.at_key(
                 "response",
@@ -293,7 +342,7 @@ impl Checker<'_> {
                 Some(v) => Err(self.at(v, format!("`response.{key}` must be a positive number"))),
             }
         };
-        let source = SimSource {
+        Ok(SimSource {
             interface: r.interface.as_ref().map_or(1, |i| i.value),
             side,
             force_axis,
@@ -303,10 +352,6 @@ impl Checker<'_> {
             disp_axis,
             disp_sign: Sign::Auto,
             disp_to_mm: factor(&r.disp_to_mm, "disp_to_mm")?,
-        };
-        Ok(Response::CrushForce {
-            window: Window { s0: w[0], s1: w[1] },
-            source,
         })
     }
 

@@ -24,6 +24,8 @@ pub use solver::{
 };
 
 use crate::calibrate::Bounds;
+/// The calibration methods a study names (defined beside the calibration they select).
+pub use crate::calibrate::Method;
 use crate::error::InputError;
 
 /// A validated study.
@@ -84,30 +86,6 @@ pub enum Simulation {
     Solver(Box<SolverSimulation>),
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Method {
-    LeastSquares,
-    Sensitivity,
-    Bayesian,
-}
-
-impl Method {
-    /// The name used in the study file and in `results.json`.
-    pub fn key(self) -> &'static str {
-        match self {
-            Method::LeastSquares => "least_squares",
-            Method::Sensitivity => "sensitivity",
-            Method::Bayesian => "bayesian",
-        }
-    }
-
-    pub fn from_key(key: &str) -> Option<Method> {
-        [Method::LeastSquares, Method::Sensitivity, Method::Bayesian]
-            .into_iter()
-            .find(|m| m.key() == key)
-    }
-}
-
 #[derive(Debug, Clone)]
 pub struct CalibrationSettings {
     /// Methods to run, in the order listed.
@@ -150,6 +128,15 @@ impl Hypothesis {
 }
 
 impl Study {
+    /// Parameter values by name, in the study's order.
+    pub fn parameter_values(&self, theta: &[f64]) -> indexmap::IndexMap<String, f64> {
+        self.parameters
+            .iter()
+            .map(|p| p.name.clone())
+            .zip(theta.iter().copied())
+            .collect()
+    }
+
     /// Symbols of the simulation expression: design variables, parameters, constants.
     pub fn symbols(&self) -> Symbols {
         Symbols::new(

@@ -46,7 +46,7 @@ pub fn lab(conf: &str, dir: &Path, args: &[&str]) -> Command {
 
 /// A PATH holding crushsim's directory and the system's (Slurm's clients are in /usr/bin).
 pub fn path_with_crushsim() -> String {
-    let crushsim = Path::new(env!("CARGO_BIN_EXE_crushsim"));
+    let crushsim = crate::crushsim_bin::crushsim();
     format!("{}:/usr/bin:/bin", crushsim.parent().unwrap().display())
 }
 

@@ -3,6 +3,36 @@
 //! - this module: submitting (journal before sbatch), watching and re-attaching;
 //! - [`lost`]: when a job that every Slurm source has forgotten is given up;
 //! - [`interrupt`]: Ctrl-C — the question whether to leave the jobs running or scancel them.
+//!
+//! # Design note
+//!
+//! **States of a run handed to Slurm.**
+//!
+//! ```text
+//! prepared ─► journaled (entry without id) ─sbatch─► journaled with id ─► running in the job
+//!     ─► committed by `lab slurm-worker` ─► collected by the submitting lab (all of a job's runs:
+//!        entry removed)
+//! a job that ends without a run's record ─► that run gets Slurm's outcome (timeout, cancelled, ...)
+//! a job no Slurm source knows for `lost_after` ─► its unrecorded runs get `lost` (see [`lost`])
+//! ```
+//!
+//! **Invariants.** The journal entry (`OUT/slurm/<token>.json`) is written before sbatch, so every
+//! job this `lab` may have submitted is on disk: by id, or by its name `lab-<token>` when `lab`
+//! died between sbatch and writing the id. The run directories of journaled keys are claimed:
+//! the store keeps them when it opens ([`crate::execute::open_store`]). Records are committed by
+//! the worker inside the job with the store's atomic commit, without the lock; the submitting
+//! `lab` only reads them (a record older than the job's submission is not this job's). A local
+//! `lab run` refuses to run while the journal lists jobs.
+//!
+//! **What a kill leaves.** Killing the submitting `lab` at any moment leaves the jobs running and
+//! the journal naming them; the next `lab run --executor slurm` re-attaches instead of submitting
+//! twice, and drops an entry that never reached Slurm. Ctrl-C asks whether to leave or scancel
+//! the jobs ([`interrupt`]). A worker killed with its job leaves run directories without records;
+//! the job's end gives those runs Slurm's outcome, and the next `lab run` runs them again.
+//!
+//! **Why.** Slurm's own state is not durable enough to re-attach from (squeue and scontrol forget
+//! a job after MinJobAge; the jobcomp file may rotate), so `lab` keeps its own journal, written
+//! first; and the executor, not the store, owns it, so the store stays unaware of Slurm.
 
 pub mod interrupt;
 pub mod lost;

@@ -69,6 +69,8 @@ enum Block {
     Rot,
 }
 
+/// Reads nodout text: headings set the block's step and time, column headers its kind
+/// (translations or rotations), and each data row is appended to its node's series.
 pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
     let b = body(file, text, "nodout")?;
     let mut out = Nodout {
@@ -82,18 +84,9 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
             continue;
         }
         if let Some(c) = HEADING.captures(line) {
-            let step: u64 = c[1]
-                .parse()
-                .map_err(|_| err(file, text, no, "time step number out of range"))?;
-            time = parse_number(&c[2]).ok_or_else(|| {
-                err(
-                    file,
-                    text,
-                    no,
-                    format!("expected a time after `at time`, found `{}`", &c[2]),
-                )
-            })?;
-            out.steps.push((step, time));
+            let step = heading(file, text, no, &c)?;
+            time = step.1;
+            out.steps.push(step);
             out.blocks.push(NodoutBlock {
                 line: no,
                 time,
@@ -119,62 +112,96 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
             };
             continue;
         }
-        if line.to_ascii_lowercase().contains("n o d a l") {
+        let (id, vals) = data_row(file, text, no, line, &t, state)?;
+        out.push(state, id, time, &vals);
+    }
+    Ok(out)
+}
+
+/// A block heading's time step number and time.
+fn heading(file: &Path, text: &str, no: usize, c: &regex::Captures) -> Result<(u64, f64), InputError> {
+    let step: u64 = c[1]
+        .parse()
+        .map_err(|_| err(file, text, no, "time step number out of range"))?;
+    let time = parse_number(&c[2]).ok_or_else(|| {
+        err(
+            file,
+            text,
+            no,
+            format!("expected a time after `at time`, found `{}`", &c[2]),
+        )
+    })?;
+    Ok((step, time))
+}
+
+/// A data row of a block of kind `state`: node id and 12 (translations) or 9 (rotations) numbers.
+fn data_row(
+    file: &Path,
+    text: &str,
+    no: usize,
+    line: &str,
+    t: &[Tok],
+    state: Block,
+) -> Result<(u64, Vec<f64>), InputError> {
+    if line.to_ascii_lowercase().contains("n o d a l") {
+        return Err(err(
+            file,
+            text,
+            no,
+            "malformed heading: expected ` n o d a l   p r i n t   o u t   f o r   t i m e  s t e p N  ( at time T )`",
+        ));
+    }
+    let want = match state {
+        Block::Trans => 12,
+        Block::Rot => 9,
+        Block::None => {
             return Err(err(
                 file,
                 text,
                 no,
-                "malformed heading: expected ` n o d a l   p r i n t   o u t   f o r   t i m e  s t e p N  ( at time T )`",
+                "data before any ` n o d a l   p r i n t   o u t` heading",
             ));
         }
-        let want = match state {
-            Block::Trans => 12,
-            Block::Rot => 9,
-            Block::None => {
-                return Err(err(
-                    file,
-                    text,
-                    no,
-                    "data before any ` n o d a l   p r i n t   o u t` heading",
-                ));
-            }
-            Block::Heading => {
-                return Err(err(
-                    file,
-                    text,
-                    no,
-                    "expected the ` nodal point  x-disp ...` column header",
-                ));
-            }
-        };
-        let id = match t[0] {
-            Tok::Num(v, _) if v >= 0.0 && v.fract() == 0.0 && v < 1e18 => v as u64,
-            _ => {
-                return Err(err(
-                    file,
-                    text,
-                    no,
-                    format!("expected a node id, found `{}`", t[0].text()),
-                ));
-            }
-        };
-        let vals: Option<Vec<f64>> = t[1..].iter().map(Tok::num).collect();
-        let vals = match vals {
-            Some(v) if v.len() == want => v,
-            _ => {
-                return Err(err(
-                    file,
-                    text,
-                    no,
-                    format!("expected node id and {want} numbers, found `{}`", line.trim()),
-                ));
-            }
-        };
+        Block::Heading => {
+            return Err(err(
+                file,
+                text,
+                no,
+                "expected the ` nodal point  x-disp ...` column header",
+            ));
+        }
+    };
+    let id = match t[0] {
+        Tok::Num(v, _) if v >= 0.0 && v.fract() == 0.0 && v < 1e18 => v as u64,
+        _ => {
+            return Err(err(
+                file,
+                text,
+                no,
+                format!("expected a node id, found `{}`", t[0].text()),
+            ));
+        }
+    };
+    let vals: Option<Vec<f64>> = t[1..].iter().map(Tok::num).collect();
+    match vals {
+        Some(v) if v.len() == want => Ok((id, v)),
+        _ => Err(err(
+            file,
+            text,
+            no,
+            format!("expected node id and {want} numbers, found `{}`", line.trim()),
+        )),
+    }
+}
+
+impl Nodout {
+    /// Appends a data row to its node's translation or rotation series.
+    fn push(&mut self, state: Block, id: u64, time: f64, vals: &[f64]) {
         if state == Block::Trans {
-            if let Some(b) = out.blocks.last_mut() {
+            if let Some(b) = self.blocks.last_mut() {
                 b.nodes.push(id);
             }
-            let s = out.nodes.entry(id).or_default();
+            let s = self.nodes.entry(id).or_default();
             s.time.push(time);
             for k in 0..3 {
                 s.disp[k].push(vals[k]);
@@ -183,7 +210,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
                 s.coor[k].push(vals[9 + k]);
             }
         } else {
-            let s = out.rotations.entry(id).or_default();
+            let s = self.rotations.entry(id).or_default();
             s.time.push(time);
             for k in 0..3 {
                 s.rot[k].push(vals[k]);
@@ -192,5 +219,4 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
             }
         }
     }
-    Ok(out)
 }

@@ -70,21 +70,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Secforc, InputError> {
     let mut i = 0;
     while i < lines.len() {
         let (no1, l1) = lines[i];
-        let t1 = tokens(l1);
-        let nums: Option<Vec<f64>> = t1.iter().map(Tok::num).collect();
-        let (id, time, f) = match nums {
-            Some(v) if v.len() == 6 && v[0] >= 0.0 && v[0].fract() == 0.0 && v[0] < 1e18 => {
-                (v[0] as u64, v[1], [v[2], v[3], v[4], v[5]])
-            }
-            _ => {
-                return Err(err(
-                    file,
-                    text,
-                    no1,
-                    "expected `section# time x-force y-force z-force magnitude` (6 numbers)",
-                ));
-            }
-        };
+        let (id, time, f) = force_line(file, text, no1, l1)?;
         let Some(&(no2, l2)) = lines.get(i + 1) else {
             return Err(err(
                 file,
@@ -93,22 +79,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Secforc, InputError> {
                 "record ends early: expected a moment line after this line",
             ));
         };
-        let (system, m) = last_numbers(&tokens(l2), 4).ok_or_else(|| {
-            err(
-                file,
-                text,
-                no2,
-                "expected a system label and 4 numbers (moments x, y, z, magnitude)",
-            )
-        })?;
-        if system.chars().any(|c| c.is_ascii_digit()) && !system.to_ascii_lowercase().contains("id") {
-            return Err(err(
-                file,
-                text,
-                no2,
-                "expected a system label and 4 numbers (moments x, y, z, magnitude)",
-            ));
-        }
+        let (system, m) = moment_line(file, text, no2, l2)?;
         let Some(&(no3, l3)) = lines.get(i + 2) else {
             return Err(err(
                 file,
@@ -135,4 +106,37 @@ pub fn parse(file: &Path, text: &str) -> Result<Secforc, InputError> {
         i += 3;
     }
     Ok(out)
+}
+
+/// A record's first line: section id, time, force x, y, z and magnitude.
+fn force_line(file: &Path, text: &str, no: usize, line: &str) -> Result<(u64, f64, [f64; 4]), InputError> {
+    let nums: Option<Vec<f64>> = tokens(line).iter().map(Tok::num).collect();
+    match nums {
+        Some(v) if v.len() == 6 && v[0] >= 0.0 && v[0].fract() == 0.0 && v[0] < 1e18 => {
+            Ok((v[0] as u64, v[1], [v[2], v[3], v[4], v[5]]))
+        }
+        _ => Err(err(
+            file,
+            text,
+            no,
+            "expected `section# time x-force y-force z-force magnitude` (6 numbers)",
+        )),
+    }
+}
+
+/// A record's second line: the coordinate system's label, moment x, y, z and magnitude.
+fn moment_line(file: &Path, text: &str, no: usize, line: &str) -> Result<(String, Vec<f64>), InputError> {
+    let bad = || {
+        err(
+            file,
+            text,
+            no,
+            "expected a system label and 4 numbers (moments x, y, z, magnitude)",
+        )
+    };
+    let (system, m) = last_numbers(&tokens(line), 4).ok_or_else(bad)?;
+    if system.chars().any(|c| c.is_ascii_digit()) && !system.to_ascii_lowercase().contains("id") {
+        return Err(bad());
+    }
+    Ok((system, m))
 }

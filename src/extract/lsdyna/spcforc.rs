@@ -77,29 +77,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Spcforc, InputError> {
             return Err(located("expected ` output at time = T` before the data"));
         };
         if lower.starts_with("node=") {
-            let node = t
-                .get(1)
-                .and_then(Tok::num)
-                .and_then(whole)
-                .ok_or_else(|| located("expected a node id after `node=`"))?;
-            let key = t.iter().position(|x| {
-                let w = x.text().to_ascii_lowercase();
-                w == "=" || w == "forces=" || w == "moments="
-            });
-            let is_moment = lower.contains("moments");
-            let value = key
-                .and_then(|k| three_after(&t, k))
-                .ok_or_else(|| located("expected `local x,y,z forces =` or `moments=` followed by 3 numbers"))?;
-            let setid = match t.iter().position(|x| x.text().eq_ignore_ascii_case("setid=")) {
-                Some(p) => Some(
-                    t.get(p + 1)
-                        .and_then(Tok::num)
-                        .and_then(whole)
-                        .ok_or_else(|| located("expected a number after `setid=`"))?,
-                ),
-                None => None,
-            };
-            let row = SpcRow { node, value, setid };
+            let (row, is_moment) = node_row(&t, &lower, &located)?;
             if is_moment {
                 step.moments.push(row)
             } else {
@@ -124,4 +102,31 @@ pub fn parse(file: &Path, text: &str) -> Result<Spcforc, InputError> {
         ));
     }
     Ok(out)
+}
+
+/// A ` node= N ... forces = x y z [setid= S]` (or `moments=`) row; whether it holds moments.
+fn node_row(t: &[Tok], lower: &str, located: &dyn Fn(&str) -> InputError) -> Result<(SpcRow, bool), InputError> {
+    let node = t
+        .get(1)
+        .and_then(Tok::num)
+        .and_then(whole)
+        .ok_or_else(|| located("expected a node id after `node=`"))?;
+    let key = t.iter().position(|x| {
+        let w = x.text().to_ascii_lowercase();
+        w == "=" || w == "forces=" || w == "moments="
+    });
+    let is_moment = lower.contains("moments");
+    let value = key
+        .and_then(|k| three_after(t, k))
+        .ok_or_else(|| located("expected `local x,y,z forces =` or `moments=` followed by 3 numbers"))?;
+    let setid = match t.iter().position(|x| x.text().eq_ignore_ascii_case("setid=")) {
+        Some(p) => Some(
+            t.get(p + 1)
+                .and_then(Tok::num)
+                .and_then(whole)
+                .ok_or_else(|| located("expected a number after `setid=`"))?,
+        ),
+        None => None,
+    };
+    Ok((SpcRow { node, value, setid }, is_moment))
 }

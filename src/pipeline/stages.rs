@@ -1,51 +1,22 @@
-//! `lab run`: study → model → calibrate → report, one typed value handed from stage to stage.
+//! The stages' numerics wiring: what [`super::run`] calls between the run engine and the report.
 //!
-//! A closed-form study's model is its expression. A solver study's model is built from runs:
-//! [`crate::plan::Plan`] → [`crate::execute::sweep`] (render, execute) → responses per planned run →
-//! [`surrogates`] (one per design) → the same calibration; the Bayesian method is fed the sample
-//! runs themselves ([`simulation_data`]) instead of sampling the model.
+//! A closed-form study's model is its expression ([`model`]). A solver study's model is built from
+//! runs: responses per planned run → [`surrogates`] (one per design) → the same calibration; the
+//! Bayesian method is fed the sample runs themselves ([`simulation_data`]) instead of sampling the
+//! model. Nothing here reads or writes files.
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::calibrate::identifiability::{self, Identifiability};
-use crate::calibrate::{CalibrationError, Estimate, Model, Problem, bayesian, least_squares, sensitivity};
+use crate::calibrate::identifiability;
+use crate::calibrate::{
+    Calibrated, Calibration, CalibrationError, Method, Model, Problem, bayesian, least_squares, sensitivity,
+};
 use crate::diagnose::{self, Diagnosis};
 use crate::error::Error;
 use crate::fit::{DesignSurrogate, Surrogate, SurrogateModel};
 use crate::model::ExpressionModel;
 use crate::plan::{Plan, RunRole};
-use crate::study::{Method, SolverSimulation, Study};
-
-/// A method's calibrated model, whatever its kind.
-pub enum Calibrated {
-    /// Least squares or sensitivity: parameters plus an optional constant discrepancy.
-    Point(Estimate),
-    Bayesian(Box<bayesian::BayesianFit>),
-}
-
-impl Calibrated {
-    pub fn theta(&self) -> &DVector<f64> {
-        match self {
-            Calibrated::Point(e) => &e.theta,
-            Calibrated::Bayesian(fit) => &fit.theta,
-        }
-    }
-
-    /// The calibrated prediction at a design, discrepancy included where the method has one.
-    pub fn predict(&self, model: &dyn Model, design: &[f64]) -> f64 {
-        match self {
-            Calibrated::Point(e) => model.predict(design, e.theta.as_slice()) + e.discrepancy.at(design),
-            Calibrated::Bayesian(fit) => fit.predict(design),
-        }
-    }
-}
-
-/// Everything calibration produced for a study.
-pub struct Calibration {
-    /// One entry per method the study asks for, in its order; a failed method keeps its error.
-    pub methods: Vec<(Method, Result<Calibrated, CalibrationError>)>,
-    pub identifiability: Identifiability,
-}
+use crate::study::{SolverSimulation, Study};
 
 /// The closed-form simulation of a study as a model the numerics can call; `None` for a solver study.
 pub fn model(study: &Study) -> Option<Box<dyn Model>> {

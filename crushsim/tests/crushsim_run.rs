@@ -8,12 +8,12 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use lab::crushsim::{assemble, physics};
+use crushsim::{assemble, physics};
 use lab::render::lsdyna;
 use lab::render::mesh::{self, TubeSpec};
 use tera::{Context, Tera};
 
-const TEMPLATE: &str = include_str!("../templates/honeycomb/main.k.tera");
+const TEMPLATE: &str = include_str!("../../templates/honeycomb/main.k.tera");
 const COARSE: f64 = 2.0;
 
 struct Case {

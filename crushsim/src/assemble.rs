@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use super::model::{self, Contact, DeckError, Located, Model, Plastic, Reader, Striker, TubePart, card};
-use crate::render::lsdyna::deck::{self, Card};
+use lab::render::lsdyna::deck::{self, Card};
 
 type Res<T> = Result<T, DeckError>;
 

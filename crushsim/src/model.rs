@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use crate::render::lsdyna::deck::{self, Block, Card, Param};
+use lab::render::lsdyna::deck::{self, Block, Card, Param};
 
 /// A deck that cannot be run, with its place.
 #[derive(Debug, Clone, PartialEq)]

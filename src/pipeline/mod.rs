@@ -1,0 +1,362 @@
+//! `lab run` as one function: [`run`] is the place to start reading.
+//!
+//! ```text
+//! solver study:  source ─► plan ─► render ─► execute, extract ─► fit ──┐
+//!                Source    Plan    Prepared  Executed            SurrogateModel
+//! closed form:   closed_form (the expression is the model) ────────────┤
+//!                                                                      ▼
+//! calibrate ─► diagnose ─► splits ─► results ─► report data ─► write
+//! Calibration  Diagnosis   SplitResults  Results  ReportData    OUT/results.json, report-data.json, report.html
+//! ```
+//!
+//! Each stage is one call with a typed input and a typed output. The pipeline never prints and
+//! never installs anything: what the person running it should see goes to a [`Reporter`] as
+//! [`Event`]s, and interruption comes in as a value ([`Engine::signals`], whose canceller the run
+//! engine watches), the way cargo-nextest separates its reporter and dispatcher from its executor.
+//! The command line (`crate::cli`) builds the options and the engine, calls [`run`] and prints the
+//! [`RunOutcome`].
+//!
+//! - [`stages`]: the numerics wiring (surrogates, the training problem, the methods, diagnosis);
+//! - [`runs`]: the run-engine stage (where runs come from, the sweep, how the runs ended);
+//! - [`verbs`]: the other commands (`check`, `status`, `report`, `extract`, the Slurm worker).
+
+pub mod runs;
+pub mod stages;
+pub mod verbs;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+pub use runs::{Executed, ExecutorKind, FailedRun, RunOutcomes};
+pub use stages::{
+    calibrate, diagnose, diagnose_solver, extension_surrogates, model, problem, simulation_data, surrogates,
+};
+
+use crate::calibrate::bayesian::SimulationData;
+use crate::calibrate::{Calibration, CalibrationError, Model};
+use crate::diagnose::Diagnosis;
+use crate::error::{Error, InputError};
+use crate::execute::sweep::{self, Prepared, Signals};
+use crate::extract::lsdyna::quality::Flag;
+use crate::fit::SurrogateModel;
+use crate::plan::Plan;
+use crate::report::data::ReportData;
+use crate::report::results::{RunsResult, SplitResult};
+use crate::report::{self, Results};
+use crate::study::{self, Simulation, SolverSimulation, Study};
+
+/// How `lab run` was asked to run a study.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// The output directory (run store, results.json, report).
+    pub out: PathBuf,
+    /// Solver runs at once (local executor).
+    pub jobs: usize,
+    pub executor: ExecutorKind,
+    /// `--replay DIR`: serve runs from recordings; none: the study's default rule (see [`runs::source`]).
+    pub replay: Option<PathBuf>,
+    /// `--record DIR`: copy each finished run's outputs there.
+    pub record: Option<PathBuf>,
+}
+
+/// What the run engine is given by the command line: the async runtime the executor runs on and
+/// the signal state (Ctrl-C / SIGTERM as a cancellation token, see [`Signals`]).
+pub struct Engine<'a> {
+    pub runtime: &'a tokio::runtime::Runtime,
+    pub signals: &'a Signals,
+}
+
+/// What `lab run` tells the person running it while it works; a [`Reporter`] shows them.
+#[derive(Debug)]
+pub enum Event<'a> {
+    /// A remark on how the study is run (replaying, nothing to submit, ...).
+    Note(String),
+    /// Finished runs were copied into a recording directory.
+    Recorded { runs: usize, dir: &'a Path },
+    /// The sweep is over: how every planned run ended.
+    RunsEnded(&'a RunOutcomes),
+    /// The sweep was interrupted; the finished runs are kept in `out`.
+    Interrupted { out: &'a Path },
+}
+
+/// Consumes the pipeline's [`Event`]s (the command line prints them on stderr) and shows the run
+/// engine's progress.
+pub trait Reporter {
+    fn report(&mut self, event: Event<'_>);
+
+    /// The display of a local sweep's progress over `runs` runs, driven by the executor's events;
+    /// none by default.
+    fn progress(&mut self, runs: u64) -> indicatif::ProgressBar {
+        indicatif::ProgressBar::with_draw_target(Some(runs), indicatif::ProgressDrawTarget::hidden())
+    }
+}
+
+/// Everything `lab run` produced, as written to `OUT/results.json` and `OUT/report-data.json`.
+pub struct RunOutcome {
+    pub results: Results,
+    pub report: ReportData,
+    /// A solver study's runs: how they ended (`None` for a closed-form study).
+    pub runs: Option<RunOutcomes>,
+}
+
+impl RunOutcome {
+    /// The contract's exit code of a finished `lab run`: 1 when a run or a method failed, else 0.
+    pub fn exit_code(&self) -> i32 {
+        let failed_runs = self.runs.as_ref().is_some_and(|r| !r.failed.is_empty());
+        if failed_runs || self.results.any_failed() { 1 } else { 0 }
+    }
+}
+
+/// `lab run`: the study's simulation as a model (from its expression, or from solver runs that are
+/// planned, rendered, executed and fitted), then calibration, diagnosis, the extra train/validate
+/// splits, and the results and report data, written into `options.out`.
+pub fn run(
+    study: &Study,
+    options: &RunOptions,
+    engine: &Engine,
+    reporter: &mut dyn Reporter,
+) -> Result<RunOutcome, Error> {
+    let started = Instant::now();
+    let simulated = match &study.simulation {
+        Simulation::Expression(_) => closed_form(study, options, engine, reporter)?,
+        Simulation::Solver(sim) => {
+            let source = runs::source(sim, options, reporter);
+            let plan = Plan::new(study, sim);
+            let rendered = sweep::prepare(study, sim, &plan)?;
+            let executed = runs::execute(study, sim, &plan, &rendered, &source, options, engine, reporter)?;
+            // Suspect runs (a quality gate broken) are kept and shown, but feed the models only
+            // with `quality.suspect: use`.
+            let flags = executed.swept.flags(&sim.quality.gates);
+            runs::report_suspects(&plan, &flags, sim.quality.use_suspect, reporter);
+            let usable = executed.swept.usable(&sim.quality);
+            let surrogates = surrogates(study, sim, &plan, &usable)?;
+            let data = simulation_data(&plan, &usable);
+            Simulated::Solver(Box::new(SolverRuns {
+                sim,
+                plan,
+                rendered,
+                executed,
+                flags,
+                usable,
+                surrogates,
+                data,
+            }))
+        }
+    };
+    let calibration = calibrate(study, &problem(study, simulated.model()), simulated.data());
+    let diagnosis = simulated.diagnose(study);
+    let splits = calibrate_splits(study, &simulated);
+    let results = results(study, &simulated, &calibration, diagnosis, splits);
+    let report = report_data(study, &simulated, &calibration, started);
+    write(&options.out, &results, &report)?;
+    Ok(RunOutcome {
+        results,
+        report,
+        runs: simulated.into_outcomes(),
+    })
+}
+
+/// The simulation as the numerics see it, with what it was built from.
+enum Simulated<'s> {
+    /// The study's expression.
+    ClosedForm(Box<dyn Model>),
+    /// Surrogates fitted to solver runs.
+    Solver(Box<SolverRuns<'s>>),
+}
+
+/// A solver study's runs and the surrogates fitted to them. The run store in `executed` stays
+/// open (and its lock held) until the report is written.
+struct SolverRuns<'s> {
+    sim: &'s SolverSimulation,
+    plan: Plan,
+    rendered: Prepared,
+    executed: Executed,
+    /// The quality gates each run breaks (empty: sound).
+    flags: Vec<Vec<Flag>>,
+    /// The responses the models may use (suspect runs left out unless the study says otherwise).
+    usable: Vec<Option<f64>>,
+    surrogates: SurrogateModel,
+    /// The sample runs as the Bayesian method's emulator data.
+    data: SimulationData,
+}
+
+impl Simulated<'_> {
+    fn model(&self) -> &dyn Model {
+        match self {
+            Simulated::ClosedForm(model) => model.as_ref(),
+            Simulated::Solver(runs) => &runs.surrogates,
+        }
+    }
+
+    /// Simulation runs for the Bayesian emulator; without them it samples the model.
+    fn data(&self) -> Option<&SimulationData> {
+        match self {
+            Simulated::ClosedForm(_) => None,
+            Simulated::Solver(runs) => Some(&runs.data),
+        }
+    }
+
+    /// Model error over every tested design; a solver study's extension hypotheses from their runs.
+    fn diagnose(&self, study: &Study) -> Result<Diagnosis, CalibrationError> {
+        match self {
+            Simulated::ClosedForm(model) => diagnose(study, model.as_ref()),
+            Simulated::Solver(r) => diagnose_solver(study, r.sim, &r.plan, &r.usable, &r.surrogates),
+        }
+    }
+
+    fn into_outcomes(self) -> Option<RunOutcomes> {
+        match self {
+            Simulated::ClosedForm(_) => None,
+            Simulated::Solver(runs) => Some(runs.executed.outcomes),
+        }
+    }
+}
+
+/// A closed-form study: no runs, so nothing to record, replay or submit, and nothing to cancel (a
+/// signal ends `lab` at once). Creates the output directory.
+fn closed_form<'s>(
+    study: &Study,
+    options: &RunOptions,
+    engine: &Engine,
+    reporter: &mut dyn Reporter,
+) -> Result<Simulated<'s>, Error> {
+    engine.signals.sweep_done();
+    if options.replay.is_some() || options.record.is_some() {
+        reporter.report(Event::Note(format!(
+            "`{}` has a closed-form simulation; nothing to record or replay",
+            study.name
+        )));
+    }
+    if options.executor == ExecutorKind::Slurm {
+        reporter.report(Event::Note(format!(
+            "`{}` has a closed-form simulation; nothing to submit to Slurm",
+            study.name
+        )));
+    }
+    std::fs::create_dir_all(&options.out)
+        .map_err(|e| InputError::file(&options.out, format!("cannot create the output directory: {e}")))?;
+    let model = model(study).ok_or_else(|| Error::Failed("internal: a closed-form run of a solver study".into()))?;
+    Ok(Simulated::ClosedForm(model))
+}
+
+/// The study's extra train/validate splits (`splits:`), each calibrated again from the same runs;
+/// `None` when it names none or has no runs.
+fn calibrate_splits(study: &Study, simulated: &Simulated) -> Option<Vec<SplitResult>> {
+    let Simulated::Solver(runs) = simulated else {
+        return None;
+    };
+    if study.splits.is_empty() {
+        return None;
+    }
+    Some(
+        study
+            .splits
+            .iter()
+            .map(|split| calibrate_split(study, split, &runs.surrogates, &runs.data))
+            .collect(),
+    )
+}
+
+/// Calibrates the study again with a split's training and validation designs.
+fn calibrate_split(
+    study: &Study,
+    split: &study::Split,
+    surrogates: &SurrogateModel,
+    runs: &SimulationData,
+) -> SplitResult {
+    let mut s = study.clone();
+    s.training = split.training.clone();
+    s.validation = split.validation.clone();
+    let problem = problem(&s, surrogates as &dyn Model);
+    let calibration = calibrate(&s, &problem, Some(runs));
+    let not_diagnosed = Err(CalibrationError::Numerics("not diagnosed per split".into()));
+    let results = Results::build(&s, surrogates, &calibration, not_diagnosed);
+    SplitResult::from_results(&s, &results)
+}
+
+/// `results.json`: the calibration and diagnosis, plus a solver study's surrogates, splits and run counts.
+fn results(
+    study: &Study,
+    simulated: &Simulated,
+    calibration: &Calibration,
+    diagnosis: Result<Diagnosis, CalibrationError>,
+    splits: Option<Vec<SplitResult>>,
+) -> Results {
+    let results = Results::build(study, simulated.model(), calibration, diagnosis);
+    let Simulated::Solver(runs) = simulated else {
+        return results;
+    };
+    let mut results = results.with_surrogates(&runs.surrogates);
+    results.splits = splits;
+    let planned = runs.plan.runs.len();
+    let succeeded = runs.executed.swept.responses.iter().filter(|r| r.is_some()).count();
+    results.runs = Some(RunsResult {
+        planned,
+        succeeded,
+        failed: planned - succeeded,
+        replayed_from: runs.executed.replay.as_ref().map(|d| d.display().to_string()),
+        suspect: runs.flags.iter().filter(|f| !f.is_empty()).count(),
+        gates: runs
+            .executed
+            .swept
+            .quality
+            .iter()
+            .any(Option::is_some)
+            .then_some(runs.sim.quality.gates),
+        suspect_runs: runs::suspect_runs(
+            study,
+            &runs.plan,
+            &runs.rendered.keys,
+            &runs.executed.swept.responses,
+            &runs.flags,
+            runs.sim.quality.use_suspect,
+        ),
+    });
+    results
+}
+
+/// `report-data.json`: what the page draws beyond `results.json` (posterior samples, prediction
+/// curves, the runs and their surrogates, force–displacement curves, the wall time).
+fn report_data(study: &Study, simulated: &Simulated, calibration: &Calibration, started: Instant) -> ReportData {
+    let mut data = ReportData::build(study, simulated.model(), calibration);
+    data.force_displacement = match simulated {
+        Simulated::ClosedForm(_) => report::curves::design_curves(study, None, None),
+        Simulated::Solver(r) => {
+            let responses = &r.executed.swept.responses;
+            data = data.with_runs(
+                study,
+                &r.plan,
+                &r.rendered.keys,
+                responses,
+                &r.surrogates,
+                &r.executed.store,
+            );
+            for (row, f) in data.runs.iter_mut().zip(&r.flags) {
+                row.flags = f.iter().map(|f| f.text.clone()).collect();
+            }
+            let outputs = report::curves::RunOutputs {
+                plan: &r.plan,
+                keys: &r.rendered.keys,
+                responses,
+                dirs: r.executed.output_dirs(r.sim),
+            };
+            let reference = report::data::reference(calibration);
+            report::curves::design_curves(study, Some(&outputs), reference.as_ref())
+        }
+    };
+    data.wall_time_s = Some(started.elapsed().as_secs_f64());
+    data
+}
+
+/// Writes results.json, report-data.json and report.html into `out`.
+fn write(out: &Path, results: &Results, data: &ReportData) -> Result<(), Error> {
+    results.write(&out.join("results.json"))?;
+    data.write(&out.join(ReportData::FILE_NAME))?;
+    write_report(out, results, Some(data))
+}
+
+/// Writes `dir/report.html` (atomically) from the results and, when there, the report data.
+pub fn write_report(dir: &Path, results: &Results, data: Option<&ReportData>) -> Result<(), Error> {
+    report::write_atomic(&dir.join("report.html"), report::html::render(results, data).as_bytes())?;
+    Ok(())
+}

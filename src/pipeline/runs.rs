@@ -1,0 +1,306 @@
+//! The run-engine stage of [`super::run`] for a solver study: where the runs come from (a live
+//! solver, Slurm jobs, or recordings), the sweep over the planned runs, and how they ended.
+//!
+//! The run store is opened here and handed on inside [`Executed`]: its lock is held until the
+//! report is written, so no second `lab run` works on the same output directory meanwhile.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use super::{Engine, Event, Reporter, RunOptions};
+use crate::error::Error;
+use crate::execute::store::RUNS_DIR;
+use crate::execute::sweep::{self, Prepared, SweepResult};
+use crate::execute::{self, OutcomeClass, RunStore};
+use crate::extract::lsdyna::quality::Flag;
+use crate::plan::Plan;
+use crate::report::results::SuspectRun;
+use crate::study::{SolverSimulation, Study};
+
+/// `--executor`: where live runs are executed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExecutorKind {
+    /// Child processes of this `lab`, `--jobs` at once.
+    Local,
+    /// Slurm jobs (see [`crate::execute::slurm`]).
+    Slurm,
+}
+
+/// Where the runs of this `lab run` come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Source {
+    /// The solver, started by the local executor.
+    Local,
+    /// The solver, inside Slurm jobs.
+    Slurm,
+    /// Recordings in a directory; no solver is started.
+    Replay(PathBuf),
+}
+
+/// The runs' source: `--replay DIR`, else the study's `simulation.replay` when the solver program
+/// is not on PATH (a note says so), else the live solver through `--executor`.
+pub fn source(sim: &SolverSimulation, options: &RunOptions, reporter: &mut dyn Reporter) -> Source {
+    if let Some(dir) = &options.replay {
+        return Source::Replay(dir.clone());
+    }
+    let program = &sim.command[0];
+    match &sim.replay {
+        Some(default) if !on_path(program) => {
+            reporter.report(Event::Note(format!(
+                "solver `{program}` is not on PATH: replaying the study's recordings in {}",
+                default.display()
+            )));
+            Source::Replay(default.clone())
+        }
+        _ if options.executor == ExecutorKind::Slurm => Source::Slurm,
+        _ => Source::Local,
+    }
+}
+
+/// Whether `program` would be found: a path that exists, or an executable file on PATH.
+fn on_path(program: &str) -> bool {
+    use std::os::unix::fs::PermissionsExt;
+    let executable = |p: &Path| {
+        p.metadata()
+            .is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
+    };
+    if program.contains('/') {
+        return executable(Path::new(program));
+    }
+    std::env::var_os("PATH").is_some_and(|path| std::env::split_paths(&path).any(|dir| executable(&dir.join(program))))
+}
+
+/// What the sweep left: the open store, every planned run's response and how the runs ended.
+pub struct Executed {
+    pub store: RunStore,
+    pub swept: SweepResult,
+    pub outcomes: RunOutcomes,
+    /// The recordings the runs were replayed from, if they were.
+    pub replay: Option<PathBuf>,
+}
+
+impl Executed {
+    /// Where finished runs' outputs are, as `<dir>/<key>/`: the store's run directories (live
+    /// runs), then the replay directory and the study's `simulation.replay` (runs replayed now or
+    /// by an earlier `lab run`).
+    pub fn output_dirs(&self, sim: &SolverSimulation) -> Vec<PathBuf> {
+        let mut dirs = vec![self.store.out().join(RUNS_DIR)];
+        dirs.extend(self.replay.iter().cloned());
+        if let Some(d) = &sim.replay
+            && !dirs.contains(d)
+        {
+            dirs.push(d.clone());
+        }
+        dirs
+    }
+}
+
+/// How the planned runs ended: the outcome table and the failed runs.
+#[derive(Debug, Clone, Default)]
+pub struct RunOutcomes {
+    /// Planned runs per outcome class of their record, runs finished earlier not counted.
+    pub classes: BTreeMap<OutcomeClass, usize>,
+    /// Planned runs finished before this `lab run`.
+    pub reused: usize,
+    /// Planned runs with no record (not run: interrupted, or a job given up).
+    pub missing: usize,
+    /// Planned runs with a record but no response, in plan order.
+    pub failed: Vec<FailedRun>,
+}
+
+/// A planned run that has a record but no response.
+#[derive(Debug, Clone)]
+pub struct FailedRun {
+    pub design: String,
+    pub theta: Vec<f64>,
+    /// Its record's outcome.
+    pub why: String,
+    /// Its run directory.
+    pub dir: PathBuf,
+}
+
+/// Executes (or replays) every planned run the store does not hold finished, then records them
+/// (`--record`) and reports how they ended. An interrupt is [`Error::Interrupted`], a record that
+/// could not be committed [`Error::Failed`]; failed runs are not errors (the outcome says so).
+#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
+pub fn execute(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    rendered: &Prepared,
+    source: &Source,
+    options: &RunOptions,
+    engine: &Engine,
+    reporter: &mut dyn Reporter,
+) -> Result<Executed, Error> {
+    let mut store = execute::open_store(&options.out)?;
+    sweep::write_meshes(&options.out, rendered)?;
+    let swept = sweep_runs(
+        study, sim, plan, rendered, source, options, engine, &mut store, reporter,
+    )?;
+    engine.signals.sweep_done();
+    if let Some(dir) = &options.record {
+        let runs = sweep::record(study, sim, plan, rendered, &store, dir)?;
+        reporter.report(Event::Recorded { runs, dir });
+    }
+    let outcomes = outcomes(plan, &rendered.keys, &swept, &store);
+    reporter.report(Event::RunsEnded(&outcomes));
+    if engine.signals.interrupted() {
+        reporter.report(Event::Interrupted { out: &options.out });
+        return Err(Error::Interrupted);
+    }
+    if !swept.errors.is_empty() {
+        return Err(Error::Failed(swept.errors.join("\n")));
+    }
+    let replay = match source {
+        Source::Replay(dir) => Some(dir.clone()),
+        _ => None,
+    };
+    Ok(Executed {
+        store,
+        swept,
+        outcomes,
+        replay,
+    })
+}
+
+/// The sweep itself, by source.
+#[allow(clippy::too_many_arguments)]
+fn sweep_runs(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    rendered: &Prepared,
+    source: &Source,
+    options: &RunOptions,
+    engine: &Engine,
+    store: &mut RunStore,
+    reporter: &mut dyn Reporter,
+) -> Result<SweepResult, Error> {
+    match source {
+        Source::Replay(dir) => replay(study, sim, plan, rendered, store, dir),
+        Source::Slurm => sweep::run_slurm(store, study, sim, rendered, engine.signals),
+        Source::Local => sweep::run(
+            engine.runtime,
+            store,
+            sim,
+            rendered,
+            options.jobs,
+            &engine.signals.canceller,
+            &mut |runs| reporter.progress(runs),
+        ),
+    }
+}
+
+/// Serves the runs from recordings; a planned run without one is an error naming it.
+fn replay(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    rendered: &Prepared,
+    store: &mut RunStore,
+    dir: &Path,
+) -> Result<SweepResult, Error> {
+    if !dir.is_dir() {
+        return Err(Error::Failed(format!(
+            "replay directory {} does not exist",
+            dir.display()
+        )));
+    }
+    let (swept, misses) = sweep::replay_runs(study, sim, plan, rendered, store, dir)?;
+    if misses.is_empty() {
+        return Ok(swept);
+    }
+    let shown: Vec<&String> = misses.iter().take(5).collect();
+    let more = if misses.len() > 5 {
+        format!("\n... and {} more", misses.len() - 5)
+    } else {
+        String::new()
+    };
+    Err(Error::Failed(format!(
+        "{} planned run(s) have no recording:\n{}{more}",
+        misses.len(),
+        shown.iter().map(|m| format!("- {m}")).collect::<Vec<_>>().join("\n")
+    )))
+}
+
+/// How the planned runs ended, from the sweep and the store's records.
+fn outcomes(plan: &Plan, keys: &[String], swept: &SweepResult, store: &RunStore) -> RunOutcomes {
+    let mut classes = BTreeMap::new();
+    for class in swept.classes.iter().flatten() {
+        *classes.entry(*class).or_insert(0) += 1;
+    }
+    if let Some(n) = classes.get_mut(&OutcomeClass::Success) {
+        *n -= swept.reused.min(*n);
+    }
+    let failed = (0..plan.runs.len())
+        .filter(|&i| swept.classes[i].is_some() && swept.responses[i].is_none())
+        .map(|i| {
+            let (run, key) = (&plan.runs[i], &keys[i]);
+            FailedRun {
+                design: run.design.clone(),
+                theta: run.theta.clone(),
+                why: store.record(key).map(|r| r.outcome.to_string()).unwrap_or_default(),
+                dir: store.run_dir(key),
+            }
+        })
+        .collect();
+    RunOutcomes {
+        classes,
+        reused: swept.reused,
+        missing: swept.classes.iter().filter(|c| c.is_none()).count(),
+        failed,
+    }
+}
+
+/// Notes for the runs that break a quality gate (at most 5, then a count).
+pub fn report_suspects(plan: &Plan, flags: &[Vec<Flag>], used: bool, reporter: &mut dyn Reporter) {
+    let suspect: Vec<usize> = (0..flags.len()).filter(|&i| !flags[i].is_empty()).collect();
+    for &i in suspect.iter().take(5) {
+        let texts: Vec<&str> = flags[i].iter().map(|f| f.text.as_str()).collect();
+        reporter.report(Event::Note(format!(
+            "suspect: design `{}`, parameters {:?}: {}",
+            plan.runs[i].design,
+            plan.runs[i].theta,
+            texts.join("; ")
+        )));
+    }
+    if !suspect.is_empty() {
+        reporter.report(Event::Note(format!(
+            "{} suspect run(s) {} (simulation.quality)",
+            suspect.len(),
+            if used {
+                "used by the surrogates as the study says"
+            } else {
+                "left out of the surrogates"
+            }
+        )));
+    }
+}
+
+/// The suspect runs for `results.json`, in plan order (each key once).
+pub fn suspect_runs(
+    study: &Study,
+    plan: &Plan,
+    keys: &[String],
+    responses: &[Option<f64>],
+    flags: &[Vec<Flag>],
+    used: bool,
+) -> Vec<SuspectRun> {
+    let mut seen = std::collections::BTreeSet::new();
+    (0..plan.runs.len())
+        .filter(|&i| !flags[i].is_empty() && seen.insert(&keys[i]))
+        .filter_map(|i| {
+            let run = &plan.runs[i];
+            Some(SuspectRun {
+                key: keys[i].clone(),
+                design: run.design.clone(),
+                role: run.role.key().to_string(),
+                parameters: study.parameter_values(&run.theta),
+                response: responses[i]?,
+                flags: flags[i].clone(),
+                used,
+            })
+        })
+        .collect()
+}
