@@ -697,6 +697,8 @@ impl Page<'_> {
         s
     }
 
+    /// The Diagnosis section: the verdict block, the residual plots, the candidates, what the
+    /// extended model gains and leaves, the candidate table, the next test.
     fn diagnosis(&self) -> String {
         let Some(dg) = &self.r.diagnosis else {
             return note(&format!(
@@ -705,14 +707,44 @@ impl Page<'_> {
             ));
         };
         let mut s = verdict_block(dg);
-        let response = self.response_label();
         s.push_str("<div class=grid>");
-        // Residuals against each design variable.
+        s.push_str(&self.residual_plots(dg));
+        if dg.candidates.is_empty() {
+            s.push_str("</div>");
+            s.push_str(&note("no candidate causes were ranked (see the notes below)"));
+            s.push_str("<div class=grid>");
+        } else {
+            s.push_str(&self.candidate_plot(dg));
+        }
+        if let Some(ext) = &dg.extended {
+            s.push_str(&before_after(ext));
+        }
+        s.push_str("</div>");
+        match &dg.extended {
+            Some(ext) => s.push_str(&remaining_block(ext)),
+            None => s.push_str(&note(
+                "no cause was named, so there is no extended model to compare before/after",
+            )),
+        }
+        if !dg.candidates.is_empty() {
+            s.push_str(&candidate_table(dg));
+        }
+        s.push_str(&self.next_test(dg));
+        for n in &dg.notes {
+            s.push_str(&note(n));
+        }
+        s
+    }
+
+    /// Residuals of the uncorrected model against each design variable, with the trend test's words.
+    fn residual_plots(&self, dg: &crate::diagnose::Diagnosis) -> String {
+        let response = self.response_label();
         let names: Vec<String> = dg
             .residuals
             .first()
             .map(|r| r.values.keys().cloned().collect())
             .unwrap_or_default();
+        let mut s = String::new();
         for name in &names {
             let label = self
                 .study_info()
@@ -747,20 +779,7 @@ impl Page<'_> {
                 .structure
                 .iter()
                 .find(|t| &t.against == name)
-                .map_or(String::new(), |t| {
-                    format!(
-                        " Rank correlation {} (p = {}; linear trend p = {}): {} at α = {}.",
-                        significant(t.rank_correlation, 2),
-                        significant(t.rank_p_value, 2),
-                        significant(t.slope_p_value, 2),
-                        if t.significant {
-                            "a significant trend"
-                        } else {
-                            "no significant trend"
-                        },
-                        DIAGNOSIS_ALPHA
-                    )
-                });
+                .map_or(String::new(), trend_words);
             let caption = format!(
                 "Residuals of the uncorrected model (calibrated by weighted least squares on the training designs); bars: ± σ of the mean measurement ({} noise).{trend}",
                 noise_kind(&dg.noise.kind)
@@ -771,74 +790,32 @@ impl Page<'_> {
                 &caption,
             ));
         }
-        // Candidate ranking.
-        if dg.candidates.is_empty() {
-            s.push_str("</div>");
-            s.push_str(&note("no candidate causes were ranked (see the notes below)"));
-            s.push_str("<div class=grid>");
-        } else {
-            s.push_str(&self.candidate_plot(dg));
-        }
-        if let Some(ext) = &dg.extended {
-            let plot = BarPlot {
-                title: format!("Validation error before and after adding {}", ext.cause),
-                value_label: format!("mean |relative error| (%), {}", ext.measured_on),
-                categories: vec!["uncorrected".into(), format!("with {}", ext.cause)],
-                groups: vec![(
-                    String::new(),
-                    0,
-                    vec![Some(ext.validation_error_before), Some(ext.validation_error_after)],
-                )],
-                percent: true,
-                headings: vec![],
-            };
-            let caption = format!(
-                "Validation error of the uncorrected model and of the model extended with {} (term {}), measured on {}; gain {}.",
-                ext.cause,
-                ext.term,
-                ext.measured_on,
-                pct(ext.gain)
-            );
-            s.push_str(&figure("before-after", plot.render(), &caption));
-        }
-        s.push_str("</div>");
-        if dg.extended.is_none() {
-            s.push_str(&note(
-                "no cause was named, so there is no extended model to compare before/after",
-            ));
-        }
-        if let Some(ext) = &dg.extended {
-            s.push_str(&remaining_block(ext));
-        }
-        if !dg.candidates.is_empty() {
-            s.push_str(&candidate_table(dg));
-        }
-        s.push_str("<h3>Recommended next test</h3>");
-        match &dg.next_test {
-            Some(nt) => {
-                let at: Vec<String> = nt
-                    .design
-                    .iter()
-                    .map(|(k, v)| {
-                        let unit = self
-                            .study_info()
-                            .and_then(|i| i.design.iter().find(|d| &d.name == k))
-                            .and_then(|d| d.unit.clone());
-                        format!("{} = {}", escape(k), with_unit(*v, unit.as_deref(), 3))
-                    })
-                    .collect();
-                let _ = write!(
-                    s,
-                    "<p id=next-test><strong>Test at {}.</strong> {}</p>",
-                    at.join(", "),
-                    escape(&nt.why)
-                );
-            }
-            None => s.push_str(&note("no next test recommended")),
-        }
-        for n in &dg.notes {
-            s.push_str(&note(n));
-        }
+        s
+    }
+
+    /// The recommended next test, with the design's units.
+    fn next_test(&self, dg: &crate::diagnose::Diagnosis) -> String {
+        let mut s = String::from("<h3>Recommended next test</h3>");
+        let Some(nt) = &dg.next_test else {
+            return s + &note("no next test recommended");
+        };
+        let at: Vec<String> = nt
+            .design
+            .iter()
+            .map(|(k, v)| {
+                let unit = self
+                    .study_info()
+                    .and_then(|i| i.design.iter().find(|d| &d.name == k))
+                    .and_then(|d| d.unit.clone());
+                format!("{} = {}", escape(k), with_unit(*v, unit.as_deref(), 3))
+            })
+            .collect();
+        let _ = write!(
+            s,
+            "<p id=next-test><strong>Test at {}.</strong> {}</p>",
+            at.join(", "),
+            escape(&nt.why)
+        );
         s
     }
 
@@ -1046,6 +1023,49 @@ fn list(names: &[String]) -> String {
     } else {
         names.join(", ")
     }
+}
+
+/// The trend test's words for a residual plot: the same test and α as the decision.
+fn trend_words(t: &crate::diagnose::Trend) -> String {
+    format!(
+        " Rank correlation {} (p = {}; linear trend p = {}): {} at α = {}.",
+        significant(t.rank_correlation, 2),
+        significant(t.rank_p_value, 2),
+        significant(t.slope_p_value, 2),
+        if t.significant {
+            "a significant trend"
+        } else {
+            "no significant trend"
+        },
+        DIAGNOSIS_ALPHA
+    )
+}
+
+/// Validation error before and after the extension.
+fn before_after(ext: &crate::diagnose::Extended) -> String {
+    let plot = BarPlot {
+        title: format!("Validation error before and after adding {}", ext.cause),
+        value_label: format!("mean |relative error| (%), {}", ext.measured_on),
+        categories: vec!["uncorrected".into(), format!("with {}", ext.cause)],
+        groups: vec![(
+            String::new(),
+            0,
+            vec![Some(ext.validation_error_before), Some(ext.validation_error_after)],
+        )],
+        percent: true,
+        headings: vec![],
+    };
+    let loo = ext.gain_loo.map_or(String::new(), |g| {
+        format!("; leave-one-design-out gain {:.0} %", 100.0 * g)
+    });
+    let caption = format!(
+        "Validation error of the uncorrected model and of the model extended with {} (term {}), measured on {}; gain {}{loo}.",
+        ext.cause,
+        ext.term,
+        ext.measured_on,
+        pct(ext.gain)
+    );
+    figure("before-after", plot.render(), &caption)
 }
 
 /// The significance level of the diagnosis's decisions (its `Settings::default().alpha`): captions
