@@ -76,10 +76,10 @@ pub fn simulation_data(plan: &Plan, responses: &[Option<f64>]) -> bayesian::Simu
         .filter_map(|(r, y)| y.map(|y| (r.design_values.iter().chain(&r.theta).copied().collect(), y)))
         .collect();
     let cols = rows.first().map_or(0, |r| r.0.len());
-    bayesian::SimulationData {
-        inputs: DMatrix::from_fn(rows.len(), cols, |i, k| rows[i].0[k]),
-        outputs: DVector::from_iterator(rows.len(), rows.iter().map(|r| r.1)),
-    }
+    bayesian::SimulationData::new(
+        DMatrix::from_fn(rows.len(), cols, |i, k| rows[i].0[k]),
+        DVector::from_iterator(rows.len(), rows.iter().map(|r| r.1)),
+    )
 }
 
 /// The training problem of a study: designs in the order the study lists them, mean measurements.

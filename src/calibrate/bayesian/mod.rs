@@ -18,6 +18,8 @@ pub mod koh;
 pub mod mcmc;
 mod optim;
 
+use std::sync::OnceLock;
+
 use nalgebra::{DMatrix, DVector};
 
 use super::{Bounds, CalibrationError, Problem};
@@ -29,6 +31,33 @@ use koh::{Discrepancy, Koh, Trend};
 pub struct SimulationData {
     pub inputs: DMatrix<f64>,
     pub outputs: DVector<f64>,
+    /// The emulator fitted to these runs and the box it was fitted over: fitted once and shared by
+    /// every calibration of the same runs (a study's and each of its train/validate splits'; the
+    /// fit is deterministic, so sharing changes no number).
+    fitted: OnceLock<(Bounds, Emulator)>,
+}
+
+impl SimulationData {
+    pub fn new(inputs: DMatrix<f64>, outputs: DVector<f64>) -> Self {
+        SimulationData {
+            inputs,
+            outputs,
+            fitted: OnceLock::new(),
+        }
+    }
+
+    /// The emulator of these runs over `bounds`: the shared one when it was fitted over the same
+    /// box, else a fresh fit (the first fit is kept for the next caller).
+    fn emulator(&self, bounds: &Bounds) -> Result<Emulator, CalibrationError> {
+        if let Some((b, e)) = self.fitted.get()
+            && b == bounds
+        {
+            return Ok(e.clone());
+        }
+        let emulator = Emulator::fit(&self.inputs, &self.outputs, bounds)?;
+        let _ = self.fitted.set((bounds.clone(), emulator.clone()));
+        Ok(emulator)
+    }
 }
 
 /// Knobs of the Bayesian method; defaults follow the paper (24 emulator samples).
@@ -104,7 +133,7 @@ pub fn emulator_samples(problem: &Problem, design_bounds: &Bounds, settings: &Se
         let row: Vec<f64> = inputs.row(i).iter().copied().collect();
         problem.model.predict(&row[..pd], &row[pd..])
     });
-    SimulationData { inputs, outputs }
+    SimulationData::new(inputs, outputs)
 }
 
 /// Design bounds followed by parameter bounds: the emulator's input box.
@@ -129,7 +158,7 @@ pub fn calibrate(
     settings: &Settings,
 ) -> Result<BayesianFit, CalibrationError> {
     check_inputs(problem, design_bounds, sim)?;
-    let emulator = Emulator::fit(&sim.inputs, &sim.outputs, &joint_bounds(design_bounds, &problem.bounds))?;
+    let emulator = sim.emulator(&joint_bounds(design_bounds, &problem.bounds))?;
     let koh = Koh::new(&emulator, problem, design_bounds)?;
     let (u_hat, _) = koh.fit_ml(settings.seed.wrapping_add(0x6b6f68));
     let theta = koh.theta(&u_hat);
