@@ -106,6 +106,12 @@ fn bayesian_is_reproducible_with_the_same_seed() {
     let (a, _) = run("studies/cantilever.yaml");
     let (b, _) = run("studies/cantilever.yaml");
     assert_eq!(a["calibration"]["bayesian"], b["calibration"]["bayesian"]);
+    // The contract's `calibration.bayesian.convergence`: split R-hat and ESS per parameter, and
+    // `converged` exactly when both meet their limits.
+    let c = &a["calibration"]["bayesian"]["convergence"]["E"];
+    let (rhat, ess) = (c["split_rhat"].as_f64().unwrap(), c["ess"].as_f64().unwrap());
+    assert!(rhat >= 1.0 && rhat.is_finite() && ess > 0.0, "{c}");
+    assert_eq!(c["converged"].as_bool(), Some(rhat <= 1.01 && ess >= 1000.0), "{c}");
 }
 
 #[test]

@@ -518,8 +518,23 @@ impl Page<'_> {
                 band,
                 &marks,
             );
+            let convergence = bayes
+                .and_then(|b| b.convergence.as_ref())
+                .and_then(|c| c.get(name))
+                .map_or(String::new(), |c| {
+                    format!(
+                        " Chain: split R-hat {}, effective sample size {:.0}: {}.",
+                        significant(c.split_rhat, 4),
+                        c.ess,
+                        if c.converged {
+                            "converged (R-hat ≤ 1.01, ESS ≥ 1000)"
+                        } else {
+                            "NOT converged (limits R-hat ≤ 1.01, ESS ≥ 1000), so the histogram and interval are rough"
+                        }
+                    )
+                });
             let caption = format!(
-                "Bayesian posterior of {name} ({} thinned samples) with its 95 % interval (shaded) and each method's estimate (dashed) — the paper's Fig. 12.",
+                "Bayesian posterior of {name} ({} thinned samples) with its 95 % interval (shaded) and each method's estimate (dashed) — the paper's Fig. 12.{convergence}",
                 samples.len()
             );
             s.push_str(&figure(&format!("posterior-{}", id_part(name)), svg, &caption));

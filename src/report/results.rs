@@ -173,6 +173,14 @@ pub struct SuspectRun {
     pub used: bool,
 }
 
+/// One parameter's sampler diagnostics in `results.json`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ConvergenceResult {
+    pub split_rhat: f64,
+    pub ess: f64,
+    pub converged: bool,
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct MethodResult {
     pub parameters: IndexMap<String, f64>,
@@ -183,6 +191,10 @@ pub struct MethodResult {
     /// Posterior median (Bayesian only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub median: Option<IndexMap<String, f64>>,
+    /// The sampler's split R-hat and effective sample size per parameter (Bayesian, when sampled),
+    /// with whether both meet their limits (R-hat ≤ 1.01, ESS ≥ 1000).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub convergence: Option<IndexMap<String, ConvergenceResult>>,
     pub predictions: Vec<Prediction>,
     /// Mean |relative error| over the training designs.
     pub training_error: Option<f64>,
@@ -305,6 +317,7 @@ impl MethodResult {
             discrepancy: None,
             interval95: None,
             median: None,
+            convergence: None,
             predictions: vec![],
             training_error: None,
             validation_error: None,
@@ -330,6 +343,7 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
         discrepancy: None,
         interval95: None,
         median: None,
+        convergence: None,
         predictions,
         training_error,
         validation_error,
@@ -344,6 +358,19 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
         Calibrated::Bayesian(fit) => {
             result.interval95 = Some(names().zip(fit.interval95.iter().map(|&(lo, hi)| [lo, hi])).collect());
             result.median = Some(names().zip(fit.median.iter().copied()).collect());
+            result.convergence = Some(
+                names()
+                    .zip(&fit.convergence)
+                    .map(|(n, c)| {
+                        let result = ConvergenceResult {
+                            split_rhat: c.split_rhat,
+                            ess: c.ess,
+                            converged: c.converged(),
+                        };
+                        (n, result)
+                    })
+                    .collect(),
+            );
             let d = &fit.discrepancy;
             result.discrepancy = Some(serde_json::json!({
                 "gaussian_process": { "mean": d.beta, "std_dev": d.var.sqrt(), "roughness": d.roughness }

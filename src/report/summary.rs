@@ -7,10 +7,34 @@ use super::results::{Results, Role, SplitResult, Units};
 /// Renders the summary as plain text (no colour: it is also what a log file gets).
 pub fn render(results: &Results) -> String {
     let mut out = methods_table(results);
+    out.push_str(&convergence_warnings(results));
     out.push_str(&predictions_table(results));
     let id = &results.identifiability;
     let _ = writeln!(out, "\nidentifiability: {}", id.note);
     write_diagnosis(&mut out, results);
+    out
+}
+
+/// A warning per sampled method whose chain ended before converging (split R-hat ≤ 1.01 and ESS ≥
+/// 1000 per parameter): its interval is then rough.
+pub fn convergence_warnings(results: &Results) -> String {
+    let mut out = String::new();
+    for (method, r) in &results.calibration {
+        let Some(conv) = &r.convergence else { continue };
+        let short: Vec<String> = conv
+            .iter()
+            .filter(|(_, c)| !c.converged)
+            .map(|(n, c)| format!("{n}: split R-hat {:.3}, ESS {:.0}", c.split_rhat, c.ess))
+            .collect();
+        if !short.is_empty() {
+            let _ = writeln!(
+                out,
+                "warning: the {method} chain ended before converging ({}; the limits are R-hat ≤ 1.01 and \
+                 ESS ≥ 1000): its interval is rough",
+                short.join("; ")
+            );
+        }
+    }
     out
 }
 

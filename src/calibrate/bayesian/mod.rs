@@ -13,6 +13,7 @@
 //! Modular: the emulator's hyperparameters are fixed once fitted; β_d is always re-estimated with θ,
 //! never frozen at a reference θ (that would drag θ towards the reference).
 
+pub mod convergence;
 pub mod gp;
 pub mod koh;
 pub mod mcmc;
@@ -109,6 +110,8 @@ pub struct BayesianFit {
     pub discrepancy: Discrepancy,
     /// Fraction of accepted stretch moves (a healthy ensemble run lies around 0.2–0.5).
     pub acceptance: f64,
+    /// Split R-hat and effective sample size per parameter, over the walkers' traces.
+    pub convergence: Vec<convergence::Convergence>,
 }
 
 impl BayesianFit {
@@ -178,6 +181,15 @@ pub fn calibrate(
     let burn_in = settings.mcmc_burn_in.min(steps - 1);
     let chain = mcmc::stretch_sample(&log_post, &u_hat, walkers, steps, burn_in, settings.seed);
     let thetas: Vec<DVector<f64>> = chain.samples.iter().map(|u| koh.theta(u)).collect();
+    let convergence = (0..theta.len())
+        .map(|k| {
+            // samples are step-major: walker w's trace is every `walkers`-th sample from w.
+            let traces: Vec<Vec<f64>> = (0..walkers)
+                .map(|w| thetas.iter().skip(w).step_by(walkers).map(|t| t[k]).collect())
+                .collect();
+            convergence::diagnose(&traces)
+        })
+        .collect();
 
     let p = theta.len();
     let quantile = |k: usize, q: f64| quantile(thetas.iter().map(|t| t[k]).collect(), q);
@@ -194,6 +206,7 @@ pub fn calibrate(
         emulator,
         discrepancy,
         acceptance: chain.acceptance,
+        convergence,
     })
 }
 
