@@ -22,7 +22,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use lab::extract::crush::{self, CsvOptions, Sign, SimSource, Window};
+use lab::extract::crush::{self, CsvOptions, SimSource, Window};
 use lab::extract::lsdyna::{nodout, rcforc};
 use lab::render::Renderer;
 use lab::render::mesh::{self, TubeSpec};
@@ -135,17 +135,7 @@ fn main() {
         assert!(status.success(), "crushsim failed for {name}");
         let rc = rcforc::read(&dir.path().join("rcforc")).unwrap();
         let nod = nodout::read(&dir.path().join("nodout")).unwrap();
-        let source = SimSource {
-            interface: 1,
-            side: rcforc::Side::SurfB,
-            force_axis: 2,
-            force_sign: Sign::Auto,
-            force_to_kn: 1e-3,
-            node: 9_000_005,
-            disp_axis: 2,
-            disp_sign: Sign::Auto,
-            disp_to_mm: 1.0,
-        };
+        let source = SimSource::honeycomb_striker();
         let curve = crush::from_lsdyna(&rc, &nod, &source).unwrap();
         let level = crush::crush_force(&curve, WINDOW).unwrap().mean_force;
         for k in 1..=specimens {

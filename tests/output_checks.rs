@@ -16,9 +16,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use lab::execute::{Adapter, LsDynaAdapter, Outcome};
-use lab::extract::crush::{Sign, SimSource, Window};
+use lab::extract::crush::{SimSource, Window};
 use lab::extract::lsdyna::quality::Gates;
-use lab::extract::lsdyna::rcforc::Side;
 use lab::render::lsdyna;
 use lab::render::mesh::{self, TubeSpec};
 use tera::{Context, Tera};
@@ -33,17 +32,7 @@ fn root() -> PathBuf {
 fn adapter() -> LsDynaAdapter {
     LsDynaAdapter {
         window: Window { s0: 5.0, s1: 60.0 },
-        source: SimSource {
-            interface: 1,
-            side: Side::SurfB,
-            force_axis: 2,
-            force_sign: Sign::Auto,
-            force_to_kn: 1e-3,
-            node: 9_000_005,
-            disp_axis: 2,
-            disp_sign: Sign::Auto,
-            disp_to_mm: 1.0,
-        },
+        source: SimSource::honeycomb_striker(),
         deck: "main.k".into(),
     }
 }

@@ -375,22 +375,11 @@ fn write_sample() {
 #[test]
 fn lsdyna_adapter_classifies_the_outcomes() {
     use lab::execute::{Executor, LsDynaAdapter, OutcomeClass, RetryPolicy, RunSpec, RunStore};
-    use lab::extract::crush::{Sign, SimSource, Window};
-    use lab::extract::lsdyna::rcforc::Side;
+    use lab::extract::crush::{SimSource, Window};
     use std::sync::Arc;
     let adapter = LsDynaAdapter {
         window: Window { s0: 5.0, s1: 60.0 },
-        source: SimSource {
-            interface: 1,
-            side: Side::SurfB,
-            force_axis: 2,
-            force_sign: Sign::Auto,
-            force_to_kn: 1e-3,
-            node: 9_000_005,
-            disp_axis: 2,
-            disp_sign: Sign::Auto,
-            disp_to_mm: 1.0,
-        },
+        source: SimSource::honeycomb_striker(),
         deck: "main.k".into(),
     };
     type Switch = (&'static str, Option<(&'static str, f64)>, OutcomeClass);

@@ -87,6 +87,25 @@ pub struct SimSource {
     pub disp_to_mm: f64,
 }
 
+impl SimSource {
+    /// The honeycomb deck's striker as `studies/honeycomb.yaml` reads it: rcforc interface 1, its
+    /// SURFB side, force along z in N (to kN), displacement of node 9000005 along z in mm. Shared by
+    /// the tests and the fixture generator that run that deck.
+    pub fn honeycomb_striker() -> Self {
+        SimSource {
+            interface: 1,
+            side: Side::SurfB,
+            force_axis: 2,
+            force_sign: Sign::Auto,
+            force_to_kn: 1e-3,
+            node: 9_000_005,
+            disp_axis: 2,
+            disp_sign: Sign::Auto,
+            disp_to_mm: 1.0,
+        }
+    }
+}
+
 fn check_series(what: &str, t: &[f64], v: &[f64]) -> Result<(), CrushError> {
     if t.len() != v.len() {
         return Err(data(what, format!("{} times but {} values", t.len(), v.len())));
