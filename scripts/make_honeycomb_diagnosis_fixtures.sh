@@ -8,7 +8,7 @@ set -eu
 cd "$(dirname "$0")/.."
 target="${CARGO_TARGET_DIR:-target}"
 dir=fixtures/honeycomb-diagnosis
-designs="C6T5:6:0.05,C6T65:6:0.065,C6T8:6:0.08,C3T5:3:0.05,C3T65:3:0.065,C3T8:3:0.08,C3T7:3:0.07"
+designs="C6T5:6:0.05,C6T65:6:0.065,C6T8:6:0.08,C3T5:3:0.05,C3T65:3:0.065,C3T8:3:0.08,C3T7:3:0.07,C6T10:6:0.1,C3T10:3:0.1"
 specimens=8   # see fixtures/README.md: 3 per design cannot make the ~2 % pattern significant
 cargo build --release --bins --example make_honeycomb_tests
 bin="$(cd "$target/release" && pwd)"

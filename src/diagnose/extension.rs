@@ -67,6 +67,7 @@ pub(crate) fn extend(cx: &Context, ranked: &Ranked, decision: &Decision) -> Opti
             amplitude: gamma,
             meaning,
         }),
+        solver_in_the_loop: false,
     })
 }
 

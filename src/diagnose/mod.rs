@@ -26,6 +26,7 @@
 pub mod candidates;
 pub mod evidence;
 pub mod extension;
+pub mod joint;
 pub mod next_test;
 pub mod noise;
 pub mod ranking;
@@ -213,6 +214,10 @@ pub struct Diagnosis {
     pub rivals: Vec<ranking::RivalTest>,
     /// The model extended with the cause (absent when none is named).
     pub extended: Option<Extended>,
+    /// The hypotheses extended with the solver in the loop (ranged extension variables
+    /// calibrated through new runs), best first; empty when none was.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub extensions: Vec<joint::SolverExtension>,
     /// The test that would best tell the leading explanations apart.
     pub next_test: Option<NextTest>,
     /// The verdict, the action and the evidence as one text (terminal and report).
@@ -297,6 +302,20 @@ pub struct Uncorrected {
     /// The predictive check at the validation designs (absent without them).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub validation: Option<evidence::Check>,
+    /// How precisely the training designs fix the parameters (absent without a covariance).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub precision: Option<Precision>,
+}
+
+/// The precision of a weighted least-squares fit's parameters, from its Gauss–Newton covariance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Precision {
+    /// Standard error per parameter.
+    pub se: IndexMap<String, f64>,
+    /// θ ± t(0.975, ν) SE.
+    pub interval95: IndexMap<String, [f64; 2]>,
+    /// corr(θ_i, θ_j), row by row.
+    pub correlation: IndexMap<String, IndexMap<String, f64>>,
 }
 
 /// A lack-of-fit test against the replicate noise: χ²/dof against F(dof, noise_dof).
@@ -353,6 +372,10 @@ pub struct Extended {
     /// When the cause is a model extension: its variables and what the amplitude means.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub extension: Option<ExtensionEffect>,
+    /// Whether the figures above are the extended model calibrated with the solver in the loop
+    /// (`diagnosis.extensions`), not the screening's linearisation.
+    #[serde(default)]
+    pub solver_in_the_loop: bool,
 }
 
 /// The cause as a model extension: `y + γ (y_ext − y)`, see [`shapes`].
@@ -604,6 +627,7 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
         rivals: ranked.rivals.clone(),
         candidates,
         extended,
+        extensions: Vec::new(),
         next_test,
         summary: words.summary,
         noise,

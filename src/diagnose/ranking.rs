@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use super::candidates::{self, Model, Score};
 use super::evidence::Assessed;
-use super::{Candidate, Context, Mode, Uncorrected};
+use super::{Candidate, Context, Mode, Precision, Uncorrected};
 
 /// The leader against one rival.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -200,6 +200,11 @@ impl Ranked {
             weight: s.map(|_| b.weight),
             weighted_rss: b.model.fit.wrss,
             validation: b.assessed.validation.clone(),
+            precision: b
+                .assessed
+                .cov
+                .as_ref()
+                .map(|c| precision(cx, &b.model.fit.theta, &c.matrix)),
         }
     }
 }
@@ -234,5 +239,39 @@ fn candidate(cx: &Context, e: &Entry) -> Candidate {
             .map(|o| (o.name.clone(), e.model.predict(cx, &o.design)))
             .collect(),
         extension: shape.extension.as_ref().map(|v| v.iter().cloned().collect()),
+    }
+}
+
+/// Standard errors, 95 % intervals (Student t on the noise's degrees of freedom, or the fit's
+/// residual ones without replicates) and correlations of the parameters from the covariance
+/// `cov` of a fit at `theta` (Bates & Watts 1988, §2.3).
+fn precision(cx: &Context, theta: &nalgebra::DVector<f64>, cov: &nalgebra::DMatrix<f64>) -> Precision {
+    let names = &cx.inputs.parameter_names;
+    let dof = if cx.known() {
+        cx.nu
+    } else {
+        cx.train.len().saturating_sub(cx.p())
+    };
+    let q = super::stats::t_quantile(0.975, dof as f64);
+    let se: Vec<f64> = (0..names.len()).map(|j| cov[(j, j)].max(0.0).sqrt()).collect();
+    Precision {
+        se: names.iter().cloned().zip(se.iter().copied()).collect(),
+        interval95: names
+            .iter()
+            .enumerate()
+            .map(|(j, n)| (n.clone(), [theta[j] - q * se[j], theta[j] + q * se[j]]))
+            .collect(),
+        correlation: names
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let row = names
+                    .iter()
+                    .enumerate()
+                    .map(|(j, b)| (b.clone(), cov[(i, j)] / (se[i] * se[j])))
+                    .collect();
+                (a.clone(), row)
+            })
+            .collect(),
     }
 }

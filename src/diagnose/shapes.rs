@@ -81,9 +81,9 @@ impl Shape {
     pub fn from_hypothesis(hypothesis: &Hypothesis, study: &Study) -> Shape {
         let expr = match &hypothesis.kind {
             HypothesisKind::Term(expr) => expr.clone(),
-            HypothesisKind::Extension(variables) => {
+            HypothesisKind::Extension(extension) => {
                 let missing: Arc<dyn Model + Send> = Arc::new(|_: &[f64], _: &[f64]| f64::NAN);
-                return Shape::from_extension(hypothesis.name.clone(), variables, missing);
+                return Shape::from_extension(hypothesis.name.clone(), &extension.screening, missing);
             }
         };
         let constants: Vec<f64> = study.constants.iter().map(|(_, v)| *v).collect();

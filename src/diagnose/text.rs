@@ -41,7 +41,7 @@ fn pct(v: f64) -> String {
     }
 }
 
-fn p_text(p: f64) -> String {
+pub(crate) fn p_text(p: f64) -> String {
     if p < 1e-6 {
         "p < 1e-6".to_string()
     } else {
@@ -95,13 +95,7 @@ pub(crate) fn describe(f: &Facts) -> Words {
     let action = action(f);
     let evidence = evidence(f);
     let limits = limits(f);
-    let mut summary = format!("{headline}\n{action}");
-    for e in &evidence {
-        summary.push_str(&format!("\n- {e}"));
-    }
-    for l in &limits {
-        summary.push_str(&format!("\n- limit: {l}"));
-    }
+    let summary = summary(&headline, &action, &evidence, &limits);
     Words {
         headline,
         action,
@@ -109,6 +103,19 @@ pub(crate) fn describe(f: &Facts) -> Words {
         limits,
         summary,
     }
+}
+
+/// The verdict, the action, the evidence one per line, then the limits: the terminal's and the
+/// report's text.
+pub(crate) fn summary(headline: &str, action: &str, evidence: &[String], limits: &[String]) -> String {
+    let mut summary = format!("{headline}\n{action}");
+    for e in evidence {
+        summary.push_str(&format!("\n- {e}"));
+    }
+    for l in limits {
+        summary.push_str(&format!("\n- limit: {l}"));
+    }
+    summary
 }
 
 fn lof_text(l: &LackOfFit) -> String {

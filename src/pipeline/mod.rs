@@ -20,6 +20,7 @@
 //! - [`runs`]: the run-engine stage (where runs come from, the sweep, how the runs ended);
 //! - [`verbs`]: the other commands (`check`, `status`, `report`, `extract`, the Slurm worker).
 
+pub mod extend;
 pub mod runs;
 pub mod stages;
 pub mod verbs;
@@ -117,34 +118,23 @@ pub fn run(
     reporter: &mut dyn Reporter,
 ) -> Result<RunOutcome, Error> {
     let started = Instant::now();
-    let simulated = match &study.simulation {
-        Simulation::Expression(_) => closed_form(study, options, engine, reporter)?,
+    let (simulated, source) = match &study.simulation {
+        Simulation::Expression(_) => (closed_form(study, options, engine, reporter)?, None),
         Simulation::Solver(sim) => {
             let source = runs::source(sim, options, reporter);
-            let plan = Plan::new(study, sim);
-            let rendered = sweep::prepare(study, sim, &plan)?;
-            let executed = runs::execute(study, sim, &plan, &rendered, &source, options, engine, reporter)?;
-            // Suspect runs (a quality gate broken) are kept and shown, but feed the models only
-            // with `quality.suspect: use`.
-            let flags = executed.swept.flags(&sim.quality.gates);
-            runs::report_suspects(&plan, &flags, sim.quality.use_suspect, reporter);
-            let usable = executed.swept.usable(&sim.quality);
-            let surrogates = surrogates(study, sim, &plan, &usable)?;
-            let data = simulation_data(&plan, &usable);
-            Simulated::Solver(Box::new(SolverRuns {
-                sim,
-                plan,
-                rendered,
-                executed,
-                flags,
-                usable,
-                surrogates,
-                data,
-            }))
+            let runs = solver_runs(study, sim, &source, options, engine, reporter)?;
+            (Simulated::Solver(Box::new(runs)), Some(source))
         }
     };
     let calibration = calibrate(study, &problem(study, simulated.model()), simulated.data());
-    let diagnosis = simulated.diagnose(study);
+    let mut simulated = simulated;
+    let diagnosis = match (simulated.diagnose(study), &mut simulated, source) {
+        (Ok(screening), Simulated::Solver(runs), Some(source)) => {
+            extend_with_solver(study, runs, screening, &source, options, engine, reporter)?
+        }
+        (diagnosis, ..) => diagnosis,
+    };
+    engine.signals.sweep_done();
     let splits = calibrate_splits(study, &simulated);
     let results = results(study, &simulated, &calibration, diagnosis, splits);
     let report = report_data(study, &simulated, &calibration, started);
@@ -154,6 +144,68 @@ pub fn run(
         report,
         runs: simulated.into_outcomes(),
     })
+}
+
+/// A solver study's screening runs: planned, rendered, executed (or replayed), and fitted.
+fn solver_runs<'s>(
+    study: &Study,
+    sim: &'s SolverSimulation,
+    source: &runs::Source,
+    options: &RunOptions,
+    engine: &Engine,
+    reporter: &mut dyn Reporter,
+) -> Result<SolverRuns<'s>, Error> {
+    let plan = Plan::new(study, sim);
+    let rendered = sweep::prepare(study, sim, &plan)?;
+    let executed = runs::execute(study, sim, &plan, &rendered, source, options, engine, reporter)?;
+    // Suspect runs (a quality gate broken) are kept and shown, but feed the models only
+    // with `quality.suspect: use`.
+    let flags = executed.swept.flags(&sim.quality.gates);
+    runs::report_suspects(&plan, &flags, sim.quality.use_suspect, reporter);
+    let usable = executed.swept.usable(&sim.quality);
+    let surrogates = surrogates(study, sim, &plan, &usable)?;
+    let data = simulation_data(&plan, &usable);
+    Ok(SolverRuns {
+        sim,
+        plan,
+        rendered,
+        executed,
+        flags,
+        usable,
+        surrogates,
+        data,
+        joint: None,
+    })
+}
+
+/// The solver in the loop ([`extend`]): the hypotheses the screening chose are extended with new
+/// runs on the same store, calibrated and judged; the diagnosis gains their results.
+fn extend_with_solver(
+    study: &Study,
+    runs: &mut SolverRuns,
+    screening: Diagnosis,
+    source: &runs::Source,
+    options: &RunOptions,
+    engine: &Engine,
+    reporter: &mut dyn Reporter,
+) -> Result<Result<Diagnosis, CalibrationError>, Error> {
+    if engine.signals.interrupted() {
+        reporter.report(Event::Interrupted { out: &options.out });
+        return Err(Error::Interrupted);
+    }
+    let chosen = extend::chosen(study, &screening);
+    if chosen.is_empty() {
+        return Ok(Ok(screening));
+    }
+    let store = &mut runs.executed.store;
+    let joint = extend::execute(study, runs.sim, &chosen, source, options, engine, store, reporter)?;
+    let mut extensions = Vec::new();
+    for &k in &chosen {
+        let model = extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint)?;
+        extensions.push(extend::assess(study, &model, &screening)?);
+    }
+    runs.joint = Some(joint);
+    Ok(Ok(screening.with_extensions(extensions)))
 }
 
 /// The simulation as the numerics see it, with what it was built from.
@@ -178,6 +230,8 @@ struct SolverRuns<'s> {
     surrogates: SurrogateModel,
     /// The sample runs as the Bayesian method's emulator data.
     data: SimulationData,
+    /// The solver-in-the-loop runs, when the screening chose a hypothesis to extend.
+    joint: Option<extend::JointRuns>,
 }
 
 impl Simulated<'_> {
@@ -207,7 +261,13 @@ impl Simulated<'_> {
     fn into_outcomes(self) -> Option<RunOutcomes> {
         match self {
             Simulated::ClosedForm(_) => None,
-            Simulated::Solver(runs) => Some(runs.executed.outcomes),
+            Simulated::Solver(runs) => {
+                let screening = runs.executed.outcomes;
+                Some(match runs.joint {
+                    Some(joint) => screening.merge(joint.outcomes),
+                    None => screening,
+                })
+            }
         }
     }
 }

@@ -108,6 +108,19 @@ pub struct RunOutcomes {
     pub failed: Vec<FailedRun>,
 }
 
+impl RunOutcomes {
+    /// Both sweeps' outcomes as one (the screening's, then the loop's).
+    pub fn merge(mut self, more: RunOutcomes) -> RunOutcomes {
+        for (class, n) in more.classes {
+            *self.classes.entry(class).or_insert(0) += n;
+        }
+        self.reused += more.reused;
+        self.missing += more.missing;
+        self.failed.extend(more.failed);
+        self
+    }
+}
+
 /// A planned run that has a record but no response.
 #[derive(Debug, Clone)]
 pub struct FailedRun {
@@ -119,9 +132,8 @@ pub struct FailedRun {
     pub dir: PathBuf,
 }
 
-/// Executes (or replays) every planned run the store does not hold finished, then records them
-/// (`--record`) and reports how they ended. An interrupt is [`Error::Interrupted`], a record that
-/// could not be committed [`Error::Failed`]; failed runs are not errors (the outcome says so).
+/// Opens the run store in `options.out` and executes (or replays) every planned run it does not
+/// hold finished ([`sweep_plan`]).
 #[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
 pub fn execute(
     study: &Study,
@@ -134,24 +146,9 @@ pub fn execute(
     reporter: &mut dyn Reporter,
 ) -> Result<Executed, Error> {
     let mut store = execute::open_store(&options.out)?;
-    sweep::write_meshes(&options.out, rendered)?;
-    let swept = sweep_runs(
+    let (swept, outcomes) = sweep_plan(
         study, sim, plan, rendered, source, options, engine, &mut store, reporter,
     )?;
-    engine.signals.sweep_done();
-    if let Some(dir) = &options.record {
-        let runs = sweep::record(study, sim, plan, rendered, &store, dir)?;
-        reporter.report(Event::Recorded { runs, dir });
-    }
-    let outcomes = outcomes(plan, &rendered.keys, &swept, &store);
-    reporter.report(Event::RunsEnded(&outcomes));
-    if engine.signals.interrupted() {
-        reporter.report(Event::Interrupted { out: &options.out });
-        return Err(Error::Interrupted);
-    }
-    if !swept.errors.is_empty() {
-        return Err(Error::Failed(swept.errors.join("\n")));
-    }
     let replay = match source {
         Source::Replay(dir) => Some(dir.clone()),
         _ => None,
@@ -162,6 +159,40 @@ pub fn execute(
         outcomes,
         replay,
     })
+}
+
+/// Executes (or replays) every run of `plan` that `store` does not hold finished, then records
+/// them (`--record`) and reports how they ended. An interrupt is [`Error::Interrupted`], a record
+/// that could not be committed [`Error::Failed`]; failed runs are not errors (the outcome says so).
+/// The screening's runs and the loop's more runs ([`super::extend`]) both come through here.
+#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
+pub fn sweep_plan(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    rendered: &Prepared,
+    source: &Source,
+    options: &RunOptions,
+    engine: &Engine,
+    store: &mut RunStore,
+    reporter: &mut dyn Reporter,
+) -> Result<(SweepResult, RunOutcomes), Error> {
+    sweep::write_meshes(&options.out, rendered)?;
+    let swept = sweep_runs(study, sim, plan, rendered, source, options, engine, store, reporter)?;
+    if let Some(dir) = &options.record {
+        let runs = sweep::record(study, sim, plan, rendered, store, dir)?;
+        reporter.report(Event::Recorded { runs, dir });
+    }
+    let outcomes = outcomes(plan, &rendered.keys, &swept, store);
+    reporter.report(Event::RunsEnded(&outcomes));
+    if engine.signals.interrupted() {
+        reporter.report(Event::Interrupted { out: &options.out });
+        return Err(Error::Interrupted);
+    }
+    if !swept.errors.is_empty() {
+        return Err(Error::Failed(swept.errors.join("\n")));
+    }
+    Ok((swept, outcomes))
 }
 
 /// The sweep itself, by source.

@@ -1,7 +1,13 @@
 //! The run plan of a solver study: for every training and validation design, the parameter
 //! samples of `simulation.sampling` (Latin hypercube or full grid) plus `check_runs` extra Latin
 //! hypercube points from a different seed stream, at which the fitted surrogate is checked; then,
-//! for each model-extension hypothesis, the sample runs again with the extension's variables.
+//! for each model-extension hypothesis, the sample runs again with the extension's variables (its
+//! screening runs).
+//!
+//! The solver-in-the-loop step plans more runs once the screening has ranked the hypotheses
+//! ([`Plan::joint`]): for an extension whose variables have ranges, a Latin hypercube over the
+//! joint space (calibration parameters × the extension's ranged variables) at every tested design,
+//! sized for the study's surrogate over that larger space, plus check runs.
 //!
 //! Every design gets the same parameter samples (the paper's "12 yield-stress samples per design"),
 //! so the plan is a fixed function of the study: the same study always plans the same runs.
@@ -9,11 +15,14 @@
 use nalgebra::DMatrix;
 
 use super::latin_hypercube;
-use crate::study::solver::{Sampling, SamplingMethod};
-use crate::study::{SolverSimulation, Study};
+use crate::calibrate::Bounds;
+use crate::study::solver::{Sampling, SamplingMethod, SurrogateKind};
+use crate::study::{Parameter, SolverSimulation, Study};
 
 /// Added to the sampling seed for the check points, so they are not the samples' stream.
 const CHECK_SEED_OFFSET: u64 = 0x636865636b; // "check"
+/// Added to the sampling seed (and the hypothesis's index) for the joint runs of an extension.
+const JOINT_SEED_OFFSET: u64 = 0x6a6f696e74; // "joint"
 
 /// Why a run is planned.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -22,9 +31,15 @@ pub enum RunRole {
     Sample,
     /// A point the fitted surrogate is checked at (not used to fit it).
     Check,
-    /// A sample of the model extension of hypothesis `k` (`study.diagnosis.hypotheses[k]`): the
-    /// same design and parameters as a baseline sample, rendered with the extension's variables.
+    /// A screening run of the model extension of hypothesis `k` (`study.diagnosis.hypotheses[k]`):
+    /// the same design and parameters as a baseline sample, rendered with the extension's
+    /// variables at their screening values.
     Extension(usize),
+    /// A sample of hypothesis `k`'s extended model over the joint space (parameters × the
+    /// extension's ranged variables), which its surrogate is fitted to.
+    Joint(usize),
+    /// A check point of hypothesis `k`'s joint surrogate.
+    JointCheck(usize),
 }
 
 impl RunRole {
@@ -33,6 +48,8 @@ impl RunRole {
             RunRole::Sample => "sample",
             RunRole::Check => "check",
             RunRole::Extension(_) => "extension",
+            RunRole::Joint(_) => "joint",
+            RunRole::JointCheck(_) => "joint_check",
         }
     }
 }
@@ -44,6 +61,20 @@ pub struct PlannedRun {
     pub design_values: Vec<f64>,
     pub theta: Vec<f64>,
     pub role: RunRole,
+    /// The template variables of a model extension set for this run (empty for the baseline).
+    pub extension: Vec<(String, f64)>,
+}
+
+impl PlannedRun {
+    /// The run's point in the joint space of hypothesis `ranges`: θ, then each ranged variable.
+    pub fn joint_point(&self, ranges: &[Parameter]) -> Vec<f64> {
+        let value = |name: &str| self.extension.iter().find(|(n, _)| n == name).map_or(f64::NAN, |v| v.1);
+        self.theta
+            .iter()
+            .copied()
+            .chain(ranges.iter().map(|r| value(&r.name)))
+            .collect()
+    }
 }
 
 /// Every run a study needs, designs in study order (training, then validation); per design the
@@ -58,40 +89,24 @@ impl Plan {
     pub fn new(study: &Study, sim: &SolverSimulation) -> Plan {
         let bounds = study.parameter_bounds();
         let p = bounds.dim();
-        let scale = |unit: DMatrix<f64>| -> Vec<Vec<f64>> {
-            (0..unit.nrows())
-                .map(|i| {
-                    (0..p)
-                        .map(|k| bounds.lower[k] + unit[(i, k)] * bounds.width()[k])
-                        .collect()
-                })
-                .collect()
-        };
-        // A solver with fixed-width number fields reads a rounded value: plan that value, so the
-        // surrogates are fitted at exactly what the solver saw.
-        let fit = |v: f64| match sim.parameter_width {
-            Some(w) => crate::render::lsdyna::field::fit_real(v, w).unwrap_or(v),
-            None => v,
-        };
-        let rounded = |rows: Vec<Vec<f64>>| -> Vec<Vec<f64>> {
-            rows.into_iter().map(|r| r.into_iter().map(fit).collect()).collect()
-        };
-        let samples = rounded(scale(unit_samples(&sim.sampling, p)));
-        let checks = rounded(scale(latin_hypercube(
-            sim.sampling.check_runs,
-            p,
-            sim.sampling.seed.wrapping_add(CHECK_SEED_OFFSET),
-        )));
+        let samples = planned_points(sim, &bounds, unit_samples(&sim.sampling, p));
+        let checks = planned_points(
+            sim,
+            &bounds,
+            latin_hypercube(
+                sim.sampling.check_runs,
+                p,
+                sim.sampling.seed.wrapping_add(CHECK_SEED_OFFSET),
+            ),
+        );
         let mut runs = Vec::new();
-        for name in study.training.iter().chain(&study.validation) {
-            let Some(test) = study.experiments.get(name) else {
-                continue;
-            }; // validated: always there
+        for (name, values) in tested_designs(study) {
             let at = |theta: &Vec<f64>, role| PlannedRun {
                 design: name.clone(),
-                design_values: test.values.clone(),
+                design_values: values.clone(),
                 theta: theta.clone(),
                 role,
+                extension: Vec::new(),
             };
             runs.extend(samples.iter().map(|t| at(t, RunRole::Sample)));
             runs.extend(checks.iter().map(|t| at(t, RunRole::Check)));
@@ -99,6 +114,90 @@ impl Plan {
         runs.extend(extension_runs(study, &runs));
         Plan { runs }
     }
+
+    /// The solver-in-the-loop runs of the extension hypotheses `hypotheses` (indices into
+    /// `study.diagnosis.hypotheses`; those without ranged variables plan nothing): per hypothesis,
+    /// [`joint_samples`] Latin-hypercube points over θ × its ranges and `max(check_runs, 1)` check
+    /// points, the same at every tested design.
+    pub fn joint(study: &Study, sim: &SolverSimulation, hypotheses: &[usize]) -> Plan {
+        let mut runs = Vec::new();
+        for &k in hypotheses {
+            let Some(extension) = study.diagnosis.hypotheses.get(k).and_then(|h| h.extension_spec()) else {
+                continue;
+            };
+            if extension.ranges.is_empty() {
+                continue;
+            }
+            let bounds = joint_bounds(study, &extension.ranges);
+            let d = bounds.dim();
+            let seed = sim.sampling.seed.wrapping_add(JOINT_SEED_OFFSET).wrapping_add(k as u64);
+            let n = joint_samples(sim, d);
+            let samples = planned_points(sim, &bounds, latin_hypercube(n, d, seed));
+            let checks = planned_points(
+                sim,
+                &bounds,
+                latin_hypercube(sim.sampling.check_runs.max(1), d, seed.wrapping_add(CHECK_SEED_OFFSET)),
+            );
+            let p = study.parameters.len();
+            for (name, values) in tested_designs(study) {
+                let at = |point: &Vec<f64>, role| PlannedRun {
+                    design: name.clone(),
+                    design_values: values.clone(),
+                    theta: point[..p].to_vec(),
+                    role,
+                    extension: extension.at(&point[p..]),
+                };
+                runs.extend(samples.iter().map(|x| at(x, RunRole::Joint(k))));
+                runs.extend(checks.iter().map(|x| at(x, RunRole::JointCheck(k))));
+            }
+        }
+        Plan { runs }
+    }
+}
+
+/// The box of an extension's joint space: the study's parameters, then its ranged variables.
+pub fn joint_bounds(study: &Study, ranges: &[Parameter]) -> Bounds {
+    let all = study.parameters.iter().chain(ranges);
+    Bounds::new(all.clone().map(|p| p.min).collect(), all.map(|p| p.max).collect())
+}
+
+/// Samples per design for a surrogate over `d` variables: twice the coefficients of a linear or
+/// quadratic response surface (so that its fit has as many residual degrees of freedom as
+/// coefficients), ten per dimension for a Gaussian process (Loeppky, Sacks & Welch 2009); never
+/// fewer than the study's own `sampling.count`.
+pub fn joint_samples(sim: &SolverSimulation, d: usize) -> usize {
+    let needed = match sim.surrogate {
+        SurrogateKind::Linear => 2 * (d + 1),
+        SurrogateKind::Quadratic => (d + 1) * (d + 2),
+        SurrogateKind::Gp => 10 * d,
+    };
+    needed.max(sim.sampling.count)
+}
+
+/// Every tested design (training, then validation) with its values.
+fn tested_designs(study: &Study) -> impl Iterator<Item = (&String, &Vec<f64>)> {
+    study
+        .training
+        .iter()
+        .chain(&study.validation)
+        .filter_map(|name| study.experiments.get(name).map(|t| (name, &t.values))) // validated: always there
+}
+
+/// Points of the unit cube (one per row) scaled to `bounds`; with a solver whose fixed-width number
+/// fields read a rounded value, that value, so the surrogates are fitted at exactly what the solver
+/// saw.
+fn planned_points(sim: &SolverSimulation, bounds: &Bounds, unit: DMatrix<f64>) -> Vec<Vec<f64>> {
+    let fit = |v: f64| match sim.parameter_width {
+        Some(w) => crate::render::lsdyna::field::fit_real(v, w).unwrap_or(v),
+        None => v,
+    };
+    (0..unit.nrows())
+        .map(|i| {
+            (0..bounds.dim())
+                .map(|k| fit(bounds.lower[k] + unit[(i, k)] * bounds.width()[k]))
+                .collect()
+        })
+        .collect()
 }
 
 /// For each model-extension hypothesis, in study order, a copy of every baseline sample run with
@@ -108,12 +207,14 @@ impl Plan {
 fn extension_runs(study: &Study, baseline: &[PlannedRun]) -> Vec<PlannedRun> {
     study
         .extension_hypotheses()
-        .flat_map(|(k, _)| {
+        .flat_map(|(k, h)| {
+            let variables = h.extension().unwrap_or_default();
             baseline
                 .iter()
                 .filter(|r| r.role == RunRole::Sample)
                 .map(move |r| PlannedRun {
                     role: RunRole::Extension(k),
+                    extension: variables.to_vec(),
                     ..r.clone()
                 })
         })

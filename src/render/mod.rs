@@ -117,15 +117,11 @@ pub fn extend(ctx: &mut Context, variables: &[(String, f64)]) {
     }
 }
 
-/// The template context of a planned run: [`context`], plus the extension's variables for the runs
-/// of a model-extension hypothesis ([`crate::plan::RunRole::Extension`]).
+/// The template context of a planned run: [`context`], plus the model extension's variables the
+/// plan set for it (screening and joint runs of an extension hypothesis).
 pub fn run_context(study: &Study, run: &crate::plan::PlannedRun) -> Context {
     let mut ctx = context(study, &run.design, &run.design_values, &run.theta);
-    if let crate::plan::RunRole::Extension(k) = run.role
-        && let Some(variables) = study.diagnosis.hypotheses.get(k).and_then(|h| h.extension())
-    {
-        extend(&mut ctx, variables);
-    }
+    extend(&mut ctx, &run.extension);
     ctx
 }
 

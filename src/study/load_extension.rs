@@ -1,5 +1,7 @@
 //! Validation of a model-extension hypothesis (`diagnosis.hypotheses[].extension`): template
-//! variables set for the extra runs of a solver study. Every error is at the offending node.
+//! variables set for the extra runs of a solver study, each a value or a range `{min, max, unit,
+//! probe}` (validated like `parameters`; the probe, by default the middle, is its screening value).
+//! Every error is at the offending node.
 //!
 //! A variable is *used* when setting it changes what the templates render: the templates are
 //! rendered for the first training design at the centre of the parameter box with all the
@@ -9,9 +11,9 @@
 
 use indexmap::IndexMap;
 
-use super::super::schema::Name;
+use super::super::schema::{ExtensionRangeFile, ExtensionValueFile, Name};
 use super::super::yaml::Spanned;
-use super::super::{Simulation, SolverSimulation, Study};
+use super::super::{Extension, Parameter, Simulation, SolverSimulation, Study};
 use super::Checker;
 use crate::error::InputError;
 
@@ -25,8 +27,8 @@ impl Checker<'_> {
         &self,
         study: &Study,
         hypothesis: &Name,
-        node: &Spanned<IndexMap<Name, Spanned<f64>>>,
-    ) -> Result<Vec<(String, f64)>, InputError> {
+        node: &Spanned<IndexMap<Name, Spanned<ExtensionValueFile>>>,
+    ) -> Result<Extension, InputError> {
         let who = format!("hypothesis `{}`", hypothesis.value);
         let Simulation::Solver(sim) = &study.simulation else {
             return Err(self.at_key(
@@ -46,24 +48,28 @@ impl Checker<'_> {
                 format!("{who}: empty `extension`: give the template variables it sets, e.g. {{shear: 1}}"),
             ));
         }
-        let vars = node
-            .value
-            .iter()
-            .map(|(var, value)| self.extension_variable(study, &who, var, value))
-            .collect::<Result<Vec<_>, _>>()?;
-        self.used_by_templates(study, sim, &who, node, &vars)?;
-        Ok(vars)
+        let mut extension = Extension {
+            screening: Vec::new(),
+            ranges: Vec::new(),
+        };
+        for (var, value) in &node.value {
+            let (screening, range) = self.extension_variable(study, &who, var, value)?;
+            extension.screening.push(screening);
+            extension.ranges.extend(range);
+        }
+        self.used_by_templates(study, sim, &who, node, &extension.screening)?;
+        Ok(extension)
     }
 
     /// One variable of an extension: an identifier of its own (not a design variable, parameter
-    /// or name lab sets), with a finite value.
+    /// or name lab sets), with a finite value or a range; its screening value, and the range.
     fn extension_variable(
         &self,
         study: &Study,
         who: &str,
         var: &Name,
-        value: &Spanned<f64>,
-    ) -> Result<(String, f64), InputError> {
+        value: &Spanned<ExtensionValueFile>,
+    ) -> Result<((String, f64), Option<Parameter>), InputError> {
         let text = var.value.as_str();
         let identifier = text.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
             && text.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
@@ -93,13 +99,47 @@ impl Checker<'_> {
                 ),
             ));
         }
-        if !value.value.is_finite() {
-            return Err(self.at(
-                value,
-                format!("{who}: `{text}` must be a finite number, not {}", value.value),
-            ));
+        match &value.value {
+            ExtensionValueFile::Value(v) if !v.is_finite() => {
+                Err(self.at(value, format!("{who}: `{text}` must be a finite number, not {v}")))
+            }
+            ExtensionValueFile::Value(v) => Ok(((text.to_string(), *v), None)),
+            ExtensionValueFile::Range(range) => {
+                let (probe, parameter) = self.extension_range(&format!("{who}: `{text}`"), text, range)?;
+                Ok(((text.to_string(), probe), Some(parameter)))
+            }
         }
-        Ok((text.to_string(), value.value))
+    }
+
+    /// A range `{min, max, unit, probe}`: finite, min < max, the probe (default: the middle) inside.
+    fn extension_range(
+        &self,
+        what: &str,
+        name: &str,
+        range: &ExtensionRangeFile,
+    ) -> Result<(f64, Parameter), InputError> {
+        let min = self.finite(&range.min, &format!("{what}: min"))?;
+        let max = self.finite(&range.max, &format!("{what}: max"))?;
+        if min >= max {
+            return Err(self.at(&range.min, format!("{what}: min ({min}) must be less than max ({max})")));
+        }
+        let probe = match &range.probe {
+            Some(p) => {
+                let v = self.finite(p, &format!("{what}: probe"))?;
+                if !(min..=max).contains(&v) {
+                    return Err(self.at(p, format!("{what}: probe ({v}) must lie in [{min}, {max}]")));
+                }
+                v
+            }
+            None => 0.5 * (min + max),
+        };
+        let parameter = Parameter {
+            name: name.to_string(),
+            min,
+            max,
+            unit: range.unit.clone(),
+        };
+        Ok((probe, parameter))
     }
 
     /// The render test: each variable must change what the templates render, at the first training
@@ -109,7 +149,7 @@ impl Checker<'_> {
         study: &Study,
         sim: &SolverSimulation,
         who: &str,
-        node: &Spanned<IndexMap<Name, Spanned<f64>>>,
+        node: &Spanned<IndexMap<Name, Spanned<ExtensionValueFile>>>,
         vars: &[(String, f64)],
     ) -> Result<(), InputError> {
         let renderer = crate::render::Renderer::new(&sim.templates)?;

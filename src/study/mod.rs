@@ -111,19 +111,54 @@ pub enum HypothesisKind {
     /// `term:` over design variables, constants, parameters and `y`; compiled against
     /// [`Study::term_symbols`].
     Term(Expression),
-    /// `extension:` (solver studies only): template variables, in file order, set for the extra
-    /// runs of this hypothesis ([`crate::plan::RunRole::Extension`]); each one changes what a
-    /// template renders.
-    Extension(Vec<(String, f64)>),
+    /// `extension:` (solver studies only): template variables set for the extra runs of this
+    /// hypothesis; each one changes what a template renders.
+    Extension(Extension),
+}
+
+/// A model extension's template variables.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Extension {
+    /// Every variable, in file order, at its screening value: its value, or a range's probe. The
+    /// screening runs ([`crate::plan::RunRole::Extension`]) are rendered with these.
+    pub screening: Vec<(String, f64)>,
+    /// The variables given a range: the extension's own parameters, calibrated through new solver
+    /// runs over the joint space with the study's parameters ([`crate::plan::RunRole::Joint`]).
+    pub ranges: Vec<Parameter>,
+}
+
+impl Extension {
+    /// The template variables of a joint run: the fixed ones, and each ranged one at `values`
+    /// (in the order of [`Extension::ranges`]).
+    pub fn at(&self, values: &[f64]) -> Vec<(String, f64)> {
+        self.screening
+            .iter()
+            .map(|(name, v)| {
+                let ranged = self.ranges.iter().position(|r| &r.name == name);
+                (name.clone(), ranged.map_or(*v, |k| values[k]))
+            })
+            .collect()
+    }
 }
 
 impl Hypothesis {
-    /// The extension's template variables, if this hypothesis is a model extension.
+    /// The extension's template variables at their screening values, if this hypothesis is a
+    /// model extension.
     pub fn extension(&self) -> Option<&[(String, f64)]> {
+        self.extension_spec().map(|e| &e.screening[..])
+    }
+
+    /// The model extension, if this hypothesis is one.
+    pub fn extension_spec(&self) -> Option<&Extension> {
         match &self.kind {
-            HypothesisKind::Extension(v) => Some(v),
+            HypothesisKind::Extension(e) => Some(e),
             HypothesisKind::Term(_) => None,
         }
+    }
+
+    /// The extension variables given a range (none for a term or a fixed extension).
+    pub fn ranges(&self) -> &[Parameter] {
+        self.extension_spec().map_or(&[], |e| &e.ranges)
     }
 }
 

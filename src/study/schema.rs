@@ -216,8 +216,54 @@ pub struct HypothesisFile {
     pub name: Name,
     /// An additive discrepancy shape; exactly one of `term` and `extension`.
     pub term: Option<Spanned<String>>,
-    /// A model extension (solver studies): template variables set for extra runs.
-    pub extension: Option<Spanned<IndexMap<Name, Spanned<f64>>>>,
+    /// A model extension (solver studies): template variables set for extra runs, each a value
+    /// or a range.
+    pub extension: Option<Spanned<IndexMap<Name, Spanned<ExtensionValueFile>>>>,
+}
+
+/// One variable of `extension:`: a value (`etan: 200`), or a range calibrated with the solver in
+/// the loop (`etan: {min: 0, max: 600, unit: MPa}`, screened at `probe`, by default the middle).
+/// A number or a mapping, told apart by the node's kind (a visitor, since untagged enums lose the
+/// locations).
+#[derive(Debug)]
+pub enum ExtensionValueFile {
+    Value(f64),
+    Range(ExtensionRangeFile),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExtensionRangeFile {
+    pub min: Spanned<f64>,
+    pub max: Spanned<f64>,
+    pub unit: Option<String>,
+    pub probe: Option<Spanned<f64>>,
+}
+
+impl<'de> Deserialize<'de> for ExtensionValueFile {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visit;
+        impl<'de> serde::de::Visitor<'de> for Visit {
+            type Value = ExtensionValueFile;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number, or a range {min, max, unit}")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Self::Value, E> {
+                Ok(ExtensionValueFile::Value(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Self::Value, E> {
+                Ok(ExtensionValueFile::Value(v as f64))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Self::Value, E> {
+                Ok(ExtensionValueFile::Value(v as f64))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
+                ExtensionRangeFile::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(ExtensionValueFile::Range)
+            }
+        }
+        deserializer.deserialize_any(Visit)
+    }
 }
 
 // ---- Cluster and CalculiX keys (issue 6): `solver.job`, `solver.slurm`, `response.dat` ----

@@ -1,0 +1,270 @@
+//! The solver-in-the-loop stage of [`super::run`]: after the screening diagnosis has ranked the
+//! hypotheses, a model extension whose variables have ranges is extended for real.
+//!
+//! ```text
+//! screening diagnosis ─► chosen ─► Plan::joint ─► render ─► execute (same store) ─► per hypothesis:
+//!                                                  joint surrogates ─► calibrate ─► diagnose ─► SolverExtension
+//! ```
+//!
+//! Which hypotheses: the named cause, or, when the evidence does not decide, the two leading
+//! explanations (those that are extensions with ranges). The new runs are ordinary runs of the
+//! store (content-addressed, resumable, recorded and replayed like the others). The extended model
+//! is the study with the ranged variables added to its parameters, its surrogates fitted per design
+//! over the joint space (the joint runs, plus the screening runs at the probe values), and the
+//! study's own calibration methods and diagnosis run on it.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::runs::{self, RunOutcomes, Source};
+use super::stages::{calibrate, problem};
+use super::{Engine, Event, Reporter, RunOptions};
+use crate::calibrate::Model;
+use crate::calibrate::bayesian::SimulationData;
+use crate::diagnose::joint::{Calibrated, LoopRuns, MethodEstimate, SolverExtension, VariableRange};
+use crate::diagnose::{self, Diagnosis};
+use crate::error::Error;
+use crate::execute::RunStore;
+use crate::execute::sweep::{self, Prepared, SweepResult};
+use crate::fit::{DesignSurrogate, Surrogate, SurrogateModel};
+use crate::plan::{Plan, PlannedRun, RunRole, sweep::joint_bounds};
+use crate::report::Results;
+use crate::study::{HypothesisKind, SolverSimulation, Study};
+
+/// The hypotheses to extend with the solver (indices into `study.diagnosis.hypotheses`): the
+/// named cause, else the two leading explanations; only model extensions with ranged variables.
+pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
+    let names: Vec<&String> = match &diagnosis.cause {
+        Some(cause) => vec![cause],
+        None => diagnosis.leading.iter().take(2).collect(),
+    };
+    names
+        .into_iter()
+        .filter_map(|name| {
+            let hypotheses = &study.diagnosis.hypotheses;
+            hypotheses
+                .iter()
+                .position(|h| &h.name == name && !h.ranges().is_empty())
+        })
+        .collect()
+}
+
+/// The loop's runs, swept on the screening's store.
+pub struct JointRuns {
+    pub plan: Plan,
+    pub rendered: Prepared,
+    pub swept: SweepResult,
+    pub outcomes: RunOutcomes,
+    /// The responses the models may use (suspect runs left out unless the study says otherwise).
+    pub usable: Vec<Option<f64>>,
+}
+
+/// Plans, renders and runs (or replays) the joint runs of `hypotheses` on `store`.
+#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
+pub fn execute(
+    study: &Study,
+    sim: &SolverSimulation,
+    hypotheses: &[usize],
+    source: &Source,
+    options: &RunOptions,
+    engine: &Engine,
+    store: &mut RunStore,
+    reporter: &mut dyn Reporter,
+) -> Result<JointRuns, Error> {
+    let plan = Plan::joint(study, sim, hypotheses);
+    let names: Vec<String> = hypotheses
+        .iter()
+        .map(|&k| format!("'{}'", study.diagnosis.hypotheses[k].name))
+        .collect();
+    reporter.report(Event::Note(format!(
+        "extending {} with the solver in the loop: {} more run(s) over the parameters and the extension's ranges",
+        names.join(" and "),
+        plan.runs.len()
+    )));
+    let rendered = sweep::prepare(study, sim, &plan)?;
+    let (swept, outcomes) = runs::sweep_plan(study, sim, &plan, &rendered, source, options, engine, store, reporter)?;
+    let usable = swept.usable(&sim.quality);
+    Ok(JointRuns {
+        plan,
+        rendered,
+        swept,
+        outcomes,
+        usable,
+    })
+}
+
+/// One hypothesis's extended model: the study with the ranged variables among its parameters (and
+/// only the term hypotheses left), the surrogates over the joint space, the emulator's data.
+pub struct ExtendedModel {
+    pub hypothesis: usize,
+    pub study: Study,
+    pub surrogates: SurrogateModel,
+    pub data: SimulationData,
+    pub runs: LoopRuns,
+}
+
+/// The extended model of hypothesis `k` from its joint runs (`joint`) and its screening runs
+/// (`screening`, the study's first plan, whose extension runs sit at the probe values).
+pub fn extended_model(
+    study: &Study,
+    sim: &SolverSimulation,
+    k: usize,
+    screening: (&Plan, &[Option<f64>]),
+    joint: &JointRuns,
+) -> Result<ExtendedModel, Error> {
+    let hypothesis = &study.diagnosis.hypotheses[k];
+    let ranges = hypothesis.ranges();
+    let extended = extended_study(study, k);
+    let bounds = joint_bounds(study, ranges);
+    let mine =
+        |r: &PlannedRun| matches!(r.role, RunRole::Extension(j) | RunRole::Joint(j) | RunRole::JointCheck(j) if j == k);
+    let runs: Vec<(&PlannedRun, Option<f64>)> = screening
+        .0
+        .runs
+        .iter()
+        .zip(screening.1.iter().copied())
+        .chain(joint.plan.runs.iter().zip(joint.usable.iter().copied()))
+        .filter(|(r, _)| mine(r))
+        .collect();
+    let point = |r: &PlannedRun| r.joint_point(ranges);
+    let mut designs = Vec::new();
+    let mut worst_check: Option<f64> = None;
+    for name in study.training.iter().chain(&study.validation) {
+        let of = |check: bool| -> Vec<(Vec<f64>, f64)> {
+            runs.iter()
+                .filter(|(r, _)| &r.design == name && (r.role == RunRole::JointCheck(k)) == check)
+                .filter_map(|(r, y)| y.map(|y| (point(r), y)))
+                .collect()
+        };
+        let Some(values) = runs
+            .iter()
+            .find(|(r, _)| &r.design == name)
+            .map(|(r, _)| r.design_values.clone())
+        else {
+            continue;
+        };
+        let samples = of(false);
+        let surrogate = Surrogate::fit(sim.surrogate, &samples, &bounds).map_err(|e| {
+            Error::Failed(format!(
+                "hypothesis '{}', design `{name}`: cannot fit the surrogate over the joint space: {e}",
+                hypothesis.name
+            ))
+        })?;
+        let check = surrogate.check(&of(true));
+        if let Some(e) = check.max_relative_error {
+            worst_check = Some(worst_check.map_or(e, |w: f64| w.max(e)));
+        }
+        designs.push(DesignSurrogate {
+            design: name.clone(),
+            values,
+            surrogate,
+            check,
+            samples: samples.len(),
+        });
+    }
+    let rows: Vec<(Vec<f64>, f64)> = runs
+        .iter()
+        .filter(|(r, _)| r.role != RunRole::JointCheck(k))
+        .filter_map(|(r, y)| y.map(|y| (r.design_values.iter().copied().chain(point(r)).collect(), y)))
+        .collect();
+    let cols = rows.first().map_or(0, |r| r.0.len());
+    let data = SimulationData::new(
+        DMatrix::from_fn(rows.len(), cols, |i, j| rows[i].0[j]),
+        DVector::from_iterator(rows.len(), rows.iter().map(|r| r.1)),
+    );
+    let joint_runs = joint
+        .plan
+        .runs
+        .iter()
+        .zip(&joint.usable)
+        .filter(|(r, _)| mine(r) && r.role != RunRole::Extension(k));
+    let planned = joint_runs.clone().count();
+    Ok(ExtendedModel {
+        hypothesis: k,
+        study: extended,
+        surrogates: SurrogateModel { designs },
+        data,
+        runs: LoopRuns {
+            planned,
+            succeeded: joint_runs.filter(|(_, y)| y.is_some()).count(),
+            samples_per_design: crate::plan::sweep::joint_samples(sim, bounds.dim()),
+            surrogate_check_error: worst_check,
+        },
+    })
+}
+
+/// The study whose parameters are θ and hypothesis `k`'s ranged variables, and whose hypotheses
+/// are the study's terms (what may still be missing from the extended model).
+fn extended_study(study: &Study, k: usize) -> Study {
+    let mut extended = study.clone();
+    extended
+        .parameters
+        .extend(study.diagnosis.hypotheses[k].ranges().iter().cloned());
+    extended
+        .diagnosis
+        .hypotheses
+        .retain(|h| matches!(h.kind, HypothesisKind::Term(_)));
+    extended.splits.clear();
+    extended
+}
+
+/// Calibrates and diagnoses an extended model, and judges it against the screening's diagnosis.
+pub fn assess(study: &Study, m: &ExtendedModel, screening: &Diagnosis) -> Result<SolverExtension, Error> {
+    let s = &m.study;
+    let model = &m.surrogates as &dyn Model;
+    let calibration = calibrate(s, &problem(s, model), Some(&m.data));
+    let diagnosis = diagnose::diagnose(&diagnose::inputs_from_study(s, model))
+        .map_err(|e| Error::Failed(format!("the extended model could not be diagnosed: {e}")))?;
+    let results = Results::build(
+        s,
+        model,
+        &calibration,
+        Err(crate::calibrate::CalibrationError::Numerics(
+            "diagnosed separately".into(),
+        )),
+    );
+    let hypothesis = &study.diagnosis.hypotheses[m.hypothesis];
+    let extension = hypothesis.extension_spec().expect("chosen: an extension");
+    let variables = extension
+        .ranges
+        .iter()
+        .map(|r| {
+            let range = VariableRange {
+                min: r.min,
+                max: r.max,
+                unit: r.unit.clone(),
+            };
+            (r.name.clone(), range)
+        })
+        .collect();
+    let fixed = extension
+        .screening
+        .iter()
+        .filter(|(n, _)| !extension.ranges.iter().any(|r| &r.name == n))
+        .cloned()
+        .collect();
+    let calibrated = Calibrated {
+        methods: results
+            .calibration
+            .iter()
+            .map(|(method, r)| {
+                let estimate = MethodEstimate {
+                    parameters: r.parameters.clone(),
+                    interval95: r.interval95.clone(),
+                    error: r.error.clone(),
+                };
+                (method.clone(), estimate)
+            })
+            .collect(),
+        identifiable: results.identifiability.identifiable,
+        identifiability: results.identifiability.note.clone(),
+    };
+    Ok(SolverExtension::assess(
+        &hypothesis.name,
+        variables,
+        fixed,
+        m.runs.clone(),
+        calibrated,
+        screening,
+        &diagnosis,
+    ))
+}
