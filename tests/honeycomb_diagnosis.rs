@@ -1,7 +1,8 @@
 //! The honeycomb diagnosis (studies/honeycomb-diagnosis.yaml) through the `lab` binary, replayed
 //! from fixtures/honeycomb-diagnosis with no solver on PATH: the tests' hidden effect (strain
-//! hardening, ETAN = 200 MPa; fixtures/README.md) is named among the study's hypotheses and the
-//! extended yield stress is within 3 % of the truth (185 MPa).
+//! hardening, ETAN = 200 MPa; fixtures/README.md) is named among the study's hypotheses, then
+//! extended with the solver in the loop (ETAN over 0–600 MPa): sigma_y within 2 % of the truth
+//! (185 MPa) and ETAN within 15 % of 200 MPa, both inside their reported intervals.
 
 mod verdict_common;
 
@@ -39,8 +40,9 @@ fn names_strain_hardening_and_recovers_the_yield_stress() {
     );
     let r: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap();
-    // 7 designs x (2 samples + 1 check) baseline runs + 7 x 2 runs for each of the two extensions.
-    assert_eq!(r["runs"]["succeeded"], 49);
+    // 9 designs x (2 samples + 1 check) baseline runs + 9 x 2 screening runs for each of the two
+    // extensions (the loop's runs are counted under diagnosis.extensions).
+    assert_eq!(r["runs"]["succeeded"], 63);
     for (design, s) in r["surrogates"].as_object().unwrap() {
         // The crush force is linear in sigma_y in crushsim: the linear surrogate's check run agrees.
         assert!(s["check_max_relative_error"].as_f64().unwrap() < 0.005, "{design}: {s}");
@@ -59,9 +61,9 @@ fn names_strain_hardening_and_recovers_the_yield_stress() {
         );
     }
     assert_eq!(d["discrepancy_detected"], true, "{}", d["summary"]);
-    // The verdict comes from the evidence: with 7 designs inside a narrow box, a term linear in t
-    // fits nearly as well as the hardening, and the encompassing tests decide whether the data
-    // can tell them apart.
+    // The verdict comes from the evidence. With only the 0.05-0.08 mm foils a term linear in t fits
+    // nearly as well as the hardening (cannot tell apart); the 0.1 mm foils, where the hardening's
+    // share of the flow stress is largest ((t/c)^(2/3) in crushsim), let the tests decide.
     verdict_common::assert_verdict_follows_evidence(d);
     let names: Vec<&str> = d["candidates"]
         .as_array()
@@ -74,43 +76,56 @@ fn names_strain_hardening_and_recovers_the_yield_stress() {
         assert!(names.contains(&h), "{h} not ranked: {names:?}");
     }
     let top = &d["candidates"][0];
-    assert_eq!(top["extension"]["etan"], 200.0);
+    // Screened at the middle of its range.
+    assert_eq!(top["extension"]["etan"], 300.0);
     // The hardening candidate's own fit recovers the yield stress (3 %) whatever the verdict.
     let sigma_y = top["parameters"]["sigma_y"].as_f64().unwrap();
     let gamma = top["amplitude"].as_f64().unwrap();
     println!("strain hardening: sigma_y = {sigma_y:.3}, gamma = {gamma:.4}");
     assert!((sigma_y / 185.0 - 1.0).abs() < 0.03, "sigma_y = {sigma_y}");
-    // The force is linear in ETAN in crushsim, so gamma = 1 up to the tests' scatter (a 2 % pattern
-    // measured with 1.8 % specimen scatter leaves gamma uncertain by about ±0.1-0.2).
-    assert!((0.6..=1.4).contains(&gamma), "gamma = {gamma}");
-    match d["verdict"].as_str().unwrap() {
-        "cause_named" => {
-            assert_eq!(d["cause"], "strain hardening");
-            assert_eq!(d["extended"]["extension"]["variables"]["etan"], 200.0);
-        }
-        "cannot_tell_apart" => {
-            let open: Vec<&str> = d["leading"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|v| v.as_str().unwrap())
-                .collect();
-            assert!(open.contains(&"strain hardening"), "{open:?}");
-            assert!(
-                d["next_test"]["between"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .any(|v| v == "strain hardening")
-            );
-        }
-        other => panic!("verdict {other}: {}", d["summary"]),
-    }
+    // The force is linear in ETAN in crushsim, so gamma = 200/300 up to the tests' scatter (a 2-4 %
+    // pattern measured with 1.8 % specimen scatter leaves gamma uncertain by about ±0.15).
+    assert!((0.4..=0.95).contains(&gamma), "gamma = {gamma}");
+    assert_eq!(d["verdict"], "cause_named", "{}", d["summary"]);
+    assert_eq!(d["cause"], "strain hardening");
+    assert_solver_in_the_loop(d);
     // The baseline absorbs the hardening into sigma_y (well above the truth); the extension removes it.
     let ls = r["calibration"]["least_squares"]["parameters"]["sigma_y"]
         .as_f64()
         .unwrap();
     assert!(ls > 190.0, "baseline least squares sigma_y = {ls}");
+}
+
+/// The loop's extended model: ETAN calibrated through 63 new runs (9 designs x (6 joint samples +
+/// 1 check)), the truth inside the reported intervals, and nothing left beyond the noise.
+fn assert_solver_in_the_loop(d: &serde_json::Value) {
+    let x = &d["extensions"][0];
+    assert_eq!(x["hypothesis"], "strain hardening", "{x}");
+    assert_eq!(
+        d["extensions"].as_array().unwrap().len(),
+        1,
+        "only the named cause is extended"
+    );
+    assert_eq!(x["runs"]["planned"], 63);
+    assert_eq!(x["runs"]["succeeded"], 63);
+    // Linear in sigma_y and ETAN in crushsim: the joint linear surrogate reproduces its check runs.
+    assert!(x["runs"]["surrogate_check_error"].as_f64().unwrap() < 0.005, "{x}");
+    for (name, truth, tolerance) in [("sigma_y", 185.0, 0.02), ("etan", 200.0, 0.15)] {
+        let v = x["parameters"][name].as_f64().unwrap();
+        let [lo, hi] = [0, 1].map(|i| x["interval95"][name][i].as_f64().unwrap());
+        println!("{name} = {v:.2} (95 % {lo:.2} to {hi:.2}), truth {truth}");
+        assert!((v / truth - 1.0).abs() < tolerance, "{name} = {v}");
+        assert!(lo <= truth && truth <= hi, "{name}: truth {truth} outside [{lo}, {hi}]");
+        // The contract: diagnosis.extended.parameters includes the calibrated extension variable.
+        assert_eq!(d["extended"]["parameters"][name], x["parameters"][name]);
+    }
+    assert_eq!(d["extended"]["solver_in_the_loop"], true);
+    // The tests are the extension exactly: the extended model is rejected by the replicate noise
+    // only with probability α = 1 %, and it predicts better than the baseline.
+    assert!(x["lack_of_fit_p"].as_f64().unwrap() > 0.01, "{x}");
+    assert!(x["gain"].as_f64().unwrap() > 0.0, "{x}");
+    assert!(x["gain_loo"].as_f64().unwrap() > 0.0, "{x}");
+    assert_eq!(x["calibration"]["identifiable"], true, "{x}");
 }
 
 #[test]
@@ -141,8 +156,8 @@ fn crushsim_live_gives_the_replayed_diagnosis() {
     let a = run(live.path(), &[]);
     assert_eq!(
         std::fs::read_dir(live.path().join("runs")).unwrap().count(),
-        49,
-        "live runs have run directories"
+        126,
+        "live runs have run directories: 63 screening runs and 63 in the loop"
     );
     let b = run(replayed.path(), &["--replay", "fixtures/honeycomb-diagnosis"]);
     assert_eq!(a["diagnosis"], b["diagnosis"]);

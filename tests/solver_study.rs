@@ -418,3 +418,103 @@ fn example_study_bayesian_is_fed_the_runs_and_matches_the_paper() {
         assert_eq!(r["surrogates"][design]["check_runs"].as_u64(), Some(5));
     }
 }
+
+/// `studies/cantilever-extension.yaml` with the shear extension given a range (`shear: {min: 0,
+/// max: 2}`, screened at 1): the loop calibrates it through 7 designs × (20 + 2) new runs (GP over
+/// E × shear). Copied into `dir` as `ranged.yaml`.
+fn setup_ranged() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for rel in [
+        "cantilever-extension.yaml",
+        "cantilever-tests.csv",
+        "cantilever-extension/beam.txt.tera",
+        "solvers/beam.py",
+    ] {
+        let to = dir.path().join(rel);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(repo().join("studies").join(rel), to).unwrap();
+    }
+    let study = std::fs::read_to_string(dir.path().join("cantilever-extension.yaml")).unwrap();
+    let ranged = study.replace("extension: {shear: 1}", "extension: {shear: {min: 0, max: 2}}");
+    assert_ne!(ranged, study, "the study's shear extension moved");
+    std::fs::write(dir.path().join("ranged.yaml"), ranged).unwrap();
+    dir
+}
+
+/// 7 designs × (8 samples + 2 checks) + 7 × 8 screening runs, then the loop's 7 × (20 + 2).
+const RANGED_SCREENING: usize = 7 * 10 + 7 * 8;
+const RANGED_LOOP: usize = 7 * 22;
+
+fn ranged_lab(dir: &Path, out: &str, log: &Path, sleep: f64) -> Command {
+    lab(
+        dir,
+        &["run", "ranged.yaml", "--out", out, "--jobs", "2"],
+        Some(log),
+        sleep,
+    )
+}
+
+#[test]
+fn killed_in_the_loop_resumes_without_rerunning_and_recovers_the_shear_term() {
+    let dir = setup_ranged();
+    let straight_log = dir.path().join("straight.log");
+    let o = ranged_lab(dir.path(), "straight", &straight_log, 0.0).output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(log_keys(&straight_log).len(), RANGED_SCREENING + RANGED_LOOP);
+    let r: Value = serde_json::from_slice(&std::fs::read(dir.path().join("straight/results.json")).unwrap()).unwrap();
+    let d = &r["diagnosis"];
+    assert_eq!(d["cause"], "shear deformation", "{}", d["summary"]);
+    let x = &d["extensions"][0];
+    assert_eq!(x["runs"]["planned"].as_u64(), Some(RANGED_LOOP as u64));
+    // The tests are the Timoshenko beam exactly (shear = 1, E0 = 68,000): the GP over E × shear
+    // reproduces the beam to about 1e-4 relative, so both come back within 0.5 %.
+    for (name, truth) in [("E", 68_000.0), ("shear", 1.0)] {
+        let v = x["parameters"][name].as_f64().unwrap();
+        assert!((v / truth - 1.0).abs() < 0.005, "{name} = {v}: {x}");
+    }
+
+    // Killed (SIGKILL) while the loop's runs are under way, then run again.
+    let (out, log) = (dir.path().join("killed"), dir.path().join("killed.log"));
+    let mut child = ranged_lab(dir.path(), "killed", &log, 0.05)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let in_loop = wait_until(Duration::from_secs(120), || {
+        out.join("extension-plan.json").exists() && log_keys(&log).len() >= RANGED_SCREENING + 10
+    });
+    child.kill().unwrap();
+    child.wait().unwrap();
+    kill_orphans(&out);
+    assert!(in_loop, "the kill did not land during the loop's runs");
+    let (finished, seen) = (successes(&out), log_keys(&log).len());
+    assert!(
+        seen < RANGED_SCREENING + RANGED_LOOP,
+        "the loop had ended before the kill"
+    );
+    let o = ranged_lab(dir.path(), "killed", &log, 0.0).output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let keys = log_keys(&log);
+    let rerun: BTreeSet<&String> = keys[seen..].iter().filter(|k| finished.contains_key(*k)).collect();
+    assert!(rerun.is_empty(), "finished runs were run again: {rerun:?}");
+    let distinct: BTreeSet<&String> = keys.iter().collect();
+    assert_eq!(distinct.len(), RANGED_SCREENING + RANGED_LOOP);
+    // At most the runs in flight at the kill (--jobs 2) started twice.
+    assert!(
+        keys.len() <= RANGED_SCREENING + RANGED_LOOP + 2,
+        "{} starts",
+        keys.len()
+    );
+    let status = lab(dir.path(), &["status", "ranged.yaml", "--out", "killed"], None, 0.0)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&status.stdout);
+    let all = RANGED_SCREENING + RANGED_LOOP;
+    assert!(text.contains(&format!("{all} planned run(s): done {all}")), "{text}");
+    let straight = std::fs::read(dir.path().join("straight/results.json")).unwrap();
+    let resumed = std::fs::read(out.join("results.json")).unwrap();
+    assert!(
+        straight == resumed,
+        "results.json differs between the killed-and-resumed and the straight run"
+    );
+}

@@ -48,6 +48,43 @@ pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
         .collect()
 }
 
+/// `OUT/extension-plan.json`: the hypotheses the loop extends, written before its runs start so
+/// that `lab status` counts them (the loop's plan depends on the screening's verdict).
+pub const PLAN_FILE: &str = "extension-plan.json";
+
+#[derive(serde::Serialize, serde::Deserialize)]
+struct PlanFile {
+    hypotheses: Vec<String>,
+}
+
+/// The loop's plan as the last `lab run` on `out` chose it (empty when none was chosen).
+pub fn recorded_plan(study: &Study, sim: &SolverSimulation, out: &std::path::Path) -> Plan {
+    let chosen: Vec<usize> = std::fs::read(out.join(PLAN_FILE))
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<PlanFile>(&bytes).ok())
+        .map(|f| {
+            f.hypotheses
+                .iter()
+                .filter_map(|name| study.diagnosis.hypotheses.iter().position(|h| &h.name == name))
+                .collect()
+        })
+        .unwrap_or_default();
+    Plan::joint(study, sim, &chosen)
+}
+
+fn write_plan(study: &Study, hypotheses: &[usize], out: &std::path::Path) -> Result<(), Error> {
+    let file = PlanFile {
+        hypotheses: hypotheses
+            .iter()
+            .map(|&k| study.diagnosis.hypotheses[k].name.clone())
+            .collect(),
+    };
+    let bytes = serde_json::to_vec_pretty(&file).map_err(|e| Error::Failed(e.to_string()))?;
+    crate::execute::store::write_atomic(&out.join(PLAN_FILE), &bytes)
+        .map_err(|e| Error::Failed(format!("{}: {e}", out.join(PLAN_FILE).display())))?;
+    Ok(())
+}
+
 /// The loop's runs, swept on the screening's store.
 pub struct JointRuns {
     pub plan: Plan,
@@ -81,6 +118,7 @@ pub fn execute(
         plan.runs.len()
     )));
     let rendered = sweep::prepare(study, sim, &plan)?;
+    write_plan(study, hypotheses, &options.out)?;
     let (swept, outcomes) = runs::sweep_plan(study, sim, &plan, &rendered, source, options, engine, store, reporter)?;
     let usable = swept.usable(&sim.quality);
     Ok(JointRuns {

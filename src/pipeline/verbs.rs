@@ -51,12 +51,14 @@ pub struct Status {
 }
 
 /// `lab status`: the planned runs counted from the store, read without taking its lock; `None`
-/// for a closed-form study (no runs).
+/// for a closed-form study (no runs). The solver-in-the-loop runs count once a `lab run` has
+/// chosen them (`OUT/extension-plan.json`).
 pub fn status(study: &Study, out: &Path) -> Result<Option<Status>, Error> {
     let Simulation::Solver(sim) = &study.simulation else {
         return Ok(None);
     };
-    let plan = Plan::new(study, sim);
+    let mut plan = Plan::new(study, sim);
+    plan.runs.extend(super::extend::recorded_plan(study, sim, out).runs);
     let prepared = sweep::prepare(study, sim, &plan)?;
     let snapshot = Snapshot::read(out)?;
     let holder = lock::probe(out).map_err(|e| Error::Failed(e.to_string()))?;
