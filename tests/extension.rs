@@ -322,3 +322,78 @@ fn extension_cannot_set_a_design_variable_or_parameter_or_nothing() {
         "empty `extension`",
     );
 }
+
+#[test]
+fn extension_range_loads_with_its_probe_and_plans_joint_runs() {
+    let ranged = SOLVER.replace("{shear: 1}", "{shear: {min: 0, max: 2, unit: \"-\"}, kappa: 0.8}");
+    let template = format!("{TEMPLATE}kappa = {{{{ kappa | default(value=1) }}}}\n");
+    let (_dir, path) = write_case(&ranged, &template);
+    let s = study::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let h = &s.diagnosis.hypotheses[0];
+    // Screened at the middle of the range; the fixed variable at its value.
+    assert_eq!(
+        h.extension(),
+        Some(&[("shear".to_string(), 1.0), ("kappa".to_string(), 0.8)][..])
+    );
+    assert_eq!(h.ranges().len(), 1);
+    assert_eq!((h.ranges()[0].min, h.ranges()[0].max), (0.0, 2.0));
+    let Simulation::Solver(sim) = &s.simulation else {
+        panic!()
+    };
+    // The loop's plan: a Latin hypercube over E × shear (linear surrogate in 2 variables: 2 × 3
+    // samples) plus the study's 5 check runs, at both tested designs, with kappa held at 0.8.
+    let joint = Plan::joint(&s, sim, &[0]);
+    assert_eq!(sim.sampling.check_runs, 5);
+    assert_eq!(joint.runs.len(), 2 * (6 + 5));
+    for r in &joint.runs {
+        let shear = r.extension.iter().find(|(n, _)| n == "shear").unwrap().1;
+        assert!((0.0..=2.0).contains(&shear) && (50_000.0..=80_000.0).contains(&r.theta[0]));
+        assert!(r.extension.contains(&("kappa".to_string(), 0.8)));
+        assert!(matches!(r.role, RunRole::Joint(0) | RunRole::JointCheck(0)));
+    }
+    let shears: std::collections::BTreeSet<u64> = joint.runs.iter().map(|r| r.extension[0].1.to_bits()).collect();
+    assert_eq!(
+        shears.len(),
+        11,
+        "each of the 6 samples and the 5 checks at its own shear"
+    );
+    // Rendered with their values: every joint run has keys of its own, none a screening run's.
+    let keys = sweep::prepare(&s, sim, &joint).unwrap().keys;
+    let screening = sweep::prepare(&s, sim, &Plan::new(&s, sim)).unwrap().keys;
+    assert!(keys.iter().all(|k| !screening.contains(k)));
+    // Nothing to extend without ranges.
+    let (_dir2, fixed) = write_case(SOLVER, TEMPLATE);
+    let f = study::load(&fixed).unwrap();
+    let Simulation::Solver(fsim) = &f.simulation else {
+        panic!()
+    };
+    assert!(Plan::joint(&f, fsim, &[0]).runs.is_empty());
+}
+
+#[test]
+fn extension_range_errors_are_located() {
+    let with = |range: &str| SOLVER.replace("{shear: 1}", &format!("{{shear: {range}}}"));
+    error_at(
+        &with("{min: 2, max: 1}"),
+        TEMPLATE,
+        18,
+        "2, max",
+        "min (2) must be less than max (1)",
+    );
+    error_at(
+        &with("{min: 0, max: 1, probe: 3}"),
+        TEMPLATE,
+        18,
+        "3}",
+        "probe (3) must lie in [0, 1]",
+    );
+    let unknown = error_at(
+        &with("{min: 0, max: 1, step: 3}"),
+        TEMPLATE,
+        18,
+        "step",
+        "unknown field `step`",
+    );
+    assert!(unknown.to_string().contains("min"), "{unknown}");
+    error_at(&with("[0, 1]"), TEMPLATE, 18, "shear", "a number, or a range");
+}
