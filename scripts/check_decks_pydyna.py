@@ -186,6 +186,10 @@ def check_deck(spec, cache):
         if name.upper() not in UNSUPPORTED_OK:
             problems.append(f"main deck: keyword {name} is unprocessed")
     problems += unparsed(deck.all_keywords, "main deck")
+    # Deck.expand warns about these too, but a cached include skips it: ask the parameter set.
+    unresolved = sorted({name for name, _ in deck.parameters.get_all_unresolved_param_names()})
+    if unresolved:
+        problems.append(f"undefined parameter reference(s): {', '.join('&' + n for n in unresolved)}")
     typed = [kw for kw in deck.all_keywords if not isinstance(kw, str)]
     if "title" in spec and deck.title != spec["title"]:
         problems.append(f"*TITLE reads {deck.title!r}, planned {spec['title']!r}")
@@ -218,7 +222,7 @@ def check_deck(spec, cache):
         node_ids |= summary["node_ids"]
         shell_nodes |= summary["shell_nodes"]
         shell_parts.update(int(p) for p in summary["shells"])
-        if inc is not None and name == inc["file"]:
+        if inc is not None and len(includes) == 1:  # the planned include, by whatever name
             if summary["nodes"] != inc["nodes"]:
                 problems.append(f"include {name}: {summary['nodes']} nodes read, planned {inc['nodes']}")
             planned = {str(k): v for k, v in inc["elements"].items()}
