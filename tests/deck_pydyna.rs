@@ -1,15 +1,17 @@
 //! Deck validity checked by an independent reader (issue 12): the honeycomb decks that `lab run`
 //! gives the solver — every planned run of studies/honeycomb.yaml (baseline samples and checks)
-//! and of studies/honeycomb-diagnosis.yaml (with its model-extension runs: ETAN, SRC/SRP) — are
+//! and of studies/honeycomb-diagnosis.yaml (with its model-extension runs: ETAN, SRC/SRP, screening
+//! and joint space) — are
 //! read by PyDyna (`ansys-dyna-core`), and scripts/check_decks_pydyna.py checks that every keyword
 //! parses, that the mesh include expands, and that the *PARAMETER values and the fields referencing
 //! them read back equal to what lab planned for the run.
 //!
-//! The decks are produced as `lab run` produces them: `Plan::new`, `sweep::prepare` (render in
-//! memory), `sweep::write_meshes` and `RunStore::prepare` (the run directories, byte for byte).
-//! The expected values are computed here from the plan — each run's design values, parameters,
-//! the study's constants and, for a `RunRole::Extension(k)` run, hypothesis k's variables — and the
-//! template's documented defaults, never from the deck text.
+//! The decks are produced as `lab run` produces them: `Plan::new` and `Plan::joint` (the
+//! joint-space runs of every ranged extension hypothesis, e.g. ETAN over 0-600 MPa),
+//! `sweep::prepare` (render in memory), `sweep::write_meshes` and `RunStore::prepare` (the run
+//! directories, byte for byte). The expected values are computed here from the plan — each run's
+//! design values, parameters, the study's constants and the extension variables the plan set for
+//! the run — and the template's documented defaults, never from the deck text.
 //!
 //! The reader lives in a virtual environment made by scripts/pydyna-venv.sh (`.ci/run` makes it);
 //! `LAB_PYDYNA_PYTHON` names another python. Without it the tests skip, or fail when CI=true.
@@ -54,7 +56,9 @@ fn pydyna_python() -> Option<PathBuf> {
 }
 
 /// What lab planned for a run, by template variable: design values, parameters, constants, then
-/// the extension's variables (they override constants), as `render::run_context` promises.
+/// the model extension's variables the plan set for this run (screening values for an
+/// `Extension(k)` run, a point of the joint space for `Joint(k)` / `JointCheck(k)`; they override
+/// constants), as `render::run_context` promises.
 fn planned_variables(study: &Study, run: &PlannedRun) -> BTreeMap<String, f64> {
     let mut v = BTreeMap::new();
     for (d, x) in study.design.iter().zip(&run.design_values) {
@@ -66,13 +70,8 @@ fn planned_variables(study: &Study, run: &PlannedRun) -> BTreeMap<String, f64> {
     for (n, x) in &study.constants {
         v.insert(n.clone(), *x);
     }
-    if let RunRole::Extension(k) = run.role {
-        let variables = study.diagnosis.hypotheses[k]
-            .extension()
-            .expect("an extension run belongs to an extension hypothesis");
-        for (n, x) in variables {
-            v.insert(n.clone(), *x);
-        }
+    for (n, x) in &run.extension {
+        v.insert(n.clone(), *x);
     }
     v
 }
@@ -133,57 +132,65 @@ fn render_study(file: &str, out: &Path) -> Rendered {
         panic!("{file}: a solver study")
     };
     let sim: &SolverSimulation = sim;
-    let plan = Plan::new(&study, sim);
-    let prepared = sweep::prepare(&study, sim, &plan).unwrap_or_else(|e| panic!("{e}"));
     let store = RunStore::open(out).unwrap();
-    sweep::write_meshes(out, &prepared).unwrap();
     let spec = sim.mesh.as_ref().expect("the honeycomb studies generate their mesh");
     let deck_name = &sim.templates[0].output;
     let mut counts: BTreeMap<String, (usize, usize, usize)> = BTreeMap::new();
-    let mut by_key: BTreeMap<&str, Value> = BTreeMap::new();
+    let mut by_key: BTreeMap<String, Value> = BTreeMap::new();
     let mut roles = BTreeMap::new();
-    for (i, run) in plan.runs.iter().enumerate() {
-        let role = match run.role {
-            RunRole::Extension(k) => format!("extension `{}`", study.diagnosis.hypotheses[k].name),
-            other => other.key().to_string(),
-        };
-        *roles.entry(role.clone()).or_insert(0) += 1;
-        let key = prepared.keys[i].as_str();
-        let vars = planned_variables(&study, run);
-        let (parameters, fields) = expectations(&vars);
-        let mesh_rel = prepared.run_mesh[i].as_ref().expect("a mesh per run");
-        let cell = run.design_values[spec.cell_variable];
-        let (nodes, single, ribbon) = *counts.entry(run.design.clone()).or_insert_with(|| {
-            let tube = TubeSpec {
-                cell,
-                diameter: spec.diameter,
-                length: spec.length,
-                element: spec.element_size,
+    // The study's plan, then the joint-space plan (solver in the loop) of every extension
+    // hypothesis with ranged variables: `lab run` plans the latter only for the hypothesis its
+    // screening chooses, so planning all of them covers whichever it chooses.
+    let every_hypothesis: Vec<usize> = (0..study.diagnosis.hypotheses.len()).collect();
+    for plan in [Plan::new(&study, sim), Plan::joint(&study, sim, &every_hypothesis)] {
+        let prepared = sweep::prepare(&study, sim, &plan).unwrap_or_else(|e| panic!("{e}"));
+        sweep::write_meshes(out, &prepared).unwrap();
+        for (i, run) in plan.runs.iter().enumerate() {
+            let role = match run.role {
+                RunRole::Extension(k) | RunRole::Joint(k) | RunRole::JointCheck(k) => {
+                    format!("{} `{}`", run.role.key(), study.diagnosis.hypotheses[k].name)
+                }
+                other => other.key().to_string(),
             };
-            let s = mesh::include(&tube).unwrap().1;
-            (s.nodes, s.elements_single, s.elements_ribbon)
-        });
-        let deck = json!({
-            "name": format!("{file} {} {role} {} ({key})", run.design, study.parameter_values(&run.theta)
-                .iter().map(|(n, v)| format!("{n}={v}")).collect::<Vec<_>>().join(" ")),
-            "deck": store.run_dir(key).join(deck_name),
-            "title": format!("honeycomb tube crush {}", run.design),
-            "parameters": parameters,
-            "fields": fields,
-            "include": {"file": format!("../../{}", mesh_rel.display()), "nodes": nodes,
-                        "elements": {"1": single, "2": ribbon}},
-        });
-        match by_key.get(key) {
-            None => {
-                store.prepare(key, &prepared.inputs[key]).unwrap();
-                by_key.insert(key, deck);
+            *roles.entry(role.clone()).or_insert(0) += 1;
+            let key = prepared.keys[i].as_str();
+            let vars = planned_variables(&study, run);
+            let (parameters, fields) = expectations(&vars);
+            let mesh_rel = prepared.run_mesh[i].as_ref().expect("a mesh per run");
+            let cell = run.design_values[spec.cell_variable];
+            let (nodes, single, ribbon) = *counts.entry(run.design.clone()).or_insert_with(|| {
+                let tube = TubeSpec {
+                    cell,
+                    diameter: spec.diameter,
+                    length: spec.length,
+                    element: spec.element_size,
+                };
+                let s = mesh::include(&tube).unwrap().1;
+                (s.nodes, s.elements_single, s.elements_ribbon)
+            });
+            let deck = json!({
+                "name": format!("{file} {} {role} {} ({key})", run.design, study.parameter_values(&run.theta)
+                    .iter().map(|(n, v)| (n.as_str(), *v)).chain(run.extension.iter().map(|(n, v)| (n.as_str(), *v)))
+                    .map(|(n, v)| format!("{n}={v}")).collect::<Vec<_>>().join(" ")),
+                "deck": store.run_dir(key).join(deck_name),
+                "title": format!("honeycomb tube crush {}", run.design),
+                "parameters": parameters,
+                "fields": fields,
+                "include": {"file": format!("../../{}", mesh_rel.display()), "nodes": nodes,
+                            "elements": {"1": single, "2": ribbon}},
+            });
+            match by_key.get(key) {
+                None => {
+                    store.prepare(key, &prepared.inputs[key]).unwrap();
+                    by_key.insert(key.to_string(), deck);
+                }
+                // Planned runs with equal inputs share a key: they must expect the same deck.
+                Some(first) => assert_eq!(
+                    (&first["parameters"], &first["fields"]),
+                    (&deck["parameters"], &deck["fields"]),
+                    "runs sharing key {key} plan different values"
+                ),
             }
-            // Planned runs with equal inputs share a key: they must expect the same deck.
-            Some(first) => assert_eq!(
-                (&first["parameters"], &first["fields"]),
-                (&deck["parameters"], &deck["fields"]),
-                "runs sharing key {key} plan different values"
-            ),
         }
     }
     Rendered {
@@ -229,14 +236,19 @@ fn pydyna_reads_every_planned_honeycomb_deck_as_lab_planned_it() {
         );
         if sub == "diagnosis" {
             // The extended decks are what this test is about as much as the baseline ones.
-            assert!(r.roles.contains_key("extension `strain hardening`"), "{:?}", r.roles);
-            assert!(r.roles.contains_key("extension `strain rate`"), "{:?}", r.roles);
-            let etan: Vec<f64> = r
-                .decks
-                .iter()
-                .filter_map(|d| d["parameters"]["ETAN"].as_f64())
-                .collect();
-            assert!(etan.contains(&200.0) && etan.contains(&0.0), "{etan:?}");
+            for role in ["extension", "joint", "joint_check"] {
+                for h in ["strain hardening", "strain rate"] {
+                    let role = format!("{role} `{h}`");
+                    assert!(r.roles.contains_key(&role), "no {role} runs: {:?}", r.roles);
+                }
+            }
+            // ETAN and SRC vary over the joint space: many values, the baseline's 0 among them.
+            for name in ["ETAN", "SRC"] {
+                let mut values: Vec<f64> = r.decks.iter().filter_map(|d| d["parameters"][name].as_f64()).collect();
+                values.sort_by(f64::total_cmp);
+                values.dedup();
+                assert!(values.len() > 5 && values[0] == 0.0, "{name}: {values:?}");
+            }
         }
         decks.extend(r.decks);
     }
@@ -260,8 +272,8 @@ fn pydyna_reads_every_planned_honeycomb_deck_as_lab_planned_it() {
     );
 }
 
-/// The checker is not a rubber stamp: deliberately corrupted copies of one extended deck (the
-/// strain-hardening run, ETAN = 200), each written beside the real one so its include path
+/// The checker is not a rubber stamp: deliberately corrupted copies of one extended deck (a
+/// strain-hardening run, ETAN > 0), each written beside the real one so its include path
 /// still resolves, are rejected with the right finding; the untouched deck passes.
 #[test]
 fn corrupted_decks_are_rejected() {
@@ -272,8 +284,8 @@ fn corrupted_decks_are_rejected() {
     let good = r
         .decks
         .iter()
-        .find(|d| d["parameters"]["ETAN"].as_f64() == Some(200.0) && d["parameters"]["CELL"].as_f64() == Some(6.0))
-        .expect("an ETAN = 200 extension deck of a 6 mm cell design")
+        .find(|d| d["parameters"]["ETAN"].as_f64() > Some(0.0) && d["parameters"]["CELL"].as_f64() == Some(6.0))
+        .expect("a strain-hardening deck (ETAN > 0) of a 6 mm cell design")
         .clone();
     let text = std::fs::read_to_string(good["deck"].as_str().unwrap()).unwrap();
     let include = good["include"]["file"].as_str().unwrap().to_string();
@@ -299,20 +311,23 @@ fn corrupted_decks_are_rejected() {
         text.replace(from, to)
     };
     let mat_line = text.lines().find(|l| l.contains("&SIGY     &ETAN")).unwrap();
+    // The *PARAMETER card's ETAN: its 10-character value field, set to a value never planned.
+    let etan_at = text.find("R ETAN    ").unwrap() + 10;
+    let wrong_parameter = format!("{}    1234.5{}", &text[..etan_at], &text[etan_at + 10..]);
     let cases: Vec<(&str, String, Vec<&str>)> = vec![
         ("untouched", text.clone(), vec![]),
         (
-            "ETAN field a literal 199.0",
-            replace(mat_line, &mat_line.replace("     &ETAN", "     199.0")),
+            "ETAN field a literal 1234.5",
+            replace(mat_line, &mat_line.replace("     &ETAN", "    1234.5")),
             vec![
-                "MatPlasticKinematic mid=1 etan reads 199.0",
+                "MatPlasticKinematic mid=1 etan reads 1234.5",
                 "reference(s) &ETAN planned",
             ],
         ),
         (
-            "*PARAMETER ETAN 210",
-            replace("R ETAN         200.0", "R ETAN         210.0"),
-            vec!["*PARAMETER ETAN reads '210.0'", "etan reads 210.0"],
+            "*PARAMETER ETAN 1234.5",
+            wrong_parameter,
+            vec!["*PARAMETER ETAN reads '1234.5'", "etan reads 1234.5"],
         ),
         (
             "include names a missing file",
