@@ -306,3 +306,18 @@ pub fn assess(study: &Study, m: &ExtendedModel, screening: &Diagnosis) -> Result
         &diagnosis,
     ))
 }
+
+/// The extended model's response over its first ranged variable, the other parameters at `at`.
+pub fn surface(study: &Study, m: &ExtendedModel, at: &[f64]) -> crate::report::data::ExtensionSurface {
+    let hypothesis = &study.diagnosis.hypotheses[m.hypothesis];
+    let variable = &hypothesis.ranges()[0];
+    let j = study.parameters.len();
+    crate::report::data::ExtensionSurface::sweep(
+        &m.study,
+        &hypothesis.name,
+        &m.surrogates,
+        at,
+        (j, variable.min, variable.max),
+        variable,
+    )
+}

@@ -175,6 +175,7 @@ fn solver_runs<'s>(
         surrogates,
         data,
         joint: None,
+        extended: Vec::new(),
     })
 }
 
@@ -202,7 +203,10 @@ fn extend_with_solver(
     let mut extensions = Vec::new();
     for &k in &chosen {
         let model = extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint)?;
-        extensions.push(extend::assess(study, &model, &screening)?);
+        let extension = extend::assess(study, &model, &screening)?;
+        runs.extended
+            .push((model, extension.parameters.values().copied().collect()));
+        extensions.push(extension);
     }
     runs.joint = Some(joint);
     Ok(Ok(screening.with_extensions(extensions)))
@@ -232,6 +236,8 @@ struct SolverRuns<'s> {
     data: SimulationData,
     /// The solver-in-the-loop runs, when the screening chose a hypothesis to extend.
     joint: Option<extend::JointRuns>,
+    /// The extended models they made, with their calibrated parameters (θ, then the extension's).
+    extended: Vec<(extend::ExtendedModel, Vec<f64>)>,
 }
 
 impl Simulated<'_> {
@@ -401,6 +407,7 @@ fn report_data(study: &Study, simulated: &Simulated, calibration: &Calibration, 
                 dirs: r.executed.output_dirs(r.sim),
             };
             let reference = report::data::reference(calibration);
+            data.extension_surfaces = r.extended.iter().map(|(m, at)| extend::surface(study, m, at)).collect();
             report::curves::design_curves(study, Some(&outputs), reference.as_ref())
         }
     };

@@ -55,6 +55,73 @@ pub struct ReportData {
     /// the study's own split is always shown from `results.json`.
     #[serde(default)]
     pub splits: Vec<SplitErrors>,
+    /// Solver in the loop: each extended model's response over its first ranged variable.
+    #[serde(default)]
+    pub extension_surfaces: Vec<ExtensionSurface>,
+}
+
+/// An extended model's predictions over one extension variable, the other parameters at their
+/// calibrated values (`diagnosis.extensions[].parameters`), per tested design, against the tests.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ExtensionSurface {
+    pub hypothesis: String,
+    pub variable: String,
+    #[serde(default)]
+    pub unit: Option<String>,
+    pub designs: Vec<SurfaceCurve>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SurfaceCurve {
+    pub design: String,
+    /// (variable value, predicted response).
+    pub points: Vec<(f64, f64)>,
+    /// The tests' mean and the σ of that mean (`null` with one test).
+    pub measured: f64,
+    pub sigma_of_mean: Option<f64>,
+}
+
+impl ExtensionSurface {
+    /// `model` over θ followed by the extension's ranged variables, swept along `variable` (index
+    /// `j` in that vector, between `lo` and `hi`) at `at`, for every design the study tested.
+    pub fn sweep(
+        study: &crate::study::Study,
+        hypothesis: &str,
+        model: &dyn crate::calibrate::Model,
+        at: &[f64],
+        (j, lo, hi): (usize, f64, f64),
+        variable: &crate::study::Parameter,
+    ) -> ExtensionSurface {
+        let designs = study
+            .training
+            .iter()
+            .chain(&study.validation)
+            .filter_map(|name| {
+                let t = study.experiments.get(name)?;
+                let points = (0..=40)
+                    .map(|i| {
+                        let x = lo + (hi - lo) * i as f64 / 40.0;
+                        let mut theta = at.to_vec();
+                        theta[j] = x;
+                        (x, model.predict(&t.values, &theta))
+                    })
+                    .collect();
+                let n = t.replicates.len() as f64;
+                Some(SurfaceCurve {
+                    design: name.clone(),
+                    points,
+                    measured: t.mean(),
+                    sigma_of_mean: t.std_dev().map(|s| s / n.sqrt()),
+                })
+            })
+            .collect();
+        ExtensionSurface {
+            hypothesis: hypothesis.to_string(),
+            variable: variable.name.clone(),
+            unit: variable.unit.clone(),
+            designs,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]

@@ -19,6 +19,8 @@ use super::summary::significant;
 
 #[path = "html_curves.rs"]
 mod curves;
+#[path = "html_loop.rs"]
+mod solver_loop;
 #[path = "html_splits.rs"]
 mod splits;
 
@@ -741,6 +743,7 @@ impl Page<'_> {
                 "no cause was named, so there is no extended model to compare before/after",
             )),
         }
+        s.push_str(&solver_loop::section(dg, self.d));
         if !dg.candidates.is_empty() {
             s.push_str(&candidate_table(dg));
         }
