@@ -101,7 +101,10 @@ fn live_clamp_layer_nests_the_clamped_beam_and_scales_as_its_compliance() {
     let rigid = tip(&deck("beam-clamp.inp.tera", 10.0, E0, coarse, Some(1e12)));
     let soft = tip(&deck("beam-clamp.inp.tera", 10.0, E0, coarse, Some(CLAMP_E)));
     let stiffer = tip(&deck("beam-clamp.inp.tera", 10.0, E0, coarse, Some(2.0 * CLAMP_E)));
-    let report = format!("clamped {clamped}, clamp_E 1e12 {rigid}, {CLAMP_E} {soft}, {} {stiffer}", 2.0 * CLAMP_E);
+    let report = format!(
+        "clamped {clamped}, clamp_E 1e12 {rigid}, {CLAMP_E} {soft}, {} {stiffer}",
+        2.0 * CLAMP_E
+    );
     // 1e12 MPa: the layer adds ~1e-7 of the tip deflection; 1e-6 leaves room for the solver's round-off.
     assert!(((rigid - clamped) / clamped).abs() < 1e-6, "{report}");
     // Series compliance: exact up to the coupling of the layer with the root section's deformation.
@@ -187,9 +190,7 @@ fn live_clamp_extension_recovers_e_and_clamp_e_with_the_solver_in_the_loop() {
     };
     let clamp_runs: Vec<_> = runs
         .iter()
-        .filter(|dir| {
-            std::fs::read_to_string(dir.join("beam-clamp.inp")).is_ok_and(|inp| inp.contains("ELSET=ECLAMP"))
-        })
+        .filter(|dir| std::fs::read_to_string(dir.join("beam-clamp.inp")).is_ok_and(|inp| inp.contains("ELSET=ECLAMP")))
         .collect();
     assert_eq!(clamp_runs.len(), 35 + 154);
     assert!(runs.iter().all(|dir| by_ccx(dir)), "a run not made by ccx");
