@@ -156,7 +156,8 @@ impl SolverExtension {
                 .find(|c| c.name == hypothesis)
                 .map(|c| c.amplitude),
             what_remains: extended.verdict,
-            what_remains_headline: extended.headline.clone(),
+            // The extended model's diagnosis calls it "the uncorrected simulation".
+            what_remains_headline: extended.headline.replace("the uncorrected simulation", "the extended model"),
         }
     }
 

@@ -143,27 +143,28 @@ fn surface_plot(x: &SolverExtension, surface: &ExtensionSurface) -> String {
 /// extended model): within ±2 is within the noise.
 fn before_after_z(dg: &Diagnosis, x: &SolverExtension) -> String {
     let designs: Vec<String> = x.residual_z.keys().cloned().collect();
+    // Magnitudes: the bars grow from 0 (the table of residuals gives the signs).
     let before: Vec<Option<f64>> = designs
         .iter()
-        .map(|d| dg.residuals.iter().find(|r| &r.design == d).map(|r| r.z))
+        .map(|d| dg.residuals.iter().find(|r| &r.design == d).map(|r| r.z.abs()))
         .collect();
     let plot = BarPlot {
         title: format!("Residual / σ before and after extending with {}", x.hypothesis),
-        value_label: "(measured − predicted) / σ".into(),
+        value_label: "|measured − predicted| / σ".into(),
         categories: designs,
         groups: vec![
             ("uncorrected".into(), 1, before),
             (
                 format!("extended with {}", x.hypothesis),
                 2,
-                x.residual_z.values().map(|z| Some(*z)).collect(),
+                x.residual_z.values().map(|z| Some(z.abs())).collect(),
             ),
         ],
         percent: false,
         headings: vec![],
     };
     let caption = format!(
-        "Each tested design's residual in units of σ (training: σ of the mean; validation: with the prediction's \
+        "Each tested design's |residual| in units of σ (training: σ of the mean; validation: with the prediction's \
          uncertainty, after) for the uncorrected simulation and the model extended with {} calibrated in the loop. \
          Within ±2 is within the noise; {} design(s) remain beyond it.",
         x.hypothesis,
