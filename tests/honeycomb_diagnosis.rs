@@ -41,8 +41,9 @@ fn names_strain_hardening_and_recovers_the_yield_stress() {
     let r: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap();
     // 9 designs x (2 samples + 1 check) baseline runs + 9 x 2 screening runs for each of the two
-    // extensions (the loop's runs are counted under diagnosis.extensions).
-    assert_eq!(r["runs"]["succeeded"], 63);
+    // extensions, then the loop's 63 (9 x (6 + 1)).
+    assert_eq!(r["runs"]["succeeded"], 63 + 63);
+    assert_eq!(r["runs"]["in_the_loop"], 63);
     for (design, s) in r["surrogates"].as_object().unwrap() {
         // The crush force is linear in sigma_y in crushsim: the linear surrogate's check run agrees.
         assert!(s["check_max_relative_error"].as_f64().unwrap() < 0.005, "{design}: {s}");

@@ -354,30 +354,36 @@ fn results(
     };
     let mut results = results.with_surrogates(&runs.surrogates);
     results.splits = splits;
-    let planned = runs.plan.runs.len();
-    let succeeded = runs.executed.swept.responses.iter().filter(|r| r.is_some()).count();
-    results.runs = Some(RunsResult {
-        planned,
-        succeeded,
-        failed: planned - succeeded,
+    let gates = runs.sim.quality.gates;
+    let use_suspect = runs.sim.quality.use_suspect;
+    // The screening's runs, then the loop's.
+    let mut sweeps = vec![(&runs.plan, &runs.rendered.keys, &runs.executed.swept)];
+    if let Some(j) = &runs.joint {
+        sweeps.push((&j.plan, &j.rendered.keys, &j.swept));
+    }
+    let mut all = RunsResult {
+        planned: 0,
+        succeeded: 0,
+        failed: 0,
+        in_the_loop: runs.joint.as_ref().map_or(0, |j| j.plan.runs.len()),
         replayed_from: runs.executed.replay.as_ref().map(|d| d.display().to_string()),
-        suspect: runs.flags.iter().filter(|f| !f.is_empty()).count(),
-        gates: runs
-            .executed
-            .swept
-            .quality
+        suspect: 0,
+        gates: sweeps
             .iter()
-            .any(Option::is_some)
-            .then_some(runs.sim.quality.gates),
-        suspect_runs: runs::suspect_runs(
-            study,
-            &runs.plan,
-            &runs.rendered.keys,
-            &runs.executed.swept.responses,
-            &runs.flags,
-            runs.sim.quality.use_suspect,
-        ),
-    });
+            .any(|(_, _, swept)| swept.quality.iter().any(Option::is_some))
+            .then_some(gates),
+        suspect_runs: Vec::new(),
+    };
+    for (plan, keys, swept) in sweeps {
+        let flags = swept.flags(&gates);
+        let succeeded = swept.responses.iter().filter(|r| r.is_some()).count();
+        all.planned += plan.runs.len();
+        all.succeeded += succeeded;
+        all.failed += plan.runs.len() - succeeded;
+        all.suspect += flags.iter().filter(|f| !f.is_empty()).count();
+        all.suspect_runs.extend(runs::suspect_runs(study, plan, keys, &swept.responses, &flags, use_suspect));
+    }
+    results.runs = Some(all);
     results
 }
 
