@@ -215,6 +215,12 @@ fn check(study: &Study) -> Result<i32, Error> {
     if let Some(n) = checked.rendered_runs {
         println!("ok: {n} planned solver run(s) render");
     }
+    if checked.loop_runs > 0 {
+        println!(
+            "ok: {} run(s) the solver in the loop may add (extensions with ranges) render",
+            checked.loop_runs
+        );
+    }
     println!(
         "ok: study `{}`: {} design variable(s), {} parameter(s), {} tested design(s), {} training, {} validation",
         study.name,

@@ -179,8 +179,18 @@ fn live_clamp_extension_recovers_e_and_clamp_e_with_the_solver_in_the_loop() {
     assert_eq!(x["runs"]["planned"].as_u64(), Some(154), "{x}");
     assert_eq!(x["runs"]["succeeded"].as_u64(), Some(154), "{x}");
     // The top-level count holds every run: 84 screening runs and the loop's 154.
-    assert_eq!(results["runs"]["succeeded"].as_u64(), Some(84 + 154), "{}", results["runs"]);
-    assert_eq!(results["runs"]["in_the_loop"].as_u64(), Some(154), "{}", results["runs"]);
+    assert_eq!(
+        results["runs"]["succeeded"].as_u64(),
+        Some(84 + 154),
+        "{}",
+        results["runs"]
+    );
+    assert_eq!(
+        results["runs"]["in_the_loop"].as_u64(),
+        Some(154),
+        "{}",
+        results["runs"]
+    );
     let runs: Vec<_> = std::fs::read_dir(out.path().join("runs"))
         .unwrap()
         .map(|e| e.unwrap().path())

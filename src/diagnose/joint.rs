@@ -157,7 +157,9 @@ impl SolverExtension {
                 .map(|c| c.amplitude),
             what_remains: extended.verdict,
             // The extended model's diagnosis calls it "the uncorrected simulation".
-            what_remains_headline: extended.headline.replace("the uncorrected simulation", "the extended model"),
+            what_remains_headline: extended
+                .headline
+                .replace("the uncorrected simulation", "the extended model"),
         }
     }
 

@@ -13,10 +13,8 @@
 //! over the joint space (the joint runs, plus the screening runs at the probe values), and the
 //! study's own calibration methods and diagnosis run on it.
 
-use nalgebra::{DMatrix, DVector};
-
 use super::runs::{self, RunOutcomes, Source};
-use super::stages::{calibrate, problem};
+use super::stages::{FitRun, calibrate, emulator_data, fit_designs, problem};
 use super::{Engine, Event, Reporter, RunOptions};
 use crate::calibrate::Model;
 use crate::calibrate::bayesian::SimulationData;
@@ -25,7 +23,7 @@ use crate::diagnose::{self, Diagnosis};
 use crate::error::Error;
 use crate::execute::RunStore;
 use crate::execute::sweep::{self, Prepared, SweepResult};
-use crate::fit::{DesignSurrogate, Surrogate, SurrogateModel};
+use crate::fit::{DesignSurrogate, SurrogateModel};
 use crate::plan::{Plan, PlannedRun, RunRole, sweep::joint_bounds};
 use crate::report::Results;
 use crate::study::{HypothesisKind, SolverSimulation, Study};
@@ -155,66 +153,37 @@ pub fn extended_model(
     let bounds = joint_bounds(study, ranges);
     let mine =
         |r: &PlannedRun| matches!(r.role, RunRole::Extension(j) | RunRole::Joint(j) | RunRole::JointCheck(j) if j == k);
-    let runs: Vec<(&PlannedRun, Option<f64>)> = screening
+    let runs: Vec<FitRun> = screening
         .0
         .runs
         .iter()
         .zip(screening.1.iter().copied())
         .chain(joint.plan.runs.iter().zip(joint.usable.iter().copied()))
         .filter(|(r, _)| mine(r))
+        .map(|(run, y)| FitRun {
+            run,
+            point: run.joint_point(ranges),
+            y,
+            check: run.role == RunRole::JointCheck(k),
+        })
         .collect();
-    let point = |r: &PlannedRun| r.joint_point(ranges);
-    let mut designs = Vec::new();
-    let mut worst_check: Option<f64> = None;
-    for name in study.training.iter().chain(&study.validation) {
-        let of = |check: bool| -> Vec<(Vec<f64>, f64)> {
-            runs.iter()
-                .filter(|(r, _)| &r.design == name && (r.role == RunRole::JointCheck(k)) == check)
-                .filter_map(|(r, y)| y.map(|y| (point(r), y)))
-                .collect()
-        };
-        let Some(values) = runs
-            .iter()
-            .find(|(r, _)| &r.design == name)
-            .map(|(r, _)| r.design_values.clone())
-        else {
-            continue;
-        };
-        let samples = of(false);
-        let surrogate = Surrogate::fit(sim.surrogate, &samples, &bounds).map_err(|e| {
-            Error::Failed(format!(
-                "hypothesis '{}', design `{name}`: cannot fit the surrogate over the joint space: {e}",
-                hypothesis.name
-            ))
-        })?;
-        let check = surrogate.check(&of(true));
-        if let Some(e) = check.max_relative_error {
-            worst_check = Some(worst_check.map_or(e, |w: f64| w.max(e)));
-        }
-        designs.push(DesignSurrogate {
-            design: name.clone(),
-            values,
-            surrogate,
-            check,
-            samples: samples.len(),
-        });
-    }
-    let rows: Vec<(Vec<f64>, f64)> = runs
+    let designs = fit_designs(study, sim.surrogate, &bounds, &runs)
+        .into_iter()
+        .map(|d| {
+            d.map_err(|(name, e)| {
+                Error::Failed(format!(
+                    "hypothesis '{}', design `{name}`: cannot fit the surrogate over the joint space: {e}",
+                    hypothesis.name
+                ))
+            })
+        })
+        .collect::<Result<Vec<DesignSurrogate>, Error>>()?;
+    let worst_check = designs
         .iter()
-        .filter(|(r, _)| r.role != RunRole::JointCheck(k))
-        .filter_map(|(r, y)| y.map(|y| (r.design_values.iter().copied().chain(point(r)).collect(), y)))
-        .collect();
-    let cols = rows.first().map_or(0, |r| r.0.len());
-    let data = SimulationData::new(
-        DMatrix::from_fn(rows.len(), cols, |i, j| rows[i].0[j]),
-        DVector::from_iterator(rows.len(), rows.iter().map(|r| r.1)),
-    );
-    let joint_runs = joint
-        .plan
-        .runs
-        .iter()
-        .zip(&joint.usable)
-        .filter(|(r, _)| mine(r) && r.role != RunRole::Extension(k));
+        .filter_map(|d| d.check.max_relative_error)
+        .fold(None, |w: Option<f64>, e| Some(w.map_or(e, |w| w.max(e))));
+    let data = emulator_data(&runs);
+    let joint_runs = runs.iter().filter(|r| r.run.role != RunRole::Extension(k));
     let planned = joint_runs.clone().count();
     Ok(ExtendedModel {
         hypothesis: k,
@@ -223,7 +192,7 @@ pub fn extended_model(
         data,
         runs: LoopRuns {
             planned,
-            succeeded: joint_runs.filter(|(_, y)| y.is_some()).count(),
+            succeeded: joint_runs.filter(|r| r.y.is_some()).count(),
             samples_per_design: crate::plan::sweep::joint_samples(sim, bounds.dim()),
             surrogate_check_error: worst_check,
         },

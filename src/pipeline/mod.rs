@@ -381,7 +381,14 @@ fn results(
         all.succeeded += succeeded;
         all.failed += plan.runs.len() - succeeded;
         all.suspect += flags.iter().filter(|f| !f.is_empty()).count();
-        all.suspect_runs.extend(runs::suspect_runs(study, plan, keys, &swept.responses, &flags, use_suspect));
+        all.suspect_runs.extend(runs::suspect_runs(
+            study,
+            plan,
+            keys,
+            &swept.responses,
+            &flags,
+            use_suspect,
+        ));
     }
     results.runs = Some(all);
     results

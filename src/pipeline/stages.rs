@@ -7,7 +7,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::calibrate::identifiability;
+use crate::calibrate::{Bounds, identifiability};
 use crate::calibrate::{
     Calibrated, Calibration, CalibrationError, Method, Model, Problem, bayesian, least_squares, sensitivity,
 };
@@ -15,12 +15,92 @@ use crate::diagnose::{self, Diagnosis};
 use crate::error::Error;
 use crate::fit::{DesignSurrogate, Surrogate, SurrogateModel};
 use crate::model::ExpressionModel;
-use crate::plan::{Plan, RunRole};
+use crate::plan::{Plan, PlannedRun, RunRole};
+use crate::study::solver::SurrogateKind;
 use crate::study::{SolverSimulation, Study};
 
 /// The closed-form simulation of a study as a model the numerics can call; `None` for a solver study.
 pub fn model(study: &Study) -> Option<Box<dyn Model>> {
     ExpressionModel::new(study).map(|m| Box::new(m) as Box<dyn Model>)
+}
+
+/// A run as a surrogate sees it: its point in the surrogate's space (θ, or θ and an extension's
+/// ranged variables), its response (`None`: failed, or left out as suspect), and whether it is a
+/// check run.
+pub struct FitRun<'a> {
+    pub run: &'a PlannedRun,
+    pub point: Vec<f64>,
+    pub y: Option<f64>,
+    pub check: bool,
+}
+
+/// One surrogate per tested design (training, then validation) over `bounds`, fitted to the
+/// design's successful sample runs among `runs` and checked at its successful check runs. A design
+/// with no runs is left out; one whose fit fails is `Err((design, why))`.
+pub fn fit_designs(
+    study: &Study,
+    kind: SurrogateKind,
+    bounds: &Bounds,
+    runs: &[FitRun],
+) -> Vec<Result<DesignSurrogate, (String, String)>> {
+    study
+        .training
+        .iter()
+        .chain(&study.validation)
+        .filter_map(|name| {
+            let mine: Vec<&FitRun> = runs.iter().filter(|r| &r.run.design == name).collect();
+            let values = mine.first()?.run.design_values.clone();
+            let of = |check: bool| -> Vec<(Vec<f64>, f64)> {
+                mine.iter()
+                    .filter(|r| r.check == check)
+                    .filter_map(|r| r.y.map(|y| (r.point.clone(), y)))
+                    .collect()
+            };
+            let samples = of(false);
+            Some(match Surrogate::fit(kind, &samples, bounds) {
+                Ok(surrogate) => Ok(DesignSurrogate {
+                    design: name.clone(),
+                    values,
+                    check: surrogate.check(&of(true)),
+                    surrogate,
+                    samples: samples.len(),
+                }),
+                Err(e) => Err((name.clone(), e.to_string())),
+            })
+        })
+        .collect()
+}
+
+/// The sample runs among `runs` that succeeded, as emulator data for the Bayesian method: design
+/// values then the run's point per row, the response as output.
+pub fn emulator_data(runs: &[FitRun]) -> bayesian::SimulationData {
+    let rows: Vec<(Vec<f64>, f64)> = runs
+        .iter()
+        .filter(|r| !r.check)
+        .filter_map(|r| {
+            r.y.map(|y| (r.run.design_values.iter().chain(&r.point).copied().collect(), y))
+        })
+        .collect();
+    let cols = rows.first().map_or(0, |r| r.0.len());
+    bayesian::SimulationData::new(
+        DMatrix::from_fn(rows.len(), cols, |i, k| rows[i].0[k]),
+        DVector::from_iterator(rows.len(), rows.iter().map(|r| r.1)),
+    )
+}
+
+/// The baseline's runs (samples and checks) over θ. `responses` follows the plan's order.
+fn baseline_runs<'a>(plan: &'a Plan, responses: &[Option<f64>]) -> Vec<FitRun<'a>> {
+    plan.runs
+        .iter()
+        .zip(responses)
+        .filter(|(r, _)| matches!(r.role, RunRole::Sample | RunRole::Check))
+        .map(|(run, y)| FitRun {
+            run,
+            point: run.theta.clone(),
+            y: *y,
+            check: run.role == RunRole::Check,
+        })
+        .collect()
 }
 
 /// One surrogate per planned design, fitted to its successful sample runs and checked at its
@@ -31,55 +111,18 @@ pub fn surrogates(
     plan: &Plan,
     responses: &[Option<f64>],
 ) -> Result<SurrogateModel, Error> {
-    let bounds = study.parameter_bounds();
-    let mut designs: Vec<DesignSurrogate> = Vec::new();
-    for name in study.training.iter().chain(&study.validation) {
-        let runs = |role| -> Vec<(Vec<f64>, f64)> {
-            plan.runs
-                .iter()
-                .zip(responses)
-                .filter(|(r, _)| &r.design == name && r.role == role)
-                .filter_map(|(r, y)| y.map(|y| (r.theta.clone(), y)))
-                .collect()
-        };
-        let Some(values) = plan
-            .runs
-            .iter()
-            .find(|r| &r.design == name)
-            .map(|r| r.design_values.clone())
-        else {
-            continue;
-        };
-        let samples = runs(RunRole::Sample);
-        let surrogate = Surrogate::fit(sim.surrogate, &samples, &bounds)
-            .map_err(|e| Error::Failed(format!("design `{name}`: cannot fit its surrogate: {e}")))?;
-        let check = surrogate.check(&runs(RunRole::Check));
-        designs.push(DesignSurrogate {
-            design: name.clone(),
-            values,
-            surrogate,
-            check,
-            samples: samples.len(),
-        });
-    }
+    let runs = baseline_runs(plan, responses);
+    let designs = fit_designs(study, sim.surrogate, &study.parameter_bounds(), &runs)
+        .into_iter()
+        .map(|d| d.map_err(|(name, e)| Error::Failed(format!("design `{name}`: cannot fit its surrogate: {e}"))))
+        .collect::<Result<_, _>>()?;
     Ok(SurrogateModel { designs })
 }
 
 /// The successful sample runs as emulator data for the Bayesian method: design values then
 /// parameters per row, the response as output.
 pub fn simulation_data(plan: &Plan, responses: &[Option<f64>]) -> bayesian::SimulationData {
-    let rows: Vec<(Vec<f64>, f64)> = plan
-        .runs
-        .iter()
-        .zip(responses)
-        .filter(|(r, _)| r.role == RunRole::Sample)
-        .filter_map(|(r, y)| y.map(|y| (r.design_values.iter().chain(&r.theta).copied().collect(), y)))
-        .collect();
-    let cols = rows.first().map_or(0, |r| r.0.len());
-    bayesian::SimulationData::new(
-        DMatrix::from_fn(rows.len(), cols, |i, k| rows[i].0[k]),
-        DVector::from_iterator(rows.len(), rows.iter().map(|r| r.1)),
-    )
+    emulator_data(&baseline_runs(plan, responses))
 }
 
 /// The training problem of a study: designs in the order the study lists them, mean measurements.
@@ -172,31 +215,22 @@ pub fn extension_surrogates(
     study
         .extension_hypotheses()
         .map(|(k, _)| {
-            let mut designs = Vec::new();
-            for name in study.training.iter().chain(&study.validation) {
-                let runs: Vec<(&crate::plan::PlannedRun, f64)> = plan
-                    .runs
-                    .iter()
-                    .zip(responses)
-                    .filter(|(r, _)| &r.design == name && r.role == RunRole::Extension(k))
-                    .filter_map(|(r, y)| y.map(|y| (r, y)))
-                    .collect();
-                let Some(values) = runs.first().map(|(r, _)| r.design_values.clone()) else {
-                    continue;
-                };
-                let samples: Vec<(Vec<f64>, f64)> = runs.iter().map(|(r, y)| (r.theta.clone(), *y)).collect();
-                let Ok(surrogate) = Surrogate::fit(sim.surrogate, &samples, &bounds) else {
-                    continue;
-                };
-                let check = surrogate.check(&[]);
-                designs.push(DesignSurrogate {
-                    design: name.clone(),
-                    values,
-                    surrogate,
-                    check,
-                    samples: samples.len(),
-                });
-            }
+            let runs: Vec<FitRun> = plan
+                .runs
+                .iter()
+                .zip(responses)
+                .filter(|(r, _)| r.role == RunRole::Extension(k))
+                .map(|(run, y)| FitRun {
+                    run,
+                    point: run.theta.clone(),
+                    y: *y,
+                    check: false,
+                })
+                .collect();
+            let designs = fit_designs(study, sim.surrogate, &bounds, &runs)
+                .into_iter()
+                .filter_map(Result::ok)
+                .collect();
             (k, SurrogateModel { designs })
         })
         .collect()

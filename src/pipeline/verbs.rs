@@ -17,24 +17,32 @@ use crate::study::{Simulation, Study};
 pub struct Checked {
     /// A solver study's planned runs, every one rendered in memory.
     pub rendered_runs: Option<usize>,
+    /// The runs the solver in the loop would add if every ranged extension were chosen, rendered too.
+    pub loop_runs: usize,
     /// Force–displacement curves read: (specimens, designs).
     pub curves: (usize, usize),
 }
 
-/// `lab check`: renders every planned run in memory (undefined template variables show up here);
-/// loading the study has already read everything else it references.
+/// `lab check`: renders every planned run in memory (undefined template variables show up here),
+/// and the solver-in-the-loop runs of every extension with ranges (which a `lab run` plans only for
+/// the hypotheses its screening chooses); loading the study has already read everything else it
+/// references.
 pub fn check(study: &Study) -> Result<Checked, Error> {
-    let rendered_runs = match &study.simulation {
+    let (rendered_runs, loop_runs) = match &study.simulation {
         Simulation::Solver(sim) => {
             let plan = Plan::new(study, sim);
             sweep::prepare(study, sim, &plan)?;
-            Some(plan.runs.len())
+            let ranged: Vec<usize> = study.extension_hypotheses().map(|(k, _)| k).collect();
+            let joint = Plan::joint(study, sim, &ranged);
+            sweep::prepare(study, sim, &joint)?;
+            (Some(plan.runs.len()), joint.runs.len())
         }
-        Simulation::Expression(_) => None,
+        Simulation::Expression(_) => (None, 0),
     };
     let curves = &study.experiments.curves;
     Ok(Checked {
         rendered_runs,
+        loop_runs,
         curves: (curves.iter().map(|c| c.specimens.len()).sum(), curves.len()),
     })
 }
