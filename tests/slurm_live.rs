@@ -259,3 +259,44 @@ fn a_job_no_slurm_source_knows_is_lost_and_its_run_resubmitted() {
     assert_eq!(starts(&log), vec![key]);
     assert_eq!(keys_with(&out, "success").len(), 18);
 }
+
+/// The solver in the loop through Slurm: studies/honeycomb-diagnosis.yaml live (crushsim inside
+/// the jobs) submits the screening's 63 runs, then, once the screening has named strain hardening,
+/// the loop's 63 runs over sigma_y × etan; the diagnosis equals the one replayed from the
+/// recordings (made locally).
+#[test]
+fn the_loops_runs_go_through_slurm_and_give_the_recorded_diagnosis() {
+    let Some(conf) = slurm_conf() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let (slurm, replayed) = (tmp.path().join("slurm"), tmp.path().join("replayed"));
+    let study = "studies/honeycomb-diagnosis.yaml";
+    let o = lab(&conf, &repo(), &["run", study, "--executor", "slurm", "--out"])
+        .arg(&slurm)
+        .env("PATH", path_with_crushsim())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(
+        !err.contains("replaying"),
+        "crushsim is on PATH: the runs are live\n{err}"
+    );
+    let submitted: Vec<&str> = err.lines().filter(|l| l.contains("submitted 63 run(s)")).collect();
+    assert_eq!(
+        submitted.len(),
+        2,
+        "the screening's and the loop's runs each submitted:\n{err}"
+    );
+    let o = lab(
+        &conf,
+        &repo(),
+        &["run", study, "--replay", "fixtures/honeycomb-diagnosis", "--out"],
+    )
+    .arg(&replayed)
+    .output()
+    .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let (s, r) = (results(&slurm), results(&replayed));
+    assert_eq!(s["diagnosis"]["extensions"][0]["runs"]["succeeded"], 63);
+    assert_eq!(s["diagnosis"], r["diagnosis"]);
+}
