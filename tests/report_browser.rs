@@ -131,15 +131,25 @@ const CASES: [Case; 5] = [
     },
     Case {
         study: "honeycomb-diagnosis",
-        figures: &["predictions", "residuals-c", "residuals-t", "candidates"],
+        // The solver in the loop: its response over etan and the residuals before and after.
+        figures: &[
+            "predictions",
+            "residuals-c",
+            "residuals-t",
+            "candidates",
+            "loop-surface-strain-hardening",
+            "loop-residuals-strain-hardening",
+        ],
         texts: &[
             "<div id=verdict",
             "<ul id=evidence>",
             "<table id=rivals>",
             "<p id=next-test>",
+            "<h3>Simulation in the loop</h3><table id=loop-table>",
+            "<td>63 / 63</td>",
         ],
         path: Some("/usr/bin:/bin"),
-        height: 9000,
+        height: 11000,
     },
 ];
 
