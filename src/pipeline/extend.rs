@@ -29,20 +29,21 @@ use crate::report::Results;
 use crate::study::{HypothesisKind, SolverSimulation, Study};
 
 /// The hypotheses to extend with the solver (indices into `study.diagnosis.hypotheses`): the
-/// named cause, else the two leading explanations; only model extensions with ranged variables.
+/// named cause (also when it only partly explains the misfit), or the two leading explanations
+/// when the data cannot tell them apart; only model extensions with ranged variables. Nothing when
+/// there is no model error to explain, no candidate explains it, or the tests are too few to fit
+/// the extension's parameters.
 pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
-    let names: Vec<&String> = match &diagnosis.cause {
-        Some(cause) => vec![cause],
-        None => diagnosis.leading.iter().take(2).collect(),
+    use crate::diagnose::verdict::Verdict;
+    let names: Vec<&String> = match diagnosis.verdict {
+        Verdict::CauseNamed | Verdict::PartlyExplained => diagnosis.cause.iter().collect(),
+        Verdict::CannotTellApart => diagnosis.leading.iter().take(2).collect(),
+        Verdict::NoModelError | Verdict::Unexplained | Verdict::TooFewTests => Vec::new(),
     };
+    let hypotheses = &study.diagnosis.hypotheses;
     names
         .into_iter()
-        .filter_map(|name| {
-            let hypotheses = &study.diagnosis.hypotheses;
-            hypotheses
-                .iter()
-                .position(|h| &h.name == name && !h.ranges().is_empty())
-        })
+        .filter_map(|name| hypotheses.iter().position(|h| &h.name == name && !h.ranges().is_empty()))
         .collect()
 }
 
