@@ -257,19 +257,11 @@ impl Diagnosis {
     pub fn with_extensions(mut self, extensions: Vec<SolverExtension>) -> Diagnosis {
         for x in &extensions {
             if let Some(e) = self.extended.as_mut().filter(|e| e.cause == x.hypothesis) {
+                // The action names the extended model's parameters: the loop's now.
+                let before = format!("({})", super::text::params(&e.parameters));
                 x.update(e);
-                self.action = format!(
-                    "Action: use the model extended with '{}' ({}){}",
-                    x.hypothesis,
-                    x.parameters
-                        .iter()
-                        .map(|(n, v)| format!("{n} = {}", num(*v)))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    self.action
-                        .split_once(';')
-                        .map_or(".".to_string(), |(_, rest)| format!(";{rest}"))
-                );
+                let after = format!("({})", super::text::params(&e.parameters));
+                self.action = self.action.replacen(&before, &after, 1);
             }
             self.evidence.push(x.evidence_line());
         }

@@ -83,7 +83,7 @@ fn quoted(names: &[String]) -> String {
     names.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(" and ")
 }
 
-fn params(p: &indexmap::IndexMap<String, f64>) -> String {
+pub(crate) fn params(p: &indexmap::IndexMap<String, f64>) -> String {
     p.iter()
         .map(|(k, v)| format!("{k} = {}", num(*v)))
         .collect::<Vec<_>>()

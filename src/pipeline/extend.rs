@@ -43,7 +43,11 @@ pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
     let hypotheses = &study.diagnosis.hypotheses;
     names
         .into_iter()
-        .filter_map(|name| hypotheses.iter().position(|h| &h.name == name && !h.ranges().is_empty()))
+        .filter_map(|name| {
+            hypotheses
+                .iter()
+                .position(|h| &h.name == name && !h.ranges().is_empty())
+        })
         .collect()
 }
 
