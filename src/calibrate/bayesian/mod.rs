@@ -17,6 +17,7 @@ pub mod convergence;
 pub mod gp;
 pub mod koh;
 pub mod mcmc;
+mod roughness;
 mod optim;
 
 use std::sync::OnceLock;

@@ -330,3 +330,32 @@ fn table1_over_seeds() {
         );
     }
 }
+
+/// Stage times (ignored, diagnostic): emulator fit, ML, sampling.
+#[test]
+#[ignore]
+fn stage_times() {
+    let model = euler;
+    let hs = [8.0, 10.0];
+    let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), e_bounds(), &model);
+    let s = Settings::default();
+    let sim = emulator_samples(&p, &design_bounds(), &s);
+    let b = joint_bounds(&design_bounds(), &p.bounds);
+    let t0 = Instant::now();
+    let emu = gp::Emulator::fit(&sim.inputs, &sim.outputs, &b).unwrap();
+    let t1 = Instant::now();
+    let koh = koh::Koh::new(&emu, &p, &design_bounds()).unwrap();
+    let (u, _) = koh.fit_ml(7);
+    let t2 = Instant::now();
+    let n = 10_000;
+    for _ in 0..n {
+        std::hint::black_box(koh.cost(&u, koh::Trend::Marginal));
+    }
+    let t3 = Instant::now();
+    eprintln!(
+        "emulator {:.4} s, ML {:.4} s, one likelihood {:.2} µs",
+        (t1 - t0).as_secs_f64(),
+        (t2 - t1).as_secs_f64(),
+        (t3 - t2).as_secs_f64() / n as f64 * 1e6
+    );
+}
