@@ -18,6 +18,7 @@ pub mod gp;
 pub mod koh;
 pub mod mcmc;
 mod roughness;
+pub mod cubature;
 mod optim;
 
 use std::sync::OnceLock;
