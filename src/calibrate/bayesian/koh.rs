@@ -117,6 +117,37 @@ impl<'a> Koh<'a> {
             .collect()
     }
 
+    /// The number of design variables (one discrepancy roughness each).
+    pub fn n_design(&self) -> usize {
+        self.designs.ncols()
+    }
+
+    /// The measured responses at the training designs.
+    pub fn measured(&self) -> &DVector<f64> {
+        &self.y
+    }
+
+    /// The diagonal jitter of the tests' covariance.
+    pub fn jitter(&self) -> f64 {
+        1e-10 * self.scale2
+    }
+
+    /// σ_d² and λ_d at unit-box coordinates of the hyperparameters (log σ_d², then each log λ_d).
+    pub fn hyper_values(&self, unit: &[f64]) -> (f64, Vec<f64>) {
+        let roughness = unit[1..].iter().map(|&v| lerp(self.hyper.log_roughness, v).exp()).collect();
+        (lerp(self.hyper.log_var, unit[0]).exp(), roughness)
+    }
+
+    /// Correlation of the discrepancy between the training designs (A7) at roughness λ_d.
+    pub fn design_corr(&self, roughness: &[f64]) -> DMatrix<f64> {
+        gauss_corr(&self.unit_designs, &self.unit_designs, roughness)
+    }
+
+    /// Emulator mean and covariance at the training designs for parameters θ (A2–A4).
+    pub fn emulated(&self, theta: &DVector<f64>) -> Option<(DVector<f64>, DMatrix<f64>)> {
+        self.emu.mean_cov(&self.inputs(theta))
+    }
+
     /// Emulator inputs: each training design followed by θ.
     fn inputs(&self, theta: &DVector<f64>) -> DMatrix<f64> {
         let (m, pd) = self.designs.shape();
@@ -129,7 +160,7 @@ impl<'a> Koh<'a> {
     pub fn neg_log_lik(&self, u: &[f64], trend: Trend) -> Option<(f64, f64)> {
         let (mu, cov_emu) = self.emu.mean_cov(&self.inputs(&self.theta(u)))?;
         let cov_d = gauss_corr(&self.unit_designs, &self.unit_designs, &self.roughness(u)) * self.var(u);
-        let chol = cholesky_jittered(&(cov_emu + cov_d), 1e-10 * self.scale2)?;
+        let chol = cholesky_jittered(&(cov_emu + cov_d), self.jitter())?;
         let l = chol.l();
         let lr = l.solve_lower_triangular(&(&self.y - mu))?;
         let l1 = l.solve_lower_triangular(&DVector::from_element(self.y.len(), 1.0))?;
