@@ -26,7 +26,10 @@ pub struct Rule {
 fn symmetric(half_nodes: &[f64], half_k: &[f64], half_g: &[f64]) -> Rule {
     let n = half_nodes.len();
     let mirror = |v: &[f64], sign: f64| -> Vec<f64> {
-        v.iter().copied().chain(v[..n - 1].iter().rev().map(|x| sign * x)).collect()
+        v.iter()
+            .copied()
+            .chain(v[..n - 1].iter().rev().map(|x| sign * x))
+            .collect()
     };
     let nodes = mirror(half_nodes, -1.0);
     let bary = (0..nodes.len())
@@ -131,7 +134,13 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
             for k in 2..=n {
                 (p0, p1) = (p1, ((2 * k - 1) as f64 * t * p1 - (k - 1) as f64 * p0) / k as f64);
             }
-            let p = if n == 0 { 1.0 } else if n == 1 { t } else { p1 };
+            let p = if n == 0 {
+                1.0
+            } else if n == 1 {
+                t
+            } else {
+                p1
+            };
             let pm = if n == 1 { 1.0 } else { p0 };
             dp = n as f64 * (t * p - pm) / (t * t - 1.0);
             let step = p / dp;
@@ -204,7 +213,9 @@ fn panel(f: &(dyn Fn(&[f64]) -> f64 + Sync), rule: &Rule, lo: Vec<f64>, hi: Vec<
         }
     }
     let axis_err: Vec<f64> = axis_err.iter().map(|e| (e * volume).abs()).collect();
-    let worst_axis = (0..dim).max_by(|&a, &b| axis_err[a].total_cmp(&axis_err[b])).unwrap_or(0);
+    let worst_axis = (0..dim)
+        .max_by(|&a, &b| axis_err[a].total_cmp(&axis_err[b]))
+        .unwrap_or(0);
     Panel {
         lo,
         hi,
@@ -286,11 +297,17 @@ impl Cubature {
             .iter()
             .map(|p| {
                 let dim = p.lo.len();
-                let others: f64 = (0..dim).filter(|&k| k != axis).map(|k| (p.hi[k] - p.lo[k]) / 2.0).product();
+                let others: f64 = (0..dim)
+                    .filter(|&k| k != axis)
+                    .map(|k| (p.hi[k] - p.lo[k]) / 2.0)
+                    .product();
                 let mut values = vec![0.0; n];
                 for (i, v) in p.values.iter().enumerate() {
                     let d = digits(i, n, dim);
-                    let w: f64 = (0..dim).filter(|&k| k != axis).map(|k| self.rule.kronrod[d[k]]).product();
+                    let w: f64 = (0..dim)
+                        .filter(|&k| k != axis)
+                        .map(|k| self.rule.kronrod[d[k]])
+                        .product();
                     values[d[axis]] += w * v * others;
                 }
                 Piece {

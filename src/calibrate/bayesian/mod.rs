@@ -20,8 +20,8 @@ pub mod exact;
 pub mod gp;
 pub mod koh;
 pub mod mcmc;
-mod roughness;
 mod optim;
+mod roughness;
 
 use std::sync::OnceLock;
 

@@ -367,3 +367,41 @@ fn stage_times() {
         (t3 - t2).as_secs_f64() / n as f64 * 1e6
     );
 }
+
+/// Stage times of a honeycomb-shaped problem (two design variables, two tests, 36 runs; ignored).
+#[test]
+#[ignore]
+fn stage_times_two_design_variables() {
+    let model = |d: &[f64], th: &[f64]| 16.5 * th[0] * (d[1] / d[0]).powf(5.0 / 3.0) * (1.0 + 0.02 * d[0]);
+    let designs = DMatrix::from_row_slice(2, 2, &[6.0, 0.05, 3.0, 0.08]);
+    let measured = DVector::from_fn(2, |i, _| {
+        1.1 * model(&[designs[(i, 0)], designs[(i, 1)]], &[185.0]) * (1.0 + 0.03 * i as f64)
+    });
+    let p = Problem {
+        designs,
+        measured,
+        bounds: Bounds::new(vec![100.0], vec![250.0]),
+        model: &model,
+    };
+    let db = Bounds::new(vec![3.0, 0.05], vec![6.0, 0.08]);
+    let s = Settings {
+        emulator_samples: 36,
+        ..Settings::default()
+    };
+    let sim = emulator_samples(&p, &db, &s);
+    let t0 = Instant::now();
+    let emu = gp::Emulator::fit(&sim.inputs, &sim.outputs, &joint_bounds(&db, &p.bounds)).unwrap();
+    let t1 = Instant::now();
+    let koh = koh::Koh::new(&emu, &p, &db).unwrap();
+    let (u, _) = koh.fit_ml(7);
+    let t2 = Instant::now();
+    let post = exact::posterior(&koh, &u);
+    let t3 = Instant::now();
+    eprintln!(
+        "emulator {:.4} s, ML {:.4} s, quadrature {:.4} s ({:?})",
+        (t1 - t0).as_secs_f64(),
+        (t2 - t1).as_secs_f64(),
+        (t3 - t2).as_secs_f64(),
+        post.summary
+    );
+}
