@@ -80,6 +80,9 @@ pub struct Settings {
     pub mcmc_walkers: usize,
     pub mcmc_steps: usize,
     pub mcmc_burn_in: usize,
+    /// The sampler's budget: it stops here if R-hat ≤ 1.01 and ESS ≥ 1000 are not met before
+    /// (never before `mcmc_steps`).
+    pub mcmc_max_steps: usize,
     /// Up to this many parameters the posterior is computed by quadrature, not sampled (0: always
     /// sample).
     pub quadrature_max_params: usize,
@@ -93,6 +96,7 @@ impl Default for Settings {
             mcmc_walkers: 32,
             mcmc_steps: 3000,
             mcmc_burn_in: 500,
+            mcmc_max_steps: 20_000,
             quadrature_max_params: 2,
         }
     }
@@ -126,9 +130,11 @@ pub struct BayesianFit {
     pub discrepancy: Discrepancy,
     /// Fraction of accepted stretch moves (a healthy ensemble run lies around 0.2–0.5).
     pub acceptance: f64,
-    /// Split R-hat and effective sample size per parameter, over the walkers' traces (empty when
-    /// the posterior was computed by quadrature).
+    /// Split R-hat and effective sample size per parameter, over the walkers' kept traces (empty
+    /// when the posterior was computed by quadrature).
     pub convergence: Vec<convergence::Convergence>,
+    /// Sampler steps after burn-in (0 when computed by quadrature).
+    pub steps: usize,
 }
 
 impl BayesianFit {
@@ -195,6 +201,7 @@ pub fn calibrate(
         quadrature: None,
         acceptance: f64::NAN,
         convergence: vec![],
+        steps: 0,
         theta,
         emulator: emulator.clone(),
         discrepancy,
@@ -219,7 +226,8 @@ fn by_quadrature(koh: &Koh, u_hat: &[f64], base: BayesianFit) -> BayesianFit {
     }
 }
 
-/// The posterior by the ensemble sampler ([`mcmc`]) over (θ, log σ_d², log λ_d).
+/// The posterior by the ensemble sampler ([`mcmc`]) over (θ, log σ_d², log λ_d), extended until
+/// every θ_k converges (R-hat ≤ 1.01, ESS ≥ 1000) or `mcmc_max_steps` ([`mcmc::sample_until_converged`]).
 fn by_sampling(koh: &Koh, u_hat: &[f64], settings: &Settings, base: BayesianFit) -> BayesianFit {
     let log_post = |u: &[f64]| {
         if u.iter().all(|v| (0.0..=1.0).contains(v)) {
@@ -231,32 +239,48 @@ fn by_sampling(koh: &Koh, u_hat: &[f64], settings: &Settings, base: BayesianFit)
     let walkers = settings.mcmc_walkers.max(2 * koh.dim()).next_multiple_of(2);
     let steps = settings.mcmc_steps.max(2);
     let burn_in = settings.mcmc_burn_in.min(steps - 1);
-    let chain = mcmc::stretch_sample(&log_post, u_hat, walkers, steps, burn_in, settings.seed);
-    let thetas: Vec<DVector<f64>> = chain.samples.iter().map(|u| koh.theta(u)).collect();
-    let p = koh.n_theta();
-    let convergence = (0..p)
-        .map(|k| {
-            // samples are step-major: walker w's trace is every `walkers`-th sample from w.
-            let traces: Vec<Vec<f64>> = (0..walkers)
-                .map(|w| thetas.iter().skip(w).step_by(walkers).map(|t| t[k]).collect())
-                .collect();
-            convergence::diagnose(&traces)
-        })
+    let budget = settings.mcmc_max_steps.max(steps) - burn_in;
+    let project = |u: &[f64]| koh.theta(u).as_slice().to_vec();
+    let run = mcmc::sample_until_converged(
+        &log_post,
+        u_hat,
+        walkers,
+        (burn_in, steps - burn_in, budget),
+        settings.seed,
+        &project,
+    );
+    let traces: Vec<Vec<DVector<f64>>> = run
+        .traces
+        .iter()
+        .map(|t| t.iter().map(|v| DVector::from_column_slice(v)).collect())
         .collect();
-    let quantile = |k: usize, q: f64| quantile(thetas.iter().map(|t| t[k]).collect(), q);
-    let interval95 = (0..p).map(|k| (quantile(k, 0.025), quantile(k, 0.975))).collect();
-    let median = DVector::from_fn(p, |k, _| quantile(k, 0.5));
-    let n = thetas.len().max(1) as f64;
-    let mean = DVector::from_fn(p, |k, _| thetas.iter().map(|t| t[k]).sum::<f64>() / n);
-    let every = thetas.len().div_ceil(MAX_POSTERIOR_ROWS).max(1);
-    let kept: Vec<&DVector<f64>> = thetas.iter().step_by(every).collect();
-    let posterior = DMatrix::from_fn(kept.len(), p, |i, k| kept[i][k]);
     BayesianFit {
-        interval95,
-        median,
-        mean,
-        posterior,
-        acceptance: chain.acceptance,
+        steps: run.steps,
+        ..sampled_fit(&traces, run.convergence, run.acceptance, base)
+    }
+}
+
+/// The posterior summaries from the walkers' kept traces.
+fn sampled_fit(
+    traces: &[Vec<DVector<f64>>],
+    convergence: Vec<convergence::Convergence>,
+    acceptance: f64,
+    base: BayesianFit,
+) -> BayesianFit {
+    let len = traces.first().map_or(0, Vec::len);
+    // Step-major, as the thinning below expects: step s of every walker, then step s + 1.
+    let thetas: Vec<&DVector<f64>> = (0..len).flat_map(|s| traces.iter().map(move |t| &t[s])).collect();
+    let p = base.theta.len();
+    let quantile = |k: usize, q: f64| quantile(thetas.iter().map(|t| t[k]).collect(), q);
+    let n = thetas.len().max(1) as f64;
+    let every = thetas.len().div_ceil(MAX_POSTERIOR_ROWS).max(1);
+    let kept: Vec<&DVector<f64>> = thetas.iter().step_by(every).copied().collect();
+    BayesianFit {
+        interval95: (0..p).map(|k| (quantile(k, 0.025), quantile(k, 0.975))).collect(),
+        median: DVector::from_fn(p, |k, _| quantile(k, 0.5)),
+        mean: DVector::from_fn(p, |k, _| thetas.iter().map(|t| t[k]).sum::<f64>() / n),
+        posterior: DMatrix::from_fn(kept.len(), p, |i, k| kept[i][k]),
+        acceptance,
         convergence,
         ..base
     }
