@@ -221,7 +221,7 @@ pub struct SplitErrors {
 fn thin_curve(x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let every = x.len().div_ceil(MAX_POSTERIOR_SAMPLES).max(1);
     let peak = (0..y.len()).max_by(|&a, &b| y[a].total_cmp(&y[b]));
-    let keep = |i: &usize| i % every == 0 || Some(*i) == peak || *i + 1 == x.len();
+    let keep = |i: &usize| i.is_multiple_of(every) || Some(*i) == peak || *i + 1 == x.len();
     let idx: Vec<usize> = (0..x.len()).filter(keep).collect();
     (idx.iter().map(|&i| x[i]).collect(), idx.iter().map(|&i| y[i]).collect())
 }

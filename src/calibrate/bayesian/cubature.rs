@@ -108,6 +108,10 @@ impl Rule {
         self.nodes.len()
     }
 
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
     /// The polynomial through `values` at the nodes, at t ∈ [−1, 1] (barycentric formula).
     pub fn interpolate(&self, values: &[f64], t: f64) -> f64 {
         let (mut num, mut den) = (0.0, 0.0);

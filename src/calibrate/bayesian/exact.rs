@@ -102,7 +102,7 @@ fn cholesky_in_place(a: &mut [f64], m: usize, jitter: f64) -> Option<f64> {
                 sum -= a[i * m + k] * a[j * m + k];
             }
             if i == j {
-                if !(sum > 0.0) || !sum.is_finite() {
+                if sum.is_nan() || sum <= 0.0 || !sum.is_finite() {
                     return None;
                 }
                 a[i * m + i] = sum.sqrt();

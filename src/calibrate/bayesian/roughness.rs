@@ -25,6 +25,9 @@ const STARTS: usize = 6;
 /// L-BFGS iterations per start; it converges in 10–40 on the emulators measured here.
 const MAX_ITERS: u64 = 100;
 
+/// A point v with the cost and gradient there.
+type Evaluation = (Vec<f64>, f64, Vec<f64>);
+
 /// The profiled likelihood in the optimiser's coordinates v, with the last evaluation cached
 /// (argmin asks for the cost and the gradient at the same point separately).
 pub struct Profiled<'a> {
@@ -32,7 +35,7 @@ pub struct Profiled<'a> {
     f: &'a DMatrix<f64>,
     /// Squared distances between the runs, one matrix per input.
     d2: Vec<DMatrix<f64>>,
-    last: RefCell<Option<(Vec<f64>, f64, Vec<f64>)>>,
+    last: RefCell<Option<Evaluation>>,
 }
 
 fn logistic(v: f64) -> f64 {
