@@ -30,8 +30,15 @@ fn python() -> String {
     if let Ok(p) = std::env::var("LAB_BENCH_PYTHON") {
         return p;
     }
-    let out = Command::new("scripts/bench-venv.sh").output().expect("scripts/bench-venv.sh runs");
-    String::from_utf8_lossy(&out.stdout).trim().lines().last().unwrap_or("python3").to_string()
+    let out = Command::new("scripts/bench-venv.sh")
+        .output()
+        .expect("scripts/bench-venv.sh runs");
+    String::from_utf8_lossy(&out.stdout)
+        .trim()
+        .lines()
+        .last()
+        .unwrap_or("python3")
+        .to_string()
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -82,18 +89,31 @@ fn main() {
         .output()
         .expect("the reference runs");
     let text = String::from_utf8_lossy(&out.stdout);
-    let reference: serde_json::Value = serde_json::from_str(text.trim()).unwrap_or_else(|_| {
-        panic!("reference output: {text}\n{}", String::from_utf8_lossy(&out.stderr))
-    });
+    let reference: serde_json::Value = serde_json::from_str(text.trim())
+        .unwrap_or_else(|_| panic!("reference output: {text}\n{}", String::from_utf8_lossy(&out.stderr)));
     let ref_s = reference["seconds"].as_f64().unwrap_or(f64::NAN);
-    let ref_iv = [reference["interval95"][0].as_f64().unwrap_or(f64::NAN), reference["interval95"][1].as_f64().unwrap_or(f64::NAN)];
+    let ref_iv = [
+        reference["interval95"][0].as_f64().unwrap_or(f64::NAN),
+        reference["interval95"][1].as_f64().unwrap_or(f64::NAN),
+    ];
     let (lo, hi) = fit.interval95[0];
     println!("| | lab | numpy/scipy reference |");
     println!("|---|---|---|");
     println!("| time (median) | {:.1} ms | {:.0} ms |", 1e3 * lab_s, 1e3 * ref_s);
-    println!("| E (ML) | {:.1} | {:.1} |", fit.theta[0], reference["theta"][0].as_f64().unwrap_or(f64::NAN));
-    println!("| posterior median | {:.1} | {:.1} |", fit.median[0], reference["median"].as_f64().unwrap_or(f64::NAN));
-    println!("| 95 % interval | [{lo:.0}, {hi:.0}] | [{:.0}, {:.0}] |", ref_iv[0], ref_iv[1]);
+    println!(
+        "| E (ML) | {:.1} | {:.1} |",
+        fit.theta[0],
+        reference["theta"][0].as_f64().unwrap_or(f64::NAN)
+    );
+    println!(
+        "| posterior median | {:.1} | {:.1} |",
+        fit.median[0],
+        reference["median"].as_f64().unwrap_or(f64::NAN)
+    );
+    println!(
+        "| 95 % interval | [{lo:.0}, {hi:.0}] | [{:.0}, {:.0}] |",
+        ref_iv[0], ref_iv[1]
+    );
     println!(
         "| emulator roughness | {:?} | {} |",
         fit.emulator.roughness(),
@@ -106,7 +126,10 @@ fn main() {
         100.0 * (lo / ref_iv[0] - 1.0),
         100.0 * (hi / ref_iv[1] - 1.0)
     );
-    println!("reference time: emulator, ML, posterior grid: {} s", reference["seconds_emulator_ml_posterior"]);
+    println!(
+        "reference time: emulator, ML, posterior grid: {} s",
+        reference["seconds_emulator_ml_posterior"]
+    );
     println!(
         "emulator ℓ: scipy's optimum {} , scipy's ℓ at lab's roughness {}",
         reference["emulator_nll"], reference["emulator_nll_at_lab_roughness"]
