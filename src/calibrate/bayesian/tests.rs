@@ -464,3 +464,44 @@ fn sampler_budget_ends_unconverged() {
     assert_eq!(fit.steps, 60);
     assert!(fit.convergence.iter().any(|c| !c.converged()), "{:?}", fit.convergence);
 }
+
+/// How the cost grows with the number of simulation runs (ignored, diagnostic; `--nocapture`):
+/// a closed-form model with four parameters and one design variable, eight tested designs, and
+/// n Latin-hypercube runs over (design, parameters) for n = 100, 200, 400. Prints the emulator fit's time, one KOH
+/// likelihood's time, and the time of a 2,000-step sampler run.
+#[test]
+#[ignore]
+fn scale_growth() {
+    let model = |d: &[f64], th: &[f64]| th[0] * 1e3 / d[0].powi(3) + th[1] / d[0] + th[2] + th[3] * d[0] / 100.0;
+    let hs = [7.0, 7.5, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0];
+    let bounds = Bounds::new(vec![50.0, 0.0, -0.05, -0.1], vec![150.0, 0.5, 0.05, 0.1]);
+    let p = problem(&hs, hs.iter().map(|&h| timoshenko(h)).collect(), bounds, &model);
+    for n in [100, 200, 400] {
+        let s = Settings {
+            emulator_samples: n,
+            mcmc_steps: 2000,
+            mcmc_burn_in: 500,
+            mcmc_max_steps: 2000,
+            ..Settings::default()
+        };
+        let sim = emulator_samples(&p, &design_bounds(), &s);
+        let t0 = Instant::now();
+        let emu = gp::Emulator::fit(&sim.inputs, &sim.outputs, &joint_bounds(&design_bounds(), &p.bounds)).unwrap();
+        let fit_s = t0.elapsed().as_secs_f64();
+        let koh = koh::Koh::new(&emu, &p, &design_bounds()).unwrap();
+        let u = vec![0.5; koh.dim()];
+        let t1 = Instant::now();
+        for _ in 0..100 {
+            std::hint::black_box(koh.cost(&u, koh::Trend::Marginal));
+        }
+        let lik_s = t1.elapsed().as_secs_f64() / 100.0;
+        let t2 = Instant::now();
+        let fit = calibrate(&p, &design_bounds(), &sim, &s).unwrap();
+        let cal_s = t2.elapsed().as_secs_f64();
+        eprintln!(
+            "n = {n}: emulator fit {fit_s:.2} s, one likelihood {:.3} ms, ML + 2,000 steps {cal_s:.1} s, {:?}",
+            1e3 * lik_s,
+            fit.convergence
+        );
+    }
+}
