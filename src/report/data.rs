@@ -180,8 +180,12 @@ pub struct TestInfo {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Posterior {
     pub parameters: Vec<String>,
-    /// One column of samples per parameter.
+    /// One column of samples per parameter (empty when the posterior was integrated).
     pub samples: Vec<Vec<f64>>,
+    /// Per parameter, the marginal density computed by quadrature: points and density values
+    /// (empty when the posterior was sampled).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub density: Vec<(Vec<f64>, Vec<f64>)>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -280,6 +284,15 @@ pub struct SplitErrors {
     pub methods: IndexMap<String, [Option<f64>; 2]>,
 }
 
+/// A density curve thinned to at most [`MAX_POSTERIOR_SAMPLES`] points, keeping its highest point.
+fn thin_curve(x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let every = x.len().div_ceil(MAX_POSTERIOR_SAMPLES).max(1);
+    let peak = (0..y.len()).max_by(|&a, &b| y[a].total_cmp(&y[b]));
+    let keep = |i: &usize| i.is_multiple_of(every) || Some(*i) == peak || *i + 1 == x.len();
+    let idx: Vec<usize> = (0..x.len()).filter(keep).collect();
+    (idx.iter().map(|&i| x[i]).collect(), idx.iter().map(|&i| y[i]).collect())
+}
+
 impl ReportData {
     pub const FILE_NAME: &'static str = FILE;
 
@@ -298,7 +311,12 @@ impl ReportData {
                     .map(|k| (0..rows).step_by(every).map(|i| fit.posterior[(i, k)]).collect())
                     .collect();
                 let parameters = study.parameters.iter().map(|p| p.name.clone()).collect();
-                data.posterior = Some(Posterior { parameters, samples });
+                let density = fit.density.iter().map(|(x, y)| thin_curve(x, y)).collect();
+                data.posterior = Some(Posterior {
+                    parameters,
+                    samples,
+                    density,
+                });
             }
             if study.design.len() == 1 {
                 data.prediction_curves

@@ -511,15 +511,21 @@ impl Page<'_> {
                 Some(u) => format!("posterior density (per {u})"),
                 None => "posterior density".into(),
             };
-            let svg = plots::histogram(
-                &format!("Posterior of {name}"),
-                &self.parameter_label(name),
-                &density,
-                samples,
-                30,
-                band,
-                &marks,
-            );
+            let title = format!("Posterior of {name}");
+            let x_label = self.parameter_label(name);
+            let svg = match post.density.get(k) {
+                Some((x, y)) => plots::density_curve(&title, &x_label, &density, (x, y), band, &marks),
+                None => plots::histogram(&title, &x_label, &density, samples, 30, band, &marks),
+            };
+            let how = match (post.density.get(k), bayes.and_then(|b| b.quadrature.as_ref())) {
+                (Some(_), Some(q)) => format!(
+                    "by quadrature, no sampling ({}; estimated relative error {:.1e} over θ, {:.1e} in the hyperparameters)",
+                    escape(&q.rule),
+                    q.relative_error,
+                    q.inner_relative_error
+                ),
+                _ => format!("{} thinned samples", samples.len()),
+            };
             let convergence = bayes
                 .and_then(|b| b.convergence.as_ref())
                 .and_then(|c| c.get(name))
@@ -536,8 +542,7 @@ impl Page<'_> {
                     )
                 });
             let caption = format!(
-                "Bayesian posterior of {name} ({} thinned samples) with its 95 % interval (shaded) and each method's estimate (dashed) — the paper's Fig. 12.{convergence}",
-                samples.len()
+                "Bayesian posterior of {name} ({how}) with its 95 % interval (shaded) and each method's estimate (dashed) — the paper's Fig. 12.{convergence}"
             );
             s.push_str(&figure(&format!("posterior-{}", id_part(name)), svg, &caption));
         }

@@ -440,6 +440,93 @@ pub fn histogram(
     })
 }
 
+/// Peak-to-median ratio of a density curve above which [`density_curve`] draws a log axis: a
+/// posterior with a cusp (two tests pin θ when the discrepancy is small) is a needle on a linear axis.
+const LOG_DENSITY_RATIO: f64 = 30.0;
+
+/// A density curve (`points` = x values and densities, e.g. a posterior by quadrature) with shaded
+/// `band` and marked values; the density axis is logarithmic when the curve's peak is more than
+/// [`LOG_DENSITY_RATIO`] times its median.
+pub fn density_curve(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    points: (&[f64], &[f64]),
+    band: Option<Band>,
+    marks: &[VLine],
+) -> String {
+    let (xs, ys) = points;
+    let peak = ys.iter().copied().fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+    let mut sorted: Vec<f64> = ys.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+    let log = peak > LOG_DENSITY_RATIO * median;
+    // On a log axis the curve is drawn as log10(density) down to 1e-4 of the peak.
+    let floor = peak * 1e-4;
+    let map = |d: f64| if log { d.max(floor).log10() } else { d };
+    let (y0, y1) = if log {
+        (floor.log10(), peak.log10() + 0.3)
+    } else {
+        (0.0, peak * 1.12)
+    };
+    let xr = xs
+        .iter()
+        .copied()
+        .chain(marks.iter().map(|m| m.x))
+        .chain(band.iter().flat_map(|b| [b.x0, b.x1]));
+    let x = range(xr, 0.02);
+    svg(|root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, ("sans-serif", TITLE_SIZE))
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(72)
+            .build_cartesian_2d(x.0..x.1, y0..y1)?;
+        let fmt = |v: &f64| tick(*v);
+        let yfmt = |v: &f64| if log { tick(10f64.powf(*v)) } else { tick(*v) };
+        let y_desc = if log {
+            format!("{y_label}, log scale")
+        } else {
+            y_label.to_string()
+        };
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_desc)
+            .x_labels(6)
+            .x_label_formatter(&fmt)
+            .y_label_formatter(&yfmt)
+            .light_line_style(RGBColor(238, 238, 238))
+            .label_style(("sans-serif", 13))
+            .axis_desc_style(("sans-serif", LABEL_SIZE))
+            .draw()?;
+        if let Some(b) = &band {
+            let style = RGBColor(0, 158, 115).mix(0.15).filled();
+            chart
+                .draw_series([Rectangle::new([(b.x0, y0), (b.x1, y1)], style)])?
+                .label(&b.label)
+                .legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], style));
+        }
+        let line = RGBColor(60, 60, 60);
+        chart
+            .draw_series(LineSeries::new(
+                xs.iter().zip(ys).map(|(&x, &d)| (x, map(d))),
+                line.stroke_width(2),
+            ))?
+            .label("posterior density (quadrature)")
+            .legend(move |(px, py)| PathElement::new([(px, py), (px + 16, py)], line.stroke_width(2)));
+        for m in marks {
+            let c = color(m.color);
+            chart
+                .draw_series(DashedLineSeries::new([(m.x, y0), (m.x, y1)], 6, 4, c.stroke_width(2)))?
+                .label(&m.label)
+                .legend(move |(px, py)| PathElement::new([(px, py), (px + 16, py)], c.stroke_width(2)));
+        }
+        draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+        Ok(())
+    })
+}
+
 /// Horizontal grouped bars: one row per category, one bar per group (a `None` value draws nothing).
 #[derive(Debug, Clone, Default)]
 pub struct BarPlot {

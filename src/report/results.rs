@@ -185,6 +185,20 @@ pub struct ConvergenceResult {
     pub converged: bool,
 }
 
+/// How the Bayesian posterior was integrated, when by quadrature (one or two parameters).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct QuadratureResult {
+    pub rule: String,
+    /// Estimated relative error of the posterior mass over θ (Kronrod − Gauss).
+    pub relative_error: f64,
+    /// Largest relative difference of the θ density from a rule with twice the hyperparameter nodes.
+    pub inner_relative_error: f64,
+    pub boxes: usize,
+    pub evaluations: usize,
+    /// Whether the tolerance was met within the box budget.
+    pub converged: bool,
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct MethodResult {
     pub parameters: IndexMap<String, f64>,
@@ -199,6 +213,12 @@ pub struct MethodResult {
     /// with whether both meet their limits (R-hat ≤ 1.01, ESS ≥ 1000).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub convergence: Option<IndexMap<String, ConvergenceResult>>,
+    /// Posterior mean (Bayesian only).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub mean: Option<IndexMap<String, f64>>,
+    /// The quadrature's rule, error estimates and cost (Bayesian, when not sampled).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub quadrature: Option<QuadratureResult>,
     pub predictions: Vec<Prediction>,
     /// Mean |relative error| over the training designs.
     pub training_error: Option<f64>,
@@ -322,6 +342,8 @@ impl MethodResult {
             interval95: None,
             median: None,
             convergence: None,
+            mean: None,
+            quadrature: None,
             predictions: vec![],
             training_error: None,
             validation_error: None,
@@ -348,6 +370,8 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
         interval95: None,
         median: None,
         convergence: None,
+        mean: None,
+        quadrature: None,
         predictions,
         training_error,
         validation_error,
@@ -362,7 +386,16 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
         Calibrated::Bayesian(fit) => {
             result.interval95 = Some(names().zip(fit.interval95.iter().map(|&(lo, hi)| [lo, hi])).collect());
             result.median = Some(names().zip(fit.median.iter().copied()).collect());
-            result.convergence = Some(
+            result.mean = Some(names().zip(fit.mean.iter().copied()).collect());
+            result.quadrature = fit.quadrature.as_ref().map(|q| QuadratureResult {
+                rule: q.rule.clone(),
+                relative_error: q.relative_error,
+                inner_relative_error: q.inner_relative_error,
+                boxes: q.boxes,
+                evaluations: q.evaluations,
+                converged: q.converged,
+            });
+            result.convergence = (!fit.convergence.is_empty()).then(|| {
                 names()
                     .zip(&fit.convergence)
                     .map(|(n, c)| {
@@ -373,8 +406,8 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
                         };
                         (n, result)
                     })
-                    .collect(),
-            );
+                    .collect()
+            });
             let d = &fit.discrepancy;
             result.discrepancy = Some(serde_json::json!({
                 "gaussian_process": { "mean": d.beta, "std_dev": d.var.sqrt(), "roughness": d.roughness }

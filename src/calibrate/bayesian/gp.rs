@@ -6,15 +6,10 @@
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
-use super::optim::{FAILED, nelder_mead};
 use crate::calibrate::{Bounds, CalibrationError};
 
-/// log-roughness range in the unit cube: from nearly flat to wiggles of ~1/20 of the box.
-const LOG_ROUGHNESS: (f64, f64) = (-4.6, 6.2);
 /// Relative nugget on the correlation matrix: conditioning only, the data are deterministic.
 const NUGGET: f64 = 1e-8;
-/// Multi-starts of the roughness search.
-const STARTS: usize = 8;
 
 /// Gaussian correlation `exp(-Σ λ_k (a_k − b_k)²)` between the rows of `a` and `b` (A4, A7).
 pub fn gauss_corr(a: &DMatrix<f64>, b: &DMatrix<f64>, roughness: &[f64]) -> DMatrix<f64> {
@@ -77,23 +72,27 @@ fn quad_pair(p: usize, mut k: usize) -> (usize, usize) {
 }
 
 /// Everything the GLS fit at fixed roughness gives: the pieces for prediction and the likelihood.
+/// The Cholesky factor of R serves both: the likelihood (and its gradient) during the fit, and
+/// every prediction afterwards.
 #[derive(Debug, Clone)]
-struct GlsFit {
-    chol: Cholesky<f64, Dyn>,
+pub(super) struct GlsFit {
+    pub chol: Cholesky<f64, Dyn>,
     /// L⁻¹F, for the trend-uncertainty term of the predictive covariance.
     lf: DMatrix<f64>,
     /// Cholesky of FᵀR⁻¹F.
     chol_a: Cholesky<f64, Dyn>,
     beta: DVector<f64>,
     /// R⁻¹(z − Fβ).
-    alpha: DVector<f64>,
-    sigma2: f64,
-    neg_log_lik: f64,
+    pub alpha: DVector<f64>,
+    pub sigma2: f64,
+    /// Profiled negative log-likelihood `n/2 ln σ̂² + ½ ln|R|` (constants dropped).
+    pub neg_log_lik: f64,
 }
 
-fn gls(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>, roughness: &[f64]) -> Option<GlsFit> {
-    let n = x.nrows() as f64;
-    let chol = cholesky_jittered(&gauss_corr(x, x, roughness), NUGGET)?;
+/// GLS fit of the trend coefficients β and σ² (A3) for the correlation matrix `r` of the runs.
+pub(super) fn gls_with_corr(r: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>) -> Option<GlsFit> {
+    let n = r.nrows() as f64;
+    let chol = cholesky_jittered(r, NUGGET)?;
     let l = chol.l();
     let lf = l.solve_lower_triangular(f)?;
     let lz = l.solve_lower_triangular(z)?;
@@ -185,7 +184,7 @@ pub struct Emulator {
 
 impl Emulator {
     /// Fits the emulator to `inputs` (one row per run, in the box `bounds`) and `outputs`.
-    /// Roughness by maximum likelihood: multi-start Nelder–Mead in log space.
+    /// Roughness by maximum likelihood: L-BFGS with the analytic gradient ([`super::roughness`]).
     ///
     /// Coordinates, chosen from the data because engineering responses (deflections, crush forces)
     /// are mostly positive power laws of their inputs, which ln makes (nearly) linear:
@@ -235,8 +234,8 @@ impl Emulator {
                 "{n} emulator samples are too few for {p} inputs"
             )));
         }
-        let roughness = fit_roughness(&x, &z, &f);
-        let fit = gls(&x, &z, &f, &roughness)
+        let roughness = super::roughness::fit(&x, &z, &f);
+        let fit = gls_with_corr(&gauss_corr(&x, &x, &roughness), &z, &f)
             .ok_or_else(|| CalibrationError::Numerics("emulator correlation matrix is singular".into()))?;
         Ok(Emulator {
             inputs: input_map,
@@ -296,24 +295,6 @@ impl Emulator {
         let cov_y = DMatrix::from_fn(y.len(), y.len(), |i, j| y[i] * cov_t[(i, j)] * y[j]);
         Some((y, cov_y))
     }
-}
-
-/// Roughness by maximum likelihood (A3–A4 with β and σ² profiled out): multi-start Nelder–Mead
-/// over log roughness.
-fn fit_roughness(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>) -> Vec<f64> {
-    let p = x.ncols();
-    let to_roughness = |u: &[f64]| -> Vec<f64> {
-        u.iter()
-            .map(|v| (LOG_ROUGHNESS.0 + v * (LOG_ROUGHNESS.1 - LOG_ROUGHNESS.0)).exp())
-            .collect()
-    };
-    let cost = |u: &[f64]| gls(x, z, f, &to_roughness(u)).map_or(FAILED, |g| g.neg_log_lik);
-    let starts = crate::plan::latin_hypercube(STARTS, p, 0x5eed);
-    let best = (0..STARTS)
-        .map(|s| nelder_mead(&cost, starts.row(s).transpose().as_slice(), 0.1, 400))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .expect("STARTS > 0");
-    to_roughness(&best.0)
 }
 
 #[cfg(test)]

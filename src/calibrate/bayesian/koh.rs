@@ -8,6 +8,7 @@
 //! log λ_d scaled by [`HyperBox`].
 
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use super::gp::{Emulator, cholesky_jittered, gauss_corr};
 use super::optim::{FAILED, line_search, nelder_mead};
@@ -117,6 +118,40 @@ impl<'a> Koh<'a> {
             .collect()
     }
 
+    /// The number of design variables (one discrepancy roughness each).
+    pub fn n_design(&self) -> usize {
+        self.designs.ncols()
+    }
+
+    /// The measured responses at the training designs.
+    pub fn measured(&self) -> &DVector<f64> {
+        &self.y
+    }
+
+    /// The diagonal jitter of the tests' covariance.
+    pub fn jitter(&self) -> f64 {
+        1e-10 * self.scale2
+    }
+
+    /// σ_d² and λ_d at unit-box coordinates of the hyperparameters (log σ_d², then each log λ_d).
+    pub fn hyper_values(&self, unit: &[f64]) -> (f64, Vec<f64>) {
+        let roughness = unit[1..]
+            .iter()
+            .map(|&v| lerp(self.hyper.log_roughness, v).exp())
+            .collect();
+        (lerp(self.hyper.log_var, unit[0]).exp(), roughness)
+    }
+
+    /// Correlation of the discrepancy between the training designs (A7) at roughness λ_d.
+    pub fn design_corr(&self, roughness: &[f64]) -> DMatrix<f64> {
+        gauss_corr(&self.unit_designs, &self.unit_designs, roughness)
+    }
+
+    /// Emulator mean and covariance at the training designs for parameters θ (A2–A4).
+    pub fn emulated(&self, theta: &DVector<f64>) -> Option<(DVector<f64>, DMatrix<f64>)> {
+        self.emu.mean_cov(&self.inputs(theta))
+    }
+
     /// Emulator inputs: each training design followed by θ.
     fn inputs(&self, theta: &DVector<f64>) -> DMatrix<f64> {
         let (m, pd) = self.designs.shape();
@@ -129,7 +164,7 @@ impl<'a> Koh<'a> {
     pub fn neg_log_lik(&self, u: &[f64], trend: Trend) -> Option<(f64, f64)> {
         let (mu, cov_emu) = self.emu.mean_cov(&self.inputs(&self.theta(u)))?;
         let cov_d = gauss_corr(&self.unit_designs, &self.unit_designs, &self.roughness(u)) * self.var(u);
-        let chol = cholesky_jittered(&(cov_emu + cov_d), 1e-10 * self.scale2)?;
+        let chol = cholesky_jittered(&(cov_emu + cov_d), self.jitter())?;
         let l = chol.l();
         let lr = l.solve_lower_triangular(&(&self.y - mu))?;
         let l1 = l.solve_lower_triangular(&DVector::from_element(self.y.len(), 1.0))?;
@@ -146,13 +181,14 @@ impl<'a> Koh<'a> {
         self.neg_log_lik(u, trend).map_or(FAILED, |v| v.0)
     }
 
-    /// Maximum likelihood over (θ, log σ_d², log λ_d): multi-start Nelder–Mead in the unit box, then a
+    /// Maximum likelihood over (θ, log σ_d², log λ_d): multi-start Nelder–Mead in the unit box (starts in parallel), then a
     /// polish of θ at the found hyperparameters. The optimum sits on a hyperparameter bound with few
     /// tests, where a joint search stops short in θ; the polish finishes the job in θ alone.
     pub fn fit_ml(&self, seed: u64) -> (Vec<f64>, f64) {
         let starts = crate::plan::latin_hypercube(10, self.dim(), seed);
         let cost = |u: &[f64]| self.cost(u, Trend::Profile);
         let mut best = (0..starts.nrows())
+            .into_par_iter()
             .map(|s| nelder_mead(&cost, starts.row(s).transpose().as_slice(), 0.1, 800))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .expect("ten starts");

@@ -4,6 +4,8 @@
 //! small and wide when it is large, which a fixed-step random walk cannot follow.
 
 use rand::{Rng, SeedableRng};
+
+use super::convergence::{self, Convergence};
 use rand_chacha::ChaCha8Rng;
 
 /// Stretch scale `a` of the proposal `z ~ g(z) ∝ 1/√z` on `[1/a, a]` (the usual choice).
@@ -26,37 +28,132 @@ pub fn stretch_sample(
     burn_in: usize,
     seed: u64,
 ) -> Chain {
-    let dim = start.len();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut pos: Vec<Vec<f64>> = Vec::with_capacity(walkers);
-    let mut lp: Vec<f64> = Vec::with_capacity(walkers);
-    for _ in 0..walkers {
-        let (x, l) = initial_walker(log_post, start, &mut rng);
-        pos.push(x);
-        lp.push(l);
-    }
+    let mut ensemble = Ensemble::new(log_post, start, walkers, seed);
+    ensemble.advance(burn_in.min(steps), &mut |_| {});
     let mut samples = Vec::with_capacity(walkers * steps.saturating_sub(burn_in));
-    let mut accepted = 0usize;
-    for step in 0..steps {
-        for k in 0..walkers {
-            // Partner: any other walker, uniformly.
-            let j = (k + 1 + rng.random_range(0..walkers - 1)) % walkers;
-            let z = ((STRETCH - 1.0) * rng.random::<f64>() + 1.0).powi(2) / STRETCH;
-            let y: Vec<f64> = (0..dim).map(|i| pos[j][i] + z * (pos[k][i] - pos[j][i])).collect();
-            let ly = log_post(&y);
-            let log_ratio = (dim as f64 - 1.0) * z.ln() + ly - lp[k];
-            if ly.is_finite() && rng.random::<f64>().ln() < log_ratio {
-                pos[k] = y;
-                lp[k] = ly;
-                accepted += 1;
-            }
-        }
-        if step >= burn_in {
-            samples.extend(pos.iter().cloned());
+    ensemble.advance(steps.saturating_sub(burn_in), &mut |pos| {
+        samples.extend(pos.iter().cloned())
+    });
+    Chain {
+        samples,
+        acceptance: ensemble.acceptance(),
+    }
+}
+
+/// The state of an ensemble run, so that it can be continued batch by batch.
+pub struct Ensemble<'a> {
+    log_post: &'a dyn Fn(&[f64]) -> f64,
+    pub pos: Vec<Vec<f64>>,
+    lp: Vec<f64>,
+    rng: ChaCha8Rng,
+    accepted: usize,
+    proposed: usize,
+}
+
+impl<'a> Ensemble<'a> {
+    pub fn new(log_post: &'a dyn Fn(&[f64]) -> f64, start: &[f64], walkers: usize, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (pos, lp) = (0..walkers).map(|_| initial_walker(log_post, start, &mut rng)).unzip();
+        Ensemble {
+            log_post,
+            pos,
+            lp,
+            rng,
+            accepted: 0,
+            proposed: 0,
         }
     }
-    let acceptance = accepted as f64 / (walkers * steps).max(1) as f64;
-    Chain { samples, acceptance }
+
+    /// `steps` stretch-move sweeps over the walkers; `visit` sees the positions after each sweep.
+    pub fn advance(&mut self, steps: usize, visit: &mut dyn FnMut(&[Vec<f64>])) {
+        let (walkers, dim) = (self.pos.len(), self.pos.first().map_or(0, Vec::len));
+        for _ in 0..steps {
+            for k in 0..walkers {
+                // Partner: any other walker, uniformly.
+                let j = (k + 1 + self.rng.random_range(0..walkers - 1)) % walkers;
+                let z = ((STRETCH - 1.0) * self.rng.random::<f64>() + 1.0).powi(2) / STRETCH;
+                let y: Vec<f64> = (0..dim)
+                    .map(|i| self.pos[j][i] + z * (self.pos[k][i] - self.pos[j][i]))
+                    .collect();
+                let ly = (self.log_post)(&y);
+                let log_ratio = (dim as f64 - 1.0) * z.ln() + ly - self.lp[k];
+                if ly.is_finite() && self.rng.random::<f64>().ln() < log_ratio {
+                    self.pos[k] = y;
+                    self.lp[k] = ly;
+                    self.accepted += 1;
+                }
+            }
+            self.proposed += walkers;
+            visit(&self.pos);
+        }
+    }
+
+    /// Fraction of accepted stretch moves so far.
+    pub fn acceptance(&self) -> f64 {
+        self.accepted as f64 / self.proposed.max(1) as f64
+    }
+}
+
+/// What [`sample_until_converged`] returns: per walker the projected trace of the kept half.
+pub struct Converged {
+    /// `traces[w][s]`: walker w's projected state at kept step s.
+    pub traces: Vec<Vec<Vec<f64>>>,
+    pub convergence: Vec<Convergence>,
+    pub acceptance: f64,
+    /// Steps run after burn-in (twice the kept steps, give or take one).
+    pub steps: usize,
+}
+
+/// Runs the ensemble for `burn_in` steps, then `first` steps, then doubles the run until every
+/// coordinate of `project` (the quantities of interest, e.g. θ of (θ, hyperparameters)) has split
+/// R-hat ≤ 1.01 and ESS ≥ 1000 over the last half of the draws (the first half counts as warm-up,
+/// BDA3 §11.4), or until `budget` steps after burn-in. The last half is kept either way.
+pub fn sample_until_converged(
+    log_post: &dyn Fn(&[f64]) -> f64,
+    start: &[f64],
+    walkers: usize,
+    (burn_in, first, budget): (usize, usize, usize),
+    seed: u64,
+    project: &dyn Fn(&[f64]) -> Vec<f64>,
+) -> Converged {
+    let mut ensemble = Ensemble::new(log_post, start, walkers, seed);
+    ensemble.advance(burn_in, &mut |_| {});
+    let mut traces: Vec<Vec<Vec<f64>>> = vec![Vec::new(); walkers];
+    let mut batch = first.max(8).min(budget.max(8));
+    loop {
+        ensemble.advance(batch, &mut |pos| {
+            for (t, u) in traces.iter_mut().zip(pos) {
+                t.push(project(u));
+            }
+        });
+        let done = traces[0].len();
+        let convergence = diagnose_last_half(&traces);
+        if convergence.iter().all(Convergence::converged) || done >= budget {
+            let traces = traces.into_iter().map(|t| t[done / 2..].to_vec()).collect();
+            return Converged {
+                traces,
+                convergence,
+                acceptance: ensemble.acceptance(),
+                steps: done,
+            };
+        }
+        batch = done.min(budget - done);
+    }
+}
+
+/// Split R-hat and ESS per coordinate over the last half of each walker's trace.
+fn diagnose_last_half(traces: &[Vec<Vec<f64>>]) -> Vec<Convergence> {
+    let len = traces.first().map_or(0, Vec::len);
+    let p = traces.first().and_then(|t| t.first()).map_or(0, Vec::len);
+    (0..p)
+        .map(|k| {
+            let chains: Vec<Vec<f64>> = traces
+                .iter()
+                .map(|t| t[len / 2..].iter().map(|v| v[k]).collect())
+                .collect();
+            convergence::diagnose(&chains)
+        })
+        .collect()
 }
 
 /// A point within ±0.02 of `start` (reflected into the unit box) with finite posterior; the
@@ -83,6 +180,35 @@ fn reflect(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn runs_until_converged_on_a_gaussian() {
+        // A correlated 3-D Gaussian in the unit box: the run must extend past its first 200 steps
+        // until R-hat ≤ 1.01 and ESS ≥ 1000 hold for every coordinate, and the kept draws then
+        // give the mean to ~3 sd / √ESS.
+        let (s, rho) = (0.05f64, 0.8f64);
+        let lp = |x: &[f64]| {
+            let d: Vec<f64> = x.iter().map(|v| (v - 0.5) / s).collect();
+            let q = d[0] * d[0] - 2.0 * rho * d[0] * d[1] + d[1] * d[1];
+            -q / (2.0 * (1.0 - rho * rho)) - d[2] * d[2] / 2.0
+        };
+        let run = sample_until_converged(&lp, &[0.5; 3], 16, (200, 200, 50_000), 3, &|u| u.to_vec());
+        assert!(run.steps > 200 && run.steps < 50_000, "{} steps", run.steps);
+        for (k, c) in run.convergence.iter().enumerate() {
+            assert!(c.split_rhat <= 1.01 && c.ess >= 1000.0, "{k}: {c:?}");
+            let draws: Vec<f64> = run.traces.iter().flat_map(|t| t.iter().map(|v| v[k])).collect();
+            let mean = draws.iter().sum::<f64>() / draws.len() as f64;
+            assert!((mean - 0.5).abs() < 3.0 * s / c.ess.sqrt(), "{k}: mean {mean}");
+        }
+    }
+
+    #[test]
+    fn budget_ends_the_run_unconverged() {
+        let lp = |x: &[f64]| -x.iter().map(|v| ((v - 0.5) / 0.05).powi(2)).sum::<f64>() / 2.0;
+        let run = sample_until_converged(&lp, &[0.5; 3], 16, (0, 40, 40), 3, &|u| u.to_vec());
+        assert_eq!(run.steps, 40);
+        assert!(run.convergence.iter().any(|c| !c.converged()));
+    }
 
     #[test]
     fn samples_a_correlated_gaussian() {

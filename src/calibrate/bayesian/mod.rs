@@ -7,17 +7,21 @@
 //!   ln y over ln inputs when the data are positive, predicting back in y.
 //! - The likelihood stays in y, where the discrepancy is additive (A1).
 //! - `δ` is a GP discrepancy with a constant trend (A5–A7).
-//! - θ by maximum likelihood of the tests given the emulator (A8–A9, [`koh`]), then MCMC samples of
-//!   the posterior of θ for a 95 % interval ([`mcmc`]).
+//! - θ by maximum likelihood of the tests given the emulator (A8–A9, [`koh`]), then the posterior of
+//!   θ: by deterministic quadrature for one or two parameters ([`exact`]), else by an ensemble MCMC
+//!   ([`mcmc`]) checked for convergence ([`convergence`]).
 //!
 //! Modular: the emulator's hyperparameters are fixed once fitted; β_d is always re-estimated with θ,
 //! never frozen at a reference θ (that would drag θ towards the reference).
 
 pub mod convergence;
+pub mod cubature;
+pub mod exact;
 pub mod gp;
 pub mod koh;
 pub mod mcmc;
 mod optim;
+mod roughness;
 
 use std::sync::OnceLock;
 
@@ -76,6 +80,12 @@ pub struct Settings {
     pub mcmc_walkers: usize,
     pub mcmc_steps: usize,
     pub mcmc_burn_in: usize,
+    /// The sampler's budget: it stops here if R-hat ≤ 1.01 and ESS ≥ 1000 are not met before
+    /// (never before `mcmc_steps`).
+    pub mcmc_max_steps: usize,
+    /// Up to this many parameters the posterior is computed by quadrature, not sampled (0: always
+    /// sample).
+    pub quadrature_max_params: usize,
 }
 
 impl Default for Settings {
@@ -86,6 +96,8 @@ impl Default for Settings {
             mcmc_walkers: 32,
             mcmc_steps: 3000,
             mcmc_burn_in: 500,
+            mcmc_max_steps: 20_000,
+            quadrature_max_params: 2,
         }
     }
 }
@@ -102,16 +114,27 @@ pub struct BayesianFit {
     pub interval95: Vec<(f64, f64)>,
     /// Posterior median per parameter.
     pub median: DVector<f64>,
-    /// Posterior samples after burn-in, one row per sample (thinned to at most 5000 rows).
+    /// Posterior mean per parameter.
+    pub mean: DVector<f64>,
+    /// Posterior samples after burn-in, one row per sample (thinned to at most 5000 rows); no rows
+    /// when the posterior was computed by quadrature.
     pub posterior: DMatrix<f64>,
+    /// The marginal density per parameter (points θ, density per unit of θ) when computed by
+    /// quadrature; empty when sampled.
+    pub density: Vec<(Vec<f64>, Vec<f64>)>,
+    /// How the quadrature went (rule, error estimates, cost); `None` when sampled.
+    pub quadrature: Option<exact::QuadratureSummary>,
     /// The fitted simulation emulator (A2–A4).
     pub emulator: Emulator,
     /// The discrepancy at the maximum-likelihood point, conditioned on the training residuals (A5–A7).
     pub discrepancy: Discrepancy,
     /// Fraction of accepted stretch moves (a healthy ensemble run lies around 0.2–0.5).
     pub acceptance: f64,
-    /// Split R-hat and effective sample size per parameter, over the walkers' traces.
+    /// Split R-hat and effective sample size per parameter, over the walkers' kept traces (empty
+    /// when the posterior was computed by quadrature).
     pub convergence: Vec<convergence::Convergence>,
+    /// Sampler steps after burn-in (0 when computed by quadrature).
+    pub steps: usize,
 }
 
 impl BayesianFit {
@@ -169,6 +192,43 @@ pub fn calibrate(
         .discrepancy(&u_hat)
         .ok_or_else(|| CalibrationError::Numerics("discrepancy covariance is singular".into()))?;
 
+    let base = BayesianFit {
+        interval95: vec![],
+        median: theta.clone(),
+        mean: theta.clone(),
+        posterior: DMatrix::zeros(0, theta.len()),
+        density: vec![],
+        quadrature: None,
+        acceptance: f64::NAN,
+        convergence: vec![],
+        steps: 0,
+        theta,
+        emulator: emulator.clone(),
+        discrepancy,
+    };
+    Ok(if koh.n_theta() <= settings.quadrature_max_params {
+        by_quadrature(&koh, &u_hat, base)
+    } else {
+        by_sampling(&koh, &u_hat, settings, base)
+    })
+}
+
+/// The posterior by quadrature ([`exact`]).
+fn by_quadrature(koh: &Koh, u_hat: &[f64], base: BayesianFit) -> BayesianFit {
+    let post = exact::posterior(koh, u_hat);
+    BayesianFit {
+        interval95: post.interval95,
+        median: post.median,
+        mean: post.mean,
+        density: post.density,
+        quadrature: Some(post.summary),
+        ..base
+    }
+}
+
+/// The posterior by the ensemble sampler ([`mcmc`]) over (θ, log σ_d², log λ_d), extended until
+/// every θ_k converges (R-hat ≤ 1.01, ESS ≥ 1000) or `mcmc_max_steps` ([`mcmc::sample_until_converged`]).
+fn by_sampling(koh: &Koh, u_hat: &[f64], settings: &Settings, base: BayesianFit) -> BayesianFit {
     let log_post = |u: &[f64]| {
         if u.iter().all(|v| (0.0..=1.0).contains(v)) {
             -koh.cost(u, Trend::Marginal)
@@ -179,35 +239,51 @@ pub fn calibrate(
     let walkers = settings.mcmc_walkers.max(2 * koh.dim()).next_multiple_of(2);
     let steps = settings.mcmc_steps.max(2);
     let burn_in = settings.mcmc_burn_in.min(steps - 1);
-    let chain = mcmc::stretch_sample(&log_post, &u_hat, walkers, steps, burn_in, settings.seed);
-    let thetas: Vec<DVector<f64>> = chain.samples.iter().map(|u| koh.theta(u)).collect();
-    let convergence = (0..theta.len())
-        .map(|k| {
-            // samples are step-major: walker w's trace is every `walkers`-th sample from w.
-            let traces: Vec<Vec<f64>> = (0..walkers)
-                .map(|w| thetas.iter().skip(w).step_by(walkers).map(|t| t[k]).collect())
-                .collect();
-            convergence::diagnose(&traces)
-        })
+    let budget = settings.mcmc_max_steps.max(steps) - burn_in;
+    let project = |u: &[f64]| koh.theta(u).as_slice().to_vec();
+    let run = mcmc::sample_until_converged(
+        &log_post,
+        u_hat,
+        walkers,
+        (burn_in, steps - burn_in, budget),
+        settings.seed,
+        &project,
+    );
+    let traces: Vec<Vec<DVector<f64>>> = run
+        .traces
+        .iter()
+        .map(|t| t.iter().map(|v| DVector::from_column_slice(v)).collect())
         .collect();
+    BayesianFit {
+        steps: run.steps,
+        ..sampled_fit(&traces, run.convergence, run.acceptance, base)
+    }
+}
 
-    let p = theta.len();
+/// The posterior summaries from the walkers' kept traces.
+fn sampled_fit(
+    traces: &[Vec<DVector<f64>>],
+    convergence: Vec<convergence::Convergence>,
+    acceptance: f64,
+    base: BayesianFit,
+) -> BayesianFit {
+    let len = traces.first().map_or(0, Vec::len);
+    // Step-major, as the thinning below expects: step s of every walker, then step s + 1.
+    let thetas: Vec<&DVector<f64>> = (0..len).flat_map(|s| traces.iter().map(move |t| &t[s])).collect();
+    let p = base.theta.len();
     let quantile = |k: usize, q: f64| quantile(thetas.iter().map(|t| t[k]).collect(), q);
-    let interval95 = (0..p).map(|k| (quantile(k, 0.025), quantile(k, 0.975))).collect();
-    let median = DVector::from_fn(p, |k, _| quantile(k, 0.5));
+    let n = thetas.len().max(1) as f64;
     let every = thetas.len().div_ceil(MAX_POSTERIOR_ROWS).max(1);
-    let kept: Vec<&DVector<f64>> = thetas.iter().step_by(every).collect();
-    let posterior = DMatrix::from_fn(kept.len(), p, |i, k| kept[i][k]);
-    Ok(BayesianFit {
-        theta,
-        interval95,
-        median,
-        posterior,
-        emulator,
-        discrepancy,
-        acceptance: chain.acceptance,
+    let kept: Vec<&DVector<f64>> = thetas.iter().step_by(every).copied().collect();
+    BayesianFit {
+        interval95: (0..p).map(|k| (quantile(k, 0.025), quantile(k, 0.975))).collect(),
+        median: DVector::from_fn(p, |k, _| quantile(k, 0.5)),
+        mean: DVector::from_fn(p, |k, _| thetas.iter().map(|t| t[k]).sum::<f64>() / n),
+        posterior: DMatrix::from_fn(kept.len(), p, |i, k| kept[i][k]),
+        acceptance,
         convergence,
-    })
+        ..base
+    }
 }
 
 fn check_inputs(problem: &Problem, design_bounds: &Bounds, sim: &SimulationData) -> Result<(), CalibrationError> {
