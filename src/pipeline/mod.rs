@@ -314,10 +314,12 @@ fn calibrate_splits(study: &Study, simulated: &Simulated) -> Option<Vec<SplitRes
     if study.splits.is_empty() {
         return None;
     }
+    // Each split is calibrated on its own from the same runs and emulator: in parallel, in order.
+    use rayon::prelude::*;
     Some(
         study
             .splits
-            .iter()
+            .par_iter()
             .map(|split| calibrate_split(study, split, &runs.surrogates, &runs.data))
             .collect(),
     )

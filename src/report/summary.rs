@@ -16,10 +16,18 @@ pub fn render(results: &Results) -> String {
 }
 
 /// A warning per sampled method whose chain ended before converging (split R-hat ≤ 1.01 and ESS ≥
-/// 1000 per parameter): its interval is then rough.
+/// 1000 per parameter), and per integrated one whose quadrature ran out of boxes before its
+/// tolerance: its interval is then rough.
 pub fn convergence_warnings(results: &Results) -> String {
     let mut out = String::new();
     for (method, r) in &results.calibration {
+        if let Some(q) = r.quadrature.as_ref().filter(|q| !q.converged) {
+            let _ = writeln!(
+                out,
+                "warning: the {method} posterior's quadrature stopped at its budget of {} boxes before its                  tolerance (estimated relative error {:.1e}): its interval is rough",
+                q.boxes, q.relative_error
+            );
+        }
         let Some(conv) = &r.convergence else { continue };
         let short: Vec<String> = conv
             .iter()
@@ -234,6 +242,33 @@ fn percent(x: Option<f64>) -> String {
 #[cfg(test)]
 mod tests {
     use super::significant;
+
+    #[test]
+    fn quadrature_that_ran_out_of_boxes_is_warned_about() {
+        let quadrature = |converged: bool| {
+            serde_json::json!({
+                "study": "s",
+                "calibration": {"bayesian": {
+                    "parameters": {"E": 1.0}, "discrepancy": null, "predictions": [],
+                    "training_error": null, "validation_error": null,
+                    "quadrature": {"rule": "GK", "relative_error": 0.02, "inner_relative_error": 0.0,
+                                   "boxes": 400, "evaluations": 12000, "converged": converged}
+                }},
+                "identifiability": {"identifiable": true, "note": "", "combinations": [], "singular_values": []},
+                "diagnosis": null
+            })
+        };
+        let warn = |converged| {
+            let r: super::Results = serde_json::from_value(quadrature(converged)).expect("a results.json");
+            super::convergence_warnings(&r)
+        };
+        assert!(
+            warn(false).contains("quadrature stopped at its budget of 400 boxes"),
+            "{}",
+            warn(false)
+        );
+        assert_eq!(warn(true), "");
+    }
 
     #[test]
     fn significant_figures() {
