@@ -406,13 +406,7 @@ pub fn histogram(
             .label_style(("sans-serif", 13))
             .axis_desc_style(("sans-serif", LABEL_SIZE))
             .draw()?;
-        if let Some(b) = &band {
-            let style = RGBColor(0, 158, 115).mix(0.15).filled();
-            chart
-                .draw_series([Rectangle::new([(b.x0, 0.0), (b.x1, top)], style)])?
-                .label(&b.label)
-                .legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], style));
-        }
+        draw_interval(&mut chart, band.as_ref(), (0.0, top))?;
         let bar = RGBColor(120, 120, 120);
         chart
             .draw_series(density.iter().enumerate().map(|(i, &d)| {
@@ -421,13 +415,7 @@ pub fn histogram(
             }))?
             .label(format!("posterior samples ({})", finite.len()))
             .legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], bar.mix(0.55).filled()));
-        for m in marks {
-            let c = color(m.color);
-            chart
-                .draw_series(DashedLineSeries::new([(m.x, 0.0), (m.x, top)], 6, 4, c.stroke_width(2)))?
-                .label(&m.label)
-                .legend(move |(px, py)| PathElement::new([(px, py), (px + 16, py)], c.stroke_width(2)));
-        }
+        draw_marks(&mut chart, marks, (0.0, top))?;
         // The legend goes where the histogram is lowest: left or right of the bulk.
         let left_mass: usize = counts[..bins / 2].iter().sum();
         let corner = if 2 * left_mass > finite.len() {
@@ -438,6 +426,30 @@ pub fn histogram(
         draw_legend(&mut chart, corner)?;
         Ok(())
     })
+}
+
+/// A posterior's shaded 95 % interval over the full height `y`, with its legend entry.
+fn draw_interval(chart: &mut XyChart<'_>, band: Option<&Band>, y: (f64, f64)) -> Result<()> {
+    if let Some(b) = band {
+        let style = RGBColor(0, 158, 115).mix(0.15).filled();
+        chart
+            .draw_series([Rectangle::new([(b.x0, y.0), (b.x1, y.1)], style)])?
+            .label(&b.label)
+            .legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], style));
+    }
+    Ok(())
+}
+
+/// Marked values as dashed vertical lines over the height `y`, each with its legend entry.
+fn draw_marks(chart: &mut XyChart<'_>, marks: &[VLine], y: (f64, f64)) -> Result<()> {
+    for m in marks {
+        let c = color(m.color);
+        chart
+            .draw_series(DashedLineSeries::new([(m.x, y.0), (m.x, y.1)], 6, 4, c.stroke_width(2)))?
+            .label(&m.label)
+            .legend(move |(px, py)| PathElement::new([(px, py), (px + 16, py)], c.stroke_width(2)));
+    }
+    Ok(())
 }
 
 /// Peak-to-median ratio of a density curve above which [`density_curve`] draws a log axis: a
@@ -500,13 +512,7 @@ pub fn density_curve(
             .label_style(("sans-serif", 13))
             .axis_desc_style(("sans-serif", LABEL_SIZE))
             .draw()?;
-        if let Some(b) = &band {
-            let style = RGBColor(0, 158, 115).mix(0.15).filled();
-            chart
-                .draw_series([Rectangle::new([(b.x0, y0), (b.x1, y1)], style)])?
-                .label(&b.label)
-                .legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], style));
-        }
+        draw_interval(&mut chart, band.as_ref(), (y0, y1))?;
         let line = RGBColor(60, 60, 60);
         chart
             .draw_series(LineSeries::new(
@@ -515,13 +521,7 @@ pub fn density_curve(
             ))?
             .label("posterior density (quadrature)")
             .legend(move |(px, py)| PathElement::new([(px, py), (px + 16, py)], line.stroke_width(2)));
-        for m in marks {
-            let c = color(m.color);
-            chart
-                .draw_series(DashedLineSeries::new([(m.x, y0), (m.x, y1)], 6, 4, c.stroke_width(2)))?
-                .label(&m.label)
-                .legend(move |(px, py)| PathElement::new([(px, py), (px + 16, py)], c.stroke_width(2)));
-        }
+        draw_marks(&mut chart, marks, (y0, y1))?;
         draw_legend(&mut chart, SeriesLabelPosition::UpperRight)?;
         Ok(())
     })
