@@ -94,6 +94,8 @@ pub struct JointRuns {
     pub rendered: Prepared,
     pub swept: SweepResult,
     pub outcomes: RunOutcomes,
+    /// The quality gates each run breaks (empty: sound).
+    pub flags: Vec<Vec<crate::extract::lsdyna::quality::Flag>>,
     /// The responses the models may use (suspect runs left out unless the study says otherwise).
     pub usable: Vec<Option<f64>>,
 }
@@ -124,11 +126,13 @@ pub fn execute(
     write_plan(study, hypotheses, &options.out)?;
     let (swept, outcomes) = runs::sweep_plan(study, sim, &plan, &rendered, source, options, engine, store, reporter)?;
     let usable = swept.usable(&sim.quality);
+    let flags = swept.flags(&sim.quality.gates);
     Ok(JointRuns {
         plan,
         rendered,
         swept,
         outcomes,
+        flags,
         usable,
     })
 }

@@ -359,9 +359,9 @@ fn results(
     let gates = runs.sim.quality.gates;
     let use_suspect = runs.sim.quality.use_suspect;
     // The screening's runs, then the loop's.
-    let mut sweeps = vec![(&runs.plan, &runs.rendered.keys, &runs.executed.swept)];
+    let mut sweeps = vec![(&runs.plan, &runs.rendered.keys, &runs.executed.swept, &runs.flags)];
     if let Some(j) = &runs.joint {
-        sweeps.push((&j.plan, &j.rendered.keys, &j.swept));
+        sweeps.push((&j.plan, &j.rendered.keys, &j.swept, &j.flags));
     }
     let mut all = RunsResult {
         planned: 0,
@@ -372,12 +372,11 @@ fn results(
         suspect: 0,
         gates: sweeps
             .iter()
-            .any(|(_, _, swept)| swept.quality.iter().any(Option::is_some))
+            .any(|(_, _, swept, _)| swept.quality.iter().any(Option::is_some))
             .then_some(gates),
         suspect_runs: Vec::new(),
     };
-    for (plan, keys, swept) in sweeps {
-        let flags = swept.flags(&gates);
+    for (plan, keys, swept, flags) in sweeps {
         let succeeded = swept.responses.iter().filter(|r| r.is_some()).count();
         all.planned += plan.runs.len();
         all.succeeded += succeeded;
@@ -388,7 +387,7 @@ fn results(
             plan,
             keys,
             &swept.responses,
-            &flags,
+            flags,
             use_suspect,
         ));
     }
