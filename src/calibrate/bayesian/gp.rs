@@ -4,6 +4,7 @@
 //! when every run is positive; see [`Emulator::fit`]); β and σ² are profiled out by GLS, roughness
 //! by maximum likelihood. Predictions are always in the original units.
 
+use faer::linalg::solvers::{DenseSolveCore, Llt};
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 use crate::calibrate::{Bounds, CalibrationError};
@@ -71,12 +72,60 @@ fn quad_pair(p: usize, mut k: usize) -> (usize, usize) {
     unreachable!("quadratic term index out of range")
 }
 
+/// The large factorisations (the runs' n × n correlation) go through faer: its blocked Cholesky,
+/// inverse and triangular solves are 3–6 times faster than nalgebra's at n = 400 (measured on the
+/// 2-core machine: Cholesky and inverse 5.8 against 30.8 ms; a solve with 8 right-hand sides 0.04
+/// against 0.2 ms), which sets the cost of the emulator fit and of every likelihood evaluation.
+fn to_faer(m: &DMatrix<f64>) -> faer::Mat<f64> {
+    faer::Mat::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)])
+}
+
+fn from_faer(m: faer::MatRef<'_, f64>) -> DMatrix<f64> {
+    DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)])
+}
+
+/// faer's Cholesky factor of `m + jitter·I`, raising the jitter tenfold up to six times if it fails
+/// (as [`cholesky_jittered`]).
+fn llt_jittered(m: &DMatrix<f64>, jitter: f64) -> Option<Llt<f64>> {
+    let mut a = to_faer(m);
+    if !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let mut added = 0.0;
+    let mut j = jitter;
+    for _ in 0..7 {
+        for i in 0..a.nrows() {
+            a[(i, i)] += j - added;
+        }
+        added = j;
+        if let Ok(c) = a.llt(faer::Side::Lower) {
+            return Some(c);
+        }
+        j *= 10.0;
+    }
+    None
+}
+
+/// L⁻¹ b for the Cholesky factor L.
+fn solve_lower(llt: &Llt<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut x = to_faer(b);
+    faer::linalg::triangular_solve::solve_lower_triangular_in_place(llt.L(), x.as_mut(), faer::Par::Seq);
+    from_faer(x.as_ref())
+}
+
+/// L⁻ᵀ b for the Cholesky factor L.
+fn solve_lower_transposed(llt: &Llt<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    let mut x = to_faer(b);
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(llt.L().transpose(), x.as_mut(), faer::Par::Seq);
+    from_faer(x.as_ref())
+}
+
 /// Everything the GLS fit at fixed roughness gives: the pieces for prediction and the likelihood.
 /// The Cholesky factor of R serves both: the likelihood (and its gradient) during the fit, and
 /// every prediction afterwards.
 #[derive(Debug, Clone)]
 pub(super) struct GlsFit {
-    pub chol: Cholesky<f64, Dyn>,
+    llt: Llt<f64>,
     /// L⁻¹F, for the trend-uncertainty term of the predictive covariance.
     lf: DMatrix<f64>,
     /// Cholesky of FᵀR⁻¹F.
@@ -89,22 +138,32 @@ pub(super) struct GlsFit {
     pub neg_log_lik: f64,
 }
 
+impl GlsFit {
+    /// R⁻¹ (for the likelihood's gradient).
+    pub fn corr_inverse(&self) -> DMatrix<f64> {
+        from_faer(self.llt.inverse().as_ref())
+    }
+}
+
 /// GLS fit of the trend coefficients β and σ² (A3) for the correlation matrix `r` of the runs.
 pub(super) fn gls_with_corr(r: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>) -> Option<GlsFit> {
     let n = r.nrows() as f64;
-    let chol = cholesky_jittered(r, NUGGET)?;
-    let l = chol.l();
-    let lf = l.solve_lower_triangular(f)?;
-    let lz = l.solve_lower_triangular(z)?;
+    let llt = llt_jittered(r, NUGGET)?;
+    let lf = solve_lower(&llt, f);
+    let lz = solve_lower(&llt, &DMatrix::from_column_slice(z.len(), 1, z.as_slice()))
+        .column(0)
+        .into_owned();
     let chol_a = cholesky_jittered(&(lf.transpose() * &lf), 1e-12)?;
     let beta = chol_a.solve(&(lf.transpose() * &lz));
     let e = &lz - &lf * &beta;
     let sigma2 = e.norm_squared() / n;
-    let alpha = chol.solve(&(z - f * &beta));
-    let log_det: f64 = l.diagonal().iter().map(|v| v.ln()).sum();
+    let alpha = solve_lower_transposed(&llt, &DMatrix::from_column_slice(e.len(), 1, e.as_slice()))
+        .column(0)
+        .into_owned();
+    let log_det: f64 = (0..r.nrows()).map(|i| llt.L()[(i, i)].ln()).sum();
     let neg_log_lik = 0.5 * n * sigma2.max(1e-300).ln() + log_det;
-    neg_log_lik.is_finite().then_some(GlsFit {
-        chol,
+    (neg_log_lik.is_finite() && alpha.iter().all(|v| v.is_finite())).then_some(GlsFit {
+        llt,
         lf,
         chol_a,
         beta,
@@ -283,7 +342,7 @@ impl Emulator {
         let r = gauss_corr(&self.x, &u, &self.roughness);
         let fs = basis(&u, self.quadratic);
         let z = &fs * &self.fit.beta + r.transpose() * &self.fit.alpha;
-        let w = self.fit.chol.l().solve_lower_triangular(&r)?;
+        let w = solve_lower(&self.fit.llt, &r);
         let g = fs.transpose() - self.fit.lf.transpose() * &w;
         let h = self.fit.chol_a.l().solve_lower_triangular(&g)?;
         let c = gauss_corr(&u, &u, &self.roughness) - w.transpose() * &w + h.transpose() * h;

@@ -14,6 +14,7 @@ use argmin::core::{CostFunction, Error, Executor, Gradient, State};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::quasinewton::LBFGS;
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use super::gp::{GlsFit, gls_with_corr};
 use super::optim::FAILED;
@@ -74,7 +75,7 @@ impl<'a> Profiled<'a> {
     pub fn nll_grad_log(&self, roughness: &[f64]) -> Option<(f64, Vec<f64>)> {
         let r = self.corr(roughness);
         let fit: GlsFit = gls_with_corr(&r, self.z, self.f)?;
-        let mut m = fit.chol.inverse();
+        let mut m = fit.corr_inverse();
         m.ger(-1.0 / fit.sigma2, &fit.alpha, &fit.alpha, 1.0);
         // Elementwise M ∘ R once; then each gradient term is a weighted sum over D_k.
         m.component_mul_assign(&r);
@@ -160,8 +161,13 @@ pub fn fit(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>) -> Vec<f64> {
         let u = u.clamp(0.02, 0.98);
         (u / (1.0 - u)).ln()
     };
-    let best = (0..STARTS)
+    // Starts in parallel; the best picked in start order, so the result does not depend on threads.
+    let optima: Vec<(Vec<f64>, f64)> = (0..STARTS)
+        .into_par_iter()
         .map(|s| descend(x, z, f, starts.row(s).iter().map(|&u| logit(u)).collect()))
+        .collect();
+    let best = optima
+        .into_iter()
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .expect("STARTS > 0");
     best.0.iter().map(|&v| log_roughness(v).exp()).collect()
