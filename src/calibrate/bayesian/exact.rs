@@ -150,6 +150,32 @@ fn log_marginal(koh: &Koh, grid: &InnerGrid, theta: &DVector<f64>) -> f64 {
     sum.ln() - lowest
 }
 
+/// The hyperparameter-marginal log density of θ, ln m(θ) up to a constant, on the unit θ box (zero
+/// prior outside): what the sampler explores when there are too many parameters for quadrature.
+/// Integrating σ_d² and λ_d by the same rule as [`posterior`] removes the funnel they make with θ
+/// (small σ_d² pins θ, large σ_d² frees it), which a sampler over the joint space crosses slowly.
+pub struct Marginal<'a, 'b> {
+    koh: &'b Koh<'a>,
+    grid: InnerGrid,
+}
+
+impl<'a, 'b> Marginal<'a, 'b> {
+    pub fn new(koh: &'b Koh<'a>) -> Self {
+        Marginal {
+            koh,
+            grid: inner_grid(koh, VAR_NODES, ROUGH_NODES),
+        }
+    }
+
+    /// ln m(θ) at unit-box coordinates `t` of θ; −∞ outside the box.
+    pub fn log_density(&self, t: &[f64]) -> f64 {
+        if !t.iter().all(|v| (0.0..=1.0).contains(v)) {
+            return f64::NEG_INFINITY;
+        }
+        log_marginal(self.koh, &self.grid, &self.koh.theta(t))
+    }
+}
+
 /// What the quadrature reports about itself.
 #[derive(Debug, Clone, PartialEq)]
 pub struct QuadratureSummary {

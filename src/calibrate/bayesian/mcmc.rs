@@ -4,6 +4,7 @@
 //! small and wide when it is large, which a fixed-step random walk cannot follow.
 
 use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
 
 use super::convergence::{self, Convergence};
 use rand_chacha::ChaCha8Rng;
@@ -21,7 +22,7 @@ pub struct Chain {
 /// reflected at its faces) and keeps the states after `burn_in` steps. `log_post` is −∞ where the
 /// prior vanishes. Reproducible: the same seed gives the same chain.
 pub fn stretch_sample(
-    log_post: &dyn Fn(&[f64]) -> f64,
+    log_post: &(dyn Fn(&[f64]) -> f64 + Sync),
     start: &[f64],
     walkers: usize,
     steps: usize,
@@ -42,7 +43,7 @@ pub fn stretch_sample(
 
 /// The state of an ensemble run, so that it can be continued batch by batch.
 pub struct Ensemble<'a> {
-    log_post: &'a dyn Fn(&[f64]) -> f64,
+    log_post: &'a (dyn Fn(&[f64]) -> f64 + Sync),
     pub pos: Vec<Vec<f64>>,
     lp: Vec<f64>,
     rng: ChaCha8Rng,
@@ -51,7 +52,7 @@ pub struct Ensemble<'a> {
 }
 
 impl<'a> Ensemble<'a> {
-    pub fn new(log_post: &'a dyn Fn(&[f64]) -> f64, start: &[f64], walkers: usize, seed: u64) -> Self {
+    pub fn new(log_post: &'a (dyn Fn(&[f64]) -> f64 + Sync), start: &[f64], walkers: usize, seed: u64) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let (pos, lp) = (0..walkers).map(|_| initial_walker(log_post, start, &mut rng)).unzip();
         Ensemble {
@@ -65,26 +66,44 @@ impl<'a> Ensemble<'a> {
     }
 
     /// `steps` stretch-move sweeps over the walkers; `visit` sees the positions after each sweep.
+    ///
+    /// Each sweep moves one half of the ensemble against the other, then the other against the
+    /// first (Foreman-Mackey et al. 2013, Alg. 3): within a half the moves are independent, so
+    /// their densities are evaluated in parallel. The random numbers are drawn in order before,
+    /// so the chain does not depend on the number of threads.
     pub fn advance(&mut self, steps: usize, visit: &mut dyn FnMut(&[Vec<f64>])) {
-        let (walkers, dim) = (self.pos.len(), self.pos.first().map_or(0, Vec::len));
+        let walkers = self.pos.len();
+        let half = walkers / 2;
         for _ in 0..steps {
-            for k in 0..walkers {
-                // Partner: any other walker, uniformly.
-                let j = (k + 1 + self.rng.random_range(0..walkers - 1)) % walkers;
-                let z = ((STRETCH - 1.0) * self.rng.random::<f64>() + 1.0).powi(2) / STRETCH;
-                let y: Vec<f64> = (0..dim)
-                    .map(|i| self.pos[j][i] + z * (self.pos[k][i] - self.pos[j][i]))
-                    .collect();
-                let ly = (self.log_post)(&y);
-                let log_ratio = (dim as f64 - 1.0) * z.ln() + ly - self.lp[k];
-                if ly.is_finite() && self.rng.random::<f64>().ln() < log_ratio {
-                    self.pos[k] = y;
-                    self.lp[k] = ly;
-                    self.accepted += 1;
-                }
-            }
+            self.move_half(0..half, half..walkers);
+            self.move_half(half..walkers, 0..half);
             self.proposed += walkers;
             visit(&self.pos);
+        }
+    }
+
+    /// Stretch moves of the walkers in `active`, each towards a partner drawn from `others`.
+    fn move_half(&mut self, active: std::ops::Range<usize>, others: std::ops::Range<usize>) {
+        let dim = self.pos.first().map_or(0, Vec::len);
+        let proposals: Vec<(usize, Vec<f64>, f64, f64)> = active
+            .map(|k| {
+                let j = others.start + self.rng.random_range(0..others.len());
+                let z = ((STRETCH - 1.0) * self.rng.random::<f64>() + 1.0).powi(2) / STRETCH;
+                let y = (0..dim)
+                    .map(|i| self.pos[j][i] + z * (self.pos[k][i] - self.pos[j][i]))
+                    .collect();
+                (k, y, z, self.rng.random::<f64>().ln())
+            })
+            .collect();
+        let log_post = self.log_post;
+        let densities: Vec<f64> = proposals.par_iter().map(|(_, y, _, _)| log_post(y)).collect();
+        for ((k, y, z, log_u), ly) in proposals.into_iter().zip(densities) {
+            let log_ratio = (dim as f64 - 1.0) * z.ln() + ly - self.lp[k];
+            if ly.is_finite() && log_u < log_ratio {
+                self.pos[k] = y;
+                self.lp[k] = ly;
+                self.accepted += 1;
+            }
         }
     }
 
@@ -109,7 +128,7 @@ pub struct Converged {
 /// R-hat ≤ 1.01 and ESS ≥ 1000 over the last half of the draws (the first half counts as warm-up,
 /// BDA3 §11.4), or until `budget` steps after burn-in. The last half is kept either way.
 pub fn sample_until_converged(
-    log_post: &dyn Fn(&[f64]) -> f64,
+    log_post: &(dyn Fn(&[f64]) -> f64 + Sync),
     start: &[f64],
     walkers: usize,
     (burn_in, first, budget): (usize, usize, usize),

@@ -29,7 +29,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::{Bounds, CalibrationError, Problem};
 use gp::Emulator;
-use koh::{Discrepancy, Koh, Trend};
+use koh::{Discrepancy, Koh};
 
 /// Simulation samples for the emulator: one row per run, columns = design variables then parameters.
 #[derive(Debug, Clone)]
@@ -226,24 +226,22 @@ fn by_quadrature(koh: &Koh, u_hat: &[f64], base: BayesianFit) -> BayesianFit {
     }
 }
 
-/// The posterior by the ensemble sampler ([`mcmc`]) over (θ, log σ_d², log λ_d), extended until
-/// every θ_k converges (R-hat ≤ 1.01, ESS ≥ 1000) or `mcmc_max_steps` ([`mcmc::sample_until_converged`]).
+/// The posterior by the ensemble sampler ([`mcmc`]) over θ alone, the discrepancy's
+/// hyperparameters integrated out at every step by the quadrature's inner rule
+/// ([`exact::Marginal`]); extended until every θ_k converges (R-hat ≤ 1.01, ESS ≥ 1000) or
+/// `mcmc_max_steps` ([`mcmc::sample_until_converged`]).
 fn by_sampling(koh: &Koh, u_hat: &[f64], settings: &Settings, base: BayesianFit) -> BayesianFit {
-    let log_post = |u: &[f64]| {
-        if u.iter().all(|v| (0.0..=1.0).contains(v)) {
-            -koh.cost(u, Trend::Marginal)
-        } else {
-            f64::NEG_INFINITY
-        }
-    };
-    let walkers = settings.mcmc_walkers.max(2 * koh.dim()).next_multiple_of(2);
+    let marginal = exact::Marginal::new(koh);
+    let log_post = |t: &[f64]| marginal.log_density(t);
+    let p = koh.n_theta();
+    let walkers = settings.mcmc_walkers.max(2 * p).next_multiple_of(2);
     let steps = settings.mcmc_steps.max(2);
     let burn_in = settings.mcmc_burn_in.min(steps - 1);
     let budget = settings.mcmc_max_steps.max(steps) - burn_in;
-    let project = |u: &[f64]| koh.theta(u).as_slice().to_vec();
+    let project = |t: &[f64]| koh.theta(t).as_slice().to_vec();
     let run = mcmc::sample_until_converged(
         &log_post,
-        u_hat,
+        &u_hat[..p],
         walkers,
         (burn_in, steps - burn_in, budget),
         settings.seed,
