@@ -58,6 +58,19 @@ fn scale_study_replays_and_reports_its_convergence() {
         stdout.contains("ended before converging") && stdout.contains("R-hat ≤ 1.01 and ESS ≥ 1000"),
         "converged: {all_converged}; stdout: {stdout}"
     );
+    // The sampler says how it ran: steps within the budget (5,000 less the 100 of burn-in), a
+    // slice's few evaluations per move, and per parameter a power of the Box–Cox family.
+    let sampler = &bayes["sampler"];
+    let steps = sampler["steps"].as_u64().unwrap();
+    assert!(steps > 0 && steps <= 4_900, "{sampler}");
+    let per_move = sampler["evaluations_per_move"].as_f64().unwrap();
+    assert!((2.0..20.0).contains(&per_move), "{sampler}");
+    for (name, _) in truth {
+        let power = sampler["power"][name].as_f64().unwrap();
+        assert!([-1.0, -0.5, 0.0, 0.5, 1.0].contains(&power), "{name}: {sampler}");
+    }
+    // a's box is not positive: it is sampled as itself.
+    assert_eq!(sampler["power"]["a"], 1.0);
     // Least squares, the fast method, recovers the stiffness within 2 % (E is the best-determined
     // parameter: the bending term dominates every design).
     let e_ls = results["calibration"]["least_squares"]["parameters"]["E"]

@@ -200,6 +200,14 @@ pub struct QuadratureResult {
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SamplerResult {
+    pub steps: usize,
+    pub evaluations_per_move: f64,
+    /// Per parameter: 1 for θ itself, 0 for ln θ, −1 for 1/θ, ±½ for the roots.
+    pub power: IndexMap<String, f64>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct MethodResult {
     pub parameters: IndexMap<String, f64>,
     /// `null` for least squares; `{"constant": d}` for sensitivity; the GP's summary for Bayesian.
@@ -213,6 +221,10 @@ pub struct MethodResult {
     /// with whether both meet their limits (R-hat ≤ 1.01, ESS ≥ 1000).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub convergence: Option<IndexMap<String, ConvergenceResult>>,
+    /// How the sampler ran (Bayesian, when sampled): steps after burn-in, density evaluations per
+    /// walker move, and per parameter the power of θ it was sampled in.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub sampler: Option<SamplerResult>,
     /// Posterior mean (Bayesian only).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub mean: Option<IndexMap<String, f64>>,
@@ -342,6 +354,7 @@ impl MethodResult {
             interval95: None,
             median: None,
             convergence: None,
+            sampler: None,
             mean: None,
             quadrature: None,
             predictions: vec![],
@@ -370,6 +383,7 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
         interval95: None,
         median: None,
         convergence: None,
+        sampler: None,
         mean: None,
         quadrature: None,
         predictions,
@@ -407,6 +421,11 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
                         (n, result)
                     })
                     .collect()
+            });
+            result.sampler = (!fit.sampling_powers.is_empty()).then(|| SamplerResult {
+                steps: fit.steps,
+                evaluations_per_move: fit.evaluations_per_move,
+                power: names().zip(fit.sampling_powers.iter().copied()).collect(),
             });
             let d = &fit.discrepancy;
             result.discrepancy = Some(serde_json::json!({

@@ -103,6 +103,10 @@ impl<'a> Koh<'a> {
             .from_unit(&DVector::from_column_slice(&u[..self.n_theta()]))
     }
 
+    pub fn theta_bounds(&self) -> &Bounds {
+        &self.theta_bounds
+    }
+
     pub fn theta_to_unit(&self, theta: &DVector<f64>) -> Vec<f64> {
         self.theta_bounds.to_unit(theta).iter().copied().collect()
     }

@@ -15,6 +15,7 @@
 //! never frozen at a reference θ (that would drag θ towards the reference).
 
 pub mod convergence;
+pub mod coords;
 pub mod cubature;
 pub mod exact;
 pub mod gp;
@@ -67,12 +68,9 @@ impl SimulationData {
 
 /// Knobs of the Bayesian method; defaults follow the paper (24 emulator samples).
 ///
-/// Chain length: the 95 % interval's tails are the noisiest output, because the posterior has a long
-/// tail in σ_d² (θ spreads when the discrepancy may be large) that walkers visit rarely. On the
-/// cantilever (h = 8, 10), seeds 1–16 (`long_chain_interval`, ignored test), the sd over seeds of
-/// the 2.5 / 97.5 % points and the time of a whole calibrate in release:
-/// 16 × 2000 steps: 984 / 1734, 0.20 s; 32 × 3000: 962 / 1046, 0.46 s; 16 × 20,000: 461 / 605, 1.6 s.
-/// The default is the longest run that keeps a calibrate near half a second.
+/// The sampler's steps are slice steps of the whole ensemble (about five density evaluations per
+/// walker each): `mcmc_burn_in` is the length of each of the two pilots, `mcmc_steps` the first
+/// check of convergence, `mcmc_max_steps` the budget. Quadrature (one or two parameters) ignores them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
     pub emulator_samples: usize,
@@ -94,9 +92,9 @@ impl Default for Settings {
             emulator_samples: 24,
             seed: 1,
             mcmc_walkers: 32,
-            mcmc_steps: 3000,
-            mcmc_burn_in: 500,
-            mcmc_max_steps: 20_000,
+            mcmc_steps: 300,
+            mcmc_burn_in: 100,
+            mcmc_max_steps: 5_000,
             quadrature_max_params: 2,
         }
     }
@@ -128,13 +126,16 @@ pub struct BayesianFit {
     pub emulator: Emulator,
     /// The discrepancy at the maximum-likelihood point, conditioned on the training residuals (A5–A7).
     pub discrepancy: Discrepancy,
-    /// Fraction of accepted stretch moves (a healthy ensemble run lies around 0.2–0.5).
-    pub acceptance: f64,
+    /// Density evaluations per walker move of the slice sampler (NaN when computed by quadrature).
+    pub evaluations_per_move: f64,
     /// Split R-hat and effective sample size per parameter, over the walkers' kept traces (empty
     /// when the posterior was computed by quadrature).
     pub convergence: Vec<convergence::Convergence>,
     /// Sampler steps after burn-in (0 when computed by quadrature).
     pub steps: usize,
+    /// Per parameter the power in whose coordinates it was sampled (1: θ itself, 0: ln θ, −1: 1/θ;
+    /// empty when computed by quadrature).
+    pub sampling_powers: Vec<f64>,
 }
 
 impl BayesianFit {
@@ -172,7 +173,8 @@ fn joint_bounds(design: &Bounds, theta: &Bounds) -> Bounds {
 ///
 /// 1. Emulator fitted to `sim` (A2–A4), then fixed.
 /// 2. θ̂ maximises the likelihood of the tests (A8–A9) jointly with β_d (GLS), σ_d² and λ_d.
-/// 3. Posterior by an ensemble MCMC over (θ, log σ_d², log λ_d) with β_d integrated out.
+/// 3. Posterior of θ with β_d, σ_d² and λ_d integrated out: by quadrature for one or two
+///    parameters, by the ensemble slice sampler for more.
 ///    Priors (all proper, independent): θ uniform on `problem.bounds`; log σ_d² uniform on
 ///    [ln (10⁻³ s)², ln (3 s)²] and each log λ_d uniform on [ln 0.1, ln 100] (designs scaled to the
 ///    unit cube), where s is the rms residual of the tests against the emulator at the centre of the
@@ -199,9 +201,10 @@ pub fn calibrate(
         posterior: DMatrix::zeros(0, theta.len()),
         density: vec![],
         quadrature: None,
-        acceptance: f64::NAN,
+        evaluations_per_move: f64::NAN,
         convergence: vec![],
         steps: 0,
+        sampling_powers: vec![],
         theta,
         emulator: emulator.clone(),
         discrepancy,
@@ -226,27 +229,49 @@ fn by_quadrature(koh: &Koh, u_hat: &[f64], base: BayesianFit) -> BayesianFit {
     }
 }
 
-/// The posterior by the ensemble sampler ([`mcmc`]) over θ alone, the discrepancy's
+/// The posterior by the ensemble slice sampler ([`mcmc`]) over θ alone, the discrepancy's
 /// hyperparameters integrated out at every step by the quadrature's inner rule
-/// ([`exact::Marginal`]); extended until every θ_k converges (R-hat ≤ 1.01, ESS ≥ 1000) or
-/// `mcmc_max_steps` ([`mcmc::sample_until_converged`]).
+/// ([`exact::Marginal`]).
+///
+/// 1. Two pilots of `mcmc_burn_in` steps, the first in θ's unit box from θ̂: the second half of
+///    each chooses the sampling coordinates, a power of each parameter in which the draws are
+///    least curved ([`coords`]).
+/// 2. The run in those coordinates from the pilot's last positions (with their Jacobian, so the
+///    posterior is the same), extended until every θ_k converges (R-hat ≤ 1.01, ESS ≥ 1000) or
+///    `mcmc_max_steps` ([`mcmc::sample_until_converged`]).
 fn by_sampling(koh: &Koh, u_hat: &[f64], settings: &Settings, base: BayesianFit) -> BayesianFit {
     let marginal = exact::Marginal::new(koh);
-    let log_post = |t: &[f64]| marginal.log_density(t);
     let p = koh.n_theta();
     let walkers = settings.mcmc_walkers.max(2 * p).next_multiple_of(2);
     let steps = settings.mcmc_steps.max(2);
     let burn_in = settings.mcmc_burn_in.min(steps - 1);
     let budget = settings.mcmc_max_steps.max(steps) - burn_in;
-    let project = |t: &[f64]| koh.theta(t).as_slice().to_vec();
-    let run = mcmc::sample_until_converged(
-        &log_post,
-        &u_hat[..p],
-        walkers,
-        (burn_in, steps - burn_in, budget),
-        settings.seed,
-        &project,
-    );
+
+    let bounds = koh.theta_bounds();
+    let (lower, upper) = (bounds.lower.as_slice(), bounds.upper.as_slice());
+    // Each pilot starts where the last ended, in the coordinates the last chose: the second sees a
+    // wider spread than the first (which starts in a small cloud at θ̂) and so chooses better.
+    let mut coords = coords::Coords::identity(lower, upper);
+    let mut positions: Option<Vec<Vec<f64>>> = None;
+    for round in 0..2u64 {
+        let current = coords.clone();
+        let density = in_coords(&marginal, &current);
+        let seed = settings.seed.wrapping_add(round);
+        let ensemble = match &positions {
+            None => mcmc::Ensemble::new(&density, &u_hat[..p], walkers, seed),
+            Some(u) => mcmc::Ensemble::from_positions(&density, u.iter().map(|u| coords.to_z(u)).collect(), seed),
+        };
+        let (draws, last) = mcmc::pilot(ensemble, burn_in);
+        let in_u = |z: &Vec<f64>| current.to_u(z).0;
+        let draws: Vec<Vec<f64>> = draws.iter().map(in_u).collect();
+        positions = Some(last.iter().map(in_u).collect());
+        coords = coords::Coords::choose(lower, upper, &draws);
+    }
+    let density = in_coords(&marginal, &coords);
+    let start = positions.unwrap_or_default().iter().map(|u| coords.to_z(u)).collect();
+    let ensemble = mcmc::Ensemble::from_positions(&density, start, settings.seed.wrapping_add(2));
+    let project = |z: &[f64]| koh.theta(&coords.to_u(z).0).as_slice().to_vec();
+    let run = mcmc::sample_until_converged(ensemble, (burn_in, steps - burn_in, budget), &project);
     let traces: Vec<Vec<DVector<f64>>> = run
         .traces
         .iter()
@@ -254,7 +279,19 @@ fn by_sampling(koh: &Koh, u_hat: &[f64], settings: &Settings, base: BayesianFit)
         .collect();
     BayesianFit {
         steps: run.steps,
-        ..sampled_fit(&traces, run.convergence, run.acceptance, base)
+        sampling_powers: coords.power.clone(),
+        ..sampled_fit(&traces, run.convergence, run.evaluations_per_move, base)
+    }
+}
+
+/// ln m(θ) in the sampling coordinates z (their unit box), with the Jacobian of the map to θ.
+fn in_coords<'m>(marginal: &'m exact::Marginal, coords: &'m coords::Coords) -> impl Fn(&[f64]) -> f64 + Sync + 'm {
+    move |z: &[f64]| {
+        if !z.iter().all(|v| (0.0..=1.0).contains(v)) {
+            return f64::NEG_INFINITY;
+        }
+        let (u, log_jacobian) = coords.to_u(z);
+        marginal.log_density(&u) + log_jacobian
     }
 }
 
@@ -262,7 +299,7 @@ fn by_sampling(koh: &Koh, u_hat: &[f64], settings: &Settings, base: BayesianFit)
 fn sampled_fit(
     traces: &[Vec<DVector<f64>>],
     convergence: Vec<convergence::Convergence>,
-    acceptance: f64,
+    evaluations_per_move: f64,
     base: BayesianFit,
 ) -> BayesianFit {
     let len = traces.first().map_or(0, Vec::len);
@@ -278,7 +315,7 @@ fn sampled_fit(
         median: DVector::from_fn(p, |k, _| quantile(k, 0.5)),
         mean: DVector::from_fn(p, |k, _| thetas.iter().map(|t| t[k]).sum::<f64>() / n),
         posterior: DMatrix::from_fn(kept.len(), p, |i, k| kept[i][k]),
-        acceptance,
+        evaluations_per_move,
         convergence,
         ..base
     }

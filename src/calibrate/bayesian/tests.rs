@@ -554,10 +554,10 @@ fn scale_growth() {
             std::fs::write(format!("{dump}-{n}.csv"), rows.join("\n")).unwrap();
         }
         eprintln!(
-            "n = {n}: emulator fit {fit_s:.2} s, one density {:.3} ms, calibrate {cal_s:.1} s ({} steps, acceptance {:.2}), θ̂ {:?}, 95 % {:?}, {:?}",
+            "n = {n}: emulator fit {fit_s:.2} s, one density {:.3} ms, calibrate {cal_s:.1} s ({} steps, {:.1} evaluations per move), θ̂ {:?}, 95 % {:?}, {:?}",
             1e3 * lik_s,
             fit.steps,
-            fit.acceptance,
+            fit.evaluations_per_move,
             fit.theta.as_slice(),
             fit.interval95,
             fit.convergence
