@@ -185,19 +185,9 @@ pub struct ConvergenceResult {
     pub converged: bool,
 }
 
-/// How the Bayesian posterior was integrated, when by quadrature (one or two parameters).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct QuadratureResult {
-    pub rule: String,
-    /// Estimated relative error of the posterior mass over θ (Kronrod − Gauss).
-    pub relative_error: f64,
-    /// Largest relative difference of the θ density from a rule with twice the hyperparameter nodes.
-    pub inner_relative_error: f64,
-    pub boxes: usize,
-    pub evaluations: usize,
-    /// Whether the tolerance was met within the box budget.
-    pub converged: bool,
-}
+/// How the Bayesian posterior was integrated, when by quadrature (one or two parameters): the
+/// quadrature's own summary, written as it is.
+pub type QuadratureResult = crate::calibrate::bayesian::exact::QuadratureSummary;
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct SamplerResult {
@@ -401,14 +391,7 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
             result.interval95 = Some(names().zip(fit.interval95.iter().map(|&(lo, hi)| [lo, hi])).collect());
             result.median = Some(names().zip(fit.median.iter().copied()).collect());
             result.mean = Some(names().zip(fit.mean.iter().copied()).collect());
-            result.quadrature = fit.quadrature.as_ref().map(|q| QuadratureResult {
-                rule: q.rule.clone(),
-                relative_error: q.relative_error,
-                inner_relative_error: q.inner_relative_error,
-                boxes: q.boxes,
-                evaluations: q.evaluations,
-                converged: q.converged,
-            });
+            result.quadrature = fit.quadrature.clone();
             result.convergence = (!fit.convergence.is_empty()).then(|| {
                 names()
                     .zip(&fit.convergence)

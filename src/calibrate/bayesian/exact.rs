@@ -176,8 +176,8 @@ impl<'a, 'b> Marginal<'a, 'b> {
     }
 }
 
-/// What the quadrature reports about itself.
-#[derive(Debug, Clone, PartialEq)]
+/// What the quadrature reports about itself (written to results.json as it is).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct QuadratureSummary {
     /// Which rules: e.g. "adaptive Gauss–Kronrod 7-15 in θ, Gauss–Legendre 24 × 8 in (log σ_d², log λ_d)".
     pub rule: String,

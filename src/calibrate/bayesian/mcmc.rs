@@ -50,19 +50,17 @@ impl<'a> Ensemble<'a> {
     /// Walkers in a small cloud around `start`.
     pub fn new(log_post: &'a (dyn Fn(&[f64]) -> f64 + Sync), start: &[f64], walkers: usize, seed: u64) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let pos: Vec<Vec<f64>> = (0..walkers)
-            .map(|_| initial_walker(log_post, start, &mut rng).0)
-            .collect();
-        Self::at(log_post, pos, rng)
+        let (pos, lp) = (0..walkers).map(|_| initial_walker(log_post, start, &mut rng)).unzip();
+        Self::at(log_post, pos, lp, rng)
     }
 
     /// Walkers at the given positions (e.g. a pilot's last, mapped to new coordinates).
     pub fn from_positions(log_post: &'a (dyn Fn(&[f64]) -> f64 + Sync), pos: Vec<Vec<f64>>, seed: u64) -> Self {
-        Self::at(log_post, pos, ChaCha8Rng::seed_from_u64(seed))
+        let lp = pos.iter().map(|x| log_post(x)).collect();
+        Self::at(log_post, pos, lp, ChaCha8Rng::seed_from_u64(seed))
     }
 
-    fn at(log_post: &'a (dyn Fn(&[f64]) -> f64 + Sync), pos: Vec<Vec<f64>>, rng: ChaCha8Rng) -> Self {
-        let lp = pos.iter().map(|x| log_post(x)).collect();
+    fn at(log_post: &'a (dyn Fn(&[f64]) -> f64 + Sync), pos: Vec<Vec<f64>>, lp: Vec<f64>, rng: ChaCha8Rng) -> Self {
         let walkers = pos.len();
         Ensemble {
             log_post,
