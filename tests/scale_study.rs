@@ -58,13 +58,20 @@ fn scale_study_replays_and_reports_its_convergence() {
         stdout.contains("ended before converging") && stdout.contains("R-hat ≤ 1.01 and ESS ≥ 1000"),
         "converged: {all_converged}; stdout: {stdout}"
     );
-    // The sampler says how it ran: steps within the budget (5,000 less the 100 of burn-in), a
-    // slice's few evaluations per move, and per parameter a power of the Box–Cox family.
+    // The sampler says how it ran: steps within the budget of 5,000, independence moves (one
+    // density per move, every proposal inside the box) with a share accepted, the evaluations
+    // of the whole sampler, and per parameter a power of the Box–Cox family.
     let sampler = &bayes["sampler"];
     let steps = sampler["steps"].as_u64().unwrap();
-    assert!(steps > 0 && steps <= 4_900, "{sampler}");
+    assert!(steps > 0 && steps <= 5_000, "{sampler}");
+    assert_eq!(sampler["kernel"], "independence", "{sampler}");
     let per_move = sampler["evaluations_per_move"].as_f64().unwrap();
-    assert!((2.0..20.0).contains(&per_move), "{sampler}");
+    assert!((0.99..=1.01).contains(&per_move), "{sampler}");
+    let acceptance = sampler["acceptance"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&acceptance) && acceptance > 0.1, "{sampler}");
+    // Eight chains times the run's steps, plus the pilot's and the adaptation's.
+    let evaluations = sampler["evaluations"].as_u64().unwrap();
+    assert!(evaluations > 8 * steps, "{sampler}");
     for (name, _) in truth {
         let power = sampler["power"][name].as_f64().unwrap();
         assert!([-1.0, -0.5, 0.0, 0.5, 1.0].contains(&power), "{name}: {sampler}");

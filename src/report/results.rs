@@ -193,6 +193,15 @@ pub type QuadratureResult = crate::calibrate::bayesian::exact::QuadratureSummary
 pub struct SamplerResult {
     pub steps: usize,
     pub evaluations_per_move: f64,
+    /// The run's move: "independence" (Metropolis–Hastings from the fitted proposal) or "slice".
+    #[serde(default)]
+    pub kernel: String,
+    /// Share of independence proposals accepted (absent with slice steps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acceptance: Option<f64>,
+    /// Density evaluations of the whole sampler, pilot and adaptation included.
+    #[serde(default)]
+    pub evaluations: usize,
     /// Per parameter: 1 for θ itself, 0 for ln θ, −1 for 1/θ, ±½ for the roots.
     pub power: IndexMap<String, f64>,
 }
@@ -408,6 +417,14 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
             result.sampler = (!fit.sampling_powers.is_empty()).then(|| SamplerResult {
                 steps: fit.steps,
                 evaluations_per_move: fit.evaluations_per_move,
+                kernel: if fit.acceptance.is_nan() {
+                    "slice"
+                } else {
+                    "independence"
+                }
+                .into(),
+                acceptance: (!fit.acceptance.is_nan()).then_some(fit.acceptance),
+                evaluations: fit.evaluations,
                 power: names().zip(fit.sampling_powers.iter().copied()).collect(),
             });
             let d = &fit.discrepancy;

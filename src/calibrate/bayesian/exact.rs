@@ -67,7 +67,7 @@ fn inner_grid(koh: &Koh, var_nodes: usize, rough_nodes: usize) -> InnerGrid {
 /// `V = S + var·C + jitter·I` and residual r = y − μ_emu:
 /// `½ ln|V| + ½ (rᵀV⁻¹r − (1ᵀV⁻¹r)²/1ᵀV⁻¹1) + ½ ln 1ᵀV⁻¹1`. The jitter is raised tenfold up
 /// to six times if V is not positive definite (as [`super::gp::cholesky_jittered`]). `work` holds
-/// m² + 2m values.
+/// m² + 2m values. This runs hundreds of times per θ, so it takes one logarithm where it can.
 fn marginal_nll(s: &[f64], c: &[f64], var: f64, jitter: f64, r: &[f64], work: &mut [f64]) -> f64 {
     let m = r.len();
     let mut j = jitter;
@@ -78,8 +78,7 @@ fn marginal_nll(s: &[f64], c: &[f64], var: f64, jitter: f64, r: &[f64], work: &m
         }
         if let Some(log_det) = cholesky_in_place(l, m, j) {
             let (u, w) = rest.split_at_mut(m);
-            forward(l, m, r, u);
-            forward(l, m, &vec![1.0; m], w);
+            forward_r_and_ones(l, m, r, u, w);
             let (a, b, q) = (dot(w, w), dot(w, u), dot(u, u));
             return log_det + 0.5 * (q - b * b / a) + 0.5 * a.ln();
         }
@@ -92,9 +91,11 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// Lower Cholesky factor of `a + jitter·I` in place (row-major); returns ½ ln|a + jitter·I|.
+/// Lower Cholesky factor of `a + jitter·I` in place (row-major); returns ½ ln|a + jitter·I| as the
+/// logarithm of the product of the pivots' roots (flushed into the sum before it could leave the
+/// range of f64, so one `ln` serves many pivots).
 fn cholesky_in_place(a: &mut [f64], m: usize, jitter: f64) -> Option<f64> {
-    let mut log_det = 0.0;
+    let (mut log_det, mut product) = (0.0, 1.0);
     for i in 0..m {
         for j in 0..=i {
             let mut sum = a[i * m + j] + if i == j { jitter } else { 0.0 };
@@ -105,21 +106,33 @@ fn cholesky_in_place(a: &mut [f64], m: usize, jitter: f64) -> Option<f64> {
                 if sum.is_nan() || sum <= 0.0 || !sum.is_finite() {
                     return None;
                 }
-                a[i * m + i] = sum.sqrt();
-                log_det += a[i * m + i].ln();
+                let d = sum.sqrt();
+                a[i * m + i] = d;
+                product *= d;
+                if !(1e-100..=1e100).contains(&product) {
+                    log_det += product.ln();
+                    product = 1.0;
+                }
             } else {
                 a[i * m + j] = sum / a[j * m + j];
             }
         }
     }
-    Some(log_det)
+    Some(log_det + product.ln())
 }
 
-/// Solves L x = b by forward substitution (L row-major lower triangular).
-fn forward(l: &[f64], m: usize, b: &[f64], x: &mut [f64]) {
+/// Solves L u = r and L w = 1 by one forward substitution (L row-major lower triangular).
+fn forward_r_and_ones(l: &[f64], m: usize, r: &[f64], u: &mut [f64], w: &mut [f64]) {
     for i in 0..m {
-        let s: f64 = (0..i).map(|k| l[i * m + k] * x[k]).sum();
-        x[i] = (b[i] - s) / l[i * m + i];
+        let row = &l[i * m..i * m + i];
+        let (su, sw) = row
+            .iter()
+            .zip(&u[..i])
+            .zip(&w[..i])
+            .fold((0.0, 0.0), |(a, b), ((lk, uk), wk)| (a + lk * uk, b + lk * wk));
+        let d = l[i * m + i];
+        u[i] = (r[i] - su) / d;
+        w[i] = (1.0 - sw) / d;
     }
 }
 
@@ -165,6 +178,11 @@ impl<'a, 'b> Marginal<'a, 'b> {
             koh,
             grid: inner_grid(koh, VAR_NODES, ROUGH_NODES),
         }
+    }
+
+    /// θ's box.
+    pub fn theta_bounds(&self) -> &crate::calibrate::Bounds {
+        self.koh.theta_bounds()
     }
 
     /// ln m(θ) at unit-box coordinates `t` of θ; −∞ outside the box.

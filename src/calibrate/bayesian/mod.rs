@@ -22,6 +22,7 @@ pub mod gp;
 pub mod koh;
 pub mod mcmc;
 mod optim;
+pub mod proposal;
 mod roughness;
 
 use std::sync::OnceLock;
@@ -68,14 +69,19 @@ impl SimulationData {
 
 /// Knobs of the Bayesian method; defaults follow the paper (24 emulator samples).
 ///
-/// The sampler's steps are slice steps of the whole ensemble (about five density evaluations per
-/// walker each): `mcmc_burn_in` is the length of each of the two pilots, `mcmc_steps` the first
-/// check of convergence, `mcmc_max_steps` the budget. Quadrature (one or two parameters) ignores them.
+/// The sampler ([`by_sampling`]): `mcmc_walkers` walkers take `mcmc_burn_in / 2` ensemble slice
+/// steps (about five density evaluations each), then two adaptation rounds of `mcmc_burn_in`
+/// independence steps (one evaluation each); then `mcmc_chains` of them run on with the adapted
+/// kernel, checked for convergence first after `mcmc_steps` steps and stopped at `mcmc_max_steps`.
+/// Quadrature (one or two parameters) ignores them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
     pub emulator_samples: usize,
     pub seed: u64,
     pub mcmc_walkers: usize,
+    /// Chains of the run after adaptation: split R-hat ≤ 1.01 asks each for an ESS near 50, so
+    /// fewer, longer chains reach it with fewer evaluations (Vehtari et al. 2021 use four).
+    pub mcmc_chains: usize,
     pub mcmc_steps: usize,
     pub mcmc_burn_in: usize,
     /// The sampler's budget: it stops here if R-hat ≤ 1.01 and ESS ≥ 1000 are not met before
@@ -91,7 +97,8 @@ impl Default for Settings {
         Settings {
             emulator_samples: 24,
             seed: 1,
-            mcmc_walkers: 32,
+            mcmc_walkers: 16,
+            mcmc_chains: 8,
             mcmc_steps: 300,
             mcmc_burn_in: 100,
             mcmc_max_steps: 5_000,
@@ -136,6 +143,10 @@ pub struct BayesianFit {
     /// Per parameter the power in whose coordinates it was sampled (1: θ itself, 0: ln θ, −1: 1/θ;
     /// empty when computed by quadrature).
     pub sampling_powers: Vec<f64>,
+    /// Share of the run's independence proposals accepted (NaN with slice steps or quadrature).
+    pub acceptance: f64,
+    /// Density evaluations of the whole sampler, pilot and adaptation included (0 by quadrature).
+    pub evaluations: usize,
 }
 
 impl BayesianFit {
@@ -205,6 +216,8 @@ pub fn calibrate(
         convergence: vec![],
         steps: 0,
         sampling_powers: vec![],
+        acceptance: f64::NAN,
+        evaluations: 0,
         theta,
         emulator: emulator.clone(),
         discrepancy,
@@ -229,49 +242,39 @@ fn by_quadrature(koh: &Koh, u_hat: &[f64], base: BayesianFit) -> BayesianFit {
     }
 }
 
-/// The posterior by the ensemble slice sampler ([`mcmc`]) over θ alone, the discrepancy's
-/// hyperparameters integrated out at every step by the quadrature's inner rule
-/// ([`exact::Marginal`]).
+/// The posterior by sampling ([`mcmc`]) over θ alone, the discrepancy's hyperparameters
+/// integrated out at every step by the quadrature's inner rule ([`exact::Marginal`]).
 ///
-/// 1. Two pilots of `mcmc_burn_in` steps, the first in θ's unit box from θ̂: the second half of
-///    each chooses the sampling coordinates, a power of each parameter in which the draws are
-///    least curved ([`coords`]).
-/// 2. The run in those coordinates from the pilot's last positions (with their Jacobian, so the
-///    posterior is the same), extended until every θ_k converges (R-hat ≤ 1.01, ESS ≥ 1000) or
-///    `mcmc_max_steps` ([`mcmc::sample_until_converged`]).
+/// 1. A pilot of ensemble slice steps from θ̂ in θ's unit box ([`slice_pilot`]).
+/// 2. Adaptation ([`adapt`]): from the last draws, the sampling coordinates (a power of each
+///    parameter, [`coords`]) and an independence proposal in them ([`proposal`]); a round of
+///    independence Metropolis–Hastings gives better draws, from which both are chosen again.
+/// 3. The run: `mcmc_chains` of the walkers go on with that kernel fixed, from where the
+///    adaptation left them, until every θ_k converges (R-hat ≤ 1.01, ESS ≥ 1000) or
+///    `mcmc_max_steps` ([`mcmc::sample_until_converged`]). Everything before it is burn-in. Without
+///    a proposal (draws too few or degenerate), every walker goes on with slice steps.
 fn by_sampling(koh: &Koh, u_hat: &[f64], settings: &Settings, base: BayesianFit) -> BayesianFit {
     let marginal = exact::Marginal::new(koh);
     let p = koh.n_theta();
     let walkers = settings.mcmc_walkers.max(2 * p).next_multiple_of(2);
-    let steps = settings.mcmc_steps.max(2);
-    let burn_in = settings.mcmc_burn_in.min(steps - 1);
-    let budget = settings.mcmc_max_steps.max(steps) - burn_in;
-
-    let bounds = koh.theta_bounds();
-    let (lower, upper) = (bounds.lower.as_slice(), bounds.upper.as_slice());
-    // Each pilot starts where the last ended, in the coordinates the last chose: the second sees a
-    // wider spread than the first (which starts in a small cloud at θ̂) and so chooses better.
-    let mut coords = coords::Coords::identity(lower, upper);
-    let mut positions: Option<Vec<Vec<f64>>> = None;
-    for round in 0..2u64 {
-        let current = coords.clone();
-        let density = in_coords(&marginal, &current);
-        let seed = settings.seed.wrapping_add(round);
-        let ensemble = match &positions {
-            None => mcmc::Ensemble::new(&density, &u_hat[..p], walkers, seed),
-            Some(u) => mcmc::Ensemble::from_positions(&density, u.iter().map(|u| coords.to_z(u)).collect(), seed),
-        };
-        let (draws, last) = mcmc::pilot(ensemble, burn_in);
-        let in_u = |z: &Vec<f64>| current.to_u(z).0;
-        let draws: Vec<Vec<f64>> = draws.iter().map(in_u).collect();
-        positions = Some(last.iter().map(in_u).collect());
-        coords = coords::Coords::choose(lower, upper, &draws);
-    }
-    let density = in_coords(&marginal, &coords);
-    let start = positions.unwrap_or_default().iter().map(|u| coords.to_z(u)).collect();
-    let ensemble = mcmc::Ensemble::from_positions(&density, start, settings.seed.wrapping_add(2));
+    let round = settings.mcmc_burn_in.max(8);
+    let first = settings.mcmc_steps.max(8);
+    let budget = settings.mcmc_max_steps.max(first);
+    let pilot = slice_pilot(&marginal, &u_hat[..p], walkers, round / 2, settings.seed);
+    let adapted = adapt(&marginal, pilot, round, settings.seed);
+    let coords = &adapted.coords;
+    let density = in_coords(&marginal, coords);
+    let start = adapted.positions.iter().map(|u| coords.to_z(u));
+    let seed = settings.seed.wrapping_add(ADAPT_ROUNDS + 1);
+    let ensemble = match adapted.proposal {
+        Some(q) => {
+            let chains = settings.mcmc_chains.max(2);
+            mcmc::Ensemble::from_positions(&density, start.take(chains).collect(), seed).with_proposal(q)
+        }
+        None => mcmc::Ensemble::from_positions(&density, start.collect(), seed),
+    };
     let project = |z: &[f64]| koh.theta(&coords.to_u(z).0).as_slice().to_vec();
-    let run = mcmc::sample_until_converged(ensemble, (burn_in, steps - burn_in, budget), &project);
+    let run = mcmc::sample_until_converged(ensemble, (0, first, budget), &project);
     let traces: Vec<Vec<DVector<f64>>> = run
         .traces
         .iter()
@@ -280,8 +283,66 @@ fn by_sampling(koh: &Koh, u_hat: &[f64], settings: &Settings, base: BayesianFit)
     BayesianFit {
         steps: run.steps,
         sampling_powers: coords.power.clone(),
+        acceptance: run.acceptance,
+        evaluations: adapted.evaluations + run.evaluations,
         ..sampled_fit(&traces, run.convergence, run.evaluations_per_move, base)
     }
+}
+
+/// Rounds of independence sampling between the slice pilot and the run.
+const ADAPT_ROUNDS: u64 = 2;
+
+/// The slice pilot: `steps` ensemble slice steps from a small cloud at θ̂ (unit box).
+fn slice_pilot(marginal: &exact::Marginal, u_hat: &[f64], walkers: usize, steps: usize, seed: u64) -> mcmc::Pilot {
+    let bounds = marginal.theta_bounds();
+    let identity = coords::Coords::identity(bounds.lower.as_slice(), bounds.upper.as_slice());
+    let density = in_coords(marginal, &identity);
+    mcmc::pilot(mcmc::Ensemble::new(&density, u_hat, walkers, seed), steps)
+}
+
+/// What adaptation ends with: the sampling coordinates, the proposal in them (`None` when the
+/// draws could not give one), the walkers' positions (θ's unit box) and the density evaluations
+/// spent since the pilot began.
+struct Adapted {
+    coords: coords::Coords,
+    proposal: Option<proposal::Proposal>,
+    positions: Vec<Vec<f64>>,
+    evaluations: usize,
+}
+
+/// From the pilot's draws, [`ADAPT_ROUNDS`] rounds of: choose coordinates and fit the proposal
+/// to the draws, then `steps` independence steps in them; the last round's draws choose the final
+/// coordinates and proposal. Each round's draws follow the posterior more closely than the last's
+/// (the first pilot starts in a small cloud at θ̂), so the choice improves round by round.
+fn adapt(marginal: &exact::Marginal, pilot: mcmc::Pilot, steps: usize, seed: u64) -> Adapted {
+    let bounds = marginal.theta_bounds();
+    let (lower, upper) = (bounds.lower.as_slice(), bounds.upper.as_slice());
+    let mcmc::Pilot {
+        mut draws,
+        last: mut positions,
+        mut evaluations,
+    } = pilot;
+    for round in 0..=ADAPT_ROUNDS {
+        let coords = coords::Coords::choose(lower, upper, &draws);
+        let proposal = proposal::Proposal::fit(&draws.iter().map(|u| coords.to_z(u)).collect::<Vec<_>>());
+        let Some(q) = proposal.clone().filter(|_| round < ADAPT_ROUNDS) else {
+            return Adapted {
+                coords,
+                proposal,
+                positions,
+                evaluations,
+            };
+        };
+        let density = in_coords(marginal, &coords);
+        let start = positions.iter().map(|u| coords.to_z(u)).collect();
+        let ensemble = mcmc::Ensemble::from_positions(&density, start, seed.wrapping_add(1 + round)).with_proposal(q);
+        let next = mcmc::pilot(ensemble, steps);
+        let in_u = |z: &Vec<f64>| coords.to_u(z).0;
+        draws = next.draws.iter().map(in_u).collect();
+        positions = next.last.iter().map(in_u).collect();
+        evaluations += next.evaluations;
+    }
+    unreachable!("the last round returns")
 }
 
 /// ln m(θ) in the sampling coordinates z (their unit box), with the Jacobian of the map to θ.
