@@ -283,7 +283,7 @@ pub struct Converged {
 }
 
 /// Runs the ensemble for `burn_in` steps (tuning μ of slice steps), then `first` steps, then
-/// extends the run by half until every coordinate of `project` (the quantities of interest) has
+/// extends the run by a quarter until every coordinate of `project` (the quantities of interest) has
 /// split R-hat ≤ 1.01 and ESS ≥ 1000 over the draws after burn-in, or until `budget` steps after
 /// burn-in. Split R-hat compares the halves of every chain, so a chain still drifting from its
 /// start fails it (Vehtari et al. 2021 §4); the caller's burn-in is what it was not asked to judge.
@@ -315,7 +315,7 @@ pub fn sample_until_converged(
                 evaluations: ensemble.evaluations,
             };
         }
-        batch = (done / 2).max(8).min(budget - done);
+        batch = (done / 4).max(8).min(budget - done);
     }
 }
 

@@ -478,6 +478,11 @@ pub(super) fn four_parameter_cantilever(d: &[f64], th: &[f64]) -> f64 {
 /// Eight tested designs of the scale case, its parameter box and its tests: the model at
 /// E = 68,000, G = 26,000, C_r = 200,000, a = 0.3 with 0.3 % seeded scatter.
 fn four_parameter_problem<'a>(model: &'a dyn super::super::Model) -> (Problem<'a>, Bounds) {
+    four_parameter_problem_seeded(model, 13)
+}
+
+/// [`four_parameter_problem`] with the tests' scatter drawn from `seed`.
+fn four_parameter_problem_seeded<'a>(model: &'a dyn super::super::Model, seed: u64) -> (Problem<'a>, Bounds) {
     use rand::{Rng, SeedableRng};
     let designs = [
         [7.0, 15.0],
@@ -490,7 +495,7 @@ fn four_parameter_problem<'a>(model: &'a dyn super::super::Model) -> (Problem<'a
         [10.0, 28.0],
     ];
     let truth = [68_000.0, 26_000.0, 200_000.0, 0.3];
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut gauss = || {
         let (u, v): (f64, f64) = (rng.random(), rng.random());
         (-2.0 * (1.0 - u).ln()).sqrt() * (std::f64::consts::TAU * v).cos()
@@ -515,7 +520,8 @@ fn four_parameter_problem<'a>(model: &'a dyn super::super::Model) -> (Problem<'a
 /// the four-parameter cantilever ([`four_parameter_cantilever`]), eight tested designs, n
 /// Latin-hypercube runs over (design, parameters). Prints the emulator fit's time, one evaluation
 /// of the sampled density (hyperparameters integrated), and the time and convergence of a whole
-/// calibration with a 2,000-step sampler budget (`SCALE_RUNS=100,200` picks the sizes).
+/// calibration with the default sampler, which stops on convergence (`SCALE_RUNS=100,200` picks
+/// the sizes).
 #[test]
 #[ignore]
 fn scale_growth() {
@@ -527,8 +533,6 @@ fn scale_growth() {
     for n in ns {
         let s = Settings {
             emulator_samples: n,
-            mcmc_steps: 2000,
-            mcmc_max_steps: 2000,
             ..Settings::default()
         };
         let sim = emulator_samples(&p, &db, &s);
@@ -554,13 +558,59 @@ fn scale_growth() {
             std::fs::write(format!("{dump}-{n}.csv"), rows.join("\n")).unwrap();
         }
         eprintln!(
-            "n = {n}: emulator fit {fit_s:.2} s, one density {:.3} ms, calibrate {cal_s:.1} s ({} steps, {:.1} evaluations per move), θ̂ {:?}, 95 % {:?}, {:?}",
+            "n = {n}: emulator fit {fit_s:.2} s, one density {:.3} ms, calibrate {cal_s:.1} s ({} steps, {} evaluations), θ̂ {:?}, 95 % {:?}, {:?}",
             1e3 * lik_s,
             fit.steps,
-            fit.evaluations_per_move,
+            fit.evaluations,
             fit.theta.as_slice(),
             fit.interval95,
             fit.convergence
         );
     }
+}
+
+/// The sampler on fresh data (ignored, diagnostic; `--nocapture`): the four-parameter cantilever's
+/// tests drawn again with scatter seeds 101–106 (`FRESH_SEEDS=101,102` picks them), 400 runs,
+/// default settings. Prints per seed the run's steps, acceptance, evaluations, convergence, time
+/// and which 95 % intervals hold the truth; fails if a run ends unconverged.
+#[test]
+#[ignore]
+fn scale_fresh_data() {
+    let model = four_parameter_cantilever;
+    let seeds: Vec<u64> = std::env::var("FRESH_SEEDS")
+        .map(|v| v.split(',').map(|s| s.parse().unwrap()).collect())
+        .unwrap_or((101..=106).collect());
+    let truth = [68_000.0, 26_000.0, 200_000.0, 0.3];
+    let s = Settings {
+        emulator_samples: 400,
+        ..Settings::default()
+    };
+    let mut unconverged = vec![];
+    for seed in seeds {
+        let (p, db) = four_parameter_problem_seeded(&model, seed);
+        let sim = emulator_samples(&p, &db, &s);
+        let t0 = Instant::now();
+        let fit = calibrate(&p, &db, &sim, &s).unwrap();
+        let secs = t0.elapsed().as_secs_f64();
+        let covered: Vec<bool> = fit
+            .interval95
+            .iter()
+            .zip(truth)
+            .map(|(&(lo, hi), t)| lo < t && t < hi)
+            .collect();
+        let converged = fit.convergence.iter().all(|c| c.converged());
+        eprintln!(
+            "seed {seed}: {secs:.1} s, {} steps, acceptance {:.2}, {} evaluations, powers {:?}, R-hat ≤ {:.3}, ESS ≥ {:.0}, truth inside {covered:?}",
+            fit.steps,
+            fit.acceptance,
+            fit.evaluations,
+            fit.sampling_powers,
+            fit.convergence.iter().map(|c| c.split_rhat).fold(0.0, f64::max),
+            fit.convergence.iter().map(|c| c.ess).fold(f64::INFINITY, f64::min),
+        );
+        if !converged {
+            unconverged.push(seed);
+        }
+    }
+    assert!(unconverged.is_empty(), "unconverged: {unconverged:?}");
 }
