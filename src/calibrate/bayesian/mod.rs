@@ -133,7 +133,7 @@ pub struct BayesianFit {
     pub emulator: Emulator,
     /// The discrepancy at the maximum-likelihood point, conditioned on the training residuals (A5–A7).
     pub discrepancy: Discrepancy,
-    /// Density evaluations per walker move of the slice sampler (NaN when computed by quadrature).
+    /// Density evaluations per walker move of the sampler's run (NaN when computed by quadrature).
     pub evaluations_per_move: f64,
     /// Split R-hat and effective sample size per parameter, over the walkers' kept traces (empty
     /// when the posterior was computed by quadrature).
@@ -185,7 +185,7 @@ fn joint_bounds(design: &Bounds, theta: &Bounds) -> Bounds {
 /// 1. Emulator fitted to `sim` (A2–A4), then fixed.
 /// 2. θ̂ maximises the likelihood of the tests (A8–A9) jointly with β_d (GLS), σ_d² and λ_d.
 /// 3. Posterior of θ with β_d, σ_d² and λ_d integrated out: by quadrature for one or two
-///    parameters, by the ensemble slice sampler for more.
+///    parameters, by sampling for more ([`by_sampling`]).
 ///    Priors (all proper, independent): θ uniform on `problem.bounds`; log σ_d² uniform on
 ///    [ln (10⁻³ s)², ln (3 s)²] and each log λ_d uniform on [ln 0.1, ln 100] (designs scaled to the
 ///    unit cube), where s is the rms residual of the tests against the emulator at the centre of the
