@@ -68,6 +68,8 @@ fn scale_study_replays_and_reports_its_convergence() {
     let per_move = sampler["evaluations_per_move"].as_f64().unwrap();
     assert!((0.99..=1.01).contains(&per_move), "{sampler}");
     let acceptance = sampler["acceptance"].as_f64().unwrap();
+    // Measured 0.40–0.59 over sampler seeds 1–6 and scatter seeds 101–106; below 0.1 the proposal
+    // would be missing the posterior and the run would be far from the 10 s target.
     assert!((0.0..=1.0).contains(&acceptance) && acceptance > 0.1, "{sampler}");
     // Eight chains times the run's steps, plus the pilot's and the adaptation's.
     let evaluations = sampler["evaluations"].as_u64().unwrap();
