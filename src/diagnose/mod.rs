@@ -23,6 +23,7 @@
 //!    noise, and how many specimens there make the test decisive (power at α).
 //! 8. [`residuals`] and [`text`]: the residual table, its trends, and the words.
 
+pub mod after_loop;
 pub mod candidates;
 pub mod evidence;
 pub mod extension;
@@ -72,6 +73,8 @@ pub struct Observation {
     pub count: usize,
     /// Sample standard deviation of the replicates (`None` with one test).
     pub std_dev: Option<f64>,
+    /// Which of [`Inputs::outputs`] this observes (0 for a scalar response).
+    pub output: usize,
 }
 
 impl Observation {
@@ -87,7 +90,14 @@ impl Observation {
             mean,
             count: n,
             std_dev,
+            output: 0,
         }
+    }
+
+    /// The same replicates observing output `k` of a multi-output study (a curve feature).
+    pub fn of_output(mut self, k: usize) -> Self {
+        self.output = k;
+        self
     }
 }
 
@@ -136,6 +146,29 @@ pub struct Inputs<'a> {
     /// The user's candidate causes (study hypotheses); the built-in shapes are added by [`diagnose`].
     pub hypotheses: Vec<Shape>,
     pub settings: Settings,
+    /// The outputs each tested design is observed in: empty (or one) for a scalar response; the
+    /// names of curve features otherwise. With several, the model and every shape are called with
+    /// the output's index appended to the design (`[c, t, k]`).
+    pub outputs: Vec<String>,
+    /// The shapes every diagnosis tries besides the hypotheses (`None`: [`Shape::built_ins`] over
+    /// the design variables).
+    pub built_ins: Option<Vec<Shape>>,
+    /// The noise when the caller knows it better than the replicate scatter of the observations
+    /// (curve features whitened by their covariance: σ = 1 with the covariance's own degrees of
+    /// freedom).
+    pub noise: Option<NoiseModel>,
+}
+
+impl Inputs<'_> {
+    /// An observation's point as the model and the shapes see it: the design, and with several
+    /// outputs the output's index after it.
+    pub fn point(&self, o: &Observation) -> Vec<f64> {
+        if self.outputs.len() > 1 {
+            o.design.iter().copied().chain([o.output as f64]).collect()
+        } else {
+            o.design.clone()
+        }
+    }
 }
 
 /// The diagnosis inputs of a study: its training and validation designs (replicates summarised),
@@ -187,6 +220,9 @@ pub fn inputs_with_extensions<'a>(
             )
             .collect(),
         settings: Settings::default(),
+        outputs: Vec::new(),
+        built_ins: None,
+        noise: None,
     }
 }
 
@@ -220,6 +256,9 @@ pub struct Diagnosis {
     pub extensions: Vec<joint::SolverExtension>,
     /// The test that would best tell the leading explanations apart.
     pub next_test: Option<NextTest>,
+    /// How the models the loop calibrated changed the screening's verdict (absent without a loop).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub after_loop: Option<after_loop::AfterLoop>,
     /// The verdict, the action and the evidence as one text (terminal and report).
     pub summary: String,
     pub noise: NoiseModel,
@@ -410,8 +449,22 @@ pub struct NextTest {
     pub specimens: Option<usize>,
     /// Specimens to add to those already tested there.
     pub additional_specimens: Option<usize>,
-    /// The power of that test with `specimens` specimens.
+    /// The power of the recommended test at the explanations' fitted parameters.
     pub power: Option<f64>,
+    /// Its power averaged over the uncertainty of the fitted parameters (absent without their
+    /// covariance).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub expected_power: Option<f64>,
+    /// The recommended specimens design by design: one design, or a programme of two or three
+    /// when that is cheaper or when no single design decides (empty when nothing decides).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub programme: Vec<next_test::ProgrammeRun>,
+    /// Only designs outside the design bounds decide (the programme lies there).
+    #[serde(default)]
+    pub outside_range: bool,
+    /// Independent measurements of a parameter that would decide with the tests in hand.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub measurements: Vec<next_test::Measurement>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -495,7 +548,7 @@ impl<'a> Context<'a> {
         let data = Data {
             model: inputs.model,
             bounds: &inputs.parameter_bounds,
-            designs: obs.iter().map(|o| o.design.clone()).collect(),
+            designs: obs.iter().map(|o| inputs.point(o)).collect(),
             means: obs.iter().map(|o| o.mean).collect(),
             weights,
         };
@@ -584,57 +637,188 @@ partly explains the misfit when the same lack-of-fit test of its extended model 
 /// Runs the diagnosis, step by step (see the module notes). Errors only when there are no training
 /// designs or the model cannot be evaluated.
 pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
-    let mut notes = Vec::new();
-    let replicate_noise = noise::from_replicates(&inputs.observations);
-    let cx = Context::new(inputs, replicate_noise.as_ref())?;
-    let base = candidates::uncorrected(&cx)?;
-    let shapes = candidates::shapes(&cx, &base, &mut notes);
-    let fitted = candidates::fit_all(&cx, shapes, &mut notes);
-    let assessed = evidence::assess(&cx, &base, &fitted);
-    let ranked = ranking::rank(&cx, base, fitted, assessed);
-    let noise = noise::finalise(replicate_noise, &cx, &ranked);
-    let decision = verdict::decide(&cx, &ranked);
-    let extended = extension::extend(&cx, &ranked, &decision);
-    let next_test = next_test::recommend(&cx, &ranked, &decision, &noise);
-    let residuals = residuals::table(&cx, &ranked.base.model.fit, &noise);
-    let structure = residuals::trends(&cx, &residuals);
-    let candidates = ranked.candidates(&cx);
-    let confounded = evidence::absorbed_sentences(&candidates);
-    let words = text::describe(&text::Facts {
-        cx: &cx,
-        noise: &noise,
-        residuals: &residuals,
-        structure: &structure,
-        candidates: &candidates,
-        base: &ranked.base,
-        decision: &decision,
-        rivals: &ranked.rivals,
-        extended: extended.as_ref(),
-        next_test: next_test.as_ref(),
-        confounded: &confounded,
-    });
-    Ok(Diagnosis {
-        discrepancy_detected: decision.detected,
-        cause: decision.cause.map(|k| candidates[k].name.clone()),
-        verdict: decision.verdict,
-        headline: words.headline,
-        leading: decision.leading_names(&candidates),
-        action: words.action,
-        evidence: words.evidence,
-        limits: words.limits,
-        uncorrected: ranked.uncorrected(&cx),
-        lack_of_fit: ranked.base.assessed.lack_of_fit.clone(),
-        rivals: ranked.rivals.clone(),
-        candidates,
-        extended,
-        extensions: Vec::new(),
-        next_test,
-        summary: words.summary,
-        noise,
-        residuals,
-        structure,
-        confounded,
-        rule: RULE.to_string(),
-        notes,
-    })
+    Ok(Evidence::gather(inputs)?.conclusion(&[], &[]))
+}
+
+/// A hypothesis the loop calibrated with the solver, as the diagnosis sees it.
+pub struct LoopModel<'a> {
+    /// The screening candidate it extends.
+    pub hypothesis: String,
+    /// The extended model taken as the simulation: its parameters are θ and the extension's
+    /// variables; its candidates are the study's terms and the other hypotheses' screening shapes
+    /// (so that each can be tested with the extended model as the base).
+    pub inputs: Inputs<'a>,
+}
+
+/// The diagnosis from all the evidence: the screening of `inputs`, then every model the loop
+/// calibrated (`looped`), decided once ([`after_loop`]). Also returns each loop model's own
+/// diagnosis (what it leaves unexplained).
+pub fn conclude(inputs: &Inputs, looped: &[LoopModel]) -> Result<(Diagnosis, Vec<Diagnosis>), CalibrationError> {
+    let screening = Evidence::gather(inputs)?;
+    let evidence: Vec<Evidence> = looped
+        .iter()
+        .map(|m| Evidence::gather(&m.inputs))
+        .collect::<Result<_, _>>()?;
+    let own: Vec<Diagnosis> = evidence.iter().map(|e| e.conclusion(&[], &[])).collect();
+    let names: Vec<String> = looped.iter().map(|m| m.hypothesis.clone()).collect();
+    Ok((screening.conclusion(&evidence, &names), own))
+}
+
+/// The evidence for one model taken as the simulation: every candidate fitted with it, tested,
+/// ranked, and the screening decision (steps 1–5).
+pub(crate) struct Evidence<'a> {
+    pub cx: Context<'a>,
+    pub ranked: ranking::Ranked,
+    pub decision: verdict::Decision,
+    pub noise: NoiseModel,
+    pub notes: Vec<String>,
+}
+
+impl<'a> Evidence<'a> {
+    fn gather(inputs: &'a Inputs<'a>) -> Result<Self, CalibrationError> {
+        let mut notes = Vec::new();
+        let replicate_noise = inputs
+            .noise
+            .clone()
+            .or_else(|| noise::from_replicates(&inputs.observations));
+        let cx = Context::new(inputs, replicate_noise.as_ref())?;
+        let base = candidates::uncorrected(&cx)?;
+        let shapes = candidates::shapes(&cx, &base, &mut notes);
+        let fitted = candidates::fit_all(&cx, shapes, &mut notes);
+        let assessed = evidence::assess(&cx, &base, &fitted);
+        let ranked = ranking::rank(&cx, base, fitted, assessed);
+        let noise = noise::finalise(replicate_noise, &cx, &ranked);
+        let decision = verdict::decide(&cx, &ranked);
+        Ok(Evidence {
+            cx,
+            ranked,
+            decision,
+            noise,
+            notes,
+        })
+    }
+
+    /// The diagnosis: this evidence's decision, or with loop models the decision after the loop
+    /// (steps 5b–8).
+    fn conclusion(&self, looped: &[Evidence], loop_names: &[String]) -> Diagnosis {
+        let cx = &self.cx;
+        let ranked = &self.ranked;
+        let (decision, after) = if looped.is_empty() {
+            (self.decision.clone(), None)
+        } else {
+            let (d, a) = after_loop::decide(self, looped, loop_names);
+            (d, Some(a))
+        };
+        let candidates = ranked.candidates(cx);
+        let name = |who| verdict::name_of(who, &candidates, loop_names);
+        let extended = decision.cause.and_then(|who| match who {
+            verdict::Who::Candidate(k) => extension::extend(cx, ranked, k),
+            verdict::Who::Extended(j) => {
+                let k = ranked.entries.iter().position(|e| e.model.name() == loop_names[j])?;
+                let screening = extension::extend(cx, ranked, k)?;
+                Some(extension::from_loop(screening, &looped[j]))
+            }
+            verdict::Who::Uncorrected => None,
+        });
+        let explanations: Vec<next_test::Explanation> = decision
+            .compare
+            .iter()
+            .map(|&who| match who {
+                verdict::Who::Uncorrected => next_test::Explanation::from_entry(cx, &ranked.base, name(who), true),
+                verdict::Who::Candidate(k) => {
+                    next_test::Explanation::from_entry(cx, &ranked.entries[k], name(who), false)
+                }
+                verdict::Who::Extended(j) => {
+                    next_test::Explanation::from_entry(&looped[j].cx, &looped[j].ranked.base, name(who), false)
+                }
+            })
+            .collect();
+        let next_test = next_test::recommend(cx, &explanations, &self.noise);
+        let residuals = residuals::table(cx, &ranked.base.model.fit, &self.noise);
+        let structure = residuals::trends(cx, &residuals);
+        let confounded = evidence::absorbed_sentences(&candidates);
+        let screening_words = after.as_ref().map(|_| {
+            let w = text::describe(&self.facts(
+                &self.decision,
+                &candidates,
+                &residuals,
+                &structure,
+                None,
+                None,
+                &confounded,
+                &[],
+            ));
+            w.headline
+        });
+        let after = after.map(|mut a| {
+            a.screening_headline = screening_words.unwrap_or_default();
+            a
+        });
+        let mut facts = self.facts(
+            &decision,
+            &candidates,
+            &residuals,
+            &structure,
+            extended.as_ref(),
+            next_test.as_ref(),
+            &confounded,
+            loop_names,
+        );
+        facts.after_loop = after.as_ref();
+        let words = text::describe(&facts);
+        Diagnosis {
+            discrepancy_detected: decision.detected,
+            cause: decision.cause.map(name),
+            verdict: decision.verdict,
+            headline: words.headline,
+            leading: decision.leading.iter().map(|&w| name(w)).collect(),
+            action: words.action,
+            evidence: words.evidence,
+            limits: words.limits,
+            uncorrected: ranked.uncorrected(cx),
+            lack_of_fit: ranked.base.assessed.lack_of_fit.clone(),
+            rivals: ranked.rivals.clone(),
+            candidates,
+            extended,
+            extensions: Vec::new(),
+            next_test,
+            after_loop: after,
+            summary: words.summary,
+            noise: self.noise.clone(),
+            residuals,
+            structure,
+            confounded,
+            rule: RULE.to_string(),
+            notes: self.notes.clone(),
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)] // the words' inputs, each a typed result of a step
+    fn facts<'f>(
+        &'f self,
+        decision: &'f verdict::Decision,
+        candidates: &'f [Candidate],
+        residuals: &'f [Residual],
+        structure: &'f [Trend],
+        extended: Option<&'f Extended>,
+        next_test: Option<&'f NextTest>,
+        confounded: &'f [String],
+        loop_names: &'f [String],
+    ) -> text::Facts<'f> {
+        text::Facts {
+            cx: &self.cx,
+            noise: &self.noise,
+            residuals,
+            structure,
+            candidates,
+            base: &self.ranked.base,
+            decision,
+            rivals: &self.ranked.rivals,
+            extended,
+            next_test,
+            confounded,
+            loop_names,
+            after_loop: None,
+        }
+    }
 }

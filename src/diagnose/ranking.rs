@@ -128,7 +128,7 @@ fn set_weights(base: &mut Entry, entries: &mut [Entry]) {
     }
 }
 
-fn rival_tests(cx: &Context, entries: &[Entry], l: usize) -> Vec<RivalTest> {
+pub(crate) fn rival_tests(cx: &Context, entries: &[Entry], l: usize) -> Vec<RivalTest> {
     let leader = &entries[l];
     let n = cx.train.len();
     let both_fit = n >= cx.p() + 2 && (cx.known() || n > cx.p() + 2);
@@ -147,7 +147,7 @@ fn rival_tests(cx: &Context, entries: &[Entry], l: usize) -> Vec<RivalTest> {
 }
 
 /// Both shapes fitted together; the leader beats the rival when its shape still counts.
-fn encompassing(cx: &Context, leader: &Entry, rival: &Entry) -> RivalTest {
+pub(crate) fn encompassing(cx: &Context, leader: &Entry, rival: &Entry) -> RivalTest {
     let (ls, rs) = (leader.model.shape.as_ref(), rival.model.shape.as_ref());
     let shapes: Vec<&super::Shape> = ls.into_iter().chain(rs).collect();
     let k = cx.p() + 2;

@@ -219,17 +219,61 @@ fn extended_study(study: &Study, k: usize) -> Study {
         .diagnosis
         .hypotheses
         .retain(|h| matches!(h.kind, HypothesisKind::Term(_)));
+    // A term reads its values by position (design variables, parameters, constants, y): compiled
+    // for the study's parameters, it must be compiled again for the enlarged set, or it would read
+    // an extension variable where a constant or y stands.
+    let symbols = extended.term_symbols();
+    for h in &mut extended.diagnosis.hypotheses {
+        if let HypothesisKind::Term(expr) = &h.kind {
+            let again = crate::study::Expression::compile(expr.text(), &symbols).expect("compiled for fewer symbols");
+            h.kind = HypothesisKind::Term(again);
+        }
+    }
     extended.splits.clear();
     extended
 }
 
-/// Calibrates and diagnoses an extended model, and judges it against the screening's diagnosis.
-pub fn assess(study: &Study, m: &ExtendedModel, screening: &Diagnosis) -> Result<SolverExtension, Error> {
+/// The extended model as the diagnosis sees it ([`diagnose::LoopModel`]): the extended study's
+/// terms as candidates, and the other extension hypotheses' screening effects (`extensions`, the
+/// surrogates of their screening runs, over θ) beside them, so that each can be tested with this
+/// model as the base.
+pub fn loop_model<'m>(
+    study: &Study,
+    m: &'m ExtendedModel,
+    baseline: &std::sync::Arc<dyn Model + Send>,
+    extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
+) -> diagnose::LoopModel<'m> {
+    let mut inputs = diagnose::inputs_from_study(&m.study, &m.surrogates);
+    let p = study.parameters.len();
+    for (j, ext) in extensions.iter().filter(|(j, _)| *j != m.hypothesis) {
+        let h = &study.diagnosis.hypotheses[*j];
+        let variables = h.extension().unwrap_or_default();
+        inputs.hypotheses.push(diagnose::Shape::effect(
+            h.name.clone(),
+            variables,
+            ext.clone(),
+            baseline.clone(),
+            p,
+        ));
+    }
+    diagnose::LoopModel {
+        hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
+        inputs,
+    }
+}
+
+/// Calibrates an extended model with the study's methods, and records it with its own diagnosis
+/// (`own`, what it leaves unexplained) against the final one (`baseline`).
+pub fn assess(
+    study: &Study,
+    m: &ExtendedModel,
+    baseline: &Diagnosis,
+    own: &Diagnosis,
+) -> Result<SolverExtension, Error> {
     let s = &m.study;
     let model = &m.surrogates as &dyn Model;
     let calibration = calibrate(s, &problem(s, model), Some(&m.data));
-    let diagnosis = diagnose::diagnose(&diagnose::inputs_from_study(s, model))
-        .map_err(|e| Error::Failed(format!("the extended model could not be diagnosed: {e}")))?;
+    let diagnosis = own;
     let results = Results::build(
         s,
         model,
@@ -280,8 +324,8 @@ pub fn assess(study: &Study, m: &ExtendedModel, screening: &Diagnosis) -> Result
         fixed,
         m.runs.clone(),
         calibrated,
-        screening,
-        &diagnosis,
+        baseline,
+        diagnosis,
     ))
 }
 

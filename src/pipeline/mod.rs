@@ -30,7 +30,7 @@ use std::time::Instant;
 
 pub use runs::{Executed, ExecutorKind, FailedRun, RunOutcomes};
 pub use stages::{
-    calibrate, diagnose, diagnose_solver, extension_surrogates, model, problem, simulation_data, surrogates,
+    calibrate, diagnose, extension_models, extension_surrogates, model, problem, simulation_data, surrogates,
 };
 
 use crate::calibrate::bayesian::SimulationData;
@@ -128,11 +128,11 @@ pub fn run(
     };
     let calibration = calibrate(study, &problem(study, simulated.model()), simulated.data());
     let mut simulated = simulated;
-    let diagnosis = match (simulated.diagnose(study), &mut simulated, source) {
-        (Ok(screening), Simulated::Solver(runs), Some(source)) => {
-            extend_with_solver(study, runs, screening, &source, options, engine, reporter)?
+    let diagnosis = match (&mut simulated, source) {
+        (Simulated::Solver(runs), Some(source)) => {
+            diagnose_with_solver(study, runs, &source, options, engine, reporter)?
         }
-        (diagnosis, ..) => diagnosis,
+        (simulated, _) => diagnose(study, simulated.model()),
     };
     engine.signals.sweep_done();
     let splits = calibrate_splits(study, &simulated);
@@ -179,17 +179,23 @@ fn solver_runs<'s>(
     })
 }
 
-/// The solver in the loop ([`extend`]): the hypotheses the screening chose are extended with new
-/// runs on the same store, calibrated and judged; the diagnosis gains their results.
-fn extend_with_solver(
+/// A solver study's diagnosis: the screening (the extension hypotheses judged from their runs at
+/// their probe values), then the solver in the loop ([`extend`]) for the hypotheses it leaves
+/// open, then one decision from all of it ([`crate::diagnose::conclude`]).
+fn diagnose_with_solver(
     study: &Study,
     runs: &mut SolverRuns,
-    screening: Diagnosis,
     source: &runs::Source,
     options: &RunOptions,
     engine: &Engine,
     reporter: &mut dyn Reporter,
 ) -> Result<Result<Diagnosis, CalibrationError>, Error> {
+    let extensions = extension_models(study, runs.sim, &runs.plan, &runs.usable);
+    let inputs = crate::diagnose::inputs_with_extensions(study, &runs.surrogates, &extensions);
+    let screening = match crate::diagnose::diagnose(&inputs) {
+        Ok(d) => d,
+        Err(e) => return Ok(Err(e)),
+    };
     if engine.signals.interrupted() {
         reporter.report(Event::Interrupted { out: &options.out });
         return Err(Error::Interrupted);
@@ -200,16 +206,30 @@ fn extend_with_solver(
     }
     let store = &mut runs.executed.store;
     let joint = extend::execute(study, runs.sim, &chosen, source, options, engine, store, reporter)?;
-    let mut extensions = Vec::new();
-    for &k in &chosen {
-        let model = extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint)?;
-        let extension = extend::assess(study, &model, &screening)?;
-        runs.extended
-            .push((model, extension.parameters.values().copied().collect()));
-        extensions.push(extension);
+    let models = chosen
+        .iter()
+        .map(|&k| extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint))
+        .collect::<Result<Vec<_>, _>>()?;
+    let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(runs.surrogates.clone());
+    let looped: Vec<_> = models
+        .iter()
+        .map(|m| extend::loop_model(study, m, &baseline, &extensions))
+        .collect();
+    let (diagnosis, own) = match crate::diagnose::conclude(&inputs, &looped) {
+        Ok(d) => d,
+        Err(e) => return Ok(Err(e)),
+    };
+    let records = models
+        .iter()
+        .zip(&own)
+        .map(|(m, own)| extend::assess(study, m, &diagnosis, own))
+        .collect::<Result<Vec<_>, _>>()?;
+    drop(looped);
+    for (m, x) in models.into_iter().zip(&records) {
+        runs.extended.push((m, x.parameters.values().copied().collect()));
     }
     runs.joint = Some(joint);
-    Ok(Ok(screening.with_extensions(extensions)))
+    Ok(Ok(diagnosis.with_extensions(records)))
 }
 
 /// The simulation as the numerics see it, with what it was built from.
@@ -253,14 +273,6 @@ impl Simulated<'_> {
         match self {
             Simulated::ClosedForm(_) => None,
             Simulated::Solver(runs) => Some(&runs.data),
-        }
-    }
-
-    /// Model error over every tested design; a solver study's extension hypotheses from their runs.
-    fn diagnose(&self, study: &Study) -> Result<Diagnosis, CalibrationError> {
-        match self {
-            Simulated::ClosedForm(model) => diagnose(study, model.as_ref()),
-            Simulated::Solver(r) => diagnose_solver(study, r.sim, &r.plan, &r.usable, &r.surrogates),
         }
     }
 
