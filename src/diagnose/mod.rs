@@ -49,6 +49,7 @@ pub use shapes::{Origin, Shape};
 use crate::calibrate::{Bounds, CalibrationError, Model};
 use crate::study::Study;
 use fit::Data;
+use verdict::Verdict;
 
 /// Which role a tested design plays.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -733,7 +734,10 @@ impl<'a> Evidence<'a> {
                 }
             })
             .collect();
-        let next_test = next_test::recommend(cx, &explanations, &self.noise);
+        // A confirming test may count the tests in hand; where they left it open, new tests must
+        // decide on their own.
+        let fresh = !matches!(decision.verdict, Verdict::CauseNamed | Verdict::NoModelError);
+        let next_test = next_test::recommend(cx, &explanations, &self.noise, fresh);
         let residuals = residuals::table(cx, &ranked.base.model.fit, &self.noise);
         let structure = residuals::trends(cx, &residuals);
         let confounded = evidence::absorbed_sentences(&candidates);

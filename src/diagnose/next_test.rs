@@ -119,8 +119,11 @@ const MAX_PROGRAMME: usize = 120;
 const DRAWS: usize = 64;
 
 /// The next test: what it compares, where, with how many specimens; `None` without a design
-/// space. `compare`: the explanations to tell apart (the uncorrected model may be one).
-pub(crate) fn recommend(cx: &Context, ex: &[Explanation], noise: &NoiseModel) -> Option<NextTest> {
+/// space. `ex`: the explanations to tell apart (the uncorrected model may be one). `fresh`: the
+/// tests in hand left them open, so the new specimens must decide on their own evidence — the
+/// increase of λ over what the tests in hand give reaches the target (when the tests in hand have
+/// decided, a confirming test may count them).
+pub(crate) fn recommend(cx: &Context, ex: &[Explanation], noise: &NoiseModel, fresh: bool) -> Option<NextTest> {
     if cx.inputs.design_bounds.dim() == 0 {
         return None;
     }
@@ -134,7 +137,8 @@ pub(crate) fn recommend(cx: &Context, ex: &[Explanation], noise: &NoiseModel) ->
     };
     let z_alpha = stats::normal_quantile(1.0 - cx.alpha() / 2.0);
     let target = (z_alpha + stats::normal_quantile(cx.inputs.settings.power)).powi(2);
-    let search = Search::new(cx, &ex, &sigma, target);
+    let mut search = Search::new(cx, &ex, &sigma, target);
+    search.fresh = fresh;
     let inside = search.cheapest(&candidate_points(
         cx,
         &cx.inputs.design_bounds,
@@ -236,6 +240,8 @@ struct Search<'a, 'e> {
     unit: f64,
     /// Each compared pair with the directions that count.
     pairs: Vec<((usize, usize), Vec<Direction>)>,
+    /// Count only what new specimens add to λ (see [`recommend`]).
+    fresh: bool,
 }
 
 impl<'a, 'e> Search<'a, 'e> {
@@ -265,6 +271,7 @@ impl<'a, 'e> Search<'a, 'e> {
             target,
             unit: 1.0,
             pairs,
+            fresh: false,
         }
         .with_unit(unit)
     }
@@ -337,7 +344,7 @@ impl<'a, 'e> Search<'a, 'e> {
         let mut worst = (f64::INFINITY, (0, 1));
         for (k, (pair, dir)) in self.directions().into_iter().enumerate() {
             let adds: Vec<(&Rows, f64)> = runs.iter().map(|&(i, m)| (&table.rows[i][k], m as f64)).collect();
-            let lam = dir.lambda(&adds);
+            let lam = dir.lambda(&adds) - if self.fresh { dir.lambda(&[]) } else { 0.0 };
             if lam < worst.0 {
                 worst = (lam, pair);
             }
@@ -357,9 +364,31 @@ impl<'a, 'e> Search<'a, 'e> {
         })
     }
 
-    /// The cheapest programme over `points` that reaches the target: one design, else two, else three.
+    /// The cheapest programme over `points` that reaches the target: one design, else two, else three
+    /// (specimens are new ones). When the tests in hand already reach it (a confirmation), no new
+    /// specimen: the tested design where one more would add most is named with none.
     fn cheapest(&self, points: &[Vec<f64>]) -> Option<Pick> {
         let table = self.table(points);
+        let in_hand = self
+            .directions()
+            .iter()
+            .map(|(_, d)| d.lambda(&[]))
+            .fold(f64::INFINITY, f64::min);
+        if !self.fresh && in_hand >= self.target {
+            let tested = (0..table.points.len()).filter(|&i| tested_at(self.cx, &table.points[i]).is_some());
+            let best = tested.max_by(|&a, &b| {
+                self.weakest_in(&table, &[(a, 1)])
+                    .0
+                    .total_cmp(&self.weakest_in(&table, &[(b, 1)]).0)
+            })?;
+            return Some(Pick {
+                runs: vec![(table.points[best].clone(), 0)],
+                pair: self.weakest_in(&table, &[]).1,
+                lambda: in_hand,
+                decides: true,
+                expected_power: None,
+            });
+        }
         let single = (0..table.points.len())
             .filter_map(|i| self.fewest(&table, &[i], MAX_SPECIMENS))
             .min_by_key(|p| p.total());
@@ -531,10 +560,11 @@ impl<'a, 'e> Search<'a, 'e> {
                         .map(|(d, m)| self.rows(d, dir.truth, dir.rival, Some(&beta)).map(|r| (r, *m as f64)))
                         .collect::<Option<_>>()?;
                     let adds: Vec<(&Rows, f64)> = rows.iter().map(|(r, m)| (r, *m)).collect();
-                    worst = worst.min(moved.lambda(&adds));
+                    let fresh = if self.fresh { moved.lambda(&[]) } else { 0.0 };
+                    worst = worst.min(moved.lambda(&adds) - fresh);
                 }
             }
-            total += stats::normal_cdf(worst.sqrt() - z_alpha);
+            total += stats::normal_cdf(worst.max(0.0).sqrt() - z_alpha);
         }
         Some(total / DRAWS as f64)
     }
@@ -545,6 +575,10 @@ impl<'a, 'e> Search<'a, 'e> {
         let Some(((a, b), dirs)) = self.pairs.first() else {
             return Vec::new();
         };
+        // The tests in hand already decide: no measurement is needed.
+        if dirs.iter().map(|d| d.lambda(&[])).fold(f64::INFINITY, f64::min) >= target {
+            return Vec::new();
+        }
         let (ea, eb) = (self.ex[*a], self.ex[*b]);
         let mut out = Vec::new();
         for name in &ea.names {
@@ -578,9 +612,6 @@ impl<'a, 'e> Search<'a, 'e> {
             let (mut lo, mut hi) = (1e-9 * scale, 10.0 * scale);
             if !(lam(lo) >= target) {
                 continue;
-            }
-            if lam(hi) >= target {
-                lo = hi;
             }
             for _ in 0..60 {
                 let mid = (lo * hi).sqrt();
@@ -910,6 +941,7 @@ fn describe_common(
     let pt = &observation_points(cx, &d)[0];
     let (ya, yb) = (ea.predict(pt), eb.predict(pt));
     let already_tested = tested_at(cx, &d);
+    // The specimens of a programme are new ones: at a tested design they add to those tested.
     let programme: Vec<ProgrammeRun> = pick
         .runs
         .iter()
@@ -917,8 +949,8 @@ fn describe_common(
             let tested = tested_at(cx, d);
             ProgrammeRun {
                 design: named(cx, d),
-                specimens: *m,
-                additional: m.saturating_sub(tested.as_ref().map_or(0, |t| t.1)),
+                specimens: m + tested.as_ref().map_or(0, |t| t.1),
+                additional: *m,
                 tested_as: tested.map(|t| t.0),
             }
         })
@@ -932,8 +964,8 @@ fn describe_common(
         predictions: [ya, yb],
         separation: 0.0,
         compared: ex.iter().map(|e| (e.name.clone(), e.predict(pt))).collect(),
-        specimens: single.then_some(m),
-        additional_specimens: single.then(|| m.saturating_sub(already_tested.as_ref().map_or(0, |t| t.1))),
+        specimens: single.then(|| m + already_tested.as_ref().map_or(0, |t| t.1)),
+        additional_specimens: single.then_some(m),
         already_tested,
         power,
         expected_power: pick.expected_power,
@@ -967,17 +999,23 @@ fn describe(
 fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
     let power = 100.0 * cx.inputs.settings.power;
     let alpha = cx.alpha();
-    let expected = t.expected_power.map_or(String::new(), |p| {
-        if p >= cx.inputs.settings.power {
-            format!(" ({:.0} % over the uncertainty of the fitted parameters)", 100.0 * p)
-        } else {
+    // The power over the uncertainty of the fitted parameters: said beside, or as a caveat when
+    // no programme could reach the target over it.
+    let (expected, caveat) = match t.expected_power {
+        Some(p) if p + 0.005 >= cx.inputs.settings.power => (
+            format!(" ({:.0} % over the uncertainty of the fitted parameters)", 100.0 * p),
+            String::new(),
+        ),
+        Some(p) => (
+            String::new(),
             format!(
-                " at the fitted parameters, but only {:.0} % over their uncertainty: more tests would first pin \
-                 them down",
+                "; over the uncertainty of the fitted parameters the power is only {:.0} %: the tests in hand pin \
+                 them too loosely for any programme to be sure",
                 100.0 * p
-            )
-        }
-    });
+            ),
+        ),
+        None => (String::new(), String::new()),
+    };
     let measure = measurement_words(&t.measurements);
     if !decides {
         let mut s = format!(
@@ -1017,6 +1055,7 @@ fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
             many.iter().map(|r| r.additional).sum::<usize>()
         ),
     };
+    s.push_str(&caveat);
     if let Some(m) = measure {
         s.push_str(&format!("; alternatively, {m}"));
     }

@@ -227,9 +227,13 @@ fn headline(f: &Facts) -> String {
                     )
                 });
             let bound = alpha / f.rivals.len().max(1) as f64;
+            // After the loop the decision's own second explanation says what still adds.
             let rival = f
-                .rivals
-                .iter()
+                .after_loop
+                .is_none()
+                .then_some(f.rivals)
+                .into_iter()
+                .flatten()
                 .filter(|r| r.p_rival_given_leader.is_some_and(|p| p < bound))
                 .min_by(|a, b| {
                     a.p_rival_given_leader

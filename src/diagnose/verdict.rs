@@ -141,9 +141,28 @@ pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
     let (verdict, cause, leading, compare) =
         if rejects(ranked.entries[l].assessed.lack_of_fit.as_ref()) || adds.is_some() {
             let next = adds.or(unbeaten.first().copied()).or(closest);
-            // Without a rival to set it against, the cause against no correction.
+            // Without a rival to set it against, the cause against no correction. A rival whose
+            // shape still adds is left open beside the cause: the loop judges it too.
             let compare = vec![named(l), next.map_or(Who::Uncorrected, named)];
-            (Verdict::PartlyExplained, Some(named(l)), vec![named(l)], compare)
+            // So are the rivals the leader did not beat; and where the leader's own model misses
+            // the tests, its wins say little: every candidate that explains the misfit may be the
+            // whole story, and is judged by its own model after the loop.
+            let misses = rejects(ranked.entries[l].assessed.lack_of_fit.as_ref());
+            let mut open: Vec<usize> = std::iter::once(l).chain(adds).collect();
+            let others = (0..ranked.entries.len()).filter(|&k| {
+                if misses {
+                    ranked.entries[k].explains
+                } else {
+                    unbeaten.contains(&k)
+                }
+            });
+            for k in others {
+                if !open.contains(&k) {
+                    open.push(k);
+                }
+            }
+            let open = open.into_iter().map(named).collect();
+            (Verdict::PartlyExplained, Some(named(l)), open, compare)
         } else if unbeaten.is_empty() {
             let compare = vec![named(l), closest.map_or(Who::Uncorrected, named)];
             (Verdict::CauseNamed, Some(named(l)), vec![named(l)], compare)

@@ -29,15 +29,17 @@ use crate::report::Results;
 use crate::study::{HypothesisKind, SolverSimulation, Study};
 
 /// The hypotheses to extend with the solver (indices into `study.diagnosis.hypotheses`): the
-/// named cause (also when it only partly explains the misfit), or the two leading explanations
-/// when the data cannot tell them apart; only model extensions with ranged variables. Nothing when
-/// there is no model error to explain, no candidate explains it, or the tests are too few to fit
-/// the extension's parameters.
+/// named cause, or, when the data cannot tell the leading explanations apart or the cause only
+/// partly explains the misfit (with a rival that still adds), every explanation left open that is
+/// a model extension with ranged variables
+/// (at most [`MAX_EXTENDED`], best first): the loop's models then decide between them. Nothing
+/// when there is no model error to explain, no candidate explains it, or the tests are too few to
+/// fit the extension's parameters.
 pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
     use crate::diagnose::verdict::Verdict;
     let names: Vec<&String> = match diagnosis.verdict {
-        Verdict::CauseNamed | Verdict::PartlyExplained => diagnosis.cause.iter().collect(),
-        Verdict::CannotTellApart => diagnosis.leading.iter().take(2).collect(),
+        Verdict::CauseNamed => diagnosis.cause.iter().collect(),
+        Verdict::PartlyExplained | Verdict::CannotTellApart => diagnosis.leading.iter().collect(),
         Verdict::NoModelError | Verdict::Unexplained | Verdict::TooFewTests => Vec::new(),
     };
     let hypotheses = &study.diagnosis.hypotheses;
@@ -48,8 +50,12 @@ pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
                 .iter()
                 .position(|h| &h.name == name && !h.ranges().is_empty())
         })
+        .take(MAX_EXTENDED)
         .collect()
 }
+
+/// The most hypotheses one loop extends (each costs a Latin hypercube of runs per design).
+pub const MAX_EXTENDED: usize = 3;
 
 /// `OUT/extension-plan.json`: the hypotheses the loop extends, written before its runs start so
 /// that `lab status` counts them (the loop's plan depends on the screening's verdict).
