@@ -570,7 +570,8 @@ impl<'a, 'e> Search<'a, 'e> {
     }
 
     /// For each parameter both of the closest pair share: the standard uncertainty of an
-    /// independent measurement that decides with the existing tests.
+    /// independent measurement that decides with the existing tests (on its own evidence where
+    /// they left it open, as a programme must).
     fn measurements(&self, target: f64) -> Vec<Measurement> {
         let Some(((a, b), dirs)) = self.pairs.first() else {
             return Vec::new();
@@ -604,7 +605,7 @@ impl<'a, 'e> Search<'a, 'e> {
                         row.ete = e * e;
                         row.jte[j] = e / sigma;
                         row.jtj[(j, j)] = 1.0 / (sigma * sigma);
-                        d.lambda(&[(&row, 1.0)])
+                        d.lambda(&[(&row, 1.0)]) - if self.fresh { d.lambda(&[]) } else { 0.0 }
                     })
                     .fold(f64::INFINITY, f64::min)
             };
