@@ -27,6 +27,7 @@ pub mod after_loop;
 pub mod candidates;
 pub mod evidence;
 pub mod extension;
+pub mod features;
 pub mod joint;
 pub mod next_test;
 pub mod noise;

@@ -208,7 +208,7 @@ pub fn extended_model(
         runs: LoopRuns {
             planned,
             succeeded: joint_runs.filter(|r| r.y.is_some()).count(),
-            samples_per_design: crate::plan::sweep::joint_samples(sim, bounds.dim()),
+            samples_per_design: crate::plan::sweep::joint_samples(study, sim, bounds.dim()),
             surrogate_check_error: worst_check,
         },
     })

@@ -20,6 +20,7 @@
 //! - [`runs`]: the run-engine stage (where runs come from, the sweep, how the runs ended);
 //! - [`verbs`]: the other commands (`check`, `status`, `report`, `extract`, the Slurm worker).
 
+pub mod curves;
 pub mod extend;
 pub mod runs;
 pub mod stages;
@@ -191,7 +192,45 @@ fn diagnose_with_solver(
     reporter: &mut dyn Reporter,
 ) -> Result<Result<Diagnosis, CalibrationError>, Error> {
     let extensions = extension_models(study, runs.sim, &runs.plan, &runs.usable);
-    let inputs = crate::diagnose::inputs_with_extensions(study, &runs.surrogates, &extensions);
+    let dirs = runs.executed.output_dirs(runs.sim);
+    // With curves, the diagnosis reads their features; else the response.
+    let stage = match curves::Setting::of(study) {
+        Some(setting) => Some(curves::CurveStage::build(
+            study,
+            runs.sim,
+            setting,
+            &runs.plan,
+            &runs.rendered.keys,
+            &runs.usable,
+            &dirs,
+        )?),
+        None => None,
+    };
+    let curve_inputs = stage.as_ref().map(|s| {
+        let hypotheses = curves::extension_hypotheses(study, &s.extension_fns(), None, None);
+        curves::inputs(
+            study,
+            &s.setting,
+            s.designs.clone(),
+            curves::curve_fn(s.baseline.clone()),
+            hypotheses,
+        )
+    });
+    let problem = match &curve_inputs {
+        Some(ci) => match crate::diagnose::features::FeatureProblem::new(ci) {
+            Ok(p) => Some(p),
+            Err(e) => {
+                return Ok(Err(CalibrationError::Numerics(format!(
+                    "the curves cannot be diagnosed: {e}"
+                ))));
+            }
+        },
+        None => None,
+    };
+    let inputs = match (&problem, &curve_inputs) {
+        (Some(p), Some(ci)) => p.inputs(ci),
+        _ => crate::diagnose::inputs_with_extensions(study, &runs.surrogates, &extensions),
+    };
     let screening = match crate::diagnose::diagnose(&inputs) {
         Ok(d) => d,
         Err(e) => return Ok(Err(e)),
@@ -210,12 +249,64 @@ fn diagnose_with_solver(
         .iter()
         .map(|&k| extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint))
         .collect::<Result<Vec<_>, _>>()?;
-    let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(runs.surrogates.clone());
-    let looped: Vec<_> = models
-        .iter()
-        .map(|m| extend::loop_model(study, m, &baseline, &extensions))
-        .collect();
-    let (diagnosis, own) = match crate::diagnose::conclude(&inputs, &looped) {
+    let (diagnosis, own) = match &stage {
+        None => {
+            let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(runs.surrogates.clone());
+            let looped: Vec<_> = models
+                .iter()
+                .map(|m| extend::loop_model(study, m, &baseline, &extensions))
+                .collect();
+            crate::diagnose::conclude(&inputs, &looped)
+        }
+        Some(stage) => {
+            let joint_curves = curves::on_grid(
+                study,
+                runs.sim,
+                &stage.setting,
+                &joint.rendered.keys,
+                &joint.usable,
+                &dirs,
+            );
+            let baseline = curves::curve_fn(stage.baseline.clone());
+            let p = study.parameters.len();
+            let loop_inputs = models
+                .iter()
+                .map(|m| {
+                    let model =
+                        stage.loop_model(study, runs.sim, &runs.plan, m.hypothesis, &joint.plan, &joint_curves)?;
+                    let others = curves::extension_hypotheses(
+                        study,
+                        &stage.extension_fns(),
+                        Some((baseline.clone(), p)),
+                        Some(m.hypothesis),
+                    );
+                    Ok(curves::inputs(
+                        &m.study,
+                        &stage.setting,
+                        stage.designs.clone(),
+                        curves::curve_fn(model),
+                        others,
+                    ))
+                })
+                .collect::<Result<Vec<_>, Error>>()?;
+            let problems = loop_inputs
+                .iter()
+                .map(crate::diagnose::features::FeatureProblem::new)
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(Error::Failed)?;
+            let looped: Vec<_> = models
+                .iter()
+                .zip(problems.iter().zip(&loop_inputs))
+                .map(|(m, (p, ci))| crate::diagnose::LoopModel {
+                    hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
+                    inputs: p.inputs(ci),
+                })
+                .collect();
+            crate::diagnose::conclude(&inputs, &looped)
+        }
+    }
+    .map_or_else(|e| (Err(e), Vec::new()), |(d, own)| (Ok(d), own));
+    let diagnosis = match diagnosis {
         Ok(d) => d,
         Err(e) => return Ok(Err(e)),
     };
@@ -224,7 +315,6 @@ fn diagnose_with_solver(
         .zip(&own)
         .map(|(m, own)| extend::assess(study, m, &diagnosis, own))
         .collect::<Result<Vec<_>, _>>()?;
-    drop(looped);
     for (m, x) in models.into_iter().zip(&records) {
         runs.extended.push((m, x.parameters.values().copied().collect()));
     }
