@@ -285,6 +285,7 @@ fn run(setup: &Setup, case: &Case) -> Diagnosis {
         outputs: Vec::new(),
         built_ins: None,
         noise: None,
+        relative_error: None,
     };
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
     verdict_common::assert_verdict_follows_evidence(&serde_json::to_value(&d).unwrap());

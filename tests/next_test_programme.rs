@@ -90,6 +90,7 @@ fn diagnose(case: &Case, obs: &[Observation]) -> diagnose::Diagnosis {
         outputs: Vec::new(),
         built_ins: Some(Vec::new()),
         noise: None,
+        relative_error: None,
     };
     diagnose::diagnose(&inputs).unwrap()
 }

@@ -186,7 +186,7 @@ pub(crate) fn score(cx: &Context, model: &Model, validation_deviance: Option<f64
             .sum();
         deviance(cx, press, n)
     });
-    let loo_error = loo.map(|loo| mean_abs_rel(cx.train.iter().zip(loo).map(|(&i, &yh)| (yh, cx.data.means[i]))));
+    let loo_error = loo.map(|loo| cx.mean_abs_rel(cx.train.iter().zip(loo).map(|(&i, &yh)| (i, yh))));
     let score = match (cx.mode, aicc, loo_deviance) {
         (Mode::Ranked, Some(a), Some(d)) => 0.5 * (a + d),
         _ => m2ll + 2.0 * k + validation_deviance.unwrap_or(0.0),
@@ -200,8 +200,4 @@ pub(crate) fn score(cx: &Context, model: &Model, validation_deviance: Option<f64
     }
 }
 
-/// Mean |(predicted − measured) / measured| over (predicted, measured) pairs.
-pub(crate) fn mean_abs_rel(pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
-    let (sum, count) = pairs.fold((0.0, 0usize), |(s, c), (yh, y)| (s + ((yh - y) / y).abs(), c + 1));
-    if count == 0 { f64::NAN } else { sum / count as f64 }
-}
+

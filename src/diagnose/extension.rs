@@ -11,7 +11,6 @@
 
 use indexmap::IndexMap;
 
-use super::candidates::mean_abs_rel;
 use super::ranking::{Entry, Ranked};
 use super::{Context, Evidence, Extended, ExtensionEffect};
 
@@ -56,7 +55,7 @@ pub(crate) fn extend(cx: &Context, ranked: &Ranked, k: usize) -> Option<Extended
             .zip(loo_after)
             .filter(|(b, _)| *b > 0.0)
             .map(|(b, a)| 1.0 - a / b),
-        before_within_noise: within_noise(base),
+        before_within_noise: within_noise(cx, base),
         lack_of_fit_chi2: lof.map(|l| l.chi2),
         lack_of_fit_dof: lof.map(|l| l.dof),
         lack_of_fit_p: lof.map(|l| l.p_value),
@@ -83,22 +82,24 @@ fn errors(cx: &Context, base: &Entry, e: &Entry) -> (f64, f64, &'static str) {
         return (b, a, "leave-one-out");
     }
     let fitted = |x: &Entry| {
-        mean_abs_rel(
-            cx.train
-                .iter()
-                .map(|&i| (x.model.predict(cx, &cx.data.designs[i]), cx.data.means[i])),
-        )
+        cx.mean_abs_rel(cx.train.iter().map(|&i| (i, x.model.predict(cx, &cx.data.designs[i]))))
     };
     (fitted(base), fitted(e), "training (in sample)")
 }
 
-/// Validation designs where the uncorrected prediction is within the noise (|z| < 2).
-fn within_noise(base: &Entry) -> Vec<String> {
+/// Validation designs where the uncorrected prediction is within the noise (|z| < 2), among the
+/// observations the errors are measured on.
+fn within_noise(cx: &Context, base: &Entry) -> Vec<String> {
+    let counts = |name: &str| {
+        cx.val
+            .iter()
+            .any(|&i| cx.inputs.observations[i].name == name && cx.relative_error(i, cx.data.means[i]).is_some())
+    };
     base.assessed
         .validation
         .iter()
         .flat_map(|v| v.z.iter())
-        .filter(|(_, z)| z.abs() < 2.0)
+        .filter(|(n, z)| z.abs() < 2.0 && counts(n))
         .map(|(n, _)| n.clone())
         .collect()
 }

@@ -132,7 +132,8 @@ impl Whitening {
     }
 }
 
-/// Per design and feature: what the specimens measured (`results.json` `diagnosis.features`).
+/// Per design and feature: what the specimens measured and what the models predict
+/// (`results.json` `diagnosis.features.rows`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FeatureRow {
     pub design: String,
@@ -142,6 +143,109 @@ pub struct FeatureRow {
     pub measured: f64,
     pub sigma: f64,
     pub specimens: usize,
+    /// The uncorrected simulation's value at its calibrated parameters, and (measured −
+    /// predicted) / σ.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub uncorrected: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub z_uncorrected: Option<f64>,
+    /// The final model's (the named cause's extended model).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub extended: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub z_extended: Option<f64>,
+}
+
+/// `results.json` `diagnosis.features`: the curve features the diagnosis read and where along the
+/// stroke the model errs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FeaturesReport {
+    /// The whitened observations the tests read, in order.
+    pub read: Vec<String>,
+    pub covariance: CovarianceKind,
+    /// The structured covariance's check (statistic, degrees of freedom, p).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub covariance_check: Option<(f64, usize, f64)>,
+    pub rows: Vec<FeatureRow>,
+    /// The whitened observation whose misfit the final model removed most (its share of the drop
+    /// in χ² from the uncorrected model), when a cause is extended.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub decided_by: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub decided_share: Option<f64>,
+}
+
+impl FeaturesReport {
+    /// The report of `problem`'s features, with the uncorrected and (when there is one) final
+    /// models' curves, and the diagnosis's whitened residuals before and after.
+    pub fn new(
+        problem: &FeatureProblem,
+        designs: &[CurveDesign],
+        uncorrected: &dyn Fn(&[f64]) -> Option<DVector<f64>>,
+        extended: Option<&dyn Fn(&[f64]) -> Option<DVector<f64>>>,
+        diagnosis: &super::Diagnosis,
+    ) -> FeaturesReport {
+        let spec = problem.model.spec;
+        let w = &problem.model.whitening;
+        let value = |c: &DVector<f64>, feature: &str| -> Option<f64> {
+            let f = features::measure(&spec, c.as_slice());
+            match features::NAMES.iter().position(|n| *n == feature)? {
+                0 => Some(f.plateau),
+                1 => f.peak.map(|p| p.0),
+                2 => Some(f.slope),
+                _ => f.period,
+            }
+        };
+        let rows = problem
+            .rows
+            .iter()
+            .map(|r| {
+                let d = designs.iter().find(|d| d.name == r.design);
+                let at = |model: &dyn Fn(&[f64]) -> Option<DVector<f64>>| {
+                    d.and_then(|d| model(&d.values)).and_then(|c| value(&c, &r.feature))
+                };
+                let z = |v: Option<f64>| v.map(|v| (r.measured - v) / r.sigma).filter(|z| z.is_finite());
+                let before = at(uncorrected);
+                let after = extended.and_then(at);
+                FeatureRow {
+                    uncorrected: before,
+                    z_uncorrected: z(before),
+                    extended: after,
+                    z_extended: z(after),
+                    ..r.clone()
+                }
+            })
+            .collect();
+        let (decided_by, decided_share) = decided(w, diagnosis).unzip();
+        FeaturesReport {
+            read: w.names(),
+            covariance: w.kind,
+            covariance_check: w.check,
+            rows,
+            decided_by,
+            decided_share,
+        }
+    }
+}
+
+/// The whitened output with the largest share of the drop in Σz² from the uncorrected model to the
+/// named cause's extended model.
+fn decided(w: &Whitening, d: &super::Diagnosis) -> Option<(String, f64)> {
+    let after = &d.extended.as_ref()?.residual_z;
+    let names = w.names();
+    let drop: Vec<f64> = names
+        .iter()
+        .map(|name| {
+            d.residuals
+                .iter()
+                .filter(|r| r.design.ends_with(&format!(" · {name}")))
+                .map(|r| r.z.powi(2) - after.get(&r.design).map_or(r.z.powi(2), |z| z * z))
+                .sum()
+        })
+        .collect();
+    let total: f64 = drop.iter().filter(|x| **x > 0.0).sum();
+    let (k, best) = drop.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+    (total > 0.0 && *best > 0.0).then(|| (names[k].clone(), best / total))
 }
 
 /// Everything the diagnosis on curves needs.
@@ -217,13 +321,8 @@ impl FeatureProblem {
             for j in 0..k {
                 let reps: Vec<f64> = z.iter().map(|v| v[j]).collect();
                 observations.push(
-                    Observation::from_replicates(
-                        format!("{} · {}", d.name, whitening.names()[j]),
-                        d.values.clone(),
-                        d.role,
-                        &reps,
-                    )
-                    .of_output(j),
+                    Observation::from_replicates(d.name.clone(), d.values.clone(), d.role, &reps)
+                        .of_output(j, &whitening.names()[j]),
                 );
             }
         }
@@ -296,7 +395,23 @@ impl FeatureProblem {
             outputs: self.model.whitening.names(),
             built_ins: Some(self.built_ins.clone()),
             noise: Some(self.noise.clone()),
+            relative_error: Some(self.plateau_error()),
         }
+    }
+
+    /// The relative error of the plateau level (the mean crush force) behind a whitened
+    /// prediction: its first component is ln(plateau) / L₀₀, so the ratio of predicted to measured
+    /// (geometric mean) plateau is exp(L₀₀ (ŷ − ȳ)). The other outputs have none.
+    fn plateau_error(&self) -> super::RelativeError {
+        let w = self.model.whitening.clone();
+        let plateau_first = w.read.first() == Some(&0);
+        std::sync::Arc::new(move |o: &Observation, yh: f64| {
+            if !plateau_first || o.output != 0 {
+                return None;
+            }
+            let l00 = w.factor(&o.design)?[(0, 0)];
+            Some((l00 * (yh - o.mean)).exp() - 1.0)
+        })
     }
 }
 
@@ -521,6 +636,10 @@ fn rows(designs: &[CurveDesign], spec: &FeatureSpec) -> Vec<FeatureRow> {
                 measured: mean,
                 sigma: sd / (n as f64).sqrt(),
                 specimens: n,
+                uncorrected: None,
+                z_uncorrected: None,
+                extended: None,
+                z_extended: None,
             });
         }
     }
@@ -597,5 +716,22 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
             s.extension = Some(variables.clone());
             s
         }
+    }
+}
+
+impl super::Diagnosis {
+    /// The diagnosis with its curve features, and, when a cause was named from them, which part of
+    /// the stroke decided it added to the headline.
+    pub fn with_features(mut self, report: FeaturesReport) -> super::Diagnosis {
+        if let (Some(name), Some(share), Some(_)) = (&report.decided_by, report.decided_share, &self.cause) {
+            let headline = self.headline.trim_end_matches('.').to_string();
+            self.headline = format!(
+                "{headline}; decided by the {name} ({:.0} % of the misfit the extended model removes).",
+                100.0 * share
+            );
+            self.summary = super::text::summary(&self.headline, &self.action, &self.evidence, &self.limits);
+        }
+        self.features = Some(report);
+        self
     }
 }

@@ -77,6 +77,8 @@ pub struct Observation {
     pub std_dev: Option<f64>,
     /// Which of [`Inputs::outputs`] this observes (0 for a scalar response).
     pub output: usize,
+    /// The tested design it belongs to (its own name, unless it is one output of several).
+    pub group: String,
 }
 
 impl Observation {
@@ -85,8 +87,10 @@ impl Observation {
         let mean = replicates.iter().sum::<f64>() / n as f64;
         let std_dev =
             (n > 1).then(|| (replicates.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
+        let name = name.into();
         Observation {
-            name: name.into(),
+            group: name.clone(),
+            name,
             design,
             role,
             mean,
@@ -96,9 +100,11 @@ impl Observation {
         }
     }
 
-    /// The same replicates observing output `k` of a multi-output study (a curve feature).
-    pub fn of_output(mut self, k: usize) -> Self {
+    /// The same replicates observing output `k` (named `output`) of a multi-output study (a curve
+    /// feature); the design's name stays its group.
+    pub fn of_output(mut self, k: usize, output: &str) -> Self {
         self.output = k;
+        self.name = format!("{} · {output}", self.group);
         self
     }
 }
@@ -159,7 +165,14 @@ pub struct Inputs<'a> {
     /// (curve features whitened by their covariance: σ = 1 with the covariance's own degrees of
     /// freedom).
     pub noise: Option<NoiseModel>,
+    /// The relative error of a prediction at an observation, where the observations are not the
+    /// response itself (whitened curve features: the plateau level's, `None` for the others);
+    /// `None`: (predicted − measured) / measured.
+    pub relative_error: Option<RelativeError>,
 }
+
+/// See [`Inputs::relative_error`].
+pub type RelativeError = std::sync::Arc<dyn Fn(&Observation, f64) -> Option<f64> + Send + Sync>;
 
 impl Inputs<'_> {
     /// An observation's point as the model and the shapes see it: the design, and with several
@@ -225,6 +238,7 @@ pub fn inputs_with_extensions<'a>(
         outputs: Vec::new(),
         built_ins: None,
         noise: None,
+        relative_error: None,
     }
 }
 
@@ -258,6 +272,9 @@ pub struct Diagnosis {
     pub extensions: Vec<joint::SolverExtension>,
     /// The test that would best tell the leading explanations apart.
     pub next_test: Option<NextTest>,
+    /// With curves: the features read and where along the stroke the model errs.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub features: Option<features::FeaturesReport>,
     /// How the models the loop calibrated changed the screening's verdict (absent without a loop).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub after_loop: Option<after_loop::AfterLoop>,
@@ -583,6 +600,25 @@ impl<'a> Context<'a> {
         })
     }
 
+    /// Mean |relative error| of predictions `yh` at observations `i` (NaN when none has one).
+    pub fn mean_abs_rel(&self, pairs: impl Iterator<Item = (usize, f64)>) -> f64 {
+        let errors: Vec<f64> = pairs.filter_map(|(i, yh)| self.relative_error(i, yh)).collect();
+        if errors.is_empty() {
+            f64::NAN
+        } else {
+            errors.iter().map(|e| e.abs()).sum::<f64>() / errors.len() as f64
+        }
+    }
+
+    /// The relative error of `yh` at observation `i` (see [`Inputs::relative_error`]).
+    pub fn relative_error(&self, i: usize, yh: f64) -> Option<f64> {
+        let o = &self.inputs.observations[i];
+        match &self.inputs.relative_error {
+            Some(f) => f(o, yh),
+            None => Some((yh - o.mean) / o.mean),
+        }
+    }
+
     /// Whether σ comes from replicates.
     pub fn known(&self) -> bool {
         self.nu > 0
@@ -787,6 +823,7 @@ impl<'a> Evidence<'a> {
             extended,
             extensions: Vec::new(),
             next_test,
+            features: None,
             after_loop: after,
             summary: words.summary,
             noise: self.noise.clone(),

@@ -925,7 +925,7 @@ fn tested_at(cx: &Context, d: &[f64]) -> Option<(String, usize)> {
                 .enumerate()
                 .all(|(j, (a, b))| (a - b).abs() <= 1e-6 * width[j].abs().max(1e-12))
         })
-        .map(|o| (o.name.clone(), o.count))
+        .map(|o| (o.group.clone(), o.count))
 }
 
 /// The fields every recommendation shares, from the pick.

@@ -236,7 +236,8 @@ fn candidate(cx: &Context, e: &Entry) -> Candidate {
             .inputs
             .observations
             .iter()
-            .map(|o| (o.name.clone(), e.model.predict(cx, &o.design)))
+            .zip(&cx.data.designs)
+            .map(|(o, point)| (o.name.clone(), e.model.predict(cx, point)))
             .collect(),
         extension: shape.extension.as_ref().map(|v| v.iter().cloned().collect()),
     }

@@ -432,14 +432,35 @@ fn evidence(f: &Facts) -> Vec<String> {
     out
 }
 
-/// The mean and largest error of the uncorrected simulation, and the significant trends.
+/// The mean and largest error of the uncorrected simulation, and the significant trends. With
+/// several outputs per design (curve features) the mean is the plateau level's relative error and
+/// the largest misfit is the observation furthest from its prediction in units of its noise.
 fn where_it_errs(f: &Facts) -> Vec<String> {
     let r = f.residuals;
+    let obs = &f.cx.inputs.observations;
     let mut out = Vec::new();
-    let n_train = r.iter().filter(|x| x.role == Role::Training).count();
-    let mean_rel = r.iter().map(|x| x.relative_error).sum::<f64>() / r.len().max(1) as f64;
-    if let Some(w) = r
+    let mut groups: Vec<&str> = obs.iter().filter(|o| o.role == Role::Training).map(|o| o.group.as_str()).collect();
+    groups.dedup();
+    let n_train = groups.len();
+    let rel: Vec<f64> = r.iter().map(|x| x.relative_error).filter(|e| e.is_finite()).collect();
+    let mean_rel = rel.iter().sum::<f64>() / rel.len().max(1) as f64;
+    let values = |x: &Residual| x.values.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect::<Vec<_>>().join(", ");
+    let several = f.cx.inputs.outputs.len() > 1;
+    if several {
+        if let Some(w) = r.iter().filter(|x| x.z.is_finite()).max_by(|a, b| a.z.abs().total_cmp(&b.z.abs())) {
+            out.push(format!(
+                "Calibrated on {n_train} training design(s), the simulation {} the plateau level by {} on average; the \
+                 largest misfit is at {} ({}): {:+.1} σ of the mean.",
+                direction(mean_rel),
+                pct(mean_rel),
+                w.design,
+                values(w),
+                w.z
+            ));
+        }
+    } else if let Some(w) = r
         .iter()
+        .filter(|x| x.relative_error.is_finite())
         .max_by(|a, b| a.relative_error.abs().total_cmp(&b.relative_error.abs()))
     {
         out.push(format!(
@@ -448,7 +469,7 @@ fn where_it_errs(f: &Facts) -> Vec<String> {
             direction(mean_rel),
             pct(mean_rel),
             w.design,
-            w.values.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect::<Vec<_>>().join(", "),
+            values(w),
             direction(w.relative_error),
             pct(w.relative_error),
             // In units of the noise only where the noise was measured (replicates).

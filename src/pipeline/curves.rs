@@ -316,26 +316,40 @@ impl CurveStage {
             })
             .collect();
         let model = emulators(study, kind(study, sim), &bounds, &runs)?;
-        if std::env::var("LAB_DEBUG_CURVES").is_ok() {
-            for r in runs.iter().filter(|r| r.check) {
-                let (Some(c), Some(e)) = (&r.curve, model.curve(&r.run.design_values, &r.point)) else {
-                    continue;
-                };
-                let a = crate::extract::features::measure(&self.setting.spec, c.as_slice());
-                let b = crate::extract::features::measure(&self.setting.spec, e.as_slice());
-                eprintln!(
-                    "check {} {:?}: peak {:.4} vs {:.4} ({:+.2} %), plateau {:.4} vs {:.4} ({:+.2} %)",
-                    r.run.design,
-                    r.point,
-                    a.peak.unwrap().0,
-                    b.peak.unwrap().0,
-                    100.0 * (b.peak.unwrap().0 / a.peak.unwrap().0 - 1.0),
-                    a.plateau,
-                    b.plateau,
-                    100.0 * (b.plateau / a.plateau - 1.0)
-                );
-            }
-        }
         Ok(model)
     }
+}
+
+/// The diagnosis's curve features with the uncorrected simulation's curves at its calibrated
+/// parameters and, when a cause is named, its extended model's: the loop's emulator (`loops`:
+/// `(k, model)` of the extended hypotheses) at the extended parameters, or a term's shape added
+/// along the stroke.
+pub fn features_report(
+    study: &Study,
+    stage: &CurveStage,
+    problem: &crate::diagnose::features::FeatureProblem,
+    loops: &[(usize, CurveModel)],
+    d: &crate::diagnose::Diagnosis,
+) -> crate::diagnose::features::FeaturesReport {
+    let theta: Vec<f64> = d.uncorrected.parameters.values().copied().collect();
+    let uncorrected = |values: &[f64]| stage.baseline.curve(values, &theta);
+    let extended: Option<Box<dyn Fn(&[f64]) -> Option<DVector<f64>> + '_>> = d.extended.as_ref().and_then(|e| {
+        let k = study.diagnosis.hypotheses.iter().position(|h| h.name == e.cause);
+        let at: Vec<f64> = e.parameters.values().copied().collect();
+        match (k.and_then(|k| loops.iter().find(|(j, _)| *j == k)), k.map(|k| &study.diagnosis.hypotheses[k])) {
+            (Some((_, model)), _) if e.solver_in_the_loop => {
+                Some(Box::new(move |v: &[f64]| model.curve(v, &at)) as Box<dyn Fn(&[f64]) -> Option<DVector<f64>>>)
+            }
+            (_, Some(h)) if matches!(h.kind, HypothesisKind::Term(_)) => {
+                let shape = crate::diagnose::Shape::from_hypothesis(h, study);
+                let gamma = e.amplitude;
+                Some(Box::new(move |v: &[f64]| {
+                    let y = stage.baseline.curve(v, &at)?;
+                    Some(DVector::from_iterator(y.len(), y.iter().map(|&s| s + gamma * shape.eval(v, &at, s))))
+                }) as Box<dyn Fn(&[f64]) -> Option<DVector<f64>>>)
+            }
+            _ => None,
+        }
+    });
+    crate::diagnose::features::FeaturesReport::new(problem, &stage.designs, &uncorrected, extended.as_deref(), d)
 }

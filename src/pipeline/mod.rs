@@ -240,8 +240,15 @@ fn diagnose_with_solver(
         return Err(Error::Interrupted);
     }
     let chosen = extend::chosen(study, &screening);
+    let features = |d: Diagnosis, loops: &[(usize, crate::fit::functional::CurveModel)]| match (&stage, &problem) {
+        (Some(stage), Some(problem)) => {
+            let report = curves::features_report(study, stage, problem, loops, &d);
+            d.with_features(report)
+        }
+        _ => d,
+    };
     if chosen.is_empty() {
-        return Ok(Ok(screening));
+        return Ok(Ok(features(screening, &[])));
     }
     let store = &mut runs.executed.store;
     let joint = extend::execute(study, runs.sim, &chosen, source, options, engine, store, reporter)?;
@@ -249,6 +256,7 @@ fn diagnose_with_solver(
         .iter()
         .map(|&k| extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint))
         .collect::<Result<Vec<_>, _>>()?;
+    let mut loop_curves = Vec::new();
     let (diagnosis, own) = match &stage {
         None => {
             let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(runs.surrogates.clone());
@@ -259,36 +267,22 @@ fn diagnose_with_solver(
             crate::diagnose::conclude(&inputs, &looped)
         }
         Some(stage) => {
-            let joint_curves = curves::on_grid(
-                study,
-                runs.sim,
-                &stage.setting,
-                &joint.rendered.keys,
-                &joint.usable,
-                &dirs,
-            );
+            let joint_curves = curves::on_grid(study, runs.sim, &stage.setting, &joint.rendered.keys, &joint.usable, &dirs);
             let baseline = curves::curve_fn(stage.baseline.clone());
             let p = study.parameters.len();
-            let loop_inputs = models
+            for m in &models {
+                let model = stage.loop_model(study, runs.sim, &runs.plan, m.hypothesis, &joint.plan, &joint_curves)?;
+                loop_curves.push((m.hypothesis, model));
+            }
+            let loop_inputs: Vec<_> = models
                 .iter()
-                .map(|m| {
-                    let model =
-                        stage.loop_model(study, runs.sim, &runs.plan, m.hypothesis, &joint.plan, &joint_curves)?;
-                    let others = curves::extension_hypotheses(
-                        study,
-                        &stage.extension_fns(),
-                        Some((baseline.clone(), p)),
-                        Some(m.hypothesis),
-                    );
-                    Ok(curves::inputs(
-                        &m.study,
-                        &stage.setting,
-                        stage.designs.clone(),
-                        curves::curve_fn(model),
-                        others,
-                    ))
+                .zip(&loop_curves)
+                .map(|(m, (_, model))| {
+                    let others =
+                        curves::extension_hypotheses(study, &stage.extension_fns(), Some((baseline.clone(), p)), Some(m.hypothesis));
+                    curves::inputs(&m.study, &stage.setting, stage.designs.clone(), curves::curve_fn(model.clone()), others)
                 })
-                .collect::<Result<Vec<_>, Error>>()?;
+                .collect();
             let problems = loop_inputs
                 .iter()
                 .map(crate::diagnose::features::FeatureProblem::new)
@@ -319,7 +313,8 @@ fn diagnose_with_solver(
         runs.extended.push((m, x.parameters.values().copied().collect()));
     }
     runs.joint = Some(joint);
-    Ok(Ok(diagnosis.with_extensions(records)))
+    let diagnosis = features(diagnosis, &loop_curves).with_extensions(records);
+    Ok(Ok(diagnosis))
 }
 
 /// The simulation as the numerics see it, with what it was built from.
