@@ -58,6 +58,24 @@ enum Command {
         #[arg(long, default_value = "5:60")]
         window: String,
     },
+    // --- issue 24: `lab compare` ---
+    /// Curve metrics (mse, pcm, Frechet, DTW, area) of a computed force–displacement CSV against a target.
+    Compare {
+        /// Target curve A (the test): CSV with displacement [mm] and force [kN or N] columns.
+        a: PathBuf,
+        /// Computed curve B (the simulation), same format.
+        b: PathBuf,
+        /// Stroke window `S0:S1` in mm: both curves resampled on one grid there, every metric on it.
+        #[arg(long, value_parser = verbs::parse_window)]
+        window: Option<crush::Window>,
+        /// Grid points over the window (and for mse without one).
+        #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(2..=1_000_000))]
+        points: u32,
+        /// Print the metrics as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    // --- end issue 24 ---
     /// Inside a Slurm job: run the given runs of the study and commit their records (internal).
     #[command(hide = true)]
     SlurmWorker {
@@ -141,6 +159,13 @@ fn execute(command: Command) -> Result<i32, Error> {
             status(&study, &out)
         }
         Command::Extract { curve, window } => extract(&curve, &window),
+        Command::Compare {
+            a,
+            b,
+            window,
+            points,
+            json,
+        } => compare(&a, &b, window, points as usize, json),
         Command::Report { study, out } => {
             let dir = out_dir(&study::load(&study)?, out);
             if let Some(warning) = verbs::rewrite_report(&dir)? {
@@ -274,6 +299,22 @@ fn extract(curve: &Path, window: &str) -> Result<i32, Error> {
     );
     Ok(0)
 }
+
+// --- issue 24: `lab compare` ---
+/// `lab compare A B [--window S0:S1] [--points N] [--json]`: prints, writes nothing.
+fn compare(a: &Path, b: &Path, window: Option<crush::Window>, points: usize, json: bool) -> Result<i32, Error> {
+    let c = verbs::compare(a, b, window, points)?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&c).map_err(|e| Error::Failed(e.to_string()))?
+        );
+    } else {
+        print!("{}", c.table());
+    }
+    Ok(0)
+}
+// --- end issue 24 ---
 
 /// `--out`, or `lab-out/<study name>` beside the study file.
 fn out_dir(study: &Study, out: Option<PathBuf>) -> PathBuf {

@@ -14,6 +14,7 @@
 //! here reads files, so every method tests in milliseconds.
 
 pub mod bayesian;
+pub mod curves;
 pub mod identifiability;
 pub mod least_squares;
 pub mod optimize;

@@ -113,7 +113,7 @@ impl Whitening {
 
     /// L⁻¹φ of a curve's features at a design (`None` where a feature is missing or not finite).
     fn whiten(&self, spec: &FeatureSpec, design: &[f64], curve: &[f64]) -> Option<DVector<f64>> {
-        let v = features::measure(spec, curve).vector(spec);
+        let v = features::measure_with(spec, curve, self.read.contains(&3)).vector(spec);
         let phi: Option<Vec<f64>> = self.read.iter().map(|&k| v[k].filter(|x| x.is_finite())).collect();
         self.factor(design)?.solve_lower_triangular(&DVector::from_vec(phi?))
     }
@@ -269,7 +269,12 @@ pub struct FeatureModel {
     curve: Arc<CurveFn>,
     spec: FeatureSpec,
     whitening: Whitening,
+    /// The whitened features at each (design, θ) asked: every output k of a design asks the same
+    /// curve, and fits revisit points. Cleared when it grows past [`CACHE`] entries.
+    cache: std::sync::Mutex<std::collections::HashMap<Vec<u64>, Option<DVector<f64>>>>,
 }
+
+const CACHE: usize = 200_000;
 
 impl FeatureModel {
     fn split<'p>(&self, point: &'p [f64]) -> (&'p [f64], usize) {
@@ -284,9 +289,19 @@ impl FeatureModel {
 impl Model for FeatureModel {
     fn predict(&self, point: &[f64], theta: &[f64]) -> f64 {
         let (d, k) = self.split(point);
-        (self.curve)(d, theta)
-            .and_then(|c| self.whitening.whiten(&self.spec, d, c.as_slice()))
-            .map_or(f64::NAN, |z| z[k])
+        let key: Vec<u64> = d.iter().chain(theta).map(|v| v.to_bits()).collect();
+        if let Some(z) = self.cache.lock().ok().and_then(|c| c.get(&key).cloned()) {
+            return z.map_or(f64::NAN, |z| z[k]);
+        }
+        let z = (self.curve)(d, theta).and_then(|c| self.whitening.whiten(&self.spec, d, c.as_slice()));
+        let value = z.as_ref().map_or(f64::NAN, |z| z[k]);
+        if let Ok(mut c) = self.cache.lock() {
+            if c.len() >= CACHE {
+                c.clear();
+            }
+            c.insert(key, z);
+        }
+        value
     }
 }
 
@@ -310,6 +325,7 @@ impl FeatureProblem {
             curve: ci.curve.clone(),
             spec: ci.spec,
             whitening: whitening.clone(),
+            cache: Default::default(),
         };
         let mut observations = Vec::new();
         for d in &ci.designs {

@@ -456,6 +456,20 @@ pub fn parse_test_csv(file: &Path, text: &str, opts: CsvOptions) -> Result<Force
     })
 }
 
+/// The line numbers (from 1) of the data rows of a test-machine CSV, in the order [`parse_test_csv`]
+/// reads them: sample `k` (from 1) of the parsed curve sits on line `data_lines(text)[k - 1]`. Lets an
+/// error about a sample name its line.
+pub fn data_lines(text: &str) -> Vec<usize> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, raw)| {
+            let line = raw.trim().trim_start_matches('\u{feff}');
+            !line.is_empty() && !line.starts_with('#') && split_fields(line).iter().all(|c| parse_number(c).is_some())
+        })
+        .map(|(i, _)| i + 1)
+        .collect()
+}
+
 /// What a CSV header row says: which columns hold displacement and force, the force unit (the
 /// header's, else the setting's) and the displacement scale to mm.
 struct Header {

@@ -60,49 +60,71 @@ impl Features {
 }
 
 /// The features of `force`, sampled at `spec.grid`'s strokes.
+/// The features of `force`, sampled at `spec.grid`'s strokes.
 pub fn measure(spec: &FeatureSpec, force: &[f64]) -> Features {
-    let s = spec.grid.stroke();
+    measure_with(spec, force, true)
+}
+
+/// [`measure`], with the fold period only when `with_period` (the periodogram is most of the cost,
+/// and the diagnosis reads it only where every specimen resolves it). Allocation-free but for the
+/// period: this runs inside the diagnosis's numerical Jacobians, many thousand times.
+pub fn measure_with(spec: &FeatureSpec, force: &[f64], with_period: bool) -> Features {
+    let g = spec.grid;
+    let n = force.len().min(g.points);
+    let h = g.spacing();
+    let at = |k: usize| g.s0 + h * k as f64;
     let (p0, p1) = (spec.plateau.s0, spec.plateau.s1);
-    let peak = s
-        .iter()
-        .zip(force)
-        .filter(|(x, _)| **x < p0)
-        .max_by(|a, b| a.1.total_cmp(b.1))
-        .map(|(x, f)| (*f, *x));
-    let inside: Vec<(f64, f64)> = s
-        .iter()
-        .zip(force)
-        .filter(|(x, _)| **x >= p0 - 1e-9 && **x <= p1 + 1e-9)
-        .map(|(x, f)| (*x, *f))
-        .collect();
+    let peak = (0..n)
+        .take_while(|&k| at(k) < p0)
+        .max_by(|&a, &b| force[a].total_cmp(&force[b]))
+        .map(|k| (force[k], at(k)));
+    let first = (0..n).find(|&k| at(k) >= p0 - 1e-9).unwrap_or(n);
+    let last = (first..n)
+        .take_while(|&k| at(k) <= p1 + 1e-9)
+        .last()
+        .map_or(first, |k| k + 1);
+    let inside = || (first..last).map(|k| (at(k), force[k]));
+    let period = if with_period {
+        let points: Vec<(f64, f64)> = inside().collect();
+        period(&points, h)
+    } else {
+        None
+    };
     Features {
         peak,
-        plateau: mean_over(&s, force, p0, p1),
-        slope: slope(&inside),
-        period: period(&inside, spec.grid.spacing()),
+        plateau: mean_over(&at, &force[..n], p0, p1),
+        slope: slope(inside()),
+        period,
     }
 }
 
-/// ∫ f ds / (b − a) over [a, b] of the piecewise-linear curve (s, f).
-fn mean_over(s: &[f64], f: &[f64], a: f64, b: f64) -> f64 {
-    let at = |x: f64| {
-        let j = s.partition_point(|&v| v < x).clamp(1, s.len() - 1);
-        let t = (x - s[j - 1]) / (s[j] - s[j - 1]);
-        f[j - 1] + t * (f[j] - f[j - 1])
-    };
-    let mut xs = vec![a];
-    xs.extend(s.iter().copied().filter(|&x| x > a && x < b));
-    xs.push(b);
-    let area: f64 = xs.windows(2).map(|w| 0.5 * (at(w[0]) + at(w[1])) * (w[1] - w[0])).sum();
+/// ∫ f ds / (b − a) over [a, b] of the piecewise-linear curve through (s(k), f[k]).
+fn mean_over(s: &dyn Fn(usize) -> f64, f: &[f64], a: f64, b: f64) -> f64 {
+    let mut area = 0.0;
+    for k in 0..f.len().saturating_sub(1) {
+        let (x0, x1) = (s(k), s(k + 1));
+        let (lo, hi) = (x0.max(a), x1.min(b));
+        if hi <= lo {
+            continue;
+        }
+        let y = |x: f64| f[k] + (x - x0) / (x1 - x0) * (f[k + 1] - f[k]);
+        area += 0.5 * (y(lo) + y(hi)) * (hi - lo);
+    }
     area / (b - a)
 }
 
 /// Least-squares slope of the points.
-fn slope(points: &[(f64, f64)]) -> f64 {
-    let n = points.len() as f64;
-    let (mx, my) = points.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
-    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+fn slope(points: impl Iterator<Item = (f64, f64)> + Clone) -> f64 {
+    let (n, sx, sy) = points
+        .clone()
+        .fold((0.0, 0.0, 0.0), |a, p| (a.0 + 1.0, a.1 + p.0, a.2 + p.1));
+    if n == 0.0 {
+        return 0.0;
+    }
+    let (mx, my) = (sx / n, sy / n);
+    let (sxx, sxy) = points.fold((0.0, 0.0), |a, p| {
+        (a.0 + (p.0 - mx).powi(2), a.1 + (p.0 - mx) * (p.1 - my))
+    });
     if sxx > 0.0 { sxy / sxx } else { 0.0 }
 }
 
@@ -112,18 +134,23 @@ fn period(points: &[(f64, f64)], spacing: f64) -> Option<f64> {
     if n < 16 {
         return None;
     }
-    let b = slope(points);
+    let b = slope(points.iter().copied());
     let (mx, my) = points
         .iter()
         .fold((0.0, 0.0), |a, p| (a.0 + p.0 / n as f64, a.1 + p.1 / n as f64));
     let r: Vec<f64> = points.iter().map(|p| p.1 - my - b * (p.0 - mx)).collect();
     // Periodogram at the Fourier frequencies k / (n spacing), k = 3 .. n/2 (periods up to a third
     // of the window).
+    // The phase turns by a fixed step: one sin_cos per frequency, the rest by rotation (this runs
+    // inside the diagnosis's numerical Jacobians, many thousand times).
     let power = |k: usize| {
-        let w = 2.0 * std::f64::consts::PI * k as f64 / n as f64;
-        let (c, s) = r.iter().enumerate().fold((0.0, 0.0), |a, (i, v)| {
-            (a.0 + v * (w * i as f64).cos(), a.1 + v * (w * i as f64).sin())
-        });
+        let (sw, cw) = (2.0 * std::f64::consts::PI * k as f64 / n as f64).sin_cos();
+        let (mut co, mut si, mut c, mut s) = (1.0, 0.0, 0.0, 0.0);
+        for v in &r {
+            c += v * co;
+            s += v * si;
+            (co, si) = (co * cw - si * sw, si * cw + co * sw);
+        }
         (c * c + s * s) / n as f64
     };
     let ks: Vec<usize> = (3..=n / 2).collect();

@@ -4,6 +4,9 @@
 //!   spcforc) and the termination line.
 //! - [`crush`]: force–displacement curves and the average crush force over a stroke window, from
 //!   contact force + striker displacement, or from a test machine's CSV.
+//! - [`grid`]: the common stroke grid curves are compared on; [`cfc`]: the SAE J211 CFC filter;
+//!   [`metrics`]: curve metrics (LS-OPT MSE, partial curve mapping, Fréchet, DTW, area), `lab compare`;
+//!   [`features`]: the measured features of a crush curve (initial peak, plateau, slope, fold period).
 
 pub mod calculix;
 pub mod cfc;
@@ -11,3 +14,4 @@ pub mod crush;
 pub mod features;
 pub mod grid;
 pub mod lsdyna;
+pub mod metrics;

@@ -336,7 +336,10 @@ pub fn features_report(
     let extended: Option<Box<dyn Fn(&[f64]) -> Option<DVector<f64>> + '_>> = d.extended.as_ref().and_then(|e| {
         let k = study.diagnosis.hypotheses.iter().position(|h| h.name == e.cause);
         let at: Vec<f64> = e.parameters.values().copied().collect();
-        match (k.and_then(|k| loops.iter().find(|(j, _)| *j == k)), k.map(|k| &study.diagnosis.hypotheses[k])) {
+        match (
+            k.and_then(|k| loops.iter().find(|(j, _)| *j == k)),
+            k.map(|k| &study.diagnosis.hypotheses[k]),
+        ) {
             (Some((_, model)), _) if e.solver_in_the_loop => {
                 Some(Box::new(move |v: &[f64]| model.curve(v, &at)) as Box<dyn Fn(&[f64]) -> Option<DVector<f64>>>)
             }
@@ -345,11 +348,130 @@ pub fn features_report(
                 let gamma = e.amplitude;
                 Some(Box::new(move |v: &[f64]| {
                     let y = stage.baseline.curve(v, &at)?;
-                    Some(DVector::from_iterator(y.len(), y.iter().map(|&s| s + gamma * shape.eval(v, &at, s))))
+                    Some(DVector::from_iterator(
+                        y.len(),
+                        y.iter().map(|&s| s + gamma * shape.eval(v, &at, s)),
+                    ))
                 }) as Box<dyn Fn(&[f64]) -> Option<DVector<f64>>>)
             }
             _ => None,
         }
     });
     crate::diagnose::features::FeaturesReport::new(problem, &stage.designs, &uncorrected, extended.as_deref(), d)
+}
+
+/// `curve_calibration`: the study's methods on the curves through the baseline's curve emulator,
+/// the metric at the training and validation designs, and what the curves pin down.
+pub fn calibrate(study: &Study, stage: &CurveStage) -> crate::report::results::CurveCalibrationResult {
+    use crate::calibrate::curves::{self as cc, CurveProblem, CurveTarget};
+    use crate::calibrate::outcome::Method;
+    use crate::report::results::{
+        CurveCalibrationResult, CurveEmulatorResult, CurveFilterResult, CurveMethodResult, CurvePinned,
+    };
+    let designs: Vec<&CurveDesign> = stage.designs.iter().filter(|d| !d.specimens.is_empty()).collect();
+    let model = &stage.baseline;
+    let predict = |i: usize, theta: &[f64]| model.curve(&designs[i].values, theta);
+    let targets = CurveTarget::new(
+        designs
+            .iter()
+            .map(|d| {
+                (
+                    d.name.clone(),
+                    d.role == crate::diagnose::Role::Training,
+                    d.specimens.clone(),
+                )
+            })
+            .collect(),
+    );
+    let grid = stage.setting.grid;
+    let problem = CurveProblem {
+        targets,
+        predict: &predict,
+        bounds: study.parameter_bounds(),
+        stroke: grid.stroke(),
+        metric: study.calibration.curve.metric,
+    };
+    let names: Vec<String> = study.parameters.iter().map(|p| p.name.clone()).collect();
+    let named = |t: &DVector<f64>| names.iter().cloned().zip(t.iter().copied()).collect();
+    let finite = |v: f64| v.is_finite().then_some(v);
+    let mut methods = indexmap::IndexMap::new();
+    let mut first = None;
+    for m in &study.calibration.methods {
+        let est = match m {
+            Method::LeastSquares => cc::least_squares(&problem),
+            Method::Sensitivity => cc::sensitivity(&problem),
+            Method::Bayesian => cc::bayesian(&problem),
+        };
+        let result = match est {
+            Ok(e) => {
+                first.get_or_insert_with(|| e.theta.clone());
+                CurveMethodResult {
+                    parameters: named(&e.theta),
+                    intervals: e
+                        .interval
+                        .as_ref()
+                        .map(|iv| names.iter().cloned().zip(iv.iter().map(|(a, b)| [*a, *b])).collect()),
+                    train: finite(problem.value(&e, true)),
+                    validation: finite(problem.value(&e, false)),
+                    offset_mean: e.offset.as_ref().map(|d| d.mean()),
+                    discrepancy_sd: e.discrepancy_sd,
+                    error: None,
+                }
+            }
+            Err(e) => CurveMethodResult {
+                parameters: Default::default(),
+                intervals: None,
+                train: None,
+                validation: None,
+                offset_mean: None,
+                discrepancy_sd: None,
+                error: Some(e.to_string()),
+            },
+        };
+        methods.insert(m.key().to_string(), result);
+    }
+    let stroke = grid.stroke();
+    let window = stage.setting.spec.plateau;
+    let inside: Vec<usize> = (0..stroke.len())
+        .filter(|&k| stroke[k] >= window.s0 && stroke[k] <= window.s1)
+        .collect();
+    let range = inside.first().copied().unwrap_or(0)..inside.last().map_or(0, |k| k + 1);
+    let identifiability = first
+        .map(|t| cc::pinned(&problem, &t, &names, range))
+        .unwrap_or_default()
+        .into_iter()
+        .map(|p| CurvePinned {
+            parameter: p.parameter,
+            curves_se: finite(p.curves_se),
+            mean_force_se: finite(p.mean_force_se),
+        })
+        .collect();
+    CurveCalibrationResult {
+        metric: study.calibration.curve.metric.key().to_string(),
+        points: grid.points,
+        window: [grid.s0, grid.s1],
+        filter: study.calibration.curve.filter.map(|f| CurveFilterResult {
+            cfc: f.cfc,
+            speed: f.speed,
+        }),
+        emulator: CurveEmulatorResult {
+            components: model
+                .designs
+                .iter()
+                .map(|d| (d.design.clone(), d.surrogate.components()))
+                .collect(),
+            reconstruction_error: model
+                .designs
+                .iter()
+                .map(|d| d.surrogate.reconstruction_error)
+                .fold(0.0, f64::max),
+            check_error: model
+                .designs
+                .iter()
+                .filter_map(|d| d.check.max_relative_error)
+                .reduce(f64::max),
+        },
+        methods,
+        identifiability,
+    }
 }

@@ -276,7 +276,12 @@ pub fn assess(
     baseline: &Diagnosis,
     own: &Diagnosis,
 ) -> Result<SolverExtension, Error> {
-    let s = &m.study;
+    // Least squares only: the extended model's uncertainty is the diagnosis's (its fit to the
+    // tests with the loop's emulator); a second Bayesian run over θ × the extension would repeat
+    // it at many times the cost.
+    let mut only_ls = m.study.clone();
+    only_ls.calibration.methods = vec![crate::calibrate::Method::LeastSquares];
+    let s = &only_ls;
     let model = &m.surrogates as &dyn Model;
     let calibration = calibrate(s, &problem(s, model), Some(&m.data));
     let diagnosis = own;

@@ -128,16 +128,19 @@ pub fn run(
         }
     };
     let calibration = calibrate(study, &problem(study, simulated.model()), simulated.data());
+    let stage = curve_stage(study, &simulated)?;
+    let curve_calibration = stage.as_ref().map(|s| curves::calibrate(study, s));
     let mut simulated = simulated;
     let diagnosis = match (&mut simulated, source) {
         (Simulated::Solver(runs), Some(source)) => {
-            diagnose_with_solver(study, runs, &source, options, engine, reporter)?
+            diagnose_with_solver(study, runs, stage.as_ref(), &source, options, engine, reporter)?
         }
         (simulated, _) => diagnose(study, simulated.model()),
     };
     engine.signals.sweep_done();
     let splits = calibrate_splits(study, &simulated);
-    let results = results(study, &simulated, &calibration, diagnosis, splits);
+    let mut results = results(study, &simulated, &calibration, diagnosis, splits);
+    results.curve_calibration = curve_calibration;
     let report = report_data(study, &simulated, &calibration, started);
     write(&options.out, &results, &report)?;
     Ok(RunOutcome {
@@ -183,9 +186,29 @@ fn solver_runs<'s>(
 /// A solver study's diagnosis: the screening (the extension hypotheses judged from their runs at
 /// their probe values), then the solver in the loop ([`extend`]) for the hypotheses it leaves
 /// open, then one decision from all of it ([`crate::diagnose::conclude`]).
+/// A solver study's curves (`None` unless it is calibrated against curves): the specimens, every
+/// screening run's curve and the curve emulators.
+fn curve_stage(study: &Study, simulated: &Simulated) -> Result<Option<curves::CurveStage>, Error> {
+    let (Simulated::Solver(runs), Some(setting)) = (simulated, curves::Setting::of(study)) else {
+        return Ok(None);
+    };
+    let dirs = runs.executed.output_dirs(runs.sim);
+    let stage = curves::CurveStage::build(
+        study,
+        runs.sim,
+        setting,
+        &runs.plan,
+        &runs.rendered.keys,
+        &runs.usable,
+        &dirs,
+    )?;
+    Ok(Some(stage))
+}
+
 fn diagnose_with_solver(
     study: &Study,
     runs: &mut SolverRuns,
+    stage: Option<&curves::CurveStage>,
     source: &runs::Source,
     options: &RunOptions,
     engine: &Engine,
@@ -194,19 +217,7 @@ fn diagnose_with_solver(
     let extensions = extension_models(study, runs.sim, &runs.plan, &runs.usable);
     let dirs = runs.executed.output_dirs(runs.sim);
     // With curves, the diagnosis reads their features; else the response.
-    let stage = match curves::Setting::of(study) {
-        Some(setting) => Some(curves::CurveStage::build(
-            study,
-            runs.sim,
-            setting,
-            &runs.plan,
-            &runs.rendered.keys,
-            &runs.usable,
-            &dirs,
-        )?),
-        None => None,
-    };
-    let curve_inputs = stage.as_ref().map(|s| {
+    let curve_inputs = stage.map(|s| {
         let hypotheses = curves::extension_hypotheses(study, &s.extension_fns(), None, None);
         curves::inputs(
             study,
@@ -240,7 +251,7 @@ fn diagnose_with_solver(
         return Err(Error::Interrupted);
     }
     let chosen = extend::chosen(study, &screening);
-    let features = |d: Diagnosis, loops: &[(usize, crate::fit::functional::CurveModel)]| match (&stage, &problem) {
+    let features = |d: Diagnosis, loops: &[(usize, crate::fit::functional::CurveModel)]| match (stage, &problem) {
         (Some(stage), Some(problem)) => {
             let report = curves::features_report(study, stage, problem, loops, &d);
             d.with_features(report)
@@ -257,7 +268,7 @@ fn diagnose_with_solver(
         .map(|&k| extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint))
         .collect::<Result<Vec<_>, _>>()?;
     let mut loop_curves = Vec::new();
-    let (diagnosis, own) = match &stage {
+    let (diagnosis, own) = match stage {
         None => {
             let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(runs.surrogates.clone());
             let looped: Vec<_> = models
@@ -267,7 +278,14 @@ fn diagnose_with_solver(
             crate::diagnose::conclude(&inputs, &looped)
         }
         Some(stage) => {
-            let joint_curves = curves::on_grid(study, runs.sim, &stage.setting, &joint.rendered.keys, &joint.usable, &dirs);
+            let joint_curves = curves::on_grid(
+                study,
+                runs.sim,
+                &stage.setting,
+                &joint.rendered.keys,
+                &joint.usable,
+                &dirs,
+            );
             let baseline = curves::curve_fn(stage.baseline.clone());
             let p = study.parameters.len();
             for m in &models {
@@ -278,9 +296,19 @@ fn diagnose_with_solver(
                 .iter()
                 .zip(&loop_curves)
                 .map(|(m, (_, model))| {
-                    let others =
-                        curves::extension_hypotheses(study, &stage.extension_fns(), Some((baseline.clone(), p)), Some(m.hypothesis));
-                    curves::inputs(&m.study, &stage.setting, stage.designs.clone(), curves::curve_fn(model.clone()), others)
+                    let others = curves::extension_hypotheses(
+                        study,
+                        &stage.extension_fns(),
+                        Some((baseline.clone(), p)),
+                        Some(m.hypothesis),
+                    );
+                    curves::inputs(
+                        &m.study,
+                        &stage.setting,
+                        stage.designs.clone(),
+                        curves::curve_fn(model.clone()),
+                        others,
+                    )
                 })
                 .collect();
             let problems = loop_inputs

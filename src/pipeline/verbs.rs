@@ -1,6 +1,6 @@
 //! The other commands, each a short sequence of the same stages as [`super::run`], returning what
-//! the command line prints: `lab check`, `lab status`, `lab report`, `lab extract` and the
-//! internal `lab slurm-worker`.
+//! the command line prints: `lab check`, `lab status`, `lab report`, `lab extract`, `lab compare`
+//! and the internal `lab slurm-worker`.
 
 use std::path::Path;
 
@@ -8,6 +8,7 @@ use crate::error::{Error, InputError};
 use crate::execute::store::Snapshot;
 use crate::execute::{lock, sweep};
 use crate::extract::crush;
+use crate::extract::grid::{self, StrokeGrid};
 use crate::plan::Plan;
 use crate::report::Results;
 use crate::report::data::ReportData;
@@ -126,4 +127,218 @@ pub fn slurm_worker(study: &Study, out: &Path, jobs: usize, keys: &[String]) -> 
         return Err(Error::Failed("slurm-worker: not a solver study".into()));
     };
     sweep::worker(study, sim, out, jobs, keys)
+}
+
+// --- issue 24: `lab compare` (curve metrics) ---
+
+/// `lab compare`'s grid, as printed.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct CompareGrid {
+    pub s0: f64,
+    pub s1: f64,
+    pub points: usize,
+}
+
+/// `lab compare`: curve B (computed) against curve A (target). Metrics the definitions leave
+/// undefined are NaN (JSON null).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Comparison {
+    pub target: String,
+    pub computed: String,
+    /// `raw`: pcm, frechet, dtw, area on the recorded points of both files; `grid`: every metric
+    /// on both curves resampled onto `grid` (`--window`).
+    pub on: &'static str,
+    pub pcm: f64,
+    pub frechet: f64,
+    pub dtw: f64,
+    pub area: f64,
+    /// LS-OPT MSE on `grid`; null when no common grid exists (see `note`).
+    pub mse: Option<f64>,
+    /// The grid of `mse` (and of every metric with `--window`): the window, or without it the
+    /// overlap of the two strokes.
+    pub grid: Option<CompareGrid>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+/// `--window S0:S1` (mm, finite, S0 < S1).
+pub fn parse_window(text: &str) -> Result<crush::Window, String> {
+    let bad = || format!("`{text}`: give S0:S1 in mm with S0 < S1, e.g. 5:60");
+    let (a, b) = text.split_once(':').ok_or_else(bad)?;
+    let (s0, s1) = (
+        a.trim().parse::<f64>().map_err(|_| bad())?,
+        b.trim().parse::<f64>().map_err(|_| bad())?,
+    );
+    if !(s0.is_finite() && s1.is_finite() && s1 > s0) {
+        return Err(bad());
+    }
+    Ok(crush::Window { s0, s1 })
+}
+
+/// A test-machine CSV read as `lab extract` reads it, with its text kept to name lines in errors.
+struct CurveFile<'a> {
+    path: &'a Path,
+    text: String,
+    curve: crush::ForceDisplacement,
+}
+
+impl<'a> CurveFile<'a> {
+    fn read(path: &'a Path) -> Result<Self, InputError> {
+        let text = crate::extract::lsdyna::text::read_text(path)?;
+        let curve = crush::parse_test_csv(path, &text, crush::CsvOptions::default())?;
+        Ok(CurveFile { path, text, curve })
+    }
+
+    fn resample(&self, grid: &StrokeGrid) -> Result<Vec<f64>, InputError> {
+        grid::resample(&self.curve, grid).map_err(|e| grid::to_input_error(&e, self.path, &self.text))
+    }
+}
+
+/// `lab compare A B [--window S0:S1] [--points N]`: every metric of B against A. Without a window:
+/// pcm, frechet, dtw and area on the raw points, and mse on `points` grid strokes over the overlap
+/// of the two strokes (null, with a note, when they do not overlap or a stroke goes back there).
+/// With a window: both curves on one grid over it, every metric on the grid points; a window a curve
+/// does not cover, or a stroke that goes back inside it, is bad input naming the file and line.
+pub fn compare(a: &Path, b: &Path, window: Option<crush::Window>, points: usize) -> Result<Comparison, Error> {
+    use crate::extract::metrics;
+    let (fa, fb) = (CurveFile::read(a)?, CurveFile::read(b)?);
+    let mut c = Comparison {
+        target: a.display().to_string(),
+        computed: b.display().to_string(),
+        on: "raw",
+        pcm: f64::NAN,
+        frechet: f64::NAN,
+        dtw: f64::NAN,
+        area: f64::NAN,
+        mse: None,
+        grid: None,
+        note: None,
+    };
+    let (pa, pb) = match window {
+        Some(w) => {
+            let g = StrokeGrid {
+                s0: w.s0,
+                s1: w.s1,
+                points,
+            };
+            let (ya, yb) = (fa.resample(&g)?, fb.resample(&g)?);
+            c.on = "grid";
+            c.mse = Some(metrics::mse(&ya, &yb));
+            c.grid = Some(CompareGrid {
+                s0: g.s0,
+                s1: g.s1,
+                points,
+            });
+            let s = g.stroke();
+            let on_grid = |y: &[f64]| s.iter().zip(y).map(|(&x, &y)| [x, y]).collect::<Vec<_>>();
+            (on_grid(&ya), on_grid(&yb))
+        }
+        None => {
+            overlap_mse(&fa, &fb, points, &mut c);
+            (metrics::curve_points(&fa.curve), metrics::curve_points(&fb.curve))
+        }
+    };
+    c.pcm = metrics::pcm(&pa, &pb);
+    c.frechet = metrics::frechet(&pa, &pb);
+    c.dtw = metrics::dtw(&pa, &pb);
+    c.area = metrics::area(&pa, &pb);
+    Ok(c)
+}
+
+/// MSE on `points` strokes over the overlap of the two curves' loading strokes (first sample to
+/// largest stroke), or a note saying why there is none.
+fn overlap_mse(fa: &CurveFile<'_>, fb: &CurveFile<'_>, points: usize, c: &mut Comparison) {
+    let range = |f: &CurveFile<'_>| {
+        let d = &f.curve.displacement;
+        (d[0], d.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+    };
+    let ((a0, a1), (b0, b1)) = (range(fa), range(fb));
+    let g = StrokeGrid {
+        s0: a0.max(b0),
+        s1: a1.min(b1),
+        points,
+    };
+    if g.s1 <= g.s0 {
+        c.note = Some(format!(
+            "mse needs a common stroke range: A runs {a0}..{a1} mm, B {b0}..{b1} mm"
+        ));
+        return;
+    }
+    match (fa.resample(&g), fb.resample(&g)) {
+        (Ok(ya), Ok(yb)) => {
+            c.mse = Some(crate::extract::metrics::mse(&ya, &yb));
+            c.grid = Some(CompareGrid {
+                s0: g.s0,
+                s1: g.s1,
+                points,
+            });
+        }
+        (Err(e), _) | (_, Err(e)) => c.note = Some(format!("no mse on the strokes' overlap: {e}")),
+    }
+}
+
+impl Comparison {
+    /// The human table: metric, value, unit, what it is.
+    pub fn table(&self) -> String {
+        let mut out = format!("A (target): {}\nB (computed): {}\n", self.target, self.computed);
+        out += &match (self.on, &self.grid) {
+            ("grid", Some(g)) => format!(
+                "every metric on both curves resampled at {} strokes over {}:{} mm\n",
+                g.points, g.s0, g.s1
+            ),
+            (_, Some(g)) => format!(
+                "pcm, frechet, dtw, area on the recorded points; mse at {} strokes over {}:{} mm (the strokes' overlap)\n",
+                g.points, g.s0, g.s1
+            ),
+            _ => "pcm, frechet, dtw, area on the recorded points\n".to_string(),
+        };
+        let rows = [
+            (
+                "mse",
+                self.mse.unwrap_or(f64::NAN),
+                "-",
+                "LS-OPT mean squared error, scaled by max |F_A|",
+            ),
+            (
+                "pcm",
+                self.pcm,
+                "-",
+                "partial curve mapping, axes normalised by A's ranges",
+            ),
+            (
+                "frechet",
+                self.frechet,
+                "mm|kN",
+                "discrete Frechet distance (mm and kN mixed as one unit)",
+            ),
+            (
+                "dtw",
+                self.dtw,
+                "mm|kN",
+                "dynamic time warping, summed point distances (mm and kN mixed)",
+            ),
+            ("area", self.area, "mm*kN", "area between the curves (mm*kN = J)"),
+        ];
+        out += &format!("\n{:<8} {:>14}  {:<6} {}\n", "metric", "value", "unit", "definition");
+        for (name, value, unit, what) in rows {
+            out += &format!("{name:<8} {:>14}  {unit:<6} {what}\n", significant(value));
+        }
+        if let Some(note) = &self.note {
+            out += &format!("\nnote: {note}\n");
+        }
+        out
+    }
+}
+
+/// Six significant digits, fixed or scientific as the size asks; `undefined` for NaN.
+fn significant(v: f64) -> String {
+    if !v.is_finite() {
+        return "undefined".to_string();
+    }
+    let e = if v == 0.0 { 0 } else { v.abs().log10().floor() as i32 };
+    if (-3..6).contains(&e) {
+        format!("{v:.*}", (5 - e).max(0) as usize)
+    } else {
+        format!("{v:.5e}")
+    }
 }

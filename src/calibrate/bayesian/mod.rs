@@ -21,7 +21,7 @@ pub mod exact;
 pub mod gp;
 pub mod koh;
 pub mod mcmc;
-mod optim;
+pub(crate) mod optim;
 pub mod proposal;
 mod roughness;
 
