@@ -306,7 +306,12 @@ fn too_few_reason(f: &Facts) -> String {
 }
 
 fn action(f: &Facts) -> String {
-    let next = f.next_test.map(|t| {
+    // A named cause needs no confirming test the specimens in hand already give.
+    let in_hand = |t: &&super::NextTest| matches!(t.programme.as_slice(), [one] if one.additional == 0);
+    let confirming = f
+        .next_test
+        .filter(|t| !(f.decision.verdict == Verdict::CauseNamed && in_hand(t)));
+    let next = confirming.map(|t| {
         let at = t
             .design
             .iter()
@@ -322,10 +327,13 @@ fn action(f: &Facts) -> String {
     });
     match (f.decision.verdict, f.extended) {
         (Verdict::CauseNamed, Some(e)) => format!(
-            "Action: use the model extended with '{}' ({}); to confirm it, {}.",
+            "Action: use the model extended with '{}' ({}); {}.",
             e.cause,
             params(&e.parameters),
-            next.unwrap_or_else(|| "no further test is needed".into())
+            next.map_or_else(
+                || "the tests in hand decide, no further test is needed".into(),
+                |n| format!("to confirm it, {n}")
+            )
         ),
         (Verdict::NoModelError, _) => format!(
             "Action: use the calibrated simulation as it is{}.",

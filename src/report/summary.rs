@@ -11,7 +11,65 @@ pub fn render(results: &Results) -> String {
     out.push_str(&predictions_table(results));
     let id = &results.identifiability;
     let _ = writeln!(out, "\nidentifiability: {}", id.note);
+    if let Some(c) = &results.curve_calibration {
+        out.push_str(&curves_table(c));
+    }
     write_diagnosis(&mut out, results);
+    out
+}
+
+/// The methods on whole curves: parameters, the metric at the training and validation designs,
+/// the emulator, and what the curves pin down that the mean force does not.
+fn curves_table(c: &super::results::CurveCalibrationResult) -> String {
+    let mut out = String::new();
+    let components: Vec<String> = c.emulator.components.iter().map(|(d, k)| format!("{d} {k}")).collect();
+    let _ = writeln!(
+        out,
+        "\ncurves: {} over {} strokes, {}..{} mm{}; emulator components {}, reconstruction error {}, check error {}",
+        c.metric,
+        c.points,
+        c.window[0],
+        c.window[1],
+        c.filter
+            .as_ref()
+            .map_or(String::new(), |f| format!(", CFC {} at {} m/s", f.cfc, f.speed)),
+        components.join(", "),
+        percent(Some(c.emulator.reconstruction_error)),
+        percent(c.emulator.check_error),
+    );
+    let _ = writeln!(
+        out,
+        "{:<15} {:<36} {:>12} {:>12}",
+        "method", "parameters", "train", "validation"
+    );
+    let value = |v: Option<f64>| v.map_or("-".to_string(), |v| significant(v, 4));
+    for (m, r) in &c.methods {
+        let params: Vec<String> = match &r.error {
+            Some(e) => vec![format!("failed: {e}")],
+            None => r
+                .parameters
+                .iter()
+                .map(|(n, v)| format!("{n} = {}", significant(*v, 5)))
+                .collect(),
+        };
+        let _ = writeln!(
+            out,
+            "{m:<15} {:<36} {:>12} {:>12}",
+            params.join(", "),
+            value(r.train),
+            value(r.validation)
+        );
+    }
+    for p in &c.identifiability {
+        let se = |v: Option<f64>| v.map_or("not determined".to_string(), |v| format!("±{}", significant(v, 3)));
+        let _ = writeln!(
+            out,
+            "{}: standard error {} from the curves, {} from the mean forces",
+            p.parameter,
+            se(p.curves_se),
+            se(p.mean_force_se)
+        );
+    }
     out
 }
 
