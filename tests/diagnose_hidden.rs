@@ -282,6 +282,8 @@ fn run(setup: &Setup, case: &Case) -> Diagnosis {
         design_bounds: Bounds::new(setup.lower.clone(), setup.upper.clone()),
         hypotheses: case.hypotheses.clone(),
         settings: Settings::default(),
+        discover: false,
+        library: Default::default(),
     };
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
     verdict_common::assert_verdict_follows_evidence(&serde_json::to_value(&d).unwrap());

@@ -22,11 +22,17 @@
 //! 7. [`next_test`]: where in the design box the leading explanations differ most against the
 //!    noise, and how many specimens there make the test decisive (power at α).
 //! 8. [`residuals`] and [`text`]: the residual table, its trends, and the words.
+//!
+//! After the verdict, when no listed hypothesis explains the misfit, [`discover`] searches a
+//! [`library`] of shapes for the missing term (the verdict stays the listed hypotheses'; what it
+//! finds is reported beside it, found by search, not listed, and compared by the next test).
 
 pub mod candidates;
+pub mod discover;
 pub mod evidence;
 pub mod extension;
 pub mod joint;
+pub mod library;
 pub mod next_test;
 pub mod noise;
 pub mod ranking;
@@ -109,6 +115,9 @@ pub struct Settings {
     pub grid_per_axis: usize,
     /// Latin-hypercube points for the next-test search above three design variables.
     pub search_points: usize,
+    /// Run the library search ([`discover`]) even when no model error is detected, from the
+    /// uncorrected model: how its rate of false discovery is measured on clean data. Off by default.
+    pub search_without_detection: bool,
 }
 
 impl Default for Settings {
@@ -120,6 +129,7 @@ impl Default for Settings {
             same_shape_cosine: 1.0 - 1e-9,
             grid_per_axis: 21,
             search_points: 4000,
+            search_without_detection: false,
         }
     }
 }
@@ -136,6 +146,11 @@ pub struct Inputs<'a> {
     /// The user's candidate causes (study hypotheses); the built-in shapes are added by [`diagnose`].
     pub hypotheses: Vec<Shape>,
     pub settings: Settings,
+    /// Search a library of shapes when no listed hypothesis explains the misfit (`diagnosis.discover`).
+    pub discover: bool,
+    /// What the library is built from: the design variables' units and scales, the simulation's
+    /// exponents.
+    pub library: library::LibrarySpec,
 }
 
 /// The diagnosis inputs of a study: its training and validation designs (replicates summarised),
@@ -187,6 +202,15 @@ pub fn inputs_with_extensions<'a>(
             )
             .collect(),
         settings: Settings::default(),
+        discover: study.diagnosis.discover,
+        library: library::LibrarySpec {
+            units: study.design.iter().map(|d| d.unit.clone()).collect(),
+            scales: study.design.iter().map(|d| d.scale).collect(),
+            exponents: match &study.simulation {
+                crate::study::Simulation::Expression(e) => e.exponents(),
+                crate::study::Simulation::Solver(_) => Vec::new(),
+            },
+        },
     }
 }
 
@@ -220,6 +244,9 @@ pub struct Diagnosis {
     pub extensions: Vec<joint::SolverExtension>,
     /// The test that would best tell the leading explanations apart.
     pub next_test: Option<NextTest>,
+    /// The library search for a missing term, when it ran ([`discover`]): found by search, not listed.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub discovered: Option<discover::Discovered>,
     /// The verdict, the action and the evidence as one text (terminal and report).
     pub summary: String,
     pub noise: NoiseModel,
@@ -595,12 +622,14 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
     let noise = noise::finalise(replicate_noise, &cx, &ranked);
     let decision = verdict::decide(&cx, &ranked);
     let extended = extension::extend(&cx, &ranked, &decision);
-    let next_test = next_test::recommend(&cx, &ranked, &decision, &noise);
+    let search = discover::search(&cx, &ranked, &decision, &mut notes);
+    let found = search.as_ref().map_or_else(Vec::new, |s| s.compared(&ranked));
+    let next_test = next_test::recommend(&cx, &ranked, &decision, &noise, &found);
     let residuals = residuals::table(&cx, &ranked.base.model.fit, &noise);
     let structure = residuals::trends(&cx, &residuals);
     let candidates = ranked.candidates(&cx);
     let confounded = evidence::absorbed_sentences(&candidates);
-    let words = text::describe(&text::Facts {
+    let mut words = text::describe(&text::Facts {
         cx: &cx,
         noise: &noise,
         residuals: &residuals,
@@ -613,6 +642,11 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
         next_test: next_test.as_ref(),
         confounded: &confounded,
     });
+    if let Some(s) = &search {
+        // After the verdict and the action: what the search found, marked as found, not listed.
+        words.evidence.splice(0..0, s.discovered.evidence.iter().cloned());
+        words.summary = text::summary(&words.headline, &words.action, &words.evidence, &words.limits);
+    }
     Ok(Diagnosis {
         discrepancy_detected: decision.detected,
         cause: decision.cause.map(|k| candidates[k].name.clone()),
@@ -629,6 +663,7 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
         extended,
         extensions: Vec::new(),
         next_test,
+        discovered: search.map(|s| s.discovered),
         summary: words.summary,
         noise,
         residuals,

@@ -37,9 +37,23 @@ impl Explanation<'_> {
     }
 }
 
-pub(crate) fn recommend(cx: &Context, ranked: &Ranked, decision: &Decision, noise: &NoiseModel) -> Option<NextTest> {
-    let mut explanations: Vec<Explanation> = Vec::new();
-    for k in &decision.compare {
+/// `found`: a model the library search found and the model it extends ([`super::discover`]);
+/// when given, they are the explanations compared, in place of the decision's.
+pub(crate) fn recommend(
+    cx: &Context,
+    ranked: &Ranked,
+    decision: &Decision,
+    noise: &NoiseModel,
+    found: &[(String, &Entry)],
+) -> Option<NextTest> {
+    let mut explanations: Vec<Explanation> = found
+        .iter()
+        .map(|(name, entry)| Explanation {
+            name: name.clone(),
+            entry,
+        })
+        .collect();
+    for k in decision.compare.iter().filter(|_| found.is_empty()) {
         let entry = k.map_or(&ranked.base, |k| &ranked.entries[k]);
         let name = entry.model.name().to_string();
         if !explanations.iter().any(|e| e.name == name) {
