@@ -442,24 +442,38 @@ pub(crate) fn search(cx: &Context, ranked: &Ranked, decision: &Decision, notes: 
                 _ => true,
             }
     };
-    let mut winner = tried.iter().find(|t| eligible(t)).cloned();
-    let mut shortfall: Option<String> = None;
+    // A single term first; a pair only when no single suffices (a rival still reduces the misfit
+    // with the best single in, at α/(L − 1)), or when no single passes the corrected test.
+    let press_order = |a: &&Tried, b: &&Tried| a.press(cx).total_cmp(&b.press(cx));
+    let best_pair = |extra: Option<Tried>| -> Option<Tried> {
+        let listed = tried.iter().filter(|t| t.terms.len() == 2);
+        let pairs: Vec<Tried> = listed.cloned().chain(extra).filter(|t| eligible(t)).collect();
+        pairs.iter().min_by(press_order).cloned()
+    };
+    let single = tried.iter().find(|t| t.terms.len() == 1 && eligible(t)).cloned();
+    let mut winner = single.clone();
     let mut adds: Vec<(usize, Fit, Option<f64>)> = Vec::new();
-    if let Some(w) = winner.clone() {
-        adds = rivals_added(&s, &w);
-        let worst = best_adder(&adds);
-        let bound = rivals_alpha(w.terms.len());
-        if let Some((r, fit, _)) = worst.filter(|(_, _, p)| *p < bound)
-            && w.terms.len() == 1
-            && pairs_ok
-        {
-            let pair = s.tried(vec![w.terms[0], r], fit, true);
-            if eligible(&pair) {
+    match single {
+        Some(w) => {
+            adds = rivals_added(&s, &w);
+            if let Some((r, fit, _)) = best_adder(&adds).filter(|(_, _, p)| *p < rivals_alpha(1))
+                && pairs_ok
+                && let Some(pair) = best_pair(Some(s.tried(vec![w.terms[0], r], fit, true)))
+            {
                 adds = rivals_added(&s, &pair);
                 winner = Some(pair);
             }
         }
-        let w = winner.as_ref().expect("a winner");
+        None if pairs_ok => {
+            winner = best_pair(None);
+            if let Some(w) = &winner {
+                adds = rivals_added(&s, w);
+            }
+        }
+        None => {}
+    }
+    let mut shortfall: Option<String> = None;
+    if let Some(w) = &winner {
         let bound = rivals_alpha(w.terms.len());
         if let Some((r, _, p)) = best_adder(&adds).filter(|(_, _, p)| *p < bound) {
             shortfall = Some(format!(

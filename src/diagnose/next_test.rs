@@ -257,8 +257,14 @@ fn fewest_specimens(cx: &Context, ex: &[Explanation], sigma: &Sigma, target: f64
     let mut pairs: Vec<((usize, usize), Vec<Discriminant>)> = Vec::new();
     for a in 0..ex.len() {
         for b in a + 1..ex.len() {
-            let uncorrected = |k: usize| ex[k].entry.model.shape.is_none();
-            let dirs: Vec<(usize, usize)> = match (uncorrected(a), uncorrected(b)) {
+            // A model whose shapes are all in the other's (the uncorrected one; the model a found
+            // term extends) is nested in it: only the larger as true counts.
+            let nested = |k: usize, m: usize| {
+                let outer = ex[m].entry.model.shapes();
+                let within = |s: &&super::Shape| outer.iter().any(|o| o.name == s.name && o.term == s.term);
+                ex[k].entry.model.shapes().iter().all(within)
+            };
+            let dirs: Vec<(usize, usize)> = match (nested(a, b), nested(b, a)) {
                 (false, true) => vec![(a, b)],
                 (true, false) => vec![(b, a)],
                 _ => vec![(a, b), (b, a)],
