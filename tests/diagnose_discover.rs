@@ -321,6 +321,10 @@ fn run(case: &Case, always: bool) -> Diagnosis {
             scales: f.scales.clone(),
             exponents: f.exponents.clone(),
         },
+        outputs: Vec::new(),
+        built_ins: None,
+        noise: None,
+        relative_error: None,
     };
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
     if !always || d.discrepancy_detected {

@@ -282,6 +282,10 @@ fn run(setup: &Setup, case: &Case) -> Diagnosis {
         design_bounds: Bounds::new(setup.lower.clone(), setup.upper.clone()),
         hypotheses: case.hypotheses.clone(),
         settings: Settings::default(),
+        outputs: Vec::new(),
+        built_ins: None,
+        noise: None,
+        relative_error: None,
         discover: false,
         library: Default::default(),
     };

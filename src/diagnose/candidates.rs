@@ -81,12 +81,12 @@ pub(crate) fn uncorrected(cx: &Context) -> Result<Model, CalibrationError> {
 pub(crate) fn shapes(cx: &Context, base: &Model, notes: &mut Vec<String>) -> Vec<(Shape, Option<String>)> {
     let inputs = cx.inputs;
     let mut kept: Vec<(Shape, Option<String>, Vec<f64>)> = Vec::new();
-    for shape in inputs
-        .hypotheses
-        .iter()
-        .cloned()
-        .chain(Shape::built_ins(&inputs.design_names))
-    {
+    for shape in inputs.hypotheses.iter().cloned().chain(
+        inputs
+            .built_ins
+            .clone()
+            .unwrap_or_else(|| Shape::built_ins(&inputs.design_names)),
+    ) {
         let v = shape_vector(cx, &shape, base);
         if v.iter().any(|x| !x.is_finite()) {
             notes.push(format!(
@@ -190,7 +190,7 @@ pub(crate) fn score(cx: &Context, model: &Model, validation_deviance: Option<f64
             .sum();
         deviance(cx, press, n)
     });
-    let loo_error = loo.map(|loo| mean_abs_rel(cx.train.iter().zip(loo).map(|(&i, &yh)| (yh, cx.data.means[i]))));
+    let loo_error = loo.map(|loo| cx.mean_abs_rel(cx.train.iter().zip(loo).map(|(&i, &yh)| (i, yh))));
     let score = match (cx.mode, aicc, loo_deviance) {
         (Mode::Ranked, Some(a), Some(d)) => 0.5 * (a + d),
         _ => m2ll + 2.0 * k + validation_deviance.unwrap_or(0.0),
@@ -204,8 +204,4 @@ pub(crate) fn score(cx: &Context, model: &Model, validation_deviance: Option<f64
     }
 }
 
-/// Mean |(predicted − measured) / measured| over (predicted, measured) pairs.
-pub(crate) fn mean_abs_rel(pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
-    let (sum, count) = pairs.fold((0.0, 0usize), |(s, c), (yh, y)| (s + ((yh - y) / y).abs(), c + 1));
-    if count == 0 { f64::NAN } else { sum / count as f64 }
-}
+

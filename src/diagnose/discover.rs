@@ -65,14 +65,15 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::candidates::{self, Model, mean_abs_rel};
+use super::candidates::{self, Model};
 use super::fit::Fit;
-use super::library::{self, Dropped};
-use super::ranking::{Entry, Ranked};
+use super::library::{self, Dropped, LibrarySpec};
+use super::next_test::Explanation;
+use super::ranking::Entry;
 use super::shapes::Shape;
 use super::text::{num, p_text, pct_pub as pct};
-use super::verdict::{Decision, Verdict};
-use super::{Context, LackOfFit, Mode, evidence, stats};
+use super::verdict::{Decision, Verdict, Who};
+use super::{Context, Evidence, LackOfFit, Mode, evidence, stats};
 
 /// Singles fitted for real after the linear screening.
 pub const SHORTLIST_SINGLES: usize = 10;
@@ -178,22 +179,27 @@ pub struct Discovered {
 }
 
 /// The search's result and the found model as an explanation for the next test.
-pub(crate) struct Search {
+pub(crate) struct Search<'a> {
     pub discovered: Discovered,
     /// The found model (its name, and the fitted model with its evidence).
     pub found: Option<(String, Entry)>,
-    /// The base: `None` the uncorrected model, `Some(k)` `ranked.entries[k]`.
-    pub base: Option<usize>,
+    base: Base<'a>,
 }
 
-impl Search {
-    /// The found model and its base, for the next test to tell apart (empty when nothing was found).
-    pub fn compared<'r>(&'r self, ranked: &'r Ranked) -> Vec<(String, &'r Entry)> {
+impl Search<'_> {
+    /// The found model and its base, for the next test to tell apart (empty when nothing was
+    /// found): the found model nests its base.
+    pub fn compared(&self) -> Vec<Explanation<'_>> {
         let Some((name, entry)) = &self.found else {
             return Vec::new();
         };
-        let base = self.base.map_or(&ranked.base, |k| &ranked.entries[k]);
-        vec![(name.clone(), entry), (base.model.name().to_string(), base)]
+        let b = &self.base;
+        let found = Explanation::from_entry(b.cx, entry, name.clone(), false);
+        let base = Explanation::from_entry(b.cx, b.entry, b.name.clone(), b.uncorrected);
+        match &b.simulated_by {
+            Some(h) => vec![found.simulated_by(h), base.simulated_by(h)],
+            None => vec![found, base],
+        }
     }
 }
 
@@ -221,7 +227,7 @@ impl Tried {
 
     fn loo_error(&self, cx: &Context) -> f64 {
         self.loo.as_ref().map_or(f64::NAN, |loo| {
-            mean_abs_rel(cx.train.iter().zip(loo).map(|(&i, &yh)| (yh, cx.data.means[i])))
+            cx.mean_abs_rel(cx.train.iter().zip(loo).map(|(&i, &yh)| (i, yh)))
         })
     }
 }
@@ -287,17 +293,68 @@ impl Searcher<'_> {
     }
 }
 
-/// Runs the search when the diagnosis calls for it (see the module notes); `None` otherwise.
-pub(crate) fn search(cx: &Context, ranked: &Ranked, decision: &Decision, notes: &mut Vec<String>) -> Option<Search> {
-    let inputs = cx.inputs;
-    let settings = &inputs.settings;
-    if !inputs.discover || !(decision.detected || settings.search_without_detection) {
+/// Runs the search once the decision is final (the screening's, or the decision after the loop:
+/// see the module notes), when it calls for one; `None` otherwise.
+pub(crate) fn run<'a>(
+    screening: &'a Evidence<'a>,
+    looped: &'a [Evidence<'a>],
+    loop_names: &[String],
+    decision: &Decision,
+    notes: &mut Vec<String>,
+) -> Option<Search<'a>> {
+    let inputs = screening.cx.inputs;
+    if !inputs.discover || !(decision.detected || inputs.settings.search_without_detection) {
         return None;
     }
     let listed = !inputs.hypotheses.is_empty();
     if listed && decision.detected && !matches!(decision.verdict, Verdict::PartlyExplained | Verdict::Unexplained) {
         return None;
     }
+    // The base: the listed cause that partly explains the misfit (the loop's extended model where
+    // the loop calibrated it), else the uncorrected model.
+    let cause = decision.cause.filter(|_| listed && decision.verdict == Verdict::PartlyExplained);
+    let base = match cause {
+        Some(Who::Candidate(k)) => Base {
+            cx: &screening.cx,
+            entry: &screening.ranked.entries[k],
+            name: screening.ranked.entries[k].model.name().to_string(),
+            uncorrected: false,
+            simulated_by: None,
+        },
+        Some(Who::Extended(j)) => Base {
+            cx: &looped[j].cx,
+            entry: &looped[j].ranked.base,
+            name: loop_names[j].clone(),
+            uncorrected: false,
+            simulated_by: Some(loop_names[j].clone()),
+        },
+        _ => Base {
+            cx: &screening.cx,
+            entry: &screening.ranked.base,
+            name: "uncorrected".to_string(),
+            uncorrected: true,
+            simulated_by: None,
+        },
+    };
+    search(base, &inputs.library, notes)
+}
+
+/// What the search starts from: a fitted model in its own context.
+pub(crate) struct Base<'a> {
+    cx: &'a Context<'a>,
+    entry: &'a Entry,
+    name: String,
+    /// The study's simulation alone.
+    uncorrected: bool,
+    /// The loop's extended model is the simulation (the hypothesis it extends).
+    simulated_by: Option<String>,
+}
+
+/// The search from `base` over the library `spec` describes.
+fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Option<Search<'a>> {
+    let cx = b.cx;
+    let inputs = cx.inputs;
+    let settings = &inputs.settings;
     if cx.mode != Mode::Ranked {
         notes.push(format!(
             "no library search: {} training design(s) for {} parameter(s) leave no design to spare for \
@@ -307,16 +364,13 @@ pub(crate) fn search(cx: &Context, ranked: &Ranked, decision: &Decision, notes: 
         ));
         return None;
     }
-    let base_index = decision
-        .cause
-        .filter(|_| listed && decision.verdict == Verdict::PartlyExplained);
-    let base_entry = base_index.map_or(&ranked.base, |k| &ranked.entries[k]);
+    let base_entry = b.entry;
     let base = &base_entry.model;
-    let base_name = base.name().to_string();
+    let base_name = b.name.clone();
     let base_shapes: Vec<Shape> = base.shapes().into_iter().cloned().collect();
 
     // The library, at the base fit: dropped, duplicated, kept.
-    let built = library::build(&inputs.design_names, &inputs.library);
+    let built = library::build(&inputs.design_names, spec);
     let mut dropped = built.dropped.clone();
     let mut same_shape: IndexMap<String, Vec<String>> = IndexMap::new();
     let base_vectors: Vec<Vec<f64>> = base_shapes
@@ -586,7 +640,7 @@ pub(crate) fn search(cx: &Context, ranked: &Ranked, decision: &Decision, notes: 
     Some(Search {
         discovered,
         found,
-        base: base_index,
+        base: b,
     })
 }
 

@@ -137,11 +137,7 @@ fn check(cx: &Context, m: &Model, cov: Option<&Covariance>, s2: f64, dof: usize)
     let nv = cx.val.len();
     let noise_dof = if cx.known() { cx.nu } else { dof };
     let p_value = (noise_dof > 0).then(|| stats::f_sf(chi2 / nv as f64, nv as f64, noise_dof as f64));
-    let error = super::candidates::mean_abs_rel(
-        cx.val
-            .iter()
-            .map(|&i| (m.predict(cx, &cx.data.designs[i]), cx.data.means[i])),
-    );
+    let error = cx.mean_abs_rel(cx.val.iter().map(|&i| (i, m.predict(cx, &cx.data.designs[i]))));
     Some(Check {
         chi2,
         dof: nv,

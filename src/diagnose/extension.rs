@@ -11,13 +11,12 @@
 
 use indexmap::IndexMap;
 
-use super::candidates::mean_abs_rel;
 use super::ranking::{Entry, Ranked};
-use super::verdict::Decision;
-use super::{Context, Extended, ExtensionEffect};
+use super::{Context, Evidence, Extended, ExtensionEffect};
 
-pub(crate) fn extend(cx: &Context, ranked: &Ranked, decision: &Decision) -> Option<Extended> {
-    let e = &ranked.entries[decision.cause?];
+/// The screening's extended model of candidate `k`: θ and its amplitude fitted jointly.
+pub(crate) fn extend(cx: &Context, ranked: &Ranked, k: usize) -> Option<Extended> {
+    let e = &ranked.entries[k];
     let base = &ranked.base;
     let shape = e.model.shape.as_ref()?;
     let (before, after, measured_on) = errors(cx, base, e);
@@ -56,7 +55,7 @@ pub(crate) fn extend(cx: &Context, ranked: &Ranked, decision: &Decision) -> Opti
             .zip(loo_after)
             .filter(|(b, _)| *b > 0.0)
             .map(|(b, a)| 1.0 - a / b),
-        before_within_noise: within_noise(base),
+        before_within_noise: within_noise(cx, base),
         lack_of_fit_chi2: lof.map(|l| l.chi2),
         lack_of_fit_dof: lof.map(|l| l.dof),
         lack_of_fit_p: lof.map(|l| l.p_value),
@@ -83,22 +82,24 @@ fn errors(cx: &Context, base: &Entry, e: &Entry) -> (f64, f64, &'static str) {
         return (b, a, "leave-one-out");
     }
     let fitted = |x: &Entry| {
-        mean_abs_rel(
-            cx.train
-                .iter()
-                .map(|&i| (x.model.predict(cx, &cx.data.designs[i]), cx.data.means[i])),
-        )
+        cx.mean_abs_rel(cx.train.iter().map(|&i| (i, x.model.predict(cx, &cx.data.designs[i]))))
     };
     (fitted(base), fitted(e), "training (in sample)")
 }
 
-/// Validation designs where the uncorrected prediction is within the noise (|z| < 2).
-fn within_noise(base: &Entry) -> Vec<String> {
+/// Validation designs where the uncorrected prediction is within the noise (|z| < 2), among the
+/// observations the errors are measured on.
+fn within_noise(cx: &Context, base: &Entry) -> Vec<String> {
+    let counts = |name: &str| {
+        cx.val
+            .iter()
+            .any(|&i| cx.inputs.observations[i].name == name && cx.relative_error(i, cx.data.means[i]).is_some())
+    };
     base.assessed
         .validation
         .iter()
         .flat_map(|v| v.z.iter())
-        .filter(|(_, z)| z.abs() < 2.0)
+        .filter(|(n, z)| z.abs() < 2.0 && counts(n))
         .map(|(n, _)| n.clone())
         .collect()
 }
@@ -124,4 +125,84 @@ fn standardised(cx: &Context, e: &Entry) -> IndexMap<String, f64> {
         z.extend(v.z.iter().map(|(n, z)| (n.clone(), *z)));
     }
     z
+}
+
+/// The screening's extended model of a cause (`screening`) carried over to the loop's model of it
+/// (`looped`, the extended model taken as the simulation): the parameters gain the extension's
+/// variables, and the fit, lack of fit, gains and what remains are the loop model's, no longer the
+/// linearisation's.
+pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
+    let cx = &looped.cx;
+    let base = &looped.ranked.base;
+    let mut e = screening;
+    let before = e.parameters.clone();
+    e.parameters = cx.param_map(&base.model.fit.theta);
+    e.parameter_se = base.assessed.cov.as_ref().map(|c| {
+        cx.inputs
+            .parameter_names
+            .iter()
+            .enumerate()
+            .map(|(j, n)| (n.clone(), c.matrix[(j, j)].sqrt()))
+            .collect()
+    });
+    e.parameter_change = before
+        .iter()
+        .filter_map(|(n, v0)| Some((n.clone(), e.parameters.get(n)? / v0 - 1.0)))
+        .collect();
+    if let Some(v) = &base.assessed.validation
+        && e.measured_on == "validation"
+    {
+        e.validation_error_after = v.error;
+        e.gain = (e.validation_error_before > 0.0).then(|| 1.0 - v.error / e.validation_error_before);
+    }
+    e.loo_error_after = base.score.as_ref().and_then(|s| s.loo_error);
+    e.gain_loo = e
+        .loo_error_before
+        .zip(e.loo_error_after)
+        .filter(|(b, _)| *b > 0.0)
+        .map(|(b, a)| 1.0 - a / b);
+    if e.measured_on == "leave-one-out"
+        && let Some(a) = e.loo_error_after
+    {
+        e.validation_error_after = a;
+        e.gain = e.gain_loo;
+    }
+    let lof = base.assessed.lack_of_fit.as_ref();
+    e.lack_of_fit_chi2 = lof.map(|l| l.chi2);
+    e.lack_of_fit_dof = lof.map(|l| l.dof);
+    e.lack_of_fit_p = lof.map(|l| l.p_value);
+    e.residual_z = standardised(cx, base);
+    e.remaining = e
+        .residual_z
+        .iter()
+        .filter(|(_, z)| z.abs() > 2.0)
+        .map(|(n, z)| (n.clone(), *z))
+        .collect();
+    let intervals = looped.ranked.uncorrected(cx).precision;
+    let variables: Vec<String> = cx
+        .inputs
+        .parameter_names
+        .iter()
+        .filter(|n| !before.contains_key(*n))
+        .map(|n| {
+            let v = e.parameters[n];
+            match intervals.as_ref().and_then(|p| p.interval95.get(n)) {
+                Some([lo, hi]) => format!("{n} = {} (95 % {} to {})", num(v), num(*lo), num(*hi)),
+                None => format!("{n} = {}", num(v)),
+            }
+        })
+        .collect();
+    if let Some(x) = &mut e.extension {
+        x.meaning = format!(
+            "calibrated with the solver in the loop: {} (the screening's linearised amplitude was γ = {})",
+            variables.join(", "),
+            num(x.amplitude)
+        );
+    }
+    e.solver_in_the_loop = true;
+    e
+}
+
+fn num(v: f64) -> String {
+    super::text::num(v)
 }

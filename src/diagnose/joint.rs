@@ -15,7 +15,7 @@
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
-use super::{Diagnosis, Extended, Role};
+use super::{Diagnosis, Role};
 
 /// One ranged extension variable.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -214,55 +214,14 @@ impl SolverExtension {
         line.push('.');
         line
     }
-
-    /// Carries the loop's figures into the screening's extended model of the same cause: the
-    /// parameters gain the extension variables, and the fit, lack of fit and gains are the
-    /// extended model's, no longer the linearisation's.
-    fn update(&self, e: &mut Extended) {
-        let before = e.parameters.clone();
-        e.parameters = self.parameters.clone();
-        e.parameter_se = self.parameter_se.clone();
-        e.parameter_change = before
-            .iter()
-            .filter_map(|(n, v0)| Some((n.clone(), self.parameters.get(n)? / v0 - 1.0)))
-            .collect();
-        if let (Some(b), Some(a)) = (self.validation_error_before, self.validation_error_after) {
-            e.validation_error_before = b;
-            e.validation_error_after = a;
-            e.gain = self.gain;
-            e.measured_on = "validation".into();
-        }
-        e.loo_error_before = self.loo_error_before;
-        e.loo_error_after = self.loo_error_after;
-        e.gain_loo = self.gain_loo;
-        e.lack_of_fit_chi2 = self.lack_of_fit_chi2;
-        e.lack_of_fit_dof = self.lack_of_fit_dof;
-        e.lack_of_fit_p = self.lack_of_fit_p;
-        e.remaining = self.remaining.clone();
-        e.residual_z = self.residual_z.clone();
-        if let Some(x) = &mut e.extension {
-            x.meaning = format!(
-                "calibrated with the solver in the loop: {} (the screening's linearised amplitude was γ = {})",
-                self.variables_text(),
-                num(x.amplitude)
-            );
-        }
-        e.solver_in_the_loop = true;
-    }
 }
 
 impl Diagnosis {
-    /// The diagnosis with the loop's extended models: listed under `extensions`, carried into
-    /// `extended` when one is the named cause, and one line of evidence each.
+    /// The diagnosis with the loop's records (its runs, calibration methods and figures) listed
+    /// under `extensions`, one line of evidence each. The verdict already rests on the loop's
+    /// models ([`super::conclude`]); this adds what only the run engine knows.
     pub fn with_extensions(mut self, extensions: Vec<SolverExtension>) -> Diagnosis {
         for x in &extensions {
-            if let Some(e) = self.extended.as_mut().filter(|e| e.cause == x.hypothesis) {
-                // The action names the extended model's parameters: the loop's now.
-                let before = format!("({})", super::text::params(&e.parameters));
-                x.update(e);
-                let after = format!("({})", super::text::params(&e.parameters));
-                self.action = self.action.replacen(&before, &after, 1);
-            }
             self.evidence.push(x.evidence_line());
         }
         self.extensions = extensions;

@@ -27,10 +27,12 @@
 //! [`library`] of shapes for the missing term (the verdict stays the listed hypotheses'; what it
 //! finds is reported beside it, found by search, not listed, and compared by the next test).
 
+pub mod after_loop;
 pub mod candidates;
 pub mod discover;
 pub mod evidence;
 pub mod extension;
+pub mod features;
 pub mod joint;
 pub mod library;
 pub mod next_test;
@@ -54,6 +56,7 @@ pub use shapes::{Origin, Shape};
 use crate::calibrate::{Bounds, CalibrationError, Model};
 use crate::study::Study;
 use fit::Data;
+use verdict::Verdict;
 
 /// Which role a tested design plays.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -78,6 +81,10 @@ pub struct Observation {
     pub count: usize,
     /// Sample standard deviation of the replicates (`None` with one test).
     pub std_dev: Option<f64>,
+    /// Which of [`Inputs::outputs`] this observes (0 for a scalar response).
+    pub output: usize,
+    /// The tested design it belongs to (its own name, unless it is one output of several).
+    pub group: String,
 }
 
 impl Observation {
@@ -86,14 +93,25 @@ impl Observation {
         let mean = replicates.iter().sum::<f64>() / n as f64;
         let std_dev =
             (n > 1).then(|| (replicates.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
+        let name = name.into();
         Observation {
-            name: name.into(),
+            group: name.clone(),
+            name,
             design,
             role,
             mean,
             count: n,
             std_dev,
+            output: 0,
         }
+    }
+
+    /// The same replicates observing output `k` (named `output`) of a multi-output study (a curve
+    /// feature); the design's name stays its group.
+    pub fn of_output(mut self, k: usize, output: &str) -> Self {
+        self.output = k;
+        self.name = format!("{} · {output}", self.group);
+        self
     }
 }
 
@@ -151,6 +169,36 @@ pub struct Inputs<'a> {
     /// What the library is built from: the design variables' units and scales, the simulation's
     /// exponents.
     pub library: library::LibrarySpec,
+    /// The outputs each tested design is observed in: empty (or one) for a scalar response; the
+    /// names of curve features otherwise. With several, the model and every shape are called with
+    /// the output's index appended to the design (`[c, t, k]`).
+    pub outputs: Vec<String>,
+    /// The shapes every diagnosis tries besides the hypotheses (`None`: [`Shape::built_ins`] over
+    /// the design variables).
+    pub built_ins: Option<Vec<Shape>>,
+    /// The noise when the caller knows it better than the replicate scatter of the observations
+    /// (curve features whitened by their covariance: σ = 1 with the covariance's own degrees of
+    /// freedom).
+    pub noise: Option<NoiseModel>,
+    /// The relative error of a prediction at an observation, where the observations are not the
+    /// response itself (whitened curve features: the plateau level's, `None` for the others);
+    /// `None`: (predicted − measured) / measured.
+    pub relative_error: Option<RelativeError>,
+}
+
+/// See [`Inputs::relative_error`].
+pub type RelativeError = std::sync::Arc<dyn Fn(&Observation, f64) -> Option<f64> + Send + Sync>;
+
+impl Inputs<'_> {
+    /// An observation's point as the model and the shapes see it: the design, and with several
+    /// outputs the output's index after it.
+    pub fn point(&self, o: &Observation) -> Vec<f64> {
+        if self.outputs.len() > 1 {
+            o.design.iter().copied().chain([o.output as f64]).collect()
+        } else {
+            o.design.clone()
+        }
+    }
 }
 
 /// The diagnosis inputs of a study: its training and validation designs (replicates summarised),
@@ -211,6 +259,10 @@ pub fn inputs_with_extensions<'a>(
                 crate::study::Simulation::Solver(_) => Vec::new(),
             },
         },
+        outputs: Vec::new(),
+        built_ins: None,
+        noise: None,
+        relative_error: None,
     }
 }
 
@@ -247,6 +299,12 @@ pub struct Diagnosis {
     /// The library search for a missing term, when it ran ([`discover`]): found by search, not listed.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub discovered: Option<discover::Discovered>,
+    /// With curves: the features read and where along the stroke the model errs.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub features: Option<features::FeaturesReport>,
+    /// How the models the loop calibrated changed the screening's verdict (absent without a loop).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub after_loop: Option<after_loop::AfterLoop>,
     /// The verdict, the action and the evidence as one text (terminal and report).
     pub summary: String,
     pub noise: NoiseModel,
@@ -437,8 +495,22 @@ pub struct NextTest {
     pub specimens: Option<usize>,
     /// Specimens to add to those already tested there.
     pub additional_specimens: Option<usize>,
-    /// The power of that test with `specimens` specimens.
+    /// The power of the recommended test at the explanations' fitted parameters.
     pub power: Option<f64>,
+    /// Its power averaged over the uncertainty of the fitted parameters (absent without their
+    /// covariance).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub expected_power: Option<f64>,
+    /// The recommended specimens design by design: one design, or a programme of two or three
+    /// when that is cheaper or when no single design decides (empty when nothing decides).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub programme: Vec<next_test::ProgrammeRun>,
+    /// Only designs outside the design bounds decide (the programme lies there).
+    #[serde(default)]
+    pub outside_range: bool,
+    /// Independent measurements of a parameter that would decide with the tests in hand.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub measurements: Vec<next_test::Measurement>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -522,7 +594,7 @@ impl<'a> Context<'a> {
         let data = Data {
             model: inputs.model,
             bounds: &inputs.parameter_bounds,
-            designs: obs.iter().map(|o| o.design.clone()).collect(),
+            designs: obs.iter().map(|o| inputs.point(o)).collect(),
             means: obs.iter().map(|o| o.mean).collect(),
             weights,
         };
@@ -553,6 +625,25 @@ impl<'a> Context<'a> {
             mode,
             rss_floor,
         })
+    }
+
+    /// Mean |relative error| of predictions `yh` at observations `i` (NaN when none has one).
+    pub fn mean_abs_rel(&self, pairs: impl Iterator<Item = (usize, f64)>) -> f64 {
+        let errors: Vec<f64> = pairs.filter_map(|(i, yh)| self.relative_error(i, yh)).collect();
+        if errors.is_empty() {
+            f64::NAN
+        } else {
+            errors.iter().map(|e| e.abs()).sum::<f64>() / errors.len() as f64
+        }
+    }
+
+    /// The relative error of `yh` at observation `i` (see [`Inputs::relative_error`]).
+    pub fn relative_error(&self, i: usize, yh: f64) -> Option<f64> {
+        let o = &self.inputs.observations[i];
+        match &self.inputs.relative_error {
+            Some(f) => f(o, yh),
+            None => Some((yh - o.mean) / o.mean),
+        }
     }
 
     /// Whether σ comes from replicates.
@@ -611,65 +702,210 @@ partly explains the misfit when the same lack-of-fit test of its extended model 
 /// Runs the diagnosis, step by step (see the module notes). Errors only when there are no training
 /// designs or the model cannot be evaluated.
 pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
-    let mut notes = Vec::new();
-    let replicate_noise = noise::from_replicates(&inputs.observations);
-    let cx = Context::new(inputs, replicate_noise.as_ref())?;
-    let base = candidates::uncorrected(&cx)?;
-    let shapes = candidates::shapes(&cx, &base, &mut notes);
-    let fitted = candidates::fit_all(&cx, shapes, &mut notes);
-    let assessed = evidence::assess(&cx, &base, &fitted);
-    let ranked = ranking::rank(&cx, base, fitted, assessed);
-    let noise = noise::finalise(replicate_noise, &cx, &ranked);
-    let decision = verdict::decide(&cx, &ranked);
-    let extended = extension::extend(&cx, &ranked, &decision);
-    let search = discover::search(&cx, &ranked, &decision, &mut notes);
-    let found = search.as_ref().map_or_else(Vec::new, |s| s.compared(&ranked));
-    let next_test = next_test::recommend(&cx, &ranked, &decision, &noise, &found);
-    let residuals = residuals::table(&cx, &ranked.base.model.fit, &noise);
-    let structure = residuals::trends(&cx, &residuals);
-    let candidates = ranked.candidates(&cx);
-    let confounded = evidence::absorbed_sentences(&candidates);
-    let mut words = text::describe(&text::Facts {
-        cx: &cx,
-        noise: &noise,
-        residuals: &residuals,
-        structure: &structure,
-        candidates: &candidates,
-        base: &ranked.base,
-        decision: &decision,
-        rivals: &ranked.rivals,
-        extended: extended.as_ref(),
-        next_test: next_test.as_ref(),
-        confounded: &confounded,
-    });
-    if let Some(s) = &search {
-        // After the verdict and the action: what the search found, marked as found, not listed.
-        words.evidence.splice(0..0, s.discovered.evidence.iter().cloned());
-        words.summary = text::summary(&words.headline, &words.action, &words.evidence, &words.limits);
+    Ok(Evidence::gather(inputs)?.conclusion(&[], &[]))
+}
+
+/// A hypothesis the loop calibrated with the solver, as the diagnosis sees it.
+pub struct LoopModel<'a> {
+    /// The screening candidate it extends.
+    pub hypothesis: String,
+    /// The extended model taken as the simulation: its parameters are θ and the extension's
+    /// variables; its candidates are the study's terms and the other hypotheses' screening shapes
+    /// (so that each can be tested with the extended model as the base).
+    pub inputs: Inputs<'a>,
+}
+
+/// The diagnosis from all the evidence: the screening of `inputs`, then every model the loop
+/// calibrated (`looped`), decided once ([`after_loop`]). Also returns each loop model's own
+/// diagnosis (what it leaves unexplained).
+pub fn conclude(inputs: &Inputs, looped: &[LoopModel]) -> Result<(Diagnosis, Vec<Diagnosis>), CalibrationError> {
+    let screening = Evidence::gather(inputs)?;
+    let evidence: Vec<Evidence> = looped
+        .iter()
+        .map(|m| Evidence::gather(&m.inputs))
+        .collect::<Result<_, _>>()?;
+    let own: Vec<Diagnosis> = evidence.iter().map(|e| e.conclusion(&[], &[])).collect();
+    let names: Vec<String> = looped.iter().map(|m| m.hypothesis.clone()).collect();
+    Ok((screening.conclusion(&evidence, &names), own))
+}
+
+/// The evidence for one model taken as the simulation: every candidate fitted with it, tested,
+/// ranked, and the screening decision (steps 1–5).
+pub(crate) struct Evidence<'a> {
+    pub cx: Context<'a>,
+    pub ranked: ranking::Ranked,
+    pub decision: verdict::Decision,
+    pub noise: NoiseModel,
+    pub notes: Vec<String>,
+}
+
+impl<'a> Evidence<'a> {
+    fn gather(inputs: &'a Inputs<'a>) -> Result<Self, CalibrationError> {
+        let mut notes = Vec::new();
+        let replicate_noise = inputs
+            .noise
+            .clone()
+            .or_else(|| noise::from_replicates(&inputs.observations));
+        let cx = Context::new(inputs, replicate_noise.as_ref())?;
+        let base = candidates::uncorrected(&cx)?;
+        let shapes = candidates::shapes(&cx, &base, &mut notes);
+        let fitted = candidates::fit_all(&cx, shapes, &mut notes);
+        let assessed = evidence::assess(&cx, &base, &fitted);
+        let ranked = ranking::rank(&cx, base, fitted, assessed);
+        let noise = noise::finalise(replicate_noise, &cx, &ranked);
+        let decision = verdict::decide(&cx, &ranked);
+        Ok(Evidence {
+            cx,
+            ranked,
+            decision,
+            noise,
+            notes,
+        })
     }
-    Ok(Diagnosis {
-        discrepancy_detected: decision.detected,
-        cause: decision.cause.map(|k| candidates[k].name.clone()),
-        verdict: decision.verdict,
-        headline: words.headline,
-        leading: decision.leading_names(&candidates),
-        action: words.action,
-        evidence: words.evidence,
-        limits: words.limits,
-        uncorrected: ranked.uncorrected(&cx),
-        lack_of_fit: ranked.base.assessed.lack_of_fit.clone(),
-        rivals: ranked.rivals.clone(),
-        candidates,
-        extended,
-        extensions: Vec::new(),
-        next_test,
-        discovered: search.map(|s| s.discovered),
-        summary: words.summary,
-        noise,
-        residuals,
-        structure,
-        confounded,
-        rule: RULE.to_string(),
-        notes,
-    })
+
+    /// The diagnosis: this evidence's decision, or with loop models the decision after the loop
+    /// (steps 5b–8).
+    fn conclusion(&self, looped: &[Evidence], loop_names: &[String]) -> Diagnosis {
+        let cx = &self.cx;
+        let ranked = &self.ranked;
+        let (decision, after) = if looped.is_empty() {
+            (self.decision.clone(), None)
+        } else {
+            let (d, a) = after_loop::decide(self, looped, loop_names);
+            (d, Some(a))
+        };
+        let candidates = ranked.candidates(cx);
+        let name = |who| verdict::name_of(who, &candidates, loop_names);
+        let extended = decision.cause.and_then(|who| match who {
+            verdict::Who::Candidate(k) => extension::extend(cx, ranked, k),
+            verdict::Who::Extended(j) => {
+                let k = ranked.entries.iter().position(|e| e.model.name() == loop_names[j])?;
+                let screening = extension::extend(cx, ranked, k)?;
+                Some(extension::from_loop(screening, &looped[j]))
+            }
+            verdict::Who::Uncorrected => None,
+        });
+        // Once the decision is final: the library search for a missing term (step 7b), when the
+        // verdict leaves the misfit unexplained or no hypothesis is listed.
+        let mut notes = self.notes.clone();
+        let search = discover::run(self, looped, loop_names, &decision, &mut notes);
+        let explanations: Vec<next_test::Explanation> = match search.as_ref().map(|s| s.compared()) {
+            // A found term is a hypothesis like any other: the next test tells it from its base.
+            Some(found) if !found.is_empty() => found,
+            _ => decision
+                .compare
+                .iter()
+                .map(|&who| match who {
+                    verdict::Who::Uncorrected => next_test::Explanation::from_entry(cx, &ranked.base, name(who), true),
+                    verdict::Who::Candidate(k) => {
+                        next_test::Explanation::from_entry(cx, &ranked.entries[k], name(who), false)
+                    }
+                    verdict::Who::Extended(j) => {
+                        next_test::Explanation::from_entry(&looped[j].cx, &looped[j].ranked.base, name(who), false)
+                            .simulated_by(&loop_names[j])
+                    }
+                })
+                .collect(),
+        };
+        // A confirming test may count the tests in hand; where they left it open, new tests must
+        // decide on their own. So must a test of a term the search found: the tests that chose it
+        // cannot also confirm it.
+        let found = search.as_ref().is_some_and(|s| s.found.is_some());
+        let fresh = found || !matches!(decision.verdict, Verdict::CauseNamed | Verdict::NoModelError);
+        let next_test = next_test::recommend(cx, &explanations, &self.noise, fresh);
+        drop(explanations);
+        let residuals = residuals::table(cx, &ranked.base.model.fit, &self.noise);
+        let structure = residuals::trends(cx, &residuals);
+        let confounded = evidence::absorbed_sentences(&candidates);
+        let screening_words = after.as_ref().map(|_| {
+            let w = text::describe(&self.facts(
+                &self.decision,
+                &candidates,
+                &residuals,
+                &structure,
+                None,
+                None,
+                &confounded,
+                &[],
+            ));
+            w.headline
+        });
+        let after = after.map(|mut a| {
+            a.screening_headline = screening_words.unwrap_or_default();
+            a
+        });
+        let mut facts = self.facts(
+            &decision,
+            &candidates,
+            &residuals,
+            &structure,
+            extended.as_ref(),
+            next_test.as_ref(),
+            &confounded,
+            loop_names,
+        );
+        facts.after_loop = after.as_ref();
+        let mut words = text::describe(&facts);
+        if let Some(s) = &search {
+            // After the verdict and the action: what the search found, marked as found, not listed.
+            words.evidence.splice(0..0, s.discovered.evidence.iter().cloned());
+            words.summary = text::summary(&words.headline, &words.action, &words.evidence, &words.limits);
+        }
+        Diagnosis {
+            discrepancy_detected: decision.detected,
+            cause: decision.cause.map(name),
+            verdict: decision.verdict,
+            headline: words.headline,
+            leading: decision.leading.iter().map(|&w| name(w)).collect(),
+            action: words.action,
+            evidence: words.evidence,
+            limits: words.limits,
+            uncorrected: ranked.uncorrected(cx),
+            lack_of_fit: ranked.base.assessed.lack_of_fit.clone(),
+            rivals: ranked.rivals.clone(),
+            candidates,
+            extended,
+            extensions: Vec::new(),
+            next_test,
+            features: None,
+            after_loop: after,
+            discovered: search.map(|s| s.discovered),
+            summary: words.summary,
+            noise: self.noise.clone(),
+            residuals,
+            structure,
+            confounded,
+            rule: RULE.to_string(),
+            notes,
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)] // the words' inputs, each a typed result of a step
+    fn facts<'f>(
+        &'f self,
+        decision: &'f verdict::Decision,
+        candidates: &'f [Candidate],
+        residuals: &'f [Residual],
+        structure: &'f [Trend],
+        extended: Option<&'f Extended>,
+        next_test: Option<&'f NextTest>,
+        confounded: &'f [String],
+        loop_names: &'f [String],
+    ) -> text::Facts<'f> {
+        text::Facts {
+            cx: &self.cx,
+            noise: &self.noise,
+            residuals,
+            structure,
+            candidates,
+            base: &self.ranked.base,
+            decision,
+            rivals: &self.ranked.rivals,
+            extended,
+            next_test,
+            confounded,
+            loop_names,
+            after_loop: None,
+        }
+    }
 }

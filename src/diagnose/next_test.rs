@@ -1,363 +1,742 @@
-//! Step 7: the test that would settle what the verdict leaves open.
+//! Step 7: the test that would settle what the verdict leaves open — one design, or a programme of
+//! a few designs, or an independent measurement of a parameter.
 //!
 //! Model discrimination by T-optimal design (Atkinson & Fedorov 1975): take one explanation A as
-//! true, with its fitted parameters, and ask how badly a rival B — refitted to the training tests
-//! plus m new specimens at design d — would then miss. That misfit, in units of the noise, is the
-//! noncentrality λ of the likelihood-ratio test that would follow. With B linearised around its
-//! fit (Jacobian J, weights W over the training designs), the existing designs give
-//! `λ₀ = ‖r − A δ₀‖²`, `r = W(μ_A − μ_B)`, `A = WJ`, `δ₀ = (AᵀA)⁻¹Aᵀr`, and m specimens at d
-//! add, by the recursive least-squares update,
-//! `λ(d, m) = λ₀ + m e² / (1 + m h)`, `e = (μ_A(d) − μ_B(d) − j_dᵀδ₀)/σ(d)`,
-//! `h = j_dᵀ(AᵀA)⁻¹j_d/σ(d)²`.
-//! A pair of candidates counts the weaker direction (min over A→B and B→A); a candidate against
-//! the uncorrected model counts only the candidate as true (the larger model nests the smaller and
-//! can always mimic it). The test at α has power ≥ `power` when λ ≥ (z_{1−α/2} + z_power)²
-//! (normal approximation of the noncentral χ²₁; Cohen 1988, ch. 2). The recommended design is the
-//! one that needs the fewest specimens for that, over every compared pair; as m grows, λ is
-//! bounded by λ₀ + e²/h: when even that falls short, no number of specimens at one design settles
-//! it, and the text says so.
+//! true, with its fitted numbers, and ask how badly a rival B — refitted to the training tests plus
+//! the new specimens — would then miss. That misfit, in units of the noise, is the noncentrality λ
+//! of the likelihood-ratio test that would follow. With B linearised around its fit (weighted
+//! Jacobian A_B over the training tests, r = W(μ_A − μ_B)) and new rows (one per specimen and
+//! observed output, e = (μ_A − μ_B)/σ, j = ∂μ_B/∂β/σ, m specimens counting m times):
+//!
+//! `λ = rᵀr + Σ m eᵀe − bᵀ M⁺ b`,  `M = A_BᵀA_B + Σ m jᵀj`,  `b = A_Bᵀr + Σ m jᵀe`,
+//!
+//! the residual sum of squares of the least-squares refit of B (the recursive form of the
+//! single-design update λ₀ + m e²/(1 + m h)). A pair of candidates counts the weaker direction
+//! (min over A→B and B→A); a candidate against the uncorrected model counts only the candidate as
+//! true (the larger model nests the smaller). The test at α has power ≥ `power` when
+//! λ ≥ (z_{1−α/2} + z_power)² (normal approximation of the noncentral χ²₁; Cohen 1988, ch. 2).
+//!
+//! The search, cheapest first (fewest specimens in all):
+//! 1. one design in the design box (every tested design included) with m specimens;
+//! 2. programmes of two designs (m₁, m₂), and, when no pair decides, three (the best pairs and a
+//!    third design); the candidate designs are a coarser grid for these;
+//! 3. the chosen programme's power is then taken over the uncertainty of A's fitted numbers
+//!    (expected power, or assurance: the mean power over draws of A from its Gauss–Newton
+//!    covariance, B refitted each time; O'Hagan, Stevens & Campbell 2005), and its specimens are
+//!    raised until that reaches `power`;
+//! 4. when nothing inside the design bounds decides, the same search over a box widened by half
+//!    its width on each side (closed forms only: a solver study's surrogates exist at its tested
+//!    designs alone), reported as a test outside the tested range;
+//! 5. for each parameter both explanations share, the standard uncertainty an independent
+//!    measurement of it (a coupon test of E, say) would need, with the existing tests, to tell them
+//!    apart at the same power: a prior row (β_j − β_A,j)/σ added to B's refit.
 
 use indexmap::IndexMap;
-
-use super::ranking::{Entry, Ranked};
-use super::verdict::Decision;
 use nalgebra::{DMatrix, DVector};
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
 
 use super::{Context, Mode, NextTest, NoiseKind, NoiseModel, stats, text};
 
-/// One explanation: its name and its fitted model.
-struct Explanation<'e> {
-    name: String,
-    entry: &'e Entry,
+/// One explanation as the discrimination sees it: its prediction at an observation point for any
+/// fitted numbers β (θ first), its fit β̂ with covariance, and ∂y/∂β at β̂.
+pub(crate) struct Explanation<'e> {
+    pub name: String,
+    eval: Box<dyn Fn(&[f64], &[f64]) -> f64 + Sync + 'e>,
+    gradient: Box<dyn Fn(&[f64]) -> DVector<f64> + Sync + 'e>,
+    beta: DVector<f64>,
+    /// Names of β's entries (θ by the study's names, then γ or the extension's variables).
+    names: Vec<String>,
+    cov: Option<DMatrix<f64>>,
+    /// θ's bounds (the first entries of β), which parameter draws are kept inside.
+    bounds: &'e crate::calibrate::Bounds,
+    /// What the model is made of: its simulation (empty for the study's own) and its shapes, by
+    /// name and term. A model whose parts all lie in another's is nested in it (the uncorrected
+    /// model in every other; the model a found term extends in the found one): only the larger as
+    /// true counts when the two are compared.
+    parts: Vec<String>,
 }
 
-impl Explanation<'_> {
-    fn predict(&self, cx: &Context, d: &[f64]) -> f64 {
-        self.entry.model.predict(cx, d)
-    }
-}
-
-/// `found`: a model the library search found and the model it extends ([`super::discover`]);
-/// when given, they are the explanations compared, in place of the decision's.
-pub(crate) fn recommend(
-    cx: &Context,
-    ranked: &Ranked,
-    decision: &Decision,
-    noise: &NoiseModel,
-    found: &[(String, &Entry)],
-) -> Option<NextTest> {
-    let mut explanations: Vec<Explanation> = found
-        .iter()
-        .map(|(name, entry)| Explanation {
-            name: name.clone(),
-            entry,
-        })
-        .collect();
-    for k in decision.compare.iter().filter(|_| found.is_empty()) {
-        let entry = k.map_or(&ranked.base, |k| &ranked.entries[k]);
-        let name = entry.model.name().to_string();
-        if !explanations.iter().any(|e| e.name == name) {
-            explanations.push(Explanation { name, entry });
+impl<'e> Explanation<'e> {
+    /// A model fitted in context `cx` (the screening's, or a loop model's own): `entry`'s shape (if
+    /// any) with its amplitude, θ its parameters. `uncorrected`: it is the study's simulation
+    /// alone, nested in every other explanation.
+    pub fn from_entry(cx: &'e Context<'e>, entry: &'e super::ranking::Entry, name: String, uncorrected: bool) -> Self {
+        let model = &entry.model;
+        let p = cx.p();
+        let beta: DVector<f64> = DVector::from_iterator(
+            p + model.fit.gamma.len(),
+            model.fit.theta.iter().chain(&model.fit.gamma).copied(),
+        );
+        let mut names = cx.inputs.parameter_names.clone();
+        names.extend((0..model.fit.gamma.len()).map(|k| format!("γ{k}")));
+        Explanation {
+            name,
+            eval: Box::new(move |pt, b| cx.data.predict(&model.shapes(), &b[..p], &b[p..], pt)),
+            gradient: Box::new(move |pt| cx.data.gradient(&model.shapes(), &model.fit, pt)),
+            beta,
+            names,
+            cov: entry.assessed.cov.as_ref().map(|c| c.matrix.clone()),
+            bounds: &cx.inputs.parameter_bounds,
+            parts: if uncorrected {
+                Vec::new()
+            } else {
+                model.shapes().iter().map(|s| format!("{}: {}", s.name, s.term)).collect()
+            },
         }
     }
-    if cx.inputs.design_bounds.dim() == 0 {
-        return None;
+
+    /// The same explanation, its simulation a model the loop extended with `hypothesis` (so that
+    /// it is nested in no screening candidate, nor they in it).
+    pub fn simulated_by(mut self, hypothesis: &str) -> Self {
+        self.parts.insert(0, format!("simulation: {hypothesis}"));
+        self
     }
-    if explanations.len() < 2 {
-        return farthest_from_tested(cx, &explanations);
+
+    /// Whether every part of this model is one of `other`'s.
+    fn nested_in(&self, other: &Explanation) -> bool {
+        self.parts.iter().all(|p| other.parts.contains(p))
     }
-    let sigma = one_test_sigma(cx, noise);
-    let alpha = cx.alpha();
-    let z = stats::normal_quantile(1.0 - alpha / 2.0) + stats::normal_quantile(cx.inputs.settings.power);
-    let pick = match &sigma {
-        Some(s) => fewest_specimens(cx, &explanations, s, z * z),
-        None => widest_gap(cx, &explanations),
-    }?;
-    let d = pick.design;
-    let (ea, eb) = (&explanations[pick.pair.0], &explanations[pick.pair.1]);
-    let (ya, yb) = (ea.predict(cx, &d), eb.predict(cx, &d));
-    let already_tested = tested_at(cx, &d);
-    let separation = sigma
-        .as_ref()
-        .map_or(pick.gap, |s| (ya - yb).abs() / s(0.5 * (ya + yb)));
-    let power = pick
-        .specimens
-        .map(|_| stats::normal_cdf(pick.lambda.max(0.0).sqrt() - stats::normal_quantile(1.0 - alpha / 2.0)));
-    let additional = pick
-        .specimens
-        .map(|m| m.saturating_sub(already_tested.as_ref().map_or(0, |t| t.1)));
-    let compared: IndexMap<String, f64> = explanations
-        .iter()
-        .map(|e| (e.name.clone(), e.predict(cx, &d)))
-        .collect();
-    let design: IndexMap<String, f64> = cx.inputs.design_names.iter().cloned().zip(d.iter().copied()).collect();
-    let advice = advice(cx, sigma.is_some(), pick.specimens, additional, already_tested.as_ref());
-    let why = why(
-        &design,
-        &compared,
-        (ya, yb),
-        sigma.is_some(),
-        already_tested.as_ref(),
-        &advice,
-    );
-    Some(NextTest {
-        design,
-        why,
-        advice,
-        between: [ea.name.clone(), eb.name.clone()],
-        predictions: [ya, yb],
-        separation,
-        compared,
-        already_tested,
-        specimens: pick.specimens,
-        additional_specimens: additional,
-        power,
-    })
+
+    pub fn predict(&self, pt: &[f64]) -> f64 {
+        (self.eval)(pt, self.beta.as_slice())
+    }
+
+    /// The value of a named parameter of β.
+    fn value(&self, name: &str) -> Option<f64> {
+        self.names.iter().position(|n| n == name).map(|j| self.beta[j])
+    }
 }
 
-/// With nothing to compare (no candidate could be fitted): the design in the box farthest from
-/// every tested one (in units of the box), where the calibrated model is least checked.
-fn farthest_from_tested(cx: &Context, explanations: &[Explanation]) -> Option<NextTest> {
-    let width = cx.inputs.design_bounds.width();
-    let gap = |d: &[f64]| {
-        cx.inputs
-            .observations
-            .iter()
-            .map(|o| {
-                o.design
-                    .iter()
-                    .zip(d)
-                    .enumerate()
-                    .map(|(j, (a, b))| ((a - b) / width[j].abs().max(1e-12)).powi(2))
-                    .sum::<f64>()
-            })
-            .fold(f64::INFINITY, f64::min)
-    };
-    let d = candidate_points(cx)
-        .into_iter()
-        .max_by(|a, b| gap(a).total_cmp(&gap(b)))?;
-    let y = explanations.first().map_or(f64::NAN, |e| e.predict(cx, &d));
-    let design: IndexMap<String, f64> = cx.inputs.design_names.iter().cloned().zip(d.iter().copied()).collect();
-    let at = design
-        .iter()
-        .map(|(n, v)| format!("{n} = {}", text::num(*v)))
-        .collect::<Vec<_>>()
-        .join(", ");
-    let advice = "at least 3 specimens there, so that the scatter is measured and the calibrated model is checked \
-                  where it was not fitted"
-        .to_string();
-    Some(NextTest {
-        why: format!(
-            "Test at {at} (not tested yet): no candidate cause can be fitted to so few tests, so the most useful \
-             next test is the design farthest from those tested, where the calibrated simulation predicts {}. In \
-             numbers: {advice}.",
-            text::num(y)
-        ),
-        advice,
-        between: ["uncorrected".into(), "uncorrected".into()],
-        predictions: [y, y],
-        separation: 0.0,
-        compared: [("uncorrected".to_string(), y)].into_iter().collect(),
-        already_tested: None,
-        specimens: None,
-        additional_specimens: None,
-        power: None,
-        design,
-    })
+/// A programme of specimens at designs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProgrammeRun {
+    pub design: IndexMap<String, f64>,
+    /// Specimens to test there (all of them, the tested ones included).
+    pub specimens: usize,
+    /// The tested design at this point, if any, and how many more specimens it needs.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub tested_as: Option<String>,
+    pub additional: usize,
 }
 
-/// The chosen design, the pair that limits it, and what it takes there.
-struct Pick {
-    design: Vec<f64>,
-    pair: (usize, usize),
-    /// Specimens for power at α (`None`: no number suffices).
-    specimens: Option<usize>,
-    /// λ with those specimens (or the bound when none suffices).
-    lambda: f64,
-    /// The relative gap of the pair (used without a noise).
-    gap: f64,
+/// An independent measurement of one parameter that would tell the explanations apart.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Measurement {
+    pub parameter: String,
+    /// The largest standard uncertainty that still decides, relative to the parameter's value.
+    pub relative_uncertainty: f64,
+    /// The values the two explanations give it.
+    pub values: [f64; 2],
 }
 
 /// More specimens than this at one design are no practical recommendation.
 const MAX_SPECIMENS: usize = 1000;
+/// The largest programme of several designs searched (specimens in all).
+const MAX_PROGRAMME: usize = 120;
+/// Draws of the true explanation's fitted numbers for the expected power.
+const DRAWS: usize = 64;
 
-/// B linearised around its fit, refitted to A's predictions at the training designs.
-struct Discriminant<'e> {
-    a: &'e Explanation<'e>,
-    b: &'e Explanation<'e>,
-    m_inv: DMatrix<f64>,
-    delta0: DVector<f64>,
-    lambda0: f64,
+/// The next test: what it compares, where, with how many specimens; `None` without a design
+/// space. `ex`: the explanations to tell apart (the uncorrected model may be one). `fresh`: the
+/// tests in hand left them open, so the new specimens must decide on their own evidence — the
+/// increase of λ over what the tests in hand give reaches the target (when the tests in hand have
+/// decided, a confirming test may count them).
+pub(crate) fn recommend(cx: &Context, ex: &[Explanation], noise: &NoiseModel, fresh: bool) -> Option<NextTest> {
+    if cx.inputs.design_bounds.dim() == 0 {
+        return None;
+    }
+    let mut ex: Vec<&Explanation> = ex.iter().collect();
+    ex.dedup_by(|a, b| a.name == b.name);
+    if ex.len() < 2 {
+        return farthest_from_tested(cx, &ex);
+    }
+    let Some(sigma) = one_test_sigma(cx, noise) else {
+        return widest_gap(cx, &ex);
+    };
+    let z_alpha = stats::normal_quantile(1.0 - cx.alpha() / 2.0);
+    let target = (z_alpha + stats::normal_quantile(cx.inputs.settings.power)).powi(2);
+    let mut search = Search::new(cx, &ex, &sigma, target);
+    search.fresh = fresh;
+    let inside = search.cheapest(&candidate_points(
+        cx,
+        &cx.inputs.design_bounds,
+        cx.inputs.settings.grid_per_axis,
+    ));
+    let (found, outside) = match inside {
+        Some(p) => (Some(p), false),
+        None => match widened(cx) {
+            Some(wide) => {
+                let outside = search.cheapest(&candidate_points(cx, &wide, cx.inputs.settings.grid_per_axis));
+                (outside.clone().or_else(|| search.closest(cx)), outside.is_some())
+            }
+            None => (search.closest(cx), false),
+        },
+    };
+    let mut pick = found?;
+    if pick.decides {
+        search.raise_for_uncertainty(&mut pick, z_alpha);
+    }
+    let measurements = search.measurements(target);
+    Some(describe(cx, &ex, &sigma, pick, outside, measurements, z_alpha))
 }
 
-impl<'e> Discriminant<'e> {
-    /// `unit`: 1/σ where the weights do not carry the noise (no replicates), else 1.
-    fn new(cx: &Context, a: &'e Explanation<'e>, b: &'e Explanation<'e>, unit: f64) -> Option<Self> {
-        let mb = &b.entry.model;
-        let jac = cx.data.jacobian(&mb.shapes(), &mb.fit, &cx.train) * unit;
-        let r = DVector::from_iterator(
-            cx.train.len(),
-            cx.train.iter().map(|&i| {
-                let d = &cx.data.designs[i];
-                unit * cx.data.weights[i] * (a.predict(cx, d) - b.predict(cx, d))
-            }),
-        );
-        let m = jac.transpose() * &jac;
+/// The designs and specimens chosen, and what they achieve.
+#[derive(Debug, Clone)]
+struct Pick {
+    runs: Vec<(Vec<f64>, usize)>,
+    /// The pair that limits it, as indices into the explanations.
+    pair: (usize, usize),
+    /// λ of that pair's weaker direction at the fitted numbers.
+    lambda: f64,
+    /// Power reaches the target.
+    decides: bool,
+    /// Mean power over the uncertainty of the true explanation's fitted numbers.
+    expected_power: Option<f64>,
+}
+
+impl Pick {
+    fn total(&self) -> usize {
+        self.runs.iter().map(|r| r.1).sum()
+    }
+}
+
+type Sigma = Box<dyn Fn(f64) -> f64 + Send + Sync>;
+
+/// One specimen's rows at a design: Σeᵀe, Σjᵀe, Σjᵀj over its observed outputs.
+#[derive(Clone)]
+struct Rows {
+    ete: f64,
+    jte: DVector<f64>,
+    jtj: DMatrix<f64>,
+}
+
+/// A true explanation `truth` and a refitted rival `rival`, over the training tests.
+struct Direction {
+    truth: usize,
+    rival: usize,
+    ata: DMatrix<f64>,
+    atr: DVector<f64>,
+    rtr: f64,
+}
+
+impl Direction {
+    fn lambda(&self, adds: &[(&Rows, f64)]) -> f64 {
+        let mut m = self.ata.clone();
+        let mut b = self.atr.clone();
+        let mut rr = self.rtr;
+        for (rows, k) in adds {
+            m += &rows.jtj * *k;
+            b += &rows.jte * *k;
+            rr += rows.ete * k;
+        }
+        // A rival whose numbers the rows do not all determine (singular M) refits along the
+        // undetermined directions freely: the pseudo-inverse.
+        if let Some(ch) = m.clone().cholesky() {
+            let d = ch.l_dirty().diagonal();
+            let (lo, hi) = d.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+                (lo.min(v.abs()), hi.max(v.abs()))
+            });
+            if lo > 1e-6 * hi {
+                return (rr - b.dot(&ch.solve(&b))).max(0.0);
+            }
+        }
         let eps = 1e-12 * m.norm().max(f64::MIN_POSITIVE);
-        let m_inv = m.pseudo_inverse(eps).ok()?;
-        let delta0 = &m_inv * (jac.transpose() * &r);
-        let lambda0 = (&r - &jac * &delta0).norm_squared();
-        Some(Discriminant {
-            a,
-            b,
-            m_inv,
-            delta0,
-            lambda0,
+        match m.pseudo_inverse(eps) {
+            Ok(inv) => (rr - b.dot(&(&inv * &b))).max(0.0),
+            Err(_) => 0.0,
+        }
+    }
+}
+
+/// Everything the search reuses: the explanations, the noise, and each direction's training part.
+struct Search<'a, 'e> {
+    cx: &'a Context<'a>,
+    ex: &'a [&'a Explanation<'e>],
+    sigma: &'a Sigma,
+    target: f64,
+    /// 1/σ where the weights do not carry the noise (no replicates), else 1.
+    unit: f64,
+    /// Each compared pair with the directions that count.
+    pairs: Vec<((usize, usize), Vec<Direction>)>,
+    /// Count only what new specimens add to λ (see [`recommend`]).
+    fresh: bool,
+}
+
+impl<'a, 'e> Search<'a, 'e> {
+    fn new(cx: &'a Context<'a>, ex: &'a [&'a Explanation<'e>], sigma: &'a Sigma, target: f64) -> Self {
+        let unit = if cx.known() { 1.0 } else { 1.0 / sigma(1.0) };
+        let mut pairs = Vec::new();
+        for a in 0..ex.len() {
+            for b in a + 1..ex.len() {
+                let dirs: Vec<(usize, usize)> = match (ex[a].nested_in(ex[b]), ex[b].nested_in(ex[a])) {
+                    (false, true) => vec![(a, b)],
+                    (true, false) => vec![(b, a)],
+                    _ => vec![(a, b), (b, a)],
+                };
+                let ds: Vec<Direction> = dirs
+                    .into_iter()
+                    .filter_map(|(t, r)| direction(cx, ex, t, r, unit, None))
+                    .collect();
+                if !ds.is_empty() {
+                    pairs.push(((a, b), ds));
+                }
+            }
+        }
+        Search {
+            cx,
+            ex,
+            sigma,
+            target,
+            unit: 1.0,
+            pairs,
+            fresh: false,
+        }
+        .with_unit(unit)
+    }
+
+    fn with_unit(mut self, unit: f64) -> Self {
+        self.unit = unit;
+        self
+    }
+
+    /// One specimen's rows at design `d` for a direction, with the truth's numbers `beta` (β̂ when
+    /// `None`); `None` where either explanation is not finite (a solver study's untested design).
+    fn rows(&self, d: &[f64], truth: usize, rival: usize, beta: Option<&DVector<f64>>) -> Option<Rows> {
+        let (a, b) = (self.ex[truth], self.ex[rival]);
+        let q = b.beta.len();
+        let mut rows = Rows {
+            ete: 0.0,
+            jte: DVector::zeros(q),
+            jtj: DMatrix::zeros(q, q),
+        };
+        for pt in observation_points(self.cx, d) {
+            let ya = match beta {
+                Some(bb) => (a.eval)(&pt, bb.as_slice()),
+                None => a.predict(&pt),
+            };
+            let yb = b.predict(&pt);
+            let w = 1.0 / (self.sigma)(ya);
+            let j = (b.gradient)(&pt) * w;
+            let e = w * (ya - yb);
+            if !(e.is_finite() && j.iter().all(|v| v.is_finite())) {
+                return None;
+            }
+            rows.ete += e * e;
+            rows.jte += &j * e;
+            rows.jtj += &j * j.transpose();
+        }
+        Some(rows)
+    }
+
+    /// The directions, flattened, with their pair.
+    fn directions(&self) -> Vec<((usize, usize), &Direction)> {
+        self.pairs
+            .iter()
+            .flat_map(|(pair, dirs)| dirs.iter().map(move |d| (*pair, d)))
+            .collect()
+    }
+
+    /// One specimen's rows at each of `points` for every direction; points where an explanation
+    /// cannot be evaluated are dropped.
+    fn table(&self, points: &[Vec<f64>]) -> Table {
+        use rayon::prelude::*;
+        let dirs = self.directions();
+        let rows: Vec<Option<Vec<Rows>>> = points
+            .par_iter()
+            .map(|d| {
+                dirs.iter()
+                    .map(|(_, dir)| self.rows(d, dir.truth, dir.rival, None))
+                    .collect()
+            })
+            .collect();
+        let (points, rows) = points
+            .iter()
+            .zip(rows)
+            .filter_map(|(d, r)| r.map(|r| (d.clone(), r)))
+            .unzip();
+        Table { points, rows }
+    }
+
+    /// The weakest λ over every direction for specimens `runs` (point index, count) of `table`.
+    fn weakest_in(&self, table: &Table, runs: &[(usize, usize)]) -> (f64, (usize, usize)) {
+        let mut worst = (f64::INFINITY, (0, 1));
+        for (k, (pair, dir)) in self.directions().into_iter().enumerate() {
+            let adds: Vec<(&Rows, f64)> = runs.iter().map(|&(i, m)| (&table.rows[i][k], m as f64)).collect();
+            let lam = dir.lambda(&adds) - if self.fresh { dir.lambda(&[]) } else { 0.0 };
+            if lam < worst.0 {
+                worst = (lam, pair);
+            }
+        }
+        worst
+    }
+
+    /// The weakest λ for a programme of designs (`None`: an explanation cannot be evaluated there).
+    fn weakest(&self, runs: &[(Vec<f64>, usize)]) -> Option<(f64, (usize, usize))> {
+        let points: Vec<Vec<f64>> = runs.iter().map(|r| r.0.clone()).collect();
+        let table = self.table(&points);
+        (table.points.len() == runs.len()).then(|| {
+            self.weakest_in(
+                &table,
+                &runs.iter().enumerate().map(|(i, r)| (i, r.1)).collect::<Vec<_>>(),
+            )
         })
     }
 
-    /// (e², h) of one specimen at d, for the weight 1/σ(d).
-    fn row(&self, cx: &Context, d: &[f64], sigma: &Sigma) -> (f64, f64) {
-        let mb = &self.b.entry.model;
-        let (ya, yb) = (self.a.predict(cx, d), self.b.predict(cx, d));
-        let w = 1.0 / sigma(ya);
-        let j = cx.data.gradient(&mb.shapes(), &mb.fit, d) * w;
-        let e = w * (ya - yb) - j.dot(&self.delta0);
-        let h = (j.transpose() * &self.m_inv * &j)[(0, 0)].max(0.0);
-        (e * e, h)
-    }
-}
-
-/// λ(m) = λ₀ + m e²/(1 + m h); the least m with λ ≥ target, or `None`.
-fn specimens_for(lambda0: f64, e2: f64, h: f64, target: f64) -> Option<usize> {
-    if lambda0 >= target {
-        return Some(1);
-    }
-    let need = target - lambda0;
-    let slope = e2 - need * h;
-    (slope > 0.0)
-        .then(|| (need / slope).ceil())
-        .filter(|m| *m <= MAX_SPECIMENS as f64)
-        .map(|m| (m as usize).max(1))
-}
-
-fn lambda_at(lambda0: f64, e2: f64, h: f64, m: f64) -> f64 {
-    lambda0 + m * e2 / (1.0 + m * h)
-}
-
-/// The hardest direction at one design: specimens needed, the bound on λ as they grow, the pair,
-/// and λ with those specimens.
-type Limit = (Option<usize>, f64, (usize, usize), f64);
-
-/// The design needing the fewest specimens over every compared pair (T-optimal discrimination).
-fn fewest_specimens(cx: &Context, ex: &[Explanation], sigma: &Sigma, target: f64) -> Option<Pick> {
-    let unit = if cx.known() { 1.0 } else { 1.0 / sigma(1.0) };
-    // Each pair, with the directions that count: both for two candidates, the candidate as true
-    // against the uncorrected model.
-    let mut pairs: Vec<((usize, usize), Vec<Discriminant>)> = Vec::new();
-    for a in 0..ex.len() {
-        for b in a + 1..ex.len() {
-            // A model whose shapes are all in the other's (the uncorrected one; the model a found
-            // term extends) is nested in it: only the larger as true counts.
-            let nested = |k: usize, m: usize| {
-                let outer = ex[m].entry.model.shapes();
-                let within = |s: &&super::Shape| outer.iter().any(|o| o.name == s.name && o.term == s.term);
-                ex[k].entry.model.shapes().iter().all(within)
-            };
-            let dirs: Vec<(usize, usize)> = match (nested(a, b), nested(b, a)) {
-                (false, true) => vec![(a, b)],
-                (true, false) => vec![(b, a)],
-                _ => vec![(a, b), (b, a)],
-            };
-            let ds: Vec<Discriminant> = dirs
-                .iter()
-                .filter_map(|&(t, r)| Discriminant::new(cx, &ex[t], &ex[r], unit))
-                .collect();
-            if !ds.is_empty() {
-                pairs.push(((a, b), ds));
-            }
-        }
-    }
-    let mut best: Option<(Option<usize>, f64, Pick)> = None;
-    for d in candidate_points(cx) {
-        // For each pair, its weakest direction: specimens needed and the bound as m grows.
-        let mut worst: Option<Limit> = None;
-        for (pair, ds) in &pairs {
-            for disc in ds {
-                let (e2, h) = disc.row(cx, &d, sigma);
-                if !(e2.is_finite() && h.is_finite()) {
-                    continue;
-                }
-                let m = specimens_for(disc.lambda0, e2, h, target);
-                let bound = if h > 0.0 { disc.lambda0 + e2 / h } else { f64::INFINITY };
-                let harder = |w: &Limit| match (m, w.0) {
-                    (None, Some(_)) => true,
-                    (Some(a), Some(b)) => a > b,
-                    (None, None) => bound < w.1,
-                    (Some(_), None) => false,
-                };
-                if worst.as_ref().is_none_or(harder) {
-                    let lam = m.map_or(bound, |m| lambda_at(disc.lambda0, e2, h, m as f64));
-                    worst = Some((m, bound, *pair, lam));
-                }
-            }
-        }
-        let Some((m, bound, pair, lam)) = worst else { continue };
-        let better = |b: &(Option<usize>, f64, Pick)| match (m, b.0) {
-            (Some(x), Some(y)) => x < y,
-            (Some(_), None) => true,
-            (None, Some(_)) => false,
-            (None, None) => bound > b.1,
-        };
-        if best.as_ref().is_none_or(better) {
-            let (ya, yb) = (ex[pair.0].predict(cx, &d), ex[pair.1].predict(cx, &d));
-            let gap = (ya - yb).abs() / (0.5 * (ya.abs() + yb.abs())).max(f64::MIN_POSITIVE);
-            best = Some((
-                m,
-                bound,
-                Pick {
-                    design: d,
-                    pair,
-                    specimens: m,
-                    lambda: lam,
-                    gap,
-                },
-            ));
-        }
-    }
-    best.map(|b| b.2)
-}
-
-/// Without a noise: the design where the closest pair differs most, relatively.
-fn widest_gap(cx: &Context, ex: &[Explanation]) -> Option<Pick> {
-    let mut best: Option<Pick> = None;
-    for d in candidate_points(cx) {
-        let y: Vec<f64> = ex.iter().map(|e| e.predict(cx, &d)).collect();
-        let mut closest: Option<(f64, (usize, usize))> = None;
-        for a in 0..ex.len() {
-            for b in a + 1..ex.len() {
-                let gap = (y[a] - y[b]).abs() / (0.5 * (y[a].abs() + y[b].abs())).max(f64::MIN_POSITIVE);
-                if closest.is_none_or(|c| gap < c.0) {
-                    closest = Some((gap, (a, b)));
-                }
-            }
-        }
-        if let Some((gap, pair)) = closest.filter(|c| c.0.is_finite())
-            && best.as_ref().is_none_or(|b| gap > b.gap)
-        {
-            best = Some(Pick {
-                design: d,
-                pair,
-                specimens: None,
-                lambda: 0.0,
-                gap,
+    /// The cheapest programme over `points` that reaches the target: one design, else two, else three
+    /// (specimens are new ones). When the tests in hand already reach it (a confirmation), no new
+    /// specimen: the tested design where one more would add most is named with none.
+    fn cheapest(&self, points: &[Vec<f64>]) -> Option<Pick> {
+        let table = self.table(points);
+        let in_hand = self
+            .directions()
+            .iter()
+            .map(|(_, d)| d.lambda(&[]))
+            .fold(f64::INFINITY, f64::min);
+        if !self.fresh && in_hand >= self.target {
+            let tested = (0..table.points.len()).filter(|&i| tested_at(self.cx, &table.points[i]).is_some());
+            let best = tested.max_by(|&a, &b| {
+                self.weakest_in(&table, &[(a, 1)])
+                    .0
+                    .total_cmp(&self.weakest_in(&table, &[(b, 1)]).0)
+            })?;
+            return Some(Pick {
+                runs: vec![(table.points[best].clone(), 0)],
+                pair: self.weakest_in(&table, &[]).1,
+                lambda: in_hand,
+                decides: true,
+                expected_power: None,
             });
         }
+        let single = (0..table.points.len())
+            .filter_map(|i| self.fewest(&table, &[i], MAX_SPECIMENS))
+            .min_by_key(|p| p.total());
+        let coarse = coarse(self.cx, &table);
+        let budget = single.as_ref().map_or(MAX_PROGRAMME, |s| s.total().min(MAX_PROGRAMME));
+        let pairs = self.best_pairs(&table, &coarse, budget);
+        let mut best = [single, pairs.first().cloned()]
+            .into_iter()
+            .flatten()
+            .min_by_key(|p| p.total());
+        if best.is_none() {
+            best = self.best_triple(&table, &coarse);
+        }
+        best
     }
-    best
+
+    /// The fewest specimens in all at the designs `at` (indices into `table`), each at least one,
+    /// reaching the target, up to `max`; every split of a total is tried.
+    fn fewest(&self, table: &Table, at: &[usize], max: usize) -> Option<Pick> {
+        let n = at.len();
+        let best_split = |total: usize| -> Option<(f64, (usize, usize), Vec<usize>)> {
+            splits(total, n)
+                .into_iter()
+                .map(|ms| {
+                    let runs: Vec<(usize, usize)> = at.iter().copied().zip(ms.iter().copied()).collect();
+                    let (l, pair) = self.weakest_in(table, &runs);
+                    (l, pair, ms)
+                })
+                .max_by(|a, b| a.0.total_cmp(&b.0))
+        };
+        let reaches = |total: usize| best_split(total).is_some_and(|b| b.0 >= self.target);
+        // λ grows with the specimens (any split of T extends to one of T + 1): double, then bisect.
+        let mut hi = n;
+        while !reaches(hi) {
+            if hi >= max {
+                return None;
+            }
+            hi = (hi * 2).min(max);
+        }
+        let mut lo = n - 1;
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if mid >= n && reaches(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let (lambda, pair, ms) = best_split(hi)?;
+        Some(Pick {
+            runs: at.iter().map(|&i| table.points[i].clone()).zip(ms).collect(),
+            pair,
+            lambda,
+            decides: true,
+            expected_power: None,
+        })
+    }
+
+    /// The cheapest pairs of designs, best first (at most a few), each no dearer than `budget`.
+    fn best_pairs(&self, table: &Table, points: &[usize], budget: usize) -> Vec<Pick> {
+        use rayon::prelude::*;
+        let pairs: Vec<(usize, usize)> = (0..points.len())
+            .flat_map(|a| (a + 1..points.len()).map(move |b| (a, b)))
+            .collect();
+        let mut found: Vec<Pick> = pairs
+            .par_iter()
+            .filter_map(|&(a, b)| self.fewest(table, &[points[a], points[b]], budget))
+            .collect();
+        found.sort_by(|x, y| x.total().cmp(&y.total()).then(y.lambda.total_cmp(&x.lambda)));
+        found.truncate(8);
+        found
+    }
+
+    /// When no pair decides: the pairs that do most at a fixed budget, each with a third design.
+    fn best_triple(&self, table: &Table, points: &[usize]) -> Option<Pick> {
+        use rayon::prelude::*;
+        if points.len() < 3 {
+            return None;
+        }
+        let budget = MAX_PROGRAMME / 3;
+        let mut scored: Vec<(f64, usize, usize)> = (0..points.len())
+            .flat_map(|a| (a + 1..points.len()).map(move |b| (a, b)))
+            .map(|(a, b)| {
+                (
+                    self.weakest_in(table, &[(points[a], budget), (points[b], budget)]).0,
+                    a,
+                    b,
+                )
+            })
+            .collect();
+        scored.sort_by(|x, y| y.0.total_cmp(&x.0));
+        scored.truncate(6);
+        let triples: Vec<[usize; 3]> = scored
+            .iter()
+            .flat_map(|&(_, a, b)| {
+                (0..points.len())
+                    .filter(move |&c| c != a && c != b)
+                    .map(move |c| [points[a], points[b], points[c]])
+            })
+            .collect();
+        triples
+            .par_iter()
+            .filter_map(|t| self.fewest(table, t, MAX_PROGRAMME))
+            .min_by_key(|p| p.total())
+    }
+
+    /// Nothing decides: the single design where the explanations differ most (bound of λ at the
+    /// largest number of specimens).
+    fn closest(&self, cx: &Context) -> Option<Pick> {
+        candidate_points(cx, &cx.inputs.design_bounds, cx.inputs.settings.grid_per_axis)
+            .into_iter()
+            .filter_map(|d| {
+                let runs = vec![(d, MAX_SPECIMENS)];
+                self.weakest(&runs).map(|(lambda, pair)| Pick {
+                    runs,
+                    pair,
+                    lambda,
+                    decides: false,
+                    expected_power: None,
+                })
+            })
+            .max_by(|a, b| a.lambda.total_cmp(&b.lambda))
+    }
+
+    /// The expected power of `pick` over the uncertainty of the true explanation's fitted numbers,
+    /// with the specimens raised (by a quarter at a time, to at most four times the programme at
+    /// the fitted numbers) until it reaches the target power. When even that falls short — the
+    /// fitted numbers are too uncertain for any size of test to be sure — the programme at the
+    /// fitted numbers is kept and its (lower) expected power reported.
+    fn raise_for_uncertainty(&self, pick: &mut Pick, z_alpha: f64) {
+        let want = self.cx.inputs.settings.power;
+        let start = pick.clone();
+        let mut trial = pick.clone();
+        loop {
+            let power = self.expected_power(&trial.runs, z_alpha);
+            trial.expected_power = power;
+            if power.is_none_or(|p| p >= want) {
+                *pick = trial;
+                return;
+            }
+            if trial.total() >= 4 * start.total() || trial.total() >= MAX_SPECIMENS {
+                pick.expected_power = self.expected_power(&start.runs, z_alpha);
+                return;
+            }
+            for run in trial.runs.iter_mut() {
+                run.1 = (run.1 as f64 * 1.25).ceil() as usize;
+            }
+            if let Some((l, pair)) = self.weakest(&trial.runs) {
+                trial.lambda = l;
+                trial.pair = pair;
+            }
+        }
+    }
+
+    /// Mean power over draws of the truth's numbers, the weakest direction per draw; `None` when a
+    /// truth has no covariance.
+    fn expected_power(&self, runs: &[(Vec<f64>, usize)], z_alpha: f64) -> Option<f64> {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut total = 0.0;
+        for _ in 0..DRAWS {
+            let mut worst = f64::INFINITY;
+            for (_, dirs) in &self.pairs {
+                for dir in dirs {
+                    let truth = self.ex[dir.truth];
+                    let beta = draw(truth, &mut rng)?;
+                    let moved = direction(self.cx, self.ex, dir.truth, dir.rival, self.unit, Some(&beta))?;
+                    let rows: Vec<(Rows, f64)> = runs
+                        .iter()
+                        .map(|(d, m)| self.rows(d, dir.truth, dir.rival, Some(&beta)).map(|r| (r, *m as f64)))
+                        .collect::<Option<_>>()?;
+                    let adds: Vec<(&Rows, f64)> = rows.iter().map(|(r, m)| (r, *m)).collect();
+                    let fresh = if self.fresh { moved.lambda(&[]) } else { 0.0 };
+                    worst = worst.min(moved.lambda(&adds) - fresh);
+                }
+            }
+            total += stats::normal_cdf(worst.max(0.0).sqrt() - z_alpha);
+        }
+        Some(total / DRAWS as f64)
+    }
+
+    /// For each parameter both of the closest pair share: the standard uncertainty of an
+    /// independent measurement that decides with the existing tests (on its own evidence where
+    /// they left it open, as a programme must).
+    fn measurements(&self, target: f64) -> Vec<Measurement> {
+        let Some(((a, b), dirs)) = self.pairs.first() else {
+            return Vec::new();
+        };
+        // The tests in hand already decide: no measurement is needed.
+        if dirs.iter().map(|d| d.lambda(&[])).fold(f64::INFINITY, f64::min) >= target {
+            return Vec::new();
+        }
+        let (ea, eb) = (self.ex[*a], self.ex[*b]);
+        let mut out = Vec::new();
+        for name in &ea.names {
+            if name.starts_with('γ') {
+                continue;
+            }
+            let (Some(va), Some(vb)) = (ea.value(name), eb.value(name)) else {
+                continue;
+            };
+            let lam = |sigma: f64| -> f64 {
+                dirs.iter()
+                    .map(|d| {
+                        let (t, r) = (self.ex[d.truth], self.ex[d.rival]);
+                        let Some(j) = r.names.iter().position(|n| n == name) else {
+                            return 0.0;
+                        };
+                        let mut row = Rows {
+                            ete: 0.0,
+                            jte: DVector::zeros(r.beta.len()),
+                            jtj: DMatrix::zeros(r.beta.len(), r.beta.len()),
+                        };
+                        let e = (t.value(name).unwrap_or(f64::NAN) - r.beta[j]) / sigma;
+                        row.ete = e * e;
+                        row.jte[j] = e / sigma;
+                        row.jtj[(j, j)] = 1.0 / (sigma * sigma);
+                        d.lambda(&[(&row, 1.0)]) - if self.fresh { d.lambda(&[]) } else { 0.0 }
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let scale = va.abs().max(vb.abs()).max(f64::MIN_POSITIVE);
+            let (mut lo, mut hi) = (1e-9 * scale, 10.0 * scale);
+            if !(lam(lo) >= target) {
+                continue;
+            }
+            for _ in 0..60 {
+                let mid = (lo * hi).sqrt();
+                if lam(mid) >= target {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            out.push(Measurement {
+                parameter: name.clone(),
+                relative_uncertainty: lo / va.abs().max(f64::MIN_POSITIVE),
+                values: [va, vb],
+            });
+        }
+        out
+    }
 }
 
-type Sigma = Box<dyn Fn(f64) -> f64>;
+/// One specimen's rows at each candidate design, per direction (in [`Search::directions`] order).
+struct Table {
+    points: Vec<Vec<f64>>,
+    rows: Vec<Vec<Rows>>,
+}
+
+/// Ways to put `total` specimens on `n` designs (n ≤ 3), each at least one: an even split, and
+/// shares of 1/6 to 5/6 on each design, the rest spread over the others (a handful of splits keeps
+/// the search of every pair cheap; the cheapest total moves by at most a specimen or two).
+fn splits(total: usize, n: usize) -> Vec<Vec<usize>> {
+    if n == 0 || total < n {
+        return Vec::new();
+    }
+    let even = |t: usize, k: usize| -> Vec<usize> { (0..k).map(|i| t / k + usize::from(i < t % k)).collect() };
+    let mut out = vec![even(total, n)];
+    if n > 1 {
+        for share in [1.0 / 6.0, 1.0 / 4.0, 1.0 / 3.0, 2.0 / 3.0, 3.0 / 4.0, 5.0 / 6.0] {
+            let own = ((total as f64 * share).round() as usize).clamp(1, total - (n - 1));
+            for at in 0..n {
+                let mut rest = even(total - own, n - 1);
+                rest.insert(at, own);
+                out.push(rest);
+            }
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// The training part of a direction (truth's numbers `beta`, β̂ when `None`).
+fn direction(
+    cx: &Context,
+    ex: &[&Explanation],
+    truth: usize,
+    rival: usize,
+    unit: f64,
+    beta: Option<&DVector<f64>>,
+) -> Option<Direction> {
+    let (a, b) = (ex[truth], ex[rival]);
+    let n = cx.train.len();
+    let q = b.beta.len();
+    let mut jac = DMatrix::zeros(n, q);
+    let mut r = DVector::zeros(n);
+    for (row, &i) in cx.train.iter().enumerate() {
+        let pt = &cx.data.designs[i];
+        let w = unit * cx.data.weights[i];
+        let ya = beta.map_or_else(|| a.predict(pt), |bb| (a.eval)(pt, bb.as_slice()));
+        r[row] = w * (ya - b.predict(pt));
+        jac.set_row(row, &((b.gradient)(pt) * w).transpose());
+    }
+    if r.iter().chain(jac.iter()).any(|v| !v.is_finite()) {
+        return None;
+    }
+    Some(Direction {
+        truth,
+        rival,
+        atr: jac.transpose() * &r,
+        ata: jac.transpose() * &jac,
+        rtr: r.norm_squared(),
+    })
+}
+
+/// One draw of an explanation's numbers from N(β̂, C), θ kept inside its bounds.
+fn draw(e: &Explanation, rng: &mut rand_chacha::ChaCha8Rng) -> Option<DVector<f64>> {
+    let cov = e.cov.as_ref()?;
+    let l = cov.clone().cholesky()?.l();
+    let z = DVector::from_fn(e.beta.len(), |_, _| StandardNormal.sample(rng));
+    let mut b = &e.beta + l * z;
+    for j in 0..e.bounds.dim().min(b.len()) {
+        b[j] = b[j].clamp(e.bounds.lower[j], e.bounds.upper[j]);
+    }
+    Some(b)
+}
+
+/// The observation points of one specimen at design `d`: one per observed output.
+fn observation_points(cx: &Context, d: &[f64]) -> Vec<Vec<f64>> {
+    let outputs = cx.inputs.outputs.len();
+    if outputs <= 1 {
+        return vec![d.to_vec()];
+    }
+    (0..outputs)
+        .map(|k| d.iter().copied().chain([k as f64]).collect())
+        .collect()
+}
 
 /// σ of one test at a response level: from the replicates, or from the residuals of a ranked
 /// diagnosis; `None` when the data give no noise.
@@ -370,11 +749,12 @@ fn one_test_sigma(cx: &Context, noise: &NoiseModel) -> Option<Sigma> {
     })
 }
 
-fn candidate_points(cx: &Context) -> Vec<Vec<f64>> {
-    let bounds = &cx.inputs.design_bounds;
+/// A grid of `per_axis` points per design variable (a Latin hypercube above three), plus every
+/// tested design inside `bounds`.
+fn candidate_points(cx: &Context, bounds: &crate::calibrate::Bounds, per_axis: usize) -> Vec<Vec<f64>> {
     let dim = bounds.dim();
-    if dim <= 3 {
-        let m = cx.inputs.settings.grid_per_axis.max(2);
+    let mut points: Vec<Vec<f64>> = if dim <= 3 {
+        let m = per_axis.max(2);
         (0..m.pow(dim as u32))
             .map(|mut k| {
                 (0..dim)
@@ -391,7 +771,165 @@ fn candidate_points(cx: &Context) -> Vec<Vec<f64>> {
             .row_iter()
             .map(|r| bounds.from_unit(&r.transpose()).iter().copied().collect())
             .collect()
+    };
+    for o in &cx.inputs.observations {
+        let inside = o
+            .design
+            .iter()
+            .enumerate()
+            .all(|(j, v)| *v >= bounds.lower[j] && *v <= bounds.upper[j]);
+        if inside && !points.contains(&o.design) {
+            points.push(o.design.clone());
+        }
     }
+    points
+}
+
+/// The designs for programmes of several (indices into `table`): every tested design, and an even
+/// thinning of the others to about 40 in all.
+fn coarse(cx: &Context, table: &Table) -> Vec<usize> {
+    const MAX: usize = 40;
+    let n = table.points.len();
+    let step = n.div_ceil(MAX).max(1);
+    let tested = |d: &Vec<f64>| cx.inputs.observations.iter().any(|o| &o.design == d);
+    (0..n).filter(|&i| i % step == 0 || tested(&table.points[i])).collect()
+}
+
+/// The design box widened by half its width on each side (a positive lower bound stays above half
+/// of itself); `None` for a solver study, whose surrogates exist at its tested designs only.
+fn widened(cx: &Context) -> Option<crate::calibrate::Bounds> {
+    let b = &cx.inputs.design_bounds;
+    let probe: Vec<f64> = (0..b.dim())
+        .map(|j| b.lower[j] - 0.25 * (b.upper[j] - b.lower[j]))
+        .collect();
+    let p = cx.inputs.observations.first().map(|o| o.design.len()).unwrap_or(0);
+    if p != b.dim() {
+        return None;
+    }
+    let pt = observation_points(cx, &probe);
+    let theta = cx.inputs.parameter_bounds.center();
+    if !cx.inputs.model.predict(&pt[0], theta.as_slice()).is_finite() {
+        return None;
+    }
+    let (lower, upper): (Vec<f64>, Vec<f64>) = (0..b.dim())
+        .map(|j| {
+            let w = b.upper[j] - b.lower[j];
+            let lo = b.lower[j] - 0.5 * w;
+            let lo = if b.lower[j] > 0.0 { lo.max(0.5 * b.lower[j]) } else { lo };
+            (lo, b.upper[j] + 0.5 * w)
+        })
+        .unzip();
+    Some(crate::calibrate::Bounds::new(lower, upper))
+}
+
+/// With nothing to compare (no candidate could be fitted): the design in the box farthest from
+/// every tested one (in units of the box), where the calibrated model is least checked.
+fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
+    let width = cx.inputs.design_bounds.width();
+    let gap = |d: &[f64]| {
+        cx.inputs
+            .observations
+            .iter()
+            .map(|o| {
+                o.design
+                    .iter()
+                    .zip(d)
+                    .enumerate()
+                    .map(|(j, (a, b))| ((a - b) / width[j].abs().max(1e-12)).powi(2))
+                    .sum::<f64>()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let d = candidate_points(cx, &cx.inputs.design_bounds, cx.inputs.settings.grid_per_axis)
+        .into_iter()
+        .max_by(|a, b| gap(a).total_cmp(&gap(b)))?;
+    let y = ex
+        .first()
+        .map_or(f64::NAN, |e| e.predict(&observation_points(cx, &d)[0]));
+    let design = named(cx, &d);
+    let advice = "at least 3 specimens there, so that the scatter is measured and the calibrated model is checked \
+                  where it was not fitted"
+        .to_string();
+    Some(NextTest {
+        why: format!(
+            "Test at {} (not tested yet): no candidate cause can be fitted to so few tests, so the most useful \
+             next test is the design farthest from those tested, where the calibrated simulation predicts {}. In \
+             numbers: {advice}.",
+            at_text(&design),
+            text::num(y)
+        ),
+        advice,
+        between: ["uncorrected".into(), "uncorrected".into()],
+        predictions: [y, y],
+        separation: 0.0,
+        compared: [("uncorrected".to_string(), y)].into_iter().collect(),
+        already_tested: None,
+        specimens: None,
+        additional_specimens: None,
+        power: None,
+        expected_power: None,
+        programme: vec![ProgrammeRun {
+            design: design.clone(),
+            specimens: 3,
+            tested_as: None,
+            additional: 3,
+        }],
+        outside_range: false,
+        measurements: Vec::new(),
+        design,
+    })
+}
+
+/// Without a noise: the design where the closest pair differs most, relatively.
+fn widest_gap(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
+    let mut best: Option<(f64, Vec<f64>, (usize, usize))> = None;
+    for d in candidate_points(cx, &cx.inputs.design_bounds, cx.inputs.settings.grid_per_axis) {
+        let pt = &observation_points(cx, &d)[0];
+        let y: Vec<f64> = ex.iter().map(|e| e.predict(pt)).collect();
+        let mut closest: Option<(f64, (usize, usize))> = None;
+        for a in 0..ex.len() {
+            for b in a + 1..ex.len() {
+                let gap = (y[a] - y[b]).abs() / (0.5 * (y[a].abs() + y[b].abs())).max(f64::MIN_POSITIVE);
+                if closest.is_none_or(|c| gap < c.0) {
+                    closest = Some((gap, (a, b)));
+                }
+            }
+        }
+        if let Some((gap, pair)) = closest.filter(|c| c.0.is_finite())
+            && best.as_ref().is_none_or(|b| gap > b.0)
+        {
+            best = Some((gap, d, pair));
+        }
+    }
+    let (gap, d, pair) = best?;
+    let pick = Pick {
+        runs: vec![(d, 3)],
+        pair,
+        lambda: 0.0,
+        decides: false,
+        expected_power: None,
+    };
+    let mut t = describe_common(cx, ex, &pick, false, Vec::new(), None);
+    t.separation = gap;
+    t.specimens = None;
+    t.additional_specimens = None;
+    t.advice = "the noise is unknown (no replicate tests): test at least 3 specimens there, so that the scatter is \
+                measured as well"
+        .to_string();
+    t.why = why(&t, false);
+    Some(t)
+}
+
+fn named(cx: &Context, d: &[f64]) -> IndexMap<String, f64> {
+    cx.inputs.design_names.iter().cloned().zip(d.iter().copied()).collect()
+}
+
+fn at_text(design: &IndexMap<String, f64>) -> String {
+    design
+        .iter()
+        .map(|(n, v)| format!("{n} = {}", text::num(*v)))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The tested design at `d` (within 1e-6 of the box on every variable), with its specimens.
@@ -407,74 +945,193 @@ fn tested_at(cx: &Context, d: &[f64]) -> Option<(String, usize)> {
                 .enumerate()
                 .all(|(j, (a, b))| (a - b).abs() <= 1e-6 * width[j].abs().max(1e-12))
         })
-        .map(|o| (o.name.clone(), o.count))
+        .map(|o| (o.group.clone(), o.count))
 }
 
-/// What it takes at the design, in one sentence.
-fn advice(
+/// The fields every recommendation shares, from the pick.
+fn describe_common(
     cx: &Context,
-    noise_known: bool,
-    specimens: Option<usize>,
-    additional: Option<usize>,
-    tested: Option<&(String, usize)>,
-) -> String {
-    let power = 100.0 * cx.inputs.settings.power;
-    let alpha = cx.alpha();
-    match (noise_known, specimens, additional, tested) {
-        (false, ..) => {
-            "the noise is unknown (no replicate tests): test at least 3 specimens there, so that the scatter \
-                        is measured as well"
-                .to_string()
-        }
-        (true, Some(_), Some(0), Some((name, n))) => format!(
-            "the {n} specimen(s) already tested at {name} should tell them apart (power {power:.0} % at α = {alpha}): \
-             the data in hand carry the answer"
-        ),
-        (true, Some(m), Some(add), Some((name, n))) => format!(
-            "{add} more specimen(s) at {name} ({m} with the {n} tested) give power {power:.0} % at α = {alpha} to tell \
-             them apart"
-        ),
-        (true, Some(m), _, None) => {
-            format!("{m} specimen(s) there give power {power:.0} % at α = {alpha} to tell them apart")
-        }
-        _ => format!(
-            "no number of specimens at one design makes the difference decisive (power {power:.0} % at α = {alpha}): the \
-             existing tests pin the explanations' parameters too loosely, so each can bend to a new point; tests at \
-             further designs, wider design bounds, or an independent measurement of the parameters are needed"
-        ),
+    ex: &[&Explanation],
+    pick: &Pick,
+    outside: bool,
+    measurements: Vec<Measurement>,
+    power: Option<f64>,
+) -> NextTest {
+    let (d, m) = pick.runs[0].clone();
+    let (ea, eb) = (ex[pick.pair.0], ex[pick.pair.1]);
+    let pt = &observation_points(cx, &d)[0];
+    let (ya, yb) = (ea.predict(pt), eb.predict(pt));
+    let already_tested = tested_at(cx, &d);
+    // The specimens of a programme are new ones: at a tested design they add to those tested.
+    let programme: Vec<ProgrammeRun> = pick
+        .runs
+        .iter()
+        .map(|(d, m)| {
+            let tested = tested_at(cx, d);
+            ProgrammeRun {
+                design: named(cx, d),
+                specimens: m + tested.as_ref().map_or(0, |t| t.1),
+                additional: *m,
+                tested_as: tested.map(|t| t.0),
+            }
+        })
+        .collect();
+    let single = pick.runs.len() == 1 && pick.decides;
+    NextTest {
+        design: named(cx, &d),
+        why: String::new(),
+        advice: String::new(),
+        between: [ea.name.clone(), eb.name.clone()],
+        predictions: [ya, yb],
+        separation: 0.0,
+        compared: ex.iter().map(|e| (e.name.clone(), e.predict(pt))).collect(),
+        specimens: single.then(|| m + already_tested.as_ref().map_or(0, |t| t.1)),
+        additional_specimens: single.then_some(m),
+        already_tested,
+        power,
+        expected_power: pick.expected_power,
+        programme: if pick.decides { programme } else { Vec::new() },
+        outside_range: outside,
+        measurements,
     }
 }
 
-fn why(
-    design: &IndexMap<String, f64>,
-    compared: &IndexMap<String, f64>,
-    (ya, yb): (f64, f64),
-    noise_known: bool,
-    tested: Option<&(String, usize)>,
-    advice: &str,
-) -> String {
-    let at = design
-        .iter()
-        .map(|(n, v)| format!("{n} = {}", text::num(*v)))
+fn describe(
+    cx: &Context,
+    ex: &[&Explanation],
+    sigma: &Sigma,
+    pick: Pick,
+    outside: bool,
+    measurements: Vec<Measurement>,
+    z_alpha: f64,
+) -> NextTest {
+    let power = pick
+        .decides
+        .then(|| stats::normal_cdf(pick.lambda.max(0.0).sqrt() - z_alpha));
+    let mut t = describe_common(cx, ex, &pick, outside, measurements, power);
+    let (ya, yb) = (t.predictions[0], t.predictions[1]);
+    t.separation = (ya - yb).abs() / sigma(0.5 * (ya + yb));
+    t.advice = advice(cx, &t, pick.decides);
+    t.why = why(&t, true);
+    t
+}
+
+/// What it takes, in one sentence, read from the typed recommendation.
+fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
+    let power = 100.0 * cx.inputs.settings.power;
+    let alpha = cx.alpha();
+    // The power over the uncertainty of the fitted parameters: said beside, or as a caveat when
+    // no programme could reach the target over it.
+    let (expected, caveat) = match t.expected_power {
+        Some(p) if p + 0.005 >= cx.inputs.settings.power => (
+            format!(" ({:.0} % over the uncertainty of the fitted parameters)", 100.0 * p),
+            String::new(),
+        ),
+        Some(p) => (
+            String::new(),
+            format!(
+                "; over the uncertainty of the fitted parameters the power is only {:.0} %: the tests in hand pin \
+                 them too loosely for any programme to be sure",
+                100.0 * p
+            ),
+        ),
+        None => (String::new(), String::new()),
+    };
+    let measure = measurement_words(&t.measurements);
+    if !decides {
+        let mut s = format!(
+            "no programme of up to three designs inside the design bounds makes the difference decisive (power \
+             {power:.0} % at α = {alpha}): the existing tests pin the explanations' parameters too loosely, so each \
+             can bend to new points"
+        );
+        s.push_str(&match measure {
+            Some(m) => format!("; {m}"),
+            None => "; tests at wider designs or an independent measurement of the parameters are needed".into(),
+        });
+        return s;
+    }
+    let place = if t.outside_range {
+        "only designs outside the tested range decide: "
+    } else {
+        ""
+    };
+    let mut s = match (t.programme.as_slice(), &t.already_tested) {
+        ([one], Some((name, n))) if one.additional == 0 => format!(
+            "{place}the {n} specimen(s) already tested at {name} should tell them apart (power {power:.0} % at α = \
+             {alpha}{expected}): the data in hand carry the answer"
+        ),
+        ([one], Some((name, n))) => format!(
+            "{place}{} more specimen(s) at {name} ({} with the {n} tested) give power {power:.0} % at α = {alpha}{expected} \
+             to tell them apart",
+            one.additional, one.specimens
+        ),
+        ([one], None) => format!(
+            "{place}{} specimen(s) there give power {power:.0} % at α = {alpha}{expected} to tell them apart",
+            one.specimens
+        ),
+        (many, _) => format!(
+            "{place}no single design decides as cheaply; the programme {} ({} specimen(s) in all) gives power \
+             {power:.0} % at α = {alpha}{expected} to tell them apart",
+            programme_words(many),
+            many.iter().map(|r| r.additional).sum::<usize>()
+        ),
+    };
+    s.push_str(&caveat);
+    if let Some(m) = measure {
+        s.push_str(&format!("; alternatively, {m}"));
+    }
+    s
+}
+
+/// `3 specimens at h = 7 (not tested) and 2 more at h13`.
+pub(crate) fn programme_words(runs: &[ProgrammeRun]) -> String {
+    runs.iter()
+        .map(|r| match &r.tested_as {
+            Some(name) => format!("{} more at {name} ({})", r.additional, at_text(&r.design)),
+            None => format!("{} at {} (not tested yet)", r.specimens, at_text(&r.design)),
+        })
         .collect::<Vec<_>>()
-        .join(", ");
-    let preds = compared
+        .join(" and ")
+}
+
+fn measurement_words(ms: &[Measurement]) -> Option<String> {
+    let m = ms
+        .iter()
+        .max_by(|a, b| a.relative_uncertainty.total_cmp(&b.relative_uncertainty))?;
+    Some(format!(
+        "an independent measurement of {} to ±{} (standard uncertainty; the explanations want {} and {}) would tell \
+         them apart with the tests in hand",
+        m.parameter,
+        text::pct_pub(m.relative_uncertainty),
+        text::num(m.values[0]),
+        text::num(m.values[1])
+    ))
+}
+
+fn why(t: &NextTest, noise_known: bool) -> String {
+    let at = at_text(&t.design);
+    let preds = t
+        .compared
         .iter()
         .map(|(n, y)| format!("'{n}' {}", text::num(*y)))
         .collect::<Vec<_>>()
         .join(", ");
+    let (ya, yb) = (t.predictions[0], t.predictions[1]);
     let rel = (ya - yb).abs() / (0.5 * (ya.abs() + yb.abs())).max(f64::MIN_POSITIVE);
-    let place = match tested {
+    let place = match &t.already_tested {
         Some((name, n)) => format!("{at} (already tested as {name}, {n} specimen(s))"),
         None => format!("{at} (not tested yet)"),
     };
-    let chosen = if noise_known {
-        "the design inside the bounds where the fewest specimens would tell them apart"
-    } else {
+    let chosen = if !noise_known {
         "the widest such gap inside the design bounds"
+    } else if t.programme.len() > 1 {
+        "the first design of the cheapest programme that tells them apart"
+    } else {
+        "the design where the fewest specimens would tell them apart"
     };
     format!(
-        "Test at {place}: there {preds}; the closest two are {} apart, {chosen}. In numbers: {advice}.",
-        text::pct_pub(rel)
+        "Test at {place}: there {preds}; the closest two are {} apart, {chosen}. In numbers: {}.",
+        text::pct_pub(rel),
+        t.advice
     )
 }

@@ -128,7 +128,7 @@ fn set_weights(base: &mut Entry, entries: &mut [Entry]) {
     }
 }
 
-fn rival_tests(cx: &Context, entries: &[Entry], l: usize) -> Vec<RivalTest> {
+pub(crate) fn rival_tests(cx: &Context, entries: &[Entry], l: usize) -> Vec<RivalTest> {
     let leader = &entries[l];
     let n = cx.train.len();
     let both_fit = n >= cx.p() + 2 && (cx.known() || n > cx.p() + 2);
@@ -147,7 +147,7 @@ fn rival_tests(cx: &Context, entries: &[Entry], l: usize) -> Vec<RivalTest> {
 }
 
 /// Both shapes fitted together; the leader beats the rival when its shape still counts.
-fn encompassing(cx: &Context, leader: &Entry, rival: &Entry) -> RivalTest {
+pub(crate) fn encompassing(cx: &Context, leader: &Entry, rival: &Entry) -> RivalTest {
     let (ls, rs) = (leader.model.shape.as_ref(), rival.model.shape.as_ref());
     let shapes: Vec<&super::Shape> = ls.into_iter().chain(rs).collect();
     let k = cx.p() + 2;
@@ -236,7 +236,8 @@ fn candidate(cx: &Context, e: &Entry) -> Candidate {
             .inputs
             .observations
             .iter()
-            .map(|o| (o.name.clone(), e.model.predict(cx, &o.design)))
+            .zip(&cx.data.designs)
+            .map(|(o, point)| (o.name.clone(), e.model.predict(cx, point)))
             .collect(),
         extension: shape.extension.as_ref().map(|v| v.iter().cloned().collect()),
     }

@@ -15,8 +15,9 @@ pub(crate) fn table(cx: &Context, fit: &Fit, noise: &NoiseModel) -> Vec<Residual
     inputs
         .observations
         .iter()
-        .map(|o| {
-            let predicted = cx.data.predict(&[], fit.theta.as_slice(), &[], &o.design);
+        .enumerate()
+        .map(|(i, o)| {
+            let predicted = cx.data.predict(&[], fit.theta.as_slice(), &[], &cx.data.designs[i]);
             let residual = o.mean - predicted;
             let sigma = noise.sigma_at(o.mean).max(f64::MIN_POSITIVE) / (o.count.max(1) as f64).sqrt();
             Residual {
@@ -33,7 +34,7 @@ pub(crate) fn table(cx: &Context, fit: &Fit, noise: &NoiseModel) -> Vec<Residual
                 std_dev: o.std_dev,
                 predicted,
                 residual,
-                relative_error: (predicted - o.mean) / o.mean,
+                relative_error: cx.relative_error(i, predicted).unwrap_or(f64::NAN),
                 sigma,
                 z: residual / sigma,
             }

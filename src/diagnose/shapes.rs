@@ -125,6 +125,25 @@ impl Shape {
         shape
     }
 
+    /// A model extension's effect as a candidate for *another* base model: `g(d, θ) = y_ext(d, θ₀) −
+    /// y(d, θ₀)`, with θ₀ the first `p` entries of θ (the study's parameters) and `baseline` the
+    /// study's own simulation. Used where the base is a loop model with more parameters, whose own
+    /// prediction must not enter the shape.
+    pub fn effect(
+        name: impl Into<String>,
+        variables: &[(String, f64)],
+        extension: Arc<dyn Model + Send>,
+        baseline: Arc<dyn Model + Send>,
+        p: usize,
+    ) -> Shape {
+        let mut shape = Shape::from_extension(name, variables, extension.clone());
+        shape.f = Arc::new(move |d, theta, _| {
+            let t = &theta[..p.min(theta.len())];
+            extension.predict(d, t) - baseline.predict(d, t)
+        });
+        shape
+    }
+
     /// What a fitted amplitude γ of this extension means, in words (`None` for a term).
     pub fn amplitude_meaning(&self, gamma: f64) -> Option<String> {
         let variables = self.extension.as_ref()?;

@@ -3,8 +3,9 @@
 //! the test, and the α, that made the decision; the only other words it knows are the design
 //! variables', parameters' and candidates' names.
 
+use super::after_loop::AfterLoop;
 use super::ranking::RivalTest;
-use super::verdict::{Decision, Verdict};
+use super::verdict::{Decision, Verdict, Who};
 use super::{Candidate, Context, Extended, LackOfFit, NextTest, NoiseModel, Residual, Role, Trend};
 
 /// A number with four significant digits, without trailing noise.
@@ -61,6 +62,22 @@ pub(crate) struct Facts<'a> {
     pub extended: Option<&'a Extended>,
     pub next_test: Option<&'a NextTest>,
     pub confounded: &'a [String],
+    /// The hypotheses the loop's models extend (their names), by loop index.
+    pub loop_names: &'a [String],
+    /// How the loop's models changed the screening's verdict.
+    pub after_loop: Option<&'a AfterLoop>,
+}
+
+impl Facts<'_> {
+    fn name(&self, who: Who) -> String {
+        super::verdict::name_of(who, self.candidates, self.loop_names)
+    }
+
+    /// The screening candidate behind an explanation (a loop model's: the one it extends).
+    fn candidate(&self, who: Who) -> Option<&Candidate> {
+        let name = self.name(who);
+        self.candidates.iter().find(|c| c.name == name)
+    }
 }
 
 pub(crate) struct Words {
@@ -129,7 +146,6 @@ fn lof_text(l: &LackOfFit) -> String {
 
 fn headline(f: &Facts) -> String {
     let d = f.decision;
-    let c = |k: usize| &f.candidates[k];
     let words = d.verdict.words();
     let first_up = |s: &str| {
         let mut ch = s.chars();
@@ -145,8 +161,12 @@ fn headline(f: &Facts) -> String {
             ),
             None => "no candidate improves on the uncorrected simulation beyond the residual scatter".to_string(),
         },
+        Verdict::CauseNamed if f.after_loop.is_some() => {
+            let who = d.cause.expect("a cause");
+            after_loop_named(f, who)
+        }
         Verdict::CauseNamed => {
-            let k = d.cause.expect("a cause");
+            let k = f.candidate(d.cause.expect("a cause")).expect("a candidate");
             let worst = f
                 .rivals
                 .iter()
@@ -154,32 +174,46 @@ fn headline(f: &Facts) -> String {
                 .fold(0.0, f64::max);
             format!(
                 "'{}' ({}; weight {:.2}, {}), decisive: it beats every rival (largest p of the encompassing tests {})",
-                c(k).name,
-                c(k).term,
-                c(k).weight,
-                c(k).p_value.map_or("-".into(), p_text),
+                k.name,
+                k.term,
+                k.weight,
+                k.p_value.map_or("-".into(), p_text),
                 num(worst)
             )
         }
         Verdict::CannotTellApart => {
-            let open: Vec<usize> = d.leading.iter().flatten().copied().collect();
-            let names: Vec<String> = open.iter().take(3).map(|&k| c(k).name.clone()).collect();
+            let open: Vec<Who> = d.leading.clone();
+            let names: Vec<String> = open.iter().take(3).map(|&w| f.name(w)).collect();
             let more = match open.len().saturating_sub(3) {
                 0 => String::new(),
                 n => format!(" (and {n} more)"),
             };
-            format!(
-                "{}{more}: each explains the misfit, but the data cannot tell them apart (weights {})",
-                quoted(&names),
-                open.iter()
+            let weights: Vec<String> = match f.after_loop {
+                Some(a) => names
+                    .iter()
+                    .filter_map(|n| a.explanations.iter().find(|j| &j.name == n))
+                    .map(|j| format!("{:.2}", j.weight))
+                    .collect(),
+                None => open
+                    .iter()
                     .take(3)
-                    .map(|&k| format!("{:.2}", c(k).weight))
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                    .filter_map(|&w| f.candidate(w))
+                    .map(|c| format!("{:.2}", c.weight))
+                    .collect(),
+            };
+            let after = if f.after_loop.is_some() {
+                " — also with the models the loop calibrated"
+            } else {
+                ""
+            };
+            format!(
+                "{}{more}: each explains the misfit, but the data cannot tell them apart{after} (weights {})",
+                quoted(&names),
+                weights.join(", ")
             )
         }
         Verdict::PartlyExplained => {
-            let k = d.cause.expect("a cause");
+            let k = f.candidate(d.cause.expect("a cause")).expect("a candidate");
             let alpha = f.cx.alpha();
             let lof = f
                 .extended
@@ -193,9 +227,13 @@ fn headline(f: &Facts) -> String {
                     )
                 });
             let bound = alpha / f.rivals.len().max(1) as f64;
+            // After the loop the decision's own second explanation says what still adds.
             let rival = f
-                .rivals
-                .iter()
+                .after_loop
+                .is_none()
+                .then_some(f.rivals)
+                .into_iter()
+                .flatten()
                 .filter(|r| r.p_rival_given_leader.is_some_and(|p| p < bound))
                 .min_by(|a, b| {
                     a.p_rival_given_leader
@@ -209,11 +247,26 @@ fn headline(f: &Facts) -> String {
                         p_text(r.p_rival_given_leader.unwrap())
                     )
                 });
+            // After the loop: the rival that still adds is the decision's second explanation.
+            let also = f
+                .after_loop
+                .and(d.compare.get(1))
+                .filter(|w| **w != Who::Uncorrected)
+                .map(|&w| {
+                    format!(
+                        "'{}' still explains part of what remains with it in the model",
+                        f.name(w)
+                    )
+                });
+            let mut why: Vec<String> = lof.into_iter().chain(rival).chain(also).collect();
+            if why.is_empty() {
+                why.push("a listed shape still explains part of what its model leaves".into());
+            }
             format!(
                 "'{}' ({}) explains part of the misfit, but the listed causes do not account for all of it: {}",
-                c(k).name,
-                c(k).term,
-                lof.into_iter().chain(rival).collect::<Vec<_>>().join("; and ")
+                k.name,
+                k.term,
+                why.join("; and ")
             )
         }
         Verdict::Unexplained => format!(
@@ -327,11 +380,19 @@ fn evidence(f: &Facts) -> Vec<String> {
             base_w.unwrap_or_default()
         ));
     }
-    if let Some(k) = f.decision.cause.or(f.decision.leading.first().copied().flatten()) {
-        out.extend(separation(&f.candidates[k]));
+    if let Some(a) = f.after_loop {
+        out.extend(after_loop_lines(f, a));
+    }
+    if let Some(c) = f
+        .decision
+        .cause
+        .or(f.decision.leading.first().copied())
+        .and_then(|w| f.candidate(w))
+    {
+        out.extend(separation(c));
     }
     let unbeaten: Vec<&RivalTest> = f.rivals.iter().filter(|r| !r.beaten).collect();
-    for r in unbeaten.iter().take(3) {
+    for r in unbeaten.iter().take(if f.after_loop.is_some() { 0 } else { 3 }) {
         out.push(match r.p_leader_given_rival {
             Some(p) => format!(
                 "With '{}' in the model, the leader adds nothing significant (encompassing test p = {} ≥ α = {}).",
@@ -371,14 +432,35 @@ fn evidence(f: &Facts) -> Vec<String> {
     out
 }
 
-/// The mean and largest error of the uncorrected simulation, and the significant trends.
+/// The mean and largest error of the uncorrected simulation, and the significant trends. With
+/// several outputs per design (curve features) the mean is the plateau level's relative error and
+/// the largest misfit is the observation furthest from its prediction in units of its noise.
 fn where_it_errs(f: &Facts) -> Vec<String> {
     let r = f.residuals;
+    let obs = &f.cx.inputs.observations;
     let mut out = Vec::new();
-    let n_train = r.iter().filter(|x| x.role == Role::Training).count();
-    let mean_rel = r.iter().map(|x| x.relative_error).sum::<f64>() / r.len().max(1) as f64;
-    if let Some(w) = r
+    let mut groups: Vec<&str> = obs.iter().filter(|o| o.role == Role::Training).map(|o| o.group.as_str()).collect();
+    groups.dedup();
+    let n_train = groups.len();
+    let rel: Vec<f64> = r.iter().map(|x| x.relative_error).filter(|e| e.is_finite()).collect();
+    let mean_rel = rel.iter().sum::<f64>() / rel.len().max(1) as f64;
+    let values = |x: &Residual| x.values.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect::<Vec<_>>().join(", ");
+    let several = f.cx.inputs.outputs.len() > 1;
+    if several {
+        if let Some(w) = r.iter().filter(|x| x.z.is_finite()).max_by(|a, b| a.z.abs().total_cmp(&b.z.abs())) {
+            out.push(format!(
+                "Calibrated on {n_train} training design(s), the simulation {} the plateau level by {} on average; the \
+                 largest misfit is at {} ({}): {:+.1} σ of the mean.",
+                direction(mean_rel),
+                pct(mean_rel),
+                w.design,
+                values(w),
+                w.z
+            ));
+        }
+    } else if let Some(w) = r
         .iter()
+        .filter(|x| x.relative_error.is_finite())
         .max_by(|a, b| a.relative_error.abs().total_cmp(&b.relative_error.abs()))
     {
         out.push(format!(
@@ -387,7 +469,7 @@ fn where_it_errs(f: &Facts) -> Vec<String> {
             direction(mean_rel),
             pct(mean_rel),
             w.design,
-            w.values.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect::<Vec<_>>().join(", "),
+            values(w),
             direction(w.relative_error),
             pct(w.relative_error),
             // In units of the noise only where the noise was measured (replicates).
@@ -474,6 +556,83 @@ fn limits(f: &Facts) -> Vec<String> {
                     .map_or("is not available".into(), |g| format!("is {:.0} %", 100.0 * g))
             ));
         }
+    }
+    out
+}
+
+/// The headline of a cause named from the loop's evidence.
+fn after_loop_named(f: &Facts, who: Who) -> String {
+    let name = f.name(who);
+    let a = f.after_loop.expect("after the loop");
+    let judged = a.explanations.iter().find(|j| j.name == name);
+    let model = match who {
+        Who::Extended(_) => "its model calibrated with the solver in the loop",
+        _ => "its fitted model",
+    };
+    let fit = judged
+        .and_then(|j| j.lack_of_fit.as_ref())
+        .map_or(String::new(), |l| format!(" ({})", lof_text(l)));
+    let rivals: Vec<String> = a
+        .explanations
+        .iter()
+        .filter(|j| j.name != name)
+        .map(|j| {
+            if j.rejected {
+                format!("'{}' rejected by its lack of fit", j.name)
+            } else {
+                format!("'{}' beaten", j.name)
+            }
+        })
+        .collect();
+    let rest = if rivals.is_empty() {
+        String::new()
+    } else {
+        format!("; {}", rivals.join(", "))
+    };
+    format!("'{name}', decisive: {model} fits the tests within the noise{fit}{rest}")
+}
+
+/// The loop's evidence, one fact per line: the screening's verdict as the step before, each open
+/// explanation's final model, and the tests between them.
+fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
+    let alpha = f.cx.alpha();
+    let mut out = vec![format!("Before the loop: {}", a.screening_headline)];
+    for j in &a.explanations {
+        let what = if j.model == "extended" {
+            "calibrated with the solver in the loop"
+        } else {
+            "fitted with the parameters (not extended by the loop)"
+        };
+        out.push(match &j.lack_of_fit {
+            Some(l) if j.rejected => format!(
+                "'{}' {what}: rejected, its model still misses the tests beyond the noise ({} < α = {alpha}).",
+                j.name,
+                lof_text(l)
+            ),
+            Some(l) => format!("'{}' {what}: fits within the noise ({}).", j.name, lof_text(l)),
+            None => format!("'{}' {what}: no replicates to test its lack of fit.", j.name),
+        });
+    }
+    for p in &a.pairwise {
+        out.push(match p.p_value {
+            Some(v) if v < alpha => format!(
+                "'{}' still counts with '{}' in the model ({}): '{}' does not account for it.",
+                p.shape_of,
+                p.added_to,
+                p_text(v),
+                p.added_to
+            ),
+            Some(v) => format!(
+                "'{}' adds nothing significant to '{}' (p = {} ≥ α = {alpha}).",
+                p.shape_of,
+                p.added_to,
+                num(v)
+            ),
+            None => format!(
+                "'{}' could not be tested with '{}' in the model.",
+                p.shape_of, p.added_to
+            ),
+        });
     }
     out
 }

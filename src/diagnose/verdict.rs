@@ -42,24 +42,45 @@ impl Verdict {
     }
 }
 
-/// The verdict and what it leaves open. Indices are into [`Ranked::entries`]; `None` is the
-/// uncorrected model.
+/// An explanation of the tests: the uncorrected model, a candidate of the screening (an index
+/// into [`Ranked::entries`]), or a model the loop calibrated with the solver (an index into the
+/// loop's models, see [`super::after_loop`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Who {
+    Uncorrected,
+    Candidate(usize),
+    Extended(usize),
+}
+
+/// The verdict and what it leaves open.
+#[derive(Debug, Clone)]
 pub(crate) struct Decision {
     pub verdict: Verdict,
     pub detected: bool,
-    pub cause: Option<usize>,
+    pub cause: Option<Who>,
     /// The explanations the verdict leaves open, best first.
-    pub leading: Vec<Option<usize>>,
+    pub leading: Vec<Who>,
     /// The explanations the next test should tell apart.
-    pub compare: Vec<Option<usize>>,
+    pub compare: Vec<Who>,
 }
 
 impl Decision {
-    pub fn leading_names(&self, candidates: &[Candidate]) -> Vec<String> {
-        self.leading
-            .iter()
-            .map(|k| k.map_or("uncorrected".to_string(), |k| candidates[k].name.clone()))
-            .collect()
+    /// The screening candidate a [`Who`] stands for (`None`: the uncorrected model, or a loop model).
+    pub fn candidate(who: Who) -> Option<usize> {
+        match who {
+            Who::Candidate(k) => Some(k),
+            _ => None,
+        }
+    }
+}
+
+/// The name of an explanation: a candidate's, or `uncorrected`; a loop model is named by the
+/// candidate it extends (`loop_names`).
+pub(crate) fn name_of(who: Who, candidates: &[Candidate], loop_names: &[String]) -> String {
+    match who {
+        Who::Uncorrected => "uncorrected".to_string(),
+        Who::Candidate(k) => candidates[k].name.clone(),
+        Who::Extended(j) => loop_names[j].clone(),
     }
 }
 
@@ -78,15 +99,16 @@ pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
             Verdict::NoModelError
         };
         // The best candidate against no correction: is there model error at all?
-        let compare: Vec<Option<usize>> = best.map(Some).into_iter().chain([None]).collect();
+        let best = best.map(Who::Candidate);
+        let compare: Vec<Who> = best.into_iter().chain([Who::Uncorrected]).collect();
         return Decision {
             verdict,
             detected: base_rejects,
             cause: None,
             leading: if verdict == Verdict::NoModelError {
-                vec![None]
+                vec![Who::Uncorrected]
             } else {
-                vec![best, None]
+                compare.clone()
             },
             compare,
         };
@@ -115,17 +137,40 @@ pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
         .filter(|r| r.p_rival_given_leader.is_some_and(|p| p < bound))
         .filter_map(|r| ranked.entries.iter().position(|e| e.model.name() == r.rival))
         .next();
+    let named = |k: usize| Who::Candidate(k);
     let (verdict, cause, leading, compare) =
         if rejects(ranked.entries[l].assessed.lack_of_fit.as_ref()) || adds.is_some() {
             let next = adds.or(unbeaten.first().copied()).or(closest);
-            (Verdict::PartlyExplained, Some(l), vec![Some(l)], vec![Some(l), next])
+            // Without a rival to set it against, the cause against no correction. A rival whose
+            // shape still adds is left open beside the cause: the loop judges it too.
+            let compare = vec![named(l), next.map_or(Who::Uncorrected, named)];
+            // So are the rivals the leader did not beat; and where the leader's own model misses
+            // the tests, its wins say little: every candidate that explains the misfit may be the
+            // whole story, and is judged by its own model after the loop.
+            let misses = rejects(ranked.entries[l].assessed.lack_of_fit.as_ref());
+            let mut open: Vec<usize> = std::iter::once(l).chain(adds).collect();
+            let others = (0..ranked.entries.len()).filter(|&k| {
+                if misses {
+                    ranked.entries[k].explains
+                } else {
+                    unbeaten.contains(&k)
+                }
+            });
+            for k in others {
+                if !open.contains(&k) {
+                    open.push(k);
+                }
+            }
+            let open = open.into_iter().map(named).collect();
+            (Verdict::PartlyExplained, Some(named(l)), open, compare)
         } else if unbeaten.is_empty() {
-            (Verdict::CauseNamed, Some(l), vec![Some(l)], vec![Some(l), closest])
+            let compare = vec![named(l), closest.map_or(Who::Uncorrected, named)];
+            (Verdict::CauseNamed, Some(named(l)), vec![named(l)], compare)
         } else {
             let mut tied = vec![l];
             tied.extend(unbeaten.iter().copied());
             tied.sort_unstable();
-            let open: Vec<Option<usize>> = tied.iter().map(|&k| Some(k)).collect();
+            let open: Vec<Who> = tied.iter().map(|&k| named(k)).collect();
             let compare = open.iter().take(2).copied().collect();
             (Verdict::CannotTellApart, None, open, compare)
         };

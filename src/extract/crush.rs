@@ -524,3 +524,15 @@ fn header(file: &Path, text: &str, no: usize, cells: &[&str], opts: CsvOptions) 
     }
     Ok(Header { cols, unit, disp_scale })
 }
+
+/// A run's curve from the first of `dirs` holding `<dir>/<key>/rcforc` (a run directory, or a
+/// recording); `None` when none does or its histories do not parse (the run's response came from
+/// the same files, so that means they were removed).
+pub fn read_run(dirs: &[std::path::PathBuf], key: &str, source: &SimSource) -> Option<ForceDisplacement> {
+    use super::lsdyna::{nodout, rcforc};
+    let dir = dirs.iter().map(|d| d.join(key)).find(|d| d.join("rcforc").is_file())?;
+    let text = |name: &str| std::fs::read_to_string(dir.join(name)).ok();
+    let rc = rcforc::parse(Path::new("rcforc"), &text("rcforc")?).ok()?;
+    let nod = nodout::parse(Path::new("nodout"), &text("nodout")?).ok()?;
+    from_lsdyna(&rc, &nod, source).ok()
+}

@@ -6,5 +6,8 @@
 //!   contact force + striker displacement, or from a test machine's CSV.
 
 pub mod calculix;
+pub mod cfc;
 pub mod crush;
+pub mod features;
+pub mod grid;
 pub mod lsdyna;

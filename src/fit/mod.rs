@@ -19,6 +19,8 @@
 //! assert!((s.predict(&[5.0]) - 4.5).abs() < 1e-12);
 //! ```
 
+pub mod functional;
+
 use nalgebra::{DMatrix, DVector};
 
 use crate::calibrate::bayesian::gp::Emulator;

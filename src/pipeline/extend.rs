@@ -29,15 +29,17 @@ use crate::report::Results;
 use crate::study::{HypothesisKind, SolverSimulation, Study};
 
 /// The hypotheses to extend with the solver (indices into `study.diagnosis.hypotheses`): the
-/// named cause (also when it only partly explains the misfit), or the two leading explanations
-/// when the data cannot tell them apart; only model extensions with ranged variables. Nothing when
-/// there is no model error to explain, no candidate explains it, or the tests are too few to fit
-/// the extension's parameters.
+/// named cause, or, when the data cannot tell the leading explanations apart or the cause only
+/// partly explains the misfit (with a rival that still adds), every explanation left open that is
+/// a model extension with ranged variables
+/// (at most [`MAX_EXTENDED`], best first): the loop's models then decide between them. Nothing
+/// when there is no model error to explain, no candidate explains it, or the tests are too few to
+/// fit the extension's parameters.
 pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
     use crate::diagnose::verdict::Verdict;
     let names: Vec<&String> = match diagnosis.verdict {
-        Verdict::CauseNamed | Verdict::PartlyExplained => diagnosis.cause.iter().collect(),
-        Verdict::CannotTellApart => diagnosis.leading.iter().take(2).collect(),
+        Verdict::CauseNamed => diagnosis.cause.iter().collect(),
+        Verdict::PartlyExplained | Verdict::CannotTellApart => diagnosis.leading.iter().collect(),
         Verdict::NoModelError | Verdict::Unexplained | Verdict::TooFewTests => Vec::new(),
     };
     let hypotheses = &study.diagnosis.hypotheses;
@@ -48,8 +50,12 @@ pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
                 .iter()
                 .position(|h| &h.name == name && !h.ranges().is_empty())
         })
+        .take(MAX_EXTENDED)
         .collect()
 }
+
+/// The most hypotheses one loop extends (each costs a Latin hypercube of runs per design).
+pub const MAX_EXTENDED: usize = 3;
 
 /// `OUT/extension-plan.json`: the hypotheses the loop extends, written before its runs start so
 /// that `lab status` counts them (the loop's plan depends on the screening's verdict).
@@ -202,7 +208,7 @@ pub fn extended_model(
         runs: LoopRuns {
             planned,
             succeeded: joint_runs.filter(|r| r.y.is_some()).count(),
-            samples_per_design: crate::plan::sweep::joint_samples(sim, bounds.dim()),
+            samples_per_design: crate::plan::sweep::joint_samples(study, sim, bounds.dim()),
             surrogate_check_error: worst_check,
         },
     })
@@ -219,17 +225,63 @@ fn extended_study(study: &Study, k: usize) -> Study {
         .diagnosis
         .hypotheses
         .retain(|h| matches!(h.kind, HypothesisKind::Term(_)));
+    // A term reads its values by position (design variables, parameters, constants, y): compiled
+    // for the study's parameters, it must be compiled again for the enlarged set, or it would read
+    // an extension variable where a constant or y stands.
+    let symbols = extended.term_symbols();
+    for h in &mut extended.diagnosis.hypotheses {
+        if let HypothesisKind::Term(expr) = &h.kind {
+            let again = crate::study::Expression::compile(expr.text(), &symbols).expect("compiled for fewer symbols");
+            h.kind = HypothesisKind::Term(again);
+        }
+    }
     extended.splits.clear();
     extended
 }
 
-/// Calibrates and diagnoses an extended model, and judges it against the screening's diagnosis.
-pub fn assess(study: &Study, m: &ExtendedModel, screening: &Diagnosis) -> Result<SolverExtension, Error> {
+/// The extended model as the diagnosis sees it ([`diagnose::LoopModel`]): the extended study's
+/// terms as candidates, and the other extension hypotheses' screening effects (`extensions`, the
+/// surrogates of their screening runs, over θ) beside them, so that each can be tested with this
+/// model as the base.
+pub fn loop_model<'m>(
+    study: &Study,
+    m: &'m ExtendedModel,
+    baseline: &std::sync::Arc<dyn Model + Send>,
+    extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
+) -> diagnose::LoopModel<'m> {
+    let mut inputs = diagnose::inputs_from_study(&m.study, &m.surrogates);
+    // The library search runs once, on the final decision (from the screening's inputs).
+    inputs.discover = false;
+    let p = study.parameters.len();
+    for (j, ext) in extensions.iter().filter(|(j, _)| *j != m.hypothesis) {
+        let h = &study.diagnosis.hypotheses[*j];
+        let variables = h.extension().unwrap_or_default();
+        inputs.hypotheses.push(diagnose::Shape::effect(
+            h.name.clone(),
+            variables,
+            ext.clone(),
+            baseline.clone(),
+            p,
+        ));
+    }
+    diagnose::LoopModel {
+        hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
+        inputs,
+    }
+}
+
+/// Calibrates an extended model with the study's methods, and records it with its own diagnosis
+/// (`own`, what it leaves unexplained) against the final one (`baseline`).
+pub fn assess(
+    study: &Study,
+    m: &ExtendedModel,
+    baseline: &Diagnosis,
+    own: &Diagnosis,
+) -> Result<SolverExtension, Error> {
     let s = &m.study;
     let model = &m.surrogates as &dyn Model;
     let calibration = calibrate(s, &problem(s, model), Some(&m.data));
-    let diagnosis = diagnose::diagnose(&diagnose::inputs_from_study(s, model))
-        .map_err(|e| Error::Failed(format!("the extended model could not be diagnosed: {e}")))?;
+    let diagnosis = own;
     let results = Results::build(
         s,
         model,
@@ -280,8 +332,8 @@ pub fn assess(study: &Study, m: &ExtendedModel, screening: &Diagnosis) -> Result
         fixed,
         m.runs.clone(),
         calibrated,
-        screening,
-        &diagnosis,
+        baseline,
+        diagnosis,
     ))
 }
 

@@ -20,6 +20,7 @@
 //! - [`runs`]: the run-engine stage (where runs come from, the sweep, how the runs ended);
 //! - [`verbs`]: the other commands (`check`, `status`, `report`, `extract`, the Slurm worker).
 
+pub mod curves;
 pub mod extend;
 pub mod runs;
 pub mod stages;
@@ -30,7 +31,7 @@ use std::time::Instant;
 
 pub use runs::{Executed, ExecutorKind, FailedRun, RunOutcomes};
 pub use stages::{
-    calibrate, diagnose, diagnose_solver, extension_surrogates, model, problem, simulation_data, surrogates,
+    calibrate, diagnose, extension_models, extension_surrogates, model, problem, simulation_data, surrogates,
 };
 
 use crate::calibrate::bayesian::SimulationData;
@@ -128,11 +129,11 @@ pub fn run(
     };
     let calibration = calibrate(study, &problem(study, simulated.model()), simulated.data());
     let mut simulated = simulated;
-    let diagnosis = match (simulated.diagnose(study), &mut simulated, source) {
-        (Ok(screening), Simulated::Solver(runs), Some(source)) => {
-            extend_with_solver(study, runs, screening, &source, options, engine, reporter)?
+    let diagnosis = match (&mut simulated, source) {
+        (Simulated::Solver(runs), Some(source)) => {
+            diagnose_with_solver(study, runs, &source, options, engine, reporter)?
         }
-        (diagnosis, ..) => diagnosis,
+        (simulated, _) => diagnose(study, simulated.model()),
     };
     engine.signals.sweep_done();
     let splits = calibrate_splits(study, &simulated);
@@ -179,37 +180,141 @@ fn solver_runs<'s>(
     })
 }
 
-/// The solver in the loop ([`extend`]): the hypotheses the screening chose are extended with new
-/// runs on the same store, calibrated and judged; the diagnosis gains their results.
-fn extend_with_solver(
+/// A solver study's diagnosis: the screening (the extension hypotheses judged from their runs at
+/// their probe values), then the solver in the loop ([`extend`]) for the hypotheses it leaves
+/// open, then one decision from all of it ([`crate::diagnose::conclude`]).
+fn diagnose_with_solver(
     study: &Study,
     runs: &mut SolverRuns,
-    screening: Diagnosis,
     source: &runs::Source,
     options: &RunOptions,
     engine: &Engine,
     reporter: &mut dyn Reporter,
 ) -> Result<Result<Diagnosis, CalibrationError>, Error> {
+    let extensions = extension_models(study, runs.sim, &runs.plan, &runs.usable);
+    let dirs = runs.executed.output_dirs(runs.sim);
+    // With curves, the diagnosis reads their features; else the response.
+    let stage = match curves::Setting::of(study) {
+        Some(setting) => Some(curves::CurveStage::build(
+            study,
+            runs.sim,
+            setting,
+            &runs.plan,
+            &runs.rendered.keys,
+            &runs.usable,
+            &dirs,
+        )?),
+        None => None,
+    };
+    let curve_inputs = stage.as_ref().map(|s| {
+        let hypotheses = curves::extension_hypotheses(study, &s.extension_fns(), None, None);
+        curves::inputs(
+            study,
+            &s.setting,
+            s.designs.clone(),
+            curves::curve_fn(s.baseline.clone()),
+            hypotheses,
+        )
+    });
+    let problem = match &curve_inputs {
+        Some(ci) => match crate::diagnose::features::FeatureProblem::new(ci) {
+            Ok(p) => Some(p),
+            Err(e) => {
+                return Ok(Err(CalibrationError::Numerics(format!(
+                    "the curves cannot be diagnosed: {e}"
+                ))));
+            }
+        },
+        None => None,
+    };
+    let inputs = match (&problem, &curve_inputs) {
+        (Some(p), Some(ci)) => p.inputs(ci),
+        _ => crate::diagnose::inputs_with_extensions(study, &runs.surrogates, &extensions),
+    };
+    let screening = match crate::diagnose::diagnose(&inputs) {
+        Ok(d) => d,
+        Err(e) => return Ok(Err(e)),
+    };
     if engine.signals.interrupted() {
         reporter.report(Event::Interrupted { out: &options.out });
         return Err(Error::Interrupted);
     }
     let chosen = extend::chosen(study, &screening);
+    let features = |d: Diagnosis, loops: &[(usize, crate::fit::functional::CurveModel)]| match (&stage, &problem) {
+        (Some(stage), Some(problem)) => {
+            let report = curves::features_report(study, stage, problem, loops, &d);
+            d.with_features(report)
+        }
+        _ => d,
+    };
     if chosen.is_empty() {
-        return Ok(Ok(screening));
+        return Ok(Ok(features(screening, &[])));
     }
     let store = &mut runs.executed.store;
     let joint = extend::execute(study, runs.sim, &chosen, source, options, engine, store, reporter)?;
-    let mut extensions = Vec::new();
-    for &k in &chosen {
-        let model = extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint)?;
-        let extension = extend::assess(study, &model, &screening)?;
-        runs.extended
-            .push((model, extension.parameters.values().copied().collect()));
-        extensions.push(extension);
+    let models = chosen
+        .iter()
+        .map(|&k| extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut loop_curves = Vec::new();
+    let (diagnosis, own) = match &stage {
+        None => {
+            let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(runs.surrogates.clone());
+            let looped: Vec<_> = models
+                .iter()
+                .map(|m| extend::loop_model(study, m, &baseline, &extensions))
+                .collect();
+            crate::diagnose::conclude(&inputs, &looped)
+        }
+        Some(stage) => {
+            let joint_curves = curves::on_grid(study, runs.sim, &stage.setting, &joint.rendered.keys, &joint.usable, &dirs);
+            let baseline = curves::curve_fn(stage.baseline.clone());
+            let p = study.parameters.len();
+            for m in &models {
+                let model = stage.loop_model(study, runs.sim, &runs.plan, m.hypothesis, &joint.plan, &joint_curves)?;
+                loop_curves.push((m.hypothesis, model));
+            }
+            let loop_inputs: Vec<_> = models
+                .iter()
+                .zip(&loop_curves)
+                .map(|(m, (_, model))| {
+                    let others =
+                        curves::extension_hypotheses(study, &stage.extension_fns(), Some((baseline.clone(), p)), Some(m.hypothesis));
+                    curves::inputs(&m.study, &stage.setting, stage.designs.clone(), curves::curve_fn(model.clone()), others)
+                })
+                .collect();
+            let problems = loop_inputs
+                .iter()
+                .map(crate::diagnose::features::FeatureProblem::new)
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(Error::Failed)?;
+            let looped: Vec<_> = models
+                .iter()
+                .zip(problems.iter().zip(&loop_inputs))
+                .map(|(m, (p, ci))| crate::diagnose::LoopModel {
+                    hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
+                    inputs: p.inputs(ci),
+                })
+                .collect();
+            crate::diagnose::conclude(&inputs, &looped)
+        }
+    }
+    .map_or_else(|e| (Err(e), Vec::new()), |(d, own)| (Ok(d), own));
+    let diagnosis = match diagnosis {
+        Ok(d) => d,
+        Err(e) => return Ok(Err(e)),
+    };
+    let records = models
+        .iter()
+        .zip(&own)
+        .map(|(m, own)| extend::assess(study, m, &diagnosis, own))
+        .collect::<Result<Vec<_>, _>>()?;
+    for (m, x) in models.into_iter().zip(&records) {
+        runs.extended.push((m, x.parameters.values().copied().collect()));
     }
     runs.joint = Some(joint);
-    Ok(Ok(screening.with_extensions(extensions)))
+    let diagnosis = features(diagnosis, &loop_curves).with_extensions(records);
+    Ok(Ok(diagnosis))
 }
 
 /// The simulation as the numerics see it, with what it was built from.
@@ -253,14 +358,6 @@ impl Simulated<'_> {
         match self {
             Simulated::ClosedForm(_) => None,
             Simulated::Solver(runs) => Some(&runs.data),
-        }
-    }
-
-    /// Model error over every tested design; a solver study's extension hypotheses from their runs.
-    fn diagnose(&self, study: &Study) -> Result<Diagnosis, CalibrationError> {
-        match self {
-            Simulated::ClosedForm(model) => diagnose(study, model.as_ref()),
-            Simulated::Solver(r) => diagnose_solver(study, r.sim, &r.plan, &r.usable, &r.surrogates),
         }
     }
 

@@ -236,18 +236,16 @@ pub fn extension_surrogates(
         .collect()
 }
 
-/// [`diagnose()`] for a solver study: its model-extension hypotheses become candidates
-/// `y_ext(d, θ) − y(d, θ)` from the surrogates of their runs.
-pub fn diagnose_solver(
+/// Each model-extension hypothesis's screening runs as a model over θ (the surrogates of
+/// [`extension_surrogates`]), shareable with the loop models' diagnoses.
+pub fn extension_models(
     study: &Study,
     sim: &SolverSimulation,
     plan: &Plan,
     responses: &[Option<f64>],
-    model: &dyn Model,
-) -> Result<Diagnosis, CalibrationError> {
-    let extensions: Vec<(usize, std::sync::Arc<dyn Model + Send>)> = extension_surrogates(study, sim, plan, responses)
+) -> Vec<(usize, std::sync::Arc<dyn Model + Send>)> {
+    extension_surrogates(study, sim, plan, responses)
         .into_iter()
         .map(|(k, m)| (k, std::sync::Arc::new(m) as std::sync::Arc<dyn Model + Send>))
-        .collect();
-    diagnose::diagnose(&diagnose::inputs_with_extensions(study, model, &extensions))
+        .collect()
 }

@@ -131,7 +131,7 @@ impl Plan {
             let bounds = joint_bounds(study, &extension.ranges);
             let d = bounds.dim();
             let seed = sim.sampling.seed.wrapping_add(JOINT_SEED_OFFSET).wrapping_add(k as u64);
-            let n = joint_samples(sim, d);
+            let n = joint_samples(study, sim, d);
             let samples = planned_points(sim, &bounds, latin_hypercube(n, d, seed));
             let checks = planned_points(
                 sim,
@@ -164,14 +164,22 @@ pub fn joint_bounds(study: &Study, ranges: &[Parameter]) -> Bounds {
 /// Samples per design for a surrogate over `d` variables: twice the coefficients of a linear or
 /// quadratic response surface (so that its fit has as many residual degrees of freedom as
 /// coefficients), ten per dimension for a Gaussian process (Loeppky, Sacks & Welch 2009); never
-/// fewer than the study's own `sampling.count`.
-pub fn joint_samples(sim: &SolverSimulation, d: usize) -> usize {
-    let needed = match sim.surrogate {
+/// fewer than the study's own `sampling.count`; the most any of the study's surrogates needs (its
+/// curve components' too, when it is calibrated against curves).
+pub fn joint_samples(study: &Study, sim: &SolverSimulation, d: usize) -> usize {
+    let needed = |kind: SurrogateKind| match kind {
         SurrogateKind::Linear => 2 * (d + 1),
         SurrogateKind::Quadratic => (d + 1) * (d + 2),
         SurrogateKind::Gp => 10 * d,
     };
-    needed.max(sim.sampling.count)
+    // A study calibrated against curves fits its curve components' surrogates to the same runs.
+    let curves = study
+        .calibration
+        .against
+        .curves
+        .then(|| study.calibration.curve.surrogate.map_or(0, needed))
+        .unwrap_or(0);
+    needed(sim.surrogate).max(curves).max(sim.sampling.count)
 }
 
 /// Every tested design (training, then validation) with its values.

@@ -13,11 +13,10 @@
 //! - at most [`MAX_POINTS`] points per curve: the points are cut into equal runs and each run keeps
 //!   its lowest and highest force, in order, so peaks and troughs survive the thinning.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use super::data::{Curve, DesignCurves, Reference};
 use crate::extract::crush::{self, ForceDisplacement, SimSource, Window};
-use crate::extract::lsdyna::{nodout, rcforc};
 use crate::plan::{Plan, RunRole};
 use crate::study::{Response, Simulation, Study};
 
@@ -107,7 +106,7 @@ fn simulated(
     let mut nearest_at = None;
     for j in picked {
         let (i, y) = ok[j];
-        let Some(curve) = read_run(&runs.dirs, &runs.keys[i], source) else {
+        let Some(curve) = crush::read_run(&runs.dirs, &runs.keys[i], source) else {
             continue;
         };
         if Some(j) == near {
@@ -164,16 +163,6 @@ fn parameter_text(study: &Study, theta: &[f64]) -> String {
         })
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-/// The run's curve from the first directory holding its rcforc; `None` when none does or it does
-/// not parse (the run's response came from the same files, so that means they were removed).
-fn read_run(dirs: &[PathBuf], key: &str, source: &SimSource) -> Option<ForceDisplacement> {
-    let dir = dirs.iter().map(|d| d.join(key)).find(|d| d.join("rcforc").is_file())?;
-    let text = |name: &str| std::fs::read_to_string(dir.join(name)).ok();
-    let rc = rcforc::parse(Path::new("rcforc"), &text("rcforc")?).ok()?;
-    let nod = nodout::parse(Path::new("nodout"), &text("nodout")?).ok()?;
-    crush::from_lsdyna(&rc, &nod, source).ok()
 }
 
 /// Index of the point of `thetas` nearest `at`, each parameter scaled by its range.

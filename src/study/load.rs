@@ -158,7 +158,14 @@ impl Checker<'_> {
             training,
             validation,
         } = self.tested(&file, &design, &simulation)?;
-        let calibration = self.calibration(file.calibration.as_ref(), &file.training, training.len())?;
+        let mut calibration = self.calibration(file.calibration.as_ref(), &file.training, training.len())?;
+        (calibration.against, calibration.curve) = self.curve_calibration(
+            file.calibration.as_ref(),
+            &simulation,
+            &experiments,
+            &training,
+            &validation,
+        )?;
         let splits = self.splits(file.splits.as_ref(), &experiments, &training, &validation, &calibration)?;
         let truth = self.truth(&file, &parameters)?;
         let mut study = Study {
@@ -630,6 +637,8 @@ impl Checker<'_> {
         Ok(CalibrationSettings {
             methods,
             bayesian: self.bayesian(spec.map(|c| &c.bayesian))?,
+            against: Default::default(),
+            curve: Default::default(),
         })
     }
 

@@ -10,8 +10,9 @@
 use std::path::{Path, PathBuf};
 
 use super::super::experiments::SpecimenCurves;
+use super::super::schema::CalibrationFile;
 use super::super::yaml::Spanned;
-use super::super::{Experiments, Response, Simulation};
+use super::super::{CfcFilter, CurveMetric, CurveSettings, Experiments, Response, Simulation, SurrogateKind, Targets};
 use super::Checker;
 use crate::error::InputError;
 use crate::extract::crush;
@@ -126,6 +127,214 @@ impl Checker<'_> {
             .collect();
         files.sort();
         Ok(files)
+    }
+}
+
+impl Checker<'_> {
+    /// `calibration.against` and `calibration.curve`: curves need a crush-force response and the
+    /// specimens' curves, and every specimen of a tested design must cover the grid's window with a
+    /// stroke that does not go back there (each error names the CSV file).
+    pub(super) fn curve_calibration(
+        &self,
+        spec: Option<&CalibrationFile>,
+        simulation: &Simulation,
+        experiments: &Experiments,
+        training: &[String],
+        validation: &[String],
+    ) -> Result<(Targets, CurveSettings), InputError> {
+        let against = self.against(spec.and_then(|c| c.against.as_ref()))?;
+        let Some(node) = spec.and_then(|c| c.curve.as_ref()) else {
+            let settings = CurveSettings::default();
+            if against.curves {
+                self.curves_possible(
+                    spec.and_then(|c| c.against.as_ref()),
+                    simulation,
+                    experiments,
+                    &settings,
+                )?;
+                self.specimens_cover(experiments, training, validation, &settings, simulation)?;
+            }
+            return Ok((against, settings));
+        };
+        let c = &node.value;
+        let metric = match &c.metric {
+            None => CurveMetric::Mse,
+            Some(m) => CurveMetric::from_key(m.value.trim()).ok_or_else(|| {
+                self.at(
+                    m,
+                    format!(
+                        "unknown curve metric `{}`: choose from {}",
+                        m.value,
+                        CurveMetric::KEYS.join(", ")
+                    ),
+                )
+            })?,
+        };
+        let points = match &c.points {
+            None => 200,
+            Some(p) if (10..=100_000).contains(&p.value) => p.value,
+            Some(p) => return Err(self.at(p, "`calibration.curve.points` must be between 10 and 100000")),
+        };
+        let filter = match &c.filter {
+            None => None,
+            Some(f) => {
+                let cfc = self.finite(&f.value.cfc, "`calibration.curve.filter.cfc`")?;
+                let speed = self.finite(&f.value.speed, "`calibration.curve.filter.speed`")?;
+                if cfc <= 0.0 {
+                    return Err(self.at(
+                        &f.value.cfc,
+                        "the channel frequency class must be positive (e.g. 60, 180, 600)",
+                    ));
+                }
+                if speed <= 0.0 {
+                    return Err(self.at(
+                        &f.value.speed,
+                        "the crush speed (m/s) must be positive: it turns the stroke a curve is sampled at into time",
+                    ));
+                }
+                Some(CfcFilter { cfc, speed })
+            }
+        };
+        let window = match &c.window {
+            None => None,
+            Some(w) => {
+                let [a, b] = w.value.as_slice() else {
+                    return Err(self.at(w, "`calibration.curve.window` is two strokes in mm: [s0, s1]"));
+                };
+                let (a, b) = (self.finite(a, "window start")?, self.finite(b, "window end")?);
+                if a >= b {
+                    return Err(self.at(w, format!("`calibration.curve.window`: {a} must be less than {b}")));
+                }
+                if let Simulation::Solver(sim) = simulation
+                    && let Response::CrushForce { window: r, .. } = sim.response
+                    && (a > r.s0 || b < r.s1)
+                {
+                    return Err(self.at(
+                        w,
+                        format!(
+                            "`calibration.curve.window` [{a}, {b}] must contain the response's window [{}, {}]: the \
+                             plateau features are read there",
+                            r.s0, r.s1
+                        ),
+                    ));
+                }
+                Some([a, b])
+            }
+        };
+        let surrogate = match &c.surrogate {
+            None => None,
+            Some(k) => Some(SurrogateKind::from_key(k.value.trim()).ok_or_else(|| {
+                self.at(
+                    k,
+                    format!("unknown surrogate `{}`: choose from linear, quadratic, gp", k.value),
+                )
+            })?),
+        };
+        let settings = CurveSettings {
+            metric,
+            points,
+            filter,
+            window,
+            surrogate,
+        };
+        if against.curves {
+            self.curves_possible(
+                spec.and_then(|c| c.against.as_ref()),
+                simulation,
+                experiments,
+                &settings,
+            )?;
+            self.specimens_cover(experiments, training, validation, &settings, simulation)?;
+        }
+        Ok((against, settings))
+    }
+
+    /// `calibration.against`: `response` and/or `curves`, each once.
+    fn against(&self, node: Option<&Spanned<Vec<super::super::schema::Name>>>) -> Result<Targets, InputError> {
+        let Some(node) = node else {
+            return Ok(Targets::default());
+        };
+        if node.value.is_empty() {
+            return Err(self.at(
+                node,
+                "`calibration.against` is empty: give `response`, `curves` or both",
+            ));
+        }
+        let mut t = Targets {
+            response: false,
+            curves: false,
+        };
+        for name in &node.value {
+            let slot = match name.value.as_str() {
+                "response" => &mut t.response,
+                "curves" => &mut t.curves,
+                other => {
+                    return Err(self.at(
+                        name,
+                        format!("unknown calibration target `{other}`: choose from response, curves"),
+                    ));
+                }
+            };
+            if *slot {
+                return Err(self.at(name, format!("`{}` is listed twice", name.value)));
+            }
+            *slot = true;
+        }
+        Ok(t)
+    }
+
+    /// Curves need runs that write a force–displacement history and the specimens' curves.
+    fn curves_possible(
+        &self,
+        node: Option<&Spanned<Vec<super::super::schema::Name>>>,
+        simulation: &Simulation,
+        experiments: &Experiments,
+        _settings: &CurveSettings,
+    ) -> Result<(), InputError> {
+        let at = |message: &str| match node {
+            Some(n) => self.at(n, message),
+            None => InputError::file(self.path, message),
+        };
+        let crush =
+            matches!(simulation, Simulation::Solver(sim) if matches!(sim.response, Response::CrushForce { .. }));
+        if !crush {
+            return Err(at(
+                "`calibration.against: [.., curves]` needs a solver study with a `crush_force` response: its runs \
+                 write the force–displacement histories the curves are read from",
+            ));
+        }
+        if experiments.curves.is_empty() {
+            return Err(at(
+                "`calibration.against: [.., curves]` needs the specimens' curves: give `experiments.curves`",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Every specimen of a training or validation design covers the grid's window.
+    fn specimens_cover(
+        &self,
+        experiments: &Experiments,
+        training: &[String],
+        validation: &[String],
+        settings: &CurveSettings,
+        simulation: &Simulation,
+    ) -> Result<(), InputError> {
+        let grid = super::super::curve_grid(settings, simulation).expect("a crush-force response");
+        for sc in &experiments.curves {
+            if !training.contains(&sc.design) && !validation.contains(&sc.design) {
+                continue;
+            }
+            for (file, curve) in &sc.specimens {
+                crate::extract::grid::resample(curve, &grid).map_err(|e| {
+                    InputError::file(
+                        file,
+                        format!("cannot put this specimen's curve on the calibration grid: {e}"),
+                    )
+                })?;
+            }
+        }
+        Ok(())
     }
 }
 

@@ -94,6 +94,88 @@ pub struct CalibrationSettings {
     /// Methods to run, in the order listed.
     pub methods: Vec<Method>,
     pub bayesian: crate::calibrate::bayesian::Settings,
+    /// What the parameters are calibrated against (`calibration.against`).
+    pub against: Targets,
+    /// How curves are compared (`calibration.curve`), when `against` has `curves`.
+    pub curve: CurveSettings,
+}
+
+/// `calibration.against`: the response (results.json `calibration`), the force–displacement
+/// curves (`curve_calibration`, and the diagnosis then reads the curves' features), or both.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Targets {
+    pub response: bool,
+    pub curves: bool,
+}
+
+impl Default for Targets {
+    fn default() -> Self {
+        Targets {
+            response: true,
+            curves: false,
+        }
+    }
+}
+
+/// The metric curve calibration minimises (`calibration.curve.metric`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CurveMetric {
+    Mse,
+    Pcm,
+    Frechet,
+    Dtw,
+    Area,
+}
+
+impl CurveMetric {
+    pub const KEYS: [&'static str; 5] = ["mse", "pcm", "frechet", "dtw", "area"];
+
+    pub fn from_key(key: &str) -> Option<CurveMetric> {
+        Some(match key {
+            "mse" => CurveMetric::Mse,
+            "pcm" => CurveMetric::Pcm,
+            "frechet" => CurveMetric::Frechet,
+            "dtw" => CurveMetric::Dtw,
+            "area" => CurveMetric::Area,
+            _ => return None,
+        })
+    }
+
+    pub fn key(self) -> &'static str {
+        Self::KEYS[self as usize]
+    }
+}
+
+/// `calibration.curve`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CurveSettings {
+    pub metric: CurveMetric,
+    pub points: usize,
+    /// SAE J211 CFC (Hz) and the crush speed (m/s) that gives a stroke-sampled curve its time base.
+    pub filter: Option<CfcFilter>,
+    /// The grid's stroke window, mm (`None`: the response's window).
+    pub window: Option<[f64; 2]>,
+    /// Each curve component's surrogate (`None`: the study's `simulation.surrogate`).
+    pub surrogate: Option<SurrogateKind>,
+}
+
+impl Default for CurveSettings {
+    fn default() -> Self {
+        CurveSettings {
+            metric: CurveMetric::Mse,
+            points: 200,
+            filter: None,
+            window: None,
+            surrogate: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CfcFilter {
+    pub cfc: f64,
+    pub speed: f64,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -227,6 +309,23 @@ impl Study {
             .unzip();
         Bounds::new(lower, upper)
     }
+}
+
+/// The stroke grid curves are compared on: `calibration.curve.window` (default: the crush-force
+/// response's window) with `calibration.curve.points`; `None` without a crush-force response.
+pub fn curve_grid(settings: &CurveSettings, simulation: &Simulation) -> Option<crate::extract::grid::StrokeGrid> {
+    let Simulation::Solver(sim) = simulation else {
+        return None;
+    };
+    let Response::CrushForce { window, .. } = sim.response else {
+        return None;
+    };
+    let [s0, s1] = settings.window.unwrap_or([window.s0, window.s1]);
+    Some(crate::extract::grid::StrokeGrid {
+        s0,
+        s1,
+        points: settings.points,
+    })
 }
 
 /// Re-exported so callers can name the error type of [`load`] from here.

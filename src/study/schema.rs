@@ -194,6 +194,36 @@ pub struct CalibrationFile {
     pub methods: Option<Spanned<Vec<Name>>>,
     #[serde(default)]
     pub bayesian: BayesianFile,
+    /// What the parameters are calibrated against: `response` (the default) and/or `curves`.
+    pub against: Option<Spanned<Vec<Name>>>,
+    /// How curves are compared (`against: [.., curves]`).
+    pub curve: Option<Spanned<CurveFile>>,
+}
+
+/// `calibration.curve`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurveFile {
+    /// mse (default) | pcm | frechet | dtw | area.
+    pub metric: Option<Spanned<String>>,
+    /// Points of the common stroke grid (default 200).
+    pub points: Option<Spanned<usize>>,
+    /// SAE J211 CFC low-pass filter before resampling.
+    pub filter: Option<Spanned<FilterFile>>,
+    /// Stroke window of the grid, mm (default: the response's window).
+    pub window: Option<Spanned<Vec<Spanned<f64>>>>,
+    /// Surrogate of each curve component (default: the study's `surrogate`).
+    pub surrogate: Option<Spanned<String>>,
+}
+
+/// `calibration.curve.filter`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterFile {
+    /// Channel frequency class, Hz (e.g. 60, 180, 600).
+    pub cfc: Spanned<f64>,
+    /// The crush speed, m/s: the time base of a curve sampled in stroke.
+    pub speed: Spanned<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]

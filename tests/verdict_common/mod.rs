@@ -3,11 +3,105 @@
 
 use serde_json::Value;
 
-/// The diagnosis's decision rule, read back from the numbers it reports (α = 0.01).
+const ALPHA: f64 = 0.01;
+
+/// The diagnosis's decision rule, read back from the numbers it reports (α = 0.01): the screening's
+/// rule, and after the loop (`after_loop`) the rule that decides from the loop's models.
 #[track_caller]
 pub fn assert_verdict_follows_evidence(d: &Value) {
-    const ALPHA: f64 = 0.01;
+    let after = &d["after_loop"];
     let verdict = d["verdict"].as_str().expect("a verdict");
+    if after.is_object() {
+        assert_after_loop(d, after, verdict);
+        let screening = after["screening_verdict"].as_str().expect("the screening's verdict");
+        assert_screening(d, screening, false);
+    } else {
+        assert_screening(d, verdict, true);
+    }
+    assert!(
+        d["next_test"].is_object() || verdict == "no_model_error",
+        "no next test: {}",
+        d["summary"]
+    );
+    let words = d["headline"].as_str().unwrap().to_lowercase();
+    let expected = match verdict {
+        "cause_named" => "model error: cause named",
+        "cannot_tell_apart" => "model error: leading candidates, cannot tell apart",
+        "partly_explained" => "model error: partly explained",
+        "no_model_error" => "no model error beyond the noise",
+        "unexplained" => "model error: no listed cause explains it",
+        _ => "too few tests to tell",
+    };
+    assert!(
+        words.starts_with(expected),
+        "headline {words:?} does not start with {expected:?}"
+    );
+    assert!(
+        d["summary"]
+            .as_str()
+            .unwrap()
+            .starts_with(d["headline"].as_str().unwrap())
+    );
+}
+
+/// The decision after the loop: each open explanation's final model out when its lack of fit
+/// rejects; a cause named only when every other open explanation is out or beaten by its shape.
+#[track_caller]
+fn assert_after_loop(d: &Value, after: &Value, verdict: &str) {
+    let explanations = after["explanations"].as_array().expect("explanations");
+    for e in explanations {
+        let rejects = e["lack_of_fit"]["p_value"].as_f64().is_some_and(|p| p < ALPHA);
+        assert_eq!(e["rejected"].as_bool(), Some(rejects), "{e}");
+    }
+    let survivors: Vec<&Value> = explanations.iter().filter(|e| e["rejected"] == false).collect();
+    let pairwise = after["pairwise"].as_array().expect("pairwise");
+    let beats = |a: &Value, b: &Value| {
+        pairwise.iter().any(|p| {
+            p["shape_of"] == a["name"] && p["added_to"] == b["name"] && p["p_value"].as_f64().is_some_and(|p| p < ALPHA)
+        })
+    };
+    match verdict {
+        "cause_named" => {
+            let cause = d["cause"].as_str().expect("a cause");
+            let named = survivors
+                .iter()
+                .find(|e| e["name"] == cause)
+                .expect("the cause survives its lack of fit");
+            for e in &survivors {
+                if e["name"] != cause {
+                    assert!(
+                        beats(named, e),
+                        "cause named, yet '{}' is neither out nor beaten",
+                        e["name"]
+                    );
+                }
+            }
+            assert!(d["extended"]["lack_of_fit_p"].as_f64().is_none_or(|p| p >= ALPHA));
+        }
+        "cannot_tell_apart" => {
+            assert!(d["cause"].is_null());
+            assert!(
+                survivors.len() >= 2,
+                "cannot tell apart, yet {} survive",
+                survivors.len()
+            );
+            for a in &survivors {
+                let all = survivors.iter().filter(|b| b["name"] != a["name"]).all(|b| beats(a, b));
+                assert!(!all, "'{}' beats every other survivor, yet nothing is named", a["name"]);
+            }
+        }
+        "partly_explained" => {
+            let cause = d["cause"].as_str().expect("a cause");
+            assert!(explanations.iter().any(|e| e["name"] == cause));
+        }
+        other => panic!("the loop ran, yet the verdict is {other}"),
+    }
+}
+
+/// The screening's rule for `verdict`. `final_extended`: `extended` is the screening's own (not
+/// replaced by a loop model).
+#[track_caller]
+fn assert_screening(d: &Value, verdict: &str, final_extended: bool) {
     let candidates = d["candidates"].as_array().expect("candidates");
     let k = candidates.len().max(1) as f64;
     let explains = |c: &Value| c["p_value"].as_f64().is_some_and(|p| p * k < ALPHA);
@@ -22,7 +116,7 @@ pub fn assert_verdict_follows_evidence(d: &Value) {
     let any_explains = candidates.iter().any(explains);
     let rivals = d["rivals"].as_array().expect("rivals");
     let bound = ALPHA / rivals.len().max(1) as f64;
-    let ext_rejects = d["extended"]["lack_of_fit_p"].as_f64().is_some_and(|p| p < ALPHA)
+    let ext_rejects = final_extended && d["extended"]["lack_of_fit_p"].as_f64().is_some_and(|p| p < ALPHA)
         || rivals
             .iter()
             .any(|r| r["p_rival_given_leader"].as_f64().is_some_and(|p| p < bound));
@@ -49,20 +143,21 @@ pub fn assert_verdict_follows_evidence(d: &Value) {
                 !ext_rejects,
                 "the extended model misses the tests, yet the cause is called the whole story"
             );
+            let _ = final_extended;
         }
         "cannot_tell_apart" => {
-            assert!(d["cause"].is_null());
+            assert!(d["cause"].is_null() || !final_extended);
             assert!(any_explains);
             assert!(
                 rivals.iter().any(|r| !r["beaten"].as_bool().unwrap()),
                 "no rival survives"
             );
-            assert!(d["leading"].as_array().unwrap().len() >= 2);
+            assert!(d["leading"].as_array().unwrap().len() >= 2 || !final_extended);
         }
         "partly_explained" => {
-            assert!(d["cause"].is_string());
+            assert!(d["cause"].is_string() || !final_extended);
             assert!(
-                ext_rejects,
+                ext_rejects || !final_extended,
                 "partly explained, yet the extended model fits and no rival adds to it"
             );
         }
@@ -74,24 +169,4 @@ pub fn assert_verdict_follows_evidence(d: &Value) {
         "too_few_tests" => assert!(d["cause"].is_null()),
         other => panic!("unknown verdict {other}"),
     }
-    assert!(d["next_test"].is_object(), "no next test: {}", d["summary"]);
-    let words = d["headline"].as_str().unwrap().to_lowercase();
-    let expected = match verdict {
-        "cause_named" => "model error: cause named",
-        "cannot_tell_apart" => "model error: leading candidates, cannot tell apart",
-        "partly_explained" => "model error: partly explained",
-        "no_model_error" => "no model error beyond the noise",
-        "unexplained" => "model error: no listed cause explains it",
-        _ => "too few tests to tell",
-    };
-    assert!(
-        words.starts_with(expected),
-        "headline {words:?} does not start with {expected:?}"
-    );
-    assert!(
-        d["summary"]
-            .as_str()
-            .unwrap()
-            .starts_with(d["headline"].as_str().unwrap())
-    );
 }

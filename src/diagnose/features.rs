@@ -1,0 +1,739 @@
+//! The diagnosis on curves: the force–displacement curves of every specimen and of the simulation
+//! read as named features ([`crate::extract::features`]: plateau level, initial peak, plateau
+//! slope), so that the same rules as for a scalar response ([`super::conclude`]) rank the causes on
+//! where along the stroke the model errs.
+//!
+//! **Whitening.** A specimen's scatter moves its features together (a thicker foil raises the peak
+//! and the plateau alike), so features are not independent observations. The transformed features
+//! φ (logarithms of the forces, the slope relative to the level) of each design are whitened by the
+//! Cholesky factor L of one specimen's feature covariance; the observations are the components of
+//! L⁻¹φ, in order: the plateau level, the initial peak given the plateau, the slope given both —
+//! independent with unit variance, so the scalar diagnosis's tests apply unchanged. The covariance
+//! is one of two:
+//!
+//! - *structured*: each specimen's curve is its design's mean curve times (1 + a), a ~ N(0, c²)
+//!   (material and gauge scatter scale a whole curve), plus independent noise of variance σ_d²
+//!   along the stroke; the features' covariance is then `J (c² m mᵀ + σ_d² I) Jᵀ` with J their
+//!   Jacobian at the mean curve m (numerical). c² comes from the specimens' fitted scale factors
+//!   (ν = Σ(n_d − 1) degrees of freedom), σ_d² from what the scale leaves along the stroke
+//!   ((n_d − 1)(P − 1) degrees of freedom). Used only when the features' own scatter agrees with it:
+//!   whitened by it, their pooled sample covariance Ŝ (ν degrees of freedom) must pass the
+//!   likelihood-ratio test of Σ = I, `ν [tr Ŝ − ln det Ŝ − K] ~ χ²_{K(K+1)/2}` at α (Anderson 2003,
+//!   §10.8). Contrasts between features then rest on the noise along the whole stroke; the tests
+//!   still refer to F with ν denominator degrees of freedom, since the scale variance that dominates
+//!   the plateau level is known only from the specimens (conservative for the contrasts).
+//! - *pooled* (when the structure is rejected, or no stroke noise can be estimated): the pooled
+//!   within-design sample covariance S of φ (ν degrees of freedom). With it estimated, a test is
+//!   referred to F with ν − K + 1 denominator degrees of freedom and the variance scaled by
+//!   ν / (ν − K + 1) (the F form of Hotelling's T²; Anderson 2003, §5.2): the price of estimating
+//!   the correlations from the specimens alone.
+//!
+//! **Shapes.** A term hypothesis g(d, θ, y) acts on every point of the curve, δ(s) = γ g(d, θ,
+//! y(s)); its feature shape is the directional derivative of L⁻¹φ along it (exact for the linear
+//! features, first order for the peak and the logarithms). A model extension's shape is
+//! L⁻¹(φ(y_ext) − φ(y)), as for a scalar response. The built-in shapes (offset, scale error, a
+//! trend in each design variable) act on the curve in the same way.
+//!
+//! Pure: curves in, [`Inputs`] out.
+
+use std::sync::Arc;
+
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use super::shapes::{Origin, Shape};
+use super::{Inputs, NoiseKind, NoiseModel, Observation, Role, Settings};
+use crate::calibrate::{Bounds, Model};
+use crate::extract::features::{self, FeatureSpec};
+
+/// The simulation's curve on the grid at a design and θ (`None`: no emulator there).
+pub type CurveFn = dyn Fn(&[f64], &[f64]) -> Option<DVector<f64>> + Send + Sync;
+
+/// The features the diagnosis reads (indices into [`features::NAMES`]): the fold period is only
+/// reported, since a simulated curve at an arbitrary θ need not resolve it.
+const READ: [usize; 3] = [0, 1, 2];
+
+/// One tested design: its specimens' curves on the grid.
+#[derive(Debug, Clone)]
+pub struct CurveDesign {
+    pub name: String,
+    pub values: Vec<f64>,
+    pub role: Role,
+    pub specimens: Vec<DVector<f64>>,
+}
+
+/// A candidate cause on curves.
+#[derive(Clone)]
+pub enum CurveHypothesis {
+    /// An additive shape g(d, θ, y) acting on every point of the curve.
+    Term(Shape),
+    /// A model extension: its runs' curves (over θ), with its template variables. With
+    /// `baseline` (the study's own curves and its parameter count p), the shape is measured against
+    /// that baseline at θ's first p entries — for a loop model, whose own curve has the extension in.
+    Extension {
+        name: String,
+        variables: Vec<(String, f64)>,
+        curve: Arc<CurveFn>,
+        baseline: Option<(Arc<CurveFn>, usize)>,
+    },
+}
+
+/// How the features' covariance was obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CovarianceKind {
+    /// Scale factor plus independent noise along the stroke, checked against the features' scatter.
+    Structured,
+    /// The features' pooled sample covariance (Hotelling's correction).
+    Pooled,
+}
+
+/// The features' covariance per design and what the tests may assume of it.
+#[derive(Debug, Clone)]
+pub struct Whitening {
+    /// Indices into [`features::NAMES`] of the features read, in whitening order.
+    pub read: Vec<usize>,
+    /// Per design (by its values): the lower Cholesky factor of one specimen's feature covariance.
+    factors: Vec<(Vec<f64>, DMatrix<f64>)>,
+    pub kind: CovarianceKind,
+    /// Variance of a whitened observation (1, or Hotelling's ν / (ν − K + 1)).
+    pub variance: f64,
+    /// Degrees of freedom of the tests' noise.
+    pub dof: usize,
+    /// ν: the specimens' degrees of freedom.
+    pub specimens_dof: usize,
+    /// The structured covariance's check: statistic, its χ² degrees of freedom, p.
+    pub check: Option<(f64, usize, f64)>,
+}
+
+impl Whitening {
+    fn factor(&self, design: &[f64]) -> Option<&DMatrix<f64>> {
+        self.factors.iter().find(|(d, _)| d == design).map(|(_, l)| l)
+    }
+
+    /// L⁻¹φ of a curve's features at a design (`None` where a feature is missing or not finite).
+    fn whiten(&self, spec: &FeatureSpec, design: &[f64], curve: &[f64]) -> Option<DVector<f64>> {
+        let v = features::measure(spec, curve).vector(spec);
+        let phi: Option<Vec<f64>> = self.read.iter().map(|&k| v[k].filter(|x| x.is_finite())).collect();
+        self.factor(design)?.solve_lower_triangular(&DVector::from_vec(phi?))
+    }
+
+    /// The names of the whitened observations.
+    pub fn names(&self) -> Vec<String> {
+        self.read
+            .iter()
+            .enumerate()
+            .map(|(i, &k)| match i {
+                0 => features::NAMES[k].to_string(),
+                1 => format!("{} given the {}", features::NAMES[k], features::NAMES[self.read[0]]),
+                _ => format!("{} given the rest", features::NAMES[k]),
+            })
+            .collect()
+    }
+}
+
+/// Per design and feature: what the specimens measured and what the models predict
+/// (`results.json` `diagnosis.features.rows`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FeatureRow {
+    pub design: String,
+    pub feature: String,
+    pub unit: String,
+    /// Mean over the specimens, and the standard deviation of that mean.
+    pub measured: f64,
+    pub sigma: f64,
+    pub specimens: usize,
+    /// The uncorrected simulation's value at its calibrated parameters, and (measured −
+    /// predicted) / σ.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub uncorrected: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub z_uncorrected: Option<f64>,
+    /// The final model's (the named cause's extended model).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub extended: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub z_extended: Option<f64>,
+}
+
+/// `results.json` `diagnosis.features`: the curve features the diagnosis read and where along the
+/// stroke the model errs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FeaturesReport {
+    /// The whitened observations the tests read, in order.
+    pub read: Vec<String>,
+    pub covariance: CovarianceKind,
+    /// The structured covariance's check (statistic, degrees of freedom, p).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub covariance_check: Option<(f64, usize, f64)>,
+    pub rows: Vec<FeatureRow>,
+    /// The whitened observation whose misfit the final model removed most (its share of the drop
+    /// in χ² from the uncorrected model), when a cause is extended.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub decided_by: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub decided_share: Option<f64>,
+}
+
+impl FeaturesReport {
+    /// The report of `problem`'s features, with the uncorrected and (when there is one) final
+    /// models' curves, and the diagnosis's whitened residuals before and after.
+    pub fn new(
+        problem: &FeatureProblem,
+        designs: &[CurveDesign],
+        uncorrected: &dyn Fn(&[f64]) -> Option<DVector<f64>>,
+        extended: Option<&dyn Fn(&[f64]) -> Option<DVector<f64>>>,
+        diagnosis: &super::Diagnosis,
+    ) -> FeaturesReport {
+        let spec = problem.model.spec;
+        let w = &problem.model.whitening;
+        let value = |c: &DVector<f64>, feature: &str| -> Option<f64> {
+            let f = features::measure(&spec, c.as_slice());
+            match features::NAMES.iter().position(|n| *n == feature)? {
+                0 => Some(f.plateau),
+                1 => f.peak.map(|p| p.0),
+                2 => Some(f.slope),
+                _ => f.period,
+            }
+        };
+        let rows = problem
+            .rows
+            .iter()
+            .map(|r| {
+                let d = designs.iter().find(|d| d.name == r.design);
+                let at = |model: &dyn Fn(&[f64]) -> Option<DVector<f64>>| {
+                    d.and_then(|d| model(&d.values)).and_then(|c| value(&c, &r.feature))
+                };
+                let z = |v: Option<f64>| v.map(|v| (r.measured - v) / r.sigma).filter(|z| z.is_finite());
+                let before = at(uncorrected);
+                let after = extended.and_then(at);
+                FeatureRow {
+                    uncorrected: before,
+                    z_uncorrected: z(before),
+                    extended: after,
+                    z_extended: z(after),
+                    ..r.clone()
+                }
+            })
+            .collect();
+        let (decided_by, decided_share) = decided(w, diagnosis).unzip();
+        FeaturesReport {
+            read: w.names(),
+            covariance: w.kind,
+            covariance_check: w.check,
+            rows,
+            decided_by,
+            decided_share,
+        }
+    }
+}
+
+/// The whitened output with the largest share of the drop in Σz² from the uncorrected model to the
+/// named cause's extended model.
+fn decided(w: &Whitening, d: &super::Diagnosis) -> Option<(String, f64)> {
+    let after = &d.extended.as_ref()?.residual_z;
+    let names = w.names();
+    let drop: Vec<f64> = names
+        .iter()
+        .map(|name| {
+            d.residuals
+                .iter()
+                .filter(|r| r.design.ends_with(&format!(" · {name}")))
+                .map(|r| r.z.powi(2) - after.get(&r.design).map_or(r.z.powi(2), |z| z * z))
+                .sum()
+        })
+        .collect();
+    let total: f64 = drop.iter().filter(|x| **x > 0.0).sum();
+    let (k, best) = drop.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
+    (total > 0.0 && *best > 0.0).then(|| (names[k].clone(), best / total))
+}
+
+/// Everything the diagnosis on curves needs.
+pub struct CurveInputs<'a> {
+    pub designs: Vec<CurveDesign>,
+    pub spec: FeatureSpec,
+    pub curve: Arc<CurveFn>,
+    pub parameter_names: Vec<String>,
+    pub parameter_bounds: Bounds,
+    pub design_names: Vec<String>,
+    pub design_bounds: Bounds,
+    pub hypotheses: Vec<CurveHypothesis>,
+    pub settings: Settings,
+    /// The study's constants, for a term's expression.
+    pub constants: &'a [(String, f64)],
+}
+
+/// The features as a model of its own: at point (design, k), the k-th whitened feature of the
+/// simulation's curve.
+pub struct FeatureModel {
+    curve: Arc<CurveFn>,
+    spec: FeatureSpec,
+    whitening: Whitening,
+}
+
+impl FeatureModel {
+    fn split<'p>(&self, point: &'p [f64]) -> (&'p [f64], usize) {
+        if self.whitening.read.len() > 1 {
+            (&point[..point.len() - 1], point[point.len() - 1] as usize)
+        } else {
+            (point, 0)
+        }
+    }
+}
+
+impl Model for FeatureModel {
+    fn predict(&self, point: &[f64], theta: &[f64]) -> f64 {
+        let (d, k) = self.split(point);
+        (self.curve)(d, theta)
+            .and_then(|c| self.whitening.whiten(&self.spec, d, c.as_slice()))
+            .map_or(f64::NAN, |z| z[k])
+    }
+}
+
+/// The diagnosis's problem on curves: the feature model and the whitened observations.
+pub struct FeatureProblem {
+    pub model: FeatureModel,
+    pub observations: Vec<Observation>,
+    pub rows: Vec<FeatureRow>,
+    pub shapes: Vec<Shape>,
+    pub built_ins: Vec<Shape>,
+    pub noise: NoiseModel,
+}
+
+impl FeatureProblem {
+    /// The whitened features of every specimen, the feature model, and the hypotheses' and
+    /// built-ins' shapes on them; `Err` when the specimens cannot give a covariance.
+    pub fn new(ci: &CurveInputs) -> Result<FeatureProblem, String> {
+        let whitening = whitening(&ci.designs, &ci.spec, ci.settings.alpha)?;
+        let k = whitening.read.len();
+        let model = FeatureModel {
+            curve: ci.curve.clone(),
+            spec: ci.spec,
+            whitening: whitening.clone(),
+        };
+        let mut observations = Vec::new();
+        for d in &ci.designs {
+            let z: Vec<DVector<f64>> = d
+                .specimens
+                .iter()
+                .filter_map(|c| whitening.whiten(&ci.spec, &d.values, c.as_slice()))
+                .collect();
+            for j in 0..k {
+                let reps: Vec<f64> = z.iter().map(|v| v[j]).collect();
+                observations.push(
+                    Observation::from_replicates(d.name.clone(), d.values.clone(), d.role, &reps)
+                        .of_output(j, &whitening.names()[j]),
+                );
+            }
+        }
+        let shape_of = |h: &CurveHypothesis| feature_shape(h, &model);
+        let shapes = ci.hypotheses.iter().map(shape_of).collect();
+        let built_ins = Shape::built_ins(&ci.design_names)
+            .into_iter()
+            .map(|s| feature_shape(&CurveHypothesis::Term(s), &model))
+            .collect();
+        let names = whitening
+            .read
+            .iter()
+            .map(|&i| features::NAMES[i])
+            .collect::<Vec<_>>()
+            .join(", ");
+        let specimens: usize = ci.designs.iter().map(|d| d.specimens.len()).sum();
+        let how = match (whitening.kind, whitening.check) {
+            (CovarianceKind::Structured, Some((t, f, p))) => format!(
+                "whitened by a scale factor per specimen plus independent noise along the stroke, which the features' \
+                 own scatter does not reject (χ² = {} on {f} degrees of freedom, p = {}); the tests take the \
+                 specimens' {} degrees of freedom",
+                super::text::num(t),
+                super::text::num(p),
+                whitening.dof
+            ),
+            (_, check) => format!(
+                "whitened by their pooled covariance ({} degrees of freedom; {} left for the tests once the {k} × {k} \
+                 covariance is estimated{})",
+                whitening.specimens_dof,
+                whitening.dof,
+                check.map_or(String::new(), |(t, f, p)| format!(
+                    "; a scale factor plus independent noise along the stroke was rejected: χ² = {} on {f} degrees of \
+                     freedom, p = {}",
+                    super::text::num(t),
+                    super::text::num(p)
+                ))
+            ),
+        };
+        Ok(FeatureProblem {
+            rows: rows(&ci.designs, &ci.spec),
+            noise: NoiseModel {
+                kind: NoiseKind::Absolute,
+                scale: whitening.variance.sqrt(),
+                dof: whitening.dof,
+                loglik_absolute: None,
+                loglik_relative: None,
+                note: format!(
+                    "curve features ({names}) of {specimens} specimens at {} designs, {how}",
+                    ci.designs.len()
+                ),
+            },
+            model,
+            observations,
+            shapes,
+            built_ins,
+        })
+    }
+
+    /// The diagnosis's inputs over this problem.
+    pub fn inputs<'a>(&'a self, ci: &CurveInputs) -> Inputs<'a> {
+        Inputs {
+            observations: self.observations.clone(),
+            model: &self.model,
+            parameter_names: ci.parameter_names.clone(),
+            parameter_bounds: ci.parameter_bounds.clone(),
+            design_names: ci.design_names.clone(),
+            design_bounds: ci.design_bounds.clone(),
+            hypotheses: self.shapes.clone(),
+            settings: ci.settings.clone(),
+            outputs: self.model.whitening.names(),
+            built_ins: Some(self.built_ins.clone()),
+            noise: Some(self.noise.clone()),
+            relative_error: Some(self.plateau_error()),
+            discover: false,
+            library: Default::default(),
+        }
+    }
+
+    /// The relative error of the plateau level (the mean crush force) behind a whitened
+    /// prediction: its first component is ln(plateau) / L₀₀, so the ratio of predicted to measured
+    /// (geometric mean) plateau is exp(L₀₀ (ŷ − ȳ)). The other outputs have none.
+    fn plateau_error(&self) -> super::RelativeError {
+        let w = self.model.whitening.clone();
+        let plateau_first = w.read.first() == Some(&0);
+        std::sync::Arc::new(move |o: &Observation, yh: f64| {
+            if !plateau_first || o.output != 0 {
+                return None;
+            }
+            let l00 = w.factor(&o.design)?[(0, 0)];
+            Some((l00 * (yh - o.mean)).exp() - 1.0)
+        })
+    }
+}
+
+/// The features' covariance (see the module notes): structured when the specimens' feature scatter
+/// agrees with it at `alpha`, else pooled.
+fn whitening(designs: &[CurveDesign], spec: &FeatureSpec, alpha: f64) -> Result<Whitening, String> {
+    let vectors: Vec<Vec<[Option<f64>; 4]>> = designs
+        .iter()
+        .map(|d| {
+            d.specimens
+                .iter()
+                .map(|c| features::measure(spec, c.as_slice()).vector(spec))
+                .collect()
+        })
+        .collect();
+    let nu: usize = designs.iter().map(|d| d.specimens.len().saturating_sub(1)).sum();
+    let mut read: Vec<usize> = READ
+        .iter()
+        .copied()
+        .filter(|&k| vectors.iter().flatten().all(|v| v[k].is_some_and(f64::is_finite)))
+        .collect();
+    read.truncate(nu);
+    if read.is_empty() {
+        return Err(
+            "the specimens give no replicate scatter of their curves' features (one specimen per design)".into(),
+        );
+    }
+    // The features' deviations from their design's mean, per design.
+    let deviations: Vec<Vec<DVector<f64>>> = vectors
+        .iter()
+        .map(|d| {
+            let n = d.len() as f64;
+            let mean: Vec<f64> = read
+                .iter()
+                .map(|&f| d.iter().map(|v| v[f].unwrap()).sum::<f64>() / n)
+                .collect();
+            d.iter()
+                .map(|v| DVector::from_iterator(read.len(), read.iter().zip(&mean).map(|(&f, m)| v[f].unwrap() - m)))
+                .collect()
+        })
+        .collect();
+    let structured = structured(designs, spec, &read, nu).and_then(|factors| {
+        let check = covariance_check(&factors, designs, &deviations, nu);
+        Some((factors, check?))
+    });
+    match structured {
+        Some((factors, check)) if check.2 >= alpha => Ok(Whitening {
+            read,
+            factors,
+            kind: CovarianceKind::Structured,
+            variance: 1.0,
+            dof: nu,
+            specimens_dof: nu,
+            check: Some(check),
+        }),
+        other => pooled(designs, &deviations, read, nu, other.map(|(_, c)| c)),
+    }
+}
+
+/// Per design, the Cholesky factor of `J (c² m mᵀ + σ_d² I) Jᵀ`; `None` when it cannot be formed.
+fn structured(
+    designs: &[CurveDesign],
+    spec: &FeatureSpec,
+    read: &[usize],
+    nu: usize,
+) -> Option<Vec<(Vec<f64>, DMatrix<f64>)>> {
+    // Each specimen's scale factor a and what it leaves along the stroke.
+    let mut a2 = 0.0;
+    let mut noise = Vec::new();
+    let mut means = Vec::new();
+    for d in designs {
+        let n = d.specimens.len();
+        let p = d.specimens.first()?.len();
+        let m = d.specimens.iter().fold(DVector::zeros(p), |acc, c| acc + c) / n as f64;
+        let mm = m.norm_squared();
+        let mut ss = 0.0;
+        for c in &d.specimens {
+            let e = c - &m;
+            let a = e.dot(&m) / mm;
+            a2 += a * a;
+            ss += (e - &m * a).norm_squared();
+        }
+        let dof = (n.saturating_sub(1) * p.saturating_sub(1)).max(1);
+        noise.push(ss / dof as f64);
+        means.push(m);
+    }
+    let c2 = a2 / nu.max(1) as f64;
+    let k = read.len();
+    let mut out = Vec::new();
+    for ((d, m), s2) in designs.iter().zip(&means).zip(&noise) {
+        let j = jacobian(spec, m, read)?;
+        let jm = &j * m;
+        let cov = &jm * jm.transpose() * c2 + &j * j.transpose() * *s2;
+        let l = cov.cholesky()?.l();
+        if l.diagonal().iter().any(|v| !(v.is_finite() && *v > 0.0)) || l.nrows() != k {
+            return None;
+        }
+        out.push((d.values.clone(), l));
+    }
+    Some(out)
+}
+
+/// ∂φ/∂y(s) of the read features at the curve `m`, by central differences of step 1e-6 of its level.
+fn jacobian(spec: &FeatureSpec, m: &DVector<f64>, read: &[usize]) -> Option<DMatrix<f64>> {
+    let h = 1e-6 * m.amax().max(f64::MIN_POSITIVE);
+    let at = |c: &DVector<f64>| -> Option<Vec<f64>> {
+        let v = features::measure(spec, c.as_slice()).vector(spec);
+        read.iter().map(|&k| v[k]).collect()
+    };
+    let mut j = DMatrix::zeros(read.len(), m.len());
+    for s in 0..m.len() {
+        let (mut up, mut down) = (m.clone(), m.clone());
+        up[s] += h;
+        down[s] -= h;
+        let (a, b) = (at(&up)?, at(&down)?);
+        for r in 0..read.len() {
+            j[(r, s)] = (a[r] - b[r]) / (2.0 * h);
+        }
+    }
+    Some(j)
+}
+
+/// The likelihood-ratio test that the features' deviations, whitened by `factors`, have unit
+/// covariance: (statistic, degrees of freedom, p).
+fn covariance_check(
+    factors: &[(Vec<f64>, DMatrix<f64>)],
+    designs: &[CurveDesign],
+    deviations: &[Vec<DVector<f64>>],
+    nu: usize,
+) -> Option<(f64, usize, f64)> {
+    let k = factors.first()?.1.nrows();
+    if nu < k {
+        return None;
+    }
+    let mut s = DMatrix::zeros(k, k);
+    for ((d, devs), (values, l)) in designs.iter().zip(deviations).zip(factors) {
+        debug_assert_eq!(&d.values, values);
+        for e in devs {
+            let w = l.solve_lower_triangular(e)?;
+            s += &w * w.transpose();
+        }
+    }
+    s /= nu as f64;
+    let det = s.determinant();
+    if det <= 0.0 {
+        return None;
+    }
+    let t = nu as f64 * (s.trace() - det.ln() - k as f64);
+    let f = k * (k + 1) / 2;
+    Some((t, f, super::stats::chi2_sf(t, f as f64)))
+}
+
+/// The pooled sample covariance of the features, one factor for every design.
+fn pooled(
+    designs: &[CurveDesign],
+    deviations: &[Vec<DVector<f64>>],
+    mut read: Vec<usize>,
+    nu: usize,
+    check: Option<(f64, usize, f64)>,
+) -> Result<Whitening, String> {
+    let k = read.len();
+    let mut s = DMatrix::zeros(k, k);
+    for e in deviations.iter().flatten() {
+        s += e * e.transpose();
+    }
+    s /= nu as f64;
+    // A feature the specimens do not scatter in (or that the others fix) cannot be whitened: drop
+    // the later ones until the covariance factors.
+    while !read.is_empty() {
+        let kk = read.len();
+        if let Some(ch) = s.view((0, 0), (kk, kk)).clone_owned().cholesky() {
+            let l = ch.l();
+            if l.diagonal().iter().all(|v| *v > 1e-12 * l[(0, 0)].abs()) {
+                let dof = nu + 1 - kk;
+                return Ok(Whitening {
+                    read,
+                    factors: designs.iter().map(|d| (d.values.clone(), l.clone())).collect(),
+                    kind: CovarianceKind::Pooled,
+                    variance: nu as f64 / dof as f64,
+                    dof,
+                    specimens_dof: nu,
+                    check,
+                });
+            }
+        }
+        read.pop();
+    }
+    Err("the specimens' feature scatter is degenerate".into())
+}
+
+/// The measured features per design, unwhitened, for the report.
+fn rows(designs: &[CurveDesign], spec: &FeatureSpec) -> Vec<FeatureRow> {
+    let mut out = Vec::new();
+    for d in designs {
+        let f: Vec<features::Features> = d
+            .specimens
+            .iter()
+            .map(|c| features::measure(spec, c.as_slice()))
+            .collect();
+        let n = f.len();
+        let value = |x: &features::Features, k: usize| match k {
+            0 => Some(x.plateau),
+            1 => x.peak.map(|p| p.0),
+            2 => Some(x.slope),
+            _ => x.period,
+        };
+        for k in 0..4 {
+            let v: Vec<f64> = f.iter().filter_map(|x| value(x, k)).collect();
+            if v.len() != n || n == 0 {
+                continue;
+            }
+            let mean = v.iter().sum::<f64>() / n as f64;
+            let sd = if n > 1 {
+                (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+            } else {
+                f64::NAN
+            };
+            out.push(FeatureRow {
+                design: d.name.clone(),
+                feature: features::NAMES[k].to_string(),
+                unit: ["kN", "kN", "kN/mm", "mm"][k].to_string(),
+                measured: mean,
+                sigma: sd / (n as f64).sqrt(),
+                specimens: n,
+                uncorrected: None,
+                z_uncorrected: None,
+                extended: None,
+                z_extended: None,
+            });
+        }
+    }
+    out
+}
+
+/// A hypothesis as a shape of the whitened features.
+fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
+    let curve = model.curve.clone();
+    let spec = model.spec;
+    let w = model.whitening.clone();
+    let read = w.read.len();
+    let split = move |point: &[f64]| -> (Vec<f64>, usize) {
+        if read > 1 {
+            (point[..point.len() - 1].to_vec(), point[point.len() - 1] as usize)
+        } else {
+            (point.to_vec(), 0)
+        }
+    };
+    match h {
+        CurveHypothesis::Term(g) => {
+            let g = g.clone();
+            let mut s = Shape::new(g.name.clone(), g.term.clone(), g.origin, move |point, theta, _| {
+                let (d, k) = split(point);
+                let Some(y) = curve(&d, theta) else { return f64::NAN };
+                let delta = DVector::from_iterator(y.len(), y.iter().map(|&v| g.eval(&d, theta, v)));
+                let scale = delta.amax();
+                if !(scale.is_finite()) || scale == 0.0 {
+                    return if scale == 0.0 { 0.0 } else { f64::NAN };
+                }
+                // A step small against the curve keeps the logarithms and the peak linear.
+                let eps = 1e-4 * y.amax() / scale;
+                let moved = &y + &delta * eps;
+                match (w.whiten(&spec, &d, moved.as_slice()), w.whiten(&spec, &d, y.as_slice())) {
+                    (Some(a), Some(b)) => (a[k] - b[k]) / eps,
+                    _ => f64::NAN,
+                }
+            });
+            s.extension = None;
+            s
+        }
+        CurveHypothesis::Extension {
+            name,
+            variables,
+            curve: ext,
+            baseline,
+        } => {
+            let ext = ext.clone();
+            let baseline = baseline.clone();
+            let set = variables
+                .iter()
+                .map(|(k, v)| format!("{k} = {v}"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            let mut s = Shape::new(
+                name.clone(),
+                format!("y[{set}] - y"),
+                Origin::Study,
+                move |point, theta, _| {
+                    let (d, k) = split(point);
+                    let (base, t) = match &baseline {
+                        Some((b, p)) => (b(&d, &theta[..(*p).min(theta.len())]), &theta[..(*p).min(theta.len())]),
+                        None => (curve(&d, theta), theta),
+                    };
+                    let (Some(y), Some(e)) = (base, ext(&d, t)) else {
+                        return f64::NAN;
+                    };
+                    match (w.whiten(&spec, &d, e.as_slice()), w.whiten(&spec, &d, y.as_slice())) {
+                        (Some(a), Some(b)) => a[k] - b[k],
+                        _ => f64::NAN,
+                    }
+                },
+            );
+            s.extension = Some(variables.clone());
+            s
+        }
+    }
+}
+
+impl super::Diagnosis {
+    /// The diagnosis with its curve features, and, when a cause was named from them, which part of
+    /// the stroke decided it added to the headline.
+    pub fn with_features(mut self, report: FeaturesReport) -> super::Diagnosis {
+        if let (Some(name), Some(share), Some(_)) = (&report.decided_by, report.decided_share, &self.cause) {
+            let headline = self.headline.trim_end_matches('.').to_string();
+            self.headline = format!(
+                "{headline}; decided by the {name} ({:.0} % of the misfit the extended model removes).",
+                100.0 * share
+            );
+            self.summary = super::text::summary(&self.headline, &self.action, &self.evidence, &self.limits);
+        }
+        self.features = Some(report);
+        self
+    }
+}

@@ -1,0 +1,355 @@
+//! The curves stage of [`super::run`] for a study calibrated against its force–displacement curves
+//! (`calibration.against: [.., curves]`):
+//!
+//! ```text
+//! runs' rcforc/nodout ─► curve ─► (CFC filter) ─► stroke grid ─┐
+//! specimens' CSVs ─────► curve ─► (CFC filter) ─► stroke grid ─┼─► per design: curve emulator
+//!                                                              └─► features ─► diagnosis
+//! ```
+//!
+//! Every run's curve is read from the same histories its response came from (its run directory,
+//! or its recording), so live and replayed runs give the same curves.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use nalgebra::DVector;
+
+use crate::diagnose::Role;
+use crate::diagnose::features::{CurveDesign, CurveFn, CurveHypothesis, CurveInputs};
+use crate::error::Error;
+use crate::extract::crush::{self, ForceDisplacement};
+use crate::extract::features::FeatureSpec;
+use crate::extract::grid::{self, StrokeGrid};
+use crate::fit::functional::{CurveModel, DesignCurves, FunctionalSurrogate};
+use crate::plan::PlannedRun;
+use crate::study::{HypothesisKind, Response, SolverSimulation, Study, SurrogateKind};
+
+/// Where and how a study's curves are compared.
+#[derive(Debug, Clone, Copy)]
+pub struct Setting {
+    pub grid: StrokeGrid,
+    pub spec: FeatureSpec,
+}
+
+impl Setting {
+    /// The study's grid and features; `None` unless it is calibrated against curves.
+    pub fn of(study: &Study) -> Option<Setting> {
+        if !study.calibration.against.curves {
+            return None;
+        }
+        let grid = crate::study::curve_grid(&study.calibration.curve, &study.simulation)?;
+        let crate::study::Simulation::Solver(sim) = &study.simulation else {
+            return None;
+        };
+        let Response::CrushForce { window, .. } = sim.response else {
+            return None;
+        };
+        Some(Setting {
+            grid,
+            spec: FeatureSpec { grid, plateau: window },
+        })
+    }
+
+    /// A curve as the comparison sees it: filtered when the study says so, on the grid.
+    fn prepare(&self, study: &Study, curve: &ForceDisplacement) -> Option<DVector<f64>> {
+        let curve = match study.calibration.curve.filter {
+            Some(f) => crate::extract::cfc::filter_curve(curve, 1000.0 * f.speed, f.cfc).ok()?,
+            None => curve.clone(),
+        };
+        grid::resample(&curve, &self.grid).ok().map(DVector::from_vec)
+    }
+}
+
+/// Each run's curve on the grid, in the order of `keys` (`None` where the run has no usable
+/// response or its histories are gone).
+pub fn on_grid(
+    study: &Study,
+    sim: &SolverSimulation,
+    setting: &Setting,
+    keys: &[String],
+    usable: &[Option<f64>],
+    dirs: &[PathBuf],
+) -> Vec<Option<DVector<f64>>> {
+    use rayon::prelude::*;
+    let Response::CrushForce { source, .. } = &sim.response else {
+        return vec![None; keys.len()];
+    };
+    keys.par_iter()
+        .zip(usable)
+        .map(|(key, y)| {
+            y.as_ref()?;
+            let curve = crush::read_run(dirs, key, source)?;
+            setting.prepare(study, &curve)
+        })
+        .collect()
+}
+
+/// The specimens of every training and validation design on the grid (validated at load: each
+/// covers the window).
+pub fn specimens(study: &Study, setting: &Setting) -> Vec<CurveDesign> {
+    study
+        .training
+        .iter()
+        .map(|n| (n, Role::Training))
+        .chain(study.validation.iter().map(|n| (n, Role::Validation)))
+        .filter_map(|(name, role)| {
+            let sc = study.experiments.curves.iter().find(|c| &c.design == name)?;
+            let values = study.experiments.get(name)?.values.clone();
+            Some(CurveDesign {
+                name: name.clone(),
+                values,
+                role,
+                specimens: sc
+                    .specimens
+                    .iter()
+                    .filter_map(|(_, c)| setting.prepare(study, c))
+                    .collect(),
+            })
+        })
+        .collect()
+}
+
+/// A run as a curve emulator sees it: its point in the emulator's space, its curve, and whether it
+/// is a check run.
+pub struct CurveRun<'a> {
+    pub run: &'a PlannedRun,
+    pub point: Vec<f64>,
+    pub curve: Option<DVector<f64>>,
+    pub check: bool,
+}
+
+/// The surrogate kind of each curve component: `calibration.curve.surrogate`, else the study's.
+pub fn kind(study: &Study, sim: &SolverSimulation) -> SurrogateKind {
+    study.calibration.curve.surrogate.unwrap_or(sim.surrogate)
+}
+
+/// One curve emulator per tested design over `bounds`, fitted to its runs among `runs` and checked
+/// at its check runs.
+pub fn emulators(
+    study: &Study,
+    kind: SurrogateKind,
+    bounds: &crate::calibrate::Bounds,
+    runs: &[CurveRun],
+) -> Result<CurveModel, Error> {
+    let designs = study
+        .training
+        .iter()
+        .chain(&study.validation)
+        .filter_map(|name| {
+            let mine: Vec<&CurveRun> = runs.iter().filter(|r| &r.run.design == name).collect();
+            let values = mine.first()?.run.design_values.clone();
+            let of = |check: bool| -> Vec<(Vec<f64>, DVector<f64>)> {
+                mine.iter()
+                    .filter(|r| r.check == check)
+                    .filter_map(|r| r.curve.clone().map(|c| (r.point.clone(), c)))
+                    .collect()
+            };
+            let samples = of(false);
+            Some(
+                FunctionalSurrogate::fit(kind, &samples, bounds)
+                    .map(|surrogate| DesignCurves {
+                        design: name.clone(),
+                        values,
+                        check: surrogate.check(&of(true)),
+                        surrogate,
+                        samples: samples.len(),
+                    })
+                    .map_err(|e| Error::Failed(format!("design `{name}`: cannot fit its curve emulator: {e}"))),
+            )
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(CurveModel { designs })
+}
+
+/// A curve model as the diagnosis's curve function.
+pub fn curve_fn(model: CurveModel) -> Arc<CurveFn> {
+    Arc::new(move |d: &[f64], theta: &[f64]| model.curve(d, theta))
+}
+
+/// The diagnosis's inputs on curves: `study`'s designs, parameters and term hypotheses, the
+/// simulation's curves `curve`, and the extension hypotheses' shapes `extensions`.
+pub fn inputs<'s>(
+    study: &'s Study,
+    setting: &Setting,
+    designs: Vec<CurveDesign>,
+    curve: Arc<CurveFn>,
+    extensions: Vec<CurveHypothesis>,
+) -> CurveInputs<'s> {
+    let terms = study
+        .diagnosis
+        .hypotheses
+        .iter()
+        .filter(|h| matches!(h.kind, HypothesisKind::Term(_)))
+        .map(|h| CurveHypothesis::Term(crate::diagnose::Shape::from_hypothesis(h, study)));
+    CurveInputs {
+        designs,
+        spec: setting.spec,
+        curve,
+        parameter_names: study.parameters.iter().map(|p| p.name.clone()).collect(),
+        parameter_bounds: study.parameter_bounds(),
+        design_names: study.design.iter().map(|d| d.name.clone()).collect(),
+        design_bounds: study.design_bounds(),
+        hypotheses: terms.chain(extensions).collect(),
+        settings: Default::default(),
+        constants: &study.constants,
+    }
+}
+
+/// The extension hypotheses of `study` as curve shapes from their screening runs' emulators
+/// (`models`: `(k, model)`), but hypothesis `skip`; measured against `baseline` when given.
+pub fn extension_hypotheses(
+    study: &Study,
+    models: &[(usize, Arc<CurveFn>)],
+    baseline: Option<(Arc<CurveFn>, usize)>,
+    skip: Option<usize>,
+) -> Vec<CurveHypothesis> {
+    models
+        .iter()
+        .filter(|(k, _)| Some(*k) != skip)
+        .filter_map(|(k, curve)| {
+            let h = &study.diagnosis.hypotheses[*k];
+            Some(CurveHypothesis::Extension {
+                name: h.name.clone(),
+                variables: h.extension()?.to_vec(),
+                curve: curve.clone(),
+                baseline: baseline.clone(),
+            })
+        })
+        .collect()
+}
+
+/// A solver study's curves: the grid, the specimens, every screening run's curve, and the curve
+/// emulators of the baseline and of each extension hypothesis's screening runs.
+pub struct CurveStage {
+    pub setting: Setting,
+    pub designs: Vec<CurveDesign>,
+    /// Each planned run's curve, in plan order.
+    pub runs: Vec<Option<DVector<f64>>>,
+    pub baseline: CurveModel,
+    /// `(k, model)` for `study.diagnosis.hypotheses[k]`, over θ.
+    pub extensions: Vec<(usize, CurveModel)>,
+}
+
+impl CurveStage {
+    /// Reads and fits everything the diagnosis and the curve calibration need from the screening's
+    /// runs (`usable`: each run's response, or `None` when it failed or is left out as suspect).
+    pub fn build(
+        study: &Study,
+        sim: &SolverSimulation,
+        setting: Setting,
+        plan: &crate::plan::Plan,
+        keys: &[String],
+        usable: &[Option<f64>],
+        dirs: &[PathBuf],
+    ) -> Result<CurveStage, Error> {
+        use crate::plan::RunRole;
+        let runs = on_grid(study, sim, &setting, keys, usable, dirs);
+        let kind = kind(study, sim);
+        let bounds = study.parameter_bounds();
+        let of = |keep: &dyn Fn(RunRole) -> bool| -> Vec<CurveRun> {
+            plan.runs
+                .iter()
+                .zip(&runs)
+                .filter(|(r, _)| keep(r.role))
+                .map(|(run, c)| CurveRun {
+                    run,
+                    point: run.theta.clone(),
+                    curve: c.clone(),
+                    check: run.role == RunRole::Check,
+                })
+                .collect()
+        };
+        let baseline = emulators(
+            study,
+            kind,
+            &bounds,
+            &of(&|r| matches!(r, RunRole::Sample | RunRole::Check)),
+        )?;
+        let extensions = study
+            .extension_hypotheses()
+            .filter_map(|(k, _)| {
+                let model = emulators(study, kind, &bounds, &of(&|r| r == RunRole::Extension(k))).ok()?;
+                Some((k, model))
+            })
+            .collect();
+        Ok(CurveStage {
+            designs: specimens(study, &setting),
+            setting,
+            runs,
+            baseline,
+            extensions,
+        })
+    }
+
+    /// The extension hypotheses' emulators as curve functions.
+    pub fn extension_fns(&self) -> Vec<(usize, Arc<CurveFn>)> {
+        self.extensions.iter().map(|(k, m)| (*k, curve_fn(m.clone()))).collect()
+    }
+
+    /// The emulator of hypothesis `k`'s extended model over θ and its ranged variables, from its
+    /// screening runs (at the probe) and the loop's runs (`joint`, with their curves `curves`).
+    pub fn loop_model(
+        &self,
+        study: &Study,
+        sim: &SolverSimulation,
+        plan: &crate::plan::Plan,
+        k: usize,
+        joint: &crate::plan::Plan,
+        curves: &[Option<DVector<f64>>],
+    ) -> Result<CurveModel, Error> {
+        use crate::plan::RunRole;
+        let ranges = study.diagnosis.hypotheses[k].ranges();
+        let bounds = crate::plan::sweep::joint_bounds(study, ranges);
+        let mine = |r: &PlannedRun| matches!(r.role, RunRole::Extension(j) | RunRole::Joint(j) | RunRole::JointCheck(j) if j == k);
+        let runs: Vec<CurveRun> = plan
+            .runs
+            .iter()
+            .zip(&self.runs)
+            .chain(joint.runs.iter().zip(curves))
+            .filter(|(r, _)| mine(r))
+            .map(|(run, c)| CurveRun {
+                run,
+                point: run.joint_point(ranges),
+                curve: c.clone(),
+                check: run.role == RunRole::JointCheck(k),
+            })
+            .collect();
+        let model = emulators(study, kind(study, sim), &bounds, &runs)?;
+        Ok(model)
+    }
+}
+
+/// The diagnosis's curve features with the uncorrected simulation's curves at its calibrated
+/// parameters and, when a cause is named, its extended model's: the loop's emulator (`loops`:
+/// `(k, model)` of the extended hypotheses) at the extended parameters, or a term's shape added
+/// along the stroke.
+pub fn features_report(
+    study: &Study,
+    stage: &CurveStage,
+    problem: &crate::diagnose::features::FeatureProblem,
+    loops: &[(usize, CurveModel)],
+    d: &crate::diagnose::Diagnosis,
+) -> crate::diagnose::features::FeaturesReport {
+    let theta: Vec<f64> = d.uncorrected.parameters.values().copied().collect();
+    let uncorrected = |values: &[f64]| stage.baseline.curve(values, &theta);
+    let extended: Option<Box<dyn Fn(&[f64]) -> Option<DVector<f64>> + '_>> = d.extended.as_ref().and_then(|e| {
+        let k = study.diagnosis.hypotheses.iter().position(|h| h.name == e.cause);
+        let at: Vec<f64> = e.parameters.values().copied().collect();
+        match (k.and_then(|k| loops.iter().find(|(j, _)| *j == k)), k.map(|k| &study.diagnosis.hypotheses[k])) {
+            (Some((_, model)), _) if e.solver_in_the_loop => {
+                Some(Box::new(move |v: &[f64]| model.curve(v, &at)) as Box<dyn Fn(&[f64]) -> Option<DVector<f64>>>)
+            }
+            (_, Some(h)) if matches!(h.kind, HypothesisKind::Term(_)) => {
+                let shape = crate::diagnose::Shape::from_hypothesis(h, study);
+                let gamma = e.amplitude;
+                Some(Box::new(move |v: &[f64]| {
+                    let y = stage.baseline.curve(v, &at)?;
+                    Some(DVector::from_iterator(y.len(), y.iter().map(|&s| s + gamma * shape.eval(v, &at, s))))
+                }) as Box<dyn Fn(&[f64]) -> Option<DVector<f64>>>)
+            }
+            _ => None,
+        }
+    });
+    crate::diagnose::features::FeaturesReport::new(problem, &stage.designs, &uncorrected, extended.as_deref(), d)
+}

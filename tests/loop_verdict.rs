@@ -1,0 +1,402 @@
+//! The verdict after the loop (issue 25), through `lab run` with a real solver process: the
+//! stand-in `clamped_beam` (examples/clamped_beam.rs, a closed form run as a program) whose
+//! template has a shear factor `s` and a clamp compliance `kr` (both 0 in the baseline). The tests
+//! are drawn here, from a seed, at a known E and kr; the study lists three hypotheses: shear
+//! correction (an extension, `s` in [0, 1.5]), a fixture offset (a term) and clamp compliance (an
+//! extension, `kr` in [0, 1]). Nothing outside this file knows the draw.
+//!
+//! Whether the tests *can* decide is not assumed: an oracle here, sharing no code with lab, fits
+//! each rival explanation to the noise-free truth by weighted least squares (y = u·(a + s·c) with
+//! u = 1/E, s in its declared range; y = u·a + γ for the offset; y = u·a + γ·h for a trend in h)
+//! and takes the weighted misfit as the noncentrality of the test that would reject it. A case
+//! *decides* when every rival's noncentrality is ≥ 40 (power ≈ 0.99 at α = 0.01 on ~6 degrees of
+//! freedom) and *does not decide* when the shear model's is ≤ 2 (power ≈ α).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde_json::Value;
+
+mod verdict_common;
+
+const F: f64 = 600.0;
+const L: f64 = 20.0;
+const B: f64 = 2.0;
+const NU: f64 = 0.36;
+const S_MAX: f64 = 1.5;
+
+/// The stand-in solver, built with the tests (`cargo test` compiles the examples).
+fn solver() -> PathBuf {
+    let path = PathBuf::from(env!("CARGO_BIN_EXE_lab"))
+        .with_file_name("examples")
+        .join("clamped_beam");
+    assert!(
+        path.is_file(),
+        "{} is not built: run `cargo test --release` (it builds the examples)",
+        path.display()
+    );
+    path
+}
+
+/// One drawn case: the truth, the designs, the specimens and their scatter.
+#[derive(Debug, Clone)]
+struct Case {
+    e: f64,
+    kr: f64,
+    hs: Vec<f64>,
+    specimens: usize,
+    cv: f64,
+    seed: u64,
+}
+
+impl Case {
+    fn bending(h: f64) -> f64 {
+        4.0 * F * L.powi(3) / (B * h.powi(3))
+    }
+    fn shear(h: f64) -> f64 {
+        F * L * (4.0 + 5.0 * NU) / (2.0 * B * h)
+    }
+    fn clamp(h: f64) -> f64 {
+        4.0 * F * L * L / (B * h * h)
+    }
+    fn truth(&self, h: f64) -> f64 {
+        (Self::bending(h) + self.kr * Self::clamp(h)) / self.e
+    }
+    fn names(&self) -> Vec<String> {
+        self.hs.iter().map(|h| format!("h{}", fmt(*h))).collect()
+    }
+    /// The last design validates; the others train.
+    fn training(&self) -> Vec<String> {
+        let n = self.names();
+        n[..n.len() - 1].to_vec()
+    }
+}
+
+fn fmt(h: f64) -> String {
+    format!("{h:.2}")
+        .trim_end_matches('0')
+        .trim_end_matches('.')
+        .replace('.', "p")
+}
+
+/// Writes the study, template and tests into `dir`; returns the study file.
+fn write_study(case: &Case, dir: &Path) -> PathBuf {
+    let mut rng = ChaCha8Rng::seed_from_u64(case.seed);
+    let z = Normal::new(0.0, 1.0).unwrap();
+    let mut csv = String::from("design,h,deflection\n");
+    for (h, name) in case.hs.iter().zip(case.names()) {
+        for _ in 0..case.specimens {
+            let y = case.truth(*h) * (1.0 + case.cv * z.sample(&mut rng));
+            csv.push_str(&format!("{name},{h},{y:e}\n"));
+        }
+    }
+    std::fs::write(dir.join("tests.csv"), csv).unwrap();
+    std::fs::write(
+        dir.join("beam.txt.tera"),
+        "h = {{ h }}\nF = {{ F }}\nL = {{ L }}\nb = {{ b }}\nnu = {{ nu }}\nE = {{ E }}\n\
+         s = {{ s | default(value=0) }}\nkr = {{ kr | default(value=0) }}\n",
+    )
+    .unwrap();
+    let names = case.names();
+    let lo = case.hs.first().unwrap();
+    let hi = case.hs.last().unwrap();
+    let study = format!(
+        "name: clamp-case\n\
+         constants: {{F: {F}, L: {L}, b: {B}, nu: {NU}}}\n\
+         design:\n  h: {{unit: mm, min: {lo}, max: {hi}}}\n\
+         parameters:\n  E: {{min: 55000, max: 82000, unit: MPa}}\n\
+         simulation:\n  solver:\n    adapter: command\n    templates: [beam.txt.tera]\n    command: [{}, beam.txt]\n\
+         \x20 response: {{file: output.txt, regex: \"y = (\\\\S+)\"}}\n\
+         \x20 sampling: {{method: lhs, count: 6, seed: 1, check_runs: 1}}\n\
+         \x20 surrogate: gp\n\
+         experiments: {{file: tests.csv, response: deflection, unit: mm}}\n\
+         training: [{}]\n\
+         validation: [{}]\n\
+         calibration: {{methods: [least_squares]}}\n\
+         diagnosis:\n  hypotheses:\n\
+         \x20   - name: shear correction\n      extension: {{s: {{min: 0, max: {S_MAX}}}}}\n\
+         \x20   - name: fixture offset\n      term: \"1\"\n\
+         \x20   - name: clamp compliance\n      extension: {{kr: {{min: 0, max: 1}}}}\n",
+        solver().display(),
+        case.training().join(", "),
+        names.last().unwrap(),
+    );
+    let path = dir.join("clamp.yaml");
+    std::fs::write(&path, study).unwrap();
+    path
+}
+
+/// `lab run` on the case; its `diagnosis`.
+fn run(case: &Case) -> Value {
+    let dir = tempfile::tempdir().unwrap();
+    let study = write_study(case, dir.path());
+    let out = dir.path().join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args([
+            "run",
+            study.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--jobs",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "lab run failed: {}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let results: Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    if std::env::var("LAB_LOOP_VERBOSE").is_ok() {
+        eprintln!("surrogates: {}", results["surrogates"]);
+        for c in results["diagnosis"]["candidates"].as_array().unwrap() {
+            eprintln!(
+                "cand {} wrss {} p {} amp {} params {} loo {} aicc {}",
+                c["name"],
+                c["weighted_rss"],
+                c["p_value"],
+                c["amplitude"],
+                c["parameters"],
+                c["loo_deviance"],
+                c["aicc"]
+            );
+        }
+        eprintln!("rivals {}", results["diagnosis"]["rivals"]);
+        eprintln!(
+            "residuals {}",
+            results["diagnosis"]["residuals"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|r| format!(
+                    "{} n={} sd={} mean={}",
+                    r["design"], r["count"], r["std_dev"], r["measured"]
+                ))
+                .collect::<Vec<_>>()
+                .join("; ")
+        );
+        eprintln!(
+            "extensions runs: {:?}",
+            results["diagnosis"]["extensions"]
+                .as_array()
+                .map(|x| x.iter().map(|e| e["runs"].clone()).collect::<Vec<_>>())
+        );
+    }
+    let d = results["diagnosis"].clone();
+    verdict_common::assert_verdict_follows_evidence(&d);
+    d
+}
+
+// ---- The oracle: weighted least squares on the noise-free truth, nothing from lab. ----
+
+/// Weighted misfit of the best fit of `columns` (linear coefficients, unconstrained) to the truth.
+fn misfit(y: &[f64], w: &[f64], columns: &[Vec<f64>]) -> (f64, Vec<f64>) {
+    let k = columns.len();
+    let mut m = nalgebra::DMatrix::<f64>::zeros(k, k);
+    let mut b = nalgebra::DVector::<f64>::zeros(k);
+    for i in 0..y.len() {
+        for a in 0..k {
+            b[a] += w[i] * columns[a][i] * y[i];
+            for c in 0..k {
+                m[(a, c)] += w[i] * columns[a][i] * columns[c][i];
+            }
+        }
+    }
+    let beta = m.clone().lu().solve(&b).unwrap();
+    let r: f64 = (0..y.len())
+        .map(|i| {
+            let fit: f64 = (0..k).map(|a| beta[a] * columns[a][i]).sum();
+            w[i] * (y[i] - fit).powi(2)
+        })
+        .sum();
+    (r, beta.iter().copied().collect())
+}
+
+/// The noncentralities of the rivals' misfits (shear within its range, offset, trend in h) over
+/// every tested design, weights n/σ² of the relative noise.
+fn oracle(case: &Case) -> (f64, f64, f64) {
+    let y: Vec<f64> = case.hs.iter().map(|&h| case.truth(h)).collect();
+    let w: Vec<f64> = y
+        .iter()
+        .map(|v| case.specimens as f64 / (case.cv * v).powi(2))
+        .collect();
+    let bend: Vec<f64> = case.hs.iter().map(|&h| Case::bending(h)).collect();
+    let shear: Vec<f64> = case.hs.iter().map(|&h| Case::shear(h)).collect();
+    // y = u·bend + v·shear with v = u·s, 0 ≤ s ≤ S_MAX: the free optimum if inside, else a bound.
+    let (free, beta) = misfit(&y, &w, &[bend.clone(), shear.clone()]);
+    let inside = beta[0] > 0.0 && beta[1] >= 0.0 && beta[1] <= S_MAX * beta[0];
+    let shear_lambda = if inside {
+        free
+    } else {
+        let at_max: Vec<f64> = bend.iter().zip(&shear).map(|(a, c)| a + S_MAX * c).collect();
+        misfit(&y, &w, &[bend.clone()]).0.min(misfit(&y, &w, &[at_max]).0)
+    };
+    let ones = vec![1.0; y.len()];
+    let offset = misfit(&y, &w, &[bend.clone(), ones]).0;
+    let trend = misfit(&y, &w, &[bend, case.hs.clone()]).0;
+    (shear_lambda, offset, trend)
+}
+
+/// The first seed of the families: 0, or `LAB_LOOP_SEED_BASE` to run them on seeds nobody has
+/// looked at (the assertions stay the same).
+fn seed_base() -> u64 {
+    std::env::var("LAB_LOOP_SEED_BASE")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(0)
+}
+
+fn draw(seed: u64) -> Case {
+    let mut rng = ChaCha8Rng::seed_from_u64(1000 + seed);
+    let h0 = rng.random_range(5.5..8.0);
+    let step = rng.random_range(0.6..1.6);
+    Case {
+        e: rng.random_range(62_000.0..74_000.0),
+        kr: rng.random_range(0.15..0.45),
+        hs: (0..7).map(|i| h0 + step * i as f64).collect(),
+        specimens: rng.random_range(3..=8),
+        cv: rng.random_range(0.0015..0.007),
+        seed,
+    }
+}
+
+fn interval_holds(d: &Value, name: &str, truth: f64) -> bool {
+    let x = &d["extensions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|x| x["hypothesis"] == "clamp compliance")
+        .expect("clamp extended")["interval95"][name];
+    let (lo, hi) = (x[0].as_f64().unwrap(), x[1].as_f64().unwrap());
+    lo <= truth && truth <= hi
+}
+
+/// The issue's case: tests at E = 68,000 and kr = 0.3, h = 6..14, five specimens at 0.3 %
+/// scatter. The screening's linearised shapes may leave clamp and shear open; the loop's models
+/// decide: the shear model, held to its declared range, misses the tests (oracle noncentrality
+/// printed below, far above what the lack-of-fit test needs), the clamp model fits.
+#[test]
+fn clamp_case_names_clamp_compliance_from_the_loops_evidence() {
+    let case = Case {
+        e: 68_000.0,
+        kr: 0.3,
+        hs: (0..7).map(|i| 6.0 + 8.0 * f64::from(i) / 6.0).collect(),
+        specimens: 5,
+        cv: 0.003,
+        seed: 25,
+    };
+    let (shear, offset, trend) = oracle(&case);
+    eprintln!("oracle noncentralities: shear {shear:.1}, offset {offset:.1}, trend {trend:.1}");
+    assert!(
+        shear >= 40.0 && offset >= 40.0 && trend >= 40.0,
+        "the case must be decidable"
+    );
+    let d = run(&case);
+    eprintln!("{}", d["summary"].as_str().unwrap());
+    assert_eq!(d["verdict"], "cause_named", "{}", d["summary"]);
+    assert_eq!(d["cause"], "clamp compliance");
+    let params = &d["extended"]["parameters"];
+    // kr and E with their intervals, the truths inside them.
+    assert!(interval_holds(&d, "kr", 0.3), "{}", d["extensions"]);
+    assert!(interval_holds(&d, "E", 68_000.0), "{}", d["extensions"]);
+    assert!((params["kr"].as_f64().unwrap() / 0.3 - 1.0).abs() < 0.15, "{params}");
+    assert!(
+        (params["E"].as_f64().unwrap() / 68_000.0 - 1.0).abs() < 0.02,
+        "{params}"
+    );
+    assert_eq!(d["extended"]["solver_in_the_loop"], true);
+    // The rival's lack of fit is in the evidence whenever the loop judged it.
+    if let Some(after) = d["after_loop"].as_object() {
+        for e in after["explanations"].as_array().unwrap() {
+            if e["name"] == "shear correction" {
+                assert_eq!(e["rejected"], true, "{e}");
+                let line = d["evidence"].as_array().unwrap().iter().any(|l| {
+                    l.as_str()
+                        .unwrap()
+                        .starts_with("'shear correction' calibrated with the solver in the loop: rejected")
+                });
+                assert!(line, "{}", d["summary"]);
+            }
+        }
+    }
+}
+
+/// Seeded families: designs, specimens, scatter and the truth drawn; classified by the oracle.
+/// Where every rival's model misses the noise-free truth by far, the clamp is named (≥ 9 in 10)
+/// with E and kr inside their intervals (≥ 8 in 10); where the shear model within its range fits
+/// the truth as well, no cause is named in ≥ 8 in 10, and the next test offers a programme of
+/// designs or an independent measurement in at least half of them (a solver study can only be
+/// predicted at its tested designs; where nothing there decides, the next test says so). The shear
+/// correction is never named: the truth has none. 120 seeds give about 30 decidable cases, so that
+/// the 9-in-10 bound is not at the mercy of two chance rejections at α (each case runs several
+/// tests at α = 0.01).
+#[test]
+fn loop_decides_where_the_evidence_does_and_says_so_where_it_does_not() {
+    let n = std::env::var("LAB_LOOP_SEEDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(120);
+    let (mut decides, mut named, mut inside) = (0, 0, 0);
+    let (mut open, mut not_named, mut with_test) = (0, 0, 0);
+    let mut shear_named = 0;
+    for seed in seed_base()..seed_base() + n {
+        let case = draw(seed);
+        let (shear, offset, trend) = oracle(&case);
+        let class_decides = shear >= 40.0 && offset >= 40.0 && trend >= 40.0;
+        let class_open = shear <= 2.0;
+        if !class_decides && !class_open {
+            continue;
+        }
+        let d = run(&case);
+        eprintln!(
+            "seed {seed}: shear {shear:.1} offset {offset:.1} trend {trend:.1} → {} ({})",
+            d["verdict"], d["cause"]
+        );
+        shear_named += usize::from(d["cause"] == "shear correction");
+        let expected = if class_decides {
+            d["verdict"] == "cause_named"
+        } else {
+            d["cause"].is_null()
+        };
+        if !expected || std::env::var("LAB_LOOP_VERBOSE").is_ok() {
+            eprintln!("{}\n{}", d["summary"].as_str().unwrap_or(""), d["next_test"]);
+        }
+        if class_decides {
+            decides += 1;
+            if d["cause"] == "clamp compliance" && d["verdict"] == "cause_named" {
+                named += 1;
+                inside += usize::from(interval_holds(&d, "kr", case.kr) && interval_holds(&d, "E", case.e));
+            }
+        } else {
+            open += 1;
+            not_named += usize::from(d["cause"].is_null());
+            let t = &d["next_test"];
+            assert!(t.is_object(), "cannot tell apart without a next test");
+            let offers = t["programme"].as_array().is_some_and(|p| !p.is_empty())
+                || t["measurements"].as_array().is_some_and(|m| !m.is_empty());
+            with_test += usize::from(offers);
+            if !offers {
+                // Nothing within reach decides: the next test says so, with no power claimed.
+                assert!(t["power"].is_null() && t["specimens"].is_null(), "{t}");
+            }
+        }
+    }
+    eprintln!(
+        "decidable {decides}: named {named}, intervals hold {inside}; undecidable {open}: not named {not_named}, \
+         with a next test {with_test}; shear named {shear_named}"
+    );
+    assert!(
+        decides >= 6 && open >= 4,
+        "too few cases in a class: {decides} / {open}"
+    );
+    assert!(named * 10 >= decides * 9, "{named} of {decides}");
+    assert!(inside * 10 >= named * 8, "{inside} of {named}");
+    assert!(not_named * 10 >= open * 8, "{not_named} of {open}");
+    assert!(with_test * 2 >= open, "{with_test} of {open}");
+    assert_eq!(shear_named, 0);
+}
