@@ -93,7 +93,17 @@ fn families() -> Vec<Family> {
             params: vec![("E", 50_000.0, 90_000.0, 68_000.0)],
             model: euler,
             exponents: vec![3.0],
-            inside: vec!["1", "1/h", "h", "h^2", "1/h^2", "h^(1/2)", "y*h^(1/2)", "exp(-h/10)", "ln(h/10)"],
+            inside: vec![
+                "1",
+                "1/h",
+                "h",
+                "h^2",
+                "1/h^2",
+                "h^(1/2)",
+                "y*h^(1/2)",
+                "exp(-h/10)",
+                "ln(h/10)",
+            ],
         },
         Family {
             name: "beam (h, L)",
@@ -164,6 +174,9 @@ struct Case {
     hidden: Hidden,
     magnitude: f64,
     relative: bool,
+    /// Listed hypotheses (name, term, coefficient in the truth): a cause the engineer suspects,
+    /// present in the truth beside the hidden effect.
+    listed: Vec<(&'static str, &'static str, f64)>,
 }
 
 impl Case {
@@ -178,6 +191,9 @@ impl Case {
     }
     fn shape(&self, term: &str) -> Shape {
         Shape::from_term("g", term, &self.names(), &self.param_names(), &[]).expect("a valid term")
+    }
+    fn shape_named(&self, name: &str, term: &str) -> Shape {
+        Shape::from_term(name, term, &self.names(), &self.param_names(), &[]).expect("a valid term")
     }
     fn hidden_term(&self) -> Option<&'static str> {
         match self.hidden {
@@ -195,6 +211,18 @@ fn gauss(rng: &mut ChaCha8Rng) -> f64 {
 
 /// Draws designs, noise, replicates and the effect's size for `hidden` in `family`.
 fn generate(family: &Family, hidden: Hidden, magnitude: (f64, f64), seed: u64) -> Case {
+    generate_with(family, hidden, magnitude, seed, Vec::new())
+}
+
+/// [`generate`], with listed causes in the truth (their terms times their coefficients at the
+/// true θ) beside the hidden effect.
+fn generate_with(
+    family: &Family,
+    hidden: Hidden,
+    magnitude: (f64, f64),
+    seed: u64,
+    listed: Vec<(&'static str, &'static str, f64)>,
+) -> Case {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let dims = family.design.len();
     // The tested range: a random part (at least 60 %) of the family's.
@@ -234,7 +262,12 @@ fn generate(family: &Family, hidden: Hidden, magnitude: (f64, f64), seed: u64) -
             b.swap(i, rng.random_range(0..=i));
         }
         let mut out: Vec<Vec<f64>> = (0..n)
-            .map(|i| vec![level(a[i] as f64 / (n - 1) as f64, 0), level(b[i] as f64 / (n - 1) as f64, 1)])
+            .map(|i| {
+                vec![
+                    level(a[i] as f64 / (n - 1) as f64, 0),
+                    level(b[i] as f64 / (n - 1) as f64, 1),
+                ]
+            })
             .collect();
         out.extend([vec![lower[0], lower[1]], vec![upper[0], upper[1]]]);
         out
@@ -262,8 +295,20 @@ fn generate(family: &Family, hidden: Hidden, magnitude: (f64, f64), seed: u64) -
             Box::new(move |d: &[f64]| outside(k, d, &lo, &hi))
         }
     };
-    let gmax = train.iter().map(|d| effect(d).abs()).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
-    let truth = |d: &[f64]| model(d, &theta) + sign * m * mean_level * effect(d) / gmax;
+    let gmax = train
+        .iter()
+        .map(|d| effect(d).abs())
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let causes: Vec<(Shape, f64)> = listed
+        .iter()
+        .map(|&(name, term, c)| (Shape::from_term(name, term, &names, &pnames, &[]).unwrap(), c))
+        .collect();
+    let listed_effect = |d: &[f64]| -> f64 {
+        let y = model(d, &theta);
+        causes.iter().map(|(g, c)| c * g.eval(d, &theta, y)).sum()
+    };
+    let truth = |d: &[f64]| model(d, &theta) + listed_effect(d) + sign * m * mean_level * effect(d) / gmax;
     let relative = rng.random_bool(0.5);
     let cv: f64 = rng.random_range(0.003..0.015);
     let sd = |mu: f64| if relative { cv * mu.abs() } else { cv * mean_level };
@@ -292,6 +337,7 @@ fn generate(family: &Family, hidden: Hidden, magnitude: (f64, f64), seed: u64) -
         hidden,
         magnitude: m,
         relative,
+        listed,
     }
 }
 
@@ -310,7 +356,11 @@ fn run(case: &Case, always: bool) -> Diagnosis {
         ),
         design_names: case.names(),
         design_bounds: Bounds::new(case.lower.clone(), case.upper.clone()),
-        hypotheses: Vec::new(),
+        hypotheses: case
+            .listed
+            .iter()
+            .map(|&(name, term, _)| case.shape_named(name, term))
+            .collect(),
         settings: Settings {
             search_without_detection: always,
             ..Settings::default()
@@ -352,11 +402,7 @@ fn weighted(case: &Case) -> (Vec<f64>, DVector<f64>, Vec<DVector<f64>>) {
     let theta = case.truth();
     let model = case.family.model;
     let n = case.train.len();
-    let w: Vec<f64> = case
-        .sigma
-        .iter()
-        .map(|s| (case.replicates as f64).sqrt() / s)
-        .collect();
+    let w: Vec<f64> = case.sigma.iter().map(|s| (case.replicates as f64).sqrt() / s).collect();
     let e = DVector::from_fn(n, |i, _| w[i] * (case.mu[i] - model(&case.train[i], &theta)));
     let jac = (0..theta.len())
         .map(|j| {
@@ -382,13 +428,18 @@ fn term_vector(case: &Case, w: &[f64], term: &str) -> DVector<f64> {
     })
 }
 
-/// The noncentrality of the hidden shape's test against a refit of θ.
+/// The noncentrality of the hidden shape's test against a refit of θ (and of the listed causes'
+/// amplitudes: the base the search starts from).
 fn detect(case: &Case) -> f64 {
     let Some(term) = case.hidden_term() else { return 0.0 };
     let (w, e, jac) = weighted(case);
-    let mut with = jac.clone();
+    let base: Vec<DVector<f64>> = jac
+        .into_iter()
+        .chain(case.listed.iter().map(|&(_, t, _)| term_vector(case, &w, t)))
+        .collect();
+    let mut with = base.clone();
     with.push(term_vector(case, &w, term));
-    leftover(&jac, &e) - leftover(&with, &e)
+    leftover(&base, &e) - leftover(&with, &e)
 }
 
 /// Power of the F(1, ν) test at α / M_MAX with noncentrality λ, by simulation (seeded).
@@ -439,11 +490,36 @@ fn recovered(case: &Case, d: &Discovered) -> bool {
     })
 }
 
+/// Beside a listed cause: the found model holds the hidden shape and the listed cause's (as its
+/// base, or as a found term), each up to a shape the same over the designs or one the data cannot
+/// tell from it.
+fn recovered_beside(case: &Case, d: &Discovered) -> bool {
+    let Some(hidden) = case.hidden_term() else { return false };
+    if d.outcome != Outcome::Found {
+        return false;
+    }
+    let (w, _, _) = weighted(case);
+    let terms: Vec<String> = d
+        .terms
+        .iter()
+        .flat_map(|t| std::iter::once(&t.term).chain(&t.same_shape).chain(&t.alike).cloned())
+        .collect();
+    let holds = |term: &str| {
+        let h = term_vector(case, &w, term);
+        terms.iter().any(|t| {
+            let v = term_vector(case, &w, t);
+            (h.dot(&v).abs() / (h.norm() * v.norm())) > 1.0 - 1e-9
+        })
+    };
+    let listed = case.listed.iter().all(|&(name, term, _)| d.base == name || holds(term));
+    listed && holds(hidden)
+}
+
 fn line(what: &str, seed: u64, case: &Case, extra: &str, d: &Diagnosis) -> String {
     let f = d.discovered.as_ref();
     format!(
-        "{what} seed {seed} [{}]: hidden {:?} {:?} m {:.4} rel {} n {} reps {} | {extra} | {:?} | found {:?} group {:?} \
-         p {:?} gain_loo {:?} lof {:?} | closest {:?}",
+        "{what} seed {seed} [{}]: hidden {:?} {:?} m {:.4} rel {} n {} reps {} | {extra} | {:?} {:?} | base {:?} found {:?} \
+         group {:?} p {:?} gain_loo {:?} lof {:?} | closest {:?}",
         case.family.name,
         case.hidden,
         case.hidden_term(),
@@ -452,6 +528,8 @@ fn line(what: &str, seed: u64, case: &Case, extra: &str, d: &Diagnosis) -> Strin
         case.train.len(),
         case.replicates,
         d.verdict,
+        d.cause,
+        f.map(|f| f.base.clone()),
         f.and_then(|f| f.term.clone()),
         f.map(group),
         f.and_then(|f| f.p_value),
@@ -506,7 +584,13 @@ fn shapes_inside_the_library_are_recovered_when_large_enough() {
         let ok = d.discovered.as_ref().is_some_and(|f| recovered(&case, f));
         eprintln!(
             "{}",
-            line("inside", seed - 1, &case, &format!("λ {lambda:.1} power {pw:.2} recovered {ok}"), &d)
+            line(
+                "inside",
+                seed - 1,
+                &case,
+                &format!("λ {lambda:.1} power {pw:.2} recovered {ok}"),
+                &d
+            )
         );
         if pw >= 0.95 {
             large += 1;
@@ -530,9 +614,16 @@ fn shapes_outside_the_library_are_not_claimed_falsely() {
     for i in 0..60u64 {
         let seed = seed_base() + i;
         let family = &fams[(seed % fams.len() as u64) as usize];
-        let case = generate(family, Hidden::Outside((seed / 4 % 4) as usize), (0.02, 0.2), seed * 31 + 3);
+        let case = generate(
+            family,
+            Hidden::Outside((seed / 4 % 4) as usize),
+            (0.02, 0.2),
+            seed * 31 + 3,
+        );
+        let started = std::time::Instant::now();
         let d = run(&case, false);
-        eprintln!("{}", line("outside", seed, &case, "", &d));
+        let took = started.elapsed().as_secs_f64();
+        eprintln!("{}", line("outside", seed, &case, &format!("{took:.2} s"), &d));
         of += 1;
         let Some(f) = d.discovered.as_ref().filter(|f| f.outcome == Outcome::Found) else {
             continue;
@@ -550,6 +641,221 @@ fn shapes_outside_the_library_are_not_claimed_falsely() {
     eprintln!("outside the library: a term found in {found}/{of}");
 }
 
+/// Timoshenko's shear term of the (h, L) beam, F L (4 + 5ν) / (2 E b h) at the true E: its
+/// coefficient on `L/h` (F = 600, ν = 0.36, b = 2, E = 68,000).
+const SHEAR: f64 = 600.0 * (4.0 + 5.0 * 0.36) / (2.0 * 68_000.0 * 2.0);
+
+/// The (h, L) beam whose tests hold the shear term (listed) and a hidden effect (not listed):
+/// shapes inside the library that are none of the built-in candidates, or outside it.
+fn beside_shear() -> Family {
+    Family {
+        name: "beam (h, L) beside shear",
+        inside: vec!["(L/h)^2", "1/L", "h^2", "L^2", "h*L", "y/L"],
+        ..families()[1].clone()
+    }
+}
+
+/// A listed cause beside an unlisted effect: where the verdict is "partly explained" the search
+/// runs from the listed cause's model and either finds a term (whose model then passes the lack-of-
+/// fit test and improves the leave-one-design-out error) or says that nothing in the library
+/// explains the misfit; a hidden shape inside the library that the oracle calls large enough leaves
+/// the listed cause short of the whole story (≤ 10 % named as the whole), and where the search starts
+/// from the listed cause (the oracle's own setting: its λ is against θ and the listed amplitude) the
+/// hidden shape is recovered in ≥ 90 % (the bar of the families without a listed cause: the same
+/// claim). Where a built-in leads instead, the search starts from the uncorrected model and may
+/// rightly prefer one shape that fits within the noise to the two of the truth.
+#[test]
+fn a_listed_cause_beside_an_unlisted_effect() {
+    let family = beside_shear();
+    // Large enough (the oracle): all, those searched from the listed cause, recovered there; the
+    // listed cause named as the whole story.
+    let (mut large, mut from_listed, mut got, mut whole) = (0usize, 0usize, 0usize, 0usize);
+    let (mut partly, mut nothing, mut found_outside, mut outside_n) = (0usize, 0usize, 0usize, 0usize);
+    let mut i = 0u64;
+    while from_listed < 15 && i < 400 {
+        let seed = seed_base() + i;
+        i += 1;
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5ea7);
+        let hidden = if i % 4 == 3 {
+            Hidden::Outside(rng.random_range(0..4))
+        } else {
+            Hidden::Inside(rng.random_range(0..family.inside.len()))
+        };
+        let listed = vec![("shear deformation", "L/h", SHEAR)];
+        let case = generate_with(&family, hidden, MAGNITUDE_BESIDE, seed * 31 + 4, listed);
+        let lambda = detect(&case);
+        let pw = power(lambda, nu(&case));
+        let d = run(&case, false);
+        let ok = d.discovered.as_ref().is_some_and(|f| recovered_beside(&case, f));
+        eprintln!(
+            "{}",
+            line(
+                "beside",
+                seed,
+                &case,
+                &format!("λ {lambda:.1} power {pw:.2} recovered {ok}"),
+                &d
+            )
+        );
+        let verdict = serde_json::to_value(d.verdict).unwrap();
+        let shear_cause = d.cause.as_deref() == Some("shear deformation");
+        if verdict == "partly_explained" {
+            partly += 1;
+            let f = d
+                .discovered
+                .as_ref()
+                .unwrap_or_else(|| panic!("seed {seed}: partly explained, no search"));
+            // From the listed cause; from the uncorrected model when the cause is a built-in (a
+            // library shape itself).
+            let from = if shear_cause {
+                "shear deformation"
+            } else {
+                "uncorrected"
+            };
+            assert_eq!(f.base, from, "seed {seed}: the search's base");
+            match f.outcome {
+                Outcome::Found => {
+                    assert!(
+                        f.gain_loo.is_some_and(|g| g > 0.0),
+                        "seed {seed}: no leave-one-out gain"
+                    );
+                    assert!(
+                        f.lack_of_fit.as_ref().is_none_or(|l| l.p_value >= ALPHA),
+                        "seed {seed}: found, yet its lack of fit rejects"
+                    );
+                }
+                Outcome::NothingExplains => {
+                    nothing += 1;
+                    assert!(
+                        d.summary.contains("no shape in the library explains the misfit"),
+                        "seed {seed}: {}",
+                        d.summary
+                    );
+                }
+            }
+        }
+        if matches!(case.hidden, Hidden::Outside(_)) {
+            outside_n += 1;
+            found_outside += usize::from(d.discovered.as_ref().is_some_and(|f| f.outcome == Outcome::Found));
+        }
+        if pw >= 0.95 {
+            large += 1;
+            whole += usize::from(shear_cause && verdict == "cause_named");
+            if verdict == "partly_explained" && shear_cause {
+                from_listed += 1;
+                got += usize::from(ok);
+            }
+        }
+    }
+    eprintln!(
+        "beside a listed cause ({i} cases): partly explained {partly} ('nothing in the library explains' {nothing}); \
+         {large} hidden effects large enough, the listed cause named the whole story for {whole}, searched from it \
+         {from_listed}, recovered {got}; a term found for {found_outside}/{outside_n} effects outside the library"
+    );
+    assert!(
+        from_listed >= 15,
+        "only {from_listed} large-enough cases searched from the listed cause"
+    );
+    assert!(
+        whole * 10 <= large,
+        "the listed cause named the whole story in {whole}/{large}"
+    );
+    assert!(got * 10 >= from_listed * 9, "recovered {got}/{from_listed}");
+}
+
+/// The hidden effect's size beside the listed cause, as a share of the mean response: up to a
+/// sixteenth, so that the listed cause (the shear term, 3–60 % of the response) mostly leads.
+const MAGNITUDE_BESIDE: (f64, f64) = (0.01, 0.06);
+
+/// The repository's cantilever tests (Timoshenko, E = 68,000 MPa, no measurement error) against
+/// the Euler simulation with no hypothesis listed (`studies/cantilever-discover.yaml`), through
+/// `lab run`: a 1/h-like term is found by search, read as shear, E within 3 % of the truth (the
+/// issue's bound; the data are exact, so the shear term itself gives E to rounding).
+#[test]
+fn the_cantilever_study_finds_the_shear_term() {
+    let out = tempfile::tempdir().unwrap();
+    let study = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies/cantilever-discover.yaml");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args(["run", study.to_str().unwrap(), "--out", out.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap();
+    let f = &r["diagnosis"]["discovered"];
+    assert_eq!(f["outcome"], "found", "{f}");
+    // 1/h-like: the term, or a shape the same over the designs or one the data cannot tell from it.
+    let group: Vec<&str> = std::iter::once(&f["terms"][0]["term"])
+        .chain(f["terms"][0]["same_shape"].as_array().unwrap())
+        .chain(f["terms"][0]["alike"].as_array().unwrap())
+        .filter_map(|v| v.as_str())
+        .collect();
+    assert!(group.contains(&"1/h"), "found {group:?}");
+    let e = f["parameters"]["E"].as_f64().unwrap();
+    assert!((e / 68_000.0 - 1.0).abs() < 0.03, "E = {e}");
+    // The shear coefficient F L (4 + 5ν) / (2 E b) = 0.25588 on 1/h, within its interval.
+    let [lo, hi] = [f["interval"][0].as_f64().unwrap(), f["interval"][1].as_f64().unwrap()];
+    assert!(
+        lo <= 0.25588 * (1.0 + 1e-4) && 0.25588 * (1.0 - 1e-4) <= hi,
+        "[{lo}, {hi}]"
+    );
+    assert!(
+        f["reading"].as_str().unwrap().starts_with("shear-like"),
+        "{}",
+        f["reading"]
+    );
+    assert_eq!(f["hypothesis_line"], "- name: found 1/h\n  term: \"1/h\"");
+    for key in ["term", "coefficient", "interval", "parameters", "gain", "reading"] {
+        assert!(!f[key].is_null(), "diagnosis.discovered.{key} missing");
+    }
+    // Terminal and report: after the verdict, marked as found by search.
+    let verdict = stdout.find("diagnosis: ").expect("the verdict");
+    let found = stdout
+        .find("Found by search, not listed")
+        .expect("the search on the terminal");
+    assert!(verdict < found);
+    let page = std::fs::read_to_string(out.path().join("report.html")).unwrap();
+    let (v, s) = (
+        page.find("class=\"verdict").unwrap(),
+        page.find("id=discovered").unwrap(),
+    );
+    assert!(v < s, "the report shows the search after the verdict");
+    // The next test tells the found term from the uncorrected model.
+    let between = &r["diagnosis"]["next_test"]["between"];
+    assert!(between.to_string().contains("found 1/h"), "{between}");
+}
+
+/// `diagnosis.discover: false` keeps the search off; `lab run --discover` turns it on for one run.
+#[test]
+fn discover_key_and_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let studies = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies");
+    let text = std::fs::read_to_string(studies.join("cantilever-discover.yaml")).unwrap();
+    let study = dir.path().join("off.yaml");
+    std::fs::write(&study, format!("{text}\ndiagnosis:\n  discover: false\n")).unwrap();
+    std::fs::copy(
+        studies.join("cantilever-tests.csv"),
+        dir.path().join("cantilever-tests.csv"),
+    )
+    .unwrap();
+    let run = |extra: &[&str], out: &str| -> serde_json::Value {
+        let out = dir.path().join(out);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_lab"))
+            .args(["run", study.to_str().unwrap(), "--out", out.to_str().unwrap()])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap()
+    };
+    assert!(run(&[], "off")["diagnosis"]["discovered"].is_null());
+    assert_eq!(
+        run(&["--discover"], "on")["diagnosis"]["discovered"]["outcome"],
+        "found"
+    );
+}
+
 #[test]
 #[ignore]
 fn debug_one() {
@@ -558,7 +864,20 @@ fn debug_one() {
     let family = &fams[(seed % fams.len() as u64) as usize];
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xd15c);
     let k = rng.random_range(0..family.inside.len());
-    let case = generate(family, Hidden::Inside(k), (0.002, 0.2), seed * 31 + 2);
+    let case = if std::env::var("BESIDE").is_ok() {
+        let family = beside_shear();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5ea7);
+        let hidden = Hidden::Inside(rng.random_range(0..family.inside.len()));
+        generate_with(
+            &family,
+            hidden,
+            MAGNITUDE_BESIDE,
+            seed * 31 + 4,
+            vec![("shear deformation", "L/h", SHEAR)],
+        )
+    } else {
+        generate(family, Hidden::Inside(k), (0.002, 0.2), seed * 31 + 2)
+    };
     let d = run(&case, false);
     eprintln!("{}", line("inside", seed, &case, "", &d));
     eprintln!("{}", d.summary);

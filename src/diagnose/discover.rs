@@ -70,7 +70,7 @@ use super::fit::Fit;
 use super::library::{self, Dropped, LibrarySpec};
 use super::next_test::Explanation;
 use super::ranking::Entry;
-use super::shapes::Shape;
+use super::shapes::{Origin, Shape};
 use super::text::{num, p_text, pct_pub as pct};
 use super::verdict::{Decision, Verdict, Who};
 use super::{Context, Evidence, LackOfFit, Mode, evidence, stats};
@@ -311,10 +311,17 @@ pub(crate) fn run<'a>(
         return None;
     }
     // The base: the listed cause that partly explains the misfit (the loop's extended model where
-    // the loop calibrated it), else the uncorrected model.
-    let cause = decision.cause.filter(|_| listed && decision.verdict == Verdict::PartlyExplained);
+    // the loop calibrated it), else the uncorrected model. A built-in cause (offset, scale, a
+    // linear trend) is itself a library shape: the search starts without it and may pair it.
+    let cause = decision
+        .cause
+        .filter(|_| listed && decision.verdict == Verdict::PartlyExplained);
+    let is_listed = |k: usize| {
+        let shape = screening.ranked.entries[k].model.shape.as_ref();
+        shape.is_some_and(|s| s.origin == Origin::Study)
+    };
     let base = match cause {
-        Some(Who::Candidate(k)) => Base {
+        Some(Who::Candidate(k)) if is_listed(k) => Base {
             cx: &screening.cx,
             entry: &screening.ranked.entries[k],
             name: screening.ranked.entries[k].model.name().to_string(),
@@ -496,47 +503,47 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
                 _ => true,
             }
     };
-    // A single term first; a pair only when no single suffices (a rival still reduces the misfit
-    // with the best single in, at α/(L − 1)), or when no single passes the corrected test.
-    let press_order = |a: &&Tried, b: &&Tried| a.press(cx).total_cmp(&b.press(cx));
-    let best_pair = |extra: Option<Tried>| -> Option<Tried> {
-        let listed = tried.iter().filter(|t| t.terms.len() == 2);
-        let pairs: Vec<Tried> = listed.cloned().chain(extra).filter(|t| eligible(t)).collect();
-        pairs.iter().min_by(press_order).cloned()
-    };
-    let single = tried.iter().find(|t| t.terms.len() == 1 && eligible(t)).cloned();
-    let mut winner = single.clone();
-    let mut adds: Vec<(usize, Fit, Option<f64>)> = Vec::new();
-    match single {
-        Some(w) => {
-            adds = rivals_added(&s, &w);
-            if let Some((r, fit, _)) = best_adder(&adds).filter(|(_, _, p)| *p < rivals_alpha(1))
-                && pairs_ok
-                && let Some(pair) = best_pair(Some(s.tried(vec![w.terms[0], r], fit, true)))
-            {
-                adds = rivals_added(&s, &pair);
-                winner = Some(pair);
+    // Judged in order of leave-one-design-out error: the eligible singles first; a pair only when
+    // no single suffices (each single with the rival that still reduces the misfit with it in, and
+    // the shortlisted pairs). The first model that passes the diagnosis's rules is found. Which
+    // eligible model is judged first changes nothing in the correction: a discovery needs its own
+    // p < α/M, so the union bound over the M models holds however the order is made.
+    let press_order = |a: &Tried, b: &Tried| a.press(cx).total_cmp(&b.press(cx));
+    let mut pool: Vec<Tried> = tried
+        .iter()
+        .filter(|t| t.terms.len() == 2 && eligible(t))
+        .cloned()
+        .collect();
+    let mut failed: Vec<(Tried, String)> = Vec::new();
+    let mut winner: Option<Passed> = None;
+    for w in tried.iter().filter(|t| t.terms.len() == 1 && eligible(t)) {
+        match judge(&s, w, rivals_alpha(1), &vectors) {
+            Judgement::Pass(p) => {
+                winner = Some(*p);
+                break;
+            }
+            Judgement::Fail { why, adder } => {
+                if let Some((r, fit)) = adder.filter(|_| pairs_ok) {
+                    let pair = s.tried(vec![w.terms[0], r], fit, true);
+                    let same = |t: &Tried| t.terms.contains(&w.terms[0]) && t.terms.contains(&r);
+                    if eligible(&pair) && !pool.iter().any(same) {
+                        pool.push(pair);
+                    }
+                }
+                failed.push((w.clone(), why));
             }
         }
-        None if pairs_ok => {
-            winner = best_pair(None);
-            if let Some(w) = &winner {
-                adds = rivals_added(&s, w);
-            }
-        }
-        None => {}
     }
-    let mut shortfall: Option<String> = None;
-    if let Some(w) = &winner {
-        let bound = rivals_alpha(w.terms.len());
-        if let Some((r, _, p)) = best_adder(&adds).filter(|(_, _, p)| *p < bound) {
-            shortfall = Some(format!(
-                "'{}' still reduces the misfit with it in ({} < α/{} = {})",
-                s.shapes[r].term,
-                p_text(p),
-                l.saturating_sub(w.terms.len()),
-                num(bound)
-            ));
+    if winner.is_none() && pairs_ok {
+        pool.sort_by(press_order);
+        for w in &pool {
+            match judge(&s, w, rivals_alpha(2), &vectors) {
+                Judgement::Pass(p) => {
+                    winner = Some(*p);
+                    break;
+                }
+                Judgement::Fail { why, .. } => failed.push((w.clone(), why)),
+            }
         }
     }
     let base_entry_loo = base_entry.score.as_ref().and_then(|x| x.loo_error);
@@ -570,47 +577,26 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
     };
     let mut found = None;
     let mut found_terms: Vec<usize> = Vec::new();
-    if let Some(w) = winner {
-        // The found model, fitted from every start as well (the reported numbers).
-        let shapes = s.shapes_of(&w.terms);
-        let fit = match cx.data.fit(&shapes, &cx.train) {
-            Ok(f) if f.wrss < w.fit.wrss => f,
-            _ => w.fit.clone(),
-        };
-        let mut terms_shapes: Vec<Shape> = w.terms.iter().map(|&t| s.shapes[t].clone()).collect();
-        let first = terms_shapes.remove(0);
-        let model = Model {
-            shape: Some(first),
-            more: terms_shapes.into_iter().chain(s.base_shapes.iter().cloned()).collect(),
-            replaces: None,
-            fit,
-            loo: w.loo.clone(),
-        };
-        let assessed = evidence::assess_one(cx, &model, Some(base));
-        let lof_rejects = assessed.lack_of_fit.as_ref().is_some_and(|l| l.p_value < alpha);
-        if lof_rejects && shortfall.is_none() {
-            let l = assessed.lack_of_fit.as_ref().expect("rejects");
-            shortfall = Some(format!(
-                "its model still misses the tests beyond the noise (χ² = {} on {} degrees of freedom, {})",
-                num(l.chi2),
-                l.dof,
-                p_text(l.p_value)
-            ));
-        }
+    if let Some(Passed {
+        tried: w,
+        model,
+        assessed,
+        adds,
+    }) = winner
+    {
         discovered.lack_of_fit = assessed.lack_of_fit.clone();
         discovered.p_value = w.p;
-        match shortfall {
-            Some(why) => discovered.closest.push(Closest {
-                term: s.term_of(&w),
-                p_value: w.p,
-                loo_error: w.loo_error(cx),
-                why: format!("passes the corrected test, but {why}"),
-            }),
-            None => {
-                found = Some(finish(&s, &w, model, assessed, &adds, &mut discovered));
-                found_terms = w.terms.clone();
-            }
-        }
+        found = Some(finish(&s, &w, model, assessed, &adds, &mut discovered));
+        found_terms = w.terms.clone();
+    }
+    // The models judged and short of the rules, best first.
+    for (t, why) in failed.iter().take(3) {
+        discovered.closest.push(Closest {
+            term: s.term_of(t),
+            p_value: t.p,
+            loo_error: t.loo_error(cx),
+            why: format!("passes the corrected test, but {why}"),
+        });
     }
     // The closest others, whatever the outcome.
     // Beside a found model, the others that do without its terms.
@@ -644,11 +630,148 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
     })
 }
 
-/// Every shape not in `w`, added to it: (shape, fit, p of its drop).
-fn rivals_added(s: &Searcher, w: &Tried) -> Vec<(usize, Fit, Option<f64>)> {
-    (0..s.shapes.len())
-        .into_par_iter()
-        .filter(|r| !w.terms.contains(r))
+/// A model that passed the diagnosis's rules: its fit from every start, its evidence, and every
+/// other library shape added to it.
+struct Passed {
+    tried: Tried,
+    model: Model,
+    assessed: evidence::Assessed,
+    adds: Vec<(usize, Fit, Option<f64>)>,
+}
+
+enum Judgement {
+    Pass(Box<Passed>),
+    /// Why it falls short, and the rival that still adds to it (with the fit of both).
+    Fail {
+        why: String,
+        adder: Option<(usize, Fit)>,
+    },
+}
+
+/// Rivals whose exact fit a cheap judgement refits: the best by the linearised drop.
+const ADDERS_REFITTED: usize = 4;
+
+/// The diagnosis's rules for an eligible model `w`: no other library shape still reduces the misfit
+/// with it in (at `bound`: α over the rivals), and, with replicates, its model's lack of fit does
+/// not reject at α.
+///
+/// In two stages, the second only for a model that passes the first: (1) its lack of fit at its
+/// own fit, and the [`ADDERS_REFITTED`] rivals that would reduce its misfit most linearised at that
+/// fit ([`linear_adders`]), refitted exactly; (2) every rival refitted exactly, the model refitted
+/// from every start, its lack of fit again. Every rule that decides a discovery is thus applied
+/// exactly; the first stage only spares the full set of refits for the models that fall short.
+fn judge(s: &Searcher, w: &Tried, bound: f64, vectors: &[Vec<f64>]) -> Judgement {
+    let cx = s.cx;
+    let adder_fails = |adds: &[(usize, Fit, Option<f64>)]| {
+        best_adder(adds)
+            .filter(|(_, _, p)| *p < bound)
+            .map(|(r, fit, p)| Judgement::Fail {
+                why: format!(
+                    "'{}' still reduces the misfit with it in ({} < α/{} = {})",
+                    s.shapes[r].term,
+                    p_text(p),
+                    s.shapes.len().saturating_sub(w.terms.len()),
+                    num(bound)
+                ),
+                adder: Some((r, fit)),
+            })
+    };
+    let model_of = |fit: Fit| {
+        let mut terms_shapes: Vec<Shape> = w.terms.iter().map(|&t| s.shapes[t].clone()).collect();
+        let first = terms_shapes.remove(0);
+        Model {
+            shape: Some(first),
+            more: terms_shapes.into_iter().chain(s.base_shapes.iter().cloned()).collect(),
+            replaces: None,
+            fit,
+            loo: w.loo.clone(),
+        }
+    };
+    let misses = |assessed: &evidence::Assessed| {
+        let l = assessed.lack_of_fit.as_ref().filter(|l| l.p_value < cx.alpha())?;
+        Some(format!(
+            "its model still misses the tests beyond the noise (χ² = {} on {} degrees of freedom, {})",
+            num(l.chi2),
+            l.dof,
+            p_text(l.p_value)
+        ))
+    };
+    // (1) Cheap.
+    let first = linear_adders(s, w, vectors);
+    let some: Vec<usize> = first.into_iter().take(ADDERS_REFITTED).collect();
+    if let Some(fail) = adder_fails(&rivals_added(s, w, &some)) {
+        return fail;
+    }
+    let warm = model_of(w.fit.clone());
+    if let Some(why) = misses(&evidence::assess_one(cx, &warm, Some(s.base))) {
+        return Judgement::Fail { why, adder: None };
+    }
+    // (2) Exact.
+    let all: Vec<usize> = (0..s.shapes.len()).filter(|r| !w.terms.contains(r)).collect();
+    let adds = rivals_added(s, w, &all);
+    if let Some(fail) = adder_fails(&adds) {
+        return fail;
+    }
+    let shapes = s.shapes_of(&w.terms);
+    let fit = match cx.data.fit(&shapes, &cx.train) {
+        Ok(f) if f.wrss < w.fit.wrss => f,
+        _ => w.fit.clone(),
+    };
+    let model = model_of(fit);
+    let assessed = evidence::assess_one(cx, &model, Some(s.base));
+    if let Some(why) = misses(&assessed) {
+        return Judgement::Fail { why, adder: None };
+    }
+    Judgement::Pass(Box::new(Passed {
+        tried: w.clone(),
+        model,
+        assessed,
+        adds,
+    }))
+}
+
+/// The library shapes not in `w`, best first by the drop in weighted RSS each would give added to
+/// `w`, linearised at `w`'s fit: ((I − P_A) v · r)² / ‖(I − P_A) v‖², A the Jacobian of `w`'s
+/// model (θ and its amplitudes), r its weighted residuals, v the shape (exact for a model linear
+/// in its numbers: one Gauss–Newton step otherwise; v as weighted at the base fit, an ordering only).
+fn linear_adders(s: &Searcher, w: &Tried, vectors: &[Vec<f64>]) -> Vec<usize> {
+    let cx = s.cx;
+    let shapes = s.shapes_of(&w.terms);
+    let a = cx.data.jacobian(&shapes, &w.fit, &cx.train);
+    let (th, gamma) = (w.fit.theta.as_slice(), w.fit.gamma.as_slice());
+    let r = DVector::from_iterator(
+        cx.train.len(),
+        cx.train.iter().map(|&i| {
+            let d = &cx.data.designs[i];
+            cx.data.weights[i] * (cx.data.means[i] - cx.data.predict(&shapes, th, gamma, d))
+        }),
+    );
+    let norms: Vec<f64> = a.column_iter().map(|c| c.norm().max(f64::MIN_POSITIVE)).collect();
+    let scaled = DMatrix::from_fn(a.nrows(), a.ncols(), |i, j| a[(i, j)] / norms[j]);
+    let q = scaled.qr().q();
+    let mut scored: Vec<(usize, f64)> = (0..s.shapes.len())
+        .filter(|k| !w.terms.contains(k))
+        .map(|k| {
+            let v = DVector::from_column_slice(&vectors[k]);
+            let perp = &v - &q * (q.transpose() * &v);
+            let nn = perp.norm_squared();
+            let drop = if nn > 1e-20 * v.norm_squared() {
+                perp.dot(&r).powi(2) / nn
+            } else {
+                0.0
+            };
+            (k, drop)
+        })
+        .collect();
+    scored.sort_by(|a, b| b.1.total_cmp(&a.1));
+    scored.into_iter().map(|(k, _)| k).collect()
+}
+
+/// The shapes `rivals` (none of `w`'s), each added to `w`: (shape, fit, p of its drop).
+fn rivals_added(s: &Searcher, w: &Tried, rivals: &[usize]) -> Vec<(usize, Fit, Option<f64>)> {
+    rivals
+        .par_iter()
+        .copied()
         .filter_map(|r| {
             let mut terms = w.terms.clone();
             terms.push(r);

@@ -705,6 +705,17 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
     Ok(Evidence::gather(inputs)?.conclusion(&[], &[]))
 }
 
+/// The library search alone ([`discover`]), from the screening's decision, as [`diagnose`] runs it
+/// when no loop ran (`None`: the decision does not call for one, or `inputs.discover` is off); no
+/// next test, no words. For timing the search (`benches/discover.rs`) and for callers that want
+/// only `diagnosis.discovered`.
+pub fn discover(inputs: &Inputs) -> Result<Option<discover::Discovered>, CalibrationError> {
+    let evidence = Evidence::gather(inputs)?;
+    let mut notes = Vec::new();
+    let search = discover::run(&evidence, &[], &[], &evidence.decision, &mut notes);
+    Ok(search.map(|s| s.discovered))
+}
+
 /// A hypothesis the loop calibrated with the solver, as the diagnosis sees it.
 pub struct LoopModel<'a> {
     /// The screening candidate it extends.
