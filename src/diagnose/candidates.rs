@@ -203,5 +203,3 @@ pub(crate) fn score(cx: &Context, model: &Model, validation_deviance: Option<f64
         score,
     }
 }
-
-

@@ -81,9 +81,7 @@ fn errors(cx: &Context, base: &Entry, e: &Entry) -> (f64, f64, &'static str) {
     if let (Some(b), Some(a)) = (loo(base), loo(e)) {
         return (b, a, "leave-one-out");
     }
-    let fitted = |x: &Entry| {
-        cx.mean_abs_rel(cx.train.iter().map(|&i| (i, x.model.predict(cx, &cx.data.designs[i]))))
-    };
+    let fitted = |x: &Entry| cx.mean_abs_rel(cx.train.iter().map(|&i| (i, x.model.predict(cx, &cx.data.designs[i]))));
     (fitted(base), fitted(e), "training (in sample)")
 }
 

@@ -82,7 +82,11 @@ impl<'e> Explanation<'e> {
             parts: if uncorrected {
                 Vec::new()
             } else {
-                model.shapes().iter().map(|s| format!("{}: {}", s.name, s.term)).collect()
+                model
+                    .shapes()
+                    .iter()
+                    .map(|s| format!("{}: {}", s.name, s.term))
+                    .collect()
             },
         }
     }

@@ -439,15 +439,29 @@ fn where_it_errs(f: &Facts) -> Vec<String> {
     let r = f.residuals;
     let obs = &f.cx.inputs.observations;
     let mut out = Vec::new();
-    let mut groups: Vec<&str> = obs.iter().filter(|o| o.role == Role::Training).map(|o| o.group.as_str()).collect();
+    let mut groups: Vec<&str> = obs
+        .iter()
+        .filter(|o| o.role == Role::Training)
+        .map(|o| o.group.as_str())
+        .collect();
     groups.dedup();
     let n_train = groups.len();
     let rel: Vec<f64> = r.iter().map(|x| x.relative_error).filter(|e| e.is_finite()).collect();
     let mean_rel = rel.iter().sum::<f64>() / rel.len().max(1) as f64;
-    let values = |x: &Residual| x.values.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect::<Vec<_>>().join(", ");
+    let values = |x: &Residual| {
+        x.values
+            .iter()
+            .map(|(k, v)| format!("{k} = {}", num(*v)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     let several = f.cx.inputs.outputs.len() > 1;
     if several {
-        if let Some(w) = r.iter().filter(|x| x.z.is_finite()).max_by(|a, b| a.z.abs().total_cmp(&b.z.abs())) {
+        if let Some(w) = r
+            .iter()
+            .filter(|x| x.z.is_finite())
+            .max_by(|a, b| a.z.abs().total_cmp(&b.z.abs()))
+        {
             out.push(format!(
                 "Calibrated on {n_train} training design(s), the simulation {} the plateau level by {} on average; the \
                  largest misfit is at {} ({}): {:+.1} σ of the mean.",

@@ -336,7 +336,10 @@ pub fn features_report(
     let extended: Option<Box<dyn Fn(&[f64]) -> Option<DVector<f64>> + '_>> = d.extended.as_ref().and_then(|e| {
         let k = study.diagnosis.hypotheses.iter().position(|h| h.name == e.cause);
         let at: Vec<f64> = e.parameters.values().copied().collect();
-        match (k.and_then(|k| loops.iter().find(|(j, _)| *j == k)), k.map(|k| &study.diagnosis.hypotheses[k])) {
+        match (
+            k.and_then(|k| loops.iter().find(|(j, _)| *j == k)),
+            k.map(|k| &study.diagnosis.hypotheses[k]),
+        ) {
             (Some((_, model)), _) if e.solver_in_the_loop => {
                 Some(Box::new(move |v: &[f64]| model.curve(v, &at)) as Box<dyn Fn(&[f64]) -> Option<DVector<f64>>>)
             }
@@ -345,7 +348,10 @@ pub fn features_report(
                 let gamma = e.amplitude;
                 Some(Box::new(move |v: &[f64]| {
                     let y = stage.baseline.curve(v, &at)?;
-                    Some(DVector::from_iterator(y.len(), y.iter().map(|&s| s + gamma * shape.eval(v, &at, s))))
+                    Some(DVector::from_iterator(
+                        y.len(),
+                        y.iter().map(|&s| s + gamma * shape.eval(v, &at, s)),
+                    ))
                 }) as Box<dyn Fn(&[f64]) -> Option<DVector<f64>>>)
             }
             _ => None,

@@ -267,7 +267,14 @@ fn diagnose_with_solver(
             crate::diagnose::conclude(&inputs, &looped)
         }
         Some(stage) => {
-            let joint_curves = curves::on_grid(study, runs.sim, &stage.setting, &joint.rendered.keys, &joint.usable, &dirs);
+            let joint_curves = curves::on_grid(
+                study,
+                runs.sim,
+                &stage.setting,
+                &joint.rendered.keys,
+                &joint.usable,
+                &dirs,
+            );
             let baseline = curves::curve_fn(stage.baseline.clone());
             let p = study.parameters.len();
             for m in &models {
@@ -278,9 +285,19 @@ fn diagnose_with_solver(
                 .iter()
                 .zip(&loop_curves)
                 .map(|(m, (_, model))| {
-                    let others =
-                        curves::extension_hypotheses(study, &stage.extension_fns(), Some((baseline.clone(), p)), Some(m.hypothesis));
-                    curves::inputs(&m.study, &stage.setting, stage.designs.clone(), curves::curve_fn(model.clone()), others)
+                    let others = curves::extension_hypotheses(
+                        study,
+                        &stage.extension_fns(),
+                        Some((baseline.clone(), p)),
+                        Some(m.hypothesis),
+                    );
+                    curves::inputs(
+                        &m.study,
+                        &stage.setting,
+                        stage.designs.clone(),
+                        curves::curve_fn(model.clone()),
+                        others,
+                    )
                 })
                 .collect();
             let problems = loop_inputs
