@@ -44,6 +44,8 @@ fn seed_base() -> u64 {
 }
 
 type ModelFn = fn(&[f64], &[f64]) -> f64;
+/// A hidden effect's shape over the design.
+type Effect = dyn Fn(&[f64]) -> f64;
 
 /// A simulation with its design variables.
 #[derive(Clone)]
@@ -283,7 +285,7 @@ fn generate_with(
     let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
     let names: Vec<String> = family.design.iter().map(|s| s.to_string()).collect();
     let pnames: Vec<String> = family.params.iter().map(|p| p.0.to_string()).collect();
-    let effect: Box<dyn Fn(&[f64]) -> f64> = match hidden {
+    let effect: Box<Effect> = match hidden {
         Hidden::None => Box::new(|_| 0.0),
         Hidden::Inside(k) => {
             let g = Shape::from_term("g", family.inside[k], &names, &pnames, &[]).unwrap();

@@ -39,12 +39,17 @@ use serde::{Deserialize, Serialize};
 
 use super::{Context, Mode, NextTest, NoiseKind, NoiseModel, stats, text};
 
+/// A prediction at an observation point for fitted numbers β.
+type Eval<'e> = dyn Fn(&[f64], &[f64]) -> f64 + Sync + 'e;
+/// ∂y/∂β at β̂, at an observation point.
+type Gradient<'e> = dyn Fn(&[f64]) -> DVector<f64> + Sync + 'e;
+
 /// One explanation as the discrimination sees it: its prediction at an observation point for any
 /// fitted numbers β (θ first), its fit β̂ with covariance, and ∂y/∂β at β̂.
 pub(crate) struct Explanation<'e> {
     pub name: String,
-    eval: Box<dyn Fn(&[f64], &[f64]) -> f64 + Sync + 'e>,
-    gradient: Box<dyn Fn(&[f64]) -> DVector<f64> + Sync + 'e>,
+    eval: Box<Eval<'e>>,
+    gradient: Box<Gradient<'e>>,
     beta: DVector<f64>,
     /// Names of β's entries (θ by the study's names, then γ or the extension's variables).
     names: Vec<String>,
@@ -635,7 +640,8 @@ impl<'a, 'e> Search<'a, 'e> {
             };
             let scale = va.abs().max(vb.abs()).max(f64::MIN_POSITIVE);
             let (mut lo, mut hi) = (1e-9 * scale, 10.0 * scale);
-            if !(lam(lo) >= target) {
+            // Not reached (or not a number) even with the smallest uncertainty.
+            if lam(lo).partial_cmp(&target).is_none_or(|o| o.is_lt()) {
                 continue;
             }
             for _ in 0..60 {
