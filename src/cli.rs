@@ -41,6 +41,10 @@ enum Command {
         /// Copy each finished run's outputs into DIR.
         #[arg(long, value_name = "DIR")]
         record: Option<PathBuf>,
+        /// Search a library of shapes for a missing term when no listed hypothesis explains the
+        /// misfit (`diagnosis.discover: true` for this run).
+        #[arg(long)]
+        discover: bool,
     },
     /// Validate the study and everything it references, without running anything.
     Check { study: PathBuf },
@@ -129,8 +133,10 @@ fn execute(command: Command) -> Result<i32, Error> {
             jobs,
             replay,
             record,
+            discover,
         } => {
-            let study = study::load(&study)?;
+            let mut study = study::load(&study)?;
+            study.diagnosis.discover |= discover;
             if replay.is_some() && record.is_some() {
                 return Err(Error::Input(InputError::file(
                     &study.path,

@@ -286,6 +286,8 @@ fn run(setup: &Setup, case: &Case) -> Diagnosis {
         built_ins: None,
         noise: None,
         relative_error: None,
+        discover: false,
+        library: Default::default(),
     };
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
     verdict_common::assert_verdict_follows_evidence(&serde_json::to_value(&d).unwrap());

@@ -234,7 +234,9 @@ fn oracle(case: &Case) -> (f64, f64, f64) {
         free
     } else {
         let at_max: Vec<f64> = bend.iter().zip(&shear).map(|(a, c)| a + S_MAX * c).collect();
-        misfit(&y, &w, &[bend.clone()]).0.min(misfit(&y, &w, &[at_max]).0)
+        misfit(&y, &w, std::slice::from_ref(&bend))
+            .0
+            .min(misfit(&y, &w, &[at_max]).0)
     };
     let ones = vec![1.0; y.len()];
     let offset = misfit(&y, &w, &[bend.clone(), ones]).0;

@@ -91,6 +91,8 @@ fn diagnose(case: &Case, obs: &[Observation]) -> diagnose::Diagnosis {
         built_ins: Some(Vec::new()),
         noise: None,
         relative_error: None,
+        discover: false,
+        library: Default::default(),
     };
     diagnose::diagnose(&inputs).unwrap()
 }

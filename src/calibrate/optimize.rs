@@ -60,6 +60,25 @@ pub fn least_squares(problem: &impl Residuals, bounds: &Bounds) -> Result<Minimu
     })
 }
 
+/// [`least_squares`] from one start `theta0` inside the box: a warm start, for a refit of a problem
+/// whose minimum is known to be near (a model with one more term, or one design fewer).
+pub fn least_squares_from(
+    problem: &impl Residuals,
+    bounds: &Bounds,
+    theta0: &DVector<f64>,
+) -> Result<Minimum, CalibrationError> {
+    let in_box = |u: &DVector<f64>| problem.residuals(&bounds.from_unit(u));
+    let u0 = bounds.to_unit(theta0).map(|v| v.clamp(0.0, 1.0));
+    if in_box(&u0).iter().any(|v| !v.is_finite()) {
+        return Err(CalibrationError::NonFinite(format!("θ = {}", theta0.transpose())));
+    }
+    let best = levenberg_marquardt(&in_box, u0);
+    Ok(Minimum {
+        theta: bounds.from_unit(&best.theta),
+        cost: best.cost,
+    })
+}
+
 /// Levenberg–Marquardt in the unit cube from `u`, with projected steps.
 fn levenberg_marquardt(r: &impl Fn(&DVector<f64>) -> DVector<f64>, mut u: DVector<f64>) -> Minimum {
     let mut res = r(&u);

@@ -24,6 +24,9 @@ use crate::calibrate::CalibrationError;
 /// A fitted model: the uncorrected one (no shape) or a candidate.
 pub(crate) struct Model {
     pub shape: Option<Shape>,
+    /// Shapes fitted together with `shape` (a model found by the library search: its further term
+    /// and the cause it extends; see [`super::discover`]); empty for a candidate.
+    pub more: Vec<Shape>,
     /// The built-in this study hypothesis stands in for.
     pub replaces: Option<String>,
     pub fit: Fit,
@@ -33,12 +36,12 @@ pub(crate) struct Model {
 
 impl Model {
     pub fn shapes(&self) -> Vec<&Shape> {
-        self.shape.iter().collect()
+        self.shape.iter().chain(&self.more).collect()
     }
 
     /// Fitted numbers: parameters and amplitudes.
     pub fn k(&self) -> usize {
-        self.fit.theta.len() + usize::from(self.shape.is_some())
+        self.fit.theta.len() + usize::from(self.shape.is_some()) + self.more.len()
     }
 
     pub fn name(&self) -> &str {
@@ -61,6 +64,7 @@ fn fit_model(cx: &Context, shape: Option<Shape>, replaces: Option<String>) -> Re
     drop(shapes);
     Ok(Model {
         shape,
+        more: Vec::new(),
         replaces,
         fit,
         loo,
@@ -111,7 +115,7 @@ pub(crate) fn shapes(cx: &Context, base: &Model, notes: &mut Vec<String>) -> Vec
 }
 
 /// The weighted shape w_i g(d_i, θ, y_i) over the training designs at the uncorrected θ.
-fn shape_vector(cx: &Context, shape: &Shape, base: &Model) -> Vec<f64> {
+pub(crate) fn shape_vector(cx: &Context, shape: &Shape, base: &Model) -> Vec<f64> {
     let th = base.fit.theta.as_slice();
     cx.train
         .iter()

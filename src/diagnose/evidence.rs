@@ -74,7 +74,9 @@ pub(crate) fn assess(cx: &Context, base: &Model, fitted: &[Model]) -> (Assessed,
     )
 }
 
-fn assess_one(cx: &Context, m: &Model, base: Option<&Model>) -> Assessed {
+/// The evidence for `m`; its amplitude test is against `base` (the drop in RSS on the numbers `m`
+/// fits beyond `base`'s: one for a candidate against the uncorrected model).
+pub(crate) fn assess_one(cx: &Context, m: &Model, base: Option<&Model>) -> Assessed {
     let n = cx.train.len();
     let dof = n.saturating_sub(m.k());
     // Without replicates and spare designs the residuals measure nothing: no noise, no covariance.
@@ -91,7 +93,8 @@ fn assess_one(cx: &Context, m: &Model, base: Option<&Model>) -> Assessed {
             // No part of the shape lies outside the sensitivities: the drop in RSS is round-off.
             return Some(1.0);
         }
-        cx.drop_test(b.fit.wrss - m.fit.wrss, 1, m.fit.wrss, n.saturating_sub(m.k()))
+        let extra = m.k().saturating_sub(b.k()).max(1);
+        cx.drop_test(b.fit.wrss - m.fit.wrss, extra, m.fit.wrss, n.saturating_sub(m.k()))
     });
     let validation = s2.and_then(|s2| check(cx, m, cov.as_ref(), s2, dof));
     let lack_of_fit = cx.known().then(|| lack_of_fit(cx, m, validation.as_ref())).flatten();

@@ -175,6 +175,9 @@ pub struct FeaturesReport {
     pub decided_share: Option<f64>,
 }
 
+/// A model's curve at a design's values (`None` where it cannot be evaluated).
+pub type CurveOf<'a> = dyn Fn(&[f64]) -> Option<DVector<f64>> + 'a;
+
 impl FeaturesReport {
     /// The report of `problem`'s features, with the uncorrected and (when there is one) final
     /// models' curves, and the diagnosis's whitened residuals before and after.
@@ -182,7 +185,7 @@ impl FeaturesReport {
         problem: &FeatureProblem,
         designs: &[CurveDesign],
         uncorrected: &dyn Fn(&[f64]) -> Option<DVector<f64>>,
-        extended: Option<&dyn Fn(&[f64]) -> Option<DVector<f64>>>,
+        extended: Option<&CurveOf>,
         diagnosis: &super::Diagnosis,
     ) -> FeaturesReport {
         let spec = problem.model.spec;
@@ -412,6 +415,8 @@ impl FeatureProblem {
             built_ins: Some(self.built_ins.clone()),
             noise: Some(self.noise.clone()),
             relative_error: Some(self.plateau_error()),
+            discover: false,
+            library: Default::default(),
         }
     }
 

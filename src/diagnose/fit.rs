@@ -89,8 +89,27 @@ impl Data<'_> {
 
     /// Weighted least squares over the designs `idx`, jointly in θ and the amplitudes of `shapes`.
     pub fn fit(&self, shapes: &[&Shape], idx: &[usize]) -> Result<Fit, CalibrationError> {
+        self.fit_with(shapes, idx, None)
+    }
+
+    /// [`Data::fit`] from a warm start θ₀ (one Levenberg–Marquardt run from there instead of the
+    /// multi-start search): a refit of a model close to one already fitted. From the θ of a fit
+    /// whose shapes are a subset of `shapes`, the weighted RSS can only go down.
+    pub fn fit_from(&self, shapes: &[&Shape], idx: &[usize], theta0: &DVector<f64>) -> Result<Fit, CalibrationError> {
+        self.fit_with(shapes, idx, Some(theta0))
+    }
+
+    fn fit_with(
+        &self,
+        shapes: &[&Shape],
+        idx: &[usize],
+        theta0: Option<&DVector<f64>>,
+    ) -> Result<Fit, CalibrationError> {
         let residuals = |theta: &DVector<f64>| self.profile(shapes, theta, idx).1;
-        let best = optimize::least_squares(&residuals, self.bounds)?;
+        let best = match theta0 {
+            Some(t) => optimize::least_squares_from(&residuals, self.bounds, t)?,
+            None => optimize::least_squares(&residuals, self.bounds)?,
+        };
         let (gamma, r) = self.profile(shapes, &best.theta, idx);
         Ok(Fit {
             theta: best.theta,
@@ -101,10 +120,29 @@ impl Data<'_> {
 
     /// Leave-one-design-out: for each design of `idx`, the prediction there of a fit to the others.
     pub fn leave_one_out(&self, shapes: &[&Shape], idx: &[usize]) -> Result<Vec<f64>, CalibrationError> {
+        self.leave_one_out_with(shapes, idx, None)
+    }
+
+    /// [`Data::leave_one_out`] with every refit warm-started at θ₀ (the fit to all of `idx`).
+    pub fn leave_one_out_from(
+        &self,
+        shapes: &[&Shape],
+        idx: &[usize],
+        theta0: &DVector<f64>,
+    ) -> Result<Vec<f64>, CalibrationError> {
+        self.leave_one_out_with(shapes, idx, Some(theta0))
+    }
+
+    fn leave_one_out_with(
+        &self,
+        shapes: &[&Shape],
+        idx: &[usize],
+        theta0: Option<&DVector<f64>>,
+    ) -> Result<Vec<f64>, CalibrationError> {
         idx.iter()
             .map(|&left| {
                 let rest: Vec<usize> = idx.iter().copied().filter(|&i| i != left).collect();
-                let fit = self.fit(shapes, &rest)?;
+                let fit = self.fit_with(shapes, &rest, theta0)?;
                 Ok(self.predict(shapes, fit.theta.as_slice(), &fit.gamma, &self.designs[left]))
             })
             .collect()

@@ -22,13 +22,19 @@
 //! 7. [`next_test`]: where in the design box the leading explanations differ most against the
 //!    noise, and how many specimens there make the test decisive (power at α).
 //! 8. [`residuals`] and [`text`]: the residual table, its trends, and the words.
+//!
+//! After the verdict, when no listed hypothesis explains the misfit, [`discover`] searches a
+//! [`library`] of shapes for the missing term (the verdict stays the listed hypotheses'; what it
+//! finds is reported beside it, found by search, not listed, and compared by the next test).
 
 pub mod after_loop;
 pub mod candidates;
+pub mod discover;
 pub mod evidence;
 pub mod extension;
 pub mod features;
 pub mod joint;
+pub mod library;
 pub mod next_test;
 pub mod noise;
 pub mod ranking;
@@ -127,6 +133,9 @@ pub struct Settings {
     pub grid_per_axis: usize,
     /// Latin-hypercube points for the next-test search above three design variables.
     pub search_points: usize,
+    /// Run the library search ([`discover`]) even when no model error is detected, from the
+    /// uncorrected model: how its rate of false discovery is measured on clean data. Off by default.
+    pub search_without_detection: bool,
 }
 
 impl Default for Settings {
@@ -138,6 +147,7 @@ impl Default for Settings {
             same_shape_cosine: 1.0 - 1e-9,
             grid_per_axis: 21,
             search_points: 4000,
+            search_without_detection: false,
         }
     }
 }
@@ -154,6 +164,11 @@ pub struct Inputs<'a> {
     /// The user's candidate causes (study hypotheses); the built-in shapes are added by [`diagnose`].
     pub hypotheses: Vec<Shape>,
     pub settings: Settings,
+    /// Search a library of shapes when no listed hypothesis explains the misfit (`diagnosis.discover`).
+    pub discover: bool,
+    /// What the library is built from: the design variables' units and scales, the simulation's
+    /// exponents.
+    pub library: library::LibrarySpec,
     /// The outputs each tested design is observed in: empty (or one) for a scalar response; the
     /// names of curve features otherwise. With several, the model and every shape are called with
     /// the output's index appended to the design (`[c, t, k]`).
@@ -235,6 +250,15 @@ pub fn inputs_with_extensions<'a>(
             )
             .collect(),
         settings: Settings::default(),
+        discover: study.diagnosis.discover,
+        library: library::LibrarySpec {
+            units: study.design.iter().map(|d| d.unit.clone()).collect(),
+            scales: study.design.iter().map(|d| d.scale).collect(),
+            exponents: match &study.simulation {
+                crate::study::Simulation::Expression(e) => e.exponents(),
+                crate::study::Simulation::Solver(_) => Vec::new(),
+            },
+        },
         outputs: Vec::new(),
         built_ins: None,
         noise: None,
@@ -272,6 +296,9 @@ pub struct Diagnosis {
     pub extensions: Vec<joint::SolverExtension>,
     /// The test that would best tell the leading explanations apart.
     pub next_test: Option<NextTest>,
+    /// The library search for a missing term, when it ran ([`discover`]): found by search, not listed.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub discovered: Option<discover::Discovered>,
     /// With curves: the features read and where along the stroke the model errs.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub features: Option<features::FeaturesReport>,
@@ -678,6 +705,17 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
     Ok(Evidence::gather(inputs)?.conclusion(&[], &[]))
 }
 
+/// The library search alone ([`discover`]), from the screening's decision, as [`diagnose`] runs it
+/// when no loop ran (`None`: the decision does not call for one, or `inputs.discover` is off); no
+/// next test, no words. For timing the search (`benches/discover.rs`) and for callers that want
+/// only `diagnosis.discovered`.
+pub fn discover(inputs: &Inputs) -> Result<Option<discover::Discovered>, CalibrationError> {
+    let evidence = Evidence::gather(inputs)?;
+    let mut notes = Vec::new();
+    let search = discover::run(&evidence, &[], &[], &evidence.decision, &mut notes);
+    Ok(search.map(|s| s.discovered))
+}
+
 /// A hypothesis the loop calibrated with the solver, as the diagnosis sees it.
 pub struct LoopModel<'a> {
     /// The screening candidate it extends.
@@ -758,23 +796,35 @@ impl<'a> Evidence<'a> {
             }
             verdict::Who::Uncorrected => None,
         });
-        let explanations: Vec<next_test::Explanation> = decision
-            .compare
-            .iter()
-            .map(|&who| match who {
-                verdict::Who::Uncorrected => next_test::Explanation::from_entry(cx, &ranked.base, name(who), true),
-                verdict::Who::Candidate(k) => {
-                    next_test::Explanation::from_entry(cx, &ranked.entries[k], name(who), false)
-                }
-                verdict::Who::Extended(j) => {
-                    next_test::Explanation::from_entry(&looped[j].cx, &looped[j].ranked.base, name(who), false)
-                }
-            })
-            .collect();
+        // Once the decision is final: the library search for a missing term (step 7b), when the
+        // verdict leaves the misfit unexplained or no hypothesis is listed.
+        let mut notes = self.notes.clone();
+        let search = discover::run(self, looped, loop_names, &decision, &mut notes);
+        let explanations: Vec<next_test::Explanation> = match search.as_ref().map(|s| s.compared()) {
+            // A found term is a hypothesis like any other: the next test tells it from its base.
+            Some(found) if !found.is_empty() => found,
+            _ => decision
+                .compare
+                .iter()
+                .map(|&who| match who {
+                    verdict::Who::Uncorrected => next_test::Explanation::from_entry(cx, &ranked.base, name(who), true),
+                    verdict::Who::Candidate(k) => {
+                        next_test::Explanation::from_entry(cx, &ranked.entries[k], name(who), false)
+                    }
+                    verdict::Who::Extended(j) => {
+                        next_test::Explanation::from_entry(&looped[j].cx, &looped[j].ranked.base, name(who), false)
+                            .simulated_by(&loop_names[j])
+                    }
+                })
+                .collect(),
+        };
         // A confirming test may count the tests in hand; where they left it open, new tests must
-        // decide on their own.
-        let fresh = !matches!(decision.verdict, Verdict::CauseNamed | Verdict::NoModelError);
+        // decide on their own. So must a test of a term the search found: the tests that chose it
+        // cannot also confirm it.
+        let found = search.as_ref().is_some_and(|s| s.found.is_some());
+        let fresh = found || !matches!(decision.verdict, Verdict::CauseNamed | Verdict::NoModelError);
         let next_test = next_test::recommend(cx, &explanations, &self.noise, fresh);
+        drop(explanations);
         let residuals = residuals::table(cx, &ranked.base.model.fit, &self.noise);
         let structure = residuals::trends(cx, &residuals);
         let confounded = evidence::absorbed_sentences(&candidates);
@@ -806,7 +856,12 @@ impl<'a> Evidence<'a> {
             loop_names,
         );
         facts.after_loop = after.as_ref();
-        let words = text::describe(&facts);
+        let mut words = text::describe(&facts);
+        if let Some(s) = &search {
+            // After the verdict and the action: what the search found, marked as found, not listed.
+            words.evidence.splice(0..0, s.discovered.evidence.iter().cloned());
+            words.summary = text::summary(&words.headline, &words.action, &words.evidence, &words.limits);
+        }
         Diagnosis {
             discrepancy_detected: decision.detected,
             cause: decision.cause.map(name),
@@ -825,13 +880,14 @@ impl<'a> Evidence<'a> {
             next_test,
             features: None,
             after_loop: after,
+            discovered: search.map(|s| s.discovered),
             summary: words.summary,
             noise: self.noise.clone(),
             residuals,
             structure,
             confounded,
             rule: RULE.to_string(),
-            notes: self.notes.clone(),
+            notes,
         }
     }
 

@@ -39,19 +39,28 @@ use serde::{Deserialize, Serialize};
 
 use super::{Context, Mode, NextTest, NoiseKind, NoiseModel, stats, text};
 
+/// A prediction at an observation point for fitted numbers β.
+type Eval<'e> = dyn Fn(&[f64], &[f64]) -> f64 + Sync + 'e;
+/// ∂y/∂β at β̂, at an observation point.
+type Gradient<'e> = dyn Fn(&[f64]) -> DVector<f64> + Sync + 'e;
+
 /// One explanation as the discrimination sees it: its prediction at an observation point for any
 /// fitted numbers β (θ first), its fit β̂ with covariance, and ∂y/∂β at β̂.
 pub(crate) struct Explanation<'e> {
     pub name: String,
-    eval: Box<dyn Fn(&[f64], &[f64]) -> f64 + Sync + 'e>,
-    gradient: Box<dyn Fn(&[f64]) -> DVector<f64> + Sync + 'e>,
+    eval: Box<Eval<'e>>,
+    gradient: Box<Gradient<'e>>,
     beta: DVector<f64>,
     /// Names of β's entries (θ by the study's names, then γ or the extension's variables).
     names: Vec<String>,
     cov: Option<DMatrix<f64>>,
     /// θ's bounds (the first entries of β), which parameter draws are kept inside.
     bounds: &'e crate::calibrate::Bounds,
-    uncorrected: bool,
+    /// What the model is made of: its simulation (empty for the study's own) and its shapes, by
+    /// name and term. A model whose parts all lie in another's is nested in it (the uncorrected
+    /// model in every other; the model a found term extends in the found one): only the larger as
+    /// true counts when the two are compared.
+    parts: Vec<String>,
 }
 
 impl<'e> Explanation<'e> {
@@ -75,8 +84,28 @@ impl<'e> Explanation<'e> {
             names,
             cov: entry.assessed.cov.as_ref().map(|c| c.matrix.clone()),
             bounds: &cx.inputs.parameter_bounds,
-            uncorrected,
+            parts: if uncorrected {
+                Vec::new()
+            } else {
+                model
+                    .shapes()
+                    .iter()
+                    .map(|s| format!("{}: {}", s.name, s.term))
+                    .collect()
+            },
         }
+    }
+
+    /// The same explanation, its simulation a model the loop extended with `hypothesis` (so that
+    /// it is nested in no screening candidate, nor they in it).
+    pub fn simulated_by(mut self, hypothesis: &str) -> Self {
+        self.parts.insert(0, format!("simulation: {hypothesis}"));
+        self
+    }
+
+    /// Whether every part of this model is one of `other`'s.
+    fn nested_in(&self, other: &Explanation) -> bool {
+        self.parts.iter().all(|p| other.parts.contains(p))
     }
 
     pub fn predict(&self, pt: &[f64]) -> f64 {
@@ -250,7 +279,7 @@ impl<'a, 'e> Search<'a, 'e> {
         let mut pairs = Vec::new();
         for a in 0..ex.len() {
             for b in a + 1..ex.len() {
-                let dirs: Vec<(usize, usize)> = match (ex[a].uncorrected, ex[b].uncorrected) {
+                let dirs: Vec<(usize, usize)> = match (ex[a].nested_in(ex[b]), ex[b].nested_in(ex[a])) {
                     (false, true) => vec![(a, b)],
                     (true, false) => vec![(b, a)],
                     _ => vec![(a, b), (b, a)],
@@ -611,7 +640,8 @@ impl<'a, 'e> Search<'a, 'e> {
             };
             let scale = va.abs().max(vb.abs()).max(f64::MIN_POSITIVE);
             let (mut lo, mut hi) = (1e-9 * scale, 10.0 * scale);
-            if !(lam(lo) >= target) {
+            // Not reached (or not a number) even with the smallest uncertainty.
+            if lam(lo).partial_cmp(&target).is_none_or(|o| o.is_lt()) {
                 continue;
             }
             for _ in 0..60 {

@@ -26,6 +26,8 @@ pub enum Origin {
     Study,
     /// One of the shapes every diagnosis tries (offset, scale error, linear trends).
     BuiltIn,
+    /// A shape of the discovery library ([`super::library`]): found by search, not listed.
+    Search,
 }
 
 type ShapeFn = dyn Fn(&[f64], &[f64], f64) -> f64 + Send + Sync;

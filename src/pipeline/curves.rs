@@ -333,7 +333,7 @@ pub fn features_report(
 ) -> crate::diagnose::features::FeaturesReport {
     let theta: Vec<f64> = d.uncorrected.parameters.values().copied().collect();
     let uncorrected = |values: &[f64]| stage.baseline.curve(values, &theta);
-    let extended: Option<Box<dyn Fn(&[f64]) -> Option<DVector<f64>> + '_>> = d.extended.as_ref().and_then(|e| {
+    let extended: Option<Box<crate::diagnose::features::CurveOf<'_>>> = d.extended.as_ref().and_then(|e| {
         let k = study.diagnosis.hypotheses.iter().position(|h| h.name == e.cause);
         let at: Vec<f64> = e.parameters.values().copied().collect();
         match (

@@ -250,6 +250,8 @@ pub fn loop_model<'m>(
     extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
 ) -> diagnose::LoopModel<'m> {
     let mut inputs = diagnose::inputs_from_study(&m.study, &m.surrogates);
+    // The library search runs once, on the final decision (from the screening's inputs).
+    inputs.discover = false;
     let p = study.parameters.len();
     for (j, ext) in extensions.iter().filter(|(j, _)| *j != m.hypothesis) {
         let h = &study.diagnosis.hypotheses[*j];

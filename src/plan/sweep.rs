@@ -173,12 +173,11 @@ pub fn joint_samples(study: &Study, sim: &SolverSimulation, d: usize) -> usize {
         SurrogateKind::Gp => 10 * d,
     };
     // A study calibrated against curves fits its curve components' surrogates to the same runs.
-    let curves = study
-        .calibration
-        .against
-        .curves
-        .then(|| study.calibration.curve.surrogate.map_or(0, needed))
-        .unwrap_or(0);
+    let curves = if study.calibration.against.curves {
+        study.calibration.curve.surrogate.map_or(0, needed)
+    } else {
+        0
+    };
     needed(sim.surrogate).max(curves).max(sim.sampling.count)
 }
 

@@ -93,6 +93,7 @@ figcaption{font-size:.85em;color:#555;padding:.2em .4em}.warn{color:#a40;font-we
 p.summary.flag{border-color:#a40;background:#fdf6f0}\
 div.verdict{border-left:5px solid #264;padding:.3em .9em;background:#f6faf7;margin:.6em 0}\
 div.verdict.flag{border-color:#a40;background:#fdf6f0}div.verdict.open{border-color:#886;background:#fafaf2}\
+div.verdict.found{border-color:#246;background:#f4f7fb}\
 div.verdict p{margin:.3em 0}tr.failed td{background:#fff3f0}code{font-size:.95em}\
 @media print{body{max-width:none;margin:0}nav{display:none}figure,table,tr{break-inside:avoid}\
 .grid{grid-template-columns:1fr 1fr}h2{break-after:avoid}}";
@@ -729,6 +730,9 @@ impl Page<'_> {
             ));
         };
         let mut s = verdict_block(dg);
+        if let Some(f) = &dg.discovered {
+            s.push_str(&discovered_block(f));
+        }
         s.push_str("<div class=grid>");
         s.push_str(&self.residual_plots(dg));
         if dg.candidates.is_empty() {
@@ -1126,6 +1130,126 @@ fn verdict_block(dg: &crate::diagnose::Diagnosis) -> String {
         }
         s.push_str("</ul>");
     }
+    s
+}
+
+/// The library search, after the verdict: what it found (or that nothing in the library explains
+/// the misfit), marked as found by search, not listed, with the hypothesis line to paste.
+fn discovered_block(f: &crate::diagnose::discover::Discovered) -> String {
+    use crate::diagnose::discover::Outcome;
+    let mut s = String::from("<div id=discovered class=\"verdict found\"><h3>Found by search, not listed</h3>");
+    match (f.outcome, &f.term) {
+        (Outcome::Found, Some(term)) => {
+            let _ = write!(
+                s,
+                "<p class=headline><strong><code>{}</code></strong> added to the {} model</p>",
+                escape(term),
+                escape(&f.base)
+            );
+            let params: Vec<String> = f
+                .parameters
+                .iter()
+                .map(|(n, v)| format!("{} = {}", escape(n), significant(*v, 6)))
+                .collect();
+            let interval = f.interval.map_or("-".to_string(), |[a, b]| {
+                format!("{} to {}", significant(a, 4), significant(b, 4))
+            });
+            s.push_str("<table id=discovered-table>");
+            let mut row = |k: &str, v: String| {
+                let _ = write!(s, "<tr><th class=l>{k}</th><td class=l>{v}</td></tr>");
+            };
+            row("shape", escape(f.shape.as_deref().unwrap_or("-")));
+            row(
+                "coefficient (95 % interval)",
+                format!(
+                    "{} ({interval})",
+                    f.coefficient.map_or("-".into(), |c| significant(c, 4))
+                ),
+            );
+            row("parameters with the term", params.join(", "));
+            row(
+                "validation error before → after (gain)",
+                format!(
+                    "{} → {} ({})",
+                    pct(f.validation_error_before),
+                    pct(f.validation_error_after),
+                    pct(f.gain)
+                ),
+            );
+            row(
+                "leave-one-design-out error before → after (gain)",
+                format!(
+                    "{} → {} ({})",
+                    pct(f.loo_error_before),
+                    pct(f.loo_error_after),
+                    pct(f.gain_loo)
+                ),
+            );
+            row(
+                "test against the search's size",
+                format!(
+                    "p = {} &lt; α/M = {} ({} models)",
+                    f.p_value.map_or("-".into(), |p| significant(p, 2)),
+                    significant(f.threshold, 2),
+                    f.library.models
+                ),
+            );
+            if let Some(r) = &f.reading {
+                row("reading", escape(r));
+            }
+            s.push_str("</table>");
+            if let Some(line) = &f.hypothesis_line {
+                let _ = write!(
+                    s,
+                    "<p>To test it as a listed cause, add under <code>diagnosis.hypotheses</code>:</p><pre id=hypothesis-line>{}</pre>",
+                    escape(line)
+                );
+            }
+        }
+        _ => {
+            let _ = write!(
+                s,
+                "<p class=headline><strong>No shape in the library explains the misfit</strong> ({} models searched, \
+                 α/M = {}).</p>",
+                f.library.models,
+                significant(f.threshold, 2)
+            );
+        }
+    }
+    if !f.closest.is_empty() {
+        s.push_str("<table id=discovered-closest><tr><th class=l>closest</th><th>p</th><th>leave-one-out error</th><th class=l>why not</th></tr>");
+        for c in &f.closest {
+            let _ = write!(
+                s,
+                "<tr><td class=l><code>{}</code></td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
+                escape(&c.term),
+                c.p_value.map_or("-".into(), |p| significant(p, 2)),
+                pct(Some(c.loo_error)),
+                escape(&c.why)
+            );
+        }
+        s.push_str("</table>");
+    }
+    let _ = write!(
+        s,
+        "<p class=note>Library: {} distinct shapes (exponents {}); {}.</p>",
+        f.library.size,
+        escape(&f.library.exponents.join(", ")),
+        escape(&f.correction)
+    );
+    if !f.library.dropped.is_empty() {
+        s.push_str("<ul id=discovered-dropped class=note>");
+        for d in &f.library.dropped {
+            let _ = write!(
+                s,
+                "<li><code>{}</code> left out: {}</li>",
+                escape(&d.term),
+                escape(&d.reason)
+            );
+        }
+        s.push_str("</ul>");
+    }
+    s.push_str("</div>");
     s
 }
 

@@ -278,6 +278,71 @@ fn write_diagnosis(out: &mut String, results: &Results) {
             x.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g))
         );
     }
+    if let Some(f) = &d.discovered {
+        write_discovered(out, f);
+    }
+}
+
+/// The library search's result, after the verdict: found by search, not listed.
+fn write_discovered(out: &mut String, f: &crate::diagnose::discover::Discovered) {
+    use crate::diagnose::discover::Outcome;
+    match (f.outcome, &f.term) {
+        (Outcome::Found, Some(term)) => {
+            let params: Vec<String> = f
+                .parameters
+                .iter()
+                .map(|(n, v)| format!("{n} = {}", significant(*v, 6)))
+                .collect();
+            let interval = f.interval.map_or(String::new(), |[a, b]| {
+                format!(" [{}, {}]", significant(a, 4), significant(b, 4))
+            });
+            let _ = writeln!(
+                out,
+                "  found by search, not listed: `{term}` added to the {} model: coefficient {}{interval}, {}; {} \
+                 error {} -> {} (gain {}), leave-one-design-out {} -> {}",
+                f.base,
+                f.coefficient.map_or("-".into(), |c| significant(c, 4)),
+                params.join(", "),
+                f.measured_on.as_deref().unwrap_or("validation"),
+                percent(if f.measured_on.as_deref() == Some("validation") {
+                    f.validation_error_before
+                } else {
+                    f.loo_error_before
+                }),
+                percent(if f.measured_on.as_deref() == Some("validation") {
+                    f.validation_error_after
+                } else {
+                    f.loo_error_after
+                }),
+                f.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g)),
+                percent(f.loo_error_before),
+                percent(f.loo_error_after)
+            );
+            if let Some(shape) = &f.shape {
+                let _ = writeln!(out, "    shape: {shape}");
+            }
+            if let Some(r) = &f.reading {
+                let _ = writeln!(out, "    reading: {r}");
+            }
+            if let Some(line) = &f.hypothesis_line {
+                let _ = writeln!(out, "    to test it as a listed cause, add under diagnosis.hypotheses:");
+                for l in line.lines() {
+                    let _ = writeln!(out, "      {l}");
+                }
+            }
+        }
+        _ => {
+            let _ = writeln!(
+                out,
+                "  library search (not listed): no shape in the library explains the misfit ({} models, α/M = {})",
+                f.library.models,
+                significant(f.threshold, 2)
+            );
+            for c in &f.closest {
+                let _ = writeln!(out, "    closest: `{}` — {}", c.term, c.why);
+            }
+        }
+    }
 }
 
 /// `x` with `digits` significant figures, without exponent for ordinary magnitudes.

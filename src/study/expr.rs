@@ -106,6 +106,50 @@ impl Expression {
         self.slots.contains(&index)
     }
 
+    /// The exponents written as constants in the expression (`h^3`, `t^(5/3)`, `c^-0.5`), in the
+    /// order they appear; an exponent that is not a constant (`x^a`) is left out. The discovery
+    /// library adds the fractional ones to its exponents (a simulation's own scaling laws).
+    pub fn exponents(&self) -> Vec<f64> {
+        let chars: Vec<char> = self.text.chars().collect();
+        let mut out = Vec::new();
+        for (i, _) in chars.iter().enumerate().filter(|(_, c)| **c == '^') {
+            let mut j = i + 1;
+            while chars.get(j).is_some_and(|c| c.is_whitespace()) {
+                j += 1;
+            }
+            let written: String = if chars.get(j) == Some(&'(') {
+                let mut depth = 0usize;
+                let Some(close) = (j..chars.len()).find(|&k| {
+                    match chars[k] {
+                        '(' => depth += 1,
+                        ')' => depth -= 1,
+                        _ => {}
+                    }
+                    depth == 0
+                }) else {
+                    continue;
+                };
+                chars[j + 1..close].iter().collect()
+            } else {
+                let mut k = j;
+                if chars.get(k).is_some_and(|c| *c == '-' || *c == '+') {
+                    k += 1;
+                }
+                while chars.get(k).is_some_and(|c| c.is_ascii_digit() || *c == '.') {
+                    k += 1;
+                }
+                chars[j..k].iter().collect()
+            };
+            if let Ok(e) = Expression::compile(&written, &Symbols::default()) {
+                let v = e.eval(&[]);
+                if v.is_finite() {
+                    out.push(v);
+                }
+            }
+        }
+        out
+    }
+
     /// Evaluates with `values[i]` bound to the table's i-th symbol. Domain errors give NaN.
     pub fn eval(&self, values: &[f64]) -> f64 {
         let args: Vec<f64> = self.slots.iter().map(|&i| values[i]).collect();
@@ -147,6 +191,17 @@ mod tests {
         let err = Expression::compile("a*x + bb", &Symbols::new(["a", "x"])).unwrap_err();
         assert!(err.message.contains("`bb`"), "{}", err.message);
         assert_eq!(err.offset, Some(6));
+    }
+
+    #[test]
+    fn exponents_written_as_constants() {
+        let symbols = Symbols::new(["t", "c", "s", "a"]);
+        let expr = Expression::compile("8.61*s*t^(5/3)/c^(1/3) + t^2 - c ^ -0.5 + t^a", &symbols).unwrap();
+        let e = expr.exponents();
+        assert_eq!(e.len(), 4, "{e:?}");
+        for (got, want) in e.iter().zip([5.0 / 3.0, 1.0 / 3.0, 2.0, -0.5]) {
+            assert!((got - want).abs() < 1e-15, "{e:?}");
+        }
     }
 
     #[test]

@@ -220,14 +220,34 @@ impl Checker<'_> {
                 {
                     return Err(self.at(node, format!("{what}: min ({lo}) must be less than max ({hi})")));
                 }
+                let scale = spec
+                    .and_then(|s| s.scale.as_ref())
+                    .map(|node| self.scale(node, &what))
+                    .transpose()?;
                 Ok(DesignVariable {
                     name: name.value.clone(),
                     unit: spec.and_then(|s| s.unit.clone()),
                     min,
                     max,
+                    scale,
                 })
             })
             .collect()
+    }
+
+    /// A design variable's `scale`: a finite positive number (in the variable's unit).
+    fn scale(&self, node: &Spanned<f64>, what: &str) -> Result<f64, InputError> {
+        let v = self.finite(node, &format!("{what}: scale"))?;
+        if v <= 0.0 {
+            return Err(self.at(
+                node,
+                format!(
+                    "{what}: scale must be positive ({v} given): it is the length L, in the variable's unit, that \
+                     makes x/L dimensionless in the discovery library's exp(-x/L) and ln(x/L)"
+                ),
+            ));
+        }
+        Ok(v)
     }
 
     /// `parameters:`, at least one, each with finite bounds, min < max.
@@ -696,6 +716,7 @@ impl Checker<'_> {
                 kind,
             });
         }
-        Ok(DiagnosisSettings { hypotheses })
+        let discover = spec.and_then(|d| d.discover).unwrap_or(hypotheses.is_empty());
+        Ok(DiagnosisSettings { hypotheses, discover })
     }
 }

@@ -67,6 +67,9 @@ pub struct DesignVariable {
     /// Optional bounds; default to the range of the experiments' designs.
     pub min: Option<f64>,
     pub max: Option<f64>,
+    /// `scale:` a positive number in the variable's unit that makes it dimensionless (x / scale):
+    /// the discovery library tries `exp(-x/scale)` and `ln(x/scale)` only for variables that have one.
+    pub scale: Option<f64>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -178,6 +181,10 @@ pub struct CfcFilter {
 #[derive(Debug, Clone, Default)]
 pub struct DiagnosisSettings {
     pub hypotheses: Vec<Hypothesis>,
+    /// `diagnosis.discover`, resolved: search a library of shapes when no listed hypothesis explains
+    /// the misfit. The file's value, else true exactly when the study lists no hypothesis; `lab run
+    /// --discover` sets it for one run.
+    pub discover: bool,
 }
 
 /// A candidate cause of model error: an additive discrepancy shape, or a model extension.

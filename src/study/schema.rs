@@ -48,6 +48,9 @@ pub struct DesignFile {
     pub unit: Option<String>,
     pub min: Option<Spanned<f64>>,
     pub max: Option<Spanned<f64>>,
+    /// A length (in the variable's unit) that makes it dimensionless: the L of `exp(-x/L)` and
+    /// `ln(x/L)` in the discovery library.
+    pub scale: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -238,6 +241,9 @@ pub struct BayesianFile {
 pub struct DiagnosisFile {
     #[serde(default)]
     pub hypotheses: Vec<HypothesisFile>,
+    /// Search a library of shapes when no listed hypothesis explains the misfit (default: true
+    /// when `hypotheses` is empty).
+    pub discover: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
