@@ -14,6 +14,11 @@
 //!
 //! `cargo run --release --example make_honeycomb_tests -- OUT_DIR PATH/TO/crushsim [DESIGNS [SPECIMENS]]`
 //!
+//! `HONEYCOMB_TESTS_TRUTH` (optional, for the seeded families of `tests/curves_family.rs`) replaces
+//! the documented truth: comma-separated `key=value` among `sigma_y`, `etan`, `src`, `srp` (the
+//! deck's Cowper–Symonds rate parameters, 0 = none), `scatter` and `noise`; keys not given keep the
+//! fixtures' values. Unset, the output is the fixtures' byte for byte.
+//!
 //! DESIGNS (optional) is a comma-separated list `NAME:c:t` (e.g. `C6T5:6:0.05,C3T8:3:0.08`); the
 //! default is the three designs of studies/honeycomb.yaml. The truth, noise and seed are the same
 //! for any list (the random draws follow the list's order). SPECIMENS (optional, default 3) is the
@@ -68,6 +73,51 @@ fn parse_designs(list: &str) -> Vec<(String, f64, f64)> {
         .collect()
 }
 
+/// What the tests are made from: the material, the specimen scatter and the measurement noise.
+struct Truth {
+    sigma_y: f64,
+    etan: f64,
+    src: f64,
+    srp: f64,
+    scatter: f64,
+    noise: f64,
+}
+
+/// The fixtures' truth, or `HONEYCOMB_TESTS_TRUTH`'s.
+fn truth() -> Truth {
+    let mut t = Truth {
+        sigma_y: SIGMA_Y,
+        etan: ETAN,
+        src: 0.0,
+        srp: 0.0,
+        scatter: SCATTER,
+        noise: NOISE,
+    };
+    let Ok(list) = std::env::var("HONEYCOMB_TESTS_TRUTH") else {
+        return t;
+    };
+    for item in list.split(',').filter(|i| !i.trim().is_empty()) {
+        let (key, value) = item.split_once('=').unwrap_or((item, ""));
+        let Ok(v) = value.trim().parse::<f64>() else {
+            eprintln!("HONEYCOMB_TESTS_TRUTH: bad `{item}`: expected key=number");
+            std::process::exit(2);
+        };
+        match key.trim() {
+            "sigma_y" => t.sigma_y = v,
+            "etan" => t.etan = v,
+            "src" => t.src = v,
+            "srp" => t.srp = v,
+            "scatter" => t.scatter = v,
+            "noise" => t.noise = v,
+            other => {
+                eprintln!("HONEYCOMB_TESTS_TRUTH: unknown key `{other}` (sigma_y, etan, src, srp, scatter, noise)");
+                std::process::exit(2);
+            }
+        }
+    }
+    t
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (out, crushsim, designs, specimens) = match &args[..] {
@@ -109,6 +159,12 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(SEED);
+    let truth = truth();
+    let rate = if truth.src > 0.0 {
+        format!(", rate SRC = {} 1/s SRP = {}", truth.src, truth.srp)
+    } else {
+        String::new()
+    };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut experiments = String::from("design,c,t,force\n");
     for (name, c, t) in designs {
@@ -120,8 +176,10 @@ fn main() {
         for (k, v) in [
             ("c", c),
             ("t", t),
-            ("sigma_y", SIGMA_Y),
-            ("etan", ETAN),
+            ("sigma_y", truth.sigma_y),
+            ("etan", truth.etan),
+            ("src", truth.src),
+            ("srp", truth.srp),
             ("ribbon_factor", 2.0),
             ("term_time", TERM_TIME),
             ("dt_out", DT_OUT),
@@ -145,14 +203,15 @@ fn main() {
         let curve = crush::from_lsdyna(&rc, &nod, &source).unwrap();
         let level = crush::crush_force(&curve, WINDOW).unwrap().mean_force;
         for k in 1..=specimens {
-            let factor = 1.0 + SCATTER * normal(&mut rng);
+            let factor = 1.0 + truth.scatter * normal(&mut rng);
+            let (sy, et, noise) = (truth.sigma_y, truth.etan, truth.noise);
             let mut csv = format!(
                 "# honeycomb tube {name} specimen {k}: SYNTHETIC test from the stand-in solver crushsim\n\
-                 # truth sigma_y = {SIGMA_Y} MPa, ETAN = {ETAN} MPa; scatter x{factor:.5}; noise {NOISE} x mean; seed {seed}\n\
+                 # truth sigma_y = {sy} MPa, ETAN = {et} MPa{rate}; scatter x{factor:.5}; noise {noise} x mean; seed {seed}\n\
                  displacement [mm],force [kN]\n"
             );
             for (d, f) in curve.displacement.iter().zip(&curve.force) {
-                let measured = f * factor + NOISE * level * normal(&mut rng);
+                let measured = f * factor + noise * level * normal(&mut rng);
                 let _ = writeln!(csv, "{d:.4},{measured:.5}");
             }
             let path = out.join(format!("{name}-{k}.csv"));

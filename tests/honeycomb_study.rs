@@ -41,7 +41,7 @@ fn numbers(v: &serde_json::Value) -> Vec<f64> {
 }
 
 /// The recorded force–displacement curves: per design its 3 specimens, whose mean crush force over
-/// the window is exactly experiments.csv's (the same extractor made it), and 9 of its 17 runs —
+/// the window is exactly experiments.csv's (the same extractor made it), and 9 of its 29 runs —
 /// the lowest and highest response and the run nearest the least-squares estimate, whose mean
 /// crush force is exactly the response its run recorded.
 fn check_curves(results: &serde_json::Value, data: &serde_json::Value) {
@@ -79,7 +79,7 @@ fn check_curves(results: &serde_json::Value, data: &serde_json::Value) {
             .filter(|r| r["design"] == design && r["class"] == "success" && r["role"] != "extension")
             .map(|r| (r["theta"][0].as_f64().unwrap(), r["response"].as_f64().unwrap()))
             .collect();
-        assert_eq!((runs.len(), d["runs"].as_u64()), (17, Some(17)), "{design}");
+        assert_eq!((runs.len(), d["runs"].as_u64()), (29, Some(29)), "{design}");
         let sims = d["simulations"].as_array().unwrap();
         assert_eq!(sims.len(), 9, "{design}");
         let mean = |c: &serde_json::Value| c["mean_force"].as_f64().unwrap();
@@ -157,8 +157,8 @@ fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
             assert!(split["methods"][m]["validation_error"].as_f64().is_some(), "{split}");
         }
     }
-    // 87 screening runs (12 samples + 5 checks + 12 hardening probes per design), 75 in the loop.
-    assert_eq!(r["runs"]["succeeded"], 162);
+    // 159 screening runs (24 samples + 5 checks + 24 hardening probes per design), 87 in the loop.
+    assert_eq!(r["runs"]["succeeded"], 246);
     hardening_named_from_the_curves(&r);
     assert_eq!(
         r["units"],
@@ -224,7 +224,7 @@ fn crushsim_live_gives_the_replayed_numbers() {
     assert!(!String::from_utf8_lossy(&o.stderr).contains("replaying"));
     assert_eq!(
         std::fs::read_dir(live.path().join("runs")).unwrap().count(),
-        162,
+        246,
         "live runs have run directories"
     );
     let o = lab(
@@ -293,7 +293,7 @@ fn a_replay_miss_names_the_run_and_the_changed_input() {
     );
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("87 planned run(s) have no recording"), "{stderr}");
+    assert!(stderr.contains("159 planned run(s) have no recording"), "{stderr}");
     assert!(
         stderr.contains("design `C6T5`") && stderr.contains("sigma_y = "),
         "{stderr}"

@@ -89,7 +89,8 @@ fn assert_honeycomb_calibrated(r: &serde_json::Value) {
         assert!((188.0..=205.0).contains(&s), "{m}: {s}");
         assert_eq!(r["calibration"][m]["predictions"].as_array().unwrap().len(), 3, "{m}");
     }
-    assert_eq!(r["runs"]["succeeded"], 51);
+    // 159 screening runs and 87 in the loop (the hardening extension, solver in the loop).
+    assert_eq!(r["runs"]["succeeded"], 246);
 }
 
 #[test]
@@ -109,7 +110,8 @@ fn honeycomb_through_slurm_gives_the_local_live_results() {
         !err.contains("replaying"),
         "crushsim is on PATH: the runs are live\n{err}"
     );
-    assert!(err.contains("submitted 51 run(s) in 7 Slurm job(s)"), "{err}");
+    assert!(err.contains("submitted 159 run(s) in 20 Slurm job(s)"), "{err}");
+    assert!(err.contains("submitted 87 run(s) in 11 Slurm job(s)"), "{err}");
     // Every run was executed by crushsim inside a job: the job's worker reports each run's
     // outcome in the job's output, and the run's own stdout carries crushsim's banner (the job
     // found crushsim on the PATH it inherited from sbatch's default --export=ALL).
@@ -124,7 +126,7 @@ fn honeycomb_through_slurm_gives_the_local_live_results() {
             }
         }
     }
-    assert_eq!(reported.len(), 51);
+    assert_eq!(reported.len(), 246);
     for key in &reported {
         let stdout = std::fs::read_to_string(slurm.join("runs").join(key).join("lab.stdout")).unwrap();
         assert!(stdout.contains("crushsim: a STAND-IN for LS-DYNA"), "{key}: {stdout}");
@@ -178,7 +180,7 @@ fn honeycomb_study(to: &Path, slurm: &str) {
 fn honeycomb_killed_lab_reattaches_and_every_run_executes_once() {
     let Some(conf) = slurm_conf() else { return };
     let tmp = tempfile::tempdir().unwrap();
-    // 51 runs, 3 per job: 17 jobs queue behind each other on the node's 2 CPUs.
+    // 246 runs (159, then 87 in the loop), 3 per job: jobs queue behind each other on the node's 2 CPUs.
     honeycomb_study(tmp.path(), "{runs_per_job: 3}");
     let (log, out) = (tmp.path().join("crushsim.log"), tmp.path().join("out"));
     let args = ["run", "honeycomb.yaml", "--executor", "slurm", "--out", "out"];
@@ -188,12 +190,12 @@ fn honeycomb_killed_lab_reattaches_and_every_run_executes_once() {
     kill_when_journaled(&mut child, &out, 3);
     // Killed while jobs were queued: entries remain and runs are unfinished.
     assert!(!journal_files(&out).is_empty());
-    assert!(keys_with(&out, "success").len() < 51);
+    assert!(keys_with(&out, "success").len() < 246);
     let mut rerun = lab(&conf, tmp.path(), &args);
     rerun.env("PATH", path_with_crushsim());
     let (err, started) = rerun_reattaches(rerun, &log);
     assert!(!err.contains("replaying"), "{err}");
-    assert_eq!(started.len(), 51);
+    assert_eq!(started.len(), 246);
     assert_eq!(
         started,
         keys_with(&out, "success"),

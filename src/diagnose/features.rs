@@ -104,6 +104,8 @@ pub struct Whitening {
     pub specimens_dof: usize,
     /// The structured covariance's check: statistic, its χ² degrees of freedom, p.
     pub check: Option<(f64, usize, f64)>,
+    /// The emulator's own error, added to the tests' noise ([`emulator_error`]).
+    pub emulator: Option<EmulatorError>,
 }
 
 impl Whitening {
@@ -173,6 +175,9 @@ pub struct FeaturesReport {
     pub decided_by: Option<String>,
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub decided_share: Option<f64>,
+    /// The curve emulator's error counted in the noise ([`emulator_error`]).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub emulator: Option<EmulatorError>,
 }
 
 /// A model's curve at a design's values (`None` where it cannot be evaluated).
@@ -227,6 +232,7 @@ impl FeaturesReport {
             rows,
             decided_by,
             decided_share,
+            emulator: w.emulator.clone(),
         }
     }
 }
@@ -264,6 +270,77 @@ pub struct CurveInputs<'a> {
     pub settings: Settings,
     /// The study's constants, for a term's expression.
     pub constants: &'a [(String, f64)],
+    /// Runs of the simulation held out of `curve`'s emulator: what it gets wrong, in the features.
+    pub checks: Vec<EmulatorCheck>,
+}
+
+/// A simulation run held out of the curve emulator: its design, θ and curve on the grid.
+#[derive(Debug, Clone)]
+pub struct EmulatorCheck {
+    pub design: Vec<f64>,
+    pub theta: Vec<f64>,
+    pub curve: DVector<f64>,
+}
+
+/// The emulator's error in the whitened features (`results.json` `diagnosis.features.emulator`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EmulatorError {
+    /// Check runs it was measured on.
+    pub runs: usize,
+    /// Per whitened feature, the mean square of (simulation − emulator) at the check runs, in units
+    /// of one specimen's noise variance.
+    pub variance: Vec<f64>,
+}
+
+/// The emulator's error at the check runs, whitened like the tests (Kennedy & O'Hagan 2001 count the
+/// code's own uncertainty in the prediction's variance; here it is measured, not modelled): per
+/// whitened feature k, s²_k = mean over the checks of (L⁻¹φ(simulated) − L⁻¹φ(emulated))_k², the
+/// mean square rather than the variance, so that a bias counts too. `None` without check runs.
+pub fn emulator_error(
+    w: &Whitening,
+    spec: &FeatureSpec,
+    checks: &[EmulatorCheck],
+    curve: &CurveFn,
+) -> Option<EmulatorError> {
+    let errors: Vec<DVector<f64>> = checks
+        .iter()
+        .filter_map(|c| {
+            let emulated = curve(&c.design, &c.theta)?;
+            let a = w.whiten(spec, &c.design, c.curve.as_slice())?;
+            let b = w.whiten(spec, &c.design, emulated.as_slice())?;
+            Some(a - b)
+        })
+        .collect();
+    let n = errors.len();
+    (n > 0).then(|| EmulatorError {
+        runs: n,
+        variance: (0..w.read.len())
+            .map(|k| errors.iter().map(|e| e[k] * e[k]).sum::<f64>() / n as f64 / w.variance)
+            .collect(),
+    })
+}
+
+impl Whitening {
+    /// Counts the emulator's error in the noise of each design's mean features. A design's mean of m
+    /// specimens has whitened variance v/m from the tests (v = [`Whitening::variance`]) plus s²_k·v
+    /// from the emulator, which does not shrink with m: the k-th whitened feature is divided by
+    /// √(1 + m s²_k), so that v/m stays the variance of the mean the diagnosis assumes. The tests'
+    /// degrees of freedom are kept (the check runs' own count is not added: a conservative choice
+    /// only where s² is well above the tests' share).
+    fn with_emulator(mut self, designs: &[CurveDesign], e: EmulatorError) -> Whitening {
+        for (values, l) in &mut self.factors {
+            let m = designs
+                .iter()
+                .find(|d| &d.values == values)
+                .map_or(1, |d| d.specimens.len().max(1));
+            for (k, s2) in e.variance.iter().enumerate() {
+                let c = (1.0 + m as f64 * s2).sqrt();
+                l.column_mut(k).scale_mut(c);
+            }
+        }
+        self.emulator = Some(e);
+        self
+    }
 }
 
 /// The features as a model of its own: at point (design, k), the k-th whitened feature of the
@@ -323,6 +400,10 @@ impl FeatureProblem {
     /// built-ins' shapes on them; `Err` when the specimens cannot give a covariance.
     pub fn new(ci: &CurveInputs) -> Result<FeatureProblem, String> {
         let whitening = whitening(&ci.designs, &ci.spec, ci.settings.alpha)?;
+        let whitening = match emulator_error(&whitening, &ci.spec, &ci.checks, ci.curve.as_ref()) {
+            Some(e) => whitening.with_emulator(&ci.designs, e),
+            None => whitening,
+        };
         let k = whitening.read.len();
         let model = FeatureModel {
             curve: ci.curve.clone(),
@@ -379,6 +460,19 @@ impl FeatureProblem {
                     super::text::num(p)
                 ))
             ),
+        };
+        let how = match &whitening.emulator {
+            Some(e) => format!(
+                "{how}; plus the emulator's own error, measured at {} check run(s) (mean square {} of one \
+                 specimen's noise variance, per whitened feature), which more specimens do not reduce",
+                e.runs,
+                e.variance
+                    .iter()
+                    .map(|v| super::text::num(*v))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            None => how,
         };
         Ok(FeatureProblem {
             rows: rows(&ci.designs, &ci.spec),
@@ -487,6 +581,7 @@ fn whitening(designs: &[CurveDesign], spec: &FeatureSpec, alpha: f64) -> Result<
             dof: nu,
             specimens_dof: nu,
             check: Some(check),
+            emulator: None,
         }),
         other => pooled(designs, &deviations, read, nu, other.map(|(_, c)| c)),
     }
@@ -615,6 +710,7 @@ fn pooled(
                     dof,
                     specimens_dof: nu,
                     check,
+                    emulator: None,
                 });
             }
         }

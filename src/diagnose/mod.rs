@@ -524,8 +524,9 @@ pub struct Residual {
     pub predicted: f64,
     /// measured − predicted.
     pub residual: f64,
-    /// (predicted − measured) / measured, as in the contract.
-    pub relative_error: f64,
+    /// (predicted − measured) / measured, as in the contract; null where it means nothing (a
+    /// whitened curve feature, a measured value of zero).
+    pub relative_error: Option<f64>,
     /// σ of the mean measurement.
     pub sigma: f64,
     /// residual / sigma.

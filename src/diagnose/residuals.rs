@@ -34,7 +34,7 @@ pub(crate) fn table(cx: &Context, fit: &Fit, noise: &NoiseModel) -> Vec<Residual
                 std_dev: o.std_dev,
                 predicted,
                 residual,
-                relative_error: cx.relative_error(i, predicted).unwrap_or(f64::NAN),
+                relative_error: cx.relative_error(i, predicted).filter(|e| e.is_finite()),
                 sigma,
                 z: residual / sigma,
             }

@@ -454,7 +454,7 @@ fn where_it_errs(f: &Facts) -> Vec<String> {
         .collect();
     groups.dedup();
     let n_train = groups.len();
-    let rel: Vec<f64> = r.iter().map(|x| x.relative_error).filter(|e| e.is_finite()).collect();
+    let rel: Vec<f64> = r.iter().filter_map(|x| x.relative_error).collect();
     let mean_rel = rel.iter().sum::<f64>() / rel.len().max(1) as f64;
     let values = |x: &Residual| {
         x.values
@@ -480,10 +480,10 @@ fn where_it_errs(f: &Facts) -> Vec<String> {
                 w.z
             ));
         }
-    } else if let Some(w) = r
+    } else if let Some((w, rel)) = r
         .iter()
-        .filter(|x| x.relative_error.is_finite())
-        .max_by(|a, b| a.relative_error.abs().total_cmp(&b.relative_error.abs()))
+        .filter_map(|x| Some((x, x.relative_error?)))
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
     {
         out.push(format!(
             "Calibrated on {n_train} training design(s), the simulation {} the tests by {} on average; the largest error \
@@ -492,8 +492,8 @@ fn where_it_errs(f: &Facts) -> Vec<String> {
             pct(mean_rel),
             w.design,
             values(w),
-            direction(w.relative_error),
-            pct(w.relative_error),
+            direction(rel),
+            pct(rel),
             // In units of the noise only where the noise was measured (replicates).
             if f.noise.from_replicates() { format!(" ({:+.1} σ of the mean)", w.z) } else { String::new() }
         ));

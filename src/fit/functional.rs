@@ -137,6 +137,8 @@ pub struct DesignCurves {
     pub surrogate: FunctionalSurrogate,
     pub check: CheckError,
     pub samples: usize,
+    /// The check runs held out of the fit: (θ, curve).
+    pub checks: Vec<(Vec<f64>, DVector<f64>)>,
 }
 
 /// The simulation's curve at a design and θ: per-design emulators as one model (like
@@ -152,6 +154,14 @@ impl CurveModel {
             .iter()
             .find(|d| d.values == design)
             .map(|d| d.surrogate.predict(theta))
+    }
+
+    /// Every design's check runs: (design values, θ, curve).
+    pub fn check_runs(&self) -> Vec<(Vec<f64>, Vec<f64>, DVector<f64>)> {
+        self.designs
+            .iter()
+            .flat_map(|d| d.checks.iter().map(|(t, c)| (d.values.clone(), t.clone(), c.clone())))
+            .collect()
     }
 }
 

@@ -16,7 +16,7 @@ use std::sync::Arc;
 use nalgebra::DVector;
 
 use crate::diagnose::Role;
-use crate::diagnose::features::{CurveDesign, CurveFn, CurveHypothesis, CurveInputs};
+use crate::diagnose::features::{CurveDesign, CurveFn, CurveHypothesis, CurveInputs, EmulatorCheck};
 use crate::error::Error;
 use crate::extract::crush::{self, ForceDisplacement};
 use crate::extract::features::FeatureSpec;
@@ -146,14 +146,16 @@ pub fn emulators(
                     .collect()
             };
             let samples = of(false);
+            let checks = of(true);
             Some(
                 FunctionalSurrogate::fit(kind, &samples, bounds)
                     .map(|surrogate| DesignCurves {
                         design: name.clone(),
                         values,
-                        check: surrogate.check(&of(true)),
+                        check: surrogate.check(&checks),
                         surrogate,
                         samples: samples.len(),
+                        checks,
                     })
                     .map_err(|e| Error::Failed(format!("design `{name}`: cannot fit its curve emulator: {e}"))),
             )
@@ -173,7 +175,7 @@ pub fn inputs<'s>(
     study: &'s Study,
     setting: &Setting,
     designs: Vec<CurveDesign>,
-    curve: Arc<CurveFn>,
+    model: &CurveModel,
     extensions: Vec<CurveHypothesis>,
 ) -> CurveInputs<'s> {
     let terms = study
@@ -185,7 +187,12 @@ pub fn inputs<'s>(
     CurveInputs {
         designs,
         spec: setting.spec,
-        curve,
+        curve: curve_fn(model.clone()),
+        checks: model
+            .check_runs()
+            .into_iter()
+            .map(|(design, theta, curve)| EmulatorCheck { design, theta, curve })
+            .collect(),
         parameter_names: study.parameters.iter().map(|p| p.name.clone()).collect(),
         parameter_bounds: study.parameter_bounds(),
         design_names: study.design.iter().map(|d| d.name.clone()).collect(),
@@ -320,31 +327,28 @@ impl CurveStage {
     }
 }
 
-/// The diagnosis's curve features with the uncorrected simulation's curves at its calibrated
-/// parameters and, when a cause is named, its extended model's: the loop's emulator (`loops`:
-/// `(k, model)` of the extended hypotheses) at the extended parameters, or a term's shape added
-/// along the stroke.
-pub fn features_report(
-    study: &Study,
-    stage: &CurveStage,
-    problem: &crate::diagnose::features::FeatureProblem,
-    loops: &[(usize, CurveModel)],
+/// A model's whole curve at a design's values.
+type DesignCurve<'a> = Box<crate::diagnose::features::CurveOf<'a>>;
+
+/// The uncorrected simulation's curve at its calibrated parameters and, when a cause is named, its
+/// final model's: the loop's emulator (`loops`: `(k, model)` of the extended hypotheses) at the
+/// extended parameters, or a term's shape added along the stroke.
+fn model_curves<'a>(
+    study: &'a Study,
+    stage: &'a CurveStage,
+    loops: &'a [(usize, CurveModel)],
     d: &crate::diagnose::Diagnosis,
-) -> crate::diagnose::features::FeaturesReport {
+) -> (DesignCurve<'a>, Option<DesignCurve<'a>>) {
     let theta: Vec<f64> = d.uncorrected.parameters.values().copied().collect();
-    let uncorrected = |values: &[f64]| stage.baseline.curve(values, &theta);
-    let extended: Option<Box<crate::diagnose::features::CurveOf<'_>>> = d.extended.as_ref().and_then(|e| {
-        let k = study.diagnosis.hypotheses.iter().position(|h| h.name == e.cause);
+    let uncorrected: DesignCurve<'a> = Box::new(move |values: &[f64]| stage.baseline.curve(values, &theta));
+    let extended = d.extended.as_ref().and_then(|e| -> Option<DesignCurve<'a>> {
+        let k = study.diagnosis.hypotheses.iter().position(|h| h.name == e.cause)?;
         let at: Vec<f64> = e.parameters.values().copied().collect();
-        match (
-            k.and_then(|k| loops.iter().find(|(j, _)| *j == k)),
-            k.map(|k| &study.diagnosis.hypotheses[k]),
-        ) {
-            (Some((_, model)), _) if e.solver_in_the_loop => {
-                Some(Box::new(move |v: &[f64]| model.curve(v, &at)) as Box<dyn Fn(&[f64]) -> Option<DVector<f64>>>)
-            }
-            (_, Some(h)) if matches!(h.kind, HypothesisKind::Term(_)) => {
-                let shape = crate::diagnose::Shape::from_hypothesis(h, study);
+        let hypothesis = &study.diagnosis.hypotheses[k];
+        match loops.iter().find(|(j, _)| *j == k) {
+            Some((_, model)) if e.solver_in_the_loop => Some(Box::new(move |v: &[f64]| model.curve(v, &at))),
+            _ if matches!(hypothesis.kind, HypothesisKind::Term(_)) => {
+                let shape = crate::diagnose::Shape::from_hypothesis(hypothesis, study);
                 let gamma = e.amplitude;
                 Some(Box::new(move |v: &[f64]| {
                     let y = stage.baseline.curve(v, &at)?;
@@ -352,12 +356,52 @@ pub fn features_report(
                         y.len(),
                         y.iter().map(|&s| s + gamma * shape.eval(v, &at, s)),
                     ))
-                }) as Box<dyn Fn(&[f64]) -> Option<DVector<f64>>>)
+                }))
             }
             _ => None,
         }
     });
-    crate::diagnose::features::FeaturesReport::new(problem, &stage.designs, &uncorrected, extended.as_deref(), d)
+    (uncorrected, extended)
+}
+
+/// The diagnosis's curve features with the uncorrected simulation's curves at its calibrated
+/// parameters and, when a cause is named, its final model's ([`model_curves`]).
+pub fn features_report(
+    study: &Study,
+    stage: &CurveStage,
+    problem: &crate::diagnose::features::FeatureProblem,
+    loops: &[(usize, CurveModel)],
+    d: &crate::diagnose::Diagnosis,
+) -> crate::diagnose::features::FeaturesReport {
+    let (uncorrected, extended) = model_curves(study, stage, loops, d);
+    crate::diagnose::features::FeaturesReport::new(problem, &stage.designs, &*uncorrected, extended.as_deref(), d)
+}
+
+/// The report's residual curves: per tested design the specimens' band on the stroke grid, the
+/// uncorrected model's curve and the named cause's ([`model_curves`]).
+pub fn residual_curves(
+    study: &Study,
+    stage: &CurveStage,
+    loops: &[(usize, CurveModel)],
+    d: &crate::diagnose::Diagnosis,
+) -> Vec<crate::report::data::ResidualCurves> {
+    let (uncorrected, extended) = model_curves(study, stage, loops, d);
+    let stroke = stage.setting.grid.stroke();
+    let vec = |c: DVector<f64>| c.iter().copied().collect::<Vec<f64>>();
+    stage
+        .designs
+        .iter()
+        .filter(|design| !design.specimens.is_empty())
+        .map(|design| {
+            let specimens: Vec<Vec<f64>> = design.specimens.iter().map(|c| vec(c.clone())).collect();
+            let validation = design.role == Role::Validation;
+            let mut r = crate::report::data::ResidualCurves::band(&design.name, validation, stroke.clone(), &specimens);
+            r.before = uncorrected(&design.values).map(vec);
+            r.after = extended.as_ref().and_then(|f| f(&design.values)).map(vec);
+            r.after_label = r.after.as_ref().and(d.cause.clone());
+            r
+        })
+        .collect()
 }
 
 /// `curve_calibration`: the study's methods on the curves through the baseline's curve emulator,

@@ -180,6 +180,7 @@ fn solver_runs<'s>(
         data,
         joint: None,
         extended: Vec::new(),
+        residual_curves: Vec::new(),
     })
 }
 
@@ -219,13 +220,7 @@ fn diagnose_with_solver(
     // With curves, the diagnosis reads their features; else the response.
     let curve_inputs = stage.map(|s| {
         let hypotheses = curves::extension_hypotheses(study, &s.extension_fns(), None, None);
-        curves::inputs(
-            study,
-            &s.setting,
-            s.designs.clone(),
-            curves::curve_fn(s.baseline.clone()),
-            hypotheses,
-        )
+        curves::inputs(study, &s.setting, s.designs.clone(), &s.baseline, hypotheses)
     });
     let problem = match &curve_inputs {
         Some(ci) => match crate::diagnose::features::FeatureProblem::new(ci) {
@@ -251,15 +246,20 @@ fn diagnose_with_solver(
         return Err(Error::Interrupted);
     }
     let chosen = extend::chosen(study, &screening);
-    let features = |d: Diagnosis, loops: &[(usize, crate::fit::functional::CurveModel)]| match (stage, &problem) {
+    // With curves: the features the diagnosis read, and the residual curves the report draws.
+    let features = |d: Diagnosis,
+                    loops: &[(usize, crate::fit::functional::CurveModel)],
+                    residuals: &mut Vec<crate::report::data::ResidualCurves>| match (stage, &problem)
+    {
         (Some(stage), Some(problem)) => {
+            *residuals = curves::residual_curves(study, stage, loops, &d);
             let report = curves::features_report(study, stage, problem, loops, &d);
             d.with_features(report)
         }
         _ => d,
     };
     if chosen.is_empty() {
-        return Ok(Ok(features(screening, &[])));
+        return Ok(Ok(features(screening, &[], &mut runs.residual_curves)));
     }
     let store = &mut runs.executed.store;
     let joint = extend::execute(study, runs.sim, &chosen, source, options, engine, store, reporter)?;
@@ -302,13 +302,7 @@ fn diagnose_with_solver(
                         Some((baseline.clone(), p)),
                         Some(m.hypothesis),
                     );
-                    curves::inputs(
-                        &m.study,
-                        &stage.setting,
-                        stage.designs.clone(),
-                        curves::curve_fn(model.clone()),
-                        others,
-                    )
+                    curves::inputs(&m.study, &stage.setting, stage.designs.clone(), model, others)
                 })
                 .collect();
             let problems = loop_inputs
@@ -341,7 +335,7 @@ fn diagnose_with_solver(
         runs.extended.push((m, x.parameters.values().copied().collect()));
     }
     runs.joint = Some(joint);
-    let diagnosis = features(diagnosis, &loop_curves).with_extensions(records);
+    let diagnosis = features(diagnosis, &loop_curves, &mut runs.residual_curves).with_extensions(records);
     Ok(Ok(diagnosis))
 }
 
@@ -371,6 +365,8 @@ struct SolverRuns<'s> {
     joint: Option<extend::JointRuns>,
     /// The extended models they made, with their calibrated parameters (θ, then the extension's).
     extended: Vec<(extend::ExtendedModel, Vec<f64>)>,
+    /// Calibration against curves: where along the stroke the model errs, per tested design.
+    residual_curves: Vec<crate::report::data::ResidualCurves>,
 }
 
 impl Simulated<'_> {
@@ -547,6 +543,7 @@ fn report_data(study: &Study, simulated: &Simulated, calibration: &Calibration, 
             };
             let reference = report::data::reference(calibration);
             data.extension_surfaces = r.extended.iter().map(|(m, at)| extend::surface(study, m, at)).collect();
+            data.residual_curves = r.residual_curves.clone();
             report::curves::design_curves(study, Some(&outputs), reference.as_ref())
         }
     };

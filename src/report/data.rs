@@ -58,6 +58,55 @@ pub struct ReportData {
     /// Solver in the loop: each extended model's response over its first ranged variable.
     #[serde(default)]
     pub extension_surfaces: Vec<ExtensionSurface>,
+    /// Calibration against curves: per tested design, where along the stroke the model errs.
+    #[serde(default)]
+    pub residual_curves: Vec<ResidualCurves>,
+}
+
+/// One tested design on the stroke grid of the curve calibration: the specimens' mean and
+/// standard deviation at each stroke, the uncorrected simulation's curve at its calibrated
+/// parameters (`before`) and the named cause's model (`after`).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ResidualCurves {
+    pub design: String,
+    pub validation: bool,
+    pub stroke: Vec<f64>,
+    pub test_mean: Vec<f64>,
+    /// The specimens' sample standard deviation (0 with one specimen).
+    pub test_sd: Vec<f64>,
+    pub specimens: usize,
+    pub before: Option<Vec<f64>>,
+    pub after: Option<Vec<f64>>,
+    /// The cause whose model `after` is.
+    pub after_label: Option<String>,
+}
+
+impl ResidualCurves {
+    /// The band of one design: the specimens' pointwise mean and sample standard deviation.
+    pub fn band(design: &str, validation: bool, stroke: Vec<f64>, specimens: &[Vec<f64>]) -> ResidualCurves {
+        let n = specimens.len();
+        let at = |i: usize| specimens.iter().map(move |c| c[i]);
+        let mean: Vec<f64> = (0..stroke.len()).map(|i| at(i).sum::<f64>() / n as f64).collect();
+        let sd = (0..stroke.len())
+            .map(|i| {
+                if n < 2 {
+                    return 0.0;
+                }
+                (at(i).map(|v| (v - mean[i]).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+            })
+            .collect();
+        ResidualCurves {
+            design: design.to_string(),
+            validation,
+            stroke,
+            test_mean: mean,
+            test_sd: sd,
+            specimens: n,
+            before: None,
+            after: None,
+            after_label: None,
+        }
+    }
 }
 
 /// An extended model's predictions over one extension variable, the other parameters at their

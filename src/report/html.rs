@@ -23,6 +23,8 @@ mod curves;
 mod solver_loop;
 #[path = "html_splits.rs"]
 mod splits;
+#[path = "html_stroke.rs"]
+mod stroke;
 
 /// Section ids, in page order (the browser test checks them).
 pub const SECTIONS: [&str; 7] = [
@@ -752,6 +754,7 @@ impl Page<'_> {
                 "no cause was named, so there is no extended model to compare before/after",
             )),
         }
+        s.push_str(&self.stroke(dg));
         s.push_str(&solver_loop::section(dg, self.d));
         if !dg.candidates.is_empty() {
             s.push_str(&candidate_table(dg));

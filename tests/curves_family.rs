@@ -1,0 +1,368 @@
+//! Seeded families of honeycomb curve sets (issue 24): the tests' truth drawn — yield stress,
+//! strain hardening, Cowper–Symonds rate parameters, specimen scatter, measurement noise, the three
+//! designs — made into test-machine CSVs by the stand-in solver `crushsim` (through
+//! `examples/make_honeycomb_tests.rs`, `HONEYCOMB_TESTS_TRUTH`), and a study calibrated against the
+//! mean force and the curves with hardening as an extension, run live by `lab run` (solver in the
+//! loop). Nothing outside this file knows the draw.
+//!
+//! Three families, in turn by seed:
+//! - **baseline**: the study's own physics (no hardening, no rate effect): no cause may be named;
+//! - **hardening** (ETAN drawn 0–450 MPa): leads when the oracle calls it large enough, and is named;
+//! - **rate** (no hardening; SRC drawn 5,000–40,000 1/s, SRP 4): a rate effect raises the initial peak
+//!   and the plateau alike, by a factor that falls with the cell size; it is not listed, so the
+//!   honest answers are "partly explained" or "no listed cause", never hardening named decisively.
+//!
+//! The oracle (crushsim's fold model, `crushsim/src/physics.rs`, which the test knows because it
+//! made the tests): hardening's share of the hinges' flow stress, 0.5 ETAN ε_h / σy with
+//! ε_h = t / H, H = 0.82 t^(1/3) s^(2/3), s = c/√3, at the tested design where it is smallest. It is
+//! *large enough* when that share is at least 2 %: four times the largest per-sample noise drawn
+//! (0.5 % of the mean force), before the averaging over the stroke and the specimens, so the
+//! plateau-to-peak difference it leaves is many standard errors at every tested design.
+//!
+//! `LAB_CURVES_SEEDS` (default 12, four per family; about 11 s each) and `LAB_CURVES_SEED_BASE` (default 0) run other draws; the
+//! assertions stay the same.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde_json::Value;
+
+mod crushsim_bin;
+
+const HARDENING: &str = "strain hardening in the fold hinges";
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Family {
+    Baseline,
+    Hardening,
+    Rate,
+}
+
+#[derive(Debug, Clone)]
+struct Case {
+    family: Family,
+    sigma_y: f64,
+    etan: f64,
+    src: f64,
+    scatter: f64,
+    noise: f64,
+    /// (name, c, t): two training designs, then the validation design.
+    designs: Vec<(String, f64, f64)>,
+    specimens: usize,
+    seed: u64,
+}
+
+fn env_u64(key: &str, default: u64) -> u64 {
+    std::env::var(key).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
+}
+
+/// A foil thickness from 0.05 to 0.1 mm in steps of 5 µm.
+fn thickness(rng: &mut ChaCha8Rng) -> f64 {
+    f64::from(rng.random_range(10..=20u32)) * 0.005
+}
+
+/// `x` rounded to `step` (the deck's 10-character fields take what a test engineer would write).
+fn round(x: f64, step: f64) -> f64 {
+    let decimals = (-step.log10()).ceil().max(0.0) as usize;
+    format!("{:.*}", decimals, (x / step).round() * step).parse().unwrap()
+}
+
+fn draw(seed: u64) -> Case {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xc0_27e5);
+    let family = [Family::Baseline, Family::Hardening, Family::Rate][(seed % 3) as usize];
+    let sigma_y = match family {
+        // A rate effect raises the flow stress by 20–40 %: the baseline's sigma_y must still reach it.
+        Family::Rate => round(rng.random_range(140.0..170.0), 0.1),
+        _ => round(rng.random_range(160.0..210.0), 0.1),
+    };
+    let etan = if family == Family::Hardening {
+        round(rng.random_range(0.0..450.0), 1.0)
+    } else {
+        0.0
+    };
+    let src = if family == Family::Rate {
+        round(rng.random_range(5_000.0..40_000.0), 10.0)
+    } else {
+        0.0
+    };
+    // Cell sizes the mesher's paper tube takes (3 and 6 mm), one of each in training.
+    let mut designs = Vec::new();
+    for c in [6.0, 3.0, if rng.random_bool(0.5) { 6.0 } else { 3.0 }] {
+        let mut t = thickness(&mut rng);
+        while designs
+            .iter()
+            .any(|(_, c0, t0): &(String, f64, f64)| *c0 == c && (*t0 - t).abs() < 1e-9)
+        {
+            t = thickness(&mut rng);
+        }
+        designs.push((format!("C{c}T{}", (t * 1000.0).round()), c, t));
+    }
+    Case {
+        family,
+        sigma_y,
+        etan,
+        src,
+        scatter: round(rng.random_range(0.01..0.03), 1e-4),
+        noise: round(rng.random_range(0.002..0.005), 1e-4),
+        designs,
+        specimens: rng.random_range(3..=4),
+        seed,
+    }
+}
+
+/// The oracle: hardening's smallest share of the flow stress over the tested designs.
+fn hardening_share(case: &Case) -> f64 {
+    case.designs
+        .iter()
+        .map(|&(_, c, t)| {
+            let s = c / 3f64.sqrt();
+            let h = 0.82 * t.cbrt() * s.powf(2.0 / 3.0);
+            0.5 * case.etan * (t / h) / case.sigma_y
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The test generator, built with the tests (`cargo test` compiles the examples).
+fn generator() -> PathBuf {
+    let path = PathBuf::from(env!("CARGO_BIN_EXE_lab"))
+        .with_file_name("examples")
+        .join("make_honeycomb_tests");
+    assert!(
+        path.is_file(),
+        "{} is not built: run `cargo test --release` (it builds the examples)",
+        path.display()
+    );
+    path
+}
+
+fn make_tests(case: &Case, dir: &Path) {
+    let list: Vec<String> = case.designs.iter().map(|(n, c, t)| format!("{n}:{c}:{t}")).collect();
+    let truth = format!(
+        "sigma_y={},etan={},src={},srp={},scatter={},noise={}",
+        case.sigma_y,
+        case.etan,
+        case.src,
+        if case.src > 0.0 { 4.0 } else { 0.0 },
+        case.scatter,
+        case.noise
+    );
+    let o = Command::new(generator())
+        .arg(dir.join("tests"))
+        .arg(crushsim_bin::crushsim())
+        .arg(list.join(","))
+        .arg(case.specimens.to_string())
+        .env("HONEYCOMB_TESTS_TRUTH", truth)
+        .env("HONEYCOMB_TESTS_SEED", (case.seed + 7).to_string())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+fn write_study(case: &Case, dir: &Path) -> PathBuf {
+    let names: Vec<&str> = case.designs.iter().map(|d| d.0.as_str()).collect();
+    let template = root().join("templates/honeycomb/main.k.tera");
+    let study = format!(
+        r#"name: curves-family
+constants: {{term_time: 0.061, dt_out: 0.0005, ribbon_factor: 2}}
+design:
+  c: {{unit: mm}}
+  t: {{unit: mm}}
+parameters:
+  sigma_y: {{min: 100, max: 250, unit: MPa}}
+simulation:
+  solver:
+    adapter: lsdyna
+    templates: [{template}]
+    command: [crushsim, i=main.k, ncpu=1]
+    timeout: 600
+  response: {{kind: crush_force, window: [5, 60], interface: 1, side: master, axis: z, node: 9000005, force_to_kn: 0.001}}
+  mesh: {{kind: honeycomb_tube, element_size: 2.0}}
+  sampling: {{method: lhs, count: 24, seed: 1, check_runs: 5}}
+  surrogate: linear
+experiments:
+  file: tests/experiments.csv
+  response: force
+  unit: kN
+  curves: tests/{{design}}-*.csv
+training: [{a}, {b}]
+validation: [{v}]
+calibration:
+  methods: [least_squares]
+  against: [response, curves]
+  curve: {{window: [0, 60], points: 121, surrogate: gp}}
+diagnosis:
+  hypotheses:
+    - name: {HARDENING}
+      extension:
+        etan: {{min: 0, max: 600, unit: MPa}}
+    - name: cell-size effect
+      term: "1/c"
+"#,
+        template = template.display(),
+        a = names[0],
+        b = names[1],
+        v = names[2],
+    );
+    let path = dir.join("study.yaml");
+    std::fs::write(&path, study).unwrap();
+    path
+}
+
+/// `lab run` live with crushsim on PATH; the diagnosis of results.json.
+fn run(case: &Case) -> Value {
+    let dir = tempfile::tempdir().unwrap();
+    run_in(case, dir.path())
+}
+
+fn run_in(case: &Case, dir: &Path) -> Value {
+    make_tests(case, dir);
+    let study = write_study(case, dir);
+    let bin = crushsim_bin::crushsim().parent().unwrap().to_path_buf();
+    let out = dir.join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args([
+            "run",
+            study.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--jobs",
+            "2",
+        ])
+        .env("PATH", format!("{}:/usr/bin:/bin", bin.display()))
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "seed {}: {}",
+        case.seed,
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let r: Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    r["diagnosis"].clone()
+}
+
+/// The extended model's value of `name` and whether `truth` lies in its 95 % interval.
+fn estimate(d: &Value, name: &str, truth: f64) -> Option<(f64, bool)> {
+    let x = d["extensions"]
+        .as_array()?
+        .iter()
+        .find(|x| x["hypothesis"] == HARDENING)?;
+    let value = x["parameters"][name].as_f64()?;
+    let iv = &x["interval95"][name];
+    let inside = match (iv[0].as_f64(), iv[1].as_f64()) {
+        (Some(lo), Some(hi)) => lo <= truth && truth <= hi,
+        _ => false,
+    };
+    Some((value, inside))
+}
+
+/// What the families must show: no cause on the baseline physics; no decisive claim that is false
+/// in any family (a named cause is hardening, and only where the tests hold it); where hardening is
+/// large enough it is never rejected and leads (named, or first of the explanations the tests cannot
+/// tell apart — three designs with two cell sizes may not separate it from a cell-size term, and the
+/// verdict then says so with the test that would), and it is named decisively in most of them, with
+/// the truths inside the extended model's 95 % intervals.
+#[test]
+fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() {
+    let n = env_u64("LAB_CURVES_SEEDS", 12);
+    let base = env_u64("LAB_CURVES_SEED_BASE", 0);
+    let (mut clean, mut clean_quiet) = (0, 0);
+    let (mut large, mut leads, mut named, mut close, mut covered, mut small) = (0, 0, 0, 0, 0, 0);
+    let (mut rate, mut rate_partly) = (0, 0);
+    let mut false_claims = Vec::new();
+    for seed in base..base + n {
+        let case = draw(seed);
+        let share = hardening_share(&case);
+        let d = run(&case);
+        let cause = d["cause"].as_str().unwrap_or("-").to_string();
+        let decisive = d["verdict"] == "cause_named";
+        eprintln!(
+            "seed {seed} {:?}: sigma_y {:.1} etan {:.0} src {:.0} share {:.3} designs {:?} × {} → {} ({cause})",
+            case.family,
+            case.sigma_y,
+            case.etan,
+            case.src,
+            share,
+            case.designs.iter().map(|d| d.0.as_str()).collect::<Vec<_>>(),
+            case.specimens,
+            d["verdict"]
+        );
+        if decisive && !(case.family == Family::Hardening && cause == HARDENING) {
+            false_claims.push(seed);
+        }
+        match case.family {
+            Family::Baseline => {
+                clean += 1;
+                clean_quiet += usize::from(d["cause"].is_null());
+            }
+            Family::Rate => {
+                // Neither listed hypothesis is the truth (a rate effect scales the force by a factor
+                // that falls with the cell size): "partly explained" or "no listed cause" are honest.
+                rate += 1;
+                rate_partly += usize::from(d["verdict"] == "partly_explained");
+            }
+            Family::Hardening if share >= 0.02 => {
+                large += 1;
+                let first = d["leading"][0] == HARDENING || cause == HARDENING;
+                let rejected = d["after_loop"]["explanations"]
+                    .as_array()
+                    .is_some_and(|e| e.iter().any(|x| x["name"] == HARDENING && x["rejected"] == true));
+                leads += usize::from(first && !rejected);
+                if cause == HARDENING && decisive {
+                    named += 1;
+                    let sy = estimate(&d, "sigma_y", case.sigma_y);
+                    let et = estimate(&d, "etan", case.etan);
+                    eprintln!("  sigma_y {sy:?}, etan {et:?}");
+                    let within = |e: Option<(f64, bool)>, truth: f64, tol: f64| {
+                        e.is_some_and(|(v, _)| (v / truth - 1.0).abs() < tol)
+                    };
+                    let inside = |e: Option<(f64, bool)>| e.is_some_and(|(_, inside)| inside);
+                    close += usize::from(within(sy, case.sigma_y, 0.03) && within(et, case.etan, 0.2));
+                    covered += usize::from(inside(sy) && inside(et));
+                } else {
+                    eprintln!("{}", d["summary"].as_str().unwrap_or(""));
+                }
+            }
+            Family::Hardening => small += 1,
+        }
+    }
+    eprintln!(
+        "baseline: no cause {clean_quiet}/{clean}; hardening large enough: leads and not rejected {leads}/{large}, \
+         named decisively {named}/{large}, sigma_y within 3 % and etan within 20 % {close}/{named}, both truths \
+         inside their 95 % intervals {covered}/{named}; smaller ({small}) not judged; rate (not listed): partly \
+         explained {rate_partly}/{rate}; false decisive claims {false_claims:?}"
+    );
+    assert!(clean >= 3 && large >= 1 && rate >= 3, "too few cases in a family");
+    assert!(
+        false_claims.is_empty(),
+        "a cause named that the tests do not hold: seeds {false_claims:?}"
+    );
+    assert!(clean_quiet * 10 >= clean * 9, "a cause claimed on the baseline physics");
+    assert!(leads * 10 >= large * 9, "hardening leads in {leads} of {large}");
+    assert!(named * 2 > large, "hardening named decisively in {named} of {large}");
+    assert!(
+        covered * 10 >= named * 8,
+        "the truths inside the intervals in {covered} of {named}"
+    );
+}
+
+/// One draw kept in `/tmp/curves-family-SEED` for a look at its results and report.
+#[test]
+#[ignore]
+fn debug_one() {
+    let seed = env_u64("SEED", 0);
+    let dir = PathBuf::from(format!("/tmp/curves-family-{seed}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let case = draw(seed);
+    eprintln!("{case:?}");
+    let d = run_in(&case, &dir);
+    eprintln!("{}", d["summary"].as_str().unwrap_or(""));
+}
