@@ -349,12 +349,34 @@ pub struct FeatureModel {
     curve: Arc<CurveFn>,
     spec: FeatureSpec,
     whitening: Whitening,
-    /// The whitened features at each (design, θ) asked: every output k of a design asks the same
-    /// curve, and fits revisit points. Cleared when it grows past [`CACHE`] entries.
-    cache: std::sync::Mutex<std::collections::HashMap<Vec<u64>, Option<DVector<f64>>>>,
+    cache: Memo,
 }
 
 const CACHE: usize = 200_000;
+
+/// Whitened feature vectors per (design, θ): every output k of a design asks for the same vector,
+/// and fits revisit points. Cleared when it grows past [`CACHE`] entries.
+#[derive(Default)]
+struct Memo(std::sync::Mutex<std::collections::HashMap<Vec<u64>, Option<DVector<f64>>>>);
+
+impl Memo {
+    /// Entry k of the vector at (d, θ), computed once.
+    fn entry(&self, d: &[f64], theta: &[f64], k: usize, compute: impl FnOnce() -> Option<DVector<f64>>) -> f64 {
+        let key: Vec<u64> = d.iter().chain(theta).map(|v| v.to_bits()).collect();
+        if let Some(z) = self.0.lock().ok().and_then(|c| c.get(&key).cloned()) {
+            return z.map_or(f64::NAN, |z| z[k]);
+        }
+        let z = compute();
+        let value = z.as_ref().map_or(f64::NAN, |z| z[k]);
+        if let Ok(mut c) = self.0.lock() {
+            if c.len() >= CACHE {
+                c.clear();
+            }
+            c.insert(key, z);
+        }
+        value
+    }
+}
 
 impl FeatureModel {
     fn split<'p>(&self, point: &'p [f64]) -> (&'p [f64], usize) {
@@ -369,19 +391,9 @@ impl FeatureModel {
 impl Model for FeatureModel {
     fn predict(&self, point: &[f64], theta: &[f64]) -> f64 {
         let (d, k) = self.split(point);
-        let key: Vec<u64> = d.iter().chain(theta).map(|v| v.to_bits()).collect();
-        if let Some(z) = self.cache.lock().ok().and_then(|c| c.get(&key).cloned()) {
-            return z.map_or(f64::NAN, |z| z[k]);
-        }
-        let z = (self.curve)(d, theta).and_then(|c| self.whitening.whiten(&self.spec, d, c.as_slice()));
-        let value = z.as_ref().map_or(f64::NAN, |z| z[k]);
-        if let Ok(mut c) = self.cache.lock() {
-            if c.len() >= CACHE {
-                c.clear();
-            }
-            c.insert(key, z);
-        }
-        value
+        self.cache.entry(d, theta, k, || {
+            (self.curve)(d, theta).and_then(|c| self.whitening.whiten(&self.spec, d, c.as_slice()))
+        })
     }
 }
 
@@ -779,21 +791,24 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
     match h {
         CurveHypothesis::Term(g) => {
             let g = g.clone();
+            let memo = Memo::default();
             let mut s = Shape::new(g.name.clone(), g.term.clone(), g.origin, move |point, theta, _| {
                 let (d, k) = split(point);
-                let Some(y) = curve(&d, theta) else { return f64::NAN };
-                let delta = DVector::from_iterator(y.len(), y.iter().map(|&v| g.eval(&d, theta, v)));
-                let scale = delta.amax();
-                if !(scale.is_finite()) || scale == 0.0 {
-                    return if scale == 0.0 { 0.0 } else { f64::NAN };
-                }
-                // A step small against the curve keeps the logarithms and the peak linear.
-                let eps = 1e-4 * y.amax() / scale;
-                let moved = &y + &delta * eps;
-                match (w.whiten(&spec, &d, moved.as_slice()), w.whiten(&spec, &d, y.as_slice())) {
-                    (Some(a), Some(b)) => (a[k] - b[k]) / eps,
-                    _ => f64::NAN,
-                }
+                memo.entry(&d, theta, k, || {
+                    let y = curve(&d, theta)?;
+                    let delta = DVector::from_iterator(y.len(), y.iter().map(|&v| g.eval(&d, theta, v)));
+                    let scale = delta.amax();
+                    if scale == 0.0 {
+                        return Some(DVector::zeros(read));
+                    }
+                    if !scale.is_finite() {
+                        return None;
+                    }
+                    // A step small against the curve keeps the logarithms and the peak linear.
+                    let eps = 1e-4 * y.amax() / scale;
+                    let moved = &y + &delta * eps;
+                    Some((w.whiten(&spec, &d, moved.as_slice())? - w.whiten(&spec, &d, y.as_slice())?) / eps)
+                })
             });
             s.extension = None;
             s
@@ -806,6 +821,7 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
         } => {
             let ext = ext.clone();
             let baseline = baseline.clone();
+            let memo = Memo::default();
             let set = variables
                 .iter()
                 .map(|(k, v)| format!("{k} = {v}"))
@@ -817,17 +833,14 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
                 Origin::Study,
                 move |point, theta, _| {
                     let (d, k) = split(point);
-                    let (base, t) = match &baseline {
-                        Some((b, p)) => (b(&d, &theta[..(*p).min(theta.len())]), &theta[..(*p).min(theta.len())]),
-                        None => (curve(&d, theta), theta),
-                    };
-                    let (Some(y), Some(e)) = (base, ext(&d, t)) else {
-                        return f64::NAN;
-                    };
-                    match (w.whiten(&spec, &d, e.as_slice()), w.whiten(&spec, &d, y.as_slice())) {
-                        (Some(a), Some(b)) => a[k] - b[k],
-                        _ => f64::NAN,
-                    }
+                    memo.entry(&d, theta, k, || {
+                        let (base, t) = match &baseline {
+                            Some((b, p)) => (b(&d, &theta[..(*p).min(theta.len())]), &theta[..(*p).min(theta.len())]),
+                            None => (curve(&d, theta), theta),
+                        };
+                        let (y, e) = (base?, ext(&d, t)?);
+                        Some(w.whiten(&spec, &d, e.as_slice())? - w.whiten(&spec, &d, y.as_slice())?)
+                    })
                 },
             );
             s.extension = Some(variables.clone());
