@@ -113,11 +113,23 @@ const CASES: [Case; 5] = [
             "splits",
             "residuals-c",
             "residuals-t",
+            // Where along the stroke the model errs: the specimens' band with the curves before and
+            // after, and the residual curves, per design.
+            "stroke-C6T5",
+            "stroke-C3T8",
+            "stroke-C3T7",
+            "stroke-residual-C6T5",
+            "stroke-residual-C3T8",
+            "stroke-residual-C3T7",
         ],
         texts: &[
             "force (kN)",
             "displacement (mm)",
             "stroke window 5–60 mm",
+            "Where along the stroke the model errs",
+            "tests: mean ± 2 s.d. (3 specimens)",
+            "with 'strain hardening in the fold hinges'",
+            "Decided by the plateau level",
             "test C3T7-3",
             "run nearest the estimate: sigma_y = ",
             "1. train C6T5, C3T8 → validate C3T7",

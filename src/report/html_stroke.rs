@@ -234,7 +234,7 @@ mod tests {
         let curve = curve_figure(&r);
         assert!(curve.contains("tests: mean ± 2 s.d. (3 specimens)"), "{curve}");
         assert!(curve.contains("uncorrected simulation"));
-        assert!(curve.contains("with &#39;strain hardening&#39;") || curve.contains("with 'strain hardening'"));
+        assert!(curve.contains("with 'strain hardening'"), "{curve}");
         let residual = residual_figure(&r);
         assert!(residual.contains("id=stroke-residual-C6T5"));
         assert!(residual.contains("tests − uncorrected"));
