@@ -865,3 +865,78 @@ impl super::Diagnosis {
         self
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::extract::crush::Window;
+    use crate::extract::grid::StrokeGrid;
+
+    fn spec() -> FeatureSpec {
+        FeatureSpec {
+            grid: StrokeGrid {
+                s0: 0.0,
+                s1: 60.0,
+                points: 121,
+            },
+            plateau: Window { s0: 5.0, s1: 60.0 },
+        }
+    }
+
+    /// The plateau level alone, one specimen's standard deviation 0.1 kN at design [1].
+    fn whitening() -> Whitening {
+        Whitening {
+            read: vec![0],
+            factors: vec![(vec![1.0], DMatrix::from_element(1, 1, 0.1))],
+            kind: CovarianceKind::Pooled,
+            variance: 1.0,
+            dof: 6,
+            specimens_dof: 6,
+            check: None,
+            emulator: None,
+        }
+    }
+
+    fn flat(level: f64) -> DVector<f64> {
+        DVector::from_element(121, level)
+    }
+
+    /// An emulator that predicts a flat curve at θ₀ = 2 kN misses three check runs by +0.05, −0.05
+    /// and +0.1 kN. The feature is ln plateau, so the mean square in units of one specimen's variance
+    /// is Σ ln(1 + e/2)² / 3 / 0.1²; a design's mean of 4 specimens then has its whitened feature
+    /// divided by √(1 + 4 s²).
+    #[test]
+    fn the_emulators_error_is_the_mean_square_at_the_check_runs_added_to_the_means_variance() {
+        let w = whitening();
+        let emulator: Box<CurveFn> = Box::new(|_: &[f64], theta: &[f64]| Some(flat(theta[0])));
+        let checks: Vec<EmulatorCheck> = [0.05, -0.05, 0.1]
+            .iter()
+            .map(|e| EmulatorCheck {
+                design: vec![1.0],
+                theta: vec![2.0],
+                curve: flat(2.0 + e),
+            })
+            .collect();
+        let e = emulator_error(&w, &spec(), &checks, emulator.as_ref()).unwrap();
+        assert_eq!(e.runs, 3);
+        let s2 = [0.05f64, -0.05, 0.1]
+            .iter()
+            .map(|e| (1.0 + e / 2.0).ln().powi(2))
+            .sum::<f64>()
+            / 3.0
+            / 0.01;
+        assert!((e.variance[0] - s2).abs() < 1e-12, "{:?} vs {s2}", e.variance);
+        let design = CurveDesign {
+            name: "d".into(),
+            values: vec![1.0],
+            role: Role::Training,
+            specimens: vec![flat(0.0); 4],
+        };
+        let before = w.whiten(&spec(), &[1.0], flat(3.0).as_slice()).unwrap()[0];
+        let inflated = w.with_emulator(std::slice::from_ref(&design), e);
+        let after = inflated.whiten(&spec(), &[1.0], flat(3.0).as_slice()).unwrap()[0];
+        assert!((before - 3f64.ln() / 0.1).abs() < 1e-9, "{before}");
+        assert!((after - before / (1.0 + 4.0 * s2).sqrt()).abs() < 1e-9, "{after}");
+        assert!(emulator_error(&whitening(), &spec(), &[], emulator.as_ref()).is_none());
+    }
+}
