@@ -164,3 +164,50 @@ fn crushsim_live_gives_the_replayed_diagnosis() {
     assert_eq!(a["diagnosis"], b["diagnosis"]);
     assert_eq!(a["surrogates"], b["surrogates"]);
 }
+
+/// Issue 24's second case: the same tests and the same recordings, calibrated against the whole
+/// curves as well (studies/honeycomb-diagnosis-curves.yaml): hardening named from the curves' features,
+/// sigma_y within 3 % of 185 MPa and ETAN within 20 % of 200 MPa, both truths inside their 95 %
+/// intervals; every run is one of fixtures/honeycomb-diagnosis's recordings; the curve emulator's
+/// error is measured at the nine check runs and counted.
+#[test]
+fn the_curves_name_strain_hardening_from_the_same_recordings() {
+    let out = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args([
+            "run",
+            "studies/honeycomb-diagnosis-curves.yaml",
+            "--out",
+            out.path().to_str().unwrap(),
+        ])
+        .current_dir(root())
+        .env("PATH", "/usr/bin:/bin")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap();
+    assert_eq!(r["runs"]["succeeded"], 126, "{}", r["runs"]);
+    assert_eq!(r["runs"]["failed"], 0);
+    let d = &r["diagnosis"];
+    assert_eq!(d["verdict"], "cause_named", "{}", d["summary"]);
+    assert_eq!(d["cause"], "strain hardening");
+    let x = d["extensions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|x| x["hypothesis"] == "strain hardening")
+        .unwrap();
+    for (name, truth, tolerance) in [("sigma_y", 185.0, 0.03), ("etan", 200.0, 0.20)] {
+        let v = x["parameters"][name].as_f64().unwrap();
+        let iv = &x["interval95"][name];
+        let (lo, hi) = (iv[0].as_f64().unwrap(), iv[1].as_f64().unwrap());
+        assert!((v / truth - 1.0).abs() <= tolerance, "{name} = {v}");
+        assert!(lo <= truth && truth <= hi, "{name}: {truth} outside [{lo}, {hi}]");
+    }
+    let f = &d["features"];
+    assert!(f["decided_by"].as_str().is_some_and(|s| s.starts_with("plateau")), "{f}");
+    assert_eq!(f["emulator"]["runs"], 9, "{f}");
+    assert!(r["curve_calibration"]["least_squares"]["parameters"]["sigma_y"].is_number());
+}
