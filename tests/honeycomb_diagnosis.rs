@@ -207,7 +207,10 @@ fn the_curves_name_strain_hardening_from_the_same_recordings() {
         assert!(lo <= truth && truth <= hi, "{name}: {truth} outside [{lo}, {hi}]");
     }
     let f = &d["features"];
-    assert!(f["decided_by"].as_str().is_some_and(|s| s.starts_with("plateau")), "{f}");
+    assert!(
+        f["decided_by"].as_str().is_some_and(|s| s.starts_with("plateau")),
+        "{f}"
+    );
     assert_eq!(f["emulator"]["runs"], 9, "{f}");
     assert!(r["curve_calibration"]["least_squares"]["parameters"]["sigma_y"].is_number());
 }

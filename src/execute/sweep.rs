@@ -67,6 +67,8 @@ pub struct Prepared {
     pub meshes: BTreeMap<PathBuf, Vec<u8>>,
     /// The mesh each planned run includes (path relative to `--out`), in plan order.
     pub run_mesh: Vec<Option<PathBuf>>,
+    /// Each design's mesh (path relative to `--out`).
+    pub design_mesh: BTreeMap<String, PathBuf>,
 }
 
 /// The study's adapter: `command` (response file + regex), `lsdyna` (crush force) or `calculix`.
@@ -91,15 +93,27 @@ pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
 /// from the run directory (`../../meshes/...`): the deck's text, hence the run key, changes
 /// exactly when the mesh's bytes do.
 pub fn prepare(study: &Study, sim: &SolverSimulation, plan: &Plan) -> Result<Prepared, Error> {
+    prepare_after(study, sim, plan, None)
+}
+
+/// [`prepare`], taking the meshes an `earlier` preparation of the same study generated (the loop's
+/// runs after the screening's: a design's mesh depends on the design alone).
+pub fn prepare_after(
+    study: &Study,
+    sim: &SolverSimulation,
+    plan: &Plan,
+    earlier: Option<&Prepared>,
+) -> Result<Prepared, Error> {
     let renderer = Renderer::new(&sim.templates)?;
     let identity = adapter(sim)?.identity();
     let mut prepared = Prepared {
         keys: Vec::with_capacity(plan.runs.len()),
         inputs: BTreeMap::new(),
-        meshes: BTreeMap::new(),
+        meshes: earlier.map(|e| e.meshes.clone()).unwrap_or_default(),
         run_mesh: Vec::with_capacity(plan.runs.len()),
+        design_mesh: earlier.map(|e| e.design_mesh.clone()).unwrap_or_default(),
     };
-    let mut by_design: BTreeMap<String, PathBuf> = BTreeMap::new();
+    let by_design = &mut prepared.design_mesh;
     for run in &plan.runs {
         let mut context = render::run_context(study, run);
         let mesh_path = match &sim.mesh {

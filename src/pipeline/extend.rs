@@ -112,6 +112,7 @@ pub fn execute(
     study: &Study,
     sim: &SolverSimulation,
     hypotheses: &[usize],
+    screening: &sweep::Prepared,
     source: &Source,
     options: &RunOptions,
     engine: &Engine,
@@ -128,7 +129,7 @@ pub fn execute(
         names.join(" and "),
         plan.runs.len()
     )));
-    let rendered = sweep::prepare(study, sim, &plan)?;
+    let rendered = sweep::prepare_after(study, sim, &plan, Some(screening))?;
     write_plan(study, hypotheses, &options.out)?;
     let (swept, outcomes) = runs::sweep_plan(study, sim, &plan, &rendered, source, options, engine, store, reporter)?;
     let usable = swept.usable(&sim.quality);

@@ -262,7 +262,17 @@ fn diagnose_with_solver(
         return Ok(Ok(features(screening, &[], &mut runs.residual_curves)));
     }
     let store = &mut runs.executed.store;
-    let joint = extend::execute(study, runs.sim, &chosen, source, options, engine, store, reporter)?;
+    let joint = extend::execute(
+        study,
+        runs.sim,
+        &chosen,
+        &runs.rendered,
+        source,
+        options,
+        engine,
+        store,
+        reporter,
+    )?;
     let models = chosen
         .iter()
         .map(|&k| extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint))
