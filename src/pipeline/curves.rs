@@ -387,13 +387,13 @@ pub fn residual_curves(
 ) -> Vec<crate::report::data::ResidualCurves> {
     let (uncorrected, extended) = model_curves(study, stage, loops, d);
     let stroke = stage.setting.grid.stroke();
-    let vec = |c: DVector<f64>| c.iter().copied().collect::<Vec<f64>>();
+    let vec = |c: DVector<f64>| c.as_slice().to_vec();
     stage
         .designs
         .iter()
         .filter(|design| !design.specimens.is_empty())
         .map(|design| {
-            let specimens: Vec<Vec<f64>> = design.specimens.iter().map(|c| vec(c.clone())).collect();
+            let specimens: Vec<Vec<f64>> = design.specimens.iter().map(|c| c.as_slice().to_vec()).collect();
             let validation = design.role == Role::Validation;
             let mut r = crate::report::data::ResidualCurves::band(&design.name, validation, stroke.clone(), &specimens);
             r.before = uncorrected(&design.values).map(vec);

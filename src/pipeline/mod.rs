@@ -247,19 +247,18 @@ fn diagnose_with_solver(
     }
     let chosen = extend::chosen(study, &screening);
     // With curves: the features the diagnosis read, and the residual curves the report draws.
-    let features = |d: Diagnosis,
-                    loops: &[(usize, crate::fit::functional::CurveModel)],
-                    residuals: &mut Vec<crate::report::data::ResidualCurves>| match (stage, &problem)
-    {
+    let features = |d: Diagnosis, loops: &[(usize, crate::fit::functional::CurveModel)]| match (stage, &problem) {
         (Some(stage), Some(problem)) => {
-            *residuals = curves::residual_curves(study, stage, loops, &d);
+            let residuals = curves::residual_curves(study, stage, loops, &d);
             let report = curves::features_report(study, stage, problem, loops, &d);
-            d.with_features(report)
+            (d.with_features(report), residuals)
         }
-        _ => d,
+        _ => (d, Vec::new()),
     };
     if chosen.is_empty() {
-        return Ok(Ok(features(screening, &[], &mut runs.residual_curves)));
+        let (d, residuals) = features(screening, &[]);
+        runs.residual_curves = residuals;
+        return Ok(Ok(d));
     }
     let store = &mut runs.executed.store;
     let joint = extend::execute(
@@ -345,8 +344,9 @@ fn diagnose_with_solver(
         runs.extended.push((m, x.parameters.values().copied().collect()));
     }
     runs.joint = Some(joint);
-    let diagnosis = features(diagnosis, &loop_curves, &mut runs.residual_curves).with_extensions(records);
-    Ok(Ok(diagnosis))
+    let (diagnosis, residuals) = features(diagnosis, &loop_curves);
+    runs.residual_curves = residuals;
+    Ok(Ok(diagnosis.with_extensions(records)))
 }
 
 /// The simulation as the numerics see it, with what it was built from.
