@@ -88,7 +88,7 @@ fn levenberg_marquardt(r: &impl Fn(&DVector<f64>) -> DVector<f64>, mut u: DVecto
         if !cost.is_finite() || cost == 0.0 {
             break;
         }
-        let jac = jacobian(r, &u);
+        let jac = jacobian_around(r, &u, res.len());
         let jtj = jac.transpose() * &jac;
         let gradient = jac.transpose() * &res;
         let mut improved = false;
@@ -129,8 +129,13 @@ fn damped_step(jtj: &DMatrix<f64>, gradient: &DVector<f64>, damping: f64) -> Opt
 
 /// Central-difference Jacobian of `r` at `u`, one-sided at the box faces.
 pub fn jacobian(r: &impl Fn(&DVector<f64>) -> DVector<f64>, u: &DVector<f64>) -> DMatrix<f64> {
-    let base = r(u);
-    let mut jac = DMatrix::zeros(base.len(), u.len());
+    jacobian_around(r, u, r(u).len())
+}
+
+/// [`jacobian`] for a caller that knows how many residuals `r` returns (central differences do
+/// not need r(u) itself).
+fn jacobian_around(r: &impl Fn(&DVector<f64>) -> DVector<f64>, u: &DVector<f64>, rows: usize) -> DMatrix<f64> {
+    let mut jac = DMatrix::zeros(rows, u.len());
     for j in 0..u.len() {
         let (mut up, mut down) = (u.clone(), u.clone());
         up[j] = (u[j] + FD_STEP).min(1.0);

@@ -58,7 +58,7 @@ fn fit_model(cx: &Context, shape: Option<Shape>, replaces: Option<String>) -> Re
     let shapes: Vec<&Shape> = shape.iter().collect();
     let fit = cx.data.fit(&shapes, &cx.train)?;
     let loo = match cx.mode {
-        Mode::Ranked => Some(cx.data.leave_one_out(&shapes, &cx.train)?),
+        Mode::Ranked => Some(cx.data.leave_one_out(&shapes, &cx.train, &fit.theta)?),
         _ => None,
     };
     drop(shapes);

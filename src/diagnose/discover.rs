@@ -277,7 +277,7 @@ impl Searcher<'_> {
             .then(|| {
                 self.cx
                     .data
-                    .leave_one_out_from(&self.shapes_of(&terms), &self.cx.train, &fit.theta)
+                    .leave_one_out(&self.shapes_of(&terms), &self.cx.train, &fit.theta)
                     .ok()
             })
             .flatten();

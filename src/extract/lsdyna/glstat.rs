@@ -10,7 +10,7 @@
 //! asterisks) are skipped. A new step begins at each `time` label. Keys are the label with runs of
 //! white space collapsed, without the dot leader.
 
-use super::text::{body, err, parse_number, read_text, squash};
+use super::text::{body, err, parse_number, read_text, squash_eq, squash_starts_with};
 use crate::error::InputError;
 use regex::Regex;
 use std::collections::BTreeMap;
@@ -74,22 +74,26 @@ pub fn parse(file: &Path, text: &str) -> Result<Glstat, InputError> {
         if trimmed.is_empty() {
             continue;
         }
-        let sq = squash(line);
         if in_mass_props {
             if trimmed.starts_with("****") {
                 in_mass_props = false;
             }
             continue;
         }
-        if sq.starts_with("masspropertiesofbody") {
+        if squash_starts_with(line, "masspropertiesofbody") {
             in_mass_props = true;
             continue;
         }
-        if let Some(c) = DT_CYCLE.captures(line) {
+        // The regex only where it can match: most lines are `label ..... value`.
+        if let Some(c) = trimmed
+            .starts_with("dt of cycle")
+            .then(|| DT_CYCLE.captures(line))
+            .flatten()
+        {
             pending_cycle = c[1].parse().ok();
             continue;
         }
-        if sq == "numberofshellelementsthat" {
+        if squash_eq(line, "numberofshellelementsthat") {
             continue;
         }
         let Some(c) = LABEL_VALUE.captures(line) else {

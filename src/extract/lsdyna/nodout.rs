@@ -83,7 +83,9 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
         if line.trim().is_empty() {
             continue;
         }
-        if let Some(c) = HEADING.captures(line) {
+        // The heading regex only where it can match (data rows start with a node id).
+        let starts_n = line.trim_start().starts_with(['n', 'N']);
+        if let Some(c) = starts_n.then(|| HEADING.captures(line)).flatten() {
             let step = heading(file, text, no, &c)?;
             time = step.1;
             out.steps.push(step);
@@ -143,7 +145,7 @@ fn data_row(
     t: &[Tok],
     state: Block,
 ) -> Result<(u64, Vec<f64>), InputError> {
-    if line.to_ascii_lowercase().contains("n o d a l") {
+    if line.as_bytes().windows(9).any(|w| w.eq_ignore_ascii_case(b"n o d a l")) {
         return Err(err(
             file,
             text,

@@ -23,10 +23,13 @@ pub enum Side {
 
 impl Side {
     fn from_label(w: &str) -> Option<Side> {
-        match w.to_ascii_lowercase().as_str() {
-            "slave" | "surfa" => Some(Side::SurfA),
-            "master" | "surfb" => Some(Side::SurfB),
-            _ => None,
+        let is = |a: &str, b: &str| w.eq_ignore_ascii_case(a) || w.eq_ignore_ascii_case(b);
+        if is("slave", "surfa") {
+            Some(Side::SurfA)
+        } else if is("master", "surfb") {
+            Some(Side::SurfB)
+        } else {
+            None
         }
     }
 }
@@ -89,7 +92,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Rcforc, InputError> {
             continue;
         }
         // The letter-spaced heading ` r e s u l t a n t   i n t e r f a c e   f o r c e s`.
-        if super::text::squash(line).eq_ignore_ascii_case("resultantinterfaceforces") {
+        if super::text::squash_eq(line, "resultantinterfaceforces") {
             continue;
         }
         let t = tokens(line);
@@ -161,63 +164,60 @@ struct Row {
     moments: Option<[f64; 3]>,
 }
 
+/// The labels of a data line, in the slots [`data_row`] keeps their values in.
+const LABELS: [&str; 10] = ["time", "x", "y", "z", "mass", "mx", "my", "mz", "tied", "tied area"];
+
 fn data_row(t: &[Tok]) -> Result<Row, String> {
     let id = match t.get(1).and_then(Tok::num) {
         Some(v) if v >= 0.0 && v.fract() == 0.0 && v < 1e18 => v as u64,
         _ => return Err("expected an interface number after the side label".into()),
     };
     // Label-value pairs after the id: time, x, y, z, mass, then optional mx, my, mz, tied, tied area.
-    let mut vals: BTreeMap<&str, f64> = BTreeMap::new();
+    let mut vals: [Option<f64>; LABELS.len()] = [None; LABELS.len()];
     let mut i = 2;
     while i < t.len() {
         let label = match &t[i] {
             Tok::Word(w) => *w,
             Tok::Num(_, s) => return Err(format!("expected a label (time, x, y, z, mass, mx, ...), found `{s}`")),
         };
-        let key = match label.to_ascii_lowercase().as_str() {
-            "time" => "time",
-            "x" => "x",
-            "y" => "y",
-            "z" => "z",
-            "mass" => "mass",
-            "mx" => "mx",
-            "my" => "my",
-            "mz" => "mz",
-            "tied" => {
-                // `tied N  tied area A` or the `area` word following.
-                if t.get(i + 1).map(|k| k.text().eq_ignore_ascii_case("area")) == Some(true) {
-                    i += 1;
-                    "tied area"
-                } else {
-                    "tied"
-                }
-            }
-            other => return Err(format!("unknown label `{other}` in an rcforc data line")),
+        let Some(mut slot) = LABELS[..9].iter().position(|k| label.eq_ignore_ascii_case(k)) else {
+            return Err(format!(
+                "unknown label `{}` in an rcforc data line",
+                label.to_ascii_lowercase()
+            ));
         };
+        // `tied N  tied area A`: the `area` word following makes it the second.
+        if LABELS[slot] == "tied" && t.get(i + 1).map(|k| k.text().eq_ignore_ascii_case("area")) == Some(true) {
+            i += 1;
+            slot += 1;
+        }
         let v = t
             .get(i + 1)
             .and_then(Tok::num)
             .ok_or_else(|| format!("expected a number after `{label}`"))?;
-        if vals.insert(key, v).is_some() {
+        if vals[slot].replace(v).is_some() {
             return Err(format!("label `{label}` appears twice"));
         }
         i += 2;
     }
-    let need = |k: &str| {
-        vals.get(k)
-            .copied()
-            .ok_or_else(|| format!("missing `{k}`: expected labels time, x, y, z and mass, each followed by a number"))
+    let need = |k: usize| {
+        vals[k].ok_or_else(|| {
+            format!(
+                "missing `{}`: expected labels time, x, y, z and mass, each followed by a number",
+                LABELS[k]
+            )
+        })
     };
-    let moments = match (vals.get("mx"), vals.get("my"), vals.get("mz")) {
-        (Some(a), Some(b), Some(c)) => Some([*a, *b, *c]),
+    let moments = match (vals[5], vals[6], vals[7]) {
+        (Some(a), Some(b), Some(c)) => Some([a, b, c]),
         (None, None, None) => None,
         _ => return Err("expected all three moments `mx my mz` or none".into()),
     };
     Ok(Row {
         id,
-        time: need("time")?,
-        f: [need("x")?, need("y")?, need("z")?],
-        mass: need("mass")?,
+        time: need(0)?,
+        f: [need(1)?, need(2)?, need(3)?],
+        mass: need(4)?,
         moments,
     })
 }

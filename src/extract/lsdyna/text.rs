@@ -37,11 +37,15 @@ impl<'a> Tok<'a> {
 }
 
 fn special_word(w: &str) -> Option<f64> {
-    match w.to_ascii_lowercase().as_str() {
-        "nan" | "+nan" | "-nan" => Some(f64::NAN),
-        "inf" | "+inf" | "infinity" | "+infinity" => Some(f64::INFINITY),
-        "-inf" | "-infinity" => Some(f64::NEG_INFINITY),
-        _ => None,
+    let is = |words: &[&str]| words.iter().any(|k| w.eq_ignore_ascii_case(k));
+    if is(&["nan", "+nan", "-nan"]) {
+        Some(f64::NAN)
+    } else if is(&["inf", "+inf", "infinity", "+infinity"]) {
+        Some(f64::INFINITY)
+    } else if is(&["-inf", "-infinity"]) {
+        Some(f64::NEG_INFINITY)
+    } else {
+        None
     }
 }
 
@@ -100,19 +104,15 @@ pub fn number_value(t: &str) -> Option<f64> {
     if number_len(b) != b.len() || b.is_empty() {
         return None;
     }
-    let mut s: String = t.replace(['D', 'd'], "E");
-    // Letterless exponent: insert the E before the sign of the exponent.
-    if !s.contains(['E', 'e'])
-        && let Some(pos) = s
-            .char_indices()
-            .skip(1)
-            .filter(|(_, c)| *c == '+' || *c == '-')
-            .map(|(i, _)| i)
-            .last()
-    {
-        s.insert(pos, 'E');
+    // The common forms (`1.5E+02`, `150`) parse as they are; only `D` exponents and letterless
+    // ones (`1.5+102`) are rewritten first.
+    let letter = b.iter().position(|c| matches!(c, b'E' | b'e' | b'D' | b'd'));
+    let sign = b.iter().skip(1).rposition(|c| matches!(c, b'+' | b'-')).map(|i| i + 1);
+    match (letter, sign) {
+        (Some(i), _) if matches!(b[i], b'D' | b'd') => format!("{}E{}", &t[..i], &t[i + 1..]).parse().ok(),
+        (None, Some(i)) => format!("{}E{}", &t[..i], &t[i..]).parse().ok(),
+        _ => t.parse().ok(),
     }
-    s.parse::<f64>().ok()
 }
 
 /// Parse one whole token as a number (`1.0E+00`, `1.0-100`, `NaN`, `***`).
@@ -255,10 +255,23 @@ pub fn read_text(file: &Path) -> Result<String, InputError> {
 
 /// Collapse the letter-spaced headings LS-DYNA writes (` n o d a l   p r i n t`) to `nodalprint`.
 pub fn squash(line: &str) -> String {
-    line.chars()
-        .filter(|c| !c.is_whitespace())
-        .flat_map(char::to_lowercase)
-        .collect()
+    squashed(line).collect()
+}
+
+/// The characters [`squash`] keeps, without allocating (the readers test every line).
+fn squashed(line: &str) -> impl Iterator<Item = char> + '_ {
+    line.chars().filter(|c| !c.is_whitespace()).flat_map(char::to_lowercase)
+}
+
+/// `squash(line) == target` for a lower-case `target`.
+pub fn squash_eq(line: &str, target: &str) -> bool {
+    squashed(line).eq(target.chars())
+}
+
+/// `squash(line).starts_with(prefix)` for a lower-case `prefix`.
+pub fn squash_starts_with(line: &str, prefix: &str) -> bool {
+    let mut it = squashed(line);
+    prefix.chars().all(|p| it.next() == Some(p))
 }
 
 #[cfg(test)]
