@@ -113,34 +113,18 @@ pub fn prepare_after(
         run_mesh: Vec::with_capacity(plan.runs.len()),
         design_mesh: earlier.map(|e| e.design_mesh.clone()).unwrap_or_default(),
     };
-    let by_design = &mut prepared.design_mesh;
+    if let Some(spec) = &sim.mesh {
+        for (design, path, text) in new_meshes(spec, plan, &prepared.design_mesh)? {
+            prepared.meshes.insert(path.clone(), text);
+            prepared.design_mesh.insert(design, path);
+        }
+    }
     for run in &plan.runs {
         let mut context = render::run_context(study, run);
-        let mesh_path = match &sim.mesh {
-            None => None,
-            Some(spec) => {
-                let path = match by_design.get(&run.design) {
-                    Some(p) => p.clone(),
-                    None => {
-                        let tube = TubeSpec {
-                            cell: run.design_values[spec.cell_variable],
-                            diameter: spec.diameter,
-                            length: spec.length,
-                            element: spec.element_size,
-                        };
-                        let (text, _) =
-                            mesh::include(&tube).map_err(|e| Error::Failed(format!("design `{}`: {e}", run.design)))?;
-                        let hash = blake3::hash(text.as_bytes()).to_hex();
-                        let path = PathBuf::from(MESHES_DIR).join(format!("{}-{}.k", run.design, &hash[..16]));
-                        prepared.meshes.insert(path.clone(), text.into_bytes());
-                        by_design.insert(run.design.clone(), path.clone());
-                        path
-                    }
-                };
-                context.insert("mesh_file", &format!("../../{}", path.display()));
-                Some(path)
-            }
-        };
+        let mesh_path = prepared.design_mesh.get(&run.design).cloned();
+        if let Some(path) = &mesh_path {
+            context.insert("mesh_file", &format!("../../{}", path.display()));
+        }
         prepared.run_mesh.push(mesh_path);
         let inputs = render::inputs(&renderer, &sim.files, &context).map_err(|e| with_run(e, &run.design))?;
         let key = run_key(&inputs, &sim.command, &identity);
@@ -148,6 +132,57 @@ pub fn prepare_after(
         prepared.inputs.entry(key).or_insert(inputs);
     }
     Ok(prepared)
+}
+
+/// The meshes of the plan's designs not in `known`: (design, path, bytes), in plan order. Each
+/// distinct tube is generated once (designs that differ only in a variable the mesh does not
+/// read share the text), the distinct ones in parallel: the text of a fine tube is megabytes.
+fn new_meshes(
+    spec: &crate::study::MeshSpec,
+    plan: &Plan,
+    known: &BTreeMap<String, PathBuf>,
+) -> Result<Vec<(String, PathBuf, Vec<u8>)>, Error> {
+    use rayon::prelude::*;
+    let mut designs: Vec<(&str, TubeSpec)> = Vec::new();
+    for run in &plan.runs {
+        if !known.contains_key(&run.design) && !designs.iter().any(|(d, _)| *d == run.design) {
+            let tube = TubeSpec {
+                cell: run.design_values[spec.cell_variable],
+                diameter: spec.diameter,
+                length: spec.length,
+                element: spec.element_size,
+            };
+            designs.push((&run.design, tube));
+        }
+    }
+    let mut tubes: Vec<TubeSpec> = Vec::new();
+    for (_, tube) in &designs {
+        if !tubes.contains(tube) {
+            tubes.push(*tube);
+        }
+    }
+    let texts: Vec<Result<(String, String), String>> = tubes
+        .par_iter()
+        .map(|tube| {
+            let (text, _) = mesh::include(tube).map_err(|e| e.to_string())?;
+            let hash = blake3::hash(text.as_bytes()).to_hex().to_string();
+            Ok((text, hash))
+        })
+        .collect();
+    designs
+        .into_iter()
+        .map(|(design, tube)| {
+            let at = tubes
+                .iter()
+                .position(|t| *t == tube)
+                .expect("every design's tube was listed");
+            let (text, hash) = texts[at]
+                .as_ref()
+                .map_err(|e| Error::Failed(format!("design `{design}`: {e}")))?;
+            let path = PathBuf::from(MESHES_DIR).join(format!("{design}-{}.k", &hash[..16]));
+            Ok((design.to_string(), path, text.clone().into_bytes()))
+        })
+        .collect()
 }
 
 /// Writes the generated meshes under `out` (skipping those already there: they are named by content).
@@ -238,41 +273,69 @@ pub fn replay_runs(
     let mut misses = Vec::new();
     let mut recorded: Option<Vec<Manifest>> = None;
     let mut seen = BTreeSet::new();
+    let mut found = Vec::new();
     for (i, key) in prepared.keys.iter().enumerate() {
         if store.is_finished(key) || !seen.insert(key.clone()) {
             continue;
         }
-        let Some(at) = replay::find(dir, key) else {
-            let all = recorded.get_or_insert_with(|| replay::manifests(dir));
-            misses.push(replay::explain_miss(
-                dir,
-                &manifest(study, sim, plan, prepared, i)?,
-                all,
-            ));
-            continue;
-        };
-        let started = now_ms();
-        let scratch = judging_dir(store, key, &prepared.inputs[key], &at)?;
-        let dir = &scratch.0;
-        let (outcome, judged) = match adapter.find_failure(dir) {
-            Some(failure) => (failure, None),
-            None => match adapter.judge(dir) {
-                Ok(j) => (Outcome::Success, Some(j)),
-                Err(o) => (o, None),
-            },
-        };
-        let record = RunRecord {
-            key: key.clone(),
-            outcome,
-            attempts: 1,
-            started_ms: started,
-            ended_ms: now_ms(),
-            response: judged.map(|j| j.response),
-            quality: judged.and_then(|j| j.quality),
-        };
-        store.commit(record)?;
+        match replay::find(dir, key) {
+            Some(at) => found.push((key, at)),
+            None => {
+                let all = recorded.get_or_insert_with(|| replay::manifests(dir));
+                misses.push(replay::explain_miss(
+                    dir,
+                    &manifest(study, sim, plan, prepared, i)?,
+                    all,
+                ));
+            }
+        }
     }
+    // Judged in parallel (each in its own scratch directory), committed in plan order a batch at
+    // a time: an interrupted replay keeps every batch committed before it.
+    for batch in found.chunks(REPLAY_BATCH) {
+        use rayon::prelude::*;
+        let records: Vec<Result<RunRecord, Error>> = batch
+            .par_iter()
+            .map(|(key, at)| judge_recording(adapter.as_ref(), store.out(), key, &prepared.inputs[*key], at))
+            .collect();
+        for record in records {
+            store.commit(record?)?;
+        }
+    }
+    let _ = std::fs::remove_dir(store.out().join(REPLAY_SCRATCH)); // only succeeds when empty
     Ok((SweepResult::from_store(store, prepared, reused, Vec::new()), misses))
+}
+
+/// Recordings judged at once between two commits.
+const REPLAY_BATCH: usize = 32;
+
+/// A recording judged by the adapter as a live run's outputs would be: the record to commit.
+fn judge_recording(
+    adapter: &dyn Adapter,
+    out: &std::path::Path,
+    key: &str,
+    inputs: &Inputs,
+    recording: &std::path::Path,
+) -> Result<RunRecord, Error> {
+    let started = now_ms();
+    let scratch = judging_dir(out, key, inputs, recording)?;
+    let dir = &scratch.0;
+    let (outcome, judged) = match adapter.find_failure(dir) {
+        Some(failure) => (failure, None),
+        None => match adapter.judge(dir) {
+            Ok(j) => (Outcome::Success, Some(j)),
+            Err(o) => (o, None),
+        },
+    };
+    Ok(RunRecord {
+        key: key.to_string(),
+        outcome,
+        attempts: 1,
+        started_ms: started,
+        ended_ms: now_ms(),
+        response: judged.map(|j| j.response),
+        quality: judged.and_then(|j| j.quality),
+    })
 }
 
 /// Directory (under `--out`) where a replayed run is judged, then removed.
@@ -281,8 +344,13 @@ pub const REPLAY_SCRATCH: &str = ".replay";
 /// A scratch directory laid out as a live run's: the run's rendered inputs (the deck the adapter
 /// reads its output intervals from) and the recording's outputs, copied. Removed after judging
 /// ([`ScratchDir`]), so a replay leaves no run directory behind.
-fn judging_dir(store: &RunStore, key: &str, inputs: &Inputs, recording: &std::path::Path) -> Result<ScratchDir, Error> {
-    let dir = store.out().join(REPLAY_SCRATCH).join(key);
+fn judging_dir(
+    out: &std::path::Path,
+    key: &str,
+    inputs: &Inputs,
+    recording: &std::path::Path,
+) -> Result<ScratchDir, Error> {
+    let dir = out.join(REPLAY_SCRATCH).join(key);
     let fail = |p: &std::path::Path, e: std::io::Error| Error::Failed(format!("{}: {e}", p.display()));
     if dir.exists() {
         std::fs::remove_dir_all(&dir).map_err(|e| fail(&dir, e))?;
@@ -307,15 +375,13 @@ fn judging_dir(store: &RunStore, key: &str, inputs: &Inputs, recording: &std::pa
     Ok(scratch)
 }
 
-/// A directory removed (with its parent, when empty) when dropped.
+/// A directory removed when dropped (its parent, shared by the recordings judged at once, is
+/// removed by [`replay_runs`] at the end).
 struct ScratchDir(PathBuf);
 
 impl Drop for ScratchDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
-        if let Some(parent) = self.0.parent() {
-            let _ = std::fs::remove_dir(parent); // only succeeds when empty
-        }
     }
 }
 

@@ -3,17 +3,16 @@
 //! A block per output step headed
 //! ` n o d a l   p r i n t   o u t   f o r   t i m e  s t e p N  ( at time T )`; the time field's width
 //! and style vary between writers (`%14.7E` in LSTC `l2a.c`, `%12.5E`, `0.1000E-02`), so the heading is
-//! matched with a regular expression on the letter-spaced words and the number read by the Fortran
-//! number rules. Then a column header ` nodal point  x-disp ...` and rows of node id + 12 values
+//! matched on the letter-spaced words (white space allowed between letters, required between
+//! words: the regular expression in the tests, which the matcher is checked against) and the number
+//! read by the Fortran number rules. Then a column header ` nodal point  x-disp ...` and rows of node id + 12 values
 //! (x/y/z disp, vel, accl, coor). A block whose header names `x-rot` holds rotations: node id + 9 values
 //! (rot, rot vel, rot acc), kept in [`Nodout::rotations`].
 
 use super::text::{Tok, body, err, parse_number, read_text, tokens};
 use crate::error::InputError;
-use regex::Regex;
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::LazyLock;
 
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct NodeSeries {
@@ -52,10 +51,41 @@ pub struct NodoutBlock {
     pub nodes: Vec<u64>,
 }
 
-static HEADING: LazyLock<Regex> = LazyLock::new(|| {
-    Regex::new(r"^\s*n\s*o\s*d\s*a\s*l\s+p\s*r\s*i\s*n\s*t\s+o\s*u\s*t\s+f\s*o\s*r\s+t\s*i\s*m\s*e\s+s\s*t\s*e\s*p\s*(\d+)\s*\(\s*at\s*time\s*(\S+?)\s*\)\s*$")
-        .expect("valid regex")
-});
+/// The heading's text parts, the time step number and the time, or `None` when `line` is not a
+/// heading: the regular expression
+/// `^\s*n\s*o\s*d\s*a\s*l\s+p\s*r\s*i\s*n\s*t\s+o\s*u\s*t\s+f\s*o\s*r\s+t\s*i\s*m\s*e\s+s\s*t\s*e\s*p\s*(\d+)\s*\(\s*at\s*time\s*(\S+?)\s*\)\s*$`
+/// matched by hand (a regex engine took most of the time of reading a nodout).
+fn heading_parts(line: &str) -> Option<(&str, &str)> {
+    let mut rest = line.trim_start();
+    for (w, word) in ["nodal", "print", "out", "for", "time", "step"].iter().enumerate() {
+        if w > 0 {
+            let after = rest.trim_start();
+            if after.len() == rest.len() {
+                return None; // words are separated by white space
+            }
+            rest = after;
+        }
+        for (k, letter) in word.chars().enumerate() {
+            if k > 0 {
+                rest = rest.trim_start();
+            }
+            rest = rest.strip_prefix(letter)?;
+        }
+    }
+    rest = rest.trim_start();
+    let digits = rest.find(|c: char| !c.is_ascii_digit()).unwrap_or(rest.len());
+    let (step, after) = rest.split_at(digits);
+    if step.is_empty() {
+        return None;
+    }
+    rest = after.trim_start().strip_prefix('(')?.trim_start();
+    rest = rest.strip_prefix("at")?.trim_start().strip_prefix("time")?.trim_start();
+    let time = rest.trim_end().strip_suffix(')')?.trim_end();
+    if time.is_empty() || time.contains(char::is_whitespace) {
+        return None;
+    }
+    Some((step, time))
+}
 
 pub fn read(file: &Path) -> Result<Nodout, InputError> {
     parse(file, &read_text(file)?)
@@ -83,10 +113,8 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
         if line.trim().is_empty() {
             continue;
         }
-        // The heading regex only where it can match (data rows start with a node id).
-        let starts_n = line.trim_start().starts_with(['n', 'N']);
-        if let Some(c) = starts_n.then(|| HEADING.captures(line)).flatten() {
-            let step = heading(file, text, no, &c)?;
+        if let Some(parts) = heading_parts(line) {
+            let step = heading(file, text, no, parts)?;
             time = step.1;
             out.steps.push(step);
             out.blocks.push(NodoutBlock {
@@ -121,16 +149,16 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
 }
 
 /// A block heading's time step number and time.
-fn heading(file: &Path, text: &str, no: usize, c: &regex::Captures) -> Result<(u64, f64), InputError> {
-    let step: u64 = c[1]
+fn heading(file: &Path, text: &str, no: usize, (step, time): (&str, &str)) -> Result<(u64, f64), InputError> {
+    let step: u64 = step
         .parse()
         .map_err(|_| err(file, text, no, "time step number out of range"))?;
-    let time = parse_number(&c[2]).ok_or_else(|| {
+    let time = parse_number(time).ok_or_else(|| {
         err(
             file,
             text,
             no,
-            format!("expected a time after `at time`, found `{}`", &c[2]),
+            format!("expected a time after `at time`, found `{time}`"),
         )
     })?;
     Ok((step, time))
@@ -219,6 +247,96 @@ impl Nodout {
                 s.rot_vel[k].push(vals[3 + k]);
                 s.rot_acc[k].push(vals[6 + k]);
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::heading_parts;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use regex::Regex;
+
+    /// The heading as the regular expression the readers used before reads it.
+    fn by_regex(re: &Regex, line: &str) -> Option<(String, String)> {
+        re.captures(line).map(|c| (c[1].to_string(), c[2].to_string()))
+    }
+
+    fn heading_regex() -> Regex {
+        Regex::new(r"^\s*n\s*o\s*d\s*a\s*l\s+p\s*r\s*i\s*n\s*t\s+o\s*u\s*t\s+f\s*o\s*r\s+t\s*i\s*m\s*e\s+s\s*t\s*e\s*p\s*(\d+)\s*\(\s*at\s*time\s*(\S+?)\s*\)\s*$").unwrap()
+    }
+
+    /// A heading with random spacing, sometimes broken (a letter changed, a space or bracket
+    /// dropped or doubled).
+    fn draw(rng: &mut ChaCha8Rng) -> String {
+        let spaces = |rng: &mut ChaCha8Rng, min: usize| " ".repeat(rng.random_range(min..min + 3));
+        let mut line = spaces(rng, 0);
+        for (w, word) in ["nodal", "print", "out", "for", "time", "step"].iter().enumerate() {
+            if w > 0 {
+                line += &spaces(rng, 1);
+            }
+            for (k, c) in word.chars().enumerate() {
+                if k > 0 && rng.random_bool(0.5) {
+                    line += &spaces(rng, 1);
+                }
+                line.push(c);
+            }
+        }
+        let times = [
+            "0.0000000E+00",
+            "5.0000E-04",
+            "0.1000E-02",
+            "1.234-100",
+            "***",
+            "1.0e-3)",
+        ];
+        line += &format!(
+            "{}{}{}({}at{}time{}{}{}){}",
+            spaces(rng, 0),
+            rng.random_range(0..100_000u32),
+            spaces(rng, 0),
+            spaces(rng, 0),
+            spaces(rng, 0),
+            spaces(rng, 0),
+            times[rng.random_range(0..times.len())],
+            spaces(rng, 0),
+            spaces(rng, 0),
+        );
+        if rng.random_bool(0.4) {
+            let mut chars: Vec<char> = line.chars().collect();
+            let at = rng.random_range(0..chars.len());
+            match rng.random_range(0..4) {
+                0 => {
+                    chars.remove(at);
+                }
+                1 => chars.insert(at, ' '),
+                2 => chars.insert(at, ')'),
+                _ => chars[at] = chars[at].to_ascii_uppercase(),
+            }
+            line = chars.into_iter().collect();
+        }
+        line
+    }
+
+    #[test]
+    fn the_heading_matcher_agrees_with_the_regular_expression() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let re = heading_regex();
+        let (mut matched, mut refused) = (0, 0);
+        for _ in 0..20_000 {
+            let line = draw(&mut rng);
+            let hand = heading_parts(&line).map(|(a, b)| (a.to_string(), b.to_string()));
+            assert_eq!(hand, by_regex(&re, &line), "{line:?}");
+            if hand.is_some() { matched += 1 } else { refused += 1 }
+        }
+        // Both sides of the rule are exercised.
+        assert!(
+            matched > 5_000 && refused > 2_000,
+            "{matched} matched, {refused} refused"
+        );
+        for line in ["nodal point  x-disp", " 9000005  0.0000E+00", "", " n o d a l"] {
+            assert_eq!(heading_parts(line), None);
         }
     }
 }
