@@ -110,8 +110,9 @@ impl RunOutcome {
 }
 
 /// `lab run`: the study's simulation as a model (from its expression, or from solver runs that are
-/// planned, rendered, executed and fitted), then calibration, diagnosis, the extra train/validate
-/// splits, and the results and report data, written into `options.out`.
+/// planned, rendered, executed and fitted), then calibration with the extra train/validate splits
+/// and the curve stage (independent of each other, computed side by side), diagnosis, and the
+/// results and report data, written into `options.out`.
 pub fn run(
     study: &Study,
     options: &RunOptions,
@@ -127,9 +128,21 @@ pub fn run(
             (Simulated::Solver(Box::new(runs)), Some(source))
         }
     };
-    let calibration = calibrate(study, &problem(study, simulated.model()), simulated.data());
-    let stage = curve_stage(study, &simulated)?;
-    let curve_calibration = stage.as_ref().map(|s| curves::calibrate(study, s));
+    // The calibrations, the splits' and the curves' need only the runs: side by side.
+    let ((calibration, splits), stage) = rayon::join(
+        || {
+            rayon::join(
+                || calibrate(study, &problem(study, simulated.model()), simulated.data()),
+                || calibrate_splits(study, &simulated),
+            )
+        },
+        || {
+            let stage = curve_stage(study, &simulated)?;
+            let calibrated = stage.as_ref().map(|s| curves::calibrate(study, s));
+            Ok::<_, Error>((stage, calibrated))
+        },
+    );
+    let (stage, curve_calibration) = stage?;
     let mut simulated = simulated;
     let diagnosis = match (&mut simulated, source) {
         (Simulated::Solver(runs), Some(source)) => {
@@ -138,7 +151,6 @@ pub fn run(
         (simulated, _) => diagnose(study, simulated.model()),
     };
     engine.signals.sweep_done();
-    let splits = calibrate_splits(study, &simulated);
     let mut results = results(study, &simulated, &calibration, diagnosis, splits);
     results.curve_calibration = curve_calibration;
     let report = report_data(study, &simulated, &calibration, started);

@@ -102,11 +102,19 @@ fn simulated(
     let responses: Vec<f64> = ok.iter().map(|p| p.1).collect();
     let mut picked = pick(&responses, near, MAX_RUNS);
     picked.sort_by(|&a, &b| responses[a].total_cmp(&responses[b]));
+    // Read side by side (each read parses two history files).
+    let read: Vec<_> = {
+        use rayon::prelude::*;
+        picked
+            .par_iter()
+            .map(|&j| crush::read_run(&runs.dirs, &runs.keys[ok[j].0], source))
+            .collect()
+    };
     let mut curves = Vec::new();
     let mut nearest_at = None;
-    for j in picked {
+    for (j, curve) in picked.into_iter().zip(read) {
         let (i, y) = ok[j];
-        let Some(curve) = crush::read_run(&runs.dirs, &runs.keys[i], source) else {
+        let Some(curve) = curve else {
             continue;
         };
         if Some(j) == near {

@@ -9,7 +9,7 @@
 //! (x/y/z disp, vel, accl, coor). A block whose header names `x-rot` holds rotations: node id + 9 values
 //! (rot, rot vel, rot acc), kept in [`Nodout::rotations`].
 
-use super::text::{Tok, body, err, parse_number, read_text, tokens};
+use super::text::{Tok, body, err, parse_number, read_text, tokens_into};
 use crate::error::InputError;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -109,6 +109,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
     };
     let mut state = Block::None;
     let mut time = 0.0;
+    let mut t = Vec::new();
     for &(no, line) in &b.lines {
         if line.trim().is_empty() {
             continue;
@@ -125,7 +126,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Nodout, InputError> {
             state = Block::Heading;
             continue;
         }
-        let t = tokens(line);
+        tokens_into(line, &mut t);
         if t[0].text().eq_ignore_ascii_case("nodal") {
             if state == Block::None {
                 return Err(err(

@@ -7,7 +7,7 @@
 //! `SURFB` (the former master side). Lines ` interface number, N,is single surface-resultants are undefined`
 //! are recorded in [`Rcforc::single_surface`]. Parsed by tokens and labels, not columns.
 
-use super::text::{Tok, body, err, read_text, tokens};
+use super::text::{Tok, body, err, read_text, tokens_into};
 use crate::error::InputError;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -87,6 +87,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Rcforc, InputError> {
         title: b.title.to_string(),
         ..Default::default()
     };
+    let mut t = Vec::new();
     for &(no, line) in &b.lines {
         if line.trim().is_empty() {
             continue;
@@ -95,7 +96,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Rcforc, InputError> {
         if super::text::squash_eq(line, "resultantinterfaceforces") {
             continue;
         }
-        let t = tokens(line);
+        tokens_into(line, &mut t);
         let first = t[0].text();
         if first.eq_ignore_ascii_case("interface") {
             let n = t.iter().find_map(|k| k.num()).filter(|v| v.fract() == 0.0 && *v >= 0.0);

@@ -104,14 +104,22 @@ pub fn number_value(t: &str) -> Option<f64> {
     if number_len(b) != b.len() || b.is_empty() {
         return None;
     }
-    // The common forms (`1.5E+02`, `150`) parse as they are; only `D` exponents and letterless
-    // ones (`1.5+102`) are rewritten first.
+    measured_value(t)
+}
+
+/// [`number_value`] of a token [`number_len`] has measured. The common forms (`1.5E+02`, `150`)
+/// parse as they are; only `D` exponents and letterless ones (`1.5+102`) are rewritten first.
+fn measured_value(t: &str) -> Option<f64> {
+    let b = t.as_bytes();
     let letter = b.iter().position(|c| matches!(c, b'E' | b'e' | b'D' | b'd'));
-    let sign = b.iter().skip(1).rposition(|c| matches!(c, b'+' | b'-')).map(|i| i + 1);
-    match (letter, sign) {
-        (Some(i), _) if matches!(b[i], b'D' | b'd') => format!("{}E{}", &t[..i], &t[i + 1..]).parse().ok(),
-        (None, Some(i)) => format!("{}E{}", &t[..i], &t[i..]).parse().ok(),
-        _ => t.parse().ok(),
+    let sign = || b.iter().skip(1).rposition(|c| matches!(c, b'+' | b'-')).map(|i| i + 1);
+    match letter {
+        Some(i) if matches!(b[i], b'D' | b'd') => format!("{}E{}", &t[..i], &t[i + 1..]).parse().ok(),
+        Some(_) => t.parse().ok(),
+        None => match sign() {
+            Some(i) => format!("{}E{}", &t[..i], &t[i..]).parse().ok(),
+            None => t.parse().ok(),
+        },
     }
 }
 
@@ -126,8 +134,15 @@ pub fn parse_number(t: &str) -> Option<f64> {
 /// Split a line into tokens. Words run to white space and end after `=` or `#`; numbers start at a token
 /// boundary and glued numbers are split (see the module doc).
 pub fn tokens(line: &str) -> Vec<Tok<'_>> {
-    let b = line.as_bytes();
     let mut out = Vec::new();
+    tokens_into(line, &mut out);
+    out
+}
+
+/// [`tokens`] into a buffer the caller reuses line after line (the readers' hot loop).
+pub fn tokens_into<'a>(line: &'a str, out: &mut Vec<Tok<'a>>) {
+    out.clear();
+    let b = line.as_bytes();
     let mut i = 0;
     while i < b.len() {
         let c = b[i];
@@ -146,7 +161,7 @@ pub fn tokens(line: &str) -> Vec<Tok<'_>> {
         let n = number_len(&b[i..]);
         if n > 0 {
             let t = &line[i..i + n];
-            match number_value(t) {
+            match measured_value(t) {
                 Some(v) => out.push(Tok::Num(v, t)),
                 None => out.push(Tok::Word(t)),
             }
@@ -168,7 +183,6 @@ pub fn tokens(line: &str) -> Vec<Tok<'_>> {
         }
         out.push(Tok::Word(&line[s..i]));
     }
-    out
 }
 
 /// All numbers of a line, or None if any token is not a number.
