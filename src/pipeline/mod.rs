@@ -128,14 +128,9 @@ pub fn run(
             (Simulated::Solver(Box::new(runs)), Some(source))
         }
     };
-    // The calibrations, the splits' and the curves' need only the runs: side by side.
-    let ((calibration, splits), stage) = rayon::join(
-        || {
-            rayon::join(
-                || calibrate(study, &problem(study, simulated.model()), simulated.data()),
-                || calibrate_splits(study, &simulated),
-            )
-        },
+    // The calibration and the curves need only the runs: side by side.
+    let (calibration, stage) = rayon::join(
+        || calibrate(study, &problem(study, simulated.model()), simulated.data()),
         || {
             let stage = curve_stage(study, &simulated)?;
             let calibrated = stage.as_ref().map(|s| curves::calibrate(study, s));
@@ -143,13 +138,25 @@ pub fn run(
         },
     );
     let (stage, curve_calibration) = stage?;
+    // The splits need only the runs too (and the emulator the calibration fitted, which their copy
+    // keeps): calibrated on a thread of their own while the diagnosis runs.
+    let split_runs = simulated.split_runs();
     let mut simulated = simulated;
-    let diagnosis = match (&mut simulated, source) {
-        (Simulated::Solver(runs), Some(source)) => {
-            diagnose_with_solver(study, runs, stage.as_ref(), &source, options, engine, reporter)?
-        }
-        (simulated, _) => diagnose(study, simulated.model()),
-    };
+    let (diagnosis, splits) = std::thread::scope(|scope| {
+        let splits = scope.spawn(|| {
+            let (surrogates, data) = split_runs.as_ref()?;
+            calibrate_splits(study, surrogates, data)
+        });
+        let diagnosis = match (&mut simulated, source) {
+            (Simulated::Solver(runs), Some(source)) => {
+                diagnose_with_solver(study, runs, stage.as_ref(), &source, options, engine, reporter)
+            }
+            (simulated, _) => Ok(diagnose(study, simulated.model())),
+        };
+        let splits = splits.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
+        (diagnosis, splits)
+    });
+    let diagnosis = diagnosis?;
     engine.signals.sweep_done();
     let mut results = results(study, &simulated, &calibration, diagnosis, splits);
     results.curve_calibration = curve_calibration;
@@ -407,6 +414,15 @@ impl Simulated<'_> {
         }
     }
 
+    /// What the train/validate splits are calibrated from: a copy of the surrogates and runs
+    /// (`None` for a closed-form study, which has no splits).
+    fn split_runs(&self) -> Option<(SurrogateModel, SimulationData)> {
+        match self {
+            Simulated::ClosedForm(_) => None,
+            Simulated::Solver(runs) => Some((runs.surrogates.clone(), runs.data.clone())),
+        }
+    }
+
     fn into_outcomes(self) -> Option<RunOutcomes> {
         match self {
             Simulated::ClosedForm(_) => None,
@@ -450,10 +466,7 @@ fn closed_form<'s>(
 
 /// The study's extra train/validate splits (`splits:`), each calibrated again from the same runs;
 /// `None` when it names none or has no runs.
-fn calibrate_splits(study: &Study, simulated: &Simulated) -> Option<Vec<SplitResult>> {
-    let Simulated::Solver(runs) = simulated else {
-        return None;
-    };
+fn calibrate_splits(study: &Study, surrogates: &SurrogateModel, data: &SimulationData) -> Option<Vec<SplitResult>> {
     if study.splits.is_empty() {
         return None;
     }
@@ -463,7 +476,7 @@ fn calibrate_splits(study: &Study, simulated: &Simulated) -> Option<Vec<SplitRes
         study
             .splits
             .par_iter()
-            .map(|split| calibrate_split(study, split, &runs.surrogates, &runs.data))
+            .map(|split| calibrate_split(study, split, surrogates, data))
             .collect(),
     )
 }

@@ -22,6 +22,8 @@
 //! cross-section area `3 s / A_cell = 2/c`, a third of it ribbon walls; so for the tube
 //! `cells ≈ (π D²/4) / A_cell` and `wall length ≈ (π D²/4) · 2/c`.
 
+mod fixed;
+
 use std::collections::HashMap;
 use std::fmt::{self, Write};
 
@@ -393,11 +395,20 @@ impl Mesh {
         self.header(&mut out);
         out.push_str("*NODE\n$    nid               x               y               z      tc      rc\n");
         for (id, [x, y, z]) in self.nodes() {
-            let _ = writeln!(out, "{id:8}{x:16.9}{y:16.9}{z:16.9}{:8}{:8}", 0, 0);
+            fixed::push_int(&mut out, id, 8);
+            for v in [x, y, z] {
+                fixed::push_fixed9(&mut out, v, 16);
+            }
+            out.push_str("       0       0\n");
         }
         out.push_str("*ELEMENT_SHELL\n$    eid     pid      n1      n2      n3      n4\n");
-        for (id, part, [a, b, c, d]) in self.elements() {
-            let _ = writeln!(out, "{id:8}{part:8}{a:8}{b:8}{c:8}{d:8}");
+        for (id, part, nodes) in self.elements() {
+            fixed::push_int(&mut out, id, 8);
+            fixed::push_int(&mut out, part, 8);
+            for n in nodes {
+                fixed::push_int(&mut out, n, 8);
+            }
+            out.push('\n');
         }
         out.push_str("*END\n");
         out
@@ -430,5 +441,37 @@ impl Mesh {
         );
         let _ = writeln!(out, "$ dropped trimmed fragments: {:.3} mm", s.dropped_length);
         let _ = writeln!(out, "$ element aspect ratio {:.3} .. {:.3}", s.min_aspect, s.max_aspect);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The `*NODE` and `*ELEMENT_SHELL` lines as `format!` writes them (the run keys of every
+    /// recording hang on these bytes).
+    fn by_format(m: &Mesh) -> String {
+        let mut out = String::new();
+        for (id, [x, y, z]) in m.nodes() {
+            let _ = writeln!(out, "{id:8}{x:16.9}{y:16.9}{z:16.9}{:8}{:8}", 0, 0);
+        }
+        for (id, part, [a, b, c, d]) in m.elements() {
+            let _ = writeln!(out, "{id:8}{part:8}{a:8}{b:8}{c:8}{d:8}");
+        }
+        out
+    }
+
+    #[test]
+    fn the_include_text_is_what_format_writes() {
+        for (cell, element) in [(3.0, 2.0), (6.0, 2.0), (4.5, 3.0)] {
+            let m = mesh(&TubeSpec::paper(cell, element)).unwrap();
+            let text = m.include();
+            let data: String = text
+                .lines()
+                .filter(|l| !l.starts_with(['*', '$']))
+                .map(|l| format!("{l}\n"))
+                .collect();
+            assert_eq!(data, by_format(&m), "cell {cell}, element {element}");
+        }
     }
 }
