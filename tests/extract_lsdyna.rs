@@ -42,6 +42,35 @@ fn rcforc_surfa_surfb_with_moments() {
     assert_eq!(r.single_surface, vec![4]);
 }
 
+/// Reading one interface side gives that side's series exactly as the whole parse does, and no
+/// other side: on both format samples and on a recording of the main job (three interfaces).
+#[test]
+fn rcforc_one_interface_side_is_the_whole_parse_restricted() {
+    let recording = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/honeycomb"))
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path().join("rcforc")))
+        .find(|p| p.is_file())
+        .unwrap();
+    let mut compared = 0;
+    for file in [
+        sample("rcforc_master_slave"),
+        sample("rcforc_surfa_surfb_moments"),
+        recording,
+    ] {
+        let text = std::fs::read_to_string(&file).unwrap();
+        let whole = rcforc::parse(&file, &text).unwrap();
+        assert!(whole.interfaces.len() >= 2, "{}", file.display());
+        for (&(side, id), series) in &whole.interfaces {
+            let one = rcforc::parse_interface(&file, &text, side, id).unwrap();
+            assert_eq!(one.interfaces.len(), 1);
+            assert_eq!(&one.interfaces[&(side, id)], series, "{} {side:?} {id}", file.display());
+            assert_eq!(one.single_surface, whole.single_surface);
+            compared += 1;
+        }
+    }
+    assert!(compared >= 12, "{compared} interface sides compared");
+}
+
 #[test]
 fn glstat_with_legend() {
     let g = glstat::read(&sample("glstat")).unwrap();

@@ -363,11 +363,12 @@ impl Memo {
     /// Entry k of the vector at (d, θ), computed once.
     fn entry(&self, d: &[f64], theta: &[f64], k: usize, compute: impl FnOnce() -> Option<DVector<f64>>) -> f64 {
         let key: Vec<u64> = d.iter().chain(theta).map(|v| v.to_bits()).collect();
-        if let Some(z) = self.0.lock().ok().and_then(|c| c.get(&key).cloned()) {
-            return z.map_or(f64::NAN, |z| z[k]);
+        let known = |z: &Option<DVector<f64>>| z.as_ref().map_or(f64::NAN, |z| z[k]);
+        if let Some(value) = self.0.lock().ok().and_then(|c| c.get(&key).map(known)) {
+            return value;
         }
         let z = compute();
-        let value = z.as_ref().map_or(f64::NAN, |z| z[k]);
+        let value = known(&z);
         if let Ok(mut c) = self.0.lock() {
             if c.len() >= CACHE {
                 c.clear();

@@ -546,7 +546,7 @@ pub fn read_run(dirs: &[std::path::PathBuf], key: &str, source: &SimSource) -> O
     use super::lsdyna::{nodout, rcforc};
     let dir = dirs.iter().map(|d| d.join(key)).find(|d| d.join("rcforc").is_file())?;
     let text = |name: &str| std::fs::read_to_string(dir.join(name)).ok();
-    let rc = rcforc::parse(Path::new("rcforc"), &text("rcforc")?).ok()?;
+    let rc = rcforc::parse_interface(Path::new("rcforc"), &text("rcforc")?, source.side, source.interface).ok()?;
     let nod = nodout::parse(Path::new("nodout"), &text("nodout")?).ok()?;
     from_lsdyna(&rc, &nod, source).ok()
 }

@@ -82,6 +82,24 @@ pub fn read(file: &Path) -> Result<Rcforc, InputError> {
 }
 
 pub fn parse(file: &Path, text: &str) -> Result<Rcforc, InputError> {
+    parse_keeping(file, text, None)
+}
+
+/// [`parse`] keeping one interface side: the data rows of the others are passed over once their
+/// label and interface number are read (unchecked: what reads a run's curve after the run was
+/// judged whole; the judgement itself uses [`parse`]).
+pub fn parse_interface(file: &Path, text: &str, side: Side, interface: u64) -> Result<Rcforc, InputError> {
+    parse_keeping(file, text, Some((side, interface)))
+}
+
+/// The side and interface number a data line starts with, when its first two words say so.
+fn row_owner(line: &str) -> Option<(Side, u64)> {
+    let mut words = line.split_ascii_whitespace();
+    let side = Side::from_label(words.next()?)?;
+    Some((side, words.next()?.parse().ok()?))
+}
+
+fn parse_keeping(file: &Path, text: &str, keep: Option<(Side, u64)>) -> Result<Rcforc, InputError> {
     let b = body(file, text, "rcforc")?;
     let mut out = Rcforc {
         title: b.title.to_string(),
@@ -94,6 +112,11 @@ pub fn parse(file: &Path, text: &str) -> Result<Rcforc, InputError> {
         }
         // The letter-spaced heading ` r e s u l t a n t   i n t e r f a c e   f o r c e s`.
         if super::text::squash_eq(line, "resultantinterfaceforces") {
+            continue;
+        }
+        if let Some(want) = keep
+            && row_owner(line).is_some_and(|owner| owner != want)
+        {
             continue;
         }
         tokens_into(line, &mut t);
