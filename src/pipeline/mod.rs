@@ -110,8 +110,8 @@ impl RunOutcome {
 }
 
 /// `lab run`: the study's simulation as a model (from its expression, or from solver runs that are
-/// planned, rendered, executed and fitted), then calibration with the extra train/validate splits
-/// and the curve stage (independent of each other, computed side by side), diagnosis, and the
+/// planned, rendered, executed and fitted), then calibration beside the curve stage, diagnosis
+/// beside the extra train/validate splits (each pair independent, computed side by side), and the
 /// results and report data, written into `options.out`.
 pub fn run(
     study: &Study,
