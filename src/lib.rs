@@ -29,6 +29,7 @@ pub mod diagnose;
 pub mod error;
 pub mod execute;
 pub mod extract;
+pub mod format;
 pub mod fit;
 pub mod model;
 pub mod pipeline;

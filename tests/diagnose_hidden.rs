@@ -685,9 +685,9 @@ fn effect_outside_the_hypotheses_is_partly_explained() {
             of += 1;
             partly += usize::from(
                 d.verdict == Verdict::PartlyExplained
-                    && d.extended
-                        .as_ref()
-                        .is_some_and(|x| x.lack_of_fit_p.is_some_and(|p| p < 0.01)),
+                    && d.cause.is_none()
+                    && d.extended_model()
+                        .is_some_and(|x| x.lack_of_fit.as_ref().is_some_and(|l| l.rejects())),
             );
             named += usize::from(d.verdict == Verdict::CauseNamed);
         }

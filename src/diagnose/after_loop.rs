@@ -89,7 +89,7 @@ pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[St
         .iter()
         .filter_map(|&who| open_one(screening, looped, loop_names, who))
         .collect();
-    let rejected = |o: &Open| o.lof.as_ref().is_some_and(|l| l.p_value < alpha);
+    let rejected = |o: &Open| o.lof.as_ref().is_some_and(LackOfFit::rejects);
     let mut survivors: Vec<&Open> = open.iter().filter(|o| !rejected(o)).collect();
     survivors.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
     let mut pairwise = Vec::new();

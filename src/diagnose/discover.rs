@@ -71,7 +71,7 @@ use super::library::{self, Dropped, LibrarySpec};
 use super::next_test::Explanation;
 use super::ranking::Entry;
 use super::shapes::{Origin, Shape};
-use super::text::{num, p_text, pct_pub as pct};
+use crate::format::{num, p_text, pct};
 use super::verdict::{Decision, Verdict, Who};
 use super::{Context, Evidence, LackOfFit, Mode, evidence, stats};
 
@@ -688,12 +688,10 @@ fn judge(s: &Searcher, w: &Tried, bound: f64, vectors: &[Vec<f64>]) -> Judgement
         }
     };
     let misses = |assessed: &evidence::Assessed| {
-        let l = assessed.lack_of_fit.as_ref().filter(|l| l.p_value < cx.alpha())?;
+        let l = assessed.lack_of_fit.as_ref().filter(|l| l.rejects())?;
         Some(format!(
-            "its model still misses the tests beyond the noise (χ² = {} on {} degrees of freedom, {})",
-            num(l.chi2),
-            l.dof,
-            p_text(l.p_value)
+            "its model still misses the tests beyond the noise ({})",
+            crate::format::lack_of_fit(l)
         ))
     };
     // (1) Cheap.
@@ -1145,7 +1143,7 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
                     format!("'{}'", d.base)
                 },
                 num(t.coefficient),
-                super::text::params(&d.parameters),
+                crate::format::params(&d.parameters),
                 d.p_value.map_or("-".into(), p_text),
             ));
             if let Some(r) = &d.reading {

@@ -148,16 +148,35 @@ fn check(cx: &Context, m: &Model, cov: Option<&Covariance>, s2: f64, dof: usize)
     })
 }
 
-/// (RSS_train + Σ z_val²) / dof against F(dof, ν): the model against the replicate noise.
+/// The model against the replicate noise, both ways ([`super::lack_of_fit`]): (RSS_train + Σ z_val²)
+/// / dof against F(dof, ν), and the largest standardised residual.
 fn lack_of_fit(cx: &Context, m: &Model, validation: Option<&Check>) -> Option<LackOfFit> {
     let dof = cx.train.len().saturating_sub(m.k()) + validation.map_or(0, |v| v.dof);
     let chi2 = m.fit.wrss + validation.map_or(0.0, |v| v.chi2);
-    (dof > 0).then(|| LackOfFit {
-        chi2,
-        dof,
-        noise_dof: cx.nu,
-        p_value: stats::f_sf(chi2 / dof as f64, dof as f64, cx.nu as f64),
-    })
+    let z: Vec<(String, f64)> = standardised(cx, m, 1.0, validation).into_iter().collect();
+    (dof > 0).then(|| LackOfFit::new(chi2, dof, cx.nu, &z, cx.alpha()))
+}
+
+/// The model's residuals in units of their own standard error: a training residual w_i (ȳ_i − ŷ_i)
+/// divided by √(s² (1 − h_ii)), h_ii its leverage in the fit (a design the fit passes through
+/// exactly carries none and is left out); a validation design by its predictive z.
+pub(crate) fn standardised(cx: &Context, m: &Model, s2: f64, validation: Option<&Check>) -> IndexMap<String, f64> {
+    let shapes = m.shapes();
+    let h = super::lack_of_fit::leverages(&cx.data.jacobian(&shapes, &m.fit, &cx.train));
+    let mut z: IndexMap<String, f64> = cx
+        .train
+        .iter()
+        .zip(h)
+        .filter(|(_, h)| 1.0 - h > 1e-9)
+        .map(|(&i, h)| {
+            let r = cx.data.weights[i] * (cx.data.means[i] - m.predict(cx, &cx.data.designs[i]));
+            (cx.inputs.observations[i].name.clone(), r / (s2 * (1.0 - h)).sqrt())
+        })
+        .collect();
+    if let Some(v) = validation {
+        z.extend(v.z.iter().map(|(n, z)| (n.clone(), *z)));
+    }
+    z
 }
 
 fn separability(cx: &Context, m: &Model, c: &Covariance, dof: usize) -> Separability {
@@ -254,7 +273,7 @@ pub(crate) fn absorbed_sentences(candidates: &[Candidate]) -> Vec<String> {
                     if v.abs() > own {
                         format!("{n} by more than its own value")
                     } else {
-                        format!("{n} by up to {}", super::text::num(v.abs()))
+                        format!("{n} by up to {}", crate::format::num(v.abs()))
                     }
                 })
                 .collect::<Vec<_>>();

@@ -59,6 +59,7 @@ pub(crate) fn extend(cx: &Context, ranked: &Ranked, k: usize) -> Option<Extended
         lack_of_fit_chi2: lof.map(|l| l.chi2),
         lack_of_fit_dof: lof.map(|l| l.dof),
         lack_of_fit_p: lof.map(|l| l.p_value),
+        lack_of_fit: lof.cloned(),
         remaining: standardised(cx, e).into_iter().filter(|(_, z)| z.abs() > 2.0).collect(),
         residual_z: standardised(cx, e),
         extension: shape.amplitude_meaning(gamma).map(|meaning| ExtensionEffect {
@@ -102,27 +103,13 @@ fn within_noise(cx: &Context, base: &Entry) -> Vec<String> {
         .collect()
 }
 
-/// The extended model's residuals in units of σ: training residuals in units of the noise of the
-/// mean, validation designs by their predictive z.
+/// The extended model's residuals in units of their standard error ([`super::evidence::standardised`]);
+/// empty without a noise.
 fn standardised(cx: &Context, e: &Entry) -> IndexMap<String, f64> {
-    let Some(s2) = e.assessed.s2 else {
-        return IndexMap::new();
-    };
-    let mut z: IndexMap<String, f64> = cx
-        .train
-        .iter()
-        .map(|&i| {
-            let r = cx.data.means[i] - e.model.predict(cx, &cx.data.designs[i]);
-            (
-                cx.inputs.observations[i].name.clone(),
-                cx.data.weights[i] * r / s2.sqrt(),
-            )
-        })
-        .collect();
-    if let Some(v) = &e.assessed.validation {
-        z.extend(v.z.iter().map(|(n, z)| (n.clone(), *z)));
+    match e.assessed.s2 {
+        Some(s2) => super::evidence::standardised(cx, &e.model, s2, e.assessed.validation.as_ref()),
+        None => IndexMap::new(),
     }
-    z
 }
 
 /// The screening's extended model of a cause (`screening`) carried over to the loop's model of it
@@ -169,6 +156,7 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
     e.lack_of_fit_chi2 = lof.map(|l| l.chi2);
     e.lack_of_fit_dof = lof.map(|l| l.dof);
     e.lack_of_fit_p = lof.map(|l| l.p_value);
+    e.lack_of_fit = lof.cloned();
     e.residual_z = standardised(cx, base);
     e.remaining = e
         .residual_z
@@ -202,5 +190,5 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
 }
 
 fn num(v: f64) -> String {
-    super::text::num(v)
+    crate::format::num(v)
 }

@@ -42,7 +42,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use super::shapes::{Origin, Shape};
-use super::{Inputs, NoiseKind, NoiseModel, Observation, Role, Settings};
+use super::{Inputs, NoiseModel, Observation, Role, Settings};
 use crate::calibrate::{Bounds, Model};
 use crate::extract::features::{self, FeatureSpec};
 
@@ -240,7 +240,7 @@ impl FeaturesReport {
 /// The whitened output with the largest share of the drop in Σz² from the uncorrected model to the
 /// named cause's extended model.
 fn decided(w: &Whitening, d: &super::Diagnosis) -> Option<(String, f64)> {
-    let after = &d.extended.as_ref()?.residual_z;
+    let after = &d.extended_model()?.residual_z;
     let names = w.names();
     let drop: Vec<f64> = names
         .iter()
@@ -457,8 +457,8 @@ impl FeatureProblem {
                 "whitened by a scale factor per specimen plus independent noise along the stroke, which the features' \
                  own scatter does not reject (χ² = {} on {f} degrees of freedom, p = {}); the tests take the \
                  specimens' {} degrees of freedom",
-                super::text::num(t),
-                super::text::num(p),
+                crate::format::num(t),
+                crate::format::num(p),
                 whitening.dof
             ),
             (_, check) => format!(
@@ -469,8 +469,8 @@ impl FeatureProblem {
                 check.map_or(String::new(), |(t, f, p)| format!(
                     "; a scale factor plus independent noise along the stroke was rejected: χ² = {} on {f} degrees of \
                      freedom, p = {}",
-                    super::text::num(t),
-                    super::text::num(p)
+                    crate::format::num(t),
+                    crate::format::num(p)
                 ))
             ),
         };
@@ -481,7 +481,7 @@ impl FeatureProblem {
                 e.runs,
                 e.variance
                     .iter()
-                    .map(|v| super::text::num(*v))
+                    .map(|v| crate::format::num(*v))
                     .collect::<Vec<_>>()
                     .join(", ")
             ),
@@ -489,17 +489,14 @@ impl FeatureProblem {
         };
         Ok(FeatureProblem {
             rows: rows(&ci.designs, &ci.spec),
-            noise: NoiseModel {
-                kind: NoiseKind::Absolute,
-                scale: whitening.variance.sqrt(),
-                dof: whitening.dof,
-                loglik_absolute: None,
-                loglik_relative: None,
-                note: format!(
+            noise: NoiseModel::constant(
+                whitening.variance.sqrt(),
+                whitening.dof,
+                format!(
                     "curve features ({names}) of {specimens} specimens at {} designs, {how}",
                     ci.designs.len()
                 ),
-            },
+            ),
             model,
             observations,
             shapes,
@@ -860,7 +857,7 @@ impl super::Diagnosis {
                 "{headline}; decided by the {name} ({:.0} % of the misfit the extended model removes).",
                 100.0 * share
             );
-            self.summary = super::text::summary(&self.headline, &self.action, &self.evidence, &self.limits);
+            self.resummarise();
         }
         self.features = Some(report);
         self

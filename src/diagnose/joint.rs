@@ -81,6 +81,9 @@ pub struct SolverExtension {
     pub lack_of_fit_chi2: Option<f64>,
     pub lack_of_fit_dof: Option<usize>,
     pub lack_of_fit_p: Option<f64>,
+    /// The same test both ways: the omnibus figures above and the largest standardised residual.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub lack_of_fit: Option<super::LackOfFit>,
     /// Mean |relative error| over the validation designs of the baseline and the extended model.
     pub validation_error_before: Option<f64>,
     pub validation_error_after: Option<f64>,
@@ -133,6 +136,7 @@ impl SolverExtension {
             lack_of_fit_chi2: lof.map(|l| l.chi2),
             lack_of_fit_dof: lof.map(|l| l.dof),
             lack_of_fit_p: lof.map(|l| l.p_value),
+            lack_of_fit: lof.cloned(),
             validation_error_before: val(before),
             validation_error_after: val(after),
             gain: gain(val(before), val(after)),
@@ -194,11 +198,10 @@ impl SolverExtension {
             self.variables_text(),
             params.join(", ")
         );
-        if let (Some(chi2), Some(dof), Some(p)) = (self.lack_of_fit_chi2, self.lack_of_fit_dof, self.lack_of_fit_p) {
+        if let Some(l) = &self.lack_of_fit {
             line.push_str(&format!(
-                "; lack of fit against the replicate noise χ² = {} on {dof} degrees of freedom, {}",
-                num(chi2),
-                super::text::p_text(p)
+                "; lack of fit against the replicate noise {}",
+                crate::format::lack_of_fit(l)
             ));
         }
         if let (Some(b), Some(a)) = (self.validation_error_before, self.validation_error_after) {
@@ -225,7 +228,7 @@ impl Diagnosis {
             self.evidence.push(x.evidence_line());
         }
         self.extensions = extensions;
-        self.summary = super::text::summary(&self.headline, &self.action, &self.evidence, &self.limits);
+        self.resummarise();
         self
     }
 }
@@ -246,5 +249,5 @@ fn standardised(d: &Diagnosis) -> IndexMap<String, f64> {
 }
 
 fn num(v: f64) -> String {
-    super::text::num(v)
+    crate::format::num(v)
 }

@@ -34,6 +34,8 @@ pub mod evidence;
 pub mod extension;
 pub mod features;
 pub mod joint;
+pub mod lack_of_fit;
+pub mod limits;
 pub mod library;
 pub mod next_test;
 pub mod noise;
@@ -50,6 +52,7 @@ use indexmap::IndexMap;
 use nalgebra::DVector;
 use serde::{Deserialize, Serialize};
 
+pub use lack_of_fit::LackOfFit;
 pub use noise::{NoiseKind, NoiseModel};
 pub use shapes::{Origin, Shape};
 
@@ -271,8 +274,13 @@ pub fn inputs_with_extensions<'a>(
 pub struct Diagnosis {
     /// Whether the data show model error beyond the noise.
     pub discrepancy_detected: bool,
-    /// The named cause (also when it only partly explains the misfit; see `verdict`).
+    /// The cause the verdict decides (`verdict` = `cause_named`); `null` otherwise, also when a
+    /// listed cause explains part of the misfit (that one is `partial`).
     pub cause: Option<String>,
+    /// A listed cause that explains part of the misfit but not all of it (`verdict` =
+    /// `partly_explained`): what it removes and what remains. Never the answer.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub partial: Option<Partial>,
     /// The verdict, from a fixed vocabulary; `headline` is its sentence.
     pub verdict: verdict::Verdict,
     pub headline: String,
@@ -288,8 +296,13 @@ pub struct Diagnosis {
     pub candidates: Vec<Candidate>,
     /// The leader's encompassing tests against every rival.
     pub rivals: Vec<ranking::RivalTest>,
-    /// The model extended with the cause (absent when none is named).
+    /// The model extended with the cause (absent when none is named; a partial explanation's is in
+    /// `partial`).
     pub extended: Option<Extended>,
+    /// When the final model still misses the tests: how far each parameter moves when the
+    /// residuals beyond the noise are absorbed (empty when it fits).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub parameter_limits: Vec<limits::ParameterLimit>,
     /// The hypotheses extended with the solver in the loop (ranged extension variables
     /// calibrated through new runs), best first; empty when none was.
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
@@ -403,15 +416,6 @@ pub struct Precision {
     pub correlation: IndexMap<String, IndexMap<String, f64>>,
 }
 
-/// A lack-of-fit test against the replicate noise: χ²/dof against F(dof, noise_dof).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct LackOfFit {
-    pub chi2: f64,
-    pub dof: usize,
-    pub noise_dof: usize,
-    pub p_value: f64,
-}
-
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Extended {
     pub cause: String,
@@ -449,6 +453,9 @@ pub struct Extended {
     pub lack_of_fit_chi2: Option<f64>,
     pub lack_of_fit_dof: Option<usize>,
     pub lack_of_fit_p: Option<f64>,
+    /// The same test both ways: the omnibus figures above and the largest standardised residual.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub lack_of_fit: Option<LackOfFit>,
     /// Designs where the extended model still misses by more than 2 σ (name, z).
     pub remaining: Vec<(String, f64)>,
     /// The extended model's standardised residual at every design (training: of the mean;
@@ -461,6 +468,47 @@ pub struct Extended {
     /// (`diagnosis.extensions`), not the screening's linearisation.
     #[serde(default)]
     pub solver_in_the_loop: bool,
+}
+
+/// A listed cause that explains part of the misfit (`diagnosis.partial`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Partial {
+    pub name: String,
+    /// The share of the uncorrected model's misfit beyond the noise that its model removes:
+    /// 1 − (χ²_ext − dof_ext) / (χ²_unc − dof_unc), in [0, 1] (`null` without both lack-of-fit tests).
+    pub share_removed: Option<f64>,
+    /// What remains: its final model's lack of fit, both ways.
+    pub remaining: Option<LackOfFit>,
+    /// Designs its model still misses by more than 2 σ (name, z).
+    pub misses: Vec<(String, f64)>,
+    /// Its extended model, with the figures `extended` gives for a named cause.
+    pub extended: Option<Extended>,
+}
+
+impl Partial {
+    fn new(name: String, extended: Option<Extended>, uncorrected: Option<&LackOfFit>) -> Partial {
+        let remaining = extended.as_ref().and_then(|e| e.lack_of_fit.clone());
+        let excess = |l: &LackOfFit| l.chi2 - l.dof as f64;
+        let share_removed = uncorrected.zip(remaining.as_ref()).and_then(|(u, r)| {
+            (excess(u) > 0.0).then(|| (1.0 - excess(r).max(0.0) / excess(u)).clamp(0.0, 1.0))
+        });
+        Partial {
+            name,
+            share_removed,
+            remaining,
+            misses: extended.as_ref().map_or_else(Vec::new, |e| e.remaining.clone()),
+            extended,
+        }
+    }
+}
+
+impl Diagnosis {
+    /// The model extended with the named cause, or with the cause that partly explains the misfit.
+    pub fn extended_model(&self) -> Option<&Extended> {
+        self.extended
+            .as_ref()
+            .or_else(|| self.partial.as_ref().and_then(|p| p.extended.as_ref()))
+    }
 }
 
 /// The cause as a model extension: `y + γ (y_ext − y)`, see [`shapes`].
@@ -690,15 +738,17 @@ impl<'a> Context<'a> {
     }
 }
 
-const RULE: &str = "noise: absolute or relative by the replicate likelihood (from the residuals of each fit without \
-replicates); a candidate explains the misfit when the likelihood-ratio (F) test of its amplitude against a refit of \
-the parameters alone has p < alpha/K (alpha = 0.01, K candidates), whatever the angle between its shape and the \
-parameters' sensitivities; ranking: score = (AICc + leave-one-design-out deviance)/2 (with few designs: AIC + the \
-validation designs' predictive deviance), weights exp(-score/2); the leader is the best-scored candidate that \
-explains the misfit, and it is named only when it beats every rival in an encompassing test (leader added to the \
-rival: p < alpha); model error is detected when a candidate explains the misfit or the lack-of-fit test of the \
-uncorrected model (training and validation designs against the replicate noise) rejects at alpha; the cause only \
-partly explains the misfit when the same lack-of-fit test of its extended model rejects at alpha";
+const RULE: &str = "noise: sigma^2 = a^2 + (b y)^2 from the replicates' likelihood, at the likeliest mixing of the two \
+components unless the uncorrected model misses the tests there and another mixing the replicates allow (99.9 % set) \
+lets it fit (from the residuals of each fit without replicates); a model fits the tests when both its omnibus lack of \
+fit (chi^2 against F) and its largest standardised residual (Sidak-corrected for their number) pass at alpha = 0.01; \
+a candidate explains the misfit when the likelihood-ratio (F) test of its amplitude against a refit of the parameters \
+alone has p < alpha/K (K candidates), whatever the angle between its shape and the parameters' sensitivities; \
+ranking: score = (AICc + leave-one-design-out deviance)/2 (with few designs: AIC + the validation designs' predictive \
+deviance), weights exp(-score/2); the leader is the best-scored candidate that explains the misfit, and it is named \
+only when it beats every rival in an encompassing test (leader added to the rival: p < alpha) and its model fits; \
+model error is detected when a candidate explains the misfit or the uncorrected model does not fit; a listed cause \
+whose model does not fit only partly explains the misfit: it is reported as partial, never as the cause";
 
 /// Runs the diagnosis, step by step (see the module notes). Errors only when there are no training
 /// designs or the model cannot be evaluated.
@@ -715,6 +765,43 @@ pub fn discover(inputs: &Inputs) -> Result<Option<discover::Discovered>, Calibra
     let mut notes = Vec::new();
     let search = discover::run(&evidence, &[], &[], &evidence.decision, &mut notes);
     Ok(search.map(|s| s.discovered))
+}
+
+/// Step 1: the noise and the uncorrected model fitted under it. A noise the caller knows is taken
+/// as it is; else the replicates' at the maximum-likelihood mixing ([`noise`]), unless the
+/// uncorrected model misses the tests there and another mixing the replicates allow lets it fit:
+/// then the one under which it fits best (the lack-of-fit p maximised over the set).
+fn noise_and_base<'a>(
+    inputs: &'a Inputs<'a>,
+) -> Result<(Context<'a>, candidates::Model, Option<NoiseModel>), CalibrationError> {
+    let fitted = |nm: Option<NoiseModel>| -> Result<_, CalibrationError> {
+        let cx = Context::new(inputs, nm.as_ref())?;
+        let base = candidates::uncorrected(&cx)?;
+        Ok((cx, base, nm))
+    };
+    if inputs.noise.is_some() {
+        return fitted(inputs.noise.clone());
+    }
+    let Some(scatter) = noise::Scatter::of(&inputs.observations) else {
+        return fitted(None);
+    };
+    let alpha = inputs.settings.alpha;
+    let p_fit = |(cx, base, _): &(Context, candidates::Model, Option<NoiseModel>)| {
+        evidence::assess_one(cx, base, None).lack_of_fit.map_or(1.0, |l| l.p_either())
+    };
+    let ml = fitted(Some(scatter.model_at(scatter.ml_mixing(), alpha)))?;
+    if p_fit(&ml) >= alpha {
+        return Ok(ml);
+    }
+    let mut best: Option<(f64, _)> = None;
+    for lambda in scatter.set_points(alpha) {
+        let at = fitted(Some(scatter.model_at(lambda, alpha)))?;
+        let p = p_fit(&at);
+        if p >= alpha && best.as_ref().is_none_or(|b| p > b.0) {
+            best = Some((p, at));
+        }
+    }
+    Ok(best.map_or(ml, |b| b.1))
 }
 
 /// A hypothesis the loop calibrated with the solver, as the diagnosis sees it.
@@ -741,6 +828,14 @@ pub fn conclude(inputs: &Inputs, looped: &[LoopModel]) -> Result<(Diagnosis, Vec
     Ok((screening.conclusion(&evidence, &names), own))
 }
 
+/// What the conclusion found besides the decision, as the words read it.
+struct Found<'f> {
+    candidates: &'f [Candidate],
+    residuals: &'f [Residual],
+    structure: &'f [Trend],
+    confounded: &'f [String],
+}
+
 /// The evidence for one model taken as the simulation: every candidate fitted with it, tested,
 /// ranked, and the screening decision (steps 1–5).
 pub(crate) struct Evidence<'a> {
@@ -754,12 +849,7 @@ pub(crate) struct Evidence<'a> {
 impl<'a> Evidence<'a> {
     fn gather(inputs: &'a Inputs<'a>) -> Result<Self, CalibrationError> {
         let mut notes = Vec::new();
-        let replicate_noise = inputs
-            .noise
-            .clone()
-            .or_else(|| noise::from_replicates(&inputs.observations));
-        let cx = Context::new(inputs, replicate_noise.as_ref())?;
-        let base = candidates::uncorrected(&cx)?;
+        let (cx, base, replicate_noise) = noise_and_base(inputs)?;
         let shapes = candidates::shapes(&cx, &base, &mut notes);
         let fitted = candidates::fit_all(&cx, shapes, &mut notes);
         let assessed = evidence::assess(&cx, &base, &fitted);
@@ -776,19 +866,94 @@ impl<'a> Evidence<'a> {
     }
 
     /// The diagnosis: this evidence's decision, or with loop models the decision after the loop
-    /// (steps 5b–8).
+    /// (steps 5b–8), each step a named call with a typed result.
     fn conclusion(&self, looped: &[Evidence], loop_names: &[String]) -> Diagnosis {
-        let cx = &self.cx;
-        let ranked = &self.ranked;
-        let (decision, after) = if looped.is_empty() {
+        let (decision, after) = self.final_decision(looped, loop_names);
+        let candidates = self.ranked.candidates(&self.cx);
+        let extended = self.extended_of(&decision, looped, loop_names);
+        // Once the decision is final: the library search for a missing term (step 7b), when the
+        // verdict leaves the misfit unexplained or no hypothesis is listed.
+        let mut notes = self.notes.clone();
+        let search = discover::run(self, looped, loop_names, &decision, &mut notes);
+        let next_test = self.next_test(&decision, search.as_ref(), looped, loop_names, &candidates);
+        let residuals = residuals::table(&self.cx, &self.ranked.base.model.fit, &self.noise);
+        let structure = residuals::trends(&self.cx, &residuals);
+        let confounded = evidence::absorbed_sentences(&candidates);
+        let parameter_limits = self.parameter_limits(&decision, looped);
+        let found = Found {
+            candidates: &candidates,
+            residuals: &residuals,
+            structure: &structure,
+            confounded: &confounded,
+        };
+        let after = after.map(|mut a| {
+            a.screening_headline = text::describe(&self.facts(&self.decision, &found, None, None, &[], &[])).headline;
+            a
+        });
+        let mut facts = self.facts(&decision, &found, extended.as_ref(), next_test.as_ref(), loop_names, &parameter_limits);
+        facts.after_loop = after.as_ref();
+        let mut words = text::describe(&facts);
+        if let Some(s) = &search {
+            // After the verdict and the action: what the search found, marked as found, not listed.
+            words.evidence.splice(0..0, s.discovered.evidence.iter().cloned());
+            words.summary = text::summary(&words.headline, &words.action, &words.evidence, &words.limits);
+        }
+        let name = |who| verdict::name_of(who, &candidates, loop_names);
+        // `cause` is the decided cause only; a partial explanation goes to `partial`.
+        let (cause, extended, partial) = match (decision.verdict, decision.cause) {
+            (Verdict::CauseNamed, who) => (who.map(name), extended, None),
+            (_, Some(who)) => {
+                let uncorrected = self.ranked.base.assessed.lack_of_fit.as_ref();
+                (None, None, Some(Partial::new(name(who), extended, uncorrected)))
+            }
+            (_, None) => (None, extended, None),
+        };
+        Diagnosis {
+            discrepancy_detected: decision.detected,
+            cause,
+            partial,
+            parameter_limits,
+            verdict: decision.verdict,
+            headline: words.headline,
+            leading: decision.leading.iter().map(|&w| name(w)).collect(),
+            action: words.action,
+            evidence: words.evidence,
+            limits: words.limits,
+            uncorrected: self.ranked.uncorrected(&self.cx),
+            lack_of_fit: self.ranked.base.assessed.lack_of_fit.clone(),
+            rivals: self.ranked.rivals.clone(),
+            candidates,
+            extended,
+            extensions: Vec::new(),
+            next_test,
+            features: None,
+            after_loop: after,
+            discovered: search.map(|s| s.discovered),
+            summary: words.summary,
+            noise: self.noise.clone(),
+            residuals,
+            structure,
+            confounded,
+            rule: RULE.to_string(),
+            notes,
+        }
+    }
+
+    /// Step 5b: the screening's decision, or with loop models the decision after the loop.
+    fn final_decision(&self, looped: &[Evidence], loop_names: &[String]) -> (verdict::Decision, Option<after_loop::AfterLoop>) {
+        if looped.is_empty() {
             (self.decision.clone(), None)
         } else {
             let (d, a) = after_loop::decide(self, looped, loop_names);
             (d, Some(a))
-        };
-        let candidates = ranked.candidates(cx);
-        let name = |who| verdict::name_of(who, &candidates, loop_names);
-        let extended = decision.cause.and_then(|who| match who {
+        }
+    }
+
+    /// Step 6: the model extended with the decision's cause (its loop model where the loop
+    /// calibrated it).
+    fn extended_of(&self, decision: &verdict::Decision, looped: &[Evidence], loop_names: &[String]) -> Option<Extended> {
+        let (cx, ranked) = (&self.cx, &self.ranked);
+        decision.cause.and_then(|who| match who {
             verdict::Who::Candidate(k) => extension::extend(cx, ranked, k),
             verdict::Who::Extended(j) => {
                 let k = ranked.entries.iter().position(|e| e.model.name() == loop_names[j])?;
@@ -796,12 +961,22 @@ impl<'a> Evidence<'a> {
                 Some(extension::from_loop(screening, &looped[j]))
             }
             verdict::Who::Uncorrected => None,
-        });
-        // Once the decision is final: the library search for a missing term (step 7b), when the
-        // verdict leaves the misfit unexplained or no hypothesis is listed.
-        let mut notes = self.notes.clone();
-        let search = discover::run(self, looped, loop_names, &decision, &mut notes);
-        let explanations: Vec<next_test::Explanation> = match search.as_ref().map(|s| s.compared()) {
+        })
+    }
+
+    /// Step 7: the test that would best tell apart the explanations the decision leaves open (or a
+    /// term the search found from its base).
+    fn next_test(
+        &self,
+        decision: &verdict::Decision,
+        search: Option<&discover::Search>,
+        looped: &[Evidence],
+        loop_names: &[String],
+        candidates: &[Candidate],
+    ) -> Option<NextTest> {
+        let (cx, ranked) = (&self.cx, &self.ranked);
+        let name = |who| verdict::name_of(who, candidates, loop_names);
+        let explanations: Vec<next_test::Explanation> = match search.map(|s| s.compared()) {
             // A found term is a hypothesis like any other: the next test tells it from its base.
             Some(found) if !found.is_empty() => found,
             _ => decision
@@ -822,102 +997,54 @@ impl<'a> Evidence<'a> {
         // A confirming test may count the tests in hand; where they left it open, new tests must
         // decide on their own. So must a test of a term the search found: the tests that chose it
         // cannot also confirm it.
-        let found = search.as_ref().is_some_and(|s| s.found.is_some());
+        let found = search.is_some_and(|s| s.found.is_some());
         let fresh = found || !matches!(decision.verdict, Verdict::CauseNamed | Verdict::NoModelError);
-        let next_test = next_test::recommend(cx, &explanations, &self.noise, fresh);
-        drop(explanations);
-        let residuals = residuals::table(cx, &ranked.base.model.fit, &self.noise);
-        let structure = residuals::trends(cx, &residuals);
-        let confounded = evidence::absorbed_sentences(&candidates);
-        let screening_words = after.as_ref().map(|_| {
-            let w = text::describe(&self.facts(
-                &self.decision,
-                &candidates,
-                &residuals,
-                &structure,
-                None,
-                None,
-                &confounded,
-                &[],
-            ));
-            w.headline
-        });
-        let after = after.map(|mut a| {
-            a.screening_headline = screening_words.unwrap_or_default();
-            a
-        });
-        let mut facts = self.facts(
-            &decision,
-            &candidates,
-            &residuals,
-            &structure,
-            extended.as_ref(),
-            next_test.as_ref(),
-            &confounded,
-            loop_names,
-        );
-        facts.after_loop = after.as_ref();
-        let mut words = text::describe(&facts);
-        if let Some(s) = &search {
-            // After the verdict and the action: what the search found, marked as found, not listed.
-            words.evidence.splice(0..0, s.discovered.evidence.iter().cloned());
-            words.summary = text::summary(&words.headline, &words.action, &words.evidence, &words.limits);
-        }
-        Diagnosis {
-            discrepancy_detected: decision.detected,
-            cause: decision.cause.map(name),
-            verdict: decision.verdict,
-            headline: words.headline,
-            leading: decision.leading.iter().map(|&w| name(w)).collect(),
-            action: words.action,
-            evidence: words.evidence,
-            limits: words.limits,
-            uncorrected: ranked.uncorrected(cx),
-            lack_of_fit: ranked.base.assessed.lack_of_fit.clone(),
-            rivals: ranked.rivals.clone(),
-            candidates,
-            extended,
-            extensions: Vec::new(),
-            next_test,
-            features: None,
-            after_loop: after,
-            discovered: search.map(|s| s.discovered),
-            summary: words.summary,
-            noise: self.noise.clone(),
-            residuals,
-            structure,
-            confounded,
-            rule: RULE.to_string(),
-            notes,
-        }
+        next_test::recommend(cx, &explanations, &self.noise, fresh)
     }
 
-    #[allow(clippy::too_many_arguments)] // the words' inputs, each a typed result of a step
+    /// How far the final model's parameters move when its misfit is absorbed ([`limits`]): for the
+    /// cause that partly explains (its loop model where the loop calibrated it), or the uncorrected
+    /// model when nothing explains; only when that model misses the tests.
+    fn parameter_limits(&self, decision: &verdict::Decision, looped: &[Evidence]) -> Vec<limits::ParameterLimit> {
+        use verdict::Who;
+        let (cx, entry) = match (decision.verdict, decision.cause) {
+            (Verdict::PartlyExplained, Some(Who::Candidate(k))) => (&self.cx, &self.ranked.entries[k]),
+            (Verdict::PartlyExplained, Some(Who::Extended(j))) => (&looped[j].cx, &looped[j].ranked.base),
+            (Verdict::Unexplained, _) => (&self.cx, &self.ranked.base),
+            _ => return Vec::new(),
+        };
+        let a = &entry.assessed;
+        if !a.lack_of_fit.as_ref().is_some_and(LackOfFit::rejects) {
+            return Vec::new();
+        }
+        let z = evidence::standardised(cx, &entry.model, a.s2.unwrap_or(1.0), a.validation.as_ref());
+        limits::limits(cx, &entry.model, &z, a.cov.as_ref())
+    }
+
     fn facts<'f>(
         &'f self,
         decision: &'f verdict::Decision,
-        candidates: &'f [Candidate],
-        residuals: &'f [Residual],
-        structure: &'f [Trend],
+        found: &Found<'f>,
         extended: Option<&'f Extended>,
         next_test: Option<&'f NextTest>,
-        confounded: &'f [String],
         loop_names: &'f [String],
+        parameter_limits: &'f [limits::ParameterLimit],
     ) -> text::Facts<'f> {
         text::Facts {
             cx: &self.cx,
             noise: &self.noise,
-            residuals,
-            structure,
-            candidates,
+            residuals: found.residuals,
+            structure: found.structure,
+            candidates: found.candidates,
             base: &self.ranked.base,
             decision,
             rivals: &self.ranked.rivals,
             extended,
             next_test,
-            confounded,
+            confounded: found.confounded,
             loop_names,
             after_loop: None,
+            parameter_limits,
         }
     }
 }

@@ -37,7 +37,7 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use super::{Context, Mode, NextTest, NoiseKind, NoiseModel, stats, text};
+use super::{Context, Mode, NextTest, NoiseKind, NoiseModel, stats};
 
 /// A prediction at an observation point for fitted numbers β.
 type Eval<'e> = dyn Fn(&[f64], &[f64]) -> f64 + Sync + 'e;
@@ -866,7 +866,7 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
              next test is the design farthest from those tested, where the calibrated simulation predicts {}. In \
              numbers: {advice}.",
             at_text(&design),
-            text::num(y)
+            crate::format::num(y)
         ),
         advice,
         between: ["uncorrected".into(), "uncorrected".into()],
@@ -937,7 +937,7 @@ fn named(cx: &Context, d: &[f64]) -> IndexMap<String, f64> {
 fn at_text(design: &IndexMap<String, f64>) -> String {
     design
         .iter()
-        .map(|(n, v)| format!("{n} = {}", text::num(*v)))
+        .map(|(n, v)| format!("{n} = {}", crate::format::num(*v)))
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -1112,9 +1112,9 @@ fn measurement_words(ms: &[Measurement]) -> Option<String> {
         "an independent measurement of {} to ±{} (standard uncertainty; the explanations want {} and {}) would tell \
          them apart with the tests in hand",
         m.parameter,
-        text::pct_pub(m.relative_uncertainty),
-        text::num(m.values[0]),
-        text::num(m.values[1])
+        crate::format::pct(m.relative_uncertainty),
+        crate::format::num(m.values[0]),
+        crate::format::num(m.values[1])
     ))
 }
 
@@ -1123,7 +1123,7 @@ fn why(t: &NextTest, noise_known: bool) -> String {
     let preds = t
         .compared
         .iter()
-        .map(|(n, y)| format!("'{n}' {}", text::num(*y)))
+        .map(|(n, y)| format!("'{n}' {}", crate::format::num(*y)))
         .collect::<Vec<_>>()
         .join(", ");
     let (ya, yb) = (t.predictions[0], t.predictions[1]);
@@ -1141,7 +1141,7 @@ fn why(t: &NextTest, noise_known: bool) -> String {
     };
     format!(
         "Test at {place}: there {preds}; the closest two are {} apart, {chosen}. In numbers: {}.",
-        text::pct_pub(rel),
+        crate::format::pct(rel),
         t.advice
     )
 }

@@ -152,7 +152,7 @@ impl Shape {
             .map(|(k, v)| format!("{k} = {v}"))
             .collect::<Vec<_>>()
             .join(", ");
-        let g = super::text::num(gamma);
+        let g = crate::format::num(gamma);
         let mut s = format!(
             "γ = {g}: the tests want {g} × the effect of the extension as specified ({set}); γ = 1 is the \
              extension exactly, γ = 0 the baseline. The extension enters linearised around the baseline, exact when \
@@ -161,8 +161,8 @@ impl Shape {
         if let [(k, v)] = variables.as_slice() {
             s.push_str(&format!(
                 ": then, with {k} = 0 in the baseline, the tests want {k} ≈ γ × {} = {}",
-                super::text::num(*v),
-                super::text::num(gamma * v)
+                crate::format::num(*v),
+                crate::format::num(gamma * v)
             ));
         }
         s.push('.');

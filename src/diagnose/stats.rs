@@ -1,7 +1,7 @@
 //! The few distribution functions the diagnosis needs: tail probabilities on top of statrs's
 //! regularised incomplete gamma and beta functions, plus ranks and correlations.
 
-use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
+use statrs::distribution::{ChiSquared, ContinuousCDF, Normal, StudentsT};
 use statrs::function::beta::checked_beta_reg;
 use statrs::function::gamma::checked_gamma_ur;
 
@@ -59,6 +59,11 @@ pub fn t_quantile(q: f64, nu: f64) -> f64 {
         Ok(t) if nu.is_finite() && nu > 0.0 => t.inverse_cdf(q),
         _ => normal_quantile(q),
     }
+}
+
+/// The `q` quantile of χ² with `k` degrees of freedom.
+pub fn chi2_quantile(q: f64, k: f64) -> f64 {
+    ChiSquared::new(k).map_or(f64::NAN, |c| c.inverse_cdf(q))
 }
 
 /// The `q` quantile of the standard normal.

@@ -8,47 +8,7 @@ use super::ranking::RivalTest;
 use super::verdict::{Decision, Verdict, Who};
 use super::{Candidate, Context, Extended, LackOfFit, NextTest, NoiseModel, Residual, Role, Trend};
 
-/// A number with four significant digits, without trailing noise.
-pub fn num(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    let mag = v.abs().log10().floor() as i32;
-    if !(-3..6).contains(&mag) {
-        return format!("{v:.3e}");
-    }
-    let decimals = (3 - mag).max(0) as usize;
-    let s = format!("{v:.decimals$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
-    }
-}
-
-/// |v| as a percentage with sensible digits.
-pub fn pct_pub(v: f64) -> String {
-    pct(v)
-}
-
-fn pct(v: f64) -> String {
-    let a = 100.0 * v.abs();
-    if a >= 10.0 {
-        format!("{a:.0} %")
-    } else if a >= 1.0 {
-        format!("{a:.1} %")
-    } else {
-        format!("{a:.2} %")
-    }
-}
-
-pub(crate) fn p_text(p: f64) -> String {
-    if p < 1e-6 {
-        "p < 1e-6".to_string()
-    } else {
-        format!("p = {}", num(p))
-    }
-}
+pub(crate) use crate::format::{num, p_text, params, pct};
 
 pub(crate) struct Facts<'a> {
     pub cx: &'a Context<'a>,
@@ -66,6 +26,8 @@ pub(crate) struct Facts<'a> {
     pub loop_names: &'a [String],
     /// How the loop's models changed the screening's verdict.
     pub after_loop: Option<&'a AfterLoop>,
+    /// How far the final model's parameters move when its misfit is absorbed.
+    pub parameter_limits: &'a [super::limits::ParameterLimit],
 }
 
 impl Facts<'_> {
@@ -100,13 +62,6 @@ fn quoted(names: &[String]) -> String {
     names.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(" and ")
 }
 
-pub(crate) fn params(p: &indexmap::IndexMap<String, f64>) -> String {
-    p.iter()
-        .map(|(k, v)| format!("{k} = {}", num(*v)))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
 pub(crate) fn describe(f: &Facts) -> Words {
     let headline = headline(f);
     let action = action(f);
@@ -119,6 +74,14 @@ pub(crate) fn describe(f: &Facts) -> Words {
         evidence,
         limits,
         summary,
+    }
+}
+
+impl super::Diagnosis {
+    /// Writes `summary` again from the headline, action, evidence and limits (after a later step
+    /// added to them).
+    pub(crate) fn resummarise(&mut self) {
+        self.summary = summary(&self.headline, &self.action, &self.evidence, &self.limits);
     }
 }
 
@@ -136,12 +99,7 @@ pub(crate) fn summary(headline: &str, action: &str, evidence: &[String], limits:
 }
 
 fn lof_text(l: &LackOfFit) -> String {
-    format!(
-        "χ² = {} on {} degrees of freedom, {}",
-        num(l.chi2),
-        l.dof,
-        p_text(l.p_value)
-    )
+    crate::format::lack_of_fit(l)
 }
 
 fn headline(f: &Facts) -> String {
@@ -212,63 +170,7 @@ fn headline(f: &Facts) -> String {
                 weights.join(", ")
             )
         }
-        Verdict::PartlyExplained => {
-            let k = f.candidate(d.cause.expect("a cause")).expect("a candidate");
-            let alpha = f.cx.alpha();
-            let lof = f
-                .extended
-                .and_then(|e| e.lack_of_fit_chi2.zip(e.lack_of_fit_dof).zip(e.lack_of_fit_p))
-                .filter(|(_, p)| *p < alpha)
-                .map(|((chi2, dof), p)| {
-                    format!(
-                        "the extended model still misses the tests beyond the noise (χ² = {} on {dof} degrees of freedom, {})",
-                        num(chi2),
-                        p_text(p)
-                    )
-                });
-            let bound = alpha / f.rivals.len().max(1) as f64;
-            // After the loop the decision's own second explanation says what still adds.
-            let rival = f
-                .after_loop
-                .is_none()
-                .then_some(f.rivals)
-                .into_iter()
-                .flatten()
-                .filter(|r| r.p_rival_given_leader.is_some_and(|p| p < bound))
-                .min_by(|a, b| {
-                    a.p_rival_given_leader
-                        .unwrap()
-                        .total_cmp(&b.p_rival_given_leader.unwrap())
-                })
-                .map(|r| {
-                    format!(
-                        "'{}' still explains part of what remains with it in the model (encompassing test {})",
-                        r.rival,
-                        p_text(r.p_rival_given_leader.unwrap())
-                    )
-                });
-            // After the loop: the rival that still adds is the decision's second explanation.
-            let also = f
-                .after_loop
-                .and(d.compare.get(1))
-                .filter(|w| **w != Who::Uncorrected)
-                .map(|&w| {
-                    format!(
-                        "'{}' still explains part of what remains with it in the model",
-                        f.name(w)
-                    )
-                });
-            let mut why: Vec<String> = lof.into_iter().chain(rival).chain(also).collect();
-            if why.is_empty() {
-                why.push("a listed shape still explains part of what its model leaves".into());
-            }
-            format!(
-                "'{}' ({}) explains part of the misfit, but the listed causes do not account for all of it: {}",
-                k.name,
-                k.term,
-                why.join("; and ")
-            )
-        }
+        Verdict::PartlyExplained => partly_explained(f),
         Verdict::Unexplained => format!(
             "the simulation misses the tests beyond the noise{}, and no candidate reduces the misfit significantly",
             f.base
@@ -280,6 +182,61 @@ fn headline(f: &Facts) -> String {
         Verdict::TooFewTests => too_few_reason(f),
     };
     format!("{}: {detail}.", first_up(words))
+}
+
+/// "Partly explained": no listed cause accounts for the misfit; which one removes part of it, how
+/// much, and why its model is not a fit (each failed test with its figures).
+fn partly_explained(f: &Facts) -> String {
+    let d = f.decision;
+    let k = f.candidate(d.cause.expect("a cause")).expect("a candidate");
+    let alpha = f.cx.alpha();
+    let share = f
+        .extended
+        .and_then(|e| e.lack_of_fit.as_ref())
+        .zip(f.base.assessed.lack_of_fit.as_ref())
+        .and_then(|(e, u)| {
+            let excess = |l: &LackOfFit| l.chi2 - l.dof as f64;
+            (excess(u) > 0.0).then(|| (1.0 - excess(e).max(0.0) / excess(u)).clamp(0.0, 1.0))
+        })
+        .map_or(String::new(), |s| format!(" (it removes {:.0} % of the misfit beyond the noise)", 100.0 * s));
+    let lof = f
+        .extended
+        .and_then(|e| e.lack_of_fit.as_ref())
+        .filter(|l| l.rejects())
+        .map(|l| format!("its model still misses the tests beyond the noise ({})", lof_text(l)));
+    let bound = alpha / f.rivals.len().max(1) as f64;
+    // Before the loop the rivals' encompassing tests say what still adds; after it, the decision's
+    // own second explanation.
+    let rival = f
+        .after_loop
+        .is_none()
+        .then_some(f.rivals)
+        .into_iter()
+        .flatten()
+        .filter_map(|r| Some((r, r.p_rival_given_leader.filter(|p| *p < bound)?)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(r, p)| {
+            format!(
+                "'{}' still explains part of what remains with it in the model (encompassing test {})",
+                r.rival,
+                p_text(p)
+            )
+        });
+    let also = f
+        .after_loop
+        .and(d.compare.get(1))
+        .filter(|w| **w != Who::Uncorrected)
+        .map(|&w| format!("'{}' still explains part of what remains with it in the model", f.name(w)));
+    let mut why: Vec<String> = lof.into_iter().chain(rival).chain(also).collect();
+    if why.is_empty() {
+        why.push("a listed shape still explains part of what its model leaves".into());
+    }
+    format!(
+        "no listed cause accounts for the misfit; '{}' ({}) explains part of it{share}, but {}",
+        k.name,
+        k.term,
+        why.join("; and ")
+    )
 }
 
 fn too_few_reason(f: &Facts) -> String {
@@ -354,7 +311,7 @@ fn evidence(f: &Facts) -> Vec<String> {
         out.push(format!(
             "Misfit of the uncorrected simulation against the replicate noise: {} ({} α = {}).",
             lof_text(l),
-            if l.p_value < f.cx.alpha() {
+            if l.rejects() {
                 "beyond the noise at"
             } else {
                 "within the noise at"
@@ -545,6 +502,7 @@ fn separation(c: &Candidate) -> Option<String> {
 
 fn limits(f: &Facts) -> Vec<String> {
     let mut out = vec![format!("Noise: {}.", f.noise.note)];
+    out.extend(parameter_limits(f.parameter_limits));
     if f.cx.mode == super::Mode::Few {
         out.push(format!(
             "Only {} training design(s): candidates are ranked by AIC and by their predictions at the validation \
@@ -580,6 +538,38 @@ fn limits(f: &Facts) -> Vec<String> {
         }
     }
     out
+}
+
+/// The parameters of a model that still misses the tests: how far each moves when the misfit is
+/// absorbed, the one that moves most first.
+fn parameter_limits(limits: &[super::limits::ParameterLimit]) -> Vec<String> {
+    let Some(first) = limits.first() else {
+        return Vec::new();
+    };
+    let at = first
+        .absorbed
+        .iter()
+        .map(|(n, z)| format!("{n} ({z:+.1} σ)"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let moves: Vec<String> = limits
+        .iter()
+        .map(|l| {
+            format!(
+                "{} {} → {} ({:+.1} %{})",
+                l.parameter,
+                num(l.estimate),
+                num(l.moved_to),
+                100.0 * l.relative,
+                l.standard_errors.map_or(String::new(), |s| format!(", {} standard errors", num(s)))
+            )
+        })
+        .collect();
+    vec![format!(
+        "The calibrated parameters are only as good as the model, which still misses the tests: with the misfit at          {at} absorbed, {}; {} is the most suspect.",
+        moves.join(", "),
+        first.parameter
+    )]
 }
 
 /// The headline of a cause named from the loop's evidence.
@@ -627,7 +617,7 @@ fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
         };
         out.push(match &j.lack_of_fit {
             Some(l) if j.rejected => format!(
-                "'{}' {what}: rejected, its model still misses the tests beyond the noise ({} < α = {alpha}).",
+                "'{}' {what}: rejected, its model still misses the tests beyond the noise ({}; α = {alpha}).",
                 j.name,
                 lof_text(l)
             ),

@@ -86,7 +86,7 @@ pub(crate) fn name_of(who: Who, candidates: &[Candidate], loop_names: &[String])
 
 pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
     let alpha = cx.alpha();
-    let rejects = |l: Option<&super::LackOfFit>| l.is_some_and(|l| l.p_value < alpha);
+    let rejects = |l: Option<&super::LackOfFit>| l.is_some_and(super::LackOfFit::rejects);
     let base_rejects = rejects(ranked.base.assessed.lack_of_fit.as_ref());
     let best = (!ranked.entries.is_empty()).then_some(0);
     let Some(l) = ranked.leader else {

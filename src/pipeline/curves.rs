@@ -341,7 +341,7 @@ fn model_curves<'a>(
 ) -> (DesignCurve<'a>, Option<DesignCurve<'a>>) {
     let theta: Vec<f64> = d.uncorrected.parameters.values().copied().collect();
     let uncorrected: DesignCurve<'a> = Box::new(move |values: &[f64]| stage.baseline.curve(values, &theta));
-    let extended = d.extended.as_ref().and_then(|e| -> Option<DesignCurve<'a>> {
+    let extended = d.extended_model().and_then(|e| -> Option<DesignCurve<'a>> {
         let k = study.diagnosis.hypotheses.iter().position(|h| h.name == e.cause)?;
         let at: Vec<f64> = e.parameters.values().copied().collect();
         let hypothesis = &study.diagnosis.hypotheses[k];
@@ -398,7 +398,7 @@ pub fn residual_curves(
             let mut r = crate::report::data::ResidualCurves::band(&design.name, validation, stroke.clone(), &specimens);
             r.before = uncorrected(&design.values).map(vec);
             r.after = extended.as_ref().and_then(|f| f(&design.values)).map(vec);
-            r.after_label = r.after.as_ref().and(d.cause.clone());
+            r.after_label = r.after.as_ref().and(d.extended_model().map(|e| e.cause.clone()));
             r
         })
         .collect()

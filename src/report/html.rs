@@ -744,11 +744,11 @@ impl Page<'_> {
         } else {
             s.push_str(&self.candidate_plot(dg));
         }
-        if let Some(ext) = &dg.extended {
+        if let Some(ext) = dg.extended_model() {
             s.push_str(&before_after(ext));
         }
         s.push_str("</div>");
-        match &dg.extended {
+        match dg.extended_model() {
             Some(ext) => s.push_str(&remaining_block(ext)),
             None => s.push_str(&note(
                 "no cause was named, so there is no extended model to compare before/after",
@@ -966,6 +966,7 @@ fn noise_kind(kind: &crate::diagnose::NoiseKind) -> &'static str {
     match kind {
         crate::diagnose::NoiseKind::Absolute => "absolute",
         crate::diagnose::NoiseKind::Relative => "relative",
+        crate::diagnose::NoiseKind::Combined => "absolute and relative",
         crate::diagnose::NoiseKind::FromResiduals => "estimated from the residuals",
     }
 }
@@ -1269,19 +1270,9 @@ fn remaining_block(ext: &crate::diagnose::Extended) -> String {
         percent: false,
         headings: vec![],
     };
-    let verdict = match ext.lack_of_fit_p {
-        Some(p) if p < DIAGNOSIS_ALPHA => format!(
-            "beyond the noise: χ² = {} on {} degrees of freedom, p = {} < α = {DIAGNOSIS_ALPHA}",
-            significant(ext.lack_of_fit_chi2.unwrap_or(f64::NAN), 3),
-            ext.lack_of_fit_dof.unwrap_or(0),
-            significant(p, 2)
-        ),
-        Some(p) => format!(
-            "within the noise: χ² = {} on {} degrees of freedom, p = {} ≥ α = {DIAGNOSIS_ALPHA}",
-            significant(ext.lack_of_fit_chi2.unwrap_or(f64::NAN), 3),
-            ext.lack_of_fit_dof.unwrap_or(0),
-            significant(p, 2)
-        ),
+    let verdict = match &ext.lack_of_fit {
+        Some(l) if l.rejects() => format!("beyond the noise: {}", crate::format::lack_of_fit(l)),
+        Some(l) => format!("within the noise both ways: {}", crate::format::lack_of_fit(l)),
         None => "no replicates, so no test against the noise".into(),
     };
     let caption = format!(

@@ -262,7 +262,7 @@ fn write_diagnosis(out: &mut String, results: &Results) {
             );
         }
     }
-    if let Some(x) = &d.extended {
+    if let Some(x) = d.extended_model() {
         let params: Vec<String> = x
             .parameters
             .iter()
