@@ -154,7 +154,11 @@ fn lack_of_fit(cx: &Context, m: &Model, validation: Option<&Check>) -> Option<La
     let dof = cx.train.len().saturating_sub(m.k()) + validation.map_or(0, |v| v.dof);
     let chi2 = m.fit.wrss + validation.map_or(0.0, |v| v.chi2);
     let z: Vec<(String, f64)> = standardised(cx, m, 1.0, validation).into_iter().collect();
-    (dof > 0).then(|| LackOfFit::new(chi2, dof, cx.nu, &z, cx.alpha()))
+    // The base model's fit detects model error (its share of α split over the two tests); any
+    // other model's fit is a claim about a cause: each test at α, the stricter side.
+    let base = m.shape.is_none() && m.more.is_empty();
+    let level = if base { cx.base_fit_level() } else { cx.alpha() };
+    (dof > 0).then(|| LackOfFit::new(chi2, dof, cx.nu, &z, level))
 }
 
 /// The model's residuals in units of their own standard error: a training residual w_i (ȳ_i − ŷ_i)

@@ -332,6 +332,8 @@ pub struct Diagnosis {
     pub structure: Vec<Trend>,
     /// One sentence per candidate the data cannot tell from a change of θ.
     pub confounded: Vec<String>,
+    /// The levels the decision's tests were held to.
+    pub levels: Levels,
     /// The decision rule, in words.
     pub rule: String,
     /// Anything skipped or degenerate.
@@ -468,6 +470,19 @@ pub struct Extended {
     /// (`diagnosis.extensions`), not the screening's linearisation.
     #[serde(default)]
     pub solver_in_the_loop: bool,
+}
+
+/// The levels of the tests a diagnosis rests on (`diagnosis.levels`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Levels {
+    /// The one α: model error is claimed at this level in all.
+    pub alpha: f64,
+    /// Each of the uncorrected model's two lack-of-fit tests (its share of α, halved).
+    pub uncorrected_fit: f64,
+    /// The K candidates' amplitude tests together (each at this / K).
+    pub candidates: f64,
+    /// Each of the two lack-of-fit tests of a cause's model.
+    pub cause_fit: f64,
 }
 
 /// A listed cause that explains part of the misfit (`diagnosis.partial`).
@@ -619,10 +634,13 @@ pub(crate) struct Context<'a> {
     pub mode: Mode,
     /// Weighted RSS below this counts as zero (floating-point-exact data).
     pub rss_floor: f64,
+    /// The base model is the study's own simulation: its lack of fit detects model error, with
+    /// its two tests sharing α ([`lack_of_fit`]).
+    pub detection: bool,
 }
 
 impl<'a> Context<'a> {
-    fn new(inputs: &'a Inputs<'a>, noise: Option<&NoiseModel>) -> Result<Self, CalibrationError> {
+    fn new(inputs: &'a Inputs<'a>, noise: Option<&NoiseModel>, detection: bool) -> Result<Self, CalibrationError> {
         let obs = &inputs.observations;
         let train: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Training).collect();
         let val: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Validation).collect();
@@ -673,6 +691,7 @@ impl<'a> Context<'a> {
             nu,
             mode,
             rss_floor,
+            detection,
         })
     }
 
@@ -706,6 +725,20 @@ impl<'a> Context<'a> {
 
     pub fn alpha(&self) -> f64 {
         self.inputs.settings.alpha
+    }
+
+    /// The level of the K candidates' amplitude tests together: detecting model error, the
+    /// candidates and the uncorrected model's lack of fit share α (half each, Bonferroni), so that
+    /// model error is claimed at level α; judging a loop model, α.
+    pub fn candidates_level(&self) -> f64 {
+        if self.detection { self.alpha() / 2.0 } else { self.alpha() }
+    }
+
+    /// The level of each of the two lack-of-fit tests of the base model: detecting model error,
+    /// the base shares its half of α between them (α/4 each); any other model's fit is a claim
+    /// about a cause, each test at α ([`lack_of_fit`]).
+    pub fn base_fit_level(&self) -> f64 {
+        if self.detection { self.alpha() / 4.0 } else { self.alpha() }
     }
 
     pub fn param_map(&self, theta: &DVector<f64>) -> IndexMap<String, f64> {
@@ -753,7 +786,7 @@ whose model does not fit only partly explains the misfit: it is reported as part
 /// Runs the diagnosis, step by step (see the module notes). Errors only when there are no training
 /// designs or the model cannot be evaluated.
 pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
-    Ok(Evidence::gather(inputs)?.conclusion(&[], &[]))
+    Ok(Evidence::gather(inputs, true)?.conclusion(&[], &[]))
 }
 
 /// The library search alone ([`discover`]), from the screening's decision, as [`diagnose`] runs it
@@ -761,21 +794,24 @@ pub fn diagnose(inputs: &Inputs) -> Result<Diagnosis, CalibrationError> {
 /// next test, no words. For timing the search (`benches/discover.rs`) and for callers that want
 /// only `diagnosis.discovered`.
 pub fn discover(inputs: &Inputs) -> Result<Option<discover::Discovered>, CalibrationError> {
-    let evidence = Evidence::gather(inputs)?;
+    let evidence = Evidence::gather(inputs, true)?;
     let mut notes = Vec::new();
     let search = discover::run(&evidence, &[], &[], &evidence.decision, &mut notes);
     Ok(search.map(|s| s.discovered))
 }
 
 /// Step 1: the noise and the uncorrected model fitted under it. A noise the caller knows is taken
-/// as it is; else the replicates' at the maximum-likelihood mixing ([`noise`]), unless the
-/// uncorrected model misses the tests there and another mixing the replicates allow lets it fit:
-/// then the one under which it fits best (the lack-of-fit p maximised over the set).
+/// as it is; else the replicates' at the chosen mixing ([`noise`]). Model error is claimed only
+/// when it is detected under every mixing the replicates allow (the p-value maximised over a
+/// confidence set of the nuisance, Berger & Boos 1994): when the uncorrected model misses the tests
+/// at the chosen mixing, each mixing of the set under which it fits is tried, and the first under
+/// which no candidate explains the misfit either is the one the diagnosis runs with.
 fn noise_and_base<'a>(
     inputs: &'a Inputs<'a>,
+    detection: bool,
 ) -> Result<(Context<'a>, candidates::Model, Option<NoiseModel>), CalibrationError> {
     let fitted = |nm: Option<NoiseModel>| -> Result<_, CalibrationError> {
-        let cx = Context::new(inputs, nm.as_ref())?;
+        let cx = Context::new(inputs, nm.as_ref(), detection)?;
         let base = candidates::uncorrected(&cx)?;
         Ok((cx, base, nm))
     };
@@ -786,22 +822,40 @@ fn noise_and_base<'a>(
         return fitted(None);
     };
     let alpha = inputs.settings.alpha;
-    let p_fit = |(cx, base, _): &(Context, candidates::Model, Option<NoiseModel>)| {
-        evidence::assess_one(cx, base, None).lack_of_fit.map_or(1.0, |l| l.p_either())
-    };
-    let ml = fitted(Some(scatter.model_at(scatter.ml_mixing(), alpha)))?;
-    if p_fit(&ml) >= alpha {
-        return Ok(ml);
+    let chosen = scatter.chosen_mixing(alpha);
+    let first = fitted(Some(scatter.model_at(chosen, alpha)))?;
+    if fits(&first.0, &first.1) {
+        return Ok(first);
     }
-    let mut best: Option<(f64, _)> = None;
     for lambda in scatter.set_points(alpha) {
-        let at = fitted(Some(scatter.model_at(lambda, alpha)))?;
-        let p = p_fit(&at);
-        if p >= alpha && best.as_ref().is_none_or(|b| p > b.0) {
-            best = Some((p, at));
+        let (cx, base, nm) = fitted(Some(scatter.model_at(lambda, alpha)))?;
+        if fits(&cx, &base) && !candidate_explains(&cx, &base) {
+            let mut nm = nm.expect("a replicate noise");
+            nm.note.push_str(&format!(
+                "; under the mixing λ = {chosen:.2} the uncorrected simulation would miss the tests, but under λ = \
+                 {lambda:.2}, which the replicates allow as well, it fits them and no candidate explains a misfit: model \
+                 error is not claimed on the noise model's account"
+            ));
+            return Ok((cx, base, Some(nm)));
         }
     }
-    Ok(best.map_or(ml, |b| b.1))
+    Ok(first)
+}
+
+/// The uncorrected model fits the tests (both ways; trivially without a lack-of-fit test).
+fn fits(cx: &Context, base: &candidates::Model) -> bool {
+    evidence::assess_one(cx, base, None).lack_of_fit.is_none_or(|l| l.fits)
+}
+
+/// Some candidate's amplitude test is significant at α/K (step 3's rule, on a scratch fit).
+fn candidate_explains(cx: &Context, base: &candidates::Model) -> bool {
+    let mut notes = Vec::new();
+    let shapes = candidates::shapes(cx, base, &mut notes);
+    let fitted = candidates::fit_all(cx, shapes, &mut notes);
+    let k = fitted.len().max(1) as f64;
+    fitted
+        .iter()
+        .any(|m| evidence::assess_one(cx, m, Some(base)).p_value.is_some_and(|p| p * k < cx.candidates_level()))
 }
 
 /// A hypothesis the loop calibrated with the solver, as the diagnosis sees it.
@@ -818,10 +872,10 @@ pub struct LoopModel<'a> {
 /// calibrated (`looped`), decided once ([`after_loop`]). Also returns each loop model's own
 /// diagnosis (what it leaves unexplained).
 pub fn conclude(inputs: &Inputs, looped: &[LoopModel]) -> Result<(Diagnosis, Vec<Diagnosis>), CalibrationError> {
-    let screening = Evidence::gather(inputs)?;
+    let screening = Evidence::gather(inputs, true)?;
     let evidence: Vec<Evidence> = looped
         .iter()
-        .map(|m| Evidence::gather(&m.inputs))
+        .map(|m| Evidence::gather(&m.inputs, false))
         .collect::<Result<_, _>>()?;
     let own: Vec<Diagnosis> = evidence.iter().map(|e| e.conclusion(&[], &[])).collect();
     let names: Vec<String> = looped.iter().map(|m| m.hypothesis.clone()).collect();
@@ -847,9 +901,11 @@ pub(crate) struct Evidence<'a> {
 }
 
 impl<'a> Evidence<'a> {
-    fn gather(inputs: &'a Inputs<'a>) -> Result<Self, CalibrationError> {
+    /// `detection`: the simulation is the study's own, so the uncorrected model's lack of fit
+    /// detects model error (a loop model's is judged as a cause's model).
+    fn gather(inputs: &'a Inputs<'a>, detection: bool) -> Result<Self, CalibrationError> {
         let mut notes = Vec::new();
-        let (cx, base, replicate_noise) = noise_and_base(inputs)?;
+        let (cx, base, replicate_noise) = noise_and_base(inputs, detection)?;
         let shapes = candidates::shapes(&cx, &base, &mut notes);
         let fitted = candidates::fit_all(&cx, shapes, &mut notes);
         let assessed = evidence::assess(&cx, &base, &fitted);
@@ -934,6 +990,12 @@ impl<'a> Evidence<'a> {
             residuals,
             structure,
             confounded,
+            levels: Levels {
+                alpha: self.cx.alpha(),
+                uncorrected_fit: self.cx.base_fit_level(),
+                candidates: self.cx.candidates_level(),
+                cause_fit: self.cx.alpha(),
+            },
             rule: RULE.to_string(),
             notes,
         }

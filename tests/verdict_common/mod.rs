@@ -8,8 +8,12 @@ const ALPHA: f64 = 0.01;
 /// A lack-of-fit record rejects when either of its two tests does at α: the omnibus p, or the
 /// largest standardised residual's corrected p (read from the numbers, not from `fits`).
 fn rejects(l: &Value) -> bool {
-    let omnibus = l["p_value"].as_f64().is_some_and(|p| p < ALPHA);
-    let residual = l["largest"]["p_corrected"].as_f64().is_some_and(|p| p < ALPHA);
+    // Each test at its record's level: α/4 for the uncorrected simulation (detection: half of α,
+    // shared by its two tests), α for a cause's model.
+    let level = l["level"].as_f64().unwrap_or(ALPHA);
+    assert!(level == ALPHA || level == ALPHA / 4.0, "level {level}");
+    let omnibus = l["p_value"].as_f64().is_some_and(|p| p < level);
+    let residual = l["largest"]["p_corrected"].as_f64().is_some_and(|p| p < level);
     if l.is_object() {
         assert_eq!(l["fits"].as_bool(), Some(!(omnibus || residual)), "`fits` disagrees with its figures: {l}");
     }
@@ -122,7 +126,10 @@ fn assert_after_loop(d: &Value, after: &Value, verdict: &str) {
 fn assert_screening(d: &Value, verdict: &str, final_extended: bool) {
     let candidates = d["candidates"].as_array().expect("candidates");
     let k = candidates.len().max(1) as f64;
-    let explains = |c: &Value| c["p_value"].as_f64().is_some_and(|p| p * k < ALPHA);
+    // The candidates share half of α when detecting model error (the other half is the lack of fit's).
+    let level = d["levels"]["candidates"].as_f64().expect("levels");
+    assert_eq!(level, ALPHA / 2.0);
+    let explains = |c: &Value| c["p_value"].as_f64().is_some_and(|p| p * k < level);
     for c in candidates {
         assert_eq!(
             c["explains_misfit"].as_bool(),
