@@ -357,11 +357,40 @@ pub(crate) struct Base<'a> {
     simulated_by: Option<String>,
 }
 
-/// The search from `base` over the library `spec` describes.
+/// The library as the search sees it at the base fit: the distinct shapes kept (with their
+/// weighted vectors at the training designs), and what was dropped or merged as the same shape.
+struct Kept {
+    shapes: Vec<Shape>,
+    vectors: Vec<Vec<f64>>,
+    dropped: Vec<Dropped>,
+    same_shape: IndexMap<String, Vec<String>>,
+    exponents: Vec<String>,
+}
+
+/// How many models the search may try, and the corrected threshold that pays for them.
+struct Size {
+    /// Distinct single terms.
+    l: usize,
+    singles: bool,
+    pairs: bool,
+    /// M: the singles, and the pairs when the designs allow them.
+    models: usize,
+    /// α / M.
+    threshold: f64,
+}
+
+/// What the judging of the shortlist produced: the first model that passed, and those that fell
+/// short (with why), in the order judged.
+struct Judged {
+    winner: Option<Passed>,
+    failed: Vec<(Tried, String)>,
+}
+
+/// The search from `base` over the library `spec` describes, step by step: the library at the
+/// base fit ([`kept`]), its size and correction ([`size`]), the shortlist by leave-one-design-out
+/// error ([`shortlist`]), the rules in that order ([`judge_shortlist`]), and the record.
 fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Option<Search<'a>> {
     let cx = b.cx;
-    let inputs = cx.inputs;
-    let settings = &inputs.settings;
     if cx.mode != Mode::Ranked {
         notes.push(format!(
             "no library search: {} training design(s) for {} parameter(s) leave no design to spare for \
@@ -371,13 +400,66 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
         ));
         return None;
     }
-    let base_entry = b.entry;
-    let base = &base_entry.model;
-    let base_name = b.name.clone();
+    let base = &b.entry.model;
     let base_shapes: Vec<Shape> = base.shapes().into_iter().cloned().collect();
+    let kept = kept(cx, base, &base_shapes, &b.name, spec);
+    let size = size(cx, base_shapes.len(), kept.shapes.len());
+    if !size.singles {
+        notes.push(format!(
+            "no library search: {} training design(s) cannot fit a term beside {} parameter(s) and leave one out",
+            cx.train.len(),
+            cx.p()
+        ));
+        return None;
+    }
+    let mut s = Searcher {
+        cx,
+        base,
+        base_shapes,
+        shapes: kept.shapes,
+        singles: Vec::new(),
+    };
+    let theta0 = base.fit.theta.clone();
+    s.singles = (0..size.l).into_par_iter().map(|t| s.fit(&[t], &theta0)).collect();
+    let tried = shortlist(&s, &kept.vectors, size.pairs);
+    let judged = judge_shortlist(&s, &tried, &size, &kept.vectors);
+    let summary = LibrarySummary {
+        exponents: kept.exponents,
+        size: size.l,
+        models: size.models,
+        dropped: kept.dropped,
+        same_shape: kept.same_shape,
+    };
+    let mut discovered = empty_record(&b, &size, summary);
+    let mut found = None;
+    let mut found_terms: Vec<usize> = Vec::new();
+    if let Some(Passed {
+        tried: w,
+        model,
+        assessed,
+        adds,
+    }) = judged.winner
+    {
+        discovered.lack_of_fit = assessed.lack_of_fit.clone();
+        discovered.p_value = w.p;
+        found = Some(finish(&s, &w, model, assessed, &adds, &mut discovered));
+        found_terms = w.terms.clone();
+    }
+    discovered.closest = closest(&s, &tried, &judged.failed, &found_terms, &size);
+    discovered.evidence = words(&discovered, size.l, size.pairs);
+    Some(Search {
+        discovered,
+        found,
+        base: b,
+    })
+}
 
-    // The library, at the base fit: dropped, duplicated, kept.
-    let built = library::build(&inputs.design_names, spec);
+/// The library at the base fit: a shape not finite or vanishing at the training designs, or the
+/// same over them as one of the base's shapes, is dropped; shapes the same as one already kept are
+/// merged into it.
+fn kept(cx: &Context, base: &Model, base_shapes: &[Shape], base_name: &str, spec: &LibrarySpec) -> Kept {
+    let built = library::build(&cx.inputs.design_names, spec);
+    let same_cosine = cx.inputs.settings.same_shape_cosine;
     let mut dropped = built.dropped.clone();
     let mut same_shape: IndexMap<String, Vec<String>> = IndexMap::new();
     let base_vectors: Vec<Vec<f64>> = base_shapes
@@ -387,15 +469,13 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
     let mut kept: Vec<(Shape, Vec<f64>)> = Vec::new();
     for shape in built.shapes {
         let v = candidates::shape_vector(cx, &shape, base);
-        let same = |w: &Vec<f64>| stats::cosine(w, &v).abs() > settings.same_shape_cosine;
+        let same = |w: &Vec<f64>| stats::cosine(w, &v).abs() > same_cosine;
         let reason = if v.iter().any(|x| !x.is_finite()) {
             Some("not finite at every training design".to_string())
         } else if v.iter().all(|&x| x == 0.0) {
             Some("vanishes at every training design".to_string())
         } else if base_vectors.iter().any(same) {
-            Some(format!(
-                "the same shape over the training designs as the base '{base_name}'"
-            ))
+            Some(format!("the same shape over the training designs as the base '{base_name}'"))
         } else {
             None
         };
@@ -405,128 +485,122 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
                 reason,
             });
         } else if let Some((first, _)) = kept.iter().find(|(_, w)| same(w)) {
-            same_shape
-                .entry(first.term.clone())
-                .or_default()
-                .push(shape.term.clone());
+            same_shape.entry(first.term.clone()).or_default().push(shape.term.clone());
         } else {
             kept.push((shape, v));
         }
     }
-    let l = kept.len();
-    let n = cx.train.len();
-    let known = cx.known();
-    let fits_with = |extra: usize| {
-        let k = cx.p() + base_shapes.len() + extra;
-        n > k && (known || n > k + 1)
-    };
-    let (singles_ok, pairs_ok) = (fits_with(1) && l > 0, fits_with(2) && l > 1);
-    let models = if pairs_ok { l + l * (l - 1) / 2 } else { l };
-    let alpha = cx.alpha();
-    let threshold = alpha / models.max(1) as f64;
-    let summary = LibrarySummary {
-        exponents: built.exponents.iter().map(|&a| library::exponent_text(a)).collect(),
-        size: l,
-        models,
+    let (shapes, vectors) = kept.into_iter().unzip();
+    Kept {
+        shapes,
+        vectors,
         dropped,
         same_shape,
-    };
-    if !singles_ok {
-        notes.push(format!(
-            "no library search: {n} training design(s) cannot fit a term beside {} parameter(s) and leave one out",
-            cx.p()
-        ));
-        return None;
+        exponents: built.exponents.iter().map(|&a| library::exponent_text(a)).collect(),
     }
-    let correction = format!(
-        "Bonferroni over the M = {models} models searched ({l} single terms{}): the winner's F test against the base \
+}
+
+/// Singles need a design to spare beside θ and the base's shapes (two without replicates), pairs
+/// one more; M counts what can be tried, and α/M pays for it (Bonferroni).
+fn size(cx: &Context, base_shapes: usize, l: usize) -> Size {
+    let n = cx.train.len();
+    let fits_with = |extra: usize| {
+        let k = cx.p() + base_shapes + extra;
+        n > k && (cx.known() || n > k + 1)
+    };
+    let (singles, pairs) = (fits_with(1) && l > 0, fits_with(2) && l > 1);
+    let models = if pairs { l + l * (l - 1) / 2 } else { l };
+    Size {
+        l,
+        singles,
+        pairs,
+        models,
+        threshold: cx.alpha() / models.max(1) as f64,
+    }
+}
+
+/// The correction in words.
+fn correction_text(size: &Size, alpha: f64) -> String {
+    format!(
+        "Bonferroni over the M = {} models searched ({} single terms{}): the winner's F test against the base \
          must have p < α/M = {} (α = {alpha}), so that on data without model error beyond the base the chance of any \
          discovery is at most α",
-        if pairs_ok {
-            format!(" and {} pairs", l * (l - 1) / 2)
+        size.models,
+        size.l,
+        if size.pairs {
+            format!(" and {} pairs", size.l * (size.l - 1) / 2)
         } else {
             String::new()
         },
-        num(threshold)
-    );
-    let (shapes, vectors): (Vec<Shape>, Vec<Vec<f64>>) = kept.into_iter().unzip();
-    let mut s = Searcher {
-        cx,
-        base,
-        base_shapes,
-        shapes,
-        singles: Vec::new(),
-    };
-    let theta0 = base.fit.theta.clone();
-    s.singles = (0..l).into_par_iter().map(|t| s.fit(&[t], &theta0)).collect();
+        num(size.threshold)
+    )
+}
 
-    // Screening: the linearised leave-one-out error of every single and pair.
-    let screened = screen(&s, &vectors, pairs_ok);
-    let singles: Vec<Vec<usize>> = screened
-        .iter()
-        .filter(|(t, _)| t.len() == 1)
-        .take(SHORTLIST_SINGLES)
-        .map(|(t, _)| t.clone())
-        .collect();
-    let pairs: Vec<Vec<usize>> = screened
-        .iter()
-        .filter(|(t, _)| t.len() == 2)
-        .take(SHORTLIST_PAIRS)
-        .map(|(t, _)| t.clone())
-        .collect();
-    let mut tried: Vec<Tried> = singles
-        .into_iter()
-        .chain(pairs)
+/// The shortlist: the singles and pairs best by their linearised leave-one-out error, fitted
+/// exactly with their leave-one-out predictions, best first.
+fn shortlist(s: &Searcher, vectors: &[Vec<f64>], pairs_ok: bool) -> Vec<Tried> {
+    let screened = screen(s, vectors, pairs_ok);
+    let take = |len: usize, count: usize| {
+        screened
+            .iter()
+            .filter(move |(t, _)| t.len() == len)
+            .take(count)
+            .map(|(t, _)| t.clone())
+    };
+    let theta0 = &s.base.fit.theta;
+    let mut tried: Vec<Tried> = take(1, SHORTLIST_SINGLES)
+        .chain(take(2, SHORTLIST_PAIRS))
         .collect::<Vec<_>>()
         .into_par_iter()
         .filter_map(|terms| {
             let fit = match terms.as_slice() {
                 [t] => s.singles[*t].clone()?,
-                _ => s.fit(&terms, &theta0)?,
+                _ => s.fit(&terms, theta0)?,
             };
             Some(s.tried(terms, fit, true))
         })
         .collect();
-    tried.sort_by(|a, b| a.press(cx).total_cmp(&b.press(cx)));
+    tried.sort_by(|a, b| a.press(s.cx).total_cmp(&b.press(s.cx)));
+    tried
+}
 
-    let rivals_alpha = |w: usize| alpha / (l.saturating_sub(w)).max(1) as f64;
-    let eligible = |t: &Tried| -> bool {
-        t.p.is_some_and(|p| p < threshold)
-            && match t.terms.as_slice() {
-                // Each term with the other in: the drop from the other's single fit.
-                [a, b] => [b, a].iter().all(|&&other| {
-                    s.singles[other]
-                        .as_ref()
-                        .and_then(|o| s.drop_p(o.wrss, &t.fit, &t.terms, 1))
-                        .is_some_and(|p| p < rivals_alpha(1))
-                }),
-                _ => true,
-            }
-    };
-    // Judged in order of leave-one-design-out error: the eligible singles first; a pair only when
-    // no single suffices (each single with the rival that still reduces the misfit with it in, and
-    // the shortlisted pairs). The first model that passes the diagnosis's rules is found. Which
-    // eligible model is judged first changes nothing in the correction: a discovery needs its own
-    // p < α/M, so the union bound over the M models holds however the order is made.
-    let press_order = |a: &Tried, b: &Tried| a.press(cx).total_cmp(&b.press(cx));
-    let mut pool: Vec<Tried> = tried
-        .iter()
-        .filter(|t| t.terms.len() == 2 && eligible(t))
-        .cloned()
-        .collect();
+/// α over the rivals of a model with `w` terms.
+fn rivals_alpha(s: &Searcher, w: usize) -> f64 {
+    s.cx.alpha() / s.shapes.len().saturating_sub(w).max(1) as f64
+}
+
+/// A model may be judged: its F test against the base passes α/M, and a pair's terms each still
+/// reduce the misfit with the other in.
+fn eligible(s: &Searcher, t: &Tried, threshold: f64) -> bool {
+    t.p.is_some_and(|p| p < threshold)
+        && match t.terms.as_slice() {
+            [a, b] => [b, a].iter().all(|&&other| {
+                s.singles[other]
+                    .as_ref()
+                    .and_then(|o| s.drop_p(o.wrss, &t.fit, &t.terms, 1))
+                    .is_some_and(|p| p < rivals_alpha(s, 1))
+            }),
+            _ => true,
+        }
+}
+
+/// Judged in order of leave-one-design-out error: the eligible singles first; a pair only when no
+/// single suffices (each single with the rival that still reduces the misfit with it in, and the
+/// shortlisted pairs). The first model that passes the diagnosis's rules is found. Which eligible
+/// model is judged first changes nothing in the correction: a discovery needs its own p < α/M, so
+/// the union bound over the M models holds however the order is made.
+fn judge_shortlist(s: &Searcher, tried: &[Tried], size: &Size, vectors: &[Vec<f64>]) -> Judged {
+    let ok = |t: &Tried| eligible(s, t, size.threshold);
+    let mut pool: Vec<Tried> = tried.iter().filter(|t| t.terms.len() == 2 && ok(t)).cloned().collect();
     let mut failed: Vec<(Tried, String)> = Vec::new();
-    let mut winner: Option<Passed> = None;
-    for w in tried.iter().filter(|t| t.terms.len() == 1 && eligible(t)) {
-        match judge(&s, w, rivals_alpha(1), &vectors) {
-            Judgement::Pass(p) => {
-                winner = Some(*p);
-                break;
-            }
+    for w in tried.iter().filter(|t| t.terms.len() == 1 && ok(t)) {
+        match judge(s, w, rivals_alpha(s, 1), vectors) {
+            Judgement::Pass(p) => return Judged { winner: Some(*p), failed },
             Judgement::Fail { why, adder } => {
-                if let Some((r, fit)) = adder.filter(|_| pairs_ok) {
+                if let Some((r, fit)) = adder.filter(|_| size.pairs) {
                     let pair = s.tried(vec![w.terms[0], r], fit, true);
                     let same = |t: &Tried| t.terms.contains(&w.terms[0]) && t.terms.contains(&r);
-                    if eligible(&pair) && !pool.iter().any(same) {
+                    if ok(&pair) && !pool.iter().any(same) {
                         pool.push(pair);
                     }
                 }
@@ -534,21 +608,22 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
             }
         }
     }
-    if winner.is_none() && pairs_ok {
-        pool.sort_by(press_order);
+    if size.pairs {
+        pool.sort_by(|a, b| a.press(s.cx).total_cmp(&b.press(s.cx)));
         for w in &pool {
-            match judge(&s, w, rivals_alpha(2), &vectors) {
-                Judgement::Pass(p) => {
-                    winner = Some(*p);
-                    break;
-                }
+            match judge(s, w, rivals_alpha(s, 2), vectors) {
+                Judgement::Pass(p) => return Judged { winner: Some(*p), failed },
                 Judgement::Fail { why, .. } => failed.push((w.clone(), why)),
             }
         }
     }
-    let base_entry_loo = base_entry.score.as_ref().and_then(|x| x.loo_error);
-    let base_val = base_entry.assessed.validation.as_ref().map(|v| v.error);
-    let mut discovered = Discovered {
+    Judged { winner: None, failed }
+}
+
+/// The record before anything is found: the base's errors, the library, the correction.
+fn empty_record(b: &Base, size: &Size, library: LibrarySummary) -> Discovered {
+    let e = b.entry;
+    Discovered {
         outcome: Outcome::NothingExplains,
         term: None,
         coefficient: None,
@@ -560,74 +635,61 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
         terms: Vec::new(),
         shape: None,
         hypothesis_line: None,
-        base: base_name.clone(),
+        base: b.name.clone(),
         p_value: None,
-        threshold,
-        correction,
-        validation_error_before: base_val,
+        threshold: size.threshold,
+        correction: correction_text(size, b.cx.alpha()),
+        validation_error_before: e.assessed.validation.as_ref().map(|v| v.error),
         validation_error_after: None,
         measured_on: None,
-        loo_error_before: base_entry_loo,
+        loo_error_before: e.score.as_ref().and_then(|x| x.loo_error),
         loo_error_after: None,
         gain_loo: None,
         lack_of_fit: None,
         closest: Vec::new(),
-        library: summary,
+        library,
         evidence: Vec::new(),
-    };
-    let mut found = None;
-    let mut found_terms: Vec<usize> = Vec::new();
-    if let Some(Passed {
-        tried: w,
-        model,
-        assessed,
-        adds,
-    }) = winner
-    {
-        discovered.lack_of_fit = assessed.lack_of_fit.clone();
-        discovered.p_value = w.p;
-        found = Some(finish(&s, &w, model, assessed, &adds, &mut discovered));
-        found_terms = w.terms.clone();
     }
-    // The models judged and short of the rules, best first.
-    for (t, why) in failed.iter().take(3) {
-        discovered.closest.push(Closest {
+}
+
+/// The models that came closest, best first: those judged and short of the rules, then the
+/// closest others (beside a found model, those that do without its terms).
+fn closest(s: &Searcher, tried: &[Tried], failed: &[(Tried, String)], found: &[usize], size: &Size) -> Vec<Closest> {
+    let cx = s.cx;
+    let mut out: Vec<Closest> = failed
+        .iter()
+        .take(3)
+        .map(|(t, why)| Closest {
             term: s.term_of(t),
             p_value: t.p,
             loo_error: t.loo_error(cx),
             why: format!("passes the corrected test, but {why}"),
-        });
-    }
-    // The closest others, whatever the outcome.
-    // Beside a found model, the others that do without its terms.
+        })
+        .collect();
     let contains = |a: &[usize], b: &[usize]| !b.is_empty() && b.iter().all(|t| a.contains(t));
-    for t in tried.iter().filter(|t| !contains(&t.terms, &found_terms)) {
-        if discovered.closest.len() >= 3 {
+    for t in tried.iter().filter(|t| !contains(&t.terms, found)) {
+        if out.len() >= 3 {
             break;
         }
         let term = s.term_of(t);
-        if discovered.closest.iter().any(|c| c.term == term) {
+        if out.iter().any(|c| c.term == term) {
             continue;
         }
+        let threshold = size.threshold;
         let why = match t.p {
             Some(p) if p >= threshold => format!("{} ≥ α/M = {}", p_text(p), num(threshold)),
             None => "no test (no noise estimate)".to_string(),
-            Some(_) if !eligible(t) => "one of its two terms adds nothing beyond the other".to_string(),
+            Some(_) if !eligible(s, t, threshold) => "one of its two terms adds nothing beyond the other".to_string(),
             Some(_) => "a model with a smaller leave-one-design-out error was preferred".to_string(),
         };
-        discovered.closest.push(Closest {
+        out.push(Closest {
             term,
             p_value: t.p,
             loo_error: t.loo_error(cx),
             why,
         });
     }
-    discovered.evidence = words(&discovered, l, pairs_ok);
-    Some(Search {
-        discovered,
-        found,
-        base: b,
-    })
+    out
 }
 
 /// A model that passed the diagnosis's rules: its fit from every start, its evidence, and every
