@@ -404,47 +404,25 @@ pub fn residual_curves(
         .collect()
 }
 
-/// `curve_calibration`: the study's methods on the curves through the baseline's curve emulator,
-/// the metric at the training and validation designs, and what the curves pin down.
-pub fn calibrate(study: &Study, stage: &CurveStage) -> crate::report::results::CurveCalibrationResult {
-    use crate::calibrate::curves::{self as cc, CurveProblem, CurveTarget};
+/// The study's methods on the curve problem, by key, and the first estimate (what the curves pin
+/// down is measured there).
+fn curve_methods(
+    study: &Study,
+    problem: &crate::calibrate::curves::CurveProblem,
+    names: &[String],
+) -> (indexmap::IndexMap<String, crate::report::results::CurveMethodResult>, Option<DVector<f64>>) {
+    use crate::calibrate::curves as cc;
     use crate::calibrate::outcome::Method;
-    use crate::report::results::{
-        CurveCalibrationResult, CurveEmulatorResult, CurveFilterResult, CurveMethodResult, CurvePinned,
-    };
-    let designs: Vec<&CurveDesign> = stage.designs.iter().filter(|d| !d.specimens.is_empty()).collect();
-    let model = &stage.baseline;
-    let predict = |i: usize, theta: &[f64]| model.curve(&designs[i].values, theta);
-    let targets = CurveTarget::new(
-        designs
-            .iter()
-            .map(|d| {
-                (
-                    d.name.clone(),
-                    d.role == crate::diagnose::Role::Training,
-                    d.specimens.clone(),
-                )
-            })
-            .collect(),
-    );
-    let grid = stage.setting.grid;
-    let problem = CurveProblem {
-        targets,
-        predict: &predict,
-        bounds: study.parameter_bounds(),
-        stroke: grid.stroke(),
-        metric: study.calibration.curve.metric,
-    };
-    let names: Vec<String> = study.parameters.iter().map(|p| p.name.clone()).collect();
+    use crate::report::results::CurveMethodResult;
     let named = |t: &DVector<f64>| names.iter().cloned().zip(t.iter().copied()).collect();
     let finite = |v: f64| v.is_finite().then_some(v);
     let mut methods = indexmap::IndexMap::new();
     let mut first = None;
     for m in &study.calibration.methods {
         let est = match m {
-            Method::LeastSquares => cc::least_squares(&problem),
-            Method::Sensitivity => cc::sensitivity(&problem),
-            Method::Bayesian => cc::bayesian(&problem),
+            Method::LeastSquares => cc::least_squares(problem),
+            Method::Sensitivity => cc::sensitivity(problem),
+            Method::Bayesian => cc::bayesian(problem),
         };
         let result = match est {
             Ok(e) => {
@@ -474,6 +452,34 @@ pub fn calibrate(study: &Study, stage: &CurveStage) -> crate::report::results::C
         };
         methods.insert(m.key().to_string(), result);
     }
+    (methods, first)
+}
+
+/// `curve_calibration`: the study's methods on the curves through the baseline's curve emulator,
+/// the metric at the training and validation designs, and what the curves pin down.
+pub fn calibrate(study: &Study, stage: &CurveStage) -> crate::report::results::CurveCalibrationResult {
+    use crate::calibrate::curves::{self as cc, CurveProblem, CurveTarget};
+    use crate::report::results::{CurveCalibrationResult, CurveEmulatorResult, CurveFilterResult, CurvePinned};
+    let designs: Vec<&CurveDesign> = stage.designs.iter().filter(|d| !d.specimens.is_empty()).collect();
+    let model = &stage.baseline;
+    let predict = |i: usize, theta: &[f64]| model.curve(&designs[i].values, theta);
+    let targets = CurveTarget::new(
+        designs
+            .iter()
+            .map(|d| (d.name.clone(), d.role == crate::diagnose::Role::Training, d.specimens.clone()))
+            .collect(),
+    );
+    let grid = stage.setting.grid;
+    let problem = CurveProblem {
+        targets,
+        predict: &predict,
+        bounds: study.parameter_bounds(),
+        stroke: grid.stroke(),
+        metric: study.calibration.curve.metric,
+    };
+    let names: Vec<String> = study.parameters.iter().map(|p| p.name.clone()).collect();
+    let finite = |v: f64| v.is_finite().then_some(v);
+    let (methods, first) = curve_methods(study, &problem, &names);
     let stroke = grid.stroke();
     let window = stage.setting.spec.plateau;
     let inside: Vec<usize> = (0..stroke.len())

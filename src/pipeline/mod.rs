@@ -235,22 +235,16 @@ fn diagnose_with_solver(
     reporter: &mut dyn Reporter,
 ) -> Result<Result<Diagnosis, CalibrationError>, Error> {
     let extensions = extension_models(study, runs.sim, &runs.plan, &runs.usable);
-    let dirs = runs.executed.output_dirs(runs.sim);
     // With curves, the diagnosis reads their features; else the response.
     let curve_inputs = stage.map(|s| {
         let hypotheses = curves::extension_hypotheses(study, &s.extension_fns(), None, None);
         curves::inputs(study, &s.setting, s.designs.clone(), &s.baseline, hypotheses)
     });
-    let problem = match &curve_inputs {
-        Some(ci) => match crate::diagnose::features::FeatureProblem::new(ci) {
-            Ok(p) => Some(p),
-            Err(e) => {
-                return Ok(Err(CalibrationError::Numerics(format!(
-                    "the curves cannot be diagnosed: {e}"
-                ))));
-            }
-        },
-        None => None,
+    let problem = match curve_inputs.as_ref().map(crate::diagnose::features::FeatureProblem::new) {
+        Some(Err(e)) => {
+            return Ok(Err(CalibrationError::Numerics(format!("the curves cannot be diagnosed: {e}"))));
+        }
+        other => other.map(|p| p.expect("checked")),
     };
     let inputs = match (&problem, &curve_inputs) {
         (Some(p), Some(ci)) => p.inputs(ci),
@@ -265,93 +259,23 @@ fn diagnose_with_solver(
         return Err(Error::Interrupted);
     }
     let chosen = extend::chosen(study, &screening);
-    // With curves: the features the diagnosis read, and the residual curves the report draws.
-    let features = |d: Diagnosis, loops: &[(usize, crate::fit::functional::CurveModel)]| match (stage, &problem) {
-        (Some(stage), Some(problem)) => {
-            let residuals = curves::residual_curves(study, stage, loops, &d);
-            let report = curves::features_report(study, stage, problem, loops, &d);
-            (d.with_features(report), residuals)
-        }
-        _ => (d, Vec::new()),
-    };
     if chosen.is_empty() {
-        let (d, residuals) = features(screening, &[]);
+        let (d, residuals) = with_features(study, stage, problem.as_ref(), screening, &[]);
         runs.residual_curves = residuals;
         return Ok(Ok(d));
     }
     let store = &mut runs.executed.store;
-    let joint = extend::execute(
-        study,
-        runs.sim,
-        &chosen,
-        &runs.rendered,
-        source,
-        options,
-        engine,
-        store,
-        reporter,
-    )?;
+    let joint = extend::execute(study, runs.sim, &chosen, &runs.rendered, source, options, engine, store, reporter)?;
     let models = chosen
         .iter()
         .map(|&k| extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint))
         .collect::<Result<Vec<_>, _>>()?;
-    let mut loop_curves = Vec::new();
-    let (diagnosis, own) = match stage {
-        None => {
-            let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(runs.surrogates.clone());
-            let looped: Vec<_> = models
-                .iter()
-                .map(|m| extend::loop_model(study, m, &baseline, &extensions))
-                .collect();
-            crate::diagnose::conclude(&inputs, &looped)
-        }
-        Some(stage) => {
-            let joint_curves = curves::on_grid(
-                study,
-                runs.sim,
-                &stage.setting,
-                &joint.rendered.keys,
-                &joint.usable,
-                &dirs,
-            );
-            let baseline = curves::curve_fn(stage.baseline.clone());
-            let p = study.parameters.len();
-            for m in &models {
-                let model = stage.loop_model(study, runs.sim, &runs.plan, m.hypothesis, &joint.plan, &joint_curves)?;
-                loop_curves.push((m.hypothesis, model));
-            }
-            let loop_inputs: Vec<_> = models
-                .iter()
-                .zip(&loop_curves)
-                .map(|(m, (_, model))| {
-                    let others = curves::extension_hypotheses(
-                        study,
-                        &stage.extension_fns(),
-                        Some((baseline.clone(), p)),
-                        Some(m.hypothesis),
-                    );
-                    curves::inputs(&m.study, &stage.setting, stage.designs.clone(), model, others)
-                })
-                .collect();
-            let problems = loop_inputs
-                .iter()
-                .map(crate::diagnose::features::FeatureProblem::new)
-                .collect::<Result<Vec<_>, _>>()
-                .map_err(Error::Failed)?;
-            let looped: Vec<_> = models
-                .iter()
-                .zip(problems.iter().zip(&loop_inputs))
-                .map(|(m, (p, ci))| crate::diagnose::LoopModel {
-                    hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
-                    inputs: p.inputs(ci),
-                })
-                .collect();
-            crate::diagnose::conclude(&inputs, &looped)
-        }
-    }
-    .map_or_else(|e| (Err(e), Vec::new()), |(d, own)| (Ok(d), own));
-    let diagnosis = match diagnosis {
-        Ok(d) => d,
+    let concluded = match stage {
+        None => Ok(conclude_on_response(study, runs, &inputs, &models, &extensions)),
+        Some(stage) => conclude_on_curves(study, runs, stage, &inputs, &models, &joint),
+    }?;
+    let (diagnosis, own, loop_curves) = match concluded {
+        Ok(c) => c,
         Err(e) => return Ok(Err(e)),
     };
     let records = models
@@ -363,9 +287,91 @@ fn diagnose_with_solver(
         runs.extended.push((m, x.parameters.values().copied().collect()));
     }
     runs.joint = Some(joint);
-    let (diagnosis, residuals) = features(diagnosis, &loop_curves);
+    let (diagnosis, residuals) = with_features(study, stage, problem.as_ref(), diagnosis, &loop_curves);
     runs.residual_curves = residuals;
     Ok(Ok(diagnosis.with_extensions(records)))
+}
+
+/// What the loop's models concluded: the diagnosis, each loop model's own, and their curve models.
+type Concluded = (Diagnosis, Vec<Diagnosis>, Vec<(usize, crate::fit::functional::CurveModel)>);
+
+/// The decision after the loop on the mean force: each extended model through its surrogate.
+fn conclude_on_response(
+    study: &Study,
+    runs: &SolverRuns,
+    inputs: &crate::diagnose::Inputs,
+    models: &[extend::ExtendedModel],
+    extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
+) -> Result<Concluded, CalibrationError> {
+    let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(runs.surrogates.clone());
+    let looped: Vec<_> = models
+        .iter()
+        .map(|m| extend::loop_model(study, m, &baseline, extensions))
+        .collect();
+    let (d, own) = crate::diagnose::conclude(inputs, &looped)?;
+    Ok((d, own, Vec::new()))
+}
+
+/// The decision after the loop on the curves: each extended model's curve emulator over the joint
+/// runs, its features with the other hypotheses' shapes as candidates.
+fn conclude_on_curves(
+    study: &Study,
+    runs: &SolverRuns,
+    stage: &curves::CurveStage,
+    inputs: &crate::diagnose::Inputs,
+    models: &[extend::ExtendedModel],
+    joint: &extend::JointRuns,
+) -> Result<Result<Concluded, CalibrationError>, Error> {
+    let dirs = runs.executed.output_dirs(runs.sim);
+    let joint_curves = curves::on_grid(study, runs.sim, &stage.setting, &joint.rendered.keys, &joint.usable, &dirs);
+    let baseline = curves::curve_fn(stage.baseline.clone());
+    let p = study.parameters.len();
+    let mut loop_curves = Vec::new();
+    for m in models {
+        let model = stage.loop_model(study, runs.sim, &runs.plan, m.hypothesis, &joint.plan, &joint_curves)?;
+        loop_curves.push((m.hypothesis, model));
+    }
+    let loop_inputs: Vec<_> = models
+        .iter()
+        .zip(&loop_curves)
+        .map(|(m, (_, model))| {
+            let others =
+                curves::extension_hypotheses(study, &stage.extension_fns(), Some((baseline.clone(), p)), Some(m.hypothesis));
+            curves::inputs(&m.study, &stage.setting, stage.designs.clone(), model, others)
+        })
+        .collect();
+    let problems = loop_inputs
+        .iter()
+        .map(crate::diagnose::features::FeatureProblem::new)
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(Error::Failed)?;
+    let looped: Vec<_> = models
+        .iter()
+        .zip(problems.iter().zip(&loop_inputs))
+        .map(|(m, (p, ci))| crate::diagnose::LoopModel {
+            hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
+            inputs: p.inputs(ci),
+        })
+        .collect();
+    Ok(crate::diagnose::conclude(inputs, &looped).map(|(d, own)| (d, own, loop_curves)))
+}
+
+/// With curves: the diagnosis with the features it read, and the residual curves the report draws.
+fn with_features(
+    study: &Study,
+    stage: Option<&curves::CurveStage>,
+    problem: Option<&crate::diagnose::features::FeatureProblem>,
+    d: Diagnosis,
+    loops: &[(usize, crate::fit::functional::CurveModel)],
+) -> (Diagnosis, Vec<crate::report::data::ResidualCurves>) {
+    match (stage, problem) {
+        (Some(stage), Some(problem)) => {
+            let residuals = curves::residual_curves(study, stage, loops, &d);
+            let report = curves::features_report(study, stage, problem, loops, &d);
+            (d.with_features(report), residuals)
+        }
+        _ => (d, Vec::new()),
+    }
 }
 
 /// The simulation as the numerics see it, with what it was built from.

@@ -1143,73 +1143,7 @@ fn discovered_block(f: &crate::diagnose::discover::Discovered) -> String {
     use crate::diagnose::discover::Outcome;
     let mut s = String::from("<div id=discovered class=\"verdict found\"><h3>Found by search, not listed</h3>");
     match (f.outcome, &f.term) {
-        (Outcome::Found, Some(term)) => {
-            let _ = write!(
-                s,
-                "<p class=headline><strong><code>{}</code></strong> added to the {} model</p>",
-                escape(term),
-                escape(&f.base)
-            );
-            let params: Vec<String> = f
-                .parameters
-                .iter()
-                .map(|(n, v)| format!("{} = {}", escape(n), significant(*v, 6)))
-                .collect();
-            let interval = f.interval.map_or("-".to_string(), |[a, b]| {
-                format!("{} to {}", significant(a, 4), significant(b, 4))
-            });
-            s.push_str("<table id=discovered-table>");
-            let mut row = |k: &str, v: String| {
-                let _ = write!(s, "<tr><th class=l>{k}</th><td class=l>{v}</td></tr>");
-            };
-            row("shape", escape(f.shape.as_deref().unwrap_or("-")));
-            row(
-                "coefficient (95 % interval)",
-                format!(
-                    "{} ({interval})",
-                    f.coefficient.map_or("-".into(), |c| significant(c, 4))
-                ),
-            );
-            row("parameters with the term", params.join(", "));
-            row(
-                "validation error before → after (gain)",
-                format!(
-                    "{} → {} ({})",
-                    pct(f.validation_error_before),
-                    pct(f.validation_error_after),
-                    pct(f.gain)
-                ),
-            );
-            row(
-                "leave-one-design-out error before → after (gain)",
-                format!(
-                    "{} → {} ({})",
-                    pct(f.loo_error_before),
-                    pct(f.loo_error_after),
-                    pct(f.gain_loo)
-                ),
-            );
-            row(
-                "test against the search's size",
-                format!(
-                    "p = {} &lt; α/M = {} ({} models)",
-                    f.p_value.map_or("-".into(), |p| significant(p, 2)),
-                    significant(f.threshold, 2),
-                    f.library.models
-                ),
-            );
-            if let Some(r) = &f.reading {
-                row("reading", escape(r));
-            }
-            s.push_str("</table>");
-            if let Some(line) = &f.hypothesis_line {
-                let _ = write!(
-                    s,
-                    "<p>To test it as a listed cause, add under <code>diagnosis.hypotheses</code>:</p><pre id=hypothesis-line>{}</pre>",
-                    escape(line)
-                );
-            }
-        }
+        (Outcome::Found, Some(term)) => s.push_str(&found_table(f, term)),
         _ => {
             let _ = write!(
                 s,
@@ -1220,20 +1154,7 @@ fn discovered_block(f: &crate::diagnose::discover::Discovered) -> String {
             );
         }
     }
-    if !f.closest.is_empty() {
-        s.push_str("<table id=discovered-closest><tr><th class=l>closest</th><th>p</th><th>leave-one-out error</th><th class=l>why not</th></tr>");
-        for c in &f.closest {
-            let _ = write!(
-                s,
-                "<tr><td class=l><code>{}</code></td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
-                escape(&c.term),
-                c.p_value.map_or("-".into(), |p| significant(p, 2)),
-                pct(Some(c.loo_error)),
-                escape(&c.why)
-            );
-        }
-        s.push_str("</table>");
-    }
+    s.push_str(&closest_table(f));
     let _ = write!(
         s,
         "<p class=note>Library: {} distinct shapes (exponents {}); {}.</p>",
@@ -1244,16 +1165,86 @@ fn discovered_block(f: &crate::diagnose::discover::Discovered) -> String {
     if !f.library.dropped.is_empty() {
         s.push_str("<ul id=discovered-dropped class=note>");
         for d in &f.library.dropped {
-            let _ = write!(
-                s,
-                "<li><code>{}</code> left out: {}</li>",
-                escape(&d.term),
-                escape(&d.reason)
-            );
+            let _ = write!(s, "<li><code>{}</code> left out: {}</li>", escape(&d.term), escape(&d.reason));
         }
         s.push_str("</ul>");
     }
     s.push_str("</div>");
+    s
+}
+
+/// The found term: its shape, coefficient, parameters, gains and test, and how to list it.
+fn found_table(f: &crate::diagnose::discover::Discovered, term: &str) -> String {
+    let mut s = format!(
+        "<p class=headline><strong><code>{}</code></strong> added to the {} model</p>",
+        escape(term),
+        escape(&f.base)
+    );
+    let params: Vec<String> = f
+        .parameters
+        .iter()
+        .map(|(n, v)| format!("{} = {}", escape(n), significant(*v, 6)))
+        .collect();
+    let interval = f
+        .interval
+        .map_or("-".to_string(), |[a, b]| format!("{} to {}", significant(a, 4), significant(b, 4)));
+    let coefficient = f.coefficient.map_or("-".into(), |c| significant(c, 4));
+    let rows = [
+        ("shape", escape(f.shape.as_deref().unwrap_or("-"))),
+        ("coefficient (95 % interval)", format!("{coefficient} ({interval})")),
+        ("parameters with the term", params.join(", ")),
+        (
+            "validation error before → after (gain)",
+            format!("{} → {} ({})", pct(f.validation_error_before), pct(f.validation_error_after), pct(f.gain)),
+        ),
+        (
+            "leave-one-design-out error before → after (gain)",
+            format!("{} → {} ({})", pct(f.loo_error_before), pct(f.loo_error_after), pct(f.gain_loo)),
+        ),
+        (
+            "test against the search's size",
+            format!(
+                "p = {} &lt; α/M = {} ({} models)",
+                f.p_value.map_or("-".into(), |p| significant(p, 2)),
+                significant(f.threshold, 2),
+                f.library.models
+            ),
+        ),
+    ];
+    s.push_str("<table id=discovered-table>");
+    for (k, v) in rows.iter().chain(f.reading.as_ref().map(|r| ("reading", escape(r))).iter()) {
+        let _ = write!(s, "<tr><th class=l>{k}</th><td class=l>{v}</td></tr>");
+    }
+    s.push_str("</table>");
+    if let Some(line) = &f.hypothesis_line {
+        let _ = write!(
+            s,
+            "<p>To test it as a listed cause, add under <code>diagnosis.hypotheses</code>:</p><pre id=hypothesis-line>{}</pre>",
+            escape(line)
+        );
+    }
+    s
+}
+
+/// The models that came closest, and why each falls short.
+fn closest_table(f: &crate::diagnose::discover::Discovered) -> String {
+    if f.closest.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from(
+        "<table id=discovered-closest><tr><th class=l>closest</th><th>p</th><th>leave-one-out error</th><th class=l>why not</th></tr>",
+    );
+    for c in &f.closest {
+        let _ = write!(
+            s,
+            "<tr><td class=l><code>{}</code></td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
+            escape(&c.term),
+            c.p_value.map_or("-".into(), |p| significant(p, 2)),
+            pct(Some(c.loo_error)),
+            escape(&c.why)
+        );
+    }
+    s.push_str("</table>");
     s
 }
 

@@ -143,30 +143,25 @@ impl Checker<'_> {
         validation: &[String],
     ) -> Result<(Targets, CurveSettings), InputError> {
         let against = self.against(spec.and_then(|c| c.against.as_ref()))?;
-        let Some(node) = spec.and_then(|c| c.curve.as_ref()) else {
-            let settings = CurveSettings::default();
-            if against.curves {
-                self.curves_possible(
-                    spec.and_then(|c| c.against.as_ref()),
-                    simulation,
-                    experiments,
-                    &settings,
-                )?;
-                self.specimens_cover(experiments, training, validation, &settings, simulation)?;
-            }
-            return Ok((against, settings));
+        let settings = match spec.and_then(|c| c.curve.as_ref()) {
+            None => CurveSettings::default(),
+            Some(node) => self.curve_settings(&node.value, simulation)?,
         };
-        let c = &node.value;
+        if against.curves {
+            self.curves_possible(spec.and_then(|c| c.against.as_ref()), simulation, experiments, &settings)?;
+            self.specimens_cover(experiments, training, validation, &settings, simulation)?;
+        }
+        Ok((against, settings))
+    }
+
+    /// `calibration.curve`: metric, points, filter, window and surrogate, each checked.
+    fn curve_settings(&self, c: &crate::study::schema::CurveFile, simulation: &Simulation) -> Result<CurveSettings, InputError> {
         let metric = match &c.metric {
             None => CurveMetric::Mse,
             Some(m) => CurveMetric::from_key(m.value.trim()).ok_or_else(|| {
                 self.at(
                     m,
-                    format!(
-                        "unknown curve metric `{}`: choose from {}",
-                        m.value,
-                        CurveMetric::KEYS.join(", ")
-                    ),
+                    format!("unknown curve metric `{}`: choose from {}", m.value, CurveMetric::KEYS.join(", ")),
                 )
             })?,
         };
@@ -177,76 +172,66 @@ impl Checker<'_> {
         };
         let filter = match &c.filter {
             None => None,
-            Some(f) => {
-                let cfc = self.finite(&f.value.cfc, "`calibration.curve.filter.cfc`")?;
-                let speed = self.finite(&f.value.speed, "`calibration.curve.filter.speed`")?;
-                if cfc <= 0.0 {
-                    return Err(self.at(
-                        &f.value.cfc,
-                        "the channel frequency class must be positive (e.g. 60, 180, 600)",
-                    ));
-                }
-                if speed <= 0.0 {
-                    return Err(self.at(
-                        &f.value.speed,
-                        "the crush speed (m/s) must be positive: it turns the stroke a curve is sampled at into time",
-                    ));
-                }
-                Some(CfcFilter { cfc, speed })
-            }
+            Some(f) => Some(self.cfc_filter(&f.value)?),
         };
         let window = match &c.window {
             None => None,
-            Some(w) => {
-                let [a, b] = w.value.as_slice() else {
-                    return Err(self.at(w, "`calibration.curve.window` is two strokes in mm: [s0, s1]"));
-                };
-                let (a, b) = (self.finite(a, "window start")?, self.finite(b, "window end")?);
-                if a >= b {
-                    return Err(self.at(w, format!("`calibration.curve.window`: {a} must be less than {b}")));
-                }
-                if let Simulation::Solver(sim) = simulation
-                    && let Response::CrushForce { window: r, .. } = sim.response
-                    && (a > r.s0 || b < r.s1)
-                {
-                    return Err(self.at(
-                        w,
-                        format!(
-                            "`calibration.curve.window` [{a}, {b}] must contain the response's window [{}, {}]: the \
-                             plateau features are read there",
-                            r.s0, r.s1
-                        ),
-                    ));
-                }
-                Some([a, b])
-            }
+            Some(w) => Some(self.curve_window(w, simulation)?),
         };
         let surrogate = match &c.surrogate {
             None => None,
             Some(k) => Some(SurrogateKind::from_key(k.value.trim()).ok_or_else(|| {
-                self.at(
-                    k,
-                    format!("unknown surrogate `{}`: choose from linear, quadratic, gp", k.value),
-                )
+                self.at(k, format!("unknown surrogate `{}`: choose from linear, quadratic, gp", k.value))
             })?),
         };
-        let settings = CurveSettings {
+        Ok(CurveSettings {
             metric,
             points,
             filter,
             window,
             surrogate,
-        };
-        if against.curves {
-            self.curves_possible(
-                spec.and_then(|c| c.against.as_ref()),
-                simulation,
-                experiments,
-                &settings,
-            )?;
-            self.specimens_cover(experiments, training, validation, &settings, simulation)?;
+        })
+    }
+
+    /// `calibration.curve.filter`: a positive channel frequency class and crush speed.
+    fn cfc_filter(&self, f: &crate::study::schema::FilterFile) -> Result<CfcFilter, InputError> {
+        let cfc = self.finite(&f.cfc, "`calibration.curve.filter.cfc`")?;
+        let speed = self.finite(&f.speed, "`calibration.curve.filter.speed`")?;
+        if cfc <= 0.0 {
+            return Err(self.at(&f.cfc, "the channel frequency class must be positive (e.g. 60, 180, 600)"));
         }
-        Ok((against, settings))
+        if speed <= 0.0 {
+            return Err(self.at(
+                &f.speed,
+                "the crush speed (m/s) must be positive: it turns the stroke a curve is sampled at into time",
+            ));
+        }
+        Ok(CfcFilter { cfc, speed })
+    }
+
+    /// `calibration.curve.window`: [s0, s1], increasing, containing the response's window.
+    fn curve_window(&self, w: &Spanned<Vec<Spanned<f64>>>, simulation: &Simulation) -> Result<[f64; 2], InputError> {
+        let [a, b] = w.value.as_slice() else {
+            return Err(self.at(w, "`calibration.curve.window` is two strokes in mm: [s0, s1]"));
+        };
+        let (a, b) = (self.finite(a, "window start")?, self.finite(b, "window end")?);
+        if a >= b {
+            return Err(self.at(w, format!("`calibration.curve.window`: {a} must be less than {b}")));
+        }
+        if let Simulation::Solver(sim) = simulation
+            && let Response::CrushForce { window: r, .. } = sim.response
+            && (a > r.s0 || b < r.s1)
+        {
+            return Err(self.at(
+                w,
+                format!(
+                    "`calibration.curve.window` [{a}, {b}] must contain the response's window [{}, {}]: the plateau \
+                     features are read there",
+                    r.s0, r.s1
+                ),
+            ));
+        }
+        Ok([a, b])
     }
 
     /// `calibration.against`: `response` and/or `curves`, each once.
