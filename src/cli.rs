@@ -8,12 +8,15 @@ use std::path::{Path, PathBuf};
 use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::error::{Error, InputError};
-use crate::execute::progress;
 use crate::execute::sweep::Signals;
 use crate::extract::crush;
-use crate::pipeline::{self, Engine, Event, ExecutorKind, Reporter, RunOptions, verbs};
+use crate::pipeline::{self, Engine, ExecutorKind, RunOptions, verbs};
 use crate::report;
 use crate::study::{self, Study};
+
+#[path = "cli_print.rs"]
+mod print;
+use print::{Stderr, status};
 
 #[derive(Parser, Debug)]
 #[command(name = "lab", version, about = "Calibrate simulation models against tests")]
@@ -204,42 +207,6 @@ fn run(study: &Study, options: &RunOptions) -> Result<i32, Error> {
     Ok(outcome.exit_code())
 }
 
-/// The pipeline's events, and the run engine's progress bar, on stderr.
-struct Stderr;
-
-impl Reporter for Stderr {
-    fn report(&mut self, event: Event<'_>) {
-        match event {
-            Event::Note(note) => eprintln!("note: {note}"),
-            Event::Recorded { runs, dir } => eprintln!("recorded {runs} run(s) into {}", dir.display()),
-            Event::RunsEnded(outcomes) => {
-                eprint!(
-                    "{}",
-                    progress::summary_table(&outcomes.classes, outcomes.reused, outcomes.missing)
-                );
-                for run in outcomes.failed.iter().take(5) {
-                    eprintln!(
-                        "failed: design `{}`, parameters {:?}: {} (see {})",
-                        run.design,
-                        run.theta,
-                        run.why,
-                        run.dir.display()
-                    );
-                }
-            }
-            Event::Interrupted { out } => eprintln!(
-                "interrupted: finished runs are kept in {}; `lab run` again resumes",
-                out.display()
-            ),
-        }
-    }
-
-    /// A progress bar on stderr when it is a terminal.
-    fn progress(&mut self, runs: u64) -> indicatif::ProgressBar {
-        progress::bar(runs)
-    }
-}
-
 /// `lab check`: validates, then says what was read.
 fn check(study: &Study) -> Result<i32, Error> {
     let checked = verbs::check(study)?;
@@ -264,28 +231,6 @@ fn check(study: &Study) -> Result<i32, Error> {
     let (specimens, designs) = checked.curves;
     if designs > 0 {
         println!("ok: {specimens} force-displacement curve(s) of {designs} design(s) read");
-    }
-    Ok(0)
-}
-
-/// `lab status`: counts of the planned runs, and who holds the output directory.
-fn status(study: &Study, out: &Path) -> Result<i32, Error> {
-    let Some(s) = verbs::status(study, out)? else {
-        println!(
-            "study `{}`: closed-form simulation, no solver runs (done 0, failed 0, running 0, pending 0)",
-            study.name
-        );
-        return Ok(0);
-    };
-    println!(
-        "study `{}`: {} planned run(s): done {}, failed {}, running {}, pending {}",
-        study.name, s.planned, s.done, s.failed, s.running, s.pending
-    );
-    if let Some(holder) = s.holder {
-        let who = holder.map_or("holder not yet written".to_string(), |h| {
-            format!("pid {} on host {}", h.pid, h.host)
-        });
-        println!("a lab is running on {} ({who})", out.display());
     }
     Ok(0)
 }

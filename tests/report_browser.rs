@@ -165,7 +165,8 @@ const CASES: [Case; 5] = [
     },
 ];
 
-const SECTIONS: [&str; 7] = [
+const SECTIONS: [&str; 8] = [
+    "answer",
     "study",
     "force-displacement",
     "surrogates",

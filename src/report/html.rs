@@ -26,8 +26,9 @@ mod splits;
 #[path = "html_stroke.rs"]
 mod stroke;
 
-/// Section ids, in page order (the browser test checks them).
-pub const SECTIONS: [&str; 7] = [
+/// Section ids, in page order (the browser test checks them). The page opens with the verdict.
+pub const SECTIONS: [&str; 8] = [
+    "answer",
     "study",
     "force-displacement",
     "surrogates",
@@ -53,6 +54,7 @@ pub fn render(results: &Results, data: Option<&ReportData>) -> String {
     }
     body.push_str("</ol></nav></header>");
     let sections = [
+        page.answer(),
         page.study(),
         page.force_displacement(),
         page.surrogates(),
@@ -72,7 +74,8 @@ pub fn render(results: &Results, data: Option<&ReportData>) -> String {
     )
 }
 
-const TITLES: [&str; 7] = [
+const TITLES: [&str; 8] = [
+    "Verdict",
     "Study",
     "Force–displacement curves",
     "Response surfaces",
@@ -724,6 +727,36 @@ impl Page<'_> {
 
     /// The Diagnosis section: the verdict block, the residual plots, the candidates, what the
     /// extended model gains and leaves, the candidate table, the next test.
+    /// The page's first section: the verdict, the action and the figure that decided it, then the
+    /// parameters to use and what limits them (the details are in the diagnosis section).
+    fn answer(&self) -> String {
+        let Some(dg) = &self.r.diagnosis else {
+            return note(&format!(
+                "no diagnosis: {}",
+                self.r.diagnosis_error.as_deref().unwrap_or("it did not run")
+            ));
+        };
+        use crate::diagnose::verdict::Verdict;
+        let class = match dg.verdict {
+            Verdict::NoModelError => "clear",
+            Verdict::TooFewTests | Verdict::CannotTellApart => "open",
+            _ => "flag",
+        };
+        let mut s = format!(
+            "<div id=answer-verdict class=\"verdict {class}\"><p class=headline><strong>{}</strong></p><p class=action>{}</p>",
+            escape(&dg.headline),
+            escape(&dg.action)
+        );
+        if let Some(figure) = deciding_figure(dg) {
+            let _ = write!(s, "<p id=decided-by>Decided by: {}</p>", escape(&figure));
+        }
+        s.push_str("</div>");
+        for l in dg.limits.iter().filter(|l| l.starts_with("The calibrated parameters are only as good")) {
+            let _ = write!(s, "<p class=warn id=parameter-limits>{}</p>", escape(l));
+        }
+        s
+    }
+
     fn diagnosis(&self) -> String {
         let Some(dg) = &self.r.diagnosis else {
             return note(&format!(
@@ -1135,6 +1168,52 @@ fn verdict_block(dg: &crate::diagnose::Diagnosis) -> String {
         s.push_str("</ul>");
     }
     s
+}
+
+/// The figure a verdict rests on, in one line: the final model's fit both ways for a named cause,
+/// the share a partial cause removes and what its model leaves, the uncorrected model's fit when
+/// there is no model error (or none explained), the open explanations' weights otherwise.
+fn deciding_figure(dg: &crate::diagnose::Diagnosis) -> Option<String> {
+    use crate::diagnose::verdict::Verdict;
+    use crate::format::lack_of_fit;
+    let decided_by = dg
+        .features
+        .as_ref()
+        .and_then(|f| f.decided_by.as_ref().zip(f.decided_share))
+        .map(|(name, share)| format!("; the {name} carries {:.0} % of what it removes", 100.0 * share));
+    match dg.verdict {
+        Verdict::CauseNamed => dg.extended.as_ref().and_then(|e| e.lack_of_fit.as_ref()).map(|l| {
+            format!(
+                "the model extended with '{}' fits the tests: {}{}",
+                dg.cause.as_deref().unwrap_or("?"),
+                lack_of_fit(l),
+                decided_by.unwrap_or_default()
+            )
+        }),
+        Verdict::PartlyExplained => dg.partial.as_ref().map(|p| {
+            let share = p.share_removed.map_or(String::new(), |s| format!(" removes {:.0} % of the misfit, but", 100.0 * s));
+            let rest = p.remaining.as_ref().map_or("leaves more than the noise".to_string(), |l| {
+                format!("its model leaves {}", lack_of_fit(l))
+            });
+            format!("'{}'{share} {rest}", p.name)
+        }),
+        Verdict::NoModelError | Verdict::Unexplained => {
+            dg.lack_of_fit.as_ref().map(|l| format!("the uncorrected simulation against the tests: {}", lack_of_fit(l)))
+        }
+        Verdict::CannotTellApart => {
+            let weights: Vec<String> = match &dg.after_loop {
+                Some(a) => a.explanations.iter().map(|j| format!("'{}' {:.2}", j.name, j.weight)).collect(),
+                None => dg
+                    .candidates
+                    .iter()
+                    .filter(|c| dg.leading.contains(&c.name))
+                    .map(|c| format!("'{}' {:.2}", c.name, c.weight))
+                    .collect(),
+            };
+            Some(format!("the open explanations' weights: {}", weights.join(", ")))
+        }
+        Verdict::TooFewTests => None,
+    }
 }
 
 /// The library search, after the verdict: what it found (or that nothing in the library explains

@@ -7,6 +7,7 @@ use super::results::{Results, Role, SplitResult, Units};
 /// Renders the summary as plain text (no colour: it is also what a log file gets).
 pub fn render(results: &Results) -> String {
     let mut out = methods_table(results);
+    out.push_str(&model_caution(results));
     out.push_str(&convergence_warnings(results));
     out.push_str(&predictions_table(results));
     let id = &results.identifiability;
@@ -16,6 +17,30 @@ pub fn render(results: &Results) -> String {
     }
     write_diagnosis(&mut out, results);
     out
+}
+
+/// Beside the calibrated parameters: when the diagnosis finds model error that no listed cause
+/// accounts for, the parameters are only as good as the model (how far each moves is in the
+/// diagnosis's limits).
+fn model_caution(results: &Results) -> String {
+    use crate::diagnose::verdict::Verdict;
+    let Some(d) = &results.diagnosis else {
+        return String::new();
+    };
+    let moved = d.parameter_limits.first().map_or(String::new(), |l| {
+        format!(
+            "; with the misfit absorbed {} moves {:+.1} %",
+            l.parameter,
+            100.0 * l.relative
+        )
+    });
+    match d.verdict {
+        Verdict::PartlyExplained | Verdict::Unexplained => format!(
+            "caution: the diagnosis finds model error that no listed cause accounts for; these parameters absorb it and \
+             are only as good as the model{moved}\n"
+        ),
+        _ => String::new(),
+    }
 }
 
 /// The methods on whole curves: parameters, the metric at the training and validation designs,
