@@ -478,10 +478,15 @@ fn group(d: &Discovered) -> Vec<String> {
         .unwrap_or_default()
 }
 
-/// The hidden shape is (proportional to) one of the found term's group over the training designs.
+/// The most shapes a found term's group (itself, the same shapes, the alike) may hold and still count
+/// as recovering the hidden one: a group of many shapes the data cannot tell apart names none.
+const GROUP_MAX: usize = 5;
+
+/// The hidden shape is (proportional to) one of the found term's group over the training designs,
+/// and the group is small enough to name it ([`GROUP_MAX`]).
 fn recovered(case: &Case, d: &Discovered) -> bool {
     let Some(hidden) = case.hidden_term() else { return false };
-    if d.outcome != Outcome::Found || d.terms.len() != 1 {
+    if d.outcome != Outcome::Found || d.terms.len() != 1 || group(d).len() > GROUP_MAX {
         return false;
     }
     let (w, _, _) = weighted(case);
@@ -501,6 +506,10 @@ fn recovered_beside(case: &Case, d: &Discovered) -> bool {
         return false;
     }
     let (w, _, _) = weighted(case);
+    let groups_small = d.terms.iter().all(|t| 1 + t.same_shape.len() + t.alike.len() <= GROUP_MAX);
+    if !groups_small {
+        return false;
+    }
     let terms: Vec<String> = d
         .terms
         .iter()
@@ -604,7 +613,9 @@ fn shapes_inside_the_library_are_recovered_when_large_enough() {
     }
     eprintln!("inside the library: recovered {got}/{large} large enough; found {found_small}/{small} of the smaller");
     assert!(large >= 40, "only {large} large-enough cases in {seed} seeds");
-    assert!(got * 10 >= large * 9, "recovered {got}/{large}");
+    // Recovered: the hidden shape within a named group of at most GROUP_MAX shapes (measured 30/40
+    // on the tuning seeds; the bound allows about one standard error of chance on forty cases).
+    assert!(got * 3 >= large * 2, "recovered {got}/{large}");
 }
 
 /// Effects outside the library: never a claim that the lack-of-fit test rejects, and a found term
@@ -764,7 +775,9 @@ fn a_listed_cause_beside_an_unlisted_effect() {
         whole * 10 <= large,
         "the listed cause named the whole story in {whole}/{large}"
     );
-    assert!(got * 10 >= from_listed * 9, "recovered {got}/{from_listed}");
+    // Recovered: the hidden shape within a named group of at most GROUP_MAX shapes (measured 10/15
+    // on the tuning seeds; the bound allows two standard errors of chance on fifteen cases).
+    assert!(got * 5 >= from_listed * 3, "recovered {got}/{from_listed}");
 }
 
 /// The hidden effect's size beside the listed cause, as a share of the mean response: up to a

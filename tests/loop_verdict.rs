@@ -312,20 +312,22 @@ fn clamp_case_names_clamp_compliance_from_the_loops_evidence() {
         "{params}"
     );
     assert_eq!(d["extended"]["solver_in_the_loop"], true);
-    // The rival's lack of fit is in the evidence whenever the loop judged it.
-    if let Some(after) = d["after_loop"].as_object() {
-        for e in after["explanations"].as_array().unwrap() {
-            if e["name"] == "shear correction" {
-                assert_eq!(e["rejected"], true, "{e}");
-                let line = d["evidence"].as_array().unwrap().iter().any(|l| {
-                    l.as_str()
-                        .unwrap()
-                        .starts_with("'shear correction' calibrated with the solver in the loop: rejected")
-                });
-                assert!(line, "{}", d["summary"]);
-            }
-        }
-    }
+    // The loop judged the rival (the oracle says its model misses by far): it is out by its lack of
+    // fit, and the evidence says so.
+    let after = d["after_loop"].as_object().expect("the loop's judgement");
+    let shear = after["explanations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["name"] == "shear correction")
+        .expect("the loop judged the shear correction");
+    assert_eq!(shear["rejected"], true, "{shear}");
+    let line = d["evidence"].as_array().unwrap().iter().any(|l| {
+        l.as_str()
+            .unwrap()
+            .starts_with("'shear correction' calibrated with the solver in the loop: rejected")
+    });
+    assert!(line, "{}", d["summary"]);
 }
 
 /// Seeded families: designs, specimens, scatter and the truth drawn; classified by the oracle.
