@@ -8,9 +8,12 @@
 //! Three families, in turn by seed:
 //! - **baseline**: the study's own physics (no hardening, no rate effect): no cause may be named;
 //! - **hardening** (ETAN drawn 0–450 MPa): leads when the oracle calls it large enough, and is named;
-//! - **rate** (no hardening; SRC drawn 5,000–40,000 1/s, SRP 4): a rate effect raises the initial peak
-//!   and the plateau alike, by a factor that falls with the cell size; it is not listed, so the
-//!   honest answers are "partly explained" or "no listed cause", never hardening named decisively.
+//! - **rate** (SRC drawn 5,000–40,000 1/s, SRP 4; in half the draws hardening too, ETAN 0–300): a
+//!   rate effect raises the initial peak and the plateau alike, by a factor that falls with the cell
+//!   size; it is not listed, so no listed cause is the whole story: the honest answers are "partly
+//!   explained" (hardening at most a partial explanation, in `diagnosis.partial`) or "no listed
+//!   cause", never a cause named, and no model is called a fit while a residual beyond its corrected
+//!   threshold remains (the figures of every lack-of-fit record are checked against its words).
 //!
 //! The oracle (crushsim's fold model, `crushsim/src/physics.rs`, which the test knows because it
 //! made the tests): hardening's share of the hinges' flow stress, 0.5 ETAN ε_h / σy with
@@ -30,6 +33,7 @@ use rand_chacha::ChaCha8Rng;
 use serde_json::Value;
 
 mod crushsim_bin;
+mod verdict_common;
 
 const HARDENING: &str = "strain hardening in the fold hinges";
 
@@ -77,10 +81,10 @@ fn draw(seed: u64) -> Case {
         Family::Rate => round(rng.random_range(140.0..170.0), 0.1),
         _ => round(rng.random_range(160.0..210.0), 0.1),
     };
-    let etan = if family == Family::Hardening {
-        round(rng.random_range(0.0..450.0), 1.0)
-    } else {
-        0.0
+    let etan = match family {
+        Family::Hardening => round(rng.random_range(0.0..450.0), 1.0),
+        Family::Rate if rng.random_bool(0.5) => round(rng.random_range(0.0..300.0), 1.0),
+        _ => 0.0,
     };
     let src = if family == Family::Rate {
         round(rng.random_range(5_000.0..40_000.0), 10.0)
@@ -245,6 +249,7 @@ fn run_in(case: &Case, dir: &Path) -> Value {
         String::from_utf8_lossy(&o.stderr)
     );
     let r: Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    verdict_common::assert_verdict_follows_evidence(&r["diagnosis"]);
     r["diagnosis"].clone()
 }
 
@@ -268,23 +273,57 @@ fn estimate(d: &Value, name: &str, truth: f64) -> Option<(f64, bool)> {
 /// large enough it is never rejected and leads (named, or first of the explanations the tests cannot
 /// tell apart — three designs with two cell sizes may not separate it from a cell-size term, and the
 /// verdict then says so with the test that would), and it is named decisively in most of them, with
-/// the truths inside the extended model's 95 % intervals.
+/// σy within 3 % and ETAN within 20 % of the truth and both truths inside the extended model's 95 %
+/// intervals; where an unlisted rate effect is in the tests, no cause is named (hardening, if
+/// present, is at most partial).
 #[test]
 fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() {
     let n = env_u64("LAB_CURVES_SEEDS", 12);
     let base = env_u64("LAB_CURVES_SEED_BASE", 0);
-    let (mut clean, mut clean_quiet) = (0, 0);
-    let (mut large, mut leads, mut named, mut close, mut covered, mut small) = (0, 0, 0, 0, 0, 0);
-    let (mut rate, mut rate_partly) = (0, 0);
-    let mut false_claims = Vec::new();
+    let mut t = Tally::default();
     for seed in base..base + n {
         let case = draw(seed);
-        let share = hardening_share(&case);
         let d = run(&case);
+        t.count(&case, &d);
+    }
+    eprintln!("{}", t.line());
+    assert!(t.clean >= 3 && t.large >= 1 && t.rate >= 3, "too few cases in a family");
+    assert!(t.false_claims.is_empty(), "a cause named that the tests do not hold: seeds {:?}", t.false_claims);
+    assert!(t.clean_quiet == t.clean, "a cause claimed on the baseline physics");
+    assert!(t.leads * 10 >= t.large * 9, "hardening leads in {} of {}", t.leads, t.large);
+    assert!(t.named * 2 > t.large, "hardening named decisively in {} of {}", t.named, t.large);
+    // σy within 3 % and ETAN within 20 % (README), the truths inside the 95 % intervals: the
+    // intervals are 95 %, so one miss in a handful is chance; none may be far off.
+    assert!(t.close * 10 >= t.named * 8, "σy within 3 % and ETAN within 20 % in {} of {}", t.close, t.named);
+    assert!(t.covered * 10 >= t.named * 7, "the truths inside the intervals in {} of {}", t.covered, t.named);
+    assert_eq!(t.rate_named, 0, "a cause named with an unlisted rate effect in the tests");
+}
+
+/// The families' outcomes, case by case.
+#[derive(Default)]
+struct Tally {
+    clean: usize,
+    clean_quiet: usize,
+    large: usize,
+    leads: usize,
+    named: usize,
+    close: usize,
+    covered: usize,
+    small: usize,
+    rate: usize,
+    rate_partly: usize,
+    rate_named: usize,
+    false_claims: Vec<u64>,
+}
+
+impl Tally {
+    fn count(&mut self, case: &Case, d: &Value) {
+        let share = hardening_share(case);
         let cause = d["cause"].as_str().unwrap_or("-").to_string();
         let decisive = d["verdict"] == "cause_named";
         eprintln!(
-            "seed {seed} {:?}: sigma_y {:.1} etan {:.0} src {:.0} share {:.3} designs {:?} × {} → {} ({cause})",
+            "seed {} {:?}: sigma_y {:.1} etan {:.0} src {:.0} share {:.3} designs {:?} × {} → {} ({cause}; partial {})",
+            case.seed,
             case.family,
             case.sigma_y,
             case.etan,
@@ -292,65 +331,70 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
             share,
             case.designs.iter().map(|d| d.0.as_str()).collect::<Vec<_>>(),
             case.specimens,
-            d["verdict"]
+            d["verdict"],
+            d["partial"]["name"]
         );
         if decisive && !(case.family == Family::Hardening && cause == HARDENING) {
-            false_claims.push(seed);
+            self.false_claims.push(case.seed);
         }
         match case.family {
             Family::Baseline => {
-                clean += 1;
-                clean_quiet += usize::from(d["cause"].is_null());
+                self.clean += 1;
+                self.clean_quiet += usize::from(d["cause"].is_null() && d["partial"].is_null());
             }
             Family::Rate => {
-                // Neither listed hypothesis is the truth (a rate effect scales the force by a factor
-                // that falls with the cell size): "partly explained" or "no listed cause" are honest.
-                rate += 1;
-                rate_partly += usize::from(d["verdict"] == "partly_explained");
+                self.rate += 1;
+                self.rate_partly += usize::from(d["verdict"] == "partly_explained");
+                self.rate_named += usize::from(!d["cause"].is_null());
             }
-            Family::Hardening if share >= 0.02 => {
-                large += 1;
-                let first = d["leading"][0] == HARDENING || cause == HARDENING;
-                let rejected = d["after_loop"]["explanations"]
-                    .as_array()
-                    .is_some_and(|e| e.iter().any(|x| x["name"] == HARDENING && x["rejected"] == true));
-                leads += usize::from(first && !rejected);
-                if cause == HARDENING && decisive {
-                    named += 1;
-                    let sy = estimate(&d, "sigma_y", case.sigma_y);
-                    let et = estimate(&d, "etan", case.etan);
-                    eprintln!("  sigma_y {sy:?}, etan {et:?}");
-                    let within = |e: Option<(f64, bool)>, truth: f64, tol: f64| {
-                        e.is_some_and(|(v, _)| (v / truth - 1.0).abs() < tol)
-                    };
-                    let inside = |e: Option<(f64, bool)>| e.is_some_and(|(_, inside)| inside);
-                    close += usize::from(within(sy, case.sigma_y, 0.03) && within(et, case.etan, 0.2));
-                    covered += usize::from(inside(sy) && inside(et));
-                } else {
-                    eprintln!("{}", d["summary"].as_str().unwrap_or(""));
-                }
-            }
-            Family::Hardening => small += 1,
+            Family::Hardening if share >= 0.02 => self.hardening(case, d, decisive && cause == HARDENING),
+            Family::Hardening => self.small += 1,
         }
     }
-    eprintln!(
-        "baseline: no cause {clean_quiet}/{clean}; hardening large enough: leads and not rejected {leads}/{large}, \
-         named decisively {named}/{large}, sigma_y within 3 % and etan within 20 % {close}/{named}, both truths \
-         inside their 95 % intervals {covered}/{named}; smaller ({small}) not judged; rate (not listed): partly \
-         explained {rate_partly}/{rate}; false decisive claims {false_claims:?}"
-    );
-    assert!(clean >= 3 && large >= 1 && rate >= 3, "too few cases in a family");
-    assert!(
-        false_claims.is_empty(),
-        "a cause named that the tests do not hold: seeds {false_claims:?}"
-    );
-    assert!(clean_quiet * 10 >= clean * 9, "a cause claimed on the baseline physics");
-    assert!(leads * 10 >= large * 9, "hardening leads in {leads} of {large}");
-    assert!(named * 2 > large, "hardening named decisively in {named} of {large}");
-    assert!(
-        covered * 10 >= named * 8,
-        "the truths inside the intervals in {covered} of {named}"
-    );
+
+    fn hardening(&mut self, case: &Case, d: &Value, named: bool) {
+        self.large += 1;
+        let first = d["leading"][0] == HARDENING || d["cause"] == HARDENING;
+        let rejected = d["after_loop"]["explanations"]
+            .as_array()
+            .is_some_and(|e| e.iter().any(|x| x["name"] == HARDENING && x["rejected"] == true));
+        self.leads += usize::from(first && !rejected);
+        if !named {
+            eprintln!("{}", d["summary"].as_str().unwrap_or(""));
+            return;
+        }
+        self.named += 1;
+        let sy = estimate(d, "sigma_y", case.sigma_y);
+        let et = estimate(d, "etan", case.etan);
+        eprintln!("  sigma_y {sy:?}, etan {et:?}");
+        let within = |e: Option<(f64, bool)>, truth: f64, tol: f64| e.is_some_and(|(v, _)| (v / truth - 1.0).abs() < tol);
+        let inside = |e: Option<(f64, bool)>| e.is_some_and(|(_, inside)| inside);
+        self.close += usize::from(within(sy, case.sigma_y, 0.03) && within(et, case.etan, 0.2));
+        self.covered += usize::from(inside(sy) && inside(et));
+    }
+
+    fn line(&self) -> String {
+        format!(
+            "baseline: no cause {}/{}; hardening large enough: leads and not rejected {}/{}, named decisively {}/{}, \
+             sigma_y within 3 % and etan within 20 % {}/{}, both truths inside their 95 % intervals {}/{}; smaller \
+             ({}) not judged; rate (not listed): partly explained {}/{}, a cause named {}; false decisive claims {:?}",
+            self.clean_quiet,
+            self.clean,
+            self.leads,
+            self.large,
+            self.named,
+            self.large,
+            self.close,
+            self.named,
+            self.covered,
+            self.named,
+            self.small,
+            self.rate_partly,
+            self.rate,
+            self.rate_named,
+            self.false_claims
+        )
+    }
 }
 
 /// One draw kept in `/tmp/curves-family-SEED` for a look at its results and report.

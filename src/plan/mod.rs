@@ -2,6 +2,7 @@
 //! [`sweep::grid`]) and the run [`Plan`] of a solver study.
 
 mod lhs;
+pub mod sequential;
 pub mod sweep;
 
 pub use lhs::latin_hypercube;

@@ -180,7 +180,8 @@ fn assert_screening(d: &Value, verdict: &str, final_extended: bool) {
             assert!(d["leading"].as_array().unwrap().len() >= 2 || !final_extended);
         }
         "partly_explained" => {
-            assert!(d["cause"].is_null(), "a partial explanation is never the cause");
+            // After the loop the final verdict may differ; the screening's partial is then not recorded.
+            assert!(d["cause"].is_null() || !final_extended, "a partial explanation is never the cause");
             assert!(d["partial"]["name"].is_string() || !final_extended);
             assert!(
                 ext_rejects || !final_extended,

@@ -1,0 +1,380 @@
+//! Sequential design of solver runs: where the next batch goes, and whether more runs would change
+//! the answer. Pure: points and numbers in, points and numbers out.
+//!
+//! The space is a box (the calibration parameters θ, or θ with an extension's ranged variables);
+//! every tested design (a *site*) has its own runs in it and its own emulator per output (the mean
+//! crush force, and the curve features the diagnosis reads, whitened by the specimens' scatter).
+//! Each output of a site has the tests' mean and the noise variance of that mean, τ².
+//!
+//! 1. **Emulators.** Per site and output, the Gaussian process of [`crate::calibrate::bayesian::gp`]
+//!    (maximum-likelihood roughness, universal kriging): mean μ(x) and covariance c(x, x').
+//! 2. **Posterior** of x from the training sites' tests, with the emulator's own variance in the
+//!    likelihood (Kennedy & O'Hagan 2001): −ln p(x) = Σ_{site, k} [(ȳ − μ)² / (τ² + s²) + ln(τ² + s²)] / 2,
+//!    uniform on the box. Represented by weighted points: its mode by bounded least squares, a
+//!    Laplace covariance there, and importance draws from a widened Gaussian around the mode
+//!    (weights p/q, truncated to the box).
+//! 3. **Where next** (integrated variance, after Sürer, Plumlee & Wild 2024 and the IMSE criteria of
+//!    Sacks et al. 1989): a run at (site, x*) lowers the emulator's variance at every x by
+//!    c(x, x*)² / c(x*, x*); its value is that reduction, in units of τ² and integrated over the
+//!    posterior, summed over the site's outputs. A batch is chosen greedily, the covariances updated
+//!    after each pick by that same rank-one formula (the variance does not depend on the value the
+//!    run will give, so the greedy batch needs no guess of it).
+//! 4. **Enough?** A site is done when its emulator's error at the posterior is small beside the
+//!    tests' noise, both as measured on runs it was not fitted to (the caller's check) and as its
+//!    own integrated predictive standard deviation, √(Σ w s²/τ²), maximised over outputs.
+//!
+//! The candidates are the posterior draws and a seeded Latin hypercube of the box, in a fixed
+//! order, and ties go to the first: a batch depends only on the runs so far, the tests and the seed.
+
+use nalgebra::{DMatrix, DVector};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::latin_hypercube;
+use crate::calibrate::bayesian::gp::Emulator;
+use crate::calibrate::{Bounds, optimize};
+
+/// Posterior draws (importance sampling) and space-filling candidates.
+const DRAWS: usize = 256;
+const FILL: usize = 64;
+
+/// One tested design as the planner sees it.
+#[derive(Debug, Clone)]
+pub struct Site {
+    pub name: String,
+    /// Its tests inform the posterior (training) or are predicted (validation).
+    pub training: bool,
+    /// The runs so far: a point of the box each.
+    pub x: Vec<Vec<f64>>,
+    /// Each run's value of every output (`y[run][output]`; NaN where it could not be read).
+    pub y: Vec<Vec<f64>>,
+    /// Per output: the tests' mean, and the noise variance of that mean (τ²).
+    pub observed: Vec<f64>,
+    pub noise: Vec<f64>,
+}
+
+/// One site's emulators, one per output (`None`: too few runs, or the fit failed).
+pub struct SiteEmulators {
+    pub outputs: Vec<Option<Emulator>>,
+}
+
+/// The posterior of x as weighted points.
+#[derive(Debug, Clone)]
+pub struct Posterior {
+    /// One point per row.
+    pub points: DMatrix<f64>,
+    /// Normalised importance weights.
+    pub weights: Vec<f64>,
+    pub mode: Vec<f64>,
+    pub mean: Vec<f64>,
+    /// 2.5 % and 97.5 % weighted quantiles per coordinate.
+    pub interval: Vec<[f64; 2]>,
+}
+
+/// Fits every site's emulators.
+pub fn emulators(bounds: &Bounds, sites: &[Site]) -> Vec<SiteEmulators> {
+    sites
+        .iter()
+        .map(|s| {
+            let outputs = (0..s.observed.len())
+                .map(|k| {
+                    let rows: Vec<usize> = (0..s.x.len()).filter(|&i| s.y[i][k].is_finite()).collect();
+                    let x = DMatrix::from_fn(rows.len(), bounds.dim(), |r, j| s.x[rows[r]][j]);
+                    let y = DVector::from_iterator(rows.len(), rows.iter().map(|&i| s.y[i][k]));
+                    Emulator::fit(&x, &y, bounds).ok()
+                })
+                .collect();
+            SiteEmulators { outputs }
+        })
+        .collect()
+}
+
+/// Mean and variance of every output of every site at `x` (NaN variance where no emulator).
+fn predict(emus: &[SiteEmulators], x: &[f64]) -> Vec<Vec<(f64, f64)>> {
+    let at = DMatrix::from_row_slice(1, x.len(), x);
+    emus.iter()
+        .map(|e| {
+            e.outputs
+                .iter()
+                .map(|o| match o.as_ref().and_then(|g| g.mean_cov(&at)) {
+                    Some((m, c)) => (m[0], c[(0, 0)].max(0.0)),
+                    None => (f64::NAN, f64::NAN),
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// −ln p(x), up to a constant: the training sites' tests against the emulators, their variance in
+/// the likelihood; infinite outside the box.
+fn neg_log_posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], x: &[f64]) -> f64 {
+    if (0..x.len()).any(|j| x[j] < bounds.lower[j] || x[j] > bounds.upper[j]) {
+        return f64::INFINITY;
+    }
+    let pred = predict(emus, x);
+    let mut nlp = 0.0;
+    for (s, p) in sites.iter().zip(&pred) {
+        if !s.training {
+            continue;
+        }
+        for (k, &(mu, s2)) in p.iter().enumerate() {
+            let v = s.noise[k] + s2;
+            if mu.is_finite() && v > 0.0 {
+                nlp += 0.5 * ((s.observed[k] - mu).powi(2) / v + v.ln());
+            }
+        }
+    }
+    nlp
+}
+
+/// The posterior of x (module notes, step 2).
+pub fn posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], seed: u64) -> Posterior {
+    let p = bounds.dim();
+    let residuals = |t: &DVector<f64>| -> DVector<f64> {
+        let pred = predict(emus, t.as_slice());
+        let r: Vec<f64> = sites
+            .iter()
+            .zip(&pred)
+            .filter(|(s, _)| s.training)
+            .flat_map(|(s, p)| {
+                p.iter().enumerate().filter(|(_, (mu, _))| mu.is_finite()).map(move |(k, &(mu, s2))| {
+                    (s.observed[k] - mu) / (s.noise[k] + s2).sqrt()
+                })
+            })
+            .collect();
+        DVector::from_vec(r)
+    };
+    let centre = DVector::from_iterator(p, (0..p).map(|j| 0.5 * (bounds.lower[j] + bounds.upper[j])));
+    let mode = optimize::least_squares(&residuals, bounds).map_or(centre, |m| m.theta);
+    let cov = laplace(&residuals, &mode, bounds);
+    let draws = proposal_draws(bounds, &mode, &cov, seed);
+    let nlp: Vec<f64> = draws
+        .row_iter()
+        .map(|r| neg_log_posterior(bounds, sites, emus, r.transpose().as_slice()))
+        .collect();
+    let logq: Vec<f64> = draws.row_iter().map(|r| log_proposal(&mode, &cov, &r.transpose())).collect();
+    let logw: Vec<f64> = nlp.iter().zip(&logq).map(|(n, q)| -n - q).collect();
+    let top = logw.iter().copied().filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max);
+    let raw: Vec<f64> = logw.iter().map(|v| if v.is_finite() { (v - top).exp() } else { 0.0 }).collect();
+    let total: f64 = raw.iter().sum();
+    let weights: Vec<f64> = raw.iter().map(|w| w / total.max(f64::MIN_POSITIVE)).collect();
+    summarise(draws, weights, mode.as_slice().to_vec())
+}
+
+/// The Gauss–Newton covariance (JᵀJ)⁻¹ at the mode, inflated where the Jacobian is flat so that the
+/// proposal still spans a part of the box.
+fn laplace(residuals: &impl Fn(&DVector<f64>) -> DVector<f64>, mode: &DVector<f64>, bounds: &Bounds) -> DMatrix<f64> {
+    let p = mode.len();
+    let j = optimize::jacobian(residuals, mode);
+    let info = j.transpose() * &j;
+    let floor = DMatrix::from_fn(p, p, |a, b| if a == b { (4.0 / bounds.width()[a]).powi(2) } else { 0.0 });
+    (info + floor).try_inverse().unwrap_or_else(|| DMatrix::from_fn(p, p, |a, b| {
+        if a == b { (bounds.width()[a] / 4.0).powi(2) } else { 0.0 }
+    }))
+}
+
+/// The proposal's spread: the Laplace covariance widened by this factor (in standard deviations),
+/// so that the draws cover the posterior's tails as well as its bulk.
+const WIDEN: f64 = 2.0;
+
+/// Draws from N(mode, WIDEN² cov), redrawn until inside the box (the truncation's constant cancels
+/// in the normalised weights).
+fn proposal_draws(bounds: &Bounds, mode: &DVector<f64>, cov: &DMatrix<f64>, seed: u64) -> DMatrix<f64> {
+    let p = mode.len();
+    let l = cov.clone().cholesky().map(|c| c.l()).unwrap_or_else(|| DMatrix::from_diagonal(&cov.diagonal().map(f64::sqrt)));
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9057_e410);
+    let mut out = DMatrix::zeros(DRAWS, p);
+    for i in 0..DRAWS {
+        let x = (0..1000)
+            .map(|_| {
+                let z = DVector::from_fn(p, |_, _| gauss(&mut rng));
+                mode + &l * z * WIDEN
+            })
+            .find(|x| (0..p).all(|j| x[j] >= bounds.lower[j] && x[j] <= bounds.upper[j]))
+            .unwrap_or_else(|| mode.clone());
+        out.set_row(i, &x.transpose());
+    }
+    out
+}
+
+fn log_proposal(mode: &DVector<f64>, cov: &DMatrix<f64>, x: &DVector<f64>) -> f64 {
+    let c = cov * (WIDEN * WIDEN);
+    match c.clone().cholesky() {
+        Some(ch) => {
+            let d = x - mode;
+            let z = ch.l().solve_lower_triangular(&d).unwrap_or(d);
+            -0.5 * z.norm_squared() - ch.l().diagonal().iter().map(|v| v.ln()).sum::<f64>()
+        }
+        None => 0.0,
+    }
+}
+
+fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+    let u1: f64 = rng.random_range(f64::EPSILON..1.0);
+    let u2: f64 = rng.random();
+    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+}
+
+/// Weighted mean and 95 % quantile interval per coordinate.
+fn summarise(points: DMatrix<f64>, weights: Vec<f64>, mode: Vec<f64>) -> Posterior {
+    let p = points.ncols();
+    let mean: Vec<f64> = (0..p)
+        .map(|j| points.column(j).iter().zip(&weights).map(|(x, w)| x * w).sum())
+        .collect();
+    let interval = (0..p)
+        .map(|j| {
+            let mut order: Vec<(f64, f64)> = points.column(j).iter().copied().zip(weights.iter().copied()).collect();
+            order.sort_by(|a, b| a.0.total_cmp(&b.0));
+            [quantile(&order, 0.025), quantile(&order, 0.975)]
+        })
+        .collect();
+    Posterior {
+        points,
+        weights,
+        mode,
+        mean,
+        interval,
+    }
+}
+
+/// The `q` quantile of sorted weighted values.
+fn quantile(sorted: &[(f64, f64)], q: f64) -> f64 {
+    let mut acc = 0.0;
+    for &(x, w) in sorted {
+        acc += w;
+        if acc >= q {
+            return x;
+        }
+    }
+    sorted.last().map_or(f64::NAN, |v| v.0)
+}
+
+/// A site's emulator error at the posterior, predicted: √(Σ_e w_e s²(e)/τ²), the largest over its
+/// outputs (infinite where an output has no emulator).
+pub fn predicted_error(site: &Site, emus: &SiteEmulators, posterior: &Posterior) -> f64 {
+    emus.outputs
+        .iter()
+        .enumerate()
+        .map(|(k, e)| {
+            let Some(e) = e else { return f64::INFINITY };
+            let Some((_, c)) = e.mean_cov(&posterior.points) else {
+                return f64::INFINITY;
+            };
+            let v: f64 = (0..c.nrows()).map(|i| posterior.weights[i] * c[(i, i)].max(0.0)).sum();
+            (v / site.noise[k]).sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The next `q` runs among the `open` sites (module notes, step 3): each open site gets one run
+/// before any gets a second, in order of value; each at the candidate of most value.
+pub fn choose(
+    bounds: &Bounds,
+    sites: &[Site],
+    emus: &[SiteEmulators],
+    posterior: &Posterior,
+    open: &[bool],
+    q: usize,
+    seed: u64,
+) -> Vec<(usize, Vec<f64>)> {
+    let fill = latin_hypercube(FILL, bounds.dim(), seed ^ 0xf111);
+    let scaled = DMatrix::from_fn(FILL, bounds.dim(), |i, j| bounds.lower[j] + fill[(i, j)] * bounds.width()[j]);
+    let candidates = stack(&posterior.points, &scaled);
+    let mut gains: Vec<Option<Gain>> = sites
+        .iter()
+        .zip(emus)
+        .zip(open)
+        .map(|((s, e), &o)| o.then(|| Gain::new(s, e, &posterior.points, &posterior.weights, &candidates)).flatten())
+        .collect();
+    let mut picks: Vec<(usize, Vec<f64>)> = Vec::new();
+    let mut given = vec![0usize; sites.len()];
+    while picks.len() < q {
+        let round = given.iter().zip(&gains).filter(|(_, g)| g.is_some()).map(|(n, _)| *n).min();
+        let Some(round) = round else { break };
+        let best = gains
+            .iter()
+            .enumerate()
+            .filter(|(i, g)| g.is_some() && given[*i] == round)
+            .filter_map(|(i, g)| g.as_ref().map(|g| (i, g.best())))
+            .fold(None, |acc: Option<(usize, (usize, f64))>, (i, b)| match acc {
+                Some((_, (_, v))) if v >= b.1 => acc,
+                _ => Some((i, b)),
+            });
+        let Some((site, (c, _))) = best else { break };
+        picks.push((site, candidates.row(c).iter().copied().collect()));
+        given[site] += 1;
+        if let Some(g) = gains[site].as_mut() {
+            g.condition(c);
+        }
+    }
+    picks
+}
+
+fn stack(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    DMatrix::from_fn(a.nrows() + b.nrows(), a.ncols(), |i, j| {
+        if i < a.nrows() { a[(i, j)] } else { b[(i - a.nrows(), j)] }
+    })
+}
+
+/// One site's joint covariance over the posterior points E and the candidates C, per output
+/// scaled by 1/τ², updated as runs are added.
+struct Gain {
+    /// Per output: the covariance of [E; C] (E first), in units of τ².
+    cov: Vec<DMatrix<f64>>,
+    weights: Vec<f64>,
+    e: usize,
+}
+
+impl Gain {
+    fn new(site: &Site, emus: &SiteEmulators, e: &DMatrix<f64>, w: &[f64], c: &DMatrix<f64>) -> Option<Gain> {
+        let all = stack(e, c);
+        let cov: Option<Vec<DMatrix<f64>>> = emus
+            .outputs
+            .iter()
+            .enumerate()
+            .map(|(k, em)| em.as_ref()?.mean_cov(&all).map(|(_, cv)| cv / site.noise[k]))
+            .collect();
+        Some(Gain {
+            cov: cov?,
+            weights: w.to_vec(),
+            e: e.nrows(),
+        })
+    }
+
+    /// The candidate of most value and that value: Σ_k Σ_e w_e c_k(e, x*)² / c_k(x*, x*).
+    fn best(&self) -> (usize, f64) {
+        let n = self.cov[0].nrows();
+        (self.e..n)
+            .map(|c| {
+                let v: f64 = self
+                    .cov
+                    .iter()
+                    .map(|m| {
+                        let var = m[(c, c)];
+                        if var <= 1e-300 {
+                            return 0.0;
+                        }
+                        (0..self.e).map(|i| self.weights[i] * m[(i, c)].powi(2)).sum::<f64>() / var
+                    })
+                    .sum();
+                (c - self.e, v)
+            })
+            .fold((0, f64::NEG_INFINITY), |acc, (c, v)| if v > acc.1 { (c, v) } else { acc })
+    }
+
+    /// The covariances once a run at candidate `c` is in: c(a, b) − c(a, x*) c(x*, b) / c(x*, x*).
+    fn condition(&mut self, c: usize) {
+        let at = self.e + c;
+        for m in &mut self.cov {
+            let var = m[(at, at)];
+            if var <= 1e-300 {
+                continue;
+            }
+            let col = m.column(at).clone_owned();
+            *m -= &col * col.transpose() / var;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

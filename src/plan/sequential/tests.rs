@@ -1,0 +1,103 @@
+use super::*;
+
+/// A site whose single output is y = a + b x over [0, 10], runs at `xs`, tested at `obs` ± √τ².
+fn linear_site(name: &str, xs: &[f64], a: f64, b: f64, obs: f64, tau2: f64) -> Site {
+    Site {
+        name: name.into(),
+        training: true,
+        x: xs.iter().map(|&x| vec![x]).collect(),
+        y: xs.iter().map(|&x| vec![a + b * x]).collect(),
+        observed: vec![obs],
+        noise: vec![tau2],
+    }
+}
+
+/// With linear outputs that change sign (so the emulator works on y itself, not ln y) the emulators
+/// are exact and the posterior of x under a uniform prior is the normal of the weighted least-squares
+/// fit (two sites: precision Σ b²/τ², mean where the
+/// weighted residuals balance), checked against that closed form.
+#[test]
+fn posterior_of_linear_outputs_is_the_least_squares_normal() {
+    let bounds = Bounds::new(vec![0.0], vec![10.0]);
+    let xs = [0.0, 2.5, 5.0, 7.5, 10.0];
+    let sites = vec![
+        linear_site("a", &xs, -9.0, 2.0, 1.2, 0.04),
+        linear_site("b", &xs, 3.0, -1.0, -2.1, 0.09),
+    ];
+    let emus = emulators(&bounds, &sites);
+    let post = posterior(&bounds, &sites, &emus, 7);
+    // Closed form: x̂ = Σ (b/τ²)(y − a) / Σ b²/τ², sd = (Σ b²/τ²)^(-1/2).
+    let (num, den) = [(-9.0, 2.0, 1.2, 0.04), (3.0, -1.0, -2.1, 0.09)]
+        .iter()
+        .fold((0.0, 0.0), |(n, d), &(a, b, y, t): &(f64, f64, f64, f64)| (n + b * (y - a) / t, d + b * b / t));
+    let (mean, sd) = (num / den, den.powf(-0.5));
+    assert!((post.mode[0] - mean).abs() < 1e-3 * sd.max(1e-3) + 1e-6, "mode {} vs {mean}", post.mode[0]);
+    assert!((post.mean[0] - mean).abs() < 0.1 * sd, "mean {} vs {mean} (sd {sd})", post.mean[0]);
+    let [lo, hi] = post.interval[0];
+    assert!((lo - (mean - 1.96 * sd)).abs() < 0.15 * sd, "lo {lo}");
+    assert!((hi - (mean + 1.96 * sd)).abs() < 0.15 * sd, "hi {hi}");
+    let total: f64 = post.weights.iter().sum();
+    assert!((total - 1.0).abs() < 1e-12);
+}
+
+/// The value of a run is highest where the emulator is least sure and the posterior has its mass:
+/// a site with runs only far from the posterior gets its run near it; a site already dense there is
+/// predicted to be more accurate.
+#[test]
+fn the_next_run_goes_where_the_posterior_is_and_the_emulator_is_not() {
+    let bounds = Bounds::new(vec![0.0], vec![10.0]);
+    let curve = |x: f64| (0.4 * x).sin() + 0.1 * x * x;
+    let site = |name: &str, xs: &[f64], training: bool| Site {
+        name: name.into(),
+        training,
+        x: xs.iter().map(|&x| vec![x]).collect(),
+        y: xs.iter().map(|&x| vec![curve(x)]).collect(),
+        observed: vec![curve(6.2)],
+        noise: vec![1e-4],
+    };
+    let sites = vec![
+        site("dense", &[0.0, 3.0, 5.5, 6.0, 6.5, 7.0, 10.0], true),
+        site("sparse", &[0.0, 1.0, 2.0, 9.0, 10.0], false),
+    ];
+    let emus = emulators(&bounds, &sites);
+    let post = posterior(&bounds, &sites, &emus, 3);
+    assert!((post.mean[0] - 6.2).abs() < 0.05, "posterior mean {}", post.mean[0]);
+    let dense = predicted_error(&sites[0], &emus[0], &post);
+    let sparse = predicted_error(&sites[1], &emus[1], &post);
+    assert!(sparse > 10.0 * dense, "sparse {sparse}, dense {dense}");
+    let picks = choose(&bounds, &sites, &emus, &post, &[false, true], 1, 3);
+    assert_eq!(picks.len(), 1);
+    assert_eq!(picks[0].0, 1);
+    assert!((picks[0].1[0] - 6.2).abs() < 1.0, "picked x = {}", picks[0].1[0]);
+}
+
+/// A batch: one run per open site before a second anywhere, never a closed site; the same inputs
+/// and seed give the same batch.
+#[test]
+fn a_batch_shares_the_runs_among_open_sites_and_repeats_exactly() {
+    let bounds = Bounds::new(vec![0.0, 0.0], vec![1.0, 1.0]);
+    let f = |x: &[f64], s: f64| (3.0 * x[0] + s).sin() + x[1] * x[1];
+    let make = |name: &str, s: f64| {
+        let pts: Vec<Vec<f64>> = (0..6).map(|i| vec![i as f64 / 5.0, ((i * 3) % 6) as f64 / 5.0]).collect();
+        Site {
+            name: name.into(),
+            training: true,
+            y: pts.iter().map(|p| vec![f(p, s)]).collect(),
+            x: pts,
+            observed: vec![f(&[0.4, 0.6], s)],
+            noise: vec![1e-3],
+        }
+    };
+    let sites = vec![make("a", 0.0), make("b", 0.5), make("c", 1.0)];
+    let emus = emulators(&bounds, &sites);
+    let post = posterior(&bounds, &sites, &emus, 11);
+    let open = [true, false, true];
+    let batch = choose(&bounds, &sites, &emus, &post, &open, 5, 11);
+    assert_eq!(batch.len(), 5);
+    assert!(batch.iter().all(|(s, _)| *s != 1), "a closed site got a run");
+    let count = |s: usize| batch.iter().filter(|(i, _)| *i == s).count();
+    assert!(count(0) >= 2 && count(2) >= 2, "{batch:?}");
+    assert_eq!(&batch[..2].iter().map(|b| b.0).collect::<Vec<_>>().iter().copied().collect::<std::collections::BTreeSet<_>>(), &[0usize, 2].into_iter().collect());
+    let again = choose(&bounds, &sites, &emus, &posterior(&bounds, &sites, &emulators(&bounds, &sites), 11), &open, 5, 11);
+    assert_eq!(batch, again);
+}
