@@ -31,6 +31,7 @@ impl Reporter for Stderr {
                     );
                 }
             }
+            Event::Batch(b) => eprintln!("{}", b.line()),
             Event::Interrupted { out } => eprintln!(
                 "interrupted: finished runs are kept in {}; `lab run` again resumes",
                 out.display()

@@ -113,8 +113,14 @@ impl Whitening {
         self.factors.iter().find(|(d, _)| d == design).map(|(_, l)| l)
     }
 
+    /// The specimens' whitening of their features (module notes), as the diagnosis makes it: for a
+    /// planner that reads runs in the diagnosis's own units.
+    pub fn of_specimens(designs: &[CurveDesign], spec: &FeatureSpec, alpha: f64) -> Result<Whitening, String> {
+        whitening(designs, spec, alpha)
+    }
+
     /// L⁻¹φ of a curve's features at a design (`None` where a feature is missing or not finite).
-    fn whiten(&self, spec: &FeatureSpec, design: &[f64], curve: &[f64]) -> Option<DVector<f64>> {
+    pub fn whiten(&self, spec: &FeatureSpec, design: &[f64], curve: &[f64]) -> Option<DVector<f64>> {
         let v = features::measure_with(spec, curve, self.read.contains(&3)).vector(spec);
         let phi: Option<Vec<f64>> = self.read.iter().map(|&k| v[k].filter(|x| x.is_finite())).collect();
         self.factor(design)?.solve_lower_triangular(&DVector::from_vec(phi?))
@@ -327,18 +333,22 @@ impl Whitening {
     /// √(1 + m s²_k), so that v/m stays the variance of the mean the diagnosis assumes. The tests'
     /// degrees of freedom are kept (the check runs' own count is not added: a conservative choice
     /// only where s² is well above the tests' share).
-    fn with_emulator(mut self, designs: &[CurveDesign], e: EmulatorError) -> Whitening {
+    /// With `floor` > 0 the emulator's share of a mean's variance is at least `floor`
+    /// ([`super::Settings::emulator_floor`]): the factor is √(1 + max(m s²_k, floor)).
+    fn with_emulator(mut self, designs: &[CurveDesign], e: EmulatorError, floor: f64) -> Whitening {
         for (values, l) in &mut self.factors {
             let m = designs
                 .iter()
                 .find(|d| &d.values == values)
                 .map_or(1, |d| d.specimens.len().max(1));
             for (k, s2) in e.variance.iter().enumerate() {
-                let c = (1.0 + m as f64 * s2).sqrt();
+                let c = (1.0 + (m as f64 * s2).max(floor)).sqrt();
                 l.column_mut(k).scale_mut(c);
             }
         }
-        self.emulator = Some(e);
+        if e.runs > 0 {
+            self.emulator = Some(e);
+        }
         self
     }
 }
@@ -413,8 +423,16 @@ impl FeatureProblem {
     /// built-ins' shapes on them; `Err` when the specimens cannot give a covariance.
     pub fn new(ci: &CurveInputs) -> Result<FeatureProblem, String> {
         let whitening = whitening(&ci.designs, &ci.spec, ci.settings.alpha)?;
+        let floor = ci.settings.emulator_floor;
         let whitening = match emulator_error(&whitening, &ci.spec, &ci.checks, ci.curve.as_ref()) {
-            Some(e) => whitening.with_emulator(&ci.designs, e),
+            Some(e) => whitening.with_emulator(&ci.designs, e, floor),
+            None if floor > 0.0 => {
+                let none = EmulatorError {
+                    runs: 0,
+                    variance: vec![0.0; whitening.read.len()],
+                };
+                whitening.with_emulator(&ci.designs, none, floor)
+            }
             None => whitening,
         };
         let k = whitening.read.len();
@@ -931,7 +949,7 @@ mod tests {
             specimens: vec![flat(0.0); 4],
         };
         let before = w.whiten(&spec(), &[1.0], flat(3.0).as_slice()).unwrap()[0];
-        let inflated = w.with_emulator(std::slice::from_ref(&design), e);
+        let inflated = w.with_emulator(std::slice::from_ref(&design), e, 0.0);
         let after = inflated.whiten(&spec(), &[1.0], flat(3.0).as_slice()).unwrap()[0];
         assert!((before - 3f64.ln() / 0.1).abs() < 1e-9, "{before}");
         assert!((after - before / (1.0 + 4.0 * s2).sqrt()).abs() < 1e-9, "{after}");

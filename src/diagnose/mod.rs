@@ -139,6 +139,10 @@ pub struct Settings {
     /// Run the library search ([`discover`]) even when no model error is detected, from the
     /// uncorrected model: how its rate of false discovery is measured on clean data. Off by default.
     pub search_without_detection: bool,
+    /// The simulation's own error (its emulator's) counted in the noise of every test mean, at least
+    /// this share of that noise's variance (0: only what was measured). A sequential study's loop
+    /// judges its decision with the error at its tolerance's worst case.
+    pub emulator_floor: f64,
 }
 
 impl Default for Settings {
@@ -151,6 +155,7 @@ impl Default for Settings {
             grid_per_axis: 21,
             search_points: 4000,
             search_without_detection: false,
+            emulator_floor: 0.0,
         }
     }
 }
@@ -651,10 +656,13 @@ impl<'a> Context<'a> {
                 given: 0,
             });
         }
+        // The emulator's error floor, where the noise is the replicates' (a caller's noise, the curve
+        // features', carries it already): the variance of each mean grows by that share.
+        let floor = if inputs.noise.is_none() { inputs.settings.emulator_floor } else { 0.0 };
         let weights: Vec<f64> = obs
             .iter()
             .map(|o| {
-                let sqrt_n = (o.count.max(1) as f64).sqrt();
+                let sqrt_n = (o.count.max(1) as f64).sqrt() / (1.0 + floor).sqrt();
                 noise.map_or(sqrt_n, |nm| sqrt_n / nm.sigma_at(o.mean).max(f64::MIN_POSITIVE))
             })
             .collect();

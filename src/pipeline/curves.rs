@@ -276,7 +276,12 @@ impl CurveStage {
         let extensions = study
             .extension_hypotheses()
             .filter_map(|(k, _)| {
-                let model = emulators(study, kind, &bounds, &of(&|r| r == RunRole::Extension(k))).ok()?;
+                let runs = of(&|r| r == RunRole::Extension(k));
+                // A sequential study probes each design at p + 1 points of the posterior: enough for
+                // a linear emulator of the extension's curves over θ there.
+                let per_design = runs.len() / crate::plan::sweep::tested_designs(study).count().max(1);
+                let kind = super::sequence::sites::kind_for(kind, per_design, bounds.dim());
+                let model = emulators(study, kind, &bounds, &runs).ok()?;
                 Some((k, model))
             })
             .collect();
@@ -302,24 +307,24 @@ impl CurveStage {
         sim: &SolverSimulation,
         plan: &crate::plan::Plan,
         k: usize,
-        joint: &crate::plan::Plan,
+        joint: &super::extend::JointRuns,
         curves: &[Option<DVector<f64>>],
     ) -> Result<CurveModel, Error> {
         use crate::plan::RunRole;
         let ranges = study.diagnosis.hypotheses[k].ranges();
         let bounds = crate::plan::sweep::joint_bounds(study, ranges);
-        let mine = |r: &PlannedRun| matches!(r.role, RunRole::Extension(j) | RunRole::Joint(j) | RunRole::JointCheck(j) if j == k);
         let runs: Vec<CurveRun> = plan
             .runs
             .iter()
             .zip(&self.runs)
-            .chain(joint.runs.iter().zip(curves))
-            .filter(|(r, _)| mine(r))
-            .map(|(run, c)| CurveRun {
-                run,
-                point: run.joint_point(ranges),
-                curve: c.clone(),
-                check: run.role == RunRole::JointCheck(k),
+            .chain(joint.plan.runs.iter().zip(curves))
+            .filter_map(|(run, c)| {
+                Some(CurveRun {
+                    run,
+                    point: joint.point(k, ranges, run)?,
+                    curve: c.clone(),
+                    check: run.role == RunRole::JointCheck(k),
+                })
             })
             .collect();
         let model = emulators(study, kind(study, sim), &bounds, &runs)?;

@@ -104,6 +104,27 @@ pub struct JointRuns {
     pub flags: Vec<Vec<crate::extract::lsdyna::quality::Flag>>,
     /// The responses the models may use (suspect runs left out unless the study says otherwise).
     pub usable: Vec<Option<f64>>,
+    /// Per hypothesis whose baseline is its joint space's edge (a sequential study: the baseline's
+    /// decks are byte for byte the extension's at these values), the edge: the screening's
+    /// baseline runs then join its emulators there.
+    pub edges: Vec<(usize, Vec<(String, f64)>)>,
+}
+
+impl JointRuns {
+    /// A screening or loop run's point in hypothesis `k`'s joint space, when it is one of its runs:
+    /// its own runs, its probes, and the baseline's runs where the baseline is the space's edge.
+    pub fn point(&self, k: usize, ranges: &[crate::study::Parameter], run: &PlannedRun) -> Option<Vec<f64>> {
+        match run.role {
+            RunRole::Extension(j) | RunRole::Joint(j) | RunRole::JointCheck(j) if j == k => Some(run.joint_point(ranges)),
+            RunRole::Sample | RunRole::Check => {
+                let (_, edge) = self.edges.iter().find(|(j, _)| *j == k)?;
+                let value = |name: &str| edge.iter().find(|(n, _)| n == name).map(|v| v.1);
+                let tail: Option<Vec<f64>> = ranges.iter().map(|r| value(&r.name)).collect();
+                Some(run.theta.iter().copied().chain(tail?).collect())
+            }
+            _ => None,
+        }
+    }
 }
 
 /// Plans, renders and runs (or replays) the joint runs of `hypotheses` on `store`.
@@ -141,6 +162,7 @@ pub fn execute(
         outcomes,
         flags,
         usable,
+        edges: Vec::new(),
     })
 }
 
@@ -167,20 +189,19 @@ pub fn extended_model(
     let ranges = hypothesis.ranges();
     let extended = extended_study(study, k);
     let bounds = joint_bounds(study, ranges);
-    let mine =
-        |r: &PlannedRun| matches!(r.role, RunRole::Extension(j) | RunRole::Joint(j) | RunRole::JointCheck(j) if j == k);
     let runs: Vec<FitRun> = screening
         .0
         .runs
         .iter()
         .zip(screening.1.iter().copied())
         .chain(joint.plan.runs.iter().zip(joint.usable.iter().copied()))
-        .filter(|(r, _)| mine(r))
-        .map(|(run, y)| FitRun {
-            run,
-            point: run.joint_point(ranges),
-            y,
-            check: run.role == RunRole::JointCheck(k),
+        .filter_map(|(run, y)| {
+            Some(FitRun {
+                run,
+                point: joint.point(k, ranges, run)?,
+                y,
+                check: run.role == RunRole::JointCheck(k),
+            })
         })
         .collect();
     let designs = fit_designs(study, sim.surrogate, &bounds, &runs)
@@ -199,7 +220,7 @@ pub fn extended_model(
         .filter_map(|d| d.check.max_relative_error)
         .fold(None, |w: Option<f64>, e| Some(w.map_or(e, |w| w.max(e))));
     let data = emulator_data(&runs);
-    let joint_runs = runs.iter().filter(|r| r.run.role != RunRole::Extension(k));
+    let joint_runs = runs.iter().filter(|r| matches!(r.run.role, RunRole::Joint(_) | RunRole::JointCheck(_)));
     let planned = joint_runs.clone().count();
     Ok(ExtendedModel {
         hypothesis: k,

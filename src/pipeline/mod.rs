@@ -23,6 +23,7 @@
 pub mod curves;
 pub mod extend;
 pub mod runs;
+pub mod sequence;
 pub mod stages;
 pub mod verbs;
 
@@ -79,6 +80,8 @@ pub enum Event<'a> {
     RunsEnded(&'a RunOutcomes),
     /// The sweep was interrupted; the finished runs are kept in `out`.
     Interrupted { out: &'a Path },
+    /// A batch of a sequential study is done: what it bought.
+    Batch(&'a sequence::Batch),
 }
 
 /// Consumes the pipeline's [`Event`]s (the command line prints them on stderr) and shows the run
@@ -178,9 +181,15 @@ fn solver_runs<'s>(
     engine: &Engine,
     reporter: &mut dyn Reporter,
 ) -> Result<SolverRuns<'s>, Error> {
-    let plan = Plan::new(study, sim);
-    let rendered = sweep::prepare(study, sim, &plan)?;
-    let executed = runs::execute(study, sim, &plan, &rendered, source, options, engine, reporter)?;
+    let (plan, rendered, executed, sequence) = if sim.sampling.sequential.is_some() {
+        let s = sequence::screening(study, sim, source, options, engine, reporter)?;
+        (s.plan, s.rendered, s.executed, Some(s.sequence))
+    } else {
+        let plan = Plan::new(study, sim);
+        let rendered = sweep::prepare(study, sim, &plan)?;
+        let executed = runs::execute(study, sim, &plan, &rendered, source, options, engine, reporter)?;
+        (plan, rendered, executed, None)
+    };
     // Suspect runs (a quality gate broken) are kept and shown, but feed the models only
     // with `quality.suspect: use`.
     let flags = executed.swept.flags(&sim.quality.gates);
@@ -200,6 +209,7 @@ fn solver_runs<'s>(
         joint: None,
         extended: Vec::new(),
         residual_curves: Vec::new(),
+        sequence,
     })
 }
 
@@ -264,15 +274,37 @@ fn diagnose_with_solver(
         runs.residual_curves = residuals;
         return Ok(Ok(d));
     }
-    let store = &mut runs.executed.store;
-    let joint = extend::execute(study, runs.sim, &chosen, &runs.rendered, source, options, engine, store, reporter)?;
+    let dirs = runs.executed.output_dirs(runs.sim);
+    let screened = Screened {
+        sim: runs.sim,
+        plan: &runs.plan,
+        usable: &runs.usable,
+        rendered: &runs.rendered,
+    };
+    // A sequential loop asks for the decision from its runs so far (see sequence::looped).
+    let (sim, plan, usable, surrogates) = (runs.sim, &runs.plan, &runs.usable, &runs.surrogates);
+    let mut decide = |joint: &extend::JointRuns, floor: f64| -> Option<String> {
+        let models = chosen
+            .iter()
+            .map(|&k| extend::extended_model(study, sim, k, (plan, usable), joint))
+            .collect::<Result<Vec<_>, _>>()
+            .ok()?;
+        let d = match stage {
+            None => conclude_on_response(study, surrogates, &inputs, &models, &extensions, floor).ok()?.0,
+            Some(st) => conclude_on_curves(study, (sim, plan, &dirs), st, &inputs, &models, joint, floor).ok()?.ok()?.0,
+        };
+        Some(format!("{:?}, cause {:?}, partial {:?}", d.verdict, d.cause, d.partial.as_ref().map(|p| &p.name)))
+    };
+    let store = (&mut runs.executed.store, &mut runs.sequence);
+    let looped = loop_runs(study, screened, store, stage, &chosen, (source, options, engine), reporter, &mut decide);
+    let joint = looped?;
     let models = chosen
         .iter()
         .map(|&k| extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint))
         .collect::<Result<Vec<_>, _>>()?;
     let concluded = match stage {
-        None => Ok(conclude_on_response(study, runs, &inputs, &models, &extensions)),
-        Some(stage) => conclude_on_curves(study, runs, stage, &inputs, &models, &joint),
+        None => Ok(conclude_on_response(study, &runs.surrogates, &inputs, &models, &extensions, 0.0)),
+        Some(stage) => conclude_on_curves(study, (runs.sim, &runs.plan, &dirs), stage, &inputs, &models, &joint, 0.0),
     }?;
     let (diagnosis, own, loop_curves) = match concluded {
         Ok(c) => c,
@@ -292,21 +324,64 @@ fn diagnose_with_solver(
     Ok(Ok(diagnosis.with_extensions(records)))
 }
 
+/// The screening's runs as the loop reads them.
+struct Screened<'a> {
+    sim: &'a SolverSimulation,
+    plan: &'a Plan,
+    usable: &'a [Option<f64>],
+    rendered: &'a Prepared,
+}
+
+/// The solver-in-the-loop's runs of the `chosen` hypotheses: a fixed joint plan, or a sequential
+/// study's batches ([`sequence::looped`], its record carried on in `sequence`), on the screening's
+/// store.
+#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
+fn loop_runs(
+    study: &Study,
+    s: Screened,
+    (store, sequence): (&mut crate::execute::RunStore, &mut Option<sequence::Sequence>),
+    stage: Option<&curves::CurveStage>,
+    chosen: &[usize],
+    (source, options, engine): (&runs::Source, &RunOptions, &Engine),
+    reporter: &mut dyn Reporter,
+    decide: &mut sequence::Decide,
+) -> Result<extend::JointRuns, Error> {
+    let Some(record) = sequence.take() else {
+        return extend::execute(study, s.sim, chosen, s.rendered, source, options, engine, store, reporter);
+    };
+    let none = vec![None; s.plan.runs.len()];
+    let screening = sequence::ScreeningRuns {
+        plan: s.plan,
+        usable: s.usable,
+        curves: stage.map_or(&none, |c| &c.runs),
+        rendered: s.rendered,
+    };
+    let (joint, record) =
+        sequence::looped(study, s.sim, chosen, &screening, source, options, engine, store, reporter, record, decide)?;
+    *sequence = Some(record);
+    Ok(joint)
+}
+
 /// What the loop's models concluded: the diagnosis, each loop model's own, and their curve models.
 type Concluded = (Diagnosis, Vec<Diagnosis>, Vec<(usize, crate::fit::functional::CurveModel)>);
 
 /// The decision after the loop on the mean force: each extended model through its surrogate.
 fn conclude_on_response(
     study: &Study,
-    runs: &SolverRuns,
+    surrogates: &SurrogateModel,
     inputs: &crate::diagnose::Inputs,
     models: &[extend::ExtendedModel],
     extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
+    floor: f64,
 ) -> Result<Concluded, CalibrationError> {
-    let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(runs.surrogates.clone());
+    let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(surrogates.clone());
     let looped: Vec<_> = models
         .iter()
-        .map(|m| extend::loop_model(study, m, &baseline, extensions))
+        .map(|m| {
+            let mut l = extend::loop_model(study, m, &baseline, extensions);
+            l.inputs.settings.emulator_floor = floor;
+            l
+        })
         .collect();
     let (d, own) = crate::diagnose::conclude(inputs, &looped)?;
     Ok((d, own, Vec::new()))
@@ -314,21 +389,22 @@ fn conclude_on_response(
 
 /// The decision after the loop on the curves: each extended model's curve emulator over the joint
 /// runs, its features with the other hypotheses' shapes as candidates.
+#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
 fn conclude_on_curves(
     study: &Study,
-    runs: &SolverRuns,
+    (sim, plan, dirs): (&SolverSimulation, &Plan, &[PathBuf]),
     stage: &curves::CurveStage,
     inputs: &crate::diagnose::Inputs,
     models: &[extend::ExtendedModel],
     joint: &extend::JointRuns,
+    floor: f64,
 ) -> Result<Result<Concluded, CalibrationError>, Error> {
-    let dirs = runs.executed.output_dirs(runs.sim);
-    let joint_curves = curves::on_grid(study, runs.sim, &stage.setting, &joint.rendered.keys, &joint.usable, &dirs);
+    let joint_curves = curves::on_grid(study, sim, &stage.setting, &joint.rendered.keys, &joint.usable, dirs);
     let baseline = curves::curve_fn(stage.baseline.clone());
     let p = study.parameters.len();
     let mut loop_curves = Vec::new();
     for m in models {
-        let model = stage.loop_model(study, runs.sim, &runs.plan, m.hypothesis, &joint.plan, &joint_curves)?;
+        let model = stage.loop_model(study, sim, plan, m.hypothesis, joint, &joint_curves)?;
         loop_curves.push((m.hypothesis, model));
     }
     let loop_inputs: Vec<_> = models
@@ -337,7 +413,9 @@ fn conclude_on_curves(
         .map(|(m, (_, model))| {
             let others =
                 curves::extension_hypotheses(study, &stage.extension_fns(), Some((baseline.clone(), p)), Some(m.hypothesis));
-            curves::inputs(&m.study, &stage.setting, stage.designs.clone(), model, others)
+            let mut ci = curves::inputs(&m.study, &stage.setting, stage.designs.clone(), model, others);
+            ci.settings.emulator_floor = floor;
+            ci
         })
         .collect();
     let problems = loop_inputs
@@ -402,6 +480,8 @@ struct SolverRuns<'s> {
     extended: Vec<(extend::ExtendedModel, Vec<f64>)>,
     /// Calibration against curves: where along the stroke the model errs, per tested design.
     residual_curves: Vec<crate::report::data::ResidualCurves>,
+    /// A sequential study's batches (`None` for a fixed plan).
+    sequence: Option<sequence::Sequence>,
 }
 
 impl Simulated<'_> {
@@ -518,6 +598,7 @@ fn results(
     };
     let mut results = results.with_surrogates(&runs.surrogates);
     results.splits = splits;
+    results.sampling = runs.sequence.as_ref().map(|s| s.for_results());
     let gates = runs.sim.quality.gates;
     let use_suspect = runs.sim.quality.use_suspect;
     // The screening's runs, then the loop's.

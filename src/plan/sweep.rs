@@ -85,8 +85,12 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// Plans the runs of a solver study.
+    /// Plans the runs of a solver study: with `method: sequential`, its initial design only
+    /// ([`Plan::initial`]); the rest comes batch by batch (`crate::pipeline::sequence`).
     pub fn new(study: &Study, sim: &SolverSimulation) -> Plan {
+        if sim.sampling.method == SamplingMethod::Sequential {
+            return Plan::initial(study, sim);
+        }
         let bounds = study.parameter_bounds();
         let p = bounds.dim();
         let samples = planned_points(sim, &bounds, unit_samples(&sim.sampling, p));
@@ -112,6 +116,28 @@ impl Plan {
             runs.extend(checks.iter().map(|t| at(t, RunRole::Check)));
         }
         runs.extend(extension_runs(study, &runs));
+        Plan { runs }
+    }
+
+    /// A sequential study's initial design: at every tested design the same
+    /// [`initial_samples`] Latin-hypercube points over θ, no check runs (each design's latest batch
+    /// checks its emulator) and no extension runs (the probes are planned from the screening's
+    /// posterior).
+    pub fn initial(study: &Study, sim: &SolverSimulation) -> Plan {
+        let bounds = study.parameter_bounds();
+        let n = initial_samples(study, sim, bounds.dim());
+        let samples = planned_points(sim, &bounds, latin_hypercube(n, bounds.dim(), sim.sampling.seed));
+        let runs = tested_designs(study)
+            .flat_map(|(name, values)| {
+                samples.iter().map(move |t| PlannedRun {
+                    design: name.clone(),
+                    design_values: values.clone(),
+                    theta: t.clone(),
+                    role: RunRole::Sample,
+                    extension: Vec::new(),
+                })
+            })
+            .collect();
         Plan { runs }
     }
 
@@ -181,8 +207,35 @@ pub fn joint_samples(study: &Study, sim: &SolverSimulation, d: usize) -> usize {
     needed(sim.surrogate).max(curves).max(sim.sampling.count)
 }
 
+/// A sequential study's initial samples per design over `d` variables: `sampling.initial`, else
+/// just enough for every surrogate the study fits (its response's, its curve components') plus one.
+pub fn initial_samples(study: &Study, sim: &SolverSimulation, d: usize) -> usize {
+    if sim.sampling.count > 0 {
+        return sim.sampling.count;
+    }
+    let curves = study
+        .calibration
+        .against
+        .curves
+        .then(|| study.calibration.curve.surrogate.unwrap_or(sim.surrogate).min_samples(d))
+        .unwrap_or(0);
+    sim.surrogate.min_samples(d).max(curves) + 1
+}
+
+/// A point as the solver's fixed-width fields write it (the value the run will see), so that a
+/// sequential batch's runs are fitted at exactly what the solver read.
+pub fn as_written(sim: &SolverSimulation, point: &[f64]) -> Vec<f64> {
+    point
+        .iter()
+        .map(|&v| match sim.parameter_width {
+            Some(w) => crate::render::lsdyna::field::fit_real(v, w).unwrap_or(v),
+            None => v,
+        })
+        .collect()
+}
+
 /// Every tested design (training, then validation) with its values.
-fn tested_designs(study: &Study) -> impl Iterator<Item = (&String, &Vec<f64>)> {
+pub fn tested_designs(study: &Study) -> impl Iterator<Item = (&String, &Vec<f64>)> {
     study
         .training
         .iter()
@@ -231,7 +284,7 @@ fn extension_runs(study: &Study, baseline: &[PlannedRun]) -> Vec<PlannedRun> {
 /// The samples in the unit cube, one row each.
 fn unit_samples(sampling: &Sampling, p: usize) -> DMatrix<f64> {
     match sampling.method {
-        SamplingMethod::Lhs => latin_hypercube(sampling.count, p, sampling.seed),
+        SamplingMethod::Lhs | SamplingMethod::Sequential => latin_hypercube(sampling.count, p, sampling.seed),
         SamplingMethod::Grid => grid(Sampling::grid_side(sampling.count, p).unwrap_or(1), p),
     }
 }

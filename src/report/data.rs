@@ -550,13 +550,21 @@ fn solver_info(sim: &SolverSimulation) -> SolverInfo {
     let method = match s.method {
         crate::study::SamplingMethod::Lhs => "Latin hypercube",
         crate::study::SamplingMethod::Grid => "grid",
+        crate::study::SamplingMethod::Sequential => "sequential",
+    };
+    let sampling = match &s.sequential {
+        Some(q) => format!(
+            "sequential batches from an initial Latin hypercube, seed {}; stopped when the emulators' error at the \
+             posterior is at most {} of the tests' noise at every tested design{}",
+            s.seed,
+            q.tolerance,
+            if q.budget > 0 { format!(", or at {} runs", q.budget) } else { String::new() }
+        ),
+        None => format!("{method}, {} samples + {} check runs per design, seed {}", s.count, s.check_runs, s.seed),
     };
     SolverInfo {
         adapter: sim.adapter.clone(),
         surrogate: sim.surrogate.key().to_string(),
-        sampling: format!(
-            "{method}, {} samples + {} check runs per design, seed {}",
-            s.count, s.check_runs, s.seed
-        ),
+        sampling,
     }
 }

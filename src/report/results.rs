@@ -43,6 +43,9 @@ pub struct Results {
     /// Calibration against whole force–displacement curves (`calibration.against: [.., curves]`).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub curve_calibration: Option<CurveCalibrationResult>,
+    /// A sequentially sampled study: what each batch of runs bought and why the sequence stopped.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub sampling: Option<crate::pipeline::sequence::Sequence>,
 }
 
 /// `curve_calibration`: the grid, the functional emulator, and each method on curves.
@@ -378,6 +381,7 @@ impl Results {
             splits: None,
             units: Units::of(study),
             curve_calibration: None,
+            sampling: None,
         }
     }
 

@@ -576,18 +576,36 @@ impl Checker<'_> {
         let method = match spec.method.value.as_str() {
             "lhs" => SamplingMethod::Lhs,
             "grid" => SamplingMethod::Grid,
+            "sequential" => return self.sequential(spec, surrogate, p),
             other => {
                 return Err(self.at(
                     &spec.method,
-                    format!("unknown sampling method `{other}`: choose lhs or grid"),
+                    format!("unknown sampling method `{other}`: choose lhs, grid or sequential"),
                 ));
             }
         };
-        let count = spec.count.value;
+        for (key, given) in [
+            ("initial", spec.initial.as_ref().map(|n| (n.line, n.column))),
+            ("batch", spec.batch.as_ref().map(|n| (n.line, n.column))),
+            ("budget", spec.budget.as_ref().map(|n| (n.line, n.column))),
+            ("tolerance", spec.tolerance.as_ref().map(|n| (n.line, n.column))),
+        ] {
+            if given.is_some() {
+                return Err(self.at(
+                    &spec.method,
+                    format!("`sampling.{key}` belongs to `method: sequential`, not `{}`", spec.method.value),
+                ));
+            }
+        }
+        let Some(count) = &spec.count else {
+            return Err(self.at(&spec.method, format!("`method: {}` needs `count`: samples per design", spec.method.value)));
+        };
+        let count = count.value;
         let needed = surrogate.min_samples(p);
+        let count_node = spec.count.as_ref().expect("checked");
         if count < needed {
             return Err(self.at(
-                &spec.count,
+                count_node,
                 format!(
                     "{count} samples per design are too few for a {} surrogate over {p} parameter(s): it needs at \
                      least {needed}",
@@ -597,7 +615,7 @@ impl Checker<'_> {
         }
         if method == SamplingMethod::Grid && Sampling::grid_side(count, p).is_none() {
             return Err(self.at(
-                &spec.count,
+                count_node,
                 format!("a grid over {p} parameters needs a count that is a {p}-th power (points per axis ^ {p})"),
             ));
         }
@@ -607,6 +625,62 @@ impl Checker<'_> {
             count,
             seed: spec.seed,
             check_runs,
+            sequential: None,
+        })
+    }
+
+    /// `method: sequential`: `initial` (default: the surrogates' fewest samples plus one, set when the
+    /// plan is made), `batch`, `budget`, `tolerance`, `seed`; no `count` or `check_runs` (the last runs
+    /// at each design are its check).
+    fn sequential(&self, spec: &SamplingFile, surrogate: SurrogateKind, p: usize) -> Result<Sampling, InputError> {
+        if let Some(c) = &spec.count {
+            return Err(self.at(c, "`method: sequential` takes `initial` (the first samples per design), not `count`"));
+        }
+        if let Some(c) = &spec.check_runs {
+            return Err(self.at(
+                c,
+                "`method: sequential` needs no `check_runs`: each design's latest runs check its emulator",
+            ));
+        }
+        let initial = match &spec.initial {
+            Some(n) if n.value < surrogate.min_samples(p) => {
+                return Err(self.at(
+                    n,
+                    format!(
+                        "{} initial samples per design are too few for a {} surrogate over {p} parameter(s): it needs \
+                         at least {}",
+                        n.value,
+                        surrogate.key(),
+                        surrogate.min_samples(p)
+                    ),
+                ));
+            }
+            Some(n) => n.value,
+            None => 0,
+        };
+        if let Some(b) = spec.batch.as_ref().filter(|b| b.value == 0) {
+            return Err(self.at(b, "`sampling.batch` must be at least 1"));
+        }
+        if let Some(b) = spec.budget.as_ref().filter(|b| b.value == 0) {
+            return Err(self.at(b, "`sampling.budget` must be at least 1"));
+        }
+        let tolerance = match &spec.tolerance {
+            Some(t) if !(t.value.is_finite() && t.value > 0.0) => {
+                return Err(self.at(t, "`sampling.tolerance` is a positive fraction of the tests' noise, e.g. 0.5"));
+            }
+            Some(t) => t.value,
+            None => crate::plan::sequential::DEFAULT_TOLERANCE,
+        };
+        Ok(Sampling {
+            method: SamplingMethod::Sequential,
+            count: initial,
+            seed: spec.seed,
+            check_runs: 0,
+            sequential: Some(crate::study::solver::Sequential {
+                batch: spec.batch.as_ref().map(|b| b.value),
+                budget: spec.budget.as_ref().map_or(0, |b| b.value),
+                tolerance,
+            }),
         })
     }
 }

@@ -169,7 +169,16 @@ pub struct ResponseFile {
 #[serde(deny_unknown_fields)]
 pub struct SamplingFile {
     pub method: Spanned<String>,
-    pub count: Spanned<usize>,
+    /// Samples per design (`lhs`, `grid`); not for `sequential`, which takes `initial`.
+    pub count: Option<Spanned<usize>>,
+    /// `sequential`: the initial space-filling samples per design.
+    pub initial: Option<Spanned<usize>>,
+    /// `sequential`: runs per batch (default: `--jobs`).
+    pub batch: Option<Spanned<usize>>,
+    /// `sequential`: the most solver runs in all.
+    pub budget: Option<Spanned<usize>>,
+    /// `sequential`: the emulator's error at the posterior allowed, as a fraction of the tests' noise.
+    pub tolerance: Option<Spanned<f64>>,
     #[serde(default)]
     pub seed: u64,
     /// Extra Latin-hypercube runs per design that measure the surrogate's error (paper: 5).

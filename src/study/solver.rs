@@ -96,12 +96,30 @@ pub struct Sampling {
     pub seed: u64,
     /// Extra Latin-hypercube runs per design, from a different seed stream, to check the surrogate.
     pub check_runs: usize,
+    /// `method: sequential`: batches chosen by the runs so far (`count` is then the initial design).
+    pub sequential: Option<Sequential>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SamplingMethod {
     Lhs,
     Grid,
+    /// Batch after batch, where the runs most reduce what the answer depends on
+    /// ([`crate::plan::sequential`]).
+    Sequential,
+}
+
+/// The settings of sequential sampling (`simulation.sampling` with `method: sequential`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sequential {
+    /// Runs per batch (`None`: as many as can be in flight, `--jobs`).
+    pub batch: Option<usize>,
+    /// The most solver runs the study may make in all (screening, probes and the loop); 0: the
+    /// default, [`crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN`] per tested design.
+    pub budget: usize,
+    /// Enough: the emulator's error at the posterior, in units of the tests' noise of the mean,
+    /// at or below this at every tested design.
+    pub tolerance: f64,
 }
 
 /// The per-design surrogate over the parameters.

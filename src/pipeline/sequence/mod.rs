@@ -1,0 +1,787 @@
+//! The plan → execute → fit loop of a study sampled sequentially (`sampling.method: sequential`),
+//! written once for its two uses: the screening's runs over θ, and the solver-in-the-loop's runs of
+//! an extension over θ and its ranged variables.
+//!
+//! ```text
+//! initial design ─► sweep ─► sites (runs, tests) ─► emulators, posterior ─► enough? ─┬─► stop
+//!        ▲                                                                            │
+//!        └──────────────── sweep ◄── the next batch (plan::sequential::choose) ◄──────┘
+//! ```
+//!
+//! Each batch is planned from the finished runs' results, the study and the seed alone, so that a
+//! `lab run` after an interrupt plans the same batches again and finds their runs finished in the
+//! store (or in the recordings, with `--replay`): the sequence resumes exactly. Every batch goes
+//! through the same sweep as a fixed plan ([`super::runs::sweep_plan`]): the local executor, Slurm
+//! (one batch submitted at a time) or a replay.
+//!
+//! Once a stage stops, each design's latest batch becomes its check runs (`RunRole::Check`, or
+//! `JointCheck` in the loop): the emulators the rest of the pipeline fits are the ones whose error
+//! was measured on runs they were not fitted to. Between the screening and the loop, the
+//! extension hypotheses' probe runs are placed at the screening's posterior (its mode, and a
+//! standard deviation along each parameter), not one per baseline sample.
+
+pub mod record;
+pub mod sites;
+
+use nalgebra::{DMatrix, DVector};
+
+use super::runs::{self, Executed, RunOutcomes, Source};
+use super::{Engine, Event, Reporter, RunOptions, curves};
+use crate::calibrate::Bounds;
+use crate::error::Error;
+use crate::execute::sweep::{self, Prepared};
+use crate::execute::RunStore;
+use crate::plan::sequential::{self as seq, Posterior};
+use crate::plan::sweep::{as_written, initial_samples, joint_bounds};
+use crate::plan::{Plan, PlannedRun, RunRole, latin_hypercube};
+use crate::study::{SolverSimulation, Study};
+pub use record::{Batch, Sequence, Stop};
+use sites::{RunData, Tests};
+
+/// The screening of a sequential study: the plan it made (samples, the latest batch per design as
+/// checks, the probes), its runs, and the record of its batches.
+pub struct Screened {
+    pub plan: Plan,
+    pub rendered: Prepared,
+    pub executed: Executed,
+    pub sequence: Sequence,
+}
+
+/// The pipeline's reporter without the per-sweep outcome tables: a batch is one line
+/// ([`Event::Batch`]); the stage's table comes once at its end.
+struct Quiet<'r>(&'r mut dyn Reporter);
+
+impl Reporter for Quiet<'_> {
+    fn report(&mut self, event: Event<'_>) {
+        if !matches!(event, Event::RunsEnded(_)) {
+            self.0.report(event);
+        }
+    }
+
+    fn progress(&mut self, runs: u64) -> indicatif::ProgressBar {
+        self.0.progress(runs)
+    }
+}
+
+/// How the sequence may spend runs.
+#[derive(Debug, Clone, Copy)]
+struct Limits {
+    batch: usize,
+    budget: usize,
+    tolerance: f64,
+    seed: u64,
+}
+
+impl Limits {
+    fn of(study: &Study, sim: &SolverSimulation, options: &RunOptions) -> Limits {
+        let q = sim.sampling.sequential.as_ref().expect("a sequential study");
+        let designs = crate::plan::sweep::tested_designs(study).count();
+        Limits {
+            batch: q.batch.unwrap_or(options.jobs).max(1),
+            budget: if q.budget > 0 { q.budget } else { seq::DEFAULT_BUDGET_PER_DESIGN * designs },
+            tolerance: q.tolerance,
+            seed: sim.sampling.seed,
+        }
+    }
+}
+
+/// Everything the loop carries from batch to batch.
+struct Runner<'a> {
+    study: &'a Study,
+    sim: &'a SolverSimulation,
+    source: &'a Source,
+    options: &'a RunOptions,
+    engine: &'a Engine<'a>,
+    tests: Tests,
+    setting: Option<curves::Setting>,
+    limits: Limits,
+    /// This stage's own runs, in order, with the batch each came in, its response and its curve.
+    plan: Plan,
+    batch_of: Vec<usize>,
+    responses: Vec<Option<f64>>,
+    curves: Vec<Option<DVector<f64>>>,
+    /// Runs of an earlier stage this stage's emulators also learn from, at their point in its space.
+    prior: Vec<(String, Vec<f64>, Option<f64>, Option<DVector<f64>>)>,
+    /// Where the current stage's own runs start in `plan`.
+    stage_start: usize,
+    /// Every run's rendering so far (the meshes are made once).
+    rendered: Option<Prepared>,
+    outcomes: RunOutcomes,
+    sequence: Sequence,
+}
+
+/// One stage's space: its box and names, and how a point becomes a run at a design.
+struct Space<'s> {
+    name: String,
+    bounds: Bounds,
+    names: Vec<String>,
+    /// The run at a tested design (name, values) and a point of the box.
+    make: Box<dyn Fn(&str, &[f64], &[f64]) -> PlannedRun + 's>,
+    /// A run's point in the box.
+    point: Box<dyn Fn(&PlannedRun) -> Vec<f64> + 's>,
+}
+
+/// The screening's runs, sampled sequentially, then the probes (see the module notes).
+pub fn screening(
+    study: &Study,
+    sim: &SolverSimulation,
+    source: &Source,
+    options: &RunOptions,
+    engine: &Engine,
+    reporter: &mut dyn Reporter,
+) -> Result<Screened, Error> {
+    let mut store = crate::execute::open_store(&options.out)?;
+    let limits = Limits::of(study, sim, options);
+    let mut r = Runner::new(study, sim, source, options, engine, limits, Sequence::default());
+    let space = Space {
+        name: "screening".into(),
+        bounds: study.parameter_bounds(),
+        names: study.parameters.iter().map(|p| p.name.clone()).collect(),
+        make: Box::new(|name, values, x| run_at(name, values, x.to_vec(), RunRole::Sample, Vec::new())),
+        point: Box::new(|run| run.theta.clone()),
+    };
+    r.batch(&space, Plan::initial(study, sim).runs, 0, &mut store, reporter)?;
+    let posterior = r.iterate(&space, &mut store, reporter)?;
+    r.mark_checks(RunRole::Check);
+    r.probes(&posterior, &mut store, reporter)?;
+    let (plan, rendered, swept, outcomes) = r.finish(&mut store, reporter)?;
+    let replay = match source {
+        Source::Replay(dir) => Some(dir.clone()),
+        _ => None,
+    };
+    Ok(Screened {
+        plan,
+        rendered,
+        executed: Executed {
+            store,
+            swept,
+            outcomes,
+            replay,
+        },
+        sequence: r.sequence,
+    })
+}
+
+fn run_at(name: &str, values: &[f64], theta: Vec<f64>, role: RunRole, extension: Vec<(String, f64)>) -> PlannedRun {
+    PlannedRun {
+        design: name.to_string(),
+        design_values: values.to_vec(),
+        theta,
+        role,
+        extension,
+    }
+}
+
+impl<'a> Runner<'a> {
+    fn new(
+        study: &'a Study,
+        sim: &'a SolverSimulation,
+        source: &'a Source,
+        options: &'a RunOptions,
+        engine: &'a Engine<'a>,
+        limits: Limits,
+        mut sequence: Sequence,
+    ) -> Runner<'a> {
+        let setting = curves::Setting::of(study);
+        let specimens = setting.map(|s| curves::specimens(study, &s));
+        let tests = Tests::of(study, specimens.as_deref().zip(setting.map(|s| s.spec)));
+        sequence.method = "sequential".into();
+        sequence.tolerance = limits.tolerance;
+        Runner {
+            study,
+            sim,
+            source,
+            options,
+            engine,
+            tests,
+            setting,
+            limits,
+            plan: Plan { runs: Vec::new() },
+            batch_of: Vec::new(),
+            responses: Vec::new(),
+            curves: Vec::new(),
+            prior: Vec::new(),
+            stage_start: 0,
+            rendered: None,
+            outcomes: RunOutcomes::default(),
+            sequence,
+        }
+    }
+
+    /// Renders and runs `new` as batch `b` of the stage, records it, and reads its responses and
+    /// curves.
+    fn batch(
+        &mut self,
+        space: &Space,
+        new: Vec<PlannedRun>,
+        b: usize,
+        store: &mut RunStore,
+        reporter: &mut dyn Reporter,
+    ) -> Result<(), Error> {
+        let batch = Plan { runs: new };
+        self.sequence.planned.extend(batch.runs.iter().map(record::Planned::of));
+        self.sequence.runs += batch.runs.len();
+        self.sequence.sequence.push(self.in_flight(space, &batch, b));
+        self.sequence.write(&self.options.out)?;
+        let rendered = sweep::prepare_after(self.study, self.sim, &batch, self.rendered.as_ref())?;
+        let (swept, outcomes) = runs::sweep_plan(
+            self.study,
+            self.sim,
+            &batch,
+            &rendered,
+            self.source,
+            self.options,
+            self.engine,
+            store,
+            &mut Quiet(reporter),
+        )?;
+        let usable = swept.usable(&self.sim.quality);
+        let curves = match &self.setting {
+            Some(s) => curves::on_grid(self.study, self.sim, s, &rendered.keys, &usable, &self.dirs(store)),
+            None => vec![None; usable.len()],
+        };
+        self.outcomes = std::mem::take(&mut self.outcomes).merge(outcomes);
+        self.batch_of.extend(std::iter::repeat_n(b, batch.runs.len()));
+        self.responses.extend(usable);
+        self.curves.extend(curves);
+        self.plan.runs.extend(batch.runs);
+        self.rendered = Some(merge(self.rendered.take(), rendered));
+        Ok(())
+    }
+
+    /// Where finished runs' outputs are (as [`Executed::output_dirs`]).
+    fn dirs(&self, store: &RunStore) -> Vec<std::path::PathBuf> {
+        let mut dirs = vec![store.out().join(crate::execute::store::RUNS_DIR)];
+        if let Source::Replay(d) = self.source {
+            dirs.push(d.clone());
+        }
+        if let Some(d) = &self.sim.replay
+            && !dirs.contains(d)
+        {
+            dirs.push(d.clone());
+        }
+        dirs
+    }
+
+    /// The record of batch `b` before its runs start.
+    fn in_flight(&self, space: &Space, batch: &Plan, b: usize) -> Batch {
+        let mut designs = indexmap::IndexMap::new();
+        for r in &batch.runs {
+            *designs.entry(r.design.clone()).or_insert(0) += 1;
+        }
+        Batch {
+            stage: space.name.clone(),
+            batch: b,
+            state: "in flight".into(),
+            runs: batch.runs.len(),
+            total: self.sequence.runs,
+            designs,
+            emulator_error: Default::default(),
+            predicted_error: Default::default(),
+            estimates: Default::default(),
+            interval95: Default::default(),
+        }
+    }
+
+    /// The stage's runs (and the earlier stage's it learns from) as the sites are built from them.
+    fn run_data(&self, space: &Space) -> Vec<RunData<'_>> {
+        let prior = self.prior.iter().map(|(design, point, y, c)| RunData {
+            design,
+            point: point.clone(),
+            batch: 0,
+            response: *y,
+            curve: c.as_ref(),
+        });
+        let own = self.plan.runs.iter().enumerate().skip(self.stage_start).map(|(i, run)| RunData {
+            design: &run.design,
+            point: (space.point)(run),
+            batch: self.batch_of[i],
+            response: self.responses[i],
+            curve: self.curves[i].as_ref(),
+        });
+        prior.chain(own).collect()
+    }
+
+    /// Batches until every tested design's emulators are good enough at the posterior, or the
+    /// budget is spent; the stage's last posterior.
+    fn iterate(&mut self, space: &Space, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<Posterior, Error> {
+        let b = self.batch_of.last().copied().unwrap_or(0);
+        self.iterate_from(space, b, 0, store, reporter)
+    }
+
+    /// [`Runner::iterate`] for a stage whose own runs start at `start` in the plan, its latest batch
+    /// numbered `b`.
+    fn iterate_from(
+        &mut self,
+        space: &Space,
+        mut b: usize,
+        start: usize,
+        store: &mut RunStore,
+        reporter: &mut dyn Reporter,
+    ) -> Result<Posterior, Error> {
+        self.stage_start = start;
+        loop {
+            let seed = self.limits.seed ^ fnv(&space.name) ^ (b as u64).wrapping_mul(0x9e37_79b9);
+            let (open, posterior, sites, emus) = self.assess(space, b, seed);
+            if let Some(last) = self.sequence.sequence.last().filter(|l| l.stage == space.name) {
+                reporter.report(Event::Batch(last));
+            }
+            let stop = if !open.iter().any(|&o| o) {
+                Some("converged")
+            } else if self.sequence.runs >= self.limits.budget {
+                Some("budget")
+            } else {
+                None
+            };
+            if let Some(reason) = stop {
+                self.sequence.stopped.push(Stop {
+                    stage: space.name.clone(),
+                    reason: reason.into(),
+                    runs: self.plan.runs.len() - start,
+                });
+                self.sequence.write(&self.options.out)?;
+                return Ok(posterior);
+            }
+            let room = self.limits.budget - self.sequence.runs;
+            let picks = seq::choose(&space.bounds, &sites, &emus, &posterior, &open, self.limits.batch.min(room), seed);
+            let new: Vec<PlannedRun> = picks
+                .iter()
+                .map(|(s, x)| {
+                    let t = &self.tests.designs[*s];
+                    (space.make)(&t.name, &t.values, &as_written(self.sim, x))
+                })
+                .collect();
+            b += 1;
+            self.batch(space, new, b, store, reporter)?;
+        }
+    }
+
+    /// A loop stage's first runs: where the screening's runs in its space (`prior`) are fewer at a
+    /// design than a space-filling start needs there, seeded Latin-hypercube points of the joint box.
+    fn initial_loop_runs(&self, space: &Space, start: usize) -> Vec<PlannedRun> {
+        let d = space.bounds.dim();
+        let needed = initial_samples(self.study, self.sim, d);
+        let have = self
+            .tests
+            .designs
+            .iter()
+            .map(|t| self.prior.iter().filter(|(n, _, y, _)| *n == t.name && y.is_some()).count())
+            .min()
+            .unwrap_or(0);
+        if have >= needed {
+            return Vec::new();
+        }
+        let seed = self.limits.seed ^ fnv(&space.name) ^ start as u64;
+        let points = initial_points(&space.bounds, needed - have, seed);
+        self.tests
+            .designs
+            .iter()
+            .flat_map(|t| points.iter().map(|x| (space.make)(&t.name, &t.values, &as_written(self.sim, x))))
+            .collect()
+    }
+
+    /// The sites, their emulators and the posterior now; which designs are still open; the latest
+    /// batch's record completed with what it bought.
+    fn assess(&mut self, space: &Space, b: usize, seed: u64) -> (Vec<bool>, Posterior, Vec<seq::Site>, Vec<seq::SiteEmulators>) {
+        let data = self.run_data(space);
+        let sites = sites::sites(&self.tests, &data);
+        let emus = seq::emulators(&space.bounds, &sites);
+        let posterior = seq::posterior(&space.bounds, &sites, &emus, seed);
+        let measured = sites::measured_errors(&self.tests, &data, sites::kinds(self.study, self.sim), &space.bounds);
+        let predicted: Vec<f64> =
+            sites.iter().zip(&emus).map(|(s, e)| seq::predicted_error(s, e, &posterior)).collect();
+        let f = self.limits.tolerance;
+        let open: Vec<bool> = measured
+            .iter()
+            .zip(&predicted)
+            .map(|(m, p)| !(m.is_some_and(|m| m <= f) && *p <= f))
+            .collect();
+        if let Some(last) = self.sequence.sequence.last_mut().filter(|l| l.batch == b && l.stage == space.name) {
+            last.state = "done".into();
+            for (t, (m, p)) in self.tests.designs.iter().zip(measured.iter().zip(&predicted)) {
+                last.emulator_error.insert(t.name.clone(), *m);
+                last.predicted_error.insert(t.name.clone(), *p);
+            }
+            for (j, n) in space.names.iter().enumerate() {
+                last.estimates.insert(n.clone(), posterior.mean[j]);
+                last.interval95.insert(n.clone(), posterior.interval[j]);
+            }
+        }
+        (open, posterior, sites, emus)
+    }
+
+    /// Each design's latest batch becomes its check runs.
+    fn mark_checks(&mut self, check: RunRole) {
+        self.mark_checks_from(0, check);
+    }
+
+    /// [`Runner::mark_checks`] among the runs from `start` on (a stage's own).
+    fn mark_checks_from(&mut self, start: usize, check: RunRole) {
+        let names: Vec<String> = self.tests.designs.iter().map(|t| t.name.clone()).collect();
+        let with_prior: Vec<String> = names.iter().filter(|n| self.prior.iter().any(|(p, ..)| p == *n)).cloned().collect();
+        for i in latest_batches(&self.plan, &self.batch_of, start, &names, &with_prior) {
+            self.plan.runs[i].role = check;
+        }
+    }
+
+    /// The extension hypotheses' screening runs at their probe values, placed at the posterior: its
+    /// mode, and the mode moved by one standard deviation along each parameter (p + 1 per design:
+    /// what a linear surrogate of the extension's effect over θ needs there).
+    fn probes(&mut self, posterior: &Posterior, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<(), Error> {
+        let points = probe_points(posterior, &self.study.parameter_bounds());
+        let mut new = Vec::new();
+        for (k, h) in self.study.extension_hypotheses() {
+            let variables = h.extension().unwrap_or_default().to_vec();
+            for t in &self.tests.designs {
+                for x in &points {
+                    new.push(run_at(&t.name, &t.values, as_written(self.sim, x), RunRole::Extension(k), variables.clone()));
+                }
+            }
+        }
+        if new.is_empty() {
+            return Ok(());
+        }
+        let space = Space {
+            name: "probes".into(),
+            bounds: self.study.parameter_bounds(),
+            names: Vec::new(),
+            make: Box::new(|_, _, _| unreachable!("probes are planned whole")),
+            point: Box::new(|run| run.theta.clone()),
+        };
+        let n = new.len();
+        self.batch(&space, new, 1 + self.batch_of.last().copied().unwrap_or(0), store, reporter)?;
+        if let Some(last) = self.sequence.sequence.last_mut() {
+            last.state = "done".into();
+            reporter.report(Event::Batch(last));
+        }
+        self.sequence.stopped.push(Stop {
+            stage: "probes".into(),
+            reason: "planned".into(),
+            runs: n,
+        });
+        self.sequence.write(&self.options.out)
+    }
+
+    /// The loop's runs so far as joint runs, each stage's latest batch per design as its checks,
+    /// for a provisional decision (read from what the batches left, nothing swept again).
+    #[allow(clippy::type_complexity)]
+    fn provisional(
+        &self,
+        stages: &[(usize, Space, Option<Vec<(String, f64)>>, usize)],
+        edges: Vec<(usize, Vec<(String, f64)>)>,
+    ) -> super::extend::JointRuns {
+        let mut plan = self.plan.clone();
+        let names: Vec<String> = self.tests.designs.iter().map(|t| t.name.clone()).collect();
+        for (k, _, _, start) in stages {
+            // Every design has the screening's probes in the loop's space: each has runs to hold out.
+            for i in latest_batches(&plan, &self.batch_of, *start, &names, &names) {
+                plan.runs[i].role = RunRole::JointCheck(*k);
+            }
+        }
+        let n = plan.runs.len();
+        let keys = self.rendered.as_ref().map_or_else(Vec::new, |r| r.keys.clone());
+        super::extend::JointRuns {
+            plan,
+            rendered: Prepared {
+                keys,
+                inputs: Default::default(),
+                meshes: Default::default(),
+                run_mesh: Vec::new(),
+                design_mesh: Default::default(),
+            },
+            swept: sweep::SweepResult {
+                responses: self.responses.clone(),
+                classes: vec![None; n],
+                quality: vec![None; n],
+                reused: 0,
+                errors: Vec::new(),
+            },
+            outcomes: RunOutcomes::default(),
+            flags: vec![Vec::new(); n],
+            usable: self.responses.clone(),
+            edges,
+        }
+    }
+
+    /// The stage's whole plan rendered and swept once more (every run finished: nothing runs), so
+    /// that its results are read back from the store like a fixed plan's; the stage's outcome table.
+    fn finish(&mut self, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<(Plan, Prepared, sweep::SweepResult, RunOutcomes), Error> {
+        let plan = std::mem::replace(&mut self.plan, Plan { runs: Vec::new() });
+        let rendered = sweep::prepare_after(self.study, self.sim, &plan, self.rendered.as_ref())?;
+        let (swept, _) = runs::sweep_plan(
+            self.study,
+            self.sim,
+            &plan,
+            &rendered,
+            self.source,
+            self.options,
+            self.engine,
+            store,
+            &mut Quiet(reporter),
+        )?;
+        let outcomes = std::mem::take(&mut self.outcomes);
+        reporter.report(Event::RunsEnded(&outcomes));
+        self.sequence.write(&self.options.out)?;
+        Ok((plan, rendered, swept, outcomes))
+    }
+}
+
+/// The runs from `start` on that are their design's latest batch: what each design's emulator is
+/// checked on. A design whose runs all came in one batch has nothing held out, unless an earlier
+/// stage's runs (`with_prior`) are what its emulator was fitted to.
+fn latest_batches(plan: &Plan, batch_of: &[usize], start: usize, designs: &[String], with_prior: &[String]) -> Vec<usize> {
+    let mut out = Vec::new();
+    for name in designs {
+        let mine: Vec<usize> = (start..plan.runs.len()).filter(|&i| &plan.runs[i].design == name).collect();
+        let Some(last) = mine.iter().map(|&i| batch_of[i]).max() else { continue };
+        let first = mine.iter().map(|&i| batch_of[i]).min();
+        if first == Some(last) && !with_prior.contains(name) {
+            continue;
+        }
+        out.extend(mine.into_iter().filter(|&i| batch_of[i] == last));
+    }
+    out
+}
+
+/// The mode, and the mode plus one standard deviation along each coordinate (minus, where that
+/// leaves the box).
+fn probe_points(posterior: &Posterior, bounds: &Bounds) -> Vec<Vec<f64>> {
+    let p = bounds.dim();
+    let sd: Vec<f64> = (0..p)
+        .map(|j| {
+            let m = posterior.mean[j];
+            let v: f64 = posterior
+                .points
+                .column(j)
+                .iter()
+                .zip(&posterior.weights)
+                .map(|(x, w)| w * (x - m).powi(2))
+                .sum();
+            v.sqrt().max(1e-3 * bounds.width()[j])
+        })
+        .collect();
+    let mut out = vec![posterior.mode.clone()];
+    for j in 0..p {
+        let mut x = posterior.mode.clone();
+        x[j] = if x[j] + sd[j] <= bounds.upper[j] { x[j] + sd[j] } else { (x[j] - sd[j]).max(bounds.lower[j]) };
+        out.push(x);
+    }
+    out
+}
+
+/// Two renderings as one (the later's keys after the earlier's; meshes shared).
+fn merge(earlier: Option<Prepared>, later: Prepared) -> Prepared {
+    let Some(mut e) = earlier else { return later };
+    e.keys.extend(later.keys);
+    e.inputs.extend(later.inputs);
+    e.meshes.extend(later.meshes);
+    e.run_mesh.extend(later.run_mesh);
+    e.design_mesh.extend(later.design_mesh);
+    e
+}
+
+/// A stable hash of a stage's name (FNV-1a), so that each stage draws its own candidates.
+fn fnv(s: &str) -> u64 {
+    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}
+
+/// A space-filling start in a box: `n` seeded Latin-hypercube points.
+fn initial_points(bounds: &Bounds, n: usize, seed: u64) -> Vec<Vec<f64>> {
+    let u: DMatrix<f64> = latin_hypercube(n, bounds.dim(), seed);
+    (0..n)
+        .map(|i| (0..bounds.dim()).map(|j| bounds.lower[j] + u[(i, j)] * bounds.width()[j]).collect())
+        .collect()
+}
+
+/// What the loop learns from the screening: its runs, their responses and curves, their rendering.
+pub struct ScreeningRuns<'a> {
+    pub plan: &'a Plan,
+    pub usable: &'a [Option<f64>],
+    pub curves: &'a [Option<DVector<f64>>],
+    pub rendered: &'a Prepared,
+}
+
+/// The decision after the loop from provisional joint runs, with the emulators' error counted at
+/// least at a floor (a share of the tests' noise variance): a key that changes when the verdict,
+/// the cause or the partial explanation does (`None`: no decision could be made).
+pub type Decide<'d> = dyn FnMut(&super::extend::JointRuns, f64) -> Option<String> + 'd;
+
+/// The most times the loop's tolerance is halved for a decision that its emulators' remaining error
+/// could still change.
+const TIGHTENINGS: usize = 3;
+
+/// The solver-in-the-loop's runs of `hypotheses`, sampled sequentially in each one's joint space
+/// (θ × its ranged variables) from what the screening already ran there: its probes, and its
+/// baseline runs where the baseline is the space's edge ([`edge`]). One stage per hypothesis; the
+/// sequence's record goes on in `sequence`.
+///
+/// Once every stage's emulators are within the tolerance, the decision after the loop is made
+/// twice ([`Decide`]): with the emulators' error as measured, and with it at the tolerance's worst
+/// case (f² of the tests' noise variance). Where the two differ, the remaining error could change
+/// the decision: the tolerance is halved and the stages go on.
+#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
+pub fn looped(
+    study: &Study,
+    sim: &SolverSimulation,
+    hypotheses: &[usize],
+    screening: &ScreeningRuns,
+    source: &Source,
+    options: &RunOptions,
+    engine: &Engine,
+    store: &mut RunStore,
+    reporter: &mut dyn Reporter,
+    sequence: Sequence,
+    decide: &mut Decide,
+) -> Result<(super::extend::JointRuns, Sequence), Error> {
+    let limits = Limits::of(study, sim, options);
+    let mut r = Runner::new(study, sim, source, options, engine, limits, sequence);
+    r.rendered = Some(merge(None, clone_prepared(screening.rendered)));
+    let mut stages = Vec::new();
+    let mut edges = Vec::new();
+    for &k in hypotheses {
+        let Some((space, edge)) = loop_space(study, sim, k, screening)? else {
+            continue;
+        };
+        if let Some(e) = &edge {
+            edges.push((k, e.clone()));
+        }
+        r.prior = prior_runs(study, k, edge.as_deref(), screening);
+        let start = r.plan.runs.len();
+        let initial = r.initial_loop_runs(&space, start);
+        let b = r.batch_of.last().map_or(0, |b| b + 1);
+        if !initial.is_empty() {
+            r.batch(&space, initial, b, store, reporter)?;
+        }
+        stages.push((k, space, edge, start));
+    }
+    for round in 0..=TIGHTENINGS {
+        for (k, space, edge, start) in &stages {
+            r.prior = prior_runs(study, *k, edge.as_deref(), screening);
+            let b = r.batch_of.last().copied().unwrap_or(0);
+            r.iterate_from(space, b, *start, store, reporter)?;
+        }
+        if round == TIGHTENINGS || r.sequence.runs >= r.limits.budget || stages.is_empty() {
+            break;
+        }
+        let provisional = r.provisional(&stages, edges.clone());
+        let f = r.limits.tolerance;
+        let (measured, worst) = (decide(&provisional, 0.0), decide(&provisional, f * f));
+        if measured == worst {
+            break;
+        }
+        r.limits.tolerance = f / 2.0;
+        reporter.report(Event::Note(format!(
+            "the decision after the loop could still change within the emulators' remaining error ({} with it as \
+             measured, {} at the tolerance's worst case): the loop goes on at a tolerance of {}",
+            measured.as_deref().unwrap_or("none"),
+            worst.as_deref().unwrap_or("none"),
+            r.limits.tolerance
+        )));
+    }
+    for (k, _, _, start) in &stages {
+        r.mark_checks_from(*start, RunRole::JointCheck(*k));
+    }
+    let (plan, rendered, swept, outcomes) = r.finish(store, reporter)?;
+    let usable = swept.usable(&sim.quality);
+    let flags = swept.flags(&sim.quality.gates);
+    let joint = super::extend::JointRuns {
+        plan,
+        rendered,
+        swept,
+        outcomes,
+        flags,
+        usable,
+        edges,
+    };
+    Ok((joint, r.sequence))
+}
+
+/// Hypothesis `k`'s joint space (`None`: no ranged variables), and its edge at the baseline.
+#[allow(clippy::type_complexity)]
+fn loop_space<'s>(
+    study: &'s Study,
+    sim: &SolverSimulation,
+    k: usize,
+    screening: &ScreeningRuns,
+) -> Result<Option<(Space<'s>, Option<Vec<(String, f64)>>)>, Error> {
+    let h = &study.diagnosis.hypotheses[k];
+    let Some(spec) = h.extension_spec().filter(|e| !e.ranges.is_empty()) else {
+        return Ok(None);
+    };
+    let edge = edge(study, sim, k, screening)?;
+    let ranges = spec.ranges.clone();
+    let p = study.parameters.len();
+    let space = Space {
+        name: format!("loop: {}", h.name),
+        bounds: joint_bounds(study, &ranges),
+        names: study.parameters.iter().chain(&ranges).map(|q| q.name.clone()).collect(),
+        make: Box::new(move |name, values, x| run_at(name, values, x[..p].to_vec(), RunRole::Joint(k), spec.at(&x[p..]))),
+        point: Box::new(move |run| run.joint_point(&ranges)),
+    };
+    Ok(Some((space, edge)))
+}
+
+fn clone_prepared(p: &Prepared) -> Prepared {
+    Prepared {
+        keys: Vec::new(),
+        inputs: Default::default(),
+        meshes: p.meshes.clone(),
+        run_mesh: Vec::new(),
+        design_mesh: p.design_mesh.clone(),
+    }
+}
+
+/// Whether the study's baseline is the edge of hypothesis `k`'s joint space: a baseline run
+/// rendered again with the extension's ranged variables at their lower bounds (and its fixed ones
+/// at their values) gives the same inputs byte for byte, hence the same run key. Then those values
+/// are the edge, and the baseline's runs are runs of the extended model there.
+fn edge(study: &Study, sim: &SolverSimulation, k: usize, screening: &ScreeningRuns) -> Result<Option<Vec<(String, f64)>>, Error> {
+    let spec = study.diagnosis.hypotheses[k].extension_spec().expect("an extension");
+    let Some(base) = screening.plan.runs.iter().find(|r| r.role == RunRole::Sample) else {
+        return Ok(None);
+    };
+    let lows: Vec<f64> = spec.ranges.iter().map(|r| r.min).collect();
+    let variables = spec.at(&lows);
+    let both = Plan {
+        runs: vec![
+            base.clone(),
+            PlannedRun {
+                role: RunRole::Joint(k),
+                extension: variables.clone(),
+                ..base.clone()
+            },
+        ],
+    };
+    let rendered = sweep::prepare_after(study, sim, &both, Some(screening.rendered))?;
+    Ok((rendered.keys[0] == rendered.keys[1]).then_some(variables))
+}
+
+/// The screening's runs that are points of hypothesis `k`'s joint space: its probes, and the
+/// baseline's runs at the edge.
+fn prior_runs(
+    study: &Study,
+    k: usize,
+    edge: Option<&[(String, f64)]>,
+    s: &ScreeningRuns,
+) -> Vec<(String, Vec<f64>, Option<f64>, Option<DVector<f64>>)> {
+    let ranges = study.diagnosis.hypotheses[k].ranges();
+    s.plan
+        .runs
+        .iter()
+        .enumerate()
+        .filter_map(|(i, run)| {
+            let point = match run.role {
+                RunRole::Extension(j) if j == k => run.joint_point(ranges),
+                RunRole::Sample | RunRole::Check => {
+                    let edge = edge?;
+                    let value = |n: &str| edge.iter().find(|(m, _)| m == n).map(|v| v.1);
+                    let tail: Option<Vec<f64>> = ranges.iter().map(|r| value(&r.name)).collect();
+                    run.theta.iter().copied().chain(tail?).collect()
+                }
+                _ => return None,
+            };
+            Some((run.design.clone(), point, s.usable[i], s.curves[i].clone()))
+        })
+        .collect()
+}
+

@@ -1,0 +1,169 @@
+//! What each batch bought: `results.json` `sampling.sequence`, and `OUT/sequence.json`, written
+//! before a batch starts and after it ends, so that `lab status` shows the batches done and the one
+//! in flight.
+
+use std::path::Path;
+
+use indexmap::IndexMap;
+use serde::{Deserialize, Serialize};
+
+use crate::error::Error;
+use crate::plan::{PlannedRun, RunRole};
+
+/// `OUT/sequence.json`.
+pub const FILE: &str = "sequence.json";
+
+/// The whole sequence of a study (`results.json` `sampling`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Sequence {
+    pub method: String,
+    /// Solver runs in all.
+    pub runs: usize,
+    /// One entry per batch, in order.
+    pub sequence: Vec<Batch>,
+    /// Why each stage stopped.
+    pub stopped: Vec<Stop>,
+    /// The tolerance: the emulators' error allowed at the posterior, as a fraction of the tests'
+    /// noise of the mean.
+    pub tolerance: f64,
+    /// The planned runs of every batch, for `lab status` (not in `results.json`).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub planned: Vec<Planned>,
+}
+
+/// One batch: its runs and what the emulators and the posterior said once they were in.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Batch {
+    /// `screening`, `probes`, or `loop: <hypothesis>`.
+    pub stage: String,
+    /// 0 for a stage's initial design.
+    pub batch: usize,
+    /// `done`, or `in flight` (written before the batch's runs start).
+    pub state: String,
+    pub runs: usize,
+    /// Runs so far, every stage.
+    pub total: usize,
+    /// Runs per tested design in this batch.
+    pub designs: IndexMap<String, usize>,
+    /// Per tested design: the emulators' error on its latest runs, fitted without them, in units of
+    /// the tests' noise of the mean (`null`: nothing held out yet).
+    pub emulator_error: IndexMap<String, Option<f64>>,
+    /// Per tested design: the emulators' own predictive error at the posterior, same units.
+    pub predicted_error: IndexMap<String, f64>,
+    /// The posterior's mean and 95 % interval of each variable of the space.
+    pub estimates: IndexMap<String, f64>,
+    pub interval95: IndexMap<String, [f64; 2]>,
+}
+
+/// Why a stage's sequence stopped.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Stop {
+    pub stage: String,
+    /// `converged` (the emulators' error at the posterior within the tolerance at every tested
+    /// design), `budget` (the runs allowed are spent), or `planned` (a stage of fixed size).
+    pub reason: String,
+    pub runs: usize,
+}
+
+/// A planned run as `sequence.json` keeps it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Planned {
+    pub design: String,
+    pub design_values: Vec<f64>,
+    pub theta: Vec<f64>,
+    pub role: String,
+    pub hypothesis: Option<usize>,
+    pub extension: Vec<(String, f64)>,
+}
+
+impl Planned {
+    pub fn of(run: &PlannedRun) -> Planned {
+        let hypothesis = match run.role {
+            RunRole::Extension(k) | RunRole::Joint(k) | RunRole::JointCheck(k) => Some(k),
+            _ => None,
+        };
+        Planned {
+            design: run.design.clone(),
+            design_values: run.design_values.clone(),
+            theta: run.theta.clone(),
+            role: run.role.key().to_string(),
+            hypothesis,
+            extension: run.extension.clone(),
+        }
+    }
+
+    pub fn run(&self) -> PlannedRun {
+        let k = self.hypothesis.unwrap_or(0);
+        let role = match self.role.as_str() {
+            "check" => RunRole::Check,
+            "extension" => RunRole::Extension(k),
+            "joint" => RunRole::Joint(k),
+            "joint_check" => RunRole::JointCheck(k),
+            _ => RunRole::Sample,
+        };
+        PlannedRun {
+            design: self.design.clone(),
+            design_values: self.design_values.clone(),
+            theta: self.theta.clone(),
+            role,
+            extension: self.extension.clone(),
+        }
+    }
+}
+
+impl Sequence {
+    /// Writes `OUT/sequence.json` (atomically).
+    pub fn write(&self, out: &Path) -> Result<(), Error> {
+        let bytes = serde_json::to_vec_pretty(self).map_err(|e| Error::Failed(e.to_string()))?;
+        crate::execute::store::write_atomic(&out.join(FILE), &bytes)
+            .map_err(|e| Error::Failed(format!("{}: {e}", out.join(FILE).display())))
+    }
+
+    /// `OUT/sequence.json` as the last `lab run` left it (`None`: none yet).
+    pub fn read(out: &Path) -> Option<Sequence> {
+        serde_json::from_slice(&std::fs::read(out.join(FILE)).ok()?).ok()
+    }
+
+    /// The record as `results.json` gives it (without the planned runs).
+    pub fn for_results(&self) -> Sequence {
+        Sequence {
+            planned: Vec::new(),
+            ..self.clone()
+        }
+    }
+}
+
+impl Batch {
+    /// One line for the terminal: the batch, its runs, the worst emulator error and the estimates.
+    pub fn line(&self) -> String {
+        let worst = |m: &IndexMap<String, Option<f64>>| {
+            m.values().map(|v| v.unwrap_or(f64::INFINITY)).fold(0.0, f64::max)
+        };
+        let error = if self.emulator_error.values().all(Option::is_none) {
+            "nothing held out yet".to_string()
+        } else {
+            format!("emulator error ≤ {} of the tests' noise", crate::format::num(worst(&self.emulator_error)))
+        };
+        let estimates: Vec<String> = self
+            .estimates
+            .iter()
+            .map(|(n, v)| {
+                let [lo, hi] = self.interval95.get(n).copied().unwrap_or([f64::NAN; 2]);
+                format!(
+                    "{n} {} [{}, {}]",
+                    crate::format::num(*v),
+                    crate::format::num(lo),
+                    crate::format::num(hi)
+                )
+            })
+            .collect();
+        format!(
+            "{} batch {}: {} run(s), {} in all; {error}; {}",
+            self.stage,
+            self.batch,
+            self.runs,
+            self.total,
+            estimates.join(", ")
+        )
+    }
+}
