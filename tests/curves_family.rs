@@ -187,7 +187,7 @@ simulation:
     timeout: 600
   response: {{kind: crush_force, window: [5, 60], interface: 1, side: master, axis: z, node: 9000005, force_to_kn: 0.001}}
   mesh: {{kind: honeycomb_tube, element_size: 2.0}}
-  sampling: {{method: lhs, count: 24, seed: 1, check_runs: 5}}
+  sampling: {sampling}
   surrogate: linear
 experiments:
   file: tests/experiments.csv
@@ -209,6 +209,7 @@ diagnosis:
       term: "1/c"
 "#,
         template = template.display(),
+        sampling = sampling(),
         a = names[0],
         b = names[1],
         v = names[2],
@@ -217,6 +218,16 @@ diagnosis:
     std::fs::write(&path, study).unwrap();
     path
 }
+
+/// The studies' sampling: sequential (batches of two, the runs in flight with `--jobs 2`), or
+/// `LAB_FAMILY_SAMPLING` (e.g. `{method: lhs, count: 24, seed: 1, check_runs: 5}`, the fixed design
+/// this family used before) to compare the solver runs two plans spend on the same verdicts.
+fn sampling() -> String {
+    std::env::var("LAB_FAMILY_SAMPLING").unwrap_or_else(|_| "{method: sequential, seed: 1}".into())
+}
+
+/// Solver runs made by the cases run so far.
+static RUNS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 /// `lab run` live with crushsim on PATH; the diagnosis of results.json.
 fn run(case: &Case) -> Value {
@@ -250,6 +261,7 @@ fn run_in(case: &Case, dir: &Path) -> Value {
     );
     let r: Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
     verdict_common::assert_verdict_follows_evidence(&r["diagnosis"]);
+    RUNS.fetch_add(r["runs"]["planned"].as_u64().unwrap_or(0), std::sync::atomic::Ordering::Relaxed);
     r["diagnosis"].clone()
 }
 
@@ -286,7 +298,12 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
         let d = run(&case);
         t.count(&case, &d);
     }
-    eprintln!("{}", t.line());
+    eprintln!(
+        "{}; {} solver runs for {n} cases ({})",
+        t.line(),
+        RUNS.load(std::sync::atomic::Ordering::Relaxed),
+        sampling()
+    );
     assert!(t.clean >= 3 && t.large >= 1 && t.rate >= 3, "too few cases in a family");
     assert!(t.false_claims.is_empty(), "a cause named that the tests do not hold: seeds {:?}", t.false_claims);
     assert!(t.clean_quiet == t.clean, "a cause claimed on the baseline physics");

@@ -227,7 +227,11 @@ pub fn extension_surrogates(
                     check: false,
                 })
                 .collect();
-            let designs = fit_designs(study, sim.surrogate, &bounds, &runs)
+            // A sequential study probes each design at p + 1 points of the posterior: enough for a
+            // linear surrogate of the extension there.
+            let per_design = runs.len() / crate::plan::sweep::tested_designs(study).count().max(1);
+            let kind = super::sequence::sites::kind_for(sim.surrogate, per_design, bounds.dim());
+            let designs = fit_designs(study, kind, &bounds, &runs)
                 .into_iter()
                 .filter_map(Result::ok)
                 .collect();
