@@ -58,6 +58,16 @@ pub(super) fn status(study: &Study, out: &Path) -> Result<i32, Error> {
         "study `{}`: {} planned run(s): done {}, failed {}, running {}, pending {}",
         study.name, s.planned, s.done, s.failed, s.running, s.pending
     );
+    if let Some(b) = &s.batches {
+        let done: Vec<String> = b.done.iter().map(|(stage, n)| format!("{stage} {n}")).collect();
+        println!("batches done: {}", if done.is_empty() { "none".into() } else { done.join(", ") });
+        if let Some((stage, batch, runs)) = &b.in_flight {
+            println!("in flight: {stage} batch {batch} ({runs} run(s))");
+        }
+        for (stage, reason) in &b.stopped {
+            println!("{stage}: stopped ({reason})");
+        }
+    }
     if let Some(holder) = s.holder {
         let who = holder.map_or("holder not yet written".to_string(), |h| {
             format!("pid {} on host {}", h.pid, h.host)

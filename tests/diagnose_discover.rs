@@ -376,6 +376,7 @@ fn run(case: &Case, always: bool) -> Diagnosis {
         outputs: Vec::new(),
         built_ins: None,
         noise: None,
+        emulator_variance: Vec::new(),
         relative_error: None,
     };
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");

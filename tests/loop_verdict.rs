@@ -97,7 +97,7 @@ fn write_study(case: &Case, dir: &Path) -> PathBuf {
     std::fs::write(
         dir.join("beam.txt.tera"),
         "h = {{ h }}\nF = {{ F }}\nL = {{ L }}\nb = {{ b }}\nnu = {{ nu }}\nE = {{ E }}\n\
-         s = {{ s | default(value=0) }}\nkr = {{ kr | default(value=0) }}\n",
+         s = {{ s | default(value=0.0) }}\nkr = {{ kr | default(value=0.0) }}\n",
     )
     .unwrap();
     let names = case.names();

@@ -9,6 +9,7 @@
 //! - the study keys of `simulation.quality` are checked with file:line errors.
 
 mod crushsim_bin;
+mod fixed_design;
 
 mod common;
 
@@ -222,7 +223,12 @@ fn manifest(dir: &Path) -> serde_json::Value {
 
 /// Recording keys of fixtures/honeycomb by (design, role), in key order.
 fn recordings(design: &str, role: &str) -> Vec<String> {
-    let mut keys: Vec<String> = std::fs::read_dir(root().join("fixtures/honeycomb"))
+    recordings_in(&root().join("fixtures/honeycomb"), design, role)
+}
+
+/// The keys of the recordings in `dir` of `design`'s runs with `role`, sorted.
+fn recordings_in(dir: &Path, design: &str, role: &str) -> Vec<String> {
+    let mut keys: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .filter_map(|e| e.ok())
         .filter(|e| e.path().join("manifest.json").is_file())
@@ -362,8 +368,8 @@ fn glstat_line(label: &str, v: f64) -> String {
 /// after the first step), C3T8 added mass (2 %). Returns (dir, keys).
 fn gate_breaking_fixtures() -> (tempfile::TempDir, [String; 3]) {
     let copy = tempfile::tempdir().unwrap();
-    let src = root().join("fixtures/honeycomb");
-    for e in std::fs::read_dir(&src).unwrap().filter_map(|e| e.ok()) {
+    let src = fixed_design::recordings();
+    for e in std::fs::read_dir(src).unwrap().filter_map(|e| e.ok()) {
         if !e.path().join("manifest.json").is_file() {
             continue;
         }
@@ -374,9 +380,9 @@ fn gate_breaking_fixtures() -> (tempfile::TempDir, [String; 3]) {
         }
     }
     let keys = [
-        recordings("C6T5", "sample")[0].clone(),
-        recordings("C3T7", "sample")[0].clone(),
-        recordings("C3T8", "sample")[0].clone(),
+        recordings_in(src, "C6T5", "sample")[0].clone(),
+        recordings_in(src, "C3T7", "sample")[0].clone(),
+        recordings_in(src, "C3T8", "sample")[0].clone(),
     ];
     edit_glstat(
         &copy.path().join(&keys[0]).join("glstat"),
@@ -411,16 +417,9 @@ fn gate_breaking_fixtures() -> (tempfile::TempDir, [String; 3]) {
 }
 
 /// `studies/honeycomb.yaml` with absolute paths and `quality` settings, in `dir`.
+/// The fixed-design main job (`fixed_design`) with `quality` lines.
 fn study_with(dir: &Path, quality: &str) -> PathBuf {
-    let r = root().display().to_string();
-    let text = std::fs::read_to_string(root().join("studies/honeycomb.yaml"))
-        .unwrap()
-        .replace("../templates/", &format!("{r}/templates/"))
-        .replace("../fixtures/", &format!("{r}/fixtures/"))
-        .replace("  surrogate: linear\n", &format!("  surrogate: linear\n{quality}"));
-    let path = dir.join("honeycomb.yaml");
-    std::fs::write(&path, text).unwrap();
-    path
+    fixed_design::study(dir, quality)
 }
 
 fn lab_replay(study: &Path, replay: &Path, out: &Path) -> (serde_json::Value, String) {
@@ -456,11 +455,11 @@ fn recorded_gate_breaks_are_flagged_shown_and_left_out_unless_the_study_says_use
     let out = tmp.path().join("out");
     let (r, stderr) = lab_replay(&study, fixtures.path(), &out);
     let runs = &r["runs"];
+    // Every recorded run replays; the three gate-breaking samples are screening runs.
+    let recorded = fixed_design::keys(fixtures.path()).len() as u64;
     assert_eq!(
         (runs["succeeded"].as_u64(), runs["suspect"].as_u64()),
-        // 159 screening runs (3 designs × (24 samples + 5 check runs) + 72 at the hardening's probe)
-        // and 87 in the loop: the three gate-breaking samples are screening runs.
-        (Some(246), Some(3)),
+        (Some(recorded), Some(3)),
         "{runs}"
     );
     assert_eq!(runs["gates"]["hourglass"], 0.1);
@@ -489,7 +488,7 @@ fn recorded_gate_breaks_are_flagged_shown_and_left_out_unless_the_study_says_use
         "{stderr}"
     );
     for design in ["C6T5", "C3T7", "C3T8"] {
-        assert_eq!(samples(&r, design), 23, "{design}: one of 24 samples left out");
+        assert_eq!(samples(&r, design), fixed_design::SAMPLES - 1, "{design}: one sample left out");
     }
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("3 suspect (breaking a quality gate; left out of the surrogates)"));
@@ -504,7 +503,7 @@ fn recorded_gate_breaks_are_flagged_shown_and_left_out_unless_the_study_says_use
         &tmp2.path().join("out"),
     );
     assert_eq!(r["runs"]["suspect"], 0);
-    assert_eq!(samples(&r, "C6T5"), 24);
+    assert_eq!(samples(&r, "C6T5"), fixed_design::SAMPLES);
 
     // `suspect: use`: flagged, but fitted.
     let tmp3 = tempfile::tempdir().unwrap();
@@ -515,7 +514,7 @@ fn recorded_gate_breaks_are_flagged_shown_and_left_out_unless_the_study_says_use
     );
     assert_eq!(r["runs"]["suspect"], 3);
     assert_eq!(r["runs"]["suspect_runs"][0]["used"], true);
-    assert_eq!(samples(&r, "C6T5"), 24);
+    assert_eq!(samples(&r, "C6T5"), fixed_design::SAMPLES);
 }
 
 #[test]

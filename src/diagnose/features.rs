@@ -536,6 +536,8 @@ impl FeatureProblem {
             outputs: self.model.whitening.names(),
             built_ins: Some(self.built_ins.clone()),
             noise: Some(self.noise.clone()),
+            // The emulator's error is in the whitening already ([`emulator_error`]).
+            emulator_variance: Vec::new(),
             relative_error: Some(self.plateau_error()),
             discover: false,
             library: Default::default(),

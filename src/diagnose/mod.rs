@@ -188,6 +188,10 @@ pub struct Inputs<'a> {
     /// (curve features whitened by their covariance: σ = 1 with the covariance's own degrees of
     /// freedom).
     pub noise: Option<NoiseModel>,
+    /// The simulation's own error at each observation (its emulator's, measured at runs it was not
+    /// fitted to), as a variance in the response's units, counted in the noise of that observation's
+    /// mean (Kennedy & O'Hagan 2001: the code's uncertainty in the likelihood); empty: none.
+    pub emulator_variance: Vec<f64>,
     /// The relative error of a prediction at an observation, where the observations are not the
     /// response itself (whitened curve features: the plateau level's, `None` for the others);
     /// `None`: (predicted − measured) / measured.
@@ -270,6 +274,7 @@ pub fn inputs_with_extensions<'a>(
         outputs: Vec::new(),
         built_ins: None,
         noise: None,
+        emulator_variance: Vec::new(),
         relative_error: None,
     }
 }
@@ -661,9 +666,15 @@ impl<'a> Context<'a> {
         let floor = if inputs.noise.is_none() { inputs.settings.emulator_floor } else { 0.0 };
         let weights: Vec<f64> = obs
             .iter()
-            .map(|o| {
-                let sqrt_n = (o.count.max(1) as f64).sqrt() / (1.0 + floor).sqrt();
-                noise.map_or(sqrt_n, |nm| sqrt_n / nm.sigma_at(o.mean).max(f64::MIN_POSITIVE))
+            .enumerate()
+            .map(|(i, o)| {
+                let n = o.count.max(1) as f64;
+                let Some(nm) = noise else {
+                    return (n / (1.0 + floor)).sqrt();
+                };
+                let test = nm.sigma_at(o.mean).powi(2) / n;
+                let emulator = inputs.emulator_variance.get(i).copied().unwrap_or(0.0);
+                1.0 / (test * (1.0 + floor) + emulator).sqrt().max(f64::MIN_POSITIVE)
             })
             .collect();
         let data = Data {

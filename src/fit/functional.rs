@@ -120,12 +120,7 @@ impl FunctionalSurrogate {
             .iter()
             .map(|(t, y)| (self.predict(t) - y).norm() / y.norm().max(f64::MIN_POSITIVE))
             .collect();
-        let n = errors.len();
-        CheckError {
-            runs: n,
-            max_relative_error: (n > 0).then(|| errors.iter().copied().fold(0.0, f64::max)),
-            mean_relative_error: (n > 0).then(|| errors.iter().sum::<f64>() / n as f64),
-        }
+        CheckError::of(&errors)
     }
 }
 

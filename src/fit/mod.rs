@@ -128,11 +128,19 @@ impl Surrogate {
     /// Relative errors (predicted − run) / run at the check runs.
     pub fn check(&self, checks: &[(Vec<f64>, f64)]) -> CheckError {
         let errors: Vec<f64> = checks.iter().map(|(t, y)| ((self.predict(t) - y) / y).abs()).collect();
+        CheckError::of(&errors)
+    }
+}
+
+impl CheckError {
+    /// The figures of relative errors `errors` (one per check run).
+    pub fn of(errors: &[f64]) -> CheckError {
         let n = errors.len();
         CheckError {
             runs: n,
             max_relative_error: (n > 0).then(|| errors.iter().copied().fold(0.0, f64::max)),
             mean_relative_error: (n > 0).then(|| errors.iter().sum::<f64>() / n as f64),
+            mean_square_relative: (n > 0).then(|| errors.iter().map(|e| e * e).sum::<f64>() / n as f64),
         }
     }
 }
@@ -158,6 +166,9 @@ pub struct CheckError {
     pub runs: usize,
     pub max_relative_error: Option<f64>,
     pub mean_relative_error: Option<f64>,
+    /// The mean of the squared relative errors: the emulator's own variance, relative to the
+    /// level, that the diagnosis counts in the noise of a prediction.
+    pub mean_square_relative: Option<f64>,
 }
 
 /// The surrogate of one design, with its check.
@@ -169,6 +180,24 @@ pub struct DesignSurrogate {
     pub check: CheckError,
     /// Successful sample runs it was fitted to.
     pub samples: usize,
+}
+
+impl SurrogateModel {
+    /// The surrogates' own error at each observation, as a variance in the response's units: the
+    /// mean square relative error at the design's check runs times the observation's level squared
+    /// (0 where a design has no check runs).
+    pub fn error_variance(&self, observations: &[crate::diagnose::Observation]) -> Vec<f64> {
+        observations
+            .iter()
+            .map(|o| {
+                self.designs
+                    .iter()
+                    .find(|d| d.values == o.design)
+                    .and_then(|d| d.check.mean_square_relative)
+                    .map_or(0.0, |m| m * o.mean * o.mean)
+            })
+            .collect()
+    }
 }
 
 /// Per-design surrogates as one model. A design that was not planned has no surrogate: its

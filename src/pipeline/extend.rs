@@ -272,6 +272,7 @@ pub fn loop_model<'m>(
     extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
 ) -> diagnose::LoopModel<'m> {
     let mut inputs = diagnose::inputs_from_study(&m.study, &m.surrogates);
+    inputs.emulator_variance = m.surrogates.error_variance(&inputs.observations);
     // The library search runs once, on the final decision (from the screening's inputs).
     inputs.discover = false;
     let p = study.parameters.len();

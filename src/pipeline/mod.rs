@@ -258,7 +258,11 @@ fn diagnose_with_solver(
     };
     let inputs = match (&problem, &curve_inputs) {
         (Some(p), Some(ci)) => p.inputs(ci),
-        _ => crate::diagnose::inputs_with_extensions(study, &runs.surrogates, &extensions),
+        _ => {
+            let mut inputs = crate::diagnose::inputs_with_extensions(study, &runs.surrogates, &extensions);
+            inputs.emulator_variance = runs.surrogates.error_variance(&inputs.observations);
+            inputs
+        }
     };
     let screening = match crate::diagnose::diagnose(&inputs) {
         Ok(d) => d,

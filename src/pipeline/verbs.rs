@@ -57,6 +57,18 @@ pub struct Status {
     pub pending: usize,
     /// Whether a lab holds the output directory: `Some(None)` while the holder is being written.
     pub holder: Option<Option<crate::execute::Holder>>,
+    /// A sequential study: the batches done, and the one in flight (`OUT/sequence.json`).
+    pub batches: Option<Batches>,
+}
+
+/// A sequential study's batches as `lab status` shows them.
+pub struct Batches {
+    /// (stage, batches done in it), in order.
+    pub done: Vec<(String, usize)>,
+    /// The batch whose runs are under way: its stage, number and runs.
+    pub in_flight: Option<(String, usize, usize)>,
+    /// Why the stages that ended stopped: (stage, reason).
+    pub stopped: Vec<(String, String)>,
 }
 
 /// `lab status`: the planned runs counted from the store, read without taking its lock; `None`
@@ -66,8 +78,22 @@ pub fn status(study: &Study, out: &Path) -> Result<Option<Status>, Error> {
     let Simulation::Solver(sim) = &study.simulation else {
         return Ok(None);
     };
-    let mut plan = Plan::new(study, sim);
-    plan.runs.extend(super::extend::recorded_plan(study, sim, out).runs);
+    let sequence = sim
+        .sampling
+        .sequential
+        .as_ref()
+        .and_then(|_| super::sequence::Sequence::read(out));
+    let plan = match &sequence {
+        // A sequential study's runs are the batches planned so far.
+        Some(s) => Plan {
+            runs: s.planned.iter().map(|p| p.run()).collect(),
+        },
+        None => {
+            let mut plan = Plan::new(study, sim);
+            plan.runs.extend(super::extend::recorded_plan(study, sim, out).runs);
+            plan
+        }
+    };
     let prepared = sweep::prepare(study, sim, &plan)?;
     let snapshot = Snapshot::read(out)?;
     let holder = lock::probe(out).map_err(|e| Error::Failed(e.to_string()))?;
@@ -78,6 +104,7 @@ pub fn status(study: &Study, out: &Path) -> Result<Option<Status>, Error> {
         running: 0,
         pending: 0,
         holder,
+        batches: sequence.as_ref().map(batches),
     };
     for key in &prepared.keys {
         match snapshot.records.get(key) {
@@ -88,6 +115,27 @@ pub fn status(study: &Study, out: &Path) -> Result<Option<Status>, Error> {
         }
     }
     Ok(Some(status))
+}
+
+/// The batches of a sequence, by stage.
+fn batches(s: &super::sequence::Sequence) -> Batches {
+    let mut done: Vec<(String, usize)> = Vec::new();
+    let mut in_flight = None;
+    for b in &s.sequence {
+        if b.state != "done" {
+            in_flight = Some((b.stage.clone(), b.batch, b.runs));
+            continue;
+        }
+        match done.last_mut() {
+            Some((stage, n)) if *stage == b.stage => *n += 1,
+            _ => done.push((b.stage.clone(), 1)),
+        }
+    }
+    Batches {
+        done,
+        in_flight,
+        stopped: s.stopped.iter().map(|x| (x.stage.clone(), x.reason.clone())).collect(),
+    }
 }
 
 /// `lab report`: rewrites `dir/report.html` from `results.json` and, when readable,

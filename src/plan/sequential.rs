@@ -300,7 +300,17 @@ pub fn choose(
         .map(|((s, e), &o)| o.then(|| Gain::new(s, e, &posterior.points, &posterior.weights, &candidates)).flatten())
         .collect();
     let mut picks: Vec<(usize, Vec<f64>)> = Vec::new();
+    // An open site without emulators (too few runs to fit them) gets a space-filling run first: the
+    // candidate of the box farthest from its runs.
+    for (i, s) in sites.iter().enumerate() {
+        if open[i] && gains[i].is_none() && picks.len() < q {
+            picks.push((i, farthest(&scaled, &s.x, bounds)));
+        }
+    }
     let mut given = vec![0usize; sites.len()];
+    for (i, _) in &picks {
+        given[*i] += 1;
+    }
     while picks.len() < q {
         let round = given.iter().zip(&gains).filter(|(_, g)| g.is_some()).map(|(n, _)| *n).min();
         let Some(round) = round else { break };
@@ -321,6 +331,21 @@ pub fn choose(
         }
     }
     picks
+}
+
+/// The row of `candidates` whose nearest run (in units of the box) is farthest (maximin).
+fn farthest(candidates: &DMatrix<f64>, runs: &[Vec<f64>], bounds: &Bounds) -> Vec<f64> {
+    let w = bounds.width();
+    let nearest = |i: usize| {
+        runs.iter()
+            .map(|r| (0..r.len()).map(|j| ((candidates[(i, j)] - r[j]) / w[j]).powi(2)).sum::<f64>())
+            .fold(f64::INFINITY, f64::min)
+    };
+    let best = (0..candidates.nrows()).fold((0, f64::NEG_INFINITY), |acc, i| {
+        let d = nearest(i);
+        if d > acc.1 { (i, d) } else { acc }
+    });
+    candidates.row(best.0).iter().copied().collect()
 }
 
 fn stack(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {

@@ -21,6 +21,8 @@ use super::summary::significant;
 mod curves;
 #[path = "html_loop.rs"]
 mod solver_loop;
+#[path = "html_sequence.rs"]
+mod sequence;
 #[path = "html_splits.rs"]
 mod splits;
 #[path = "html_stroke.rs"]
@@ -907,6 +909,10 @@ impl Page<'_> {
     }
 
     fn runs(&self) -> String {
+        sequence::section(self.r) + &self.run_table()
+    }
+
+    fn run_table(&self) -> String {
         let rows = self.d.map(|d| d.runs.as_slice()).unwrap_or_default();
         if rows.is_empty() {
             return if self.r.runs.is_some() {

@@ -6,7 +6,8 @@ use super::results::{Results, Role, SplitResult, Units};
 
 /// Renders the summary as plain text (no colour: it is also what a log file gets).
 pub fn render(results: &Results) -> String {
-    let mut out = methods_table(results);
+    let mut out = sampling_line(results);
+    out.push_str(&methods_table(results));
     out.push_str(&model_caution(results));
     out.push_str(&convergence_warnings(results));
     out.push_str(&predictions_table(results));
@@ -17,6 +18,15 @@ pub fn render(results: &Results) -> String {
     }
     write_diagnosis(&mut out, results);
     out
+}
+
+/// A sequential study's solver runs in all, stage by stage, and why each stopped.
+fn sampling_line(results: &Results) -> String {
+    let Some(s) = &results.sampling else {
+        return String::new();
+    };
+    let stages: Vec<String> = s.stopped.iter().map(|x| format!("{} {} ({})", x.stage, x.runs, x.reason)).collect();
+    format!("solver runs: {} in all, sampled sequentially: {}\n\n", s.runs, stages.join(", "))
 }
 
 /// Beside the calibrated parameters: when the diagnosis finds model error that no listed cause

@@ -102,8 +102,6 @@ struct Runner<'a> {
     curves: Vec<Option<DVector<f64>>>,
     /// Runs of an earlier stage this stage's emulators also learn from, at their point in its space.
     prior: Vec<(String, Vec<f64>, Option<f64>, Option<DVector<f64>>)>,
-    /// Where the current stage's own runs start in `plan`.
-    stage_start: usize,
     /// Every run's rendering so far (the meshes are made once).
     rendered: Option<Prepared>,
     outcomes: RunOutcomes,
@@ -119,6 +117,8 @@ struct Space<'s> {
     make: Box<dyn Fn(&str, &[f64], &[f64]) -> PlannedRun + 's>,
     /// A run's point in the box.
     point: Box<dyn Fn(&PlannedRun) -> Vec<f64> + 's>,
+    /// Whether a run of the plan is one of this stage's own.
+    mine: Box<dyn Fn(&PlannedRun) -> bool + 's>,
 }
 
 /// The screening's runs, sampled sequentially, then the probes (see the module notes).
@@ -139,10 +139,11 @@ pub fn screening(
         names: study.parameters.iter().map(|p| p.name.clone()).collect(),
         make: Box::new(|name, values, x| run_at(name, values, x.to_vec(), RunRole::Sample, Vec::new())),
         point: Box::new(|run| run.theta.clone()),
+        mine: Box::new(|run| matches!(run.role, RunRole::Sample | RunRole::Check)),
     };
     r.batch(&space, Plan::initial(study, sim).runs, 0, &mut store, reporter)?;
     let posterior = r.iterate(&space, &mut store, reporter)?;
-    r.mark_checks(RunRole::Check);
+    r.mark_checks(&space, RunRole::Check);
     r.probes(&posterior, &mut store, reporter)?;
     let (plan, rendered, swept, outcomes) = r.finish(&mut store, reporter)?;
     let replay = match source {
@@ -201,7 +202,6 @@ impl<'a> Runner<'a> {
             responses: Vec::new(),
             curves: Vec::new(),
             prior: Vec::new(),
-            stage_start: 0,
             rendered: None,
             outcomes: RunOutcomes::default(),
             sequence,
@@ -292,7 +292,7 @@ impl<'a> Runner<'a> {
             response: *y,
             curve: c.as_ref(),
         });
-        let own = self.plan.runs.iter().enumerate().skip(self.stage_start).map(|(i, run)| RunData {
+        let own = self.plan.runs.iter().enumerate().filter(|(_, run)| (space.mine)(run)).map(|(i, run)| RunData {
             design: &run.design,
             point: (space.point)(run),
             batch: self.batch_of[i],
@@ -319,17 +319,25 @@ impl<'a> Runner<'a> {
         store: &mut RunStore,
         reporter: &mut dyn Reporter,
     ) -> Result<Posterior, Error> {
-        self.stage_start = start;
+        let _ = start;
         loop {
             let seed = self.limits.seed ^ fnv(&space.name) ^ (b as u64).wrapping_mul(0x9e37_79b9);
             let (open, posterior, sites, emus) = self.assess(space, b, seed);
             if let Some(last) = self.sequence.sequence.last().filter(|l| l.stage == space.name) {
                 reporter.report(Event::Batch(last));
             }
+            let room = self.limits.budget.saturating_sub(self.sequence.runs);
+            let picks = if open.iter().any(|&o| o) && room > 0 {
+                seq::choose(&space.bounds, &sites, &emus, &posterior, &open, self.limits.batch.min(room), seed)
+            } else {
+                Vec::new()
+            };
             let stop = if !open.iter().any(|&o| o) {
                 Some("converged")
-            } else if self.sequence.runs >= self.limits.budget {
+            } else if room == 0 {
                 Some("budget")
+            } else if picks.is_empty() {
+                Some("nowhere to run")
             } else {
                 None
             };
@@ -342,8 +350,6 @@ impl<'a> Runner<'a> {
                 self.sequence.write(&self.options.out)?;
                 return Ok(posterior);
             }
-            let room = self.limits.budget - self.sequence.runs;
-            let picks = seq::choose(&space.bounds, &sites, &emus, &posterior, &open, self.limits.batch.min(room), seed);
             let new: Vec<PlannedRun> = picks
                 .iter()
                 .map(|(s, x)| {
@@ -410,16 +416,11 @@ impl<'a> Runner<'a> {
         (open, posterior, sites, emus)
     }
 
-    /// Each design's latest batch becomes its check runs.
-    fn mark_checks(&mut self, check: RunRole) {
-        self.mark_checks_from(0, check);
-    }
-
-    /// [`Runner::mark_checks`] among the runs from `start` on (a stage's own).
-    fn mark_checks_from(&mut self, start: usize, check: RunRole) {
+    /// Each design's latest batch of the stage's own runs becomes its check runs.
+    fn mark_checks(&mut self, space: &Space, check: RunRole) {
         let names: Vec<String> = self.tests.designs.iter().map(|t| t.name.clone()).collect();
         let with_prior: Vec<String> = names.iter().filter(|n| self.prior.iter().any(|(p, ..)| p == *n)).cloned().collect();
-        for i in latest_batches(&self.plan, &self.batch_of, start, &names, &with_prior) {
+        for i in latest_batches(&self.plan, &self.batch_of, &*space.mine, &names, &with_prior) {
             self.plan.runs[i].role = check;
         }
     }
@@ -447,6 +448,7 @@ impl<'a> Runner<'a> {
             names: Vec::new(),
             make: Box::new(|_, _, _| unreachable!("probes are planned whole")),
             point: Box::new(|run| run.theta.clone()),
+            mine: Box::new(|run| matches!(run.role, RunRole::Extension(_))),
         };
         let n = new.len();
         self.batch(&space, new, 1 + self.batch_of.last().copied().unwrap_or(0), store, reporter)?;
@@ -472,9 +474,9 @@ impl<'a> Runner<'a> {
     ) -> super::extend::JointRuns {
         let mut plan = self.plan.clone();
         let names: Vec<String> = self.tests.designs.iter().map(|t| t.name.clone()).collect();
-        for (k, _, _, start) in stages {
+        for (k, space, _, _) in stages {
             // Every design has the screening's probes in the loop's space: each has runs to hold out.
-            for i in latest_batches(&plan, &self.batch_of, *start, &names, &names) {
+            for i in latest_batches(&plan, &self.batch_of, &*space.mine, &names, &names) {
                 plan.runs[i].role = RunRole::JointCheck(*k);
             }
         }
@@ -526,19 +528,27 @@ impl<'a> Runner<'a> {
     }
 }
 
-/// The runs from `start` on that are their design's latest batch: what each design's emulator is
-/// checked on. A design whose runs all came in one batch has nothing held out, unless an earlier
+/// The runs of a stage (`mine`) that are their design's latest batch: what each design's emulator
+/// is checked on. A design whose runs all came in one batch has nothing held out, unless an earlier
 /// stage's runs (`with_prior`) are what its emulator was fitted to.
-fn latest_batches(plan: &Plan, batch_of: &[usize], start: usize, designs: &[String], with_prior: &[String]) -> Vec<usize> {
+fn latest_batches(
+    plan: &Plan,
+    batch_of: &[usize],
+    mine: &dyn Fn(&PlannedRun) -> bool,
+    designs: &[String],
+    with_prior: &[String],
+) -> Vec<usize> {
     let mut out = Vec::new();
     for name in designs {
-        let mine: Vec<usize> = (start..plan.runs.len()).filter(|&i| &plan.runs[i].design == name).collect();
-        let Some(last) = mine.iter().map(|&i| batch_of[i]).max() else { continue };
-        let first = mine.iter().map(|&i| batch_of[i]).min();
+        let runs: Vec<usize> = (0..plan.runs.len())
+            .filter(|&i| &plan.runs[i].design == name && mine(&plan.runs[i]))
+            .collect();
+        let Some(last) = runs.iter().map(|&i| batch_of[i]).max() else { continue };
+        let first = runs.iter().map(|&i| batch_of[i]).min();
         if first == Some(last) && !with_prior.contains(name) {
             continue;
         }
-        out.extend(mine.into_iter().filter(|&i| batch_of[i] == last));
+        out.extend(runs.into_iter().filter(|&i| batch_of[i] == last));
     }
     out
 }
@@ -642,6 +652,14 @@ pub fn looped(
         let Some((space, edge)) = loop_space(study, sim, k, screening)? else {
             continue;
         };
+        if edge.is_none() {
+            reporter.report(Event::Note(format!(
+                "'{}': a baseline run rendered with the extension at its lower bounds is not the same deck as the \
+                 baseline's (write the template's default for the extension's variables as that bound, e.g. 0.0 for a \
+                 range from 0.0), so the loop cannot reuse the baseline's runs and starts from the probes",
+                study.diagnosis.hypotheses[k].name
+            )));
+        }
         if let Some(e) = &edge {
             edges.push((k, e.clone()));
         }
@@ -678,8 +696,9 @@ pub fn looped(
             r.limits.tolerance
         )));
     }
-    for (k, _, _, start) in &stages {
-        r.mark_checks_from(*start, RunRole::JointCheck(*k));
+    for (k, space, edge, _) in &stages {
+        r.prior = prior_runs(study, *k, edge.as_deref(), screening);
+        r.mark_checks(space, RunRole::JointCheck(*k));
     }
     let (plan, rendered, swept, outcomes) = r.finish(store, reporter)?;
     let usable = swept.usable(&sim.quality);
@@ -717,6 +736,7 @@ fn loop_space<'s>(
         names: study.parameters.iter().chain(&ranges).map(|q| q.name.clone()).collect(),
         make: Box::new(move |name, values, x| run_at(name, values, x[..p].to_vec(), RunRole::Joint(k), spec.at(&x[p..]))),
         point: Box::new(move |run| run.joint_point(&ranges)),
+        mine: Box::new(move |run| matches!(run.role, RunRole::Joint(j) | RunRole::JointCheck(j) if j == k)),
     };
     Ok(Some((space, edge)))
 }

@@ -155,8 +155,9 @@ fn held_out_error(
 ) -> f64 {
     let samples: Vec<(Vec<f64>, f64)> =
         fit.iter().filter_map(|r| r.response.map(|y| (r.point.clone(), y))).collect();
-    let Ok(surrogate) = Surrogate::fit(response_kind, &samples, bounds) else {
-        return f64::INFINITY;
+    let surrogate = match Surrogate::fit(response_kind, &samples, bounds) {
+        Ok(s) => s,
+        Err(_) => return f64::INFINITY,
     };
     let curves = match curve_kind {
         Some(kind) => {

@@ -1,0 +1,74 @@
+//! The main job with a fixed design (LHS, 8 samples and 2 check runs per design), recorded live
+//! with crushsim once per test binary. The main job itself samples sequentially, so a run that
+//! fails or is left out changes the runs it asks for next; tests that damage recordings on purpose
+//! and need every replay to ask for the same runs use this variant instead.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+use super::crushsim_bin;
+
+/// The main job's sampling, replaced by the fixed design.
+const SEQUENTIAL: &str = "sampling: {method: sequential, batch: 3, seed: 1}";
+/// The fixed design: 8 Latin-hypercube samples and 2 check runs per design.
+pub const FIXED: &str = "sampling: {method: lhs, count: 8, seed: 1, check_runs: 2}";
+/// Samples per design in `FIXED`.
+pub const SAMPLES: u64 = 8;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The main job with the fixed design and `extra` lines after `surrogate: linear` (e.g. a
+/// `quality:` line), written into `dir` with its paths made absolute.
+pub fn study(dir: &Path, extra: &str) -> PathBuf {
+    let text = std::fs::read_to_string(root().join("studies/honeycomb.yaml")).unwrap();
+    assert!(text.contains(SEQUENTIAL), "the main job's sampling changed");
+    let text = text
+        .replace(SEQUENTIAL, FIXED)
+        .replace("../", &format!("{}/", root().display()))
+        .replace("  surrogate: linear\n", &format!("  surrogate: linear\n{extra}"));
+    let path = dir.join("honeycomb.yaml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The fixed-design main job's recordings, made live with crushsim on first use.
+pub fn recordings() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let work = tempfile::tempdir().unwrap();
+        let study = study(work.path(), "");
+        let path = format!(
+            "{}:/usr/bin:/bin",
+            crushsim_bin::crushsim().parent().unwrap().display()
+        );
+        let o = Command::new(env!("CARGO_BIN_EXE_lab"))
+            .arg("run")
+            .arg(&study)
+            .arg("--record")
+            .arg(dir.path())
+            .arg("--out")
+            .arg(work.path().join("out"))
+            .env("PATH", path)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+        dir
+    })
+    .path()
+}
+
+/// The recording keys in `dir`, sorted.
+pub fn keys(dir: &Path) -> Vec<String> {
+    let mut keys: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().join("manifest.json").is_file())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    keys.sort();
+    keys
+}
