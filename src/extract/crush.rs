@@ -539,14 +539,25 @@ fn header(file: &Path, text: &str, no: usize, cells: &[&str], opts: CsvOptions) 
     Ok(Header { cols, unit, disp_scale })
 }
 
-/// A run's curve from the first of `dirs` holding `<dir>/<key>/rcforc` (a run directory, or a
-/// recording); `None` when none does or its histories do not parse (the run's response came from
-/// the same files, so that means they were removed).
+/// A run's curve from the first of `dirs` holding `<dir>/<key>/rcforc` or a binout (a run
+/// directory, or a recording); `None` when none does or its histories do not parse (the run's
+/// response came from the same files, so that means they were removed). A binout is read when
+/// there is one and holds the history, as the `lsdyna` adapter reads it then (the deck sends the
+/// history there).
 pub fn read_run(dirs: &[std::path::PathBuf], key: &str, source: &SimSource) -> Option<ForceDisplacement> {
+    use super::lsdyna::binout::{self, histories};
     use super::lsdyna::{nodout, rcforc};
-    let dir = dirs.iter().map(|d| d.join(key)).find(|d| d.join("rcforc").is_file())?;
+    let has_binout = |d: &Path| d.join(binout::STEM).is_file() || d.join(format!("{}0000", binout::STEM)).is_file();
+    let dir = dirs.iter().map(|d| d.join(key)).find(|d| d.join("rcforc").is_file() || has_binout(d))?;
+    let b = if has_binout(&dir) { binout::open_dir(&dir).ok().flatten() } else { None };
     let text = |name: &str| std::fs::read_to_string(dir.join(name)).ok();
-    let rc = rcforc::parse_interface(Path::new("rcforc"), &text("rcforc")?, source.side, source.interface).ok()?;
-    let nod = nodout::parse(Path::new("nodout"), &text("nodout")?).ok()?;
+    let rc = match b.as_ref().and_then(|b| histories::rcforc(b).ok().flatten()) {
+        Some(rc) => rc,
+        None => rcforc::parse_interface(Path::new("rcforc"), &text("rcforc")?, source.side, source.interface).ok()?,
+    };
+    let nod = match b.as_ref().and_then(|b| histories::nodout(b).ok().flatten()) {
+        Some(nod) => nod,
+        None => nodout::parse(Path::new("nodout"), &text("nodout")?).ok()?,
+    };
     from_lsdyna(&rc, &nod, source).ok()
 }
