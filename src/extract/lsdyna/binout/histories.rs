@@ -64,7 +64,9 @@ impl Step<'_> {
     }
 
     fn missing(&self, name: &str) -> InputError {
-        InputError::file(&self.b.name, format!("{}: no `{name}` in this output step", self.path))
+        let first = self.b.db.variables(self.path).and_then(|mut v| v.next()).map(|(_, v)| v.place().1);
+        let at = first.map_or_else(String::new, |o| format!("offset {o}: "));
+        InputError::file(&self.b.name, format!("{at}{}: no `{name}` in this output step", self.path))
     }
 }
 
