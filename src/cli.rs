@@ -54,13 +54,23 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Mean crush force (energy / stroke) of a test machine's force–displacement CSV.
+    /// Mean crush force (energy / stroke) of a test machine's force–displacement CSV, or of an
+    /// LS-DYNA binout (a file or a run directory), whose histories it also lists and prints.
     Extract {
-        /// CSV with displacement [mm] and force [kN or N] columns.
+        /// CSV with displacement [mm] and force [kN or N] columns, or a binout, or a run directory.
         curve: PathBuf,
         /// Stroke window `S0:S1` in mm.
         #[arg(long, default_value = "5:60")]
         window: String,
+        /// binout: list its histories and variables.
+        #[arg(long, conflicts_with = "series")]
+        list: bool,
+        /// binout: one variable over time in lasso-python's naming, e.g. rwforc/forces/normal_force.
+        #[arg(long)]
+        series: Option<String>,
+        /// With --series: print `{"time": [...], "values": [...]}`.
+        #[arg(long, requires = "series")]
+        json: bool,
     },
     // --- issue 24: `lab compare` ---
     /// Curve metrics (mse, pcm, Frechet, DTW, area) of a computed force–displacement CSV against a target.
@@ -164,7 +174,13 @@ fn execute(command: Command) -> Result<i32, Error> {
             let out = out_dir(&study, out);
             status(&study, &out)
         }
-        Command::Extract { curve, window } => extract(&curve, &window),
+        Command::Extract {
+            curve,
+            window,
+            list,
+            series,
+            json,
+        } => extract(&curve, &window, list, series, json),
         Command::Compare {
             a,
             b,
@@ -290,14 +306,28 @@ fn status(study: &Study, out: &Path) -> Result<i32, Error> {
     Ok(0)
 }
 
-/// `lab extract CURVE --window S0:S1`.
-fn extract(curve: &Path, window: &str) -> Result<i32, Error> {
+/// `lab extract CURVE --window S0:S1`, or a binout with `--list` / `--series PATH [--json]`.
+fn extract(curve: &Path, window: &str, list: bool, series: Option<String>, json: bool) -> Result<i32, Error> {
     let bad = || InputError::file(curve, format!("--window `{window}`: give S0:S1 in mm, e.g. 5:60"));
     let (a, b) = window.split_once(':').ok_or_else(bad)?;
     let (s0, s1) = (
         a.trim().parse::<f64>().map_err(|_| bad())?,
         b.trim().parse::<f64>().map_err(|_| bad())?,
     );
+    if verbs::is_binout(curve) {
+        let query = match (list, series) {
+            (true, _) => verbs::BinoutQuery::List,
+            (false, Some(path)) => verbs::BinoutQuery::Series { path, json },
+            (false, None) => verbs::BinoutQuery::MeanForce(crush::Window { s0, s1 }),
+        };
+        let answer = verbs::extract_binout(curve, &query)?;
+        answer.notes.iter().for_each(|n| eprintln!("note: {n}"));
+        print!("{}", answer.text);
+        return Ok(0);
+    }
+    if list || series.is_some() {
+        return Err(InputError::file(curve, "--list and --series read a binout (an LSDA file or a run directory), not a CSV").into());
+    }
     let r = verbs::extract(curve, crush::Window { s0, s1 })?;
     println!(
         "mean crush force {} kN over {s0}-{s1} mm (energy {} J, peak {} kN at {} mm)",
