@@ -218,3 +218,63 @@ fn lab_extract_lists_prints_series_and_the_mean_force_of_a_binout() {
     assert!(text.lines().count() > 10, "{text}");
 }
 
+
+/// A run directory whose deck sends rwforc and nodout to binout, with rigid wall 3's normal force
+/// F = 1000 + 10 d (N) against the striker node 7's stroke d = 0, 10, …, 100 mm (z, downwards).
+fn rigid_wall_run(steps: usize) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let deck = "*KEYWORD\n*CONTROL_TERMINATION\n      0.01\n*DATABASE_RWFORC\n     0.001         2\n\
+                *DATABASE_NODOUT\n     0.001         2\n*DATABASE_HISTORY_NODE\n         7\n*END\n";
+    std::fs::write(dir.path().join("main.k"), deck).unwrap();
+    std::fs::write(dir.path().join("messag"), " N o r m a l    t e r m i n a t i o n   01/01/26\n").unwrap();
+    let mut w = lsda::Writer::new(lsda::Header::default());
+    w.cd("/rwforc/forces/metadata");
+    w.write("ids", &lsda::Values::I4(vec![3])).unwrap();
+    w.cd("/nodout/metadata");
+    w.write("ids", &lsda::Values::I4(vec![7])).unwrap();
+    for k in 0..steps {
+        let (t, d) = (k as f32 * 0.001, k as f32 * 10.0);
+        w.cd(&format!("/rwforc/forces/d{:06}", k + 1));
+        w.write("time", &lsda::Values::R4(vec![t])).unwrap();
+        w.write("normal_force", &lsda::Values::R4(vec![1000.0 + 10.0 * d])).unwrap();
+        for axis in ["x", "y", "z"] {
+            w.write(&format!("{axis}_force"), &lsda::Values::R4(vec![0.0])).unwrap();
+        }
+        w.cd(&format!("/nodout/d{:06}", k + 1));
+        w.write("time", &lsda::Values::R4(vec![t])).unwrap();
+        for name in ["displacement", "velocity", "acceleration", "coordinate"] {
+            for axis in ["x", "y", "z"] {
+                let v = if name == "displacement" && axis == "z" { -d } else { 0.0 };
+                w.write(&format!("{axis}_{name}"), &lsda::Values::R4(vec![v])).unwrap();
+            }
+        }
+        w.flush().unwrap();
+    }
+    w.save(&dir.path().join("binout")).unwrap();
+    dir
+}
+
+#[test]
+fn a_rigid_wall_is_a_response_source() {
+    let mut a = adapter();
+    a.source = SimSource {
+        rigid_wall: Some(3),
+        node: 7,
+        ..SimSource::honeycomb_striker()
+    };
+    // Energy / stroke of F = 1000 + 10 d over 5..60 mm: 1000 + 10 × 32.5 = 1325 N (trapezoids are
+    // exact on a straight line).
+    let judged = a.judge(rigid_wall_run(11).path()).unwrap();
+    assert!((judged.response - 1.325).abs() < 1e-12, "{}", judged.response);
+    assert_eq!(judged.quality, None);
+    assert!(a.identity().ends_with(" rigid_wall 3") && !adapter().identity().contains("rigid_wall"));
+    // Short of the termination time: incomplete, at rwforc's last step.
+    let short = incomplete(a.judge(rigid_wall_run(7).path()));
+    assert!(short.contains("rwforc/forces /rwforc/forces/d000007 (offset ") && short.contains("short of the termination time"), "{short}");
+    // A wall the binout does not have.
+    a.source.rigid_wall = Some(4);
+    match a.judge(rigid_wall_run(11).path()) {
+        Err(Outcome::BadResponse { detail, .. }) => assert!(detail.contains("no rigid wall 4 (walls: 3)"), "{detail}"),
+        other => panic!("{other:?}"),
+    }
+}

@@ -92,8 +92,9 @@ impl Adapter for LsDynaAdapter {
             s.disp_to_mm,
             self.deck.to_string_lossy(),
         );
+        let wall = s.rigid_wall.map_or_else(String::new, |id| format!(" rigid_wall {id}"));
         format!(
-            "lsdyna/2 crush_force {}",
+            "lsdyna/2 crush_force {}{wall}",
             serde_json::to_string(&parts).expect("settings serialize")
         )
     }
@@ -141,10 +142,17 @@ impl Adapter for LsDynaAdapter {
         let unparseable = |e: String| bad(ResponseProblem::Unparseable, e);
         let deck = self.controls(dir)?;
         let bin = open_binout(dir)?;
-        let rc = self.rcforc(dir, &deck, bin.as_ref())?;
+        let force = match self.source.rigid_wall {
+            None => Force::Contact(self.rcforc(dir, &deck, bin.as_ref())?),
+            Some(id) => Force::Wall(self.rwforc(dir, &deck, bin.as_ref(), id)?),
+        };
         let nod = self.nodout(dir, &deck, bin.as_ref())?;
         let quality = self.glstat(dir, &deck, bin.as_ref())?;
-        let curve = crush::from_lsdyna(&rc, &nod, &self.source).map_err(|e| unparseable(e.to_string()))?;
+        let curve = match &force {
+            Force::Contact(rc) => crush::from_lsdyna(rc, &nod, &self.source),
+            Force::Wall(w) => crush::from_wall(w, &nod, &self.source),
+        };
+        let curve = curve.map_err(|e| unparseable(e.to_string()))?;
         let result = crush::crush_force(&curve, self.window).map_err(|e| unparseable(e.to_string()))?;
         if !result.mean_force.is_finite() {
             return Err(unparseable("the mean crush force is not finite".into()));
@@ -154,6 +162,12 @@ impl Adapter for LsDynaAdapter {
             quality,
         })
     }
+}
+
+/// Where the crush force comes from: a contact interface (rcforc) or a rigid wall (rwforc).
+enum Force {
+    Contact(rcforc::Rcforc),
+    Wall(histories::WallSeries),
 }
 
 /// The binout file names recorded and cleared: SMP `binout` with continuation files, MPP
@@ -249,6 +263,33 @@ impl LsDynaAdapter {
         complete::ends_with_newline("rcforc", &text).map_err(incomplete)?;
         complete::rcforc(&rc, want, text.lines().count()).map_err(incomplete)?;
         Ok(rc)
+    }
+
+    /// Rigid wall `id`'s force history from binout's rwforc, its times checked against the deck's
+    /// `*DATABASE_RWFORC` interval. (LS-DYNA's ASCII rwforc is not read: binout only.)
+    fn rwforc(
+        &self,
+        dir: &Path,
+        deck: &controls::Controls,
+        bin: Option<&Binout>,
+        id: u64,
+    ) -> Result<histories::WallSeries, Outcome> {
+        let Some(b) = bin else {
+            let detail = if dir.join("rwforc").exists() {
+                "the rigid-wall force is read from binout only: rwforc is ASCII; set BINARY = 2 or 3 on *DATABASE_RWFORC"
+            } else {
+                "no binout with rwforc (the rigid-wall force) was written"
+            };
+            return Err(bad(ResponseProblem::Missing, detail));
+        };
+        let rw = histories::rwforc(b).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+        let mut rw = rw.ok_or_else(|| missing_in_binout(b, "rwforc"))?;
+        complete::times("rwforc", &rw.steps, Self::want(deck, "rwforc"), rw.steps.len())
+            .map_err(|i| binout_incomplete(b, "rwforc/forces", i))?;
+        rw.walls.remove(&id).ok_or_else(|| {
+            let have: Vec<String> = rw.walls.keys().map(|k| k.to_string()).collect();
+            bad(ResponseProblem::Unparseable, format!("binout rwforc has no rigid wall {id} (walls: {})", have.join(", ")))
+        })
     }
 
     /// nodout, from binout or its ASCII file, checked for completeness.

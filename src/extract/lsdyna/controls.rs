@@ -1,6 +1,6 @@
 //! What a rendered keyword deck asks of its ASCII outputs: the termination time
 //! (`*CONTROL_TERMINATION` ENDTIM), the output interval of each history file
-//! (`*DATABASE_RCFORC` / `*DATABASE_NODOUT` / `*DATABASE_GLSTAT` DT, the first field of their first
+//! (`*DATABASE_RCFORC` / `_NODOUT` / `_GLSTAT` / `_RWFORC` DT, the first field of their first
 //! card), where each goes (their BINARY, the second field: 1 the ASCII file, 2 binout, 3 both) and
 //! the nodes `*DATABASE_HISTORY_NODE` requests in nodout.
 //!
@@ -37,17 +37,20 @@ pub struct Controls {
     pub rcforc: Option<Interval>,
     pub nodout: Option<Interval>,
     pub glstat: Option<Interval>,
+    pub rwforc: Option<Interval>,
     /// `*DATABASE_HISTORY_NODE` ids, in deck order.
     pub history_nodes: Vec<u64>,
 }
 
 impl Controls {
-    /// The interval the deck sets for a history file by name (`rcforc`, `nodout`, `glstat`).
+    /// The interval the deck sets for a history file by name (`rcforc`, `nodout`, `glstat`,
+    /// `rwforc`).
     pub fn interval(&self, file: &str) -> Option<Interval> {
         match file {
             "rcforc" => self.rcforc,
             "nodout" => self.nodout,
             "glstat" => self.glstat,
+            "rwforc" => self.rwforc,
             _ => None,
         }
     }
@@ -74,7 +77,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Controls, InputError> {
                     out.end_time = field(c, 0)?;
                 }
             }
-            "DATABASE_RCFORC" | "DATABASE_NODOUT" | "DATABASE_GLSTAT" => {
+            "DATABASE_RCFORC" | "DATABASE_NODOUT" | "DATABASE_GLSTAT" | "DATABASE_RWFORC" => {
                 let Some(c) = first else { continue };
                 let binary = match field(c, 1)? {
                     None => 1,
@@ -94,6 +97,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Controls, InputError> {
                 match b.keyword.as_str() {
                     "DATABASE_RCFORC" => out.rcforc = interval,
                     "DATABASE_NODOUT" => out.nodout = interval,
+                    "DATABASE_RWFORC" => out.rwforc = interval,
                     _ => out.glstat = interval,
                 }
             }
