@@ -326,7 +326,11 @@ fn extract(curve: &Path, window: &str, list: bool, series: Option<String>, json:
         return Ok(0);
     }
     if list || series.is_some() {
-        return Err(InputError::file(curve, "--list and --series read a binout (an LSDA file or a run directory), not a CSV").into());
+        return Err(InputError::file(
+            curve,
+            "--list and --series read a binout (an LSDA file or a run directory), not a CSV",
+        )
+        .into());
     }
     let r = verbs::extract(curve, crush::Window { s0, s1 })?;
     println!(

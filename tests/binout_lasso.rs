@@ -42,7 +42,10 @@ fn lasso_python() -> Option<PathBuf> {
             "lasso-python is missing in CI: {} cannot import it; .ci/run must run scripts/lasso-venv.sh",
             python.display()
         );
-        eprintln!("SKIPPED: no lasso venv at {} (run scripts/lasso-venv.sh); set CI=true to make this fail", python.display());
+        eprintln!(
+            "SKIPPED: no lasso venv at {} (run scripts/lasso-venv.sh); set CI=true to make this fail",
+            python.display()
+        );
     }
     ok.then_some(python)
 }
@@ -73,7 +76,12 @@ fn compare_with_lasso(b: &binout::Binout, lasso: &Value) -> Vec<String> {
         match e["kind"].as_str().unwrap() {
             "list" => {
                 let ours: Vec<&str> = b.db.variables(&format!("/{path}")).unwrap().map(|(n, _)| n).collect();
-                let theirs: Vec<&str> = e["names"].as_array().unwrap().iter().map(|n| n.as_str().unwrap()).collect();
+                let theirs: Vec<&str> = e["names"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|n| n.as_str().unwrap())
+                    .collect();
                 assert_eq!(ours, theirs, "{path}");
             }
             "text" => match b.series(path).unwrap().values {
@@ -82,13 +90,20 @@ fn compare_with_lasso(b: &binout::Binout, lasso: &Value) -> Vec<String> {
             },
             _ => {
                 let s = b.series(path).unwrap();
-                let shape: Vec<usize> = e["shape"].as_array().unwrap().iter().map(|x| x.as_u64().unwrap() as usize).collect();
+                let shape: Vec<usize> = e["shape"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|x| x.as_u64().unwrap() as usize)
+                    .collect();
                 let theirs = floats(&e["values"]);
                 let ours: Vec<f64> = match (&s.values, shape.len()) {
                     (SeriesValues::Scalar(v), 1) => v.clone(),
                     (SeriesValues::PerId(per_id), 2) => {
                         assert_eq!(per_id.len(), shape[1], "{path}: ids");
-                        (0..shape[0]).flat_map(|step| per_id.iter().map(move |id| id[step])).collect()
+                        (0..shape[0])
+                            .flat_map(|step| per_id.iter().map(move |id| id[step]))
+                            .collect()
                     }
                     other => panic!("{path}: lasso shape {shape:?}, lab {other:?}"),
                 };
@@ -107,7 +122,12 @@ fn compare_with_lasso(b: &binout::Binout, lasso: &Value) -> Vec<String> {
 fn reads_txt(version: &str) -> Vec<String> {
     let text = std::fs::read_to_string(root().join("fixtures/lsdyna-real/lasso-python-reads.txt")).unwrap();
     let section = text.split("## ").find(|s| s.starts_with(version)).unwrap();
-    let mut paths: Vec<String> = section.lines().skip(1).filter_map(|l| l.split_once(": ")).map(|(p, _)| p.to_string()).collect();
+    let mut paths: Vec<String> = section
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split_once(": "))
+        .map(|(p, _)| p.to_string())
+        .collect();
     paths.sort();
     paths
 }
@@ -122,8 +142,17 @@ fn the_real_files_read_equal_to_lasso_python() {
         assert!(b.notes().is_empty());
         let mut compared = compare_with_lasso(&b, &lasso);
         compared.sort();
-        assert_eq!(compared, reads_txt(version), "{version}: what lasso reads now vs lasso-python-reads.txt");
-        let arrays = lasso["entries"].as_object().unwrap().values().filter(|e| e["kind"] == "array").count();
+        assert_eq!(
+            compared,
+            reads_txt(version),
+            "{version}: what lasso reads now vs lasso-python-reads.txt"
+        );
+        let arrays = lasso["entries"]
+            .as_object()
+            .unwrap()
+            .values()
+            .filter(|e| e["kind"] == "array")
+            .count();
         eprintln!("{version}: {} paths equal ({arrays} arrays)", compared.len());
     }
 }
@@ -133,9 +162,16 @@ fn crushsim_binout() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     let mut tera = tera::Tera::new();
     lsdyna::register(&mut tera);
-    tera.add_raw_template("main.k.tera", include_str!("../templates/honeycomb/main.k.tera")).unwrap();
+    tera.add_raw_template("main.k.tera", include_str!("../templates/honeycomb/main.k.tera"))
+        .unwrap();
     let mut ctx = tera::Context::new();
-    for (k, v) in [("c", 6.0), ("t", 0.05), ("sigma_y", 185.0), ("term_time", 0.061), ("dt_out", 0.0005)] {
+    for (k, v) in [
+        ("c", 6.0),
+        ("t", 0.05),
+        ("sigma_y", 185.0),
+        ("term_time", 0.061),
+        ("dt_out", 0.0005),
+    ] {
         ctx.insert(k, &v);
     }
     ctx.insert("design_name", "C6T5");
@@ -144,7 +180,11 @@ fn crushsim_binout() -> tempfile::TempDir {
     std::fs::write(dir.path().join("main.k"), tera.render("main.k.tera", &ctx).unwrap()).unwrap();
     let (include, _) = mesh::include(&TubeSpec::paper(6.0, 2.0)).unwrap();
     std::fs::write(dir.path().join("mesh.k"), include).unwrap();
-    let o = Command::new(crushsim_bin::crushsim()).args(["i=main.k", "ncpu=1"]).current_dir(dir.path()).output().unwrap();
+    let o = Command::new(crushsim_bin::crushsim())
+        .args(["i=main.k", "ncpu=1"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     dir
 }
@@ -158,7 +198,14 @@ fn crushsims_binout_reads_equal_in_lasso_python() {
     assert_eq!(lasso["top"], serde_json::json!(["glstat", "nodout", "rcforc"]));
     let b = binout::open(&file).unwrap();
     let compared = compare_with_lasso(&b, &lasso);
-    for must in ["rcforc/z_force", "rcforc/ids", "rcforc/side", "nodout/z_displacement", "glstat/kinetic_energy", "glstat/title"] {
+    for must in [
+        "rcforc/z_force",
+        "rcforc/ids",
+        "rcforc/side",
+        "nodout/z_displacement",
+        "glstat/kinetic_energy",
+        "glstat/title",
+    ] {
         assert!(compared.iter().any(|p| p == must), "{must} not compared: {compared:?}");
     }
     // The force lasso reads is the contact force of the run (interface 1 master, N), not zeros.
@@ -186,7 +233,12 @@ fn lsda_writers_files_read_equal_by_lstcs_reader_and_back() {
     ];
     for endian in [lsda::Endian::Little, lsda::Endian::Big] {
         for (length_size, offset_size) in [(8, 8), (4, 4)] {
-            let h = lsda::Header { endian, length_size, offset_size, ..lsda::Header::default() };
+            let h = lsda::Header {
+                endian,
+                length_size,
+                offset_size,
+                ..lsda::Header::default()
+            };
             let mut w = lsda::Writer::new(h);
             for (k, v) in values.iter().enumerate() {
                 w.cd(&format!("/t/d{:06}", k % 3 + 1));
@@ -202,7 +254,11 @@ fn lsda_writers_files_read_equal_by_lstcs_reader_and_back() {
             for (k, v) in values.iter().enumerate() {
                 let e = &lstc[format!("/t/d{:06}/v{k}", k % 3 + 1)];
                 assert_eq!(e["type"], v.type_id().code(), "{endian:?} v{k}");
-                assert_eq!(bits(&floats(&e["values"])), bits(&v.to_f64()), "{endian:?} {length_size}/{offset_size} v{k}");
+                assert_eq!(
+                    bits(&floats(&e["values"])),
+                    bits(&v.to_f64()),
+                    "{endian:?} {length_size}/{offset_size} v{k}"
+                );
             }
         }
     }

@@ -40,14 +40,19 @@ fn study_copy(dir: &Path, binary: u8) -> PathBuf {
         if line.trim_start().starts_with("replay:") {
             continue;
         }
-        let line = line.replace("../templates", &format!("{abs}/templates")).replace("../fixtures", &format!("{abs}/fixtures"));
+        let line = line
+            .replace("../templates", &format!("{abs}/templates"))
+            .replace("../fixtures", &format!("{abs}/fixtures"));
         out += &line;
         out += "\n";
         if line.starts_with("constants:") {
             out += &format!("  binary: {binary}\n");
         }
     }
-    assert!(out.contains(&format!("  binary: {binary}\n")), "the study has a constants block");
+    assert!(
+        out.contains(&format!("  binary: {binary}\n")),
+        "the study has a constants block"
+    );
     let path = dir.join(format!("honeycomb-binary{binary}.yaml"));
     std::fs::write(&path, out).unwrap();
     path
@@ -103,7 +108,14 @@ fn runs() -> &'static Runs {
             r.study[k] = study_copy(dir.path(), binary);
             r.out[k] = dir.path().join(format!("out{binary}"));
             r.rec[k] = dir.path().join(format!("rec{binary}"));
-            let args = ["run", &r.study[k].to_string_lossy(), "--out", &r.out[k].to_string_lossy(), "--record", &r.rec[k].to_string_lossy()];
+            let args = [
+                "run",
+                &r.study[k].to_string_lossy(),
+                "--out",
+                &r.out[k].to_string_lossy(),
+                "--record",
+                &r.rec[k].to_string_lossy(),
+            ];
             let (code, stderr) = lab(&args, Duration::from_secs(900)).expect("the live run finishes");
             assert_eq!(code, Some(0), "binary {binary}:\n{stderr}");
         }
@@ -119,7 +131,11 @@ fn results(out: &Path) -> Value {
 fn close(a: &Value, b: &Value, rel: f64, what: &str) {
     let (x, y) = (a.as_f64().unwrap_or_else(|| panic!("{what}: {a}")), b.as_f64().unwrap());
     let scale = x.abs().max(y.abs()).max(1e-12);
-    assert!((x - y).abs() <= rel * scale, "{what}: ASCII {x}, binout {y} (relative {:.2e} > {rel:.0e})", (x - y).abs() / scale);
+    assert!(
+        (x - y).abs() <= rel * scale,
+        "{what}: ASCII {x}, binout {y} (relative {:.2e} > {rel:.0e})",
+        (x - y).abs() / scale
+    );
 }
 
 /// Every number of the `parameters` objects under `v` (recursively), paired by path.
@@ -138,7 +154,10 @@ fn parameters(v: &Value, path: String, out: &mut Vec<(String, Value)>) {
                 }
             }
         }
-        Value::Array(a) => a.iter().enumerate().for_each(|(i, x)| parameters(x, format!("{path}[{i}]"), out)),
+        Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .for_each(|(i, x)| parameters(x, format!("{path}[{i}]"), out)),
         _ => {}
     }
 }
@@ -156,7 +175,10 @@ fn the_main_job_through_binout_gives_the_same_results() {
     let (mut pa, mut pb) = (Vec::new(), Vec::new());
     parameters(&a, String::new(), &mut pa);
     parameters(&b, String::new(), &mut pb);
-    assert_eq!(pa.iter().map(|p| &p.0).collect::<Vec<_>>(), pb.iter().map(|p| &p.0).collect::<Vec<_>>());
+    assert_eq!(
+        pa.iter().map(|p| &p.0).collect::<Vec<_>>(),
+        pb.iter().map(|p| &p.0).collect::<Vec<_>>()
+    );
     assert!(pa.len() >= 12, "{pa:?}");
     for ((path, x), (_, y)) in pa.iter().zip(&pb) {
         let rel = if path.contains("/diagnosis/") {
@@ -169,9 +191,19 @@ fn the_main_job_through_binout_gives_the_same_results() {
         close(x, y, rel, path);
     }
     for m in ["least_squares", "sensitivity", "bayesian"] {
-        for (p, q) in a["calibration"][m]["predictions"].as_array().unwrap().iter().zip(b["calibration"][m]["predictions"].as_array().unwrap()) {
+        for (p, q) in a["calibration"][m]["predictions"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(b["calibration"][m]["predictions"].as_array().unwrap())
+        {
             assert_eq!(p["measured"], q["measured"]);
-            close(&p["predicted"], &q["predicted"], 1e-5, &format!("{m} prediction at {}", p["design"]));
+            close(
+                &p["predicted"],
+                &q["predicted"],
+                1e-5,
+                &format!("{m} prediction at {}", p["design"]),
+            );
         }
     }
 }
@@ -182,9 +214,15 @@ fn by_run(rec: &Path) -> BTreeMap<String, String> {
     let mut out = BTreeMap::new();
     for m in lab::execute::replay::manifests(rec) {
         let deck = m.inputs["main.k"].text.clone().expect("the deck's text is kept");
-        let deck = deck.replace("&DTOUT         2", "&DTOUT         1").replace("&DTPLOT         2", "&DTPLOT         1");
+        let deck = deck
+            .replace("&DTOUT         2", "&DTOUT         1")
+            .replace("&DTPLOT         2", "&DTPLOT         1");
         let run = format!("{} {:?} {}", m.design, m.parameters, deck);
-        assert!(out.insert(run, m.key.clone()).is_none(), "two recordings of one run in {}", rec.display());
+        assert!(
+            out.insert(run, m.key.clone()).is_none(),
+            "two recordings of one run in {}",
+            rec.display()
+        );
     }
     out
 }
@@ -203,7 +241,11 @@ fn run_by_run_the_same_response_and_quality_figures() {
         let (fx, fy) = (x.response.unwrap(), y.response.unwrap());
         assert!((fx - fy).abs() <= 1e-5 * fx.abs(), "{run}: {fx} vs {fy}");
         let (qx, qy) = (x.quality.unwrap(), y.quality.unwrap());
-        for (name, u, v) in [("hourglass", qx.hourglass_ratio, qy.hourglass_ratio), ("energy", qx.energy_error, qy.energy_error), ("added mass", qx.added_mass_ratio, qy.added_mass_ratio)] {
+        for (name, u, v) in [
+            ("hourglass", qx.hourglass_ratio, qy.hourglass_ratio),
+            ("energy", qx.energy_error, qy.energy_error),
+            ("added mass", qx.added_mass_ratio, qy.added_mass_ratio),
+        ] {
             match (u, v) {
                 (Some(u), Some(v)) => assert!((u - v).abs() <= 1e-5, "{run}: {name} {u} vs {v}"),
                 (None, None) => {}
@@ -264,14 +306,20 @@ fn mutate(rng: &mut ChaCha8Rng, dir: &Path) -> Mutation {
             let (at, _, cmd) = recs[rng.random_range(recs.len() / 10..recs.len() * 9 / 10)];
             let k = at + rng.random_range(0..9);
             out[k] ^= 1 << rng.random_range(0..8);
-            ("record head", format!("a bit of the length/command of the record at {at} (command {cmd}) flipped at byte {k}"))
+            (
+                "record head",
+                format!("a bit of the length/command of the record at {at} (command {cmd}) flipped at byte {k}"),
+            )
         }
         3 => {
             let data: Vec<_> = recs.iter().filter(|r| r.2 == 3).collect();
             let (at, len, _) = *data[rng.random_range(data.len() / 10..data.len() * 9 / 10)];
             let wrong = len as i64 + [-4i64, -1, 1, 4, 8][rng.random_range(0..5)];
             out[at..at + 8].copy_from_slice(&wrong.to_le_bytes());
-            ("wrong length", format!("DATA record at {at}: length {len} written as {wrong}"))
+            (
+                "wrong length",
+                format!("DATA record at {at}: length {len} written as {wrong}"),
+            )
         }
         _ => {
             // Split at a record boundary into binout and binout%001, then lose the first part's
@@ -280,7 +328,10 @@ fn mutate(rng: &mut ChaCha8Rng, dir: &Path) -> Mutation {
             out.truncate(at);
             let empty = lsda::Writer::new(lsda::Header::default()).finish().unwrap().remove(0);
             std::fs::write(dir.join("binout%002"), &empty).unwrap();
-            ("missing continuation", format!("binout cut at record {at}, binout%001 missing, binout%002 present"))
+            (
+                "missing continuation",
+                format!("binout cut at record {at}, binout%001 missing, binout%002 present"),
+            )
         }
     };
     std::fs::write(&path, out).unwrap();
@@ -304,7 +355,11 @@ fn copy_recordings(from: &Path, to: &Path) -> Vec<String> {
 fn outcome(out: &Path, key: &str) -> Option<(String, String)> {
     let bytes = std::fs::read(out.join("results").join(format!("{key}.json"))).ok()?;
     let r: lab::execute::RunRecord = serde_json::from_slice(&bytes).unwrap();
-    let class = serde_json::to_value(r.outcome.class()).unwrap().as_str().unwrap().to_string();
+    let class = serde_json::to_value(r.outcome.class())
+        .unwrap()
+        .as_str()
+        .unwrap()
+        .to_string();
     Some((class, r.outcome.to_string()))
 }
 
@@ -324,9 +379,19 @@ fn every_damaged_binout_fails_its_run_naming_the_file_and_offset() {
                 chosen.push(k);
             }
         }
-        let mutations: Vec<(String, Mutation)> = chosen.iter().map(|&k| (keys[k].clone(), mutate(&mut rng, &copy.path().join(&keys[k])))).collect();
+        let mutations: Vec<(String, Mutation)> = chosen
+            .iter()
+            .map(|&k| (keys[k].clone(), mutate(&mut rng, &copy.path().join(&keys[k]))))
+            .collect();
         let out = tempfile::tempdir().unwrap();
-        let args = ["run", &r.study[1].to_string_lossy(), "--replay", &copy.path().to_string_lossy(), "--out", &out.path().to_string_lossy()];
+        let args = [
+            "run",
+            &r.study[1].to_string_lossy(),
+            "--replay",
+            &copy.path().to_string_lossy(),
+            "--out",
+            &out.path().to_string_lossy(),
+        ];
         let Some((code, stderr)) = lab(&args, Duration::from_secs(120)) else {
             hangs += 1;
             continue;
@@ -337,13 +402,17 @@ fn every_damaged_binout_fails_its_run_naming_the_file_and_offset() {
             continue;
         }
         for (key, m) in &mutations {
-            let (class, words) = outcome(out.path(), key).unwrap_or_else(|| panic!("replay {replay}: no record for {key}: {}\n{stderr}", m.what));
+            let (class, words) = outcome(out.path(), key)
+                .unwrap_or_else(|| panic!("replay {replay}: no record for {key}: {}\n{stderr}", m.what));
             if class == "success" {
                 accepted += 1;
                 eprintln!("replay {replay}: ACCEPTED {key}: {}", m.what);
             } else if !(words.contains("binout") && (words.contains("offset") || m.kind == "missing continuation")) {
                 unnamed += 1;
-                eprintln!("replay {replay}: {key} ({}) failed without naming the binout and offset: {words}", m.what);
+                eprintln!(
+                    "replay {replay}: {key} ({}) failed without naming the binout and offset: {words}",
+                    m.what
+                );
             }
             eprintln!("  {:<22} {class:<18} {words}", m.kind);
             *tally.entry((m.kind.to_string(), class)).or_default() += 1;
@@ -366,7 +435,13 @@ fn every_damaged_binout_fails_its_run_naming_the_file_and_offset() {
     assert!(kept > 0);
     let n: usize = tally.values().sum();
     assert!(n >= 30, "{n} damaged files");
-    for kind in ["cut", "header byte", "record head", "wrong length", "missing continuation"] {
+    for kind in [
+        "cut",
+        "header byte",
+        "record head",
+        "wrong length",
+        "missing continuation",
+    ] {
         assert!(tally.keys().any(|(k, _)| k == kind), "no `{kind}` drawn");
     }
 }

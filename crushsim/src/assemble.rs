@@ -441,7 +441,11 @@ fn binary(blocks: &[Located], r: &Reader, keyword: &str) -> Res<i64> {
     match r.int_or(&b.file, c, 1, 1)? {
         0 | 1 => Ok(1),
         v @ (2 | 3) => Ok(v),
-        v => Err(fail(&b.file, c.line, format!("*{keyword}: BINARY is {v}, expected 1 (ASCII), 2 (binout) or 3 (both)"))),
+        v => Err(fail(
+            &b.file,
+            c.line,
+            format!("*{keyword}: BINARY is {v}, expected 1 (ASCII), 2 (binout) or 3 (both)"),
+        )),
     }
 }
 

@@ -55,14 +55,23 @@ struct Out {
 /// a history written at interval `dt` (their defaults depend on it, as in the ASCII files).
 pub fn binout(m: &Model, h: &History, wanted: Wanted, faults: impl Fn(f64) -> Faults) -> Result<Vec<u8>, lsda::Error> {
     let mut w = Writer::new(Header::default());
-    let kinds = [(0u8, wanted.rcforc, "rcforc"), (1, wanted.glstat, "glstat"), (2, wanted.nodout, "nodout")];
+    let kinds = [
+        (0u8, wanted.rcforc, "rcforc"),
+        (1, wanted.glstat, "glstat"),
+        (2, wanted.nodout, "nodout"),
+    ];
     let mut outs = Vec::new();
     for (kind, dt, name) in kinds {
         let Some(dt) = dt else { continue };
         metadata(&mut w, m, name)?;
         ids(&mut w, m, kind)?;
         let times = faults(dt).times(m, dt);
-        outs.extend(times.iter().enumerate().map(|(k, &(number, time))| Out { kind, step: k + 1, number, time }));
+        outs.extend(times.iter().enumerate().map(|(k, &(number, time))| Out {
+            kind,
+            step: k + 1,
+            number,
+            time,
+        }));
     }
     w.flush()?;
     outs.sort_by(|a, b| a.time.total_cmp(&b.time).then(a.kind.cmp(&b.kind)));
@@ -70,9 +79,21 @@ pub fn binout(m: &Model, h: &History, wanted: Wanted, faults: impl Fn(f64) -> Fa
     let of = |dt: Option<f64>| faults(dt.unwrap_or(m.end_time));
     for (k, o) in outs.iter().enumerate() {
         match o.kind {
-            0 => rcforc_step(&mut w, m, h, o, of(wanted.rcforc).unpaired && o.number == middle(wanted.rcforc))?,
+            0 => rcforc_step(
+                &mut w,
+                m,
+                h,
+                o,
+                of(wanted.rcforc).unpaired && o.number == middle(wanted.rcforc),
+            )?,
             1 => glstat_step(&mut w, m, h, o, &of(wanted.glstat))?,
-            _ => nodout_step(&mut w, m, h, o, of(wanted.nodout).missing_node && o.number == middle(wanted.nodout))?,
+            _ => nodout_step(
+                &mut w,
+                m,
+                h,
+                o,
+                of(wanted.nodout).missing_node && o.number == middle(wanted.nodout),
+            )?,
         }
         if outs.get(k + 1).is_none_or(|next| next.time != o.time) {
             w.flush()?;
@@ -157,7 +178,10 @@ fn nodout_step(w: &mut Writer, m: &Model, h: &History, o: &Out, empty: bool) -> 
     let rows: Vec<[f64; 12]> = if empty {
         Vec::new()
     } else {
-        m.history_nodes.iter().map(|&(id, xyz)| output::nodout_row(m, s, id, xyz)).collect()
+        m.history_nodes
+            .iter()
+            .map(|&(id, xyz)| output::nodout_row(m, s, id, xyz))
+            .collect()
     };
     let names = [
         "x_displacement",

@@ -5,7 +5,28 @@
 //! Values stay in the file's bytes until asked for ([`Variable::values`]): opening a database
 //! reads its records' headers, not its numbers.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::{BTreeSet, HashMap};
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// FNV-1a: the names and paths hashed here are short, and a file has thousands of them; the
+/// standard library's SipHash costs more than the rest of filing a variable.
+#[derive(Default)]
+pub(crate) struct Fnv(u64);
+
+impl Hasher for Fnv {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        let mut h = if self.0 == 0 { 0xcbf2_9ce4_8422_2325 } else { self.0 };
+        for &b in bytes {
+            h = (h ^ b as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+        self.0 = h;
+    }
+}
+
+type FastMap<K, V> = HashMap<K, V, BuildHasherDefault<Fnv>>;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -29,7 +50,8 @@ pub(crate) struct Var {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Dir {
     pub dirs: BTreeSet<String>,
-    pub vars: BTreeMap<String, Var>,
+    /// Variables by interned name number (see [`Database::names`]); a few dozen at most.
+    pub vars: Vec<(u32, Var)>,
 }
 
 /// Something the reader passed over or could only partly read, and where.
@@ -55,7 +77,13 @@ struct File {
 /// The contents of an LSDA file or set of files.
 pub struct Database {
     files: Vec<File>,
-    dirs: BTreeMap<String, Dir>,
+    /// Directories by number, and their numbers by path.
+    dirs: Vec<Dir>,
+    index: FastMap<String, usize>,
+    /// Variable names, each once (a binout repeats `time`, `x_force`, … in every step), and
+    /// their numbers.
+    names: Vec<Box<str>>,
+    name_ids: FastMap<Box<str>, u32>,
     notes: Vec<Note>,
 }
 
@@ -82,13 +110,18 @@ fn split(path: &str) -> (String, &str) {
 
 impl Database {
     fn empty() -> Database {
-        let mut dirs = BTreeMap::new();
-        dirs.insert("/".to_string(), Dir::default());
         Database {
             files: Vec::new(),
-            dirs,
+            dirs: vec![Dir::default()],
+            index: FastMap::from_iter([("/".to_string(), 0)]),
+            names: Vec::new(),
+            name_ids: FastMap::default(),
             notes: Vec::new(),
         }
+    }
+
+    fn dir(&self, path: &str) -> Option<&Dir> {
+        self.index.get(path).map(|&k| &self.dirs[k])
     }
 
     /// Opens `path` with its continuation files (`path%001`, `path%002`, … as LSTC's writer
@@ -134,25 +167,43 @@ impl Database {
         self.notes.push(n);
     }
 
-    /// Creates `path` (normalised) and its parents.
-    pub(crate) fn ensure_dir(&mut self, path: &str) {
-        if self.dirs.contains_key(path) {
-            return;
+    /// Creates `path` (normalised) and its parents; its number.
+    pub(crate) fn ensure_dir(&mut self, path: &str) -> usize {
+        if let Some(&k) = self.index.get(path) {
+            return k;
         }
-        self.dirs.insert(path.to_string(), Dir::default());
+        let k = self.dirs.len();
+        self.dirs.push(Dir::default());
+        self.index.insert(path.to_string(), k);
         let (parent, name) = split(path);
         let name = name.to_string();
-        self.ensure_dir(&parent);
-        if let Some(p) = self.dirs.get_mut(&parent) {
-            p.dirs.insert(name);
+        let p = self.ensure_dir(&parent);
+        self.dirs[p].dirs.insert(name);
+        k
+    }
+
+    /// Files variable `name` in directory number `dir` (a later one of the name replaces it).
+    pub(crate) fn insert(&mut self, dir: usize, name: &str, var: Var) {
+        let id = match self.name_ids.get(name) {
+            Some(&id) => id,
+            None => {
+                let id = self.names.len() as u32;
+                self.names.push(name.into());
+                self.name_ids.insert(name.into(), id);
+                id
+            }
+        };
+        let vars = &mut self.dirs[dir].vars;
+        match vars.iter_mut().find(|v| v.0 == id) {
+            Some(v) => v.1 = var,
+            None => vars.push((id, var)),
         }
     }
 
-    pub(crate) fn insert(&mut self, dir: &str, name: String, var: Var) {
-        self.ensure_dir(dir);
-        if let Some(d) = self.dirs.get_mut(dir) {
-            d.vars.insert(name, var);
-        }
+    /// Variable `name` of a directory.
+    fn find(&self, d: &Dir, name: &str) -> Option<Var> {
+        let id = *self.name_ids.get(name)?;
+        d.vars.iter().find(|v| v.0 == id).map(|v| v.1)
     }
 
     /// The files read, in order.
@@ -172,19 +223,25 @@ impl Database {
 
     /// Whether `path` (`/rcforc/metadata`, or without the leading `/`) is a directory.
     pub fn is_dir(&self, path: &str) -> bool {
-        self.dirs.contains_key(&normal(path))
+        self.index.contains_key(&normal(path))
     }
 
     /// The subdirectory names of `path`, sorted; `None` when it is not a directory.
     pub fn subdirs(&self, path: &str) -> Option<impl Iterator<Item = &str>> {
-        self.dirs.get(&normal(path)).map(|d| d.dirs.iter().map(String::as_str))
+        self.dir(&normal(path)).map(|d| d.dirs.iter().map(String::as_str))
     }
 
     /// The variables of directory `path` by name, sorted; `None` when it is not a directory.
     pub fn variables(&self, path: &str) -> Option<impl Iterator<Item = (&str, Variable<'_>)>> {
-        self.dirs
-            .get(&normal(path))
-            .map(|d| d.vars.iter().map(|(n, v)| (n.as_str(), Variable { db: self, var: *v })))
+        self.dir(&normal(path)).map(|d| {
+            let mut vars: Vec<(&str, Variable<'_>)> = d
+                .vars
+                .iter()
+                .map(|(n, v)| (&*self.names[*n as usize], Variable { db: self, var: *v }))
+                .collect();
+            vars.sort_unstable_by(|a, b| a.0.cmp(b.0));
+            vars.into_iter()
+        })
     }
 
     /// The variable at `path` (`/glstat/d000001/time`).
@@ -195,13 +252,27 @@ impl Database {
 
     /// The variable `name` of directory `dir` (already normalised: `/glstat/d000001`).
     pub fn variable_in(&self, dir: &str, name: &str) -> Option<Variable<'_>> {
-        let var = *self.dirs.get(dir)?.vars.get(name)?;
+        let var = self.find(self.dir(dir)?, name)?;
         Some(Variable { db: self, var })
     }
 
     /// Every directory path, sorted (`/`, `/glstat`, `/glstat/d000001`, …).
     pub fn dirs(&self) -> impl Iterator<Item = &str> {
-        self.dirs.keys().map(String::as_str)
+        let mut paths: Vec<&str> = self.index.keys().map(String::as_str).collect();
+        paths.sort_unstable();
+        paths.into_iter()
+    }
+
+    /// The number of directory `path` (normalised: `/glstat/d000001`), for
+    /// [`Database::variable_at`]: one lookup of the path for many variables.
+    pub fn dir_id(&self, path: &str) -> Option<usize> {
+        self.index.get(path).copied()
+    }
+
+    /// Variable `name` of directory number `dir` (see [`Database::dir_id`]).
+    pub fn variable_at(&self, dir: usize, name: &str) -> Option<Variable<'_>> {
+        let var = self.find(self.dirs.get(dir)?, name)?;
+        Some(Variable { db: self, var })
     }
 }
 
@@ -237,14 +308,32 @@ impl<'a> Variable<'a> {
         Values::decode(&h, self.var.type_id, self.raw())
     }
 
-    /// Its values as `f64` (see [`Values::to_f64`]).
+    /// Its values as `f64` (see [`Values::to_f64`]), decoded straight from the file's bytes.
     pub fn to_f64(&self) -> Vec<f64> {
-        self.values().to_f64()
+        let f = &self.db.files[self.var.file];
+        let h = f.header.expect("a file with variables has a header");
+        crate::value::decode_f64(&h, self.var.type_id, self.raw())
+    }
+
+    /// Value `k` as `f64` (NaN past the end), decoded from the file's bytes alone.
+    pub fn f64_at(&self, k: usize) -> f64 {
+        let size = self.var.type_id.size();
+        let Some(bytes) = self.raw().get(k * size..(k + 1) * size) else {
+            return f64::NAN;
+        };
+        let h = self.db.files[self.var.file]
+            .header
+            .expect("a file with variables has a header");
+        crate::value::decode_one(&h, self.var.type_id, bytes)
     }
 
     /// Its first value as `f64`, if it has one.
     pub fn first_f64(&self) -> Option<f64> {
-        if self.is_empty() { None } else { self.values().to_f64().first().copied() }
+        if self.is_empty() {
+            None
+        } else {
+            self.values().to_f64().first().copied()
+        }
     }
 }
 

@@ -11,7 +11,11 @@ pub enum Endian {
 impl Endian {
     /// The byte order of this machine (what LSTC's writers put in the header).
     pub fn native() -> Endian {
-        if cfg!(target_endian = "big") { Endian::Big } else { Endian::Little }
+        if cfg!(target_endian = "big") {
+            Endian::Big
+        } else {
+            Endian::Little
+        }
     }
 }
 
@@ -54,10 +58,7 @@ impl Header {
     /// Reads the header at the start of `bytes`; the error says what is wrong (at offset 0).
     pub fn parse(bytes: &[u8]) -> Result<Header, String> {
         let Some(b) = bytes.get(..8) else {
-            return Err(format!(
-                "{} bytes: too short for the 8-byte LSDA header",
-                bytes.len()
-            ));
+            return Err(format!("{} bytes: too short for the 8-byte LSDA header", bytes.len()));
         };
         let endian = match b[5] {
             0 => Endian::Big,
@@ -83,7 +84,9 @@ impl Header {
         ];
         for (what, size) in sizes {
             if !valid_size(size) {
-                return Err(format!("header: the {what} size is {size} bytes, expected 1, 2, 4 or 8: not an LSDA file"));
+                return Err(format!(
+                    "header: the {what} size is {size} bytes, expected 1, 2, 4 or 8: not an LSDA file"
+                ));
             }
         }
         Ok(h)
@@ -110,6 +113,15 @@ impl Header {
     /// The signed integer of `size` bytes at `at`, or `None` past the end.
     pub(crate) fn int(&self, bytes: &[u8], at: usize, size: u8) -> Option<i64> {
         let raw = bytes.get(at..at.checked_add(size as usize)?)?;
+        // The sizes LS-DYNA writes, read directly (most of a file's records are read here).
+        match (size, self.endian) {
+            (1, _) => return Some(raw[0] as i8 as i64),
+            (8, Endian::Little) => return Some(i64::from_le_bytes(raw.try_into().ok()?)),
+            (4, Endian::Little) => return Some(i32::from_le_bytes(raw.try_into().ok()?) as i64),
+            (8, Endian::Big) => return Some(i64::from_be_bytes(raw.try_into().ok()?)),
+            (4, Endian::Big) => return Some(i32::from_be_bytes(raw.try_into().ok()?) as i64),
+            _ => {}
+        }
         let mut buf = [0u8; 8];
         match self.endian {
             Endian::Little => {
@@ -185,9 +197,21 @@ mod tests {
     #[test]
     fn bad_headers_say_why() {
         assert!(Header::parse(&[8, 8, 8]).unwrap_err().contains("too short"));
-        assert!(Header::parse(&[8, 8, 8, 1, 1, 2, 0, 0]).unwrap_err().contains("byte order"));
-        assert!(Header::parse(&[8, 3, 8, 1, 1, 1, 0, 0]).unwrap_err().contains("length size"));
-        assert!(Header::parse(&[7, 8, 8, 1, 1, 1, 0, 0]).unwrap_err().contains("below 8"));
+        assert!(
+            Header::parse(&[8, 8, 8, 1, 1, 2, 0, 0])
+                .unwrap_err()
+                .contains("byte order")
+        );
+        assert!(
+            Header::parse(&[8, 3, 8, 1, 1, 1, 0, 0])
+                .unwrap_err()
+                .contains("length size")
+        );
+        assert!(
+            Header::parse(&[7, 8, 8, 1, 1, 1, 0, 0])
+                .unwrap_err()
+                .contains("below 8")
+        );
         let h = Header::parse(&[8, 8, 4, 1, 1, 0, 0, 0]).unwrap();
         assert_eq!((h.offset_size, h.endian), (4, Endian::Big));
         assert_eq!(Header::parse(&h.encode()).unwrap(), h);

@@ -20,21 +20,33 @@ fn io(file: &Path, source: std::io::Error) -> Error {
     }
 }
 
-/// Names in `dir` of the form `stem` + suffix, with the suffix's number when `number` parses it.
-fn numbered(dir: &Path, stem: &str, number: impl Fn(&str) -> Option<u32>) -> Result<Vec<(u32, PathBuf)>, Error> {
-    let listing = std::fs::read_dir(if dir.as_os_str().is_empty() { Path::new(".") } else { dir })
-        .map_err(|e| io(dir, e))?;
+/// The file names in `dir`.
+fn listing(dir: &Path) -> Result<Vec<String>, Error> {
+    let listing = std::fs::read_dir(if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    })
+    .map_err(|e| io(dir, e))?;
     let mut out = Vec::new();
     for entry in listing {
         let entry = entry.map_err(|e| io(dir, e))?;
-        let name = entry.file_name();
-        let Some(name) = name.to_str() else { continue };
-        if let Some(n) = name.strip_prefix(stem).and_then(&number) {
-            out.push((n, dir.join(name)));
+        if let Some(name) = entry.file_name().to_str() {
+            out.push(name.to_string());
         }
     }
-    out.sort();
     Ok(out)
+}
+
+/// The names of `names` of the form `stem` + suffix whose suffix `number` reads, with their
+/// numbers, sorted.
+fn numbered(dir: &Path, names: &[String], stem: &str, number: impl Fn(&str) -> Option<u32>) -> Vec<(u32, PathBuf)> {
+    let mut out: Vec<(u32, PathBuf)> = names
+        .iter()
+        .filter_map(|name| name.strip_prefix(stem).and_then(&number).map(|n| (n, dir.join(name))))
+        .collect();
+    out.sort();
+    out
 }
 
 /// Checks that `found` numbers run first, first+1, … without a gap; names the first missing.
@@ -59,7 +71,8 @@ fn whole(found: &[(u32, PathBuf)], first: u32, name: impl Fn(u32) -> PathBuf) ->
 }
 
 fn file_name(p: &Path) -> String {
-    p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+    p.file_name()
+        .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
 }
 
 /// `path` and its continuation files `path%001`, `path%002`, … in order.
@@ -71,29 +84,41 @@ pub fn with_continuations(path: &Path) -> Result<Vec<PathBuf>, Error> {
         });
     }
     let dir = path.parent().unwrap_or(Path::new(""));
-    let stem = file_name(path);
-    let found = numbered(dir, &format!("{stem}%"), |s| {
-        (s.len() >= 3 && s.bytes().all(|b| b.is_ascii_digit())).then(|| s.parse().ok()).flatten()
-    })?;
+    continuations(dir, &listing(dir)?, &file_name(path))
+}
+
+/// `dir/stem` and its continuation files among `names`.
+fn continuations(dir: &Path, names: &[String], stem: &str) -> Result<Vec<PathBuf>, Error> {
+    let digits = |s: &str| {
+        (s.len() >= 3 && s.bytes().all(|b| b.is_ascii_digit()))
+            .then(|| s.parse().ok())
+            .flatten()
+    };
+    let found = numbered(dir, names, &format!("{stem}%"), digits);
     whole(&found, 1, |n| dir.join(format!("{stem}%{n:03}")))?;
-    Ok(std::iter::once(path.to_path_buf()).chain(found.into_iter().map(|(_, p)| p)).collect())
+    Ok(std::iter::once(dir.join(stem))
+        .chain(found.into_iter().map(|(_, p)| p))
+        .collect())
 }
 
 /// The files of the database named `stem` in `dir`: `stem` itself (SMP) or the MPP family
 /// `stem0000`, `stem0001`, … (both, when both are there: `stem` first), each with its
 /// continuations. Empty when there is none.
 pub fn find(dir: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
+    let names = listing(dir)?;
     let mut out = Vec::new();
-    let single = dir.join(stem);
-    if single.is_file() {
-        out.extend(with_continuations(&single)?);
+    if names.iter().any(|n| n == stem) {
+        out.extend(continuations(dir, &names, stem)?);
     }
-    let family = numbered(dir, stem, |s| {
-        (s.len() == 4 && s.bytes().all(|b| b.is_ascii_digit())).then(|| s.parse().ok()).flatten()
-    })?;
+    let four = |s: &str| {
+        (s.len() == 4 && s.bytes().all(|b| b.is_ascii_digit()))
+            .then(|| s.parse().ok())
+            .flatten()
+    };
+    let family = numbered(dir, &names, stem, four);
     whole(&family, 0, |n| dir.join(format!("{stem}{n:04}")))?;
     for (_, member) in family {
-        out.extend(with_continuations(&member)?);
+        out.extend(continuations(dir, &names, &file_name(&member))?);
     }
     Ok(out)
 }

@@ -248,6 +248,38 @@ impl Values {
     }
 }
 
+/// `data` (values of type `t`) decoded straight to `f64`, as [`Values::to_f64`] of
+/// [`Values::decode`] gives them, without the typed vector between.
+pub(crate) fn decode_f64(h: &Header, t: TypeId, data: &[u8]) -> Vec<f64> {
+    let e = h.endian;
+    match t {
+        TypeId::R4 => chunks(data, e, |b| f32::from_le_bytes(b) as f64),
+        TypeId::R8 => chunks(data, e, f64::from_le_bytes),
+        TypeId::I4 => chunks(data, e, |b| i32::from_le_bytes(b) as f64),
+        _ => Values::decode(h, t, data).to_f64(),
+    }
+}
+
+/// One value of type `t` (its `size` bytes) as `f64`, without allocating for the common types.
+pub(crate) fn decode_one(h: &Header, t: TypeId, b: &[u8]) -> f64 {
+    fn arr<const N: usize>(b: &[u8], e: Endian) -> [u8; N] {
+        let mut a = [0u8; N];
+        a.copy_from_slice(&b[..N]);
+        if e == Endian::Big {
+            a.reverse();
+        }
+        a
+    }
+    let e = h.endian;
+    match t {
+        TypeId::R4 => f32::from_le_bytes(arr(b, e)) as f64,
+        TypeId::R8 => f64::from_le_bytes(arr(b, e)),
+        TypeId::I4 => i32::from_le_bytes(arr(b, e)) as f64,
+        TypeId::I8 => i64::from_le_bytes(arr(b, e)) as f64,
+        _ => Values::decode(h, t, b).to_f64()[0],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -263,7 +295,14 @@ mod tests {
             Values::U2(vec![0, 65535]),
             Values::U4(vec![0, u32::MAX]),
             Values::U8(vec![0, u64::MAX]),
-            Values::R4(vec![0.0, -0.0, 1e-38, f32::MIN_POSITIVE / 2.0, 3.4148092, f32::INFINITY]),
+            Values::R4(vec![
+                0.0,
+                -0.0,
+                1e-38,
+                f32::MIN_POSITIVE / 2.0,
+                3.4148092,
+                f32::INFINITY,
+            ]),
             Values::R8(vec![0.0, 6.0802292864536867e-05, f64::MAX, -1e-310]),
             Values::Link(b"/glstat/metadata/title".to_vec()),
         ];

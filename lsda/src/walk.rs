@@ -24,6 +24,12 @@ pub(crate) const SYMBOL_TABLE_OFFSET: i64 = 7;
 
 /// The directory `path` leads to from `cwd` (`/a/b`, `../c`, `.`); both absolute, normalised.
 pub(crate) fn change_dir(cwd: &str, path: &str) -> String {
+    // Already absolute and normal (what LS-DYNA mostly writes): as it is.
+    let clean =
+        |p: &str| p.len() > 1 && !p.ends_with('/') && !p.contains("//") && !p.split('/').any(|c| c == "." || c == "..");
+    if path.starts_with('/') && clean(path) {
+        return path.to_string();
+    }
     let mut parts: Vec<&str> = if path.starts_with('/') {
         Vec::new()
     } else {
@@ -49,12 +55,17 @@ struct Walker<'a> {
     bytes: &'a [u8],
     h: Header,
     cwd: String,
+    /// The number of `cwd` in the database.
+    cwd_id: usize,
     /// The symbol tables met: where each starts and the offset its end record links to.
     tables: Vec<(usize, i64)>,
     /// Every link (where, target): the symbol-table offset record's and each table's.
     links: Vec<(usize, i64)>,
     /// DATA records met after the last symbol table.
     unindexed: usize,
+    /// Every DATA record met, in file order: (offset, type, count, name's byte range), what the
+    /// symbol tables' entries are checked against.
+    records: Vec<(usize, TypeId, usize, std::ops::Range<usize>)>,
     /// Where the file was cut, when it was.
     cut: Option<usize>,
 }
@@ -70,9 +81,11 @@ pub(crate) fn walk(db: &mut Database, file: usize, path: &Path, bytes: &[u8]) ->
         bytes,
         h,
         cwd: "/".into(),
+        cwd_id: 0,
         tables: Vec::new(),
         links: Vec::new(),
         unindexed: 0,
+        records: Vec::new(),
         cut: None,
     };
     let mut pos = h.header_len as usize;
@@ -95,7 +108,7 @@ pub(crate) fn walk(db: &mut Database, file: usize, path: &Path, bytes: &[u8]) ->
     Ok(())
 }
 
-impl Walker<'_> {
+impl<'a> Walker<'a> {
     fn err(&self, at: usize, detail: impl Into<String>) -> Error {
         Error::format(self.path, at, detail)
     }
@@ -114,7 +127,9 @@ impl Walker<'_> {
         let left = self.bytes.len() - at;
         self.note(
             at,
-            format!("the file ends inside {what} ({left} byte(s) of it present): read up to the last whole record before it"),
+            format!(
+                "the file ends inside {what} ({left} byte(s) of it present): read up to the last whole record before it"
+            ),
         );
         None
     }
@@ -126,8 +141,10 @@ impl Walker<'_> {
     /// The record at `pos`: its length, or `None` when the file ends inside it.
     fn record(&mut self, pos: usize) -> Result<Option<usize>, Error> {
         let h = self.h;
-        let (Some(len), Some(cmd)) = (self.int(pos, h.length_size), self.int(pos + h.length_size as usize, h.command_size))
-        else {
+        let (Some(len), Some(cmd)) = (
+            self.int(pos, h.length_size),
+            self.int(pos + h.length_size as usize, h.command_size),
+        ) else {
             return Ok(self.cut_at(pos, "a record's length and command".into()));
         };
         if cmd == BEGIN_SYMBOL_TABLE && len == 0 {
@@ -137,10 +154,16 @@ impl Walker<'_> {
         if len < h.record_head() as i64 {
             return Err(self.err(
                 pos,
-                format!("record length {len} is shorter than the record's own length and command ({} bytes)", h.record_head()),
+                format!(
+                    "record length {len} is shorter than the record's own length and command ({} bytes)",
+                    h.record_head()
+                ),
             ));
         }
-        let Some(end) = usize::try_from(len).ok().and_then(|l| pos.checked_add(l)).filter(|&e| e <= self.bytes.len())
+        let Some(end) = usize::try_from(len)
+            .ok()
+            .and_then(|l| pos.checked_add(l))
+            .filter(|&e| e <= self.bytes.len())
         else {
             return Ok(self.cut_at(pos, format!("a record of {len} bytes (command {cmd})")));
         };
@@ -156,38 +179,76 @@ impl Walker<'_> {
             VARIABLE | END_SYMBOL_TABLE => {
                 return Err(self.err(pos, format!("command {cmd} outside a symbol table")));
             }
-            other => return Err(self.err(pos, format!("unknown command {other} (expected 2 CD, 3 DATA, 5 symbol table or 7 symbol table offset)"))),
+            other => {
+                return Err(self.err(
+                    pos,
+                    format!("unknown command {other} (expected 2 CD, 3 DATA, 5 symbol table or 7 symbol table offset)"),
+                ));
+            }
         }
         Ok(Some(end - pos))
     }
 
-    fn text(&self, at: usize, range: std::ops::Range<usize>, what: &str) -> Result<String, Error> {
-        let raw = &self.bytes[range];
-        String::from_utf8(raw.to_vec()).map_err(|_| self.err(at, format!("{what} is not text: {raw:?}")))
+    fn text(&self, at: usize, range: std::ops::Range<usize>, what: &str) -> Result<&'a str, Error> {
+        let bytes: &'a [u8] = self.bytes;
+        let raw = &bytes[range];
+        std::str::from_utf8(raw).map_err(|_| self.err(at, format!("{what} is not text: {raw:?}")))
     }
 
     fn cd(&mut self, pos: usize, body: std::ops::Range<usize>) -> Result<(), Error> {
         let path = self.text(pos, body, "a directory name")?;
-        self.cwd = change_dir(&self.cwd, &path);
-        self.db.ensure_dir(&self.cwd);
+        // A directory met before, named absolutely (most CDs): no new string.
+        if let Some(id) = path.starts_with('/').then(|| self.db.dir_id(path)).flatten() {
+            self.cwd.clear();
+            self.cwd.push_str(path);
+            self.cwd_id = id;
+            return Ok(());
+        }
+        self.cwd = change_dir(&self.cwd, path);
+        self.cwd_id = self.db.ensure_dir(&self.cwd);
         Ok(())
     }
 
     /// A DATA record's type, name and the range of its values.
-    fn data_parts(&self, pos: usize, body: std::ops::Range<usize>) -> Result<(TypeId, String, std::ops::Range<usize>), Error> {
+    fn data_parts(
+        &self,
+        pos: usize,
+        body: std::ops::Range<usize>,
+    ) -> Result<(TypeId, &'a str, std::ops::Range<usize>), Error> {
+        let bytes: &'a [u8] = self.bytes;
         let ts = self.h.type_size;
-        let code = self.int(body.start, ts).filter(|_| body.len() > ts as usize).ok_or_else(|| self.err(pos, "a DATA record too short for its type code and name length"))?;
-        let t = TypeId::from_code(code).ok_or_else(|| self.err(pos, format!("unknown type code {code} (expected 1 to 11: I1…I8, U1…U8, R4, R8, LINK)")))?;
+        let code = self
+            .int(body.start, ts)
+            .filter(|_| body.len() > ts as usize)
+            .ok_or_else(|| self.err(pos, "a DATA record too short for its type code and name length"))?;
+        let t = TypeId::from_code(code).ok_or_else(|| {
+            self.err(
+                pos,
+                format!("unknown type code {code} (expected 1 to 11: I1…I8, U1…U8, R4, R8, LINK)"),
+            )
+        })?;
         let name_len = self.bytes[body.start + ts as usize] as usize;
         let name_start = body.start + ts as usize + 1;
         let data_start = name_start + name_len;
         if name_len == 0 || data_start > body.end {
-            return Err(self.err(pos, format!("a DATA record's name of {name_len} bytes does not fit its record")));
+            return Err(self.err(
+                pos,
+                format!("a DATA record's name of {name_len} bytes does not fit its record"),
+            ));
         }
-        let name = self.text(pos, name_start..data_start, "a variable name")?;
+        let raw = &bytes[name_start..data_start];
+        let name =
+            std::str::from_utf8(raw).map_err(|_| self.err(pos, format!("a variable name is not text: {raw:?}")))?;
         let data = data_start..body.end;
         if data.len() % t.size() != 0 {
-            return Err(self.err(pos, format!("`{name}`: {} bytes of data, not a whole number of {} values", data.len(), t.name())));
+            return Err(self.err(
+                pos,
+                format!(
+                    "`{name}`: {} bytes of data, not a whole number of {} values",
+                    data.len(),
+                    t.name()
+                ),
+            ));
         }
         Ok((t, name, data))
     }
@@ -195,6 +256,8 @@ impl Walker<'_> {
     fn data(&mut self, pos: usize, body: std::ops::Range<usize>) -> Result<(), Error> {
         let (type_id, name, data) = self.data_parts(pos, body)?;
         self.unindexed += 1;
+        let name_at = data.start - name.len()..data.start;
+        self.records.push((pos, type_id, data.len() / type_id.size(), name_at));
         let var = Var {
             file: self.file,
             record: pos,
@@ -202,16 +265,23 @@ impl Walker<'_> {
             type_id,
             count: data.len() / type_id.size(),
         };
-        self.db.insert(&self.cwd, name, var);
+        self.db.insert(self.cwd_id, name, var);
         Ok(())
     }
 
     fn offset_field(&self, pos: usize, body: &std::ops::Range<usize>) -> Result<i64, Error> {
         let os = self.h.offset_size as usize;
         if body.len() != os {
-            return Err(self.err(pos, format!("a symbol-table offset record holds {} bytes, expected an offset of {os}", body.len())));
+            return Err(self.err(
+                pos,
+                format!(
+                    "a symbol-table offset record holds {} bytes, expected an offset of {os}",
+                    body.len()
+                ),
+            ));
         }
-        self.int(body.start, self.h.offset_size).ok_or_else(|| self.err(pos, "offset past the end"))
+        self.int(body.start, self.h.offset_size)
+            .ok_or_else(|| self.err(pos, "offset past the end"))
     }
 
     /// A symbol table: CD and VARIABLE entries, then the END record with the next table's offset.
@@ -221,14 +291,26 @@ impl Walker<'_> {
         let mut cwd = String::from("/");
         let mut at = body.start;
         loop {
-            let (Some(len), Some(cmd)) = (self.int(at, h.length_size), self.int(at + h.length_size as usize, h.command_size)) else {
+            let (Some(len), Some(cmd)) = (
+                self.int(at, h.length_size),
+                self.int(at + h.length_size as usize, h.command_size),
+            ) else {
                 return Err(self.err(at, "a symbol table runs past its own length"));
             };
-            let end = usize::try_from(len).ok().filter(|&l| l >= h.record_head()).and_then(|l| at.checked_add(l)).filter(|&e| e <= body.end)
-                .ok_or_else(|| self.err(at, format!("a symbol-table entry of length {len} does not fit its table")))?;
+            let end = usize::try_from(len)
+                .ok()
+                .filter(|&l| l >= h.record_head())
+                .and_then(|l| at.checked_add(l))
+                .filter(|&e| e <= body.end)
+                .ok_or_else(|| {
+                    self.err(
+                        at,
+                        format!("a symbol-table entry of length {len} does not fit its table"),
+                    )
+                })?;
             let inner = at + h.record_head()..end;
             match cmd {
-                CD => cwd = change_dir(&cwd, &self.text(at, inner, "a directory name")?),
+                CD => cwd = change_dir(&cwd, self.text(at, inner, "a directory name")?),
                 VARIABLE => self.entry(at, inner, &cwd)?,
                 END_SYMBOL_TABLE => {
                     let target = self.offset_field(at, &inner)?;
@@ -239,7 +321,12 @@ impl Walker<'_> {
                     }
                     return Ok(());
                 }
-                other => return Err(self.err(at, format!("command {other} inside a symbol table (expected CD, VARIABLE or END)"))),
+                other => {
+                    return Err(self.err(
+                        at,
+                        format!("command {other} inside a symbol table (expected CD, VARIABLE or END)"),
+                    ));
+                }
             }
             at = end;
         }
@@ -252,26 +339,33 @@ impl Walker<'_> {
         if inner.len() <= tail {
             return Err(self.err(at, "a symbol-table entry too short for a name, type, offset and length"));
         }
-        let name = self.text(at, inner.start..inner.end - tail, "a variable name")?;
+        let name_bytes = &self.bytes[inner.start..inner.end - tail];
         let p = inner.end - tail;
-        let fields = (self.int(p, h.type_size), self.int(p + h.type_size as usize, h.offset_size), self.int(p + h.type_size as usize + h.offset_size as usize, h.length_size));
+        let fields = (
+            self.int(p, h.type_size),
+            self.int(p + h.type_size as usize, h.offset_size),
+            self.int(p + h.type_size as usize + h.offset_size as usize, h.length_size),
+        );
         let (Some(code), Some(offset), Some(count)) = fields else {
             return Err(self.err(at, "a symbol-table entry past the end"));
         };
-        let bad = |why: String| self.err(at, format!("symbol-table entry `{cwd}/{name}`: {why}"));
+        let bad = |why: String| {
+            let name = String::from_utf8_lossy(name_bytes);
+            self.err(at, format!("symbol-table entry `{cwd}/{name}`: {why}"))
+        };
         let Ok(record) = usize::try_from(offset) else {
             return Err(bad(format!("negative offset {offset}")));
         };
-        let (Some(len), Some(DATA)) = (self.int(record, h.length_size), self.int(record + h.length_size as usize, h.command_size)) else {
-            return Err(bad(format!("no DATA record at offset {record}")));
+        // The DATA records met so far are in file order: find the one at `record`.
+        let Ok(k) = self.records.binary_search_by_key(&record, |r| r.0) else {
+            return Err(bad(format!("no DATA record starts at offset {record}")));
         };
-        let end = usize::try_from(len).ok().and_then(|l| record.checked_add(l)).filter(|&e| e <= self.bytes.len() && len >= h.record_head() as i64)
-            .ok_or_else(|| bad(format!("the DATA record at offset {record} has a bad length {len}")))?;
-        let (t, data_name, data) = self.data_parts(record, record + h.record_head()..end)?;
-        let count_there = (data.len() / t.size()) as i64;
-        if data_name != name || Some(t) != TypeId::from_code(code) || count_there != count {
+        let (_, t, count_there, name_at) = self.records[k].clone();
+        let data_name = &self.bytes[name_at];
+        if data_name != name_bytes || Some(t) != TypeId::from_code(code) || count_there as i64 != count {
             return Err(bad(format!(
-                "says type code {code} and {count} value(s) at offset {record}, where the record holds `{data_name}` of {} × {}",
+                "says type code {code} and {count} value(s) at offset {record}, where the record holds `{}` of {} × {}",
+                String::from_utf8_lossy(data_name),
                 count_there,
                 t.name()
             )));
@@ -292,7 +386,10 @@ impl Walker<'_> {
                 || usize::try_from(target)
                     .is_ok_and(|t| self.tables.iter().any(|s| s.0 == t) || self.cut.is_some_and(|c| t >= c));
             if !ok {
-                return Err(self.err(at, format!("link to a symbol table at offset {target}, where none starts")));
+                return Err(self.err(
+                    at,
+                    format!("link to a symbol table at offset {target}, where none starts"),
+                ));
             }
         }
         let Some(&(_, first)) = self.links.first() else {
@@ -301,7 +398,9 @@ impl Walker<'_> {
         let mut reached = 0;
         let mut next = first;
         while next != 0 && reached <= self.tables.len() {
-            let Some(table) = self.tables.iter().find(|s| s.0 as i64 == next) else { break };
+            let Some(table) = self.tables.iter().find(|s| s.0 as i64 == next) else {
+                break;
+            };
             reached += 1;
             next = table.1;
         }
@@ -314,7 +413,13 @@ impl Walker<'_> {
             self.note(last, "the last symbol table is not linked from the one before (the writer stopped before linking it); read anyway".into());
             return Ok(());
         }
-        Err(self.err(last, format!("the symbol-table chain reaches {reached} of the file's {} tables", self.tables.len())))
+        Err(self.err(
+            last,
+            format!(
+                "the symbol-table chain reaches {reached} of the file's {} tables",
+                self.tables.len()
+            ),
+        ))
     }
 }
 

@@ -79,7 +79,8 @@ impl Writer {
 
     fn write_cd(&mut self, path: &str) -> Result<(), Error> {
         let len = (self.h.record_head() + path.len()) as i64;
-        self.head(len, CD).ok_or_else(|| too_big(path, "the directory record"))?;
+        self.head(len, CD)
+            .ok_or_else(|| too_big(path, "the directory record"))?;
         self.buf.extend_from_slice(path.as_bytes());
         Ok(())
     }
@@ -100,8 +101,11 @@ impl Writer {
         let t = values.type_id();
         let offset = self.buf.len();
         let len = self.h.record_head() + self.h.type_size as usize + 1 + name.len() + values.len() * t.size();
-        self.head(len as i64, DATA).ok_or_else(|| too_big(name, "the record length"))?;
-        self.h.put_int(&mut self.buf, t.code() as i64, self.h.type_size).ok_or_else(|| too_big(name, "the type code"))?;
+        self.head(len as i64, DATA)
+            .ok_or_else(|| too_big(name, "the record length"))?;
+        self.h
+            .put_int(&mut self.buf, t.code() as i64, self.h.type_size)
+            .ok_or_else(|| too_big(name, "the type code"))?;
         self.buf.push(name.len() as u8);
         self.buf.extend_from_slice(name.as_bytes());
         values.encode(&self.h, &mut self.buf);
@@ -148,8 +152,10 @@ impl Writer {
         let next_link = self.buf.len();
         h.put_int(&mut self.buf, 0, h.offset_size).expect("0 fits");
         let table_len = self.buf.len() - start;
-        h.patch_int(&mut self.buf, start, table_len as i64, h.length_size).ok_or_else(|| too_big("symbol table", "its length"))?;
-        h.patch_int(&mut self.buf, self.link_at, start as i64, h.offset_size).ok_or_else(|| too_big("symbol table", "its offset"))?;
+        h.patch_int(&mut self.buf, start, table_len as i64, h.length_size)
+            .ok_or_else(|| too_big("symbol table", "its length"))?;
+        h.patch_int(&mut self.buf, self.link_at, start as i64, h.offset_size)
+            .ok_or_else(|| too_big("symbol table", "its offset"))?;
         self.link_at = next_link;
         Ok(())
     }
@@ -183,7 +189,10 @@ impl Writer {
                 name.push(format!("%{k:03}"));
                 PathBuf::from(name)
             };
-            std::fs::write(&p, bytes).map_err(|source| Error::Io { file: p.clone(), source })?;
+            std::fs::write(&p, bytes).map_err(|source| Error::Io {
+                file: p.clone(),
+                source,
+            })?;
             written.push(p);
         }
         Ok(written)

@@ -32,8 +32,14 @@ fn the_three_versions_read_whole_with_lasso_pythons_figures() {
         let db = open(v);
         assert!(db.notes().is_empty(), "{v}: {:?}", db.notes());
         let h = db.header(0).unwrap();
-        assert_eq!((h.length_size, h.offset_size, h.command_size, h.type_size, h.endian), (8, 8, 1, 1, Endian::Little));
-        assert_eq!(db.subdirs("/").unwrap().collect::<Vec<_>>(), ["glstat", "matsum", "rcforc", "rwforc"]);
+        assert_eq!(
+            (h.length_size, h.offset_size, h.command_size, h.type_size, h.endian),
+            (8, 8, 1, 1, Endian::Little)
+        );
+        assert_eq!(
+            db.subdirs("/").unwrap().collect::<Vec<_>>(),
+            ["glstat", "matsum", "rcforc", "rwforc"]
+        );
         let time = over_steps(&db, "/glstat", "time");
         assert_eq!(time.len(), 88, "{v}");
         assert_eq!(time[87], last_time, "{v}");

@@ -39,12 +39,17 @@ fn write(h: Header, flush_every: usize, split_at: Option<usize>) -> Vec<Vec<u8>>
 
 fn check(db: &Database) {
     for (dir, name, v) in sample() {
-        let got = db.variable(&format!("{dir}/{name}")).unwrap_or_else(|| panic!("{dir}/{name}"));
+        let got = db
+            .variable(&format!("{dir}/{name}"))
+            .unwrap_or_else(|| panic!("{dir}/{name}"));
         assert_eq!(got.type_id(), v.type_id());
         assert_eq!(got.values(), v, "{dir}/{name}");
     }
     assert!(db.notes().is_empty(), "{:?}", db.notes());
-    assert_eq!(db.subdirs("/glstat").unwrap().collect::<Vec<_>>(), ["d000001", "d000002", "metadata"]);
+    assert_eq!(
+        db.subdirs("/glstat").unwrap().collect::<Vec<_>>(),
+        ["d000001", "d000002", "metadata"]
+    );
     assert!(db.is_dir("x/y/z"));
     assert_eq!(db.variable("/x/u8").unwrap().type_id(), TypeId::U8);
 }
@@ -82,7 +87,10 @@ fn continuation_files_are_found_and_read_as_one() {
         w.write(name, v).unwrap();
     }
     let written = w.save(&dir.path().join("binout")).unwrap();
-    let names: Vec<String> = written.iter().map(|p| p.file_name().unwrap().to_string_lossy().into()).collect();
+    let names: Vec<String> = written
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into())
+        .collect();
     assert_eq!(names, ["binout", "binout%001", "binout%002"]);
     check(&Database::open(dir.path().join("binout")).unwrap());
     assert_eq!(lsda::set::find(dir.path(), "binout").unwrap(), written);
@@ -105,7 +113,10 @@ fn an_mpp_family_is_read_whole_or_named_where_it_has_a_gap() {
     assert_eq!(files.len(), 3);
     let db = Database::open_files(&files).unwrap();
     assert_eq!(db.variable("/nodout/d000001/time").unwrap().to_f64(), [2.0]);
-    assert_eq!(db.subdirs("/").unwrap().collect::<Vec<_>>(), ["glstat", "nodout", "rcforc"]);
+    assert_eq!(
+        db.subdirs("/").unwrap().collect::<Vec<_>>(),
+        ["glstat", "nodout", "rcforc"]
+    );
     std::fs::remove_file(dir.path().join("binout0001")).unwrap();
     let e = lsda::set::find(dir.path(), "binout").unwrap_err().to_string();
     assert!(e.contains("binout0001 is not there"), "{e}");

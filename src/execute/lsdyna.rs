@@ -32,8 +32,8 @@ use std::path::{Path, PathBuf};
 
 use super::{Adapter, Judged, Outcome, ResponseProblem, STDOUT_FILE};
 use crate::extract::crush::{self, SimSource, Window};
-use crate::extract::lsdyna::complete::{self, Expected, Incomplete};
 use crate::extract::lsdyna::binout::{self, Binout, histories};
+use crate::extract::lsdyna::complete::{self, Expected, Incomplete};
 use crate::extract::lsdyna::{controls, glstat, nodout, quality, rcforc, termination};
 
 /// Files scanned for the termination line, in order.
@@ -189,7 +189,10 @@ fn open_binout(dir: &Path) -> Result<Option<Binout>, Outcome> {
         Ok(b) => b,
         Err(e) if e.message.contains("missing from its set") => {
             return Err(Outcome::IncompleteOutput {
-                file: e.file.file_name().map_or_else(|| e.file.display().to_string(), |n| n.to_string_lossy().into()),
+                file: e
+                    .file
+                    .file_name()
+                    .map_or_else(|| e.file.display().to_string(), |n| n.to_string_lossy().into()),
                 line: 0,
                 detail: e.message,
             });
@@ -198,7 +201,10 @@ fn open_binout(dir: &Path) -> Result<Option<Binout>, Outcome> {
     };
     if let Some(note) = bin.as_ref().and_then(|b| b.db.notes().first()) {
         return Err(Outcome::IncompleteOutput {
-            file: note.file.file_name().map_or_else(String::new, |n| n.to_string_lossy().into()),
+            file: note
+                .file
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into()),
             line: 0,
             detail: format!("offset {}: {}", note.offset, note.detail),
         });
@@ -217,7 +223,10 @@ fn from_binout(dir: &Path, deck: &controls::Controls, bin: Option<&Binout>, name
 fn binout_incomplete(b: &Binout, history: &str, i: Incomplete) -> Outcome {
     let place = histories::place(b, &format!("/{history}"), i.line);
     Outcome::IncompleteOutput {
-        file: b.name.file_name().map_or_else(String::new, |n| n.to_string_lossy().into()),
+        file: b
+            .name
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into()),
         line: 0,
         detail: format!("{history} {place}: {}", i.detail),
     }
@@ -259,7 +268,8 @@ impl LsDynaAdapter {
         }
         no_binout(deck, bin, "rcforc")?;
         let text = read(dir, "rcforc")?;
-        let rc = rcforc::parse(Path::new("rcforc"), &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+        let rc =
+            rcforc::parse(Path::new("rcforc"), &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
         complete::ends_with_newline("rcforc", &text).map_err(incomplete)?;
         complete::rcforc(&rc, want, text.lines().count()).map_err(incomplete)?;
         Ok(rc)
@@ -288,7 +298,10 @@ impl LsDynaAdapter {
             .map_err(|i| binout_incomplete(b, "rwforc/forces", i))?;
         rw.walls.remove(&id).ok_or_else(|| {
             let have: Vec<String> = rw.walls.keys().map(|k| k.to_string()).collect();
-            bad(ResponseProblem::Unparseable, format!("binout rwforc has no rigid wall {id} (walls: {})", have.join(", ")))
+            bad(
+                ResponseProblem::Unparseable,
+                format!("binout rwforc has no rigid wall {id} (walls: {})", have.join(", ")),
+            )
         })
     }
 
@@ -304,7 +317,8 @@ impl LsDynaAdapter {
         }
         no_binout(deck, bin, "nodout")?;
         let text = read(dir, "nodout")?;
-        let nod = nodout::parse(Path::new("nodout"), &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+        let nod =
+            nodout::parse(Path::new("nodout"), &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
         complete::ends_with_newline("nodout", &text).map_err(incomplete)?;
         complete::nodout(&nod, &deck.history_nodes, want, text.lines().count()).map_err(incomplete)?;
         Ok(nod)
@@ -363,7 +377,10 @@ fn no_binout(deck: &controls::Controls, bin: Option<&Binout>, history: &str) -> 
 /// A history the deck sends to binout but the binout lacks.
 fn missing_in_binout(b: &Binout, history: &str) -> Outcome {
     Outcome::IncompleteOutput {
-        file: b.name.file_name().map_or_else(String::new, |n| n.to_string_lossy().into()),
+        file: b
+            .name
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into()),
         line: 0,
         detail: format!("no /{history} in the binout, though the deck sends {history} there (BINARY 2 or 3)"),
     }

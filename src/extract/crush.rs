@@ -574,8 +574,15 @@ pub fn read_run(dirs: &[std::path::PathBuf], key: &str, source: &SimSource) -> O
     use super::lsdyna::binout::{self, histories};
     use super::lsdyna::{nodout, rcforc};
     let has_binout = |d: &Path| d.join(binout::STEM).is_file() || d.join(format!("{}0000", binout::STEM)).is_file();
-    let dir = dirs.iter().map(|d| d.join(key)).find(|d| d.join("rcforc").is_file() || has_binout(d))?;
-    let b = if has_binout(&dir) { binout::open_dir(&dir).ok().flatten() } else { None };
+    let dir = dirs
+        .iter()
+        .map(|d| d.join(key))
+        .find(|d| d.join("rcforc").is_file() || has_binout(d))?;
+    let b = if has_binout(&dir) {
+        binout::open_dir(&dir).ok().flatten()
+    } else {
+        None
+    };
     let text = |name: &str| std::fs::read_to_string(dir.join(name)).ok();
     if let Some(id) = source.rigid_wall {
         let b = b.as_ref()?;

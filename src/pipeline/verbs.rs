@@ -400,7 +400,10 @@ fn series_table(s: &crate::extract::lsdyna::binout::Series) -> String {
         SeriesValues::Scalar(v) => s.time.iter().zip(v).for_each(|(t, x)| out += &format!("{t:e} {x}\n")),
         SeriesValues::PerId(v) => {
             if let Some(ids) = &s.ids {
-                out += &format!("# time, then ids {}\n", ids.iter().map(|i| i.to_string()).collect::<Vec<_>>().join(" "));
+                out += &format!(
+                    "# time, then ids {}\n",
+                    ids.iter().map(|i| i.to_string()).collect::<Vec<_>>().join(" ")
+                );
             }
             for (k, t) in s.time.iter().enumerate() {
                 let row: Vec<String> = v.iter().map(|id| id[k].to_string()).collect();
@@ -413,21 +416,31 @@ fn series_table(s: &crate::extract::lsdyna::binout::Series) -> String {
 
 /// The force history for `lab extract`: rcforc's first interface (its SURFB side) when rcforc
 /// has data, else rwforc's first wall's normal force; with the words saying which.
-fn binout_force(b: &crate::extract::lsdyna::binout::Binout) -> Result<(crate::extract::lsdyna::binout::histories::WallSeries, String), Error> {
+fn binout_force(
+    b: &crate::extract::lsdyna::binout::Binout,
+) -> Result<(crate::extract::lsdyna::binout::histories::WallSeries, String), Error> {
     use crate::extract::lsdyna::binout::histories;
     use crate::extract::lsdyna::rcforc::Side;
-    if let Some(rc) = histories::rcforc(b)? {
-        if let Some(((_, id), s)) = rc.interfaces.iter().find(|((side, _), _)| *side == Side::SurfB) {
-            let w = histories::WallSeries { time: s.time.clone(), normal: Vec::new(), force: [s.x.clone(), s.y.clone(), s.z.clone()] };
-            return Ok((w, format!("rcforc interface {id} (SURFB/master)")));
-        }
+    if let Some(rc) = histories::rcforc(b)?
+        && let Some(((_, id), s)) = rc.interfaces.iter().find(|((side, _), _)| *side == Side::SurfB)
+    {
+        let w = histories::WallSeries {
+            time: s.time.clone(),
+            normal: Vec::new(),
+            force: [s.x.clone(), s.y.clone(), s.z.clone()],
+        };
+        return Ok((w, format!("rcforc interface {id} (SURFB/master)")));
     }
-    if let Some(rw) = histories::rwforc(b)? {
-        if let Some((id, w)) = rw.walls.into_iter().next() {
-            return Ok((w, format!("rwforc rigid wall {id}")));
-        }
+    if let Some(rw) = histories::rwforc(b)?
+        && let Some((id, w)) = rw.walls.into_iter().next()
+    {
+        return Ok((w, format!("rwforc rigid wall {id}")));
     }
-    Err(InputError::file(&b.name, "no force history: neither rcforc resultants nor rwforc rigid-wall forces").into())
+    Err(InputError::file(
+        &b.name,
+        "no force history: neither rcforc resultants nor rwforc rigid-wall forces",
+    )
+    .into())
 }
 
 /// The mean force over the stroke window: the force history against the node of nodout that
@@ -437,10 +450,22 @@ fn binout_mean_force(b: &crate::extract::lsdyna::binout::Binout, w: crush::Windo
     use crate::extract::lsdyna::binout::histories;
     let (force, what) = binout_force(b)?;
     let Some(nod) = histories::nodout(b)?.filter(|n| !n.nodes.is_empty()) else {
-        let f = if force.normal.is_empty() { &force.force[2] } else { &force.normal };
-        let (peak, at) = force.time.iter().zip(f).fold((0.0f64, 0.0), |m, (t, v)| if v.abs() > m.0.abs() { (*v, *t) } else { m });
+        let f = if force.normal.is_empty() {
+            &force.force[2]
+        } else {
+            &force.normal
+        };
+        let (peak, at) = force.time.iter().zip(f).fold(
+            (0.0f64, 0.0),
+            |m, (t, v)| if v.abs() > m.0.abs() { (*v, *t) } else { m },
+        );
         let span = force.time.last().copied().unwrap_or(0.0) - force.time.first().copied().unwrap_or(0.0);
-        let area: f64 = force.time.windows(2).zip(f.windows(2)).map(|(t, v)| 0.5 * (v[0] + v[1]) * (t[1] - t[0])).sum();
+        let area: f64 = force
+            .time
+            .windows(2)
+            .zip(f.windows(2))
+            .map(|(t, v)| 0.5 * (v[0] + v[1]) * (t[1] - t[0]))
+            .sum();
         let mean = if span > 0.0 { area / span } else { f64::NAN };
         return Ok(format!(
             "{what}{}: peak {peak} at time {at:e}, time average {mean} over {} outputs (the solver's force unit); no nodout in this binout, so no stroke and no mean crush force\n",
@@ -459,10 +484,21 @@ fn binout_mean_force(b: &crate::extract::lsdyna::binout::Binout, w: crush::Windo
         .max_by(|x, y| x.2.total_cmp(&y.2))
         .map(|(id, a, _)| (id, a))
         .expect("nodout has nodes");
-    let f = if force.normal.is_empty() { &force.force[axis] } else { &force.normal };
+    let f = if force.normal.is_empty() {
+        &force.force[axis]
+    } else {
+        &force.normal
+    };
     let n = &nod.nodes[&node];
-    let curve = crush::from_histories(&force.time, f, &n.time, &n.disp[axis], crush::Sign::Auto, crush::Sign::Auto)
-        .map_err(|e| InputError::file(&b.name, e.to_string()))?;
+    let curve = crush::from_histories(
+        &force.time,
+        f,
+        &n.time,
+        &n.disp[axis],
+        crush::Sign::Auto,
+        crush::Sign::Auto,
+    )
+    .map_err(|e| InputError::file(&b.name, e.to_string()))?;
     let r = crush::crush_force(&curve, w).map_err(|e| InputError::file(&b.name, e.to_string()))?;
     let axis_name = ["x", "y", "z"][axis];
     Ok(format!(

@@ -89,11 +89,18 @@ pub fn parse(file: &Path, text: &str) -> Result<Controls, InputError> {
                             text,
                             c.line,
                             11,
-                            format!("*{}: BINARY is {v}, expected 1 (ASCII), 2 (binout) or 3 (both)", b.keyword),
+                            format!(
+                                "*{}: BINARY is {v}, expected 1 (ASCII), 2 (binout) or 3 (both)",
+                                b.keyword
+                            ),
                         ));
                     }
                 };
-                let interval = field(c, 0)?.map(|dt| Interval { dt, line: c.line, binary });
+                let interval = field(c, 0)?.map(|dt| Interval {
+                    dt,
+                    line: c.line,
+                    binary,
+                });
                 match b.keyword.as_str() {
                     "DATABASE_RCFORC" => out.rcforc = interval,
                     "DATABASE_NODOUT" => out.nodout = interval,

@@ -38,12 +38,16 @@ pub struct RunSummary {
 
 /// The number after `=` on a `label = value` line.
 fn after_equals(line: &str) -> Option<f64> {
-    line.split_once('=').and_then(|(_, v)| v.split_whitespace().next()).and_then(parse_number)
+    line.split_once('=')
+        .and_then(|(_, v)| v.split_whitespace().next())
+        .and_then(parse_number)
 }
 
 /// The whole numbers of a line, in order.
 fn numbers(line: &str) -> Vec<f64> {
-    line.split(|c: char| c.is_whitespace() || c == '(' || c == ')').filter_map(parse_number).collect()
+    line.split(|c: char| c.is_whitespace() || c == '(' || c == ')')
+        .filter_map(parse_number)
+        .collect()
 }
 
 /// Reads the summary from d3hsp text.
@@ -70,7 +74,10 @@ pub fn parse(text: &str) -> RunSummary {
         } else if let Some(rest) = t.strip_prefix("Elapsed time") {
             let n = numbers(rest);
             s.elapsed_seconds = n.first().copied().or(s.elapsed_seconds);
-            let cycles = rest.split_once(" for ").and_then(|(_, c)| c.split_whitespace().next()).and_then(parse_number);
+            let cycles = rest
+                .split_once(" for ")
+                .and_then(|(_, c)| c.split_whitespace().next())
+                .and_then(parse_number);
             s.elapsed_cycles = cycles.map(|c| c as u64).or(s.elapsed_cycles);
         }
     }

@@ -37,23 +37,43 @@ pub fn place(b: &Binout, dir: &str, ordinal: usize) -> String {
 struct Step<'a> {
     b: &'a Binout,
     path: &'a str,
+    /// The step directory's number in the database (one lookup of its path).
+    id: usize,
 }
 
-impl Step<'_> {
+impl<'a> Step<'a> {
+    fn new(b: &'a Binout, path: &'a str) -> Step<'a> {
+        let id = b.db.dir_id(path).unwrap_or(usize::MAX);
+        Step { b, path, id }
+    }
+
+    fn var(&self, name: &str) -> Option<lsda::Variable<'a>> {
+        self.b.db.variable_at(self.id, name)
+    }
+
     fn get(&self, name: &str, n: usize) -> Result<Vec<f64>, InputError> {
-        let v = self.b.db.variable_in(self.path, name).ok_or_else(|| self.missing(name))?;
+        Ok(self.checked(name, n)?.to_f64())
+    }
+
+    /// Variable `name`, which must hold `n` values.
+    fn checked(&self, name: &str, n: usize) -> Result<lsda::Variable<'a>, InputError> {
+        let v = self.var(name).ok_or_else(|| self.missing(name))?;
         if v.len() != n {
             let (file, offset) = v.place();
             return Err(InputError::file(
                 file,
-                format!("offset {offset}: {}/{name} has {} value(s), expected {n} (one per entry of the metadata)", self.path, v.len()),
+                format!(
+                    "offset {offset}: {}/{name} has {} value(s), expected {n} (one per entry of the metadata)",
+                    self.path,
+                    v.len()
+                ),
             ));
         }
-        Ok(v.to_f64())
+        Ok(v)
     }
 
     fn optional(&self, name: &str, n: usize) -> Result<Option<Vec<f64>>, InputError> {
-        match self.b.db.variable_in(self.path, name) {
+        match self.var(name) {
             None => Ok(None),
             Some(_) => self.get(name, n).map(Some),
         }
@@ -64,9 +84,17 @@ impl Step<'_> {
     }
 
     fn missing(&self, name: &str) -> InputError {
-        let first = self.b.db.variables(self.path).and_then(|mut v| v.next()).map(|(_, v)| v.place().1);
+        let first = self
+            .b
+            .db
+            .variables(self.path)
+            .and_then(|mut v| v.next())
+            .map(|(_, v)| v.place().1);
         let at = first.map_or_else(String::new, |o| format!("offset {o}: "));
-        InputError::file(&self.b.name, format!("{at}{}: no `{name}` in this output step", self.path))
+        InputError::file(
+            &self.b.name,
+            format!("{at}{}: no `{name}` in this output step", self.path),
+        )
     }
 }
 
@@ -74,10 +102,11 @@ impl Step<'_> {
 fn readable_steps(b: &Binout, dir: &str, needs: &[&str]) -> Vec<String> {
     let mut steps = b.steps(dir);
     let cut = !b.db.notes().is_empty();
-    if cut && let Some(last) = steps.last() {
-        if needs.iter().any(|n| b.db.variable_in(last, n).is_none()) {
-            steps.pop();
-        }
+    if cut
+        && let Some(last) = steps.last()
+        && needs.iter().any(|n| b.db.variable_in(last, n).is_none())
+    {
+        steps.pop();
     }
     steps
 }
@@ -98,7 +127,12 @@ fn ids(b: &Binout, path: &str) -> Result<Vec<u64>, InputError> {
     v.values()
         .to_i64()
         .and_then(|ids| ids.into_iter().map(|i| u64::try_from(i).ok()).collect())
-        .ok_or_else(|| InputError::file(file, format!("offset {offset}: {path}: expected non-negative integer ids")))
+        .ok_or_else(|| {
+            InputError::file(
+                file,
+                format!("offset {offset}: {path}: expected non-negative integer ids"),
+            )
+        })
 }
 
 /// rcforc from the binout; `None` when it has no `/rcforc`.
@@ -109,7 +143,10 @@ pub fn rcforc(b: &Binout) -> Result<Option<Rcforc>, InputError> {
     let ids = ids(b, "/rcforc/metadata/ids")?;
     let sides = ids_or_empty(b, "/rcforc/metadata/side")?;
     if sides.len() != ids.len() {
-        return Err(InputError::file(&b.name, format!("/rcforc/metadata: {} ids but {} sides", ids.len(), sides.len())));
+        return Err(InputError::file(
+            &b.name,
+            format!("/rcforc/metadata: {} ids but {} sides", ids.len(), sides.len()),
+        ));
     }
     let n = ids.len();
     let mut out = Rcforc {
@@ -118,25 +155,36 @@ pub fn rcforc(b: &Binout) -> Result<Option<Rcforc>, InputError> {
     };
     let names = ["time", "x_force", "y_force", "z_force", "mass"];
     for (k, path) in readable_steps(b, "/rcforc", &names).iter().enumerate() {
-        let s = Step { b, path };
+        let s = Step::new(b, path);
         let time = s.time()?;
-        let f: Vec<Vec<f64>> = names[1..].iter().map(|name| s.get(name, n)).collect::<Result<_, _>>()?;
-        let moments = ["x_moment", "y_moment", "z_moment"].iter().map(|m| s.optional(m, n)).collect::<Result<Vec<_>, _>>()?;
+        let f: Vec<lsda::Variable> = names[1..]
+            .iter()
+            .map(|name| s.checked(name, n))
+            .collect::<Result<_, _>>()?;
+        let moments = ["x_moment", "y_moment", "z_moment"]
+            .iter()
+            .map(|m| s.optional(m, n))
+            .collect::<Result<Vec<_>, _>>()?;
         for j in 0..n {
             let side = if sides[j] == 0 { Side::SurfA } else { Side::SurfB };
             let series = out.interfaces.entry((side, ids[j])).or_default();
             series.time.push(time);
-            series.x.push(f[0][j]);
-            series.y.push(f[1][j]);
-            series.z.push(f[2][j]);
-            series.mass.push(f[3][j]);
+            series.x.push(f[0].f64_at(j));
+            series.y.push(f[1].f64_at(j));
+            series.z.push(f[2].f64_at(j));
+            series.mass.push(f[3].f64_at(j));
             if let [Some(mx), Some(my), Some(mz)] = &moments[..] {
                 let m = series.moments.get_or_insert_with(Default::default);
                 m[0].push(mx[j]);
                 m[1].push(my[j]);
                 m[2].push(mz[j]);
             }
-            out.rows.push(RowAt { line: k + 1, side, interface: ids[j], time });
+            out.rows.push(RowAt {
+                line: k + 1,
+                side,
+                interface: ids[j],
+                time,
+            });
         }
     }
     Ok(Some(out))
@@ -175,20 +223,24 @@ pub fn nodout(b: &Binout) -> Result<Option<Nodout>, InputError> {
     let mut needs = vec!["time"];
     needs.extend(NODOUT);
     for (k, path) in readable_steps(b, "/nodout", &needs).iter().enumerate() {
-        let s = Step { b, path };
+        let s = Step::new(b, path);
         let time = s.time()?;
         let cycle = s.optional("cycle", 1)?.map_or(0, |c| c[0] as u64);
-        let cols: Vec<Vec<f64>> = NODOUT.iter().map(|name| s.get(name, n)).collect::<Result<_, _>>()?;
+        let cols: Vec<lsda::Variable> = NODOUT.iter().map(|name| s.checked(name, n)).collect::<Result<_, _>>()?;
         out.steps.push((cycle, time));
-        out.blocks.push(NodoutBlock { line: k + 1, time, nodes: ids.clone() });
+        out.blocks.push(NodoutBlock {
+            line: k + 1,
+            time,
+            nodes: ids.clone(),
+        });
         for (j, id) in ids.iter().enumerate() {
             let series = out.nodes.entry(*id).or_default();
             series.time.push(time);
             for a in 0..3 {
-                series.disp[a].push(cols[a][j]);
-                series.vel[a].push(cols[3 + a][j]);
-                series.accl[a].push(cols[6 + a][j]);
-                series.coor[a].push(cols[9 + a][j]);
+                series.disp[a].push(cols[a].f64_at(j));
+                series.vel[a].push(cols[3 + a].f64_at(j));
+                series.accl[a].push(cols[6 + a].f64_at(j));
+                series.coor[a].push(cols[9 + a].f64_at(j));
             }
         }
     }
@@ -215,7 +267,7 @@ pub fn glstat(b: &Binout) -> Result<Option<Glstat>, InputError> {
         steps: Vec::new(),
     };
     for (k, path) in readable_steps(b, "/glstat", &["time"]).iter().enumerate() {
-        let s = Step { b, path };
+        let s = Step::new(b, path);
         let mut step = GlstatStep {
             cycle: s.optional("cycle", 1)?.map(|c| c[0] as u64),
             time: s.time()?,
@@ -268,7 +320,7 @@ pub fn rwforc(b: &Binout) -> Result<Option<Rwforc>, InputError> {
     };
     let names = ["time", "normal_force", "x_force", "y_force", "z_force"];
     for (k, path) in readable_steps(b, dir, &names).iter().enumerate() {
-        let s = Step { b, path };
+        let s = Step::new(b, path);
         let time = s.time()?;
         let f: Vec<Vec<f64>> = names[1..].iter().map(|name| s.get(name, n)).collect::<Result<_, _>>()?;
         out.steps.push((k + 1, time));

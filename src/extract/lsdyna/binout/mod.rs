@@ -56,9 +56,13 @@ pub fn open_dir(dir: &Path) -> Result<Option<Binout>, InputError> {
 /// a run directory holding one.
 pub fn open(path: &Path) -> Result<Binout, InputError> {
     if path.is_dir() {
-        return open_dir(path)?.ok_or_else(|| InputError::file(path, "no binout (binout, binout0000, …) in this directory"));
+        return open_dir(path)?
+            .ok_or_else(|| InputError::file(path, "no binout (binout, binout0000, …) in this directory"));
     }
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let mpp = name.len() > 4 && name[name.len() - 4..].bytes().all(|b| b.is_ascii_digit()) && !name.contains('%');
     let files = if mpp {
         let dir = path.parent().unwrap_or(Path::new(""));
@@ -107,7 +111,11 @@ impl Binout {
     pub fn steps(&self, dir: &str) -> Vec<String> {
         self.db
             .subdirs(dir)
-            .map(|d| d.filter(|n| is_step(n)).map(|n| format!("{}/{n}", dir.trim_end_matches('/'))).collect())
+            .map(|d| {
+                d.filter(|n| is_step(n))
+                    .map(|n| format!("{}/{n}", dir.trim_end_matches('/')))
+                    .collect()
+            })
             .unwrap_or_default()
     }
 
@@ -122,7 +130,10 @@ impl Binout {
         let (dir, name) = trimmed.rsplit_once('/').map_or(("/", trimmed), |(d, n)| (d, n));
         let dir = format!("/{}", dir.trim_matches('/'));
         if !self.db.is_dir(&dir) {
-            return Err(self.no_such(path, format!("no directory {dir}; `lab extract FILE --list` lists what there is")));
+            return Err(self.no_such(
+                path,
+                format!("no directory {dir}; `lab extract FILE --list` lists what there is"),
+            ));
         }
         if let Some(v) = self.db.variable(&format!("{dir}/metadata/{name}")) {
             let values = v.values();
@@ -130,7 +141,11 @@ impl Binout {
                 Some(t) => SeriesValues::Text(t),
                 None => SeriesValues::Scalar(values.to_f64()),
             };
-            return Ok(Series { time: Vec::new(), values, ids: None });
+            return Ok(Series {
+                time: Vec::new(),
+                values,
+                ids: None,
+            });
         }
         let mut rows: Vec<(Option<f64>, Vec<f64>)> = Vec::new();
         for step in self.steps(&dir) {
@@ -149,11 +164,17 @@ impl Binout {
         let per_id = rows.iter().any(|r| r.1.len() != 1);
         let values = if per_id {
             let n = rows.iter().map(|r| r.1.len()).max().unwrap_or(0);
-            SeriesValues::PerId((0..n).map(|k| rows.iter().map(|r| r.1.get(k).copied().unwrap_or(f64::NAN)).collect()).collect())
+            SeriesValues::PerId(
+                (0..n)
+                    .map(|k| rows.iter().map(|r| r.1.get(k).copied().unwrap_or(f64::NAN)).collect())
+                    .collect(),
+            )
         } else {
             SeriesValues::Scalar(rows.iter().map(|r| r.1[0]).collect())
         };
-        let ids = per_id.then(|| self.db.variable(&format!("{dir}/metadata/ids")).map(|v| v.to_f64())).flatten();
+        let ids = per_id
+            .then(|| self.db.variable(&format!("{dir}/metadata/ids")).map(|v| v.to_f64()))
+            .flatten();
         Ok(Series { time, values, ids })
     }
 
@@ -170,14 +191,22 @@ impl Binout {
                 continue;
             }
             let short = dir.trim_start_matches('/');
-            let times = self.series(&format!("{short}/time")).ok().map(|s| s.time).unwrap_or_default();
+            let times = self
+                .series(&format!("{short}/time"))
+                .ok()
+                .map(|s| s.time)
+                .unwrap_or_default();
             out += &match (times.first(), times.last()) {
                 (Some(a), Some(b)) => format!("{short}: {} output steps, time {a:e} to {b:e}\n", steps.len()),
                 _ => format!("{short}: {} output steps\n", steps.len()),
             };
             if has_meta {
                 for (name, v) in self.db.variables(&format!("{dir}/metadata")).into_iter().flatten() {
-                    out += &format!("  {short}/{name:<28} {:>4} × {:<5} metadata", v.type_id().name(), v.len());
+                    out += &format!(
+                        "  {short}/{name:<28} {:>4} × {:<5} metadata",
+                        v.type_id().name(),
+                        v.len()
+                    );
                     if let Some(t) = v.values().text().filter(|_| v.type_id() == lsda::TypeId::I1) {
                         out += &format!(" {:?}", t.trim_end());
                     }
