@@ -165,7 +165,14 @@ impl<'a> Walker<'a> {
             .and_then(|l| pos.checked_add(l))
             .filter(|&e| e <= self.bytes.len())
         else {
-            return Ok(self.cut_at(pos, format!("a record of {len} bytes (command {cmd})")));
+            let what = if len as u64 > self.bytes.len() as u64 {
+                format!(
+                    "a record announcing {len} bytes (command {cmd}), more than the whole file: cut there, or its length is corrupt"
+                )
+            } else {
+                format!("a record of {len} bytes (command {cmd})")
+            };
+            return Ok(self.cut_at(pos, what));
         };
         let body = pos + h.record_head()..end;
         match cmd {

@@ -197,7 +197,7 @@ fn open_binout(dir: &Path) -> Result<Option<Binout>, Outcome> {
                 detail: e.message,
             });
         }
-        Err(e) => return Err(bad(ResponseProblem::Unparseable, e.to_string())),
+        Err(e) => return Err(binout_error(dir, e)),
     };
     if let Some(note) = bin.as_ref().and_then(|b| b.db.notes().first()) {
         return Err(Outcome::IncompleteOutput {
@@ -210,6 +210,13 @@ fn open_binout(dir: &Path) -> Result<Option<Binout>, Outcome> {
         });
     }
     Ok(bin)
+}
+
+/// A broken binout as a bad response, its file named relative to the run directory (as the ASCII
+/// files are: a replay judges in a scratch copy).
+fn binout_error(dir: &Path, e: crate::error::InputError) -> Outcome {
+    let file = e.file.strip_prefix(dir).unwrap_or(&e.file).display().to_string();
+    bad(ResponseProblem::Unparseable, format!("{file}: {}", e.message))
 }
 
 /// Whether history `name` is read from binout: the deck sends it there, or its ASCII file is
@@ -260,7 +267,7 @@ impl LsDynaAdapter {
     fn rcforc(&self, dir: &Path, deck: &controls::Controls, bin: Option<&Binout>) -> Result<rcforc::Rcforc, Outcome> {
         let want = Self::want(deck, "rcforc");
         if let Some(b) = bin.filter(|b| from_binout(dir, deck, Some(b), "rcforc")) {
-            let rc = histories::rcforc(b).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+            let rc = histories::rcforc(b).map_err(|e| binout_error(dir, e))?;
             let rc = rc.ok_or_else(|| missing_in_binout(b, "rcforc"))?;
             let steps = b.steps("/rcforc").len();
             complete::rcforc(&rc, want, steps).map_err(|i| binout_incomplete(b, "rcforc", i))?;
@@ -292,7 +299,7 @@ impl LsDynaAdapter {
             };
             return Err(bad(ResponseProblem::Missing, detail));
         };
-        let rw = histories::rwforc(b).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+        let rw = histories::rwforc(b).map_err(|e| binout_error(dir, e))?;
         let mut rw = rw.ok_or_else(|| missing_in_binout(b, "rwforc"))?;
         complete::times("rwforc", &rw.steps, Self::want(deck, "rwforc"), rw.steps.len())
             .map_err(|i| binout_incomplete(b, "rwforc/forces", i))?;
@@ -309,7 +316,7 @@ impl LsDynaAdapter {
     fn nodout(&self, dir: &Path, deck: &controls::Controls, bin: Option<&Binout>) -> Result<nodout::Nodout, Outcome> {
         let want = Self::want(deck, "nodout");
         if let Some(b) = bin.filter(|b| from_binout(dir, deck, Some(b), "nodout")) {
-            let nod = histories::nodout(b).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+            let nod = histories::nodout(b).map_err(|e| binout_error(dir, e))?;
             let nod = nod.ok_or_else(|| missing_in_binout(b, "nodout"))?;
             let steps = b.steps("/nodout").len();
             complete::nodout(&nod, &deck.history_nodes, want, steps).map_err(|i| binout_incomplete(b, "nodout", i))?;
@@ -334,7 +341,7 @@ impl LsDynaAdapter {
     ) -> Result<Option<quality::Quality>, Outcome> {
         let want = Self::want(deck, "glstat");
         if let Some(b) = bin.filter(|b| from_binout(dir, deck, Some(b), "glstat")) {
-            let gl = histories::glstat(b).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+            let gl = histories::glstat(b).map_err(|e| binout_error(dir, e))?;
             let gl = gl.ok_or_else(|| missing_in_binout(b, "glstat"))?;
             complete::glstat(&gl, want, b.steps("/glstat").len()).map_err(|i| binout_incomplete(b, "glstat", i))?;
             return Ok(Some(quality::figures(&gl)));
