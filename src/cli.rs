@@ -16,7 +16,7 @@ use crate::study::{self, Study};
 
 #[path = "cli_print.rs"]
 mod print;
-use print::{Stderr, status};
+use print::{Stderr, extract, status};
 
 #[derive(Parser, Debug)]
 #[command(name = "lab", version, about = "Calibrate simulation models against tests")]
@@ -57,13 +57,23 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Mean crush force (energy / stroke) of a test machine's force–displacement CSV.
+    /// Mean crush force (energy / stroke) of a test machine's force–displacement CSV, or of an
+    /// LS-DYNA binout (a file or a run directory), whose histories it also lists and prints.
     Extract {
-        /// CSV with displacement [mm] and force [kN or N] columns.
+        /// CSV with displacement [mm] and force [kN or N] columns, or a binout, or a run directory.
         curve: PathBuf,
         /// Stroke window `S0:S1` in mm.
         #[arg(long, default_value = "5:60")]
         window: String,
+        /// binout: list its histories and variables.
+        #[arg(long, conflicts_with = "series")]
+        list: bool,
+        /// binout: one variable over time in lasso-python's naming, e.g. rwforc/forces/normal_force.
+        #[arg(long)]
+        series: Option<String>,
+        /// With --series: print `{"time": [...], "values": [...]}`.
+        #[arg(long, requires = "series")]
+        json: bool,
     },
     // --- issue 24: `lab compare` ---
     /// Curve metrics (mse, pcm, Frechet, DTW, area) of a computed force–displacement CSV against a target.
@@ -167,7 +177,13 @@ fn execute(command: Command) -> Result<i32, Error> {
             let out = out_dir(&study, out);
             status(&study, &out)
         }
-        Command::Extract { curve, window } => extract(&curve, &window),
+        Command::Extract {
+            curve,
+            window,
+            list,
+            series,
+            json,
+        } => extract(&curve, &window, list, series, json),
         Command::Compare {
             a,
             b,
@@ -232,22 +248,6 @@ fn check(study: &Study) -> Result<i32, Error> {
     if designs > 0 {
         println!("ok: {specimens} force-displacement curve(s) of {designs} design(s) read");
     }
-    Ok(0)
-}
-
-/// `lab extract CURVE --window S0:S1`.
-fn extract(curve: &Path, window: &str) -> Result<i32, Error> {
-    let bad = || InputError::file(curve, format!("--window `{window}`: give S0:S1 in mm, e.g. 5:60"));
-    let (a, b) = window.split_once(':').ok_or_else(bad)?;
-    let (s0, s1) = (
-        a.trim().parse::<f64>().map_err(|_| bad())?,
-        b.trim().parse::<f64>().map_err(|_| bad())?,
-    );
-    let r = verbs::extract(curve, crush::Window { s0, s1 })?;
-    println!(
-        "mean crush force {} kN over {s0}-{s1} mm (energy {} J, peak {} kN at {} mm)",
-        r.mean_force, r.energy, r.peak_force, r.peak_at
-    );
     Ok(0)
 }
 

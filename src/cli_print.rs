@@ -1,9 +1,10 @@
-//! What `lab run` and `lab status` print while they work: the pipeline's events and the run
-//! engine's progress on stderr, and the status counts.
+//! What `lab run`, `lab status` and `lab extract` print: the pipeline's events and the run
+//! engine's progress on stderr, the status counts, a curve's or a binout's figures.
 
 use std::path::Path;
 
-use crate::error::Error;
+use crate::error::{Error, InputError};
+use crate::extract::crush;
 use crate::execute::progress;
 use crate::pipeline::{Event, Reporter, verbs};
 use crate::study::Study;
@@ -77,3 +78,36 @@ pub(super) fn status(study: &Study, out: &Path) -> Result<i32, Error> {
     Ok(0)
 }
 
+/// `lab extract CURVE --window S0:S1`, or a binout with `--list` / `--series PATH [--json]`.
+pub(super) fn extract(curve: &Path, window: &str, list: bool, series: Option<String>, json: bool) -> Result<i32, Error> {
+    let bad = || InputError::file(curve, format!("--window `{window}`: give S0:S1 in mm, e.g. 5:60"));
+    let (a, b) = window.split_once(':').ok_or_else(bad)?;
+    let (s0, s1) = (
+        a.trim().parse::<f64>().map_err(|_| bad())?,
+        b.trim().parse::<f64>().map_err(|_| bad())?,
+    );
+    if verbs::is_binout(curve) {
+        let query = match (list, series) {
+            (true, _) => verbs::BinoutQuery::List,
+            (false, Some(path)) => verbs::BinoutQuery::Series { path, json },
+            (false, None) => verbs::BinoutQuery::MeanForce(crush::Window { s0, s1 }),
+        };
+        let answer = verbs::extract_binout(curve, &query)?;
+        answer.notes.iter().for_each(|n| eprintln!("note: {n}"));
+        print!("{}", answer.text);
+        return Ok(0);
+    }
+    if list || series.is_some() {
+        return Err(InputError::file(
+            curve,
+            "--list and --series read a binout (an LSDA file or a run directory), not a CSV",
+        )
+        .into());
+    }
+    let r = verbs::extract(curve, crush::Window { s0, s1 })?;
+    println!(
+        "mean crush force {} kN over {s0}-{s1} mm (energy {} J, peak {} kN at {} mm)",
+        r.mean_force, r.energy, r.peak_force, r.peak_at
+    );
+    Ok(0)
+}

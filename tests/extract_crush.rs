@@ -148,6 +148,7 @@ fn from_the_lsdyna_samples() {
         disp_axis: 2,
         disp_sign: Sign::Minus,
         disp_to_mm: 1.0,
+        rigid_wall: None,
     };
     let c = from_lsdyna(&r, &n, &src).unwrap();
     assert_eq!(c.displacement, vec![0.0, 1.0, 2.0]);

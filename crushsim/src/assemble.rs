@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::model::{self, Contact, DeckError, Located, Model, Plastic, Reader, Striker, TubePart, card};
+use super::model::{self, Binary, Contact, DeckError, Located, Model, Plastic, Reader, Striker, TubePart, card};
 use lab::render::lsdyna::deck::{self, Card};
 
 type Res<T> = Result<T, DeckError>;
@@ -72,6 +72,11 @@ pub fn load(main: &Path) -> Res<Model> {
         dt_rcforc: database(&blocks, &r, "DATABASE_RCFORC")?,
         dt_glstat: database(&blocks, &r, "DATABASE_GLSTAT")?,
         dt_nodout: database(&blocks, &r, "DATABASE_NODOUT")?,
+        binary: Binary {
+            rcforc: binary(&blocks, &r, "DATABASE_RCFORC")?,
+            glstat: binary(&blocks, &r, "DATABASE_GLSTAT")?,
+            nodout: binary(&blocks, &r, "DATABASE_NODOUT")?,
+        },
         history_nodes: history(&blocks, &r, &geo)?,
         contacts: contacts(&blocks, &r)?,
         test_switch: test_switch(&blocks, &r)?,
@@ -423,6 +428,24 @@ fn database(blocks: &[Located], r: &Reader, keyword: &str) -> Res<Option<f64>> {
             let c = card(b, 0)?;
             Ok(Some(positive(b, c, "DT", r.real_or(&b.file, c, 0, 0.0)?)?))
         }
+    }
+}
+
+/// The BINARY field (the second) of a `*DATABASE_...` card: 1 ASCII (blank or 0 too), 2 binout,
+/// 3 both.
+fn binary(blocks: &[Located], r: &Reader, keyword: &str) -> Res<i64> {
+    let Some(b) = named(blocks, keyword).next() else {
+        return Ok(1);
+    };
+    let c = card(b, 0)?;
+    match r.int_or(&b.file, c, 1, 1)? {
+        0 | 1 => Ok(1),
+        v @ (2 | 3) => Ok(v),
+        v => Err(fail(
+            &b.file,
+            c.line,
+            format!("*{keyword}: BINARY is {v}, expected 1 (ASCII), 2 (binout) or 3 (both)"),
+        )),
     }
 }
 

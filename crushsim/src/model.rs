@@ -82,6 +82,22 @@ pub struct Contact {
     pub master_part: Option<i64>,
 }
 
+/// The BINARY option of each history's `*DATABASE_...` card, as LS-DYNA reads it: 1 (or
+/// blank/0) the ASCII file, 2 the binout database only, 3 both.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Binary {
+    pub rcforc: i64,
+    pub glstat: i64,
+    pub nodout: i64,
+}
+
+impl Binary {
+    /// Whether some history goes to binout.
+    pub fn any_binout(&self) -> bool {
+        [self.rcforc, self.glstat, self.nodout].iter().any(|&b| b >= 2)
+    }
+}
+
 /// Everything the run needs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
@@ -101,6 +117,8 @@ pub struct Model {
     pub dt_rcforc: Option<f64>,
     pub dt_glstat: Option<f64>,
     pub dt_nodout: Option<f64>,
+    /// Where each history goes: the BINARY field of its `*DATABASE_...` card.
+    pub binary: Binary,
     /// History nodes with their initial coordinates.
     pub history_nodes: Vec<(i64, [f64; 3])>,
     pub contacts: Vec<Contact>,

@@ -94,7 +94,7 @@ impl Faults {
 }
 
 /// Resultant force on each side of each contact at a step (x, y, z), slave then master.
-fn contact_forces(m: &Model, k: usize, s: &Step) -> ([f64; 3], [f64; 3]) {
+pub(crate) fn contact_forces(m: &Model, k: usize, s: &Step) -> ([f64; 3], [f64; 3]) {
     let c = &m.contacts[k];
     let f = s.force;
     if c.master_part == Some(m.striker.pid) {
@@ -113,11 +113,7 @@ pub fn rcforc(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
         let _ = writeln!(out, "{:9}     {}", k + 1, c.kind);
     }
     out.push_str("{END LEGEND}\n\n");
-    let tube_mass: f64 = m
-        .tube
-        .iter()
-        .map(|p| p.wall_length * p.thickness * m.tube_length * m.material.rho)
-        .sum();
+    let tube_mass = tube_mass(m);
     let middle = Faults::middle(m, dt);
     for (number, t) in faults.times(m, dt) {
         let s = h.at(t);
@@ -163,42 +159,18 @@ pub fn cycle(m: &Model, t: f64) -> u64 {
     (t / time_step(m)).round() as u64
 }
 
+/// The tube's mass (t): what rcforc reports as the mass in contact once the crush force acts.
+pub(crate) fn tube_mass(m: &Model) -> f64 {
+    m.tube
+        .iter()
+        .map(|p| p.wall_length * p.thickness * m.tube_length * m.material.rho)
+        .sum()
+}
+
 pub fn glstat(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
     let mut out = header(m);
-    let step = time_step(m);
-    let initial = h.steps[0].kinetic;
     for (_, t) in faults.times(m, dt) {
-        let s = h.at(t);
-        let internal = s.internal / (1.0 + faults.hourglass);
-        let hourglass = s.internal - internal;
-        let reference = initial + s.external;
-        let sliding = faults.energy_drift * reference * t / m.end_time;
-        let total = s.kinetic + internal + hourglass + sliding;
-        let ratio = if reference > 0.0 { total / reference } else { 1.0 };
-        let mut rows: Vec<(&str, f64)> = vec![
-            ("time", t),
-            ("time step", step),
-            ("kinetic energy", s.kinetic),
-            ("internal energy", internal),
-            ("spring and damper energy", 0.0),
-            ("hourglass energy", hourglass),
-            ("system damping energy", 0.0),
-            ("sliding interface energy", sliding),
-            ("external work", s.external),
-            ("eroded kinetic energy", 0.0),
-            ("eroded internal energy", 0.0),
-            ("total energy", total),
-            ("total energy / initial energy", ratio),
-            ("energy ratio w/o eroded energy", ratio),
-            ("global x velocity", 0.0),
-            ("global y velocity", 0.0),
-            ("global z velocity", -s.speed),
-            ("time per zone cycle.(nanosec)", 0.0),
-        ];
-        if let Some(added) = faults.added_mass {
-            rows.push(("added mass", added * model_mass(m)));
-            rows.push(("percentage increase", 100.0 * added));
-        }
+        let rows = glstat_rows(m, h, t, faults);
         let _ = writeln!(
             out,
             "\n dt of cycle {:10} is controlled by shell {:10} of part {:10}\n",
@@ -211,6 +183,44 @@ pub fn glstat(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
         }
     }
     out
+}
+
+/// glstat's labels and values at output time `t` (ASCII labels; binout names follow from them).
+pub(crate) fn glstat_rows(m: &Model, h: &History, t: f64, faults: &Faults) -> Vec<(&'static str, f64)> {
+    let step = time_step(m);
+    let initial = h.steps[0].kinetic;
+    let s = h.at(t);
+    let internal = s.internal / (1.0 + faults.hourglass);
+    let hourglass = s.internal - internal;
+    let reference = initial + s.external;
+    let sliding = faults.energy_drift * reference * t / m.end_time;
+    let total = s.kinetic + internal + hourglass + sliding;
+    let ratio = if reference > 0.0 { total / reference } else { 1.0 };
+    let mut rows: Vec<(&str, f64)> = vec![
+        ("time", t),
+        ("time step", step),
+        ("kinetic energy", s.kinetic),
+        ("internal energy", internal),
+        ("spring and damper energy", 0.0),
+        ("hourglass energy", hourglass),
+        ("system damping energy", 0.0),
+        ("sliding interface energy", sliding),
+        ("external work", s.external),
+        ("eroded kinetic energy", 0.0),
+        ("eroded internal energy", 0.0),
+        ("total energy", total),
+        ("total energy / initial energy", ratio),
+        ("energy ratio w/o eroded energy", ratio),
+        ("global x velocity", 0.0),
+        ("global y velocity", 0.0),
+        ("global z velocity", -s.speed),
+        ("time per zone cycle.(nanosec)", 0.0),
+    ];
+    if let Some(added) = faults.added_mass {
+        rows.push(("added mass", added * model_mass(m)));
+        rows.push(("percentage increase", 100.0 * added));
+    }
+    rows
 }
 
 /// The tube's and the striker's mass, t.
@@ -240,14 +250,8 @@ pub fn nodout(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
         } else {
             &m.history_nodes[..]
         };
-        for &(id, [x, y, z]) in rows {
-            let moving = Some(id) == m.striker.node;
-            let (dz, vz, az) = if moving {
-                (-s.crush, -s.speed, -s.accel)
-            } else {
-                (0.0, 0.0, 0.0)
-            };
-            let row = [0.0, 0.0, dz, 0.0, 0.0, vz, 0.0, 0.0, az, x, y, z + dz];
+        for &(id, xyz) in rows {
+            let row = nodout_row(m, s, id, xyz);
             let _ = write!(out, "{id:9}");
             for v in row {
                 out.push_str(&e(v, 12, 4));
@@ -256,6 +260,18 @@ pub fn nodout(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
         }
     }
     out
+}
+
+/// A history node's displacement, velocity, acceleration and coordinates (x, y, z each) at step
+/// `s`: only the striker's node moves.
+pub(crate) fn nodout_row(m: &Model, s: &Step, id: i64, [x, y, z]: [f64; 3]) -> [f64; 12] {
+    let moving = Some(id) == m.striker.node;
+    let (dz, vz, az) = if moving {
+        (-s.crush, -s.speed, -s.accel)
+    } else {
+        (0.0, 0.0, 0.0)
+    };
+    [0.0, 0.0, dz, 0.0, 0.0, vz, 0.0, 0.0, az, x, y, z + dz]
 }
 
 /// The d3hsp: banner, the stand-in notice, the input as read, the crush model's numbers.

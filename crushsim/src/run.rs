@@ -17,7 +17,7 @@
 //! | `error` | all outputs, but d3hsp/messag/stdout end in ` E r r o r    t e r m i n a t i o n`; exit `value` (default 0) | termination line |
 //! | `exit` | a normal run, then exit code `value` (default 3) | exit code |
 //! | `nooutput` | normal termination, exit 0, but no rcforc/glstat/nodout | outputs |
-//! | `garbage` | normal termination, exit 0, rcforc is deterministic binary garbage | outputs parse |
+//! | `garbage` | normal termination, exit 0, rcforc (and binout, when the deck asks for it) is deterministic binary garbage | outputs parse |
 //! | `hang` | sleeps `value` seconds (default 3600) before running | time limit |
 //! | `signal` | kills itself with signal `value` (default 9) after the banner | killed |
 //! | `gap` | output number `value` (default: the middle one) left out of rcforc, nodout and glstat | complete times |
@@ -39,6 +39,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use super::assemble;
+use super::binout;
 use super::model::{DeckError, Model};
 use super::output::{self, error_termination, normal_termination};
 use super::physics::{self, History};
@@ -263,17 +264,22 @@ fn write_outputs(m: &Model, h: &History, sw: Switch) -> std::io::Result<i32> {
         _ => output::Faults::default(),
     };
     if sw != Switch::NoOutput {
-        if let Some(dt) = m.dt_rcforc {
+        let b = m.binary;
+        let ascii = |dt: Option<f64>, flag: i64| dt.filter(|_| flag != 2);
+        if let Some(dt) = ascii(m.dt_rcforc, b.rcforc) {
             match sw {
                 Switch::Garbage => std::fs::write("rcforc", garbage(4096))?,
                 _ => write("rcforc", &output::rcforc(m, h, dt, &resolve(faults, m, dt)))?,
             }
         }
-        if let Some(dt) = m.dt_glstat {
+        if let Some(dt) = ascii(m.dt_glstat, b.glstat) {
             write("glstat", &output::glstat(m, h, dt, &resolve(faults, m, dt)))?;
         }
-        if let Some(dt) = m.dt_nodout {
+        if let Some(dt) = ascii(m.dt_nodout, b.nodout) {
             write("nodout", &output::nodout(m, h, dt, &resolve(faults, m, dt)))?;
+        }
+        if b.any_binout() {
+            write_binout(m, h, sw, faults)?;
         }
     }
     let mut notes = vec![format!(
@@ -294,6 +300,22 @@ fn write_outputs(m: &Model, h: &History, sw: Switch) -> std::io::Result<i32> {
         Switch::Error(code) | Switch::Exit(code) => code,
         _ => 0,
     })
+}
+
+/// The binout of the histories whose BINARY is 2 or 3 (garbage under the `garbage` switch).
+fn write_binout(m: &Model, h: &History, sw: Switch, faults: output::Faults) -> std::io::Result<()> {
+    if sw == Switch::Garbage {
+        return std::fs::write("binout", garbage(4096));
+    }
+    let to_binout = |dt: Option<f64>, flag: i64| dt.filter(|_| flag >= 2);
+    let b = m.binary;
+    let wanted = binout::Wanted {
+        rcforc: to_binout(m.dt_rcforc, b.rcforc),
+        glstat: to_binout(m.dt_glstat, b.glstat),
+        nodout: to_binout(m.dt_nodout, b.nodout),
+    };
+    let bytes = binout::binout(m, h, wanted, |dt| resolve(faults, m, dt)).map_err(std::io::Error::other)?;
+    std::fs::write("binout", bytes)
 }
 
 /// Deterministic bytes that are not an rcforc (a xorshift stream, including invalid UTF-8).

@@ -1,6 +1,13 @@
 //! The `lsdyna` adapter: an LS-DYNA style solver (LS-DYNA itself, or the `crushsim` stand-in)
-//! judged by its ASCII outputs.
+//! judged by its time histories, from the ASCII files or from binout.
 //!
+//! - **Where each history is read**: from binout when the deck sends it there (the BINARY option
+//!   of its `*DATABASE_...` card is 2 or 3) or when its ASCII file is absent and the run's binout
+//!   (`binout`, or MPP's `binout0000…`, with continuation files) holds it; else from the ASCII
+//!   file. Either way it becomes the same typed history, so the same checks, the same curve and
+//!   the same quality figures follow. A binout that is cut (ends mid-record), broken (a bad
+//!   record, named by offset) or missing a file of its set fails the run naming the file and the
+//!   offset.
 //! - **Failure text**: an ` E r r o r    t e r m i n a t i o n` line in messag, d3hsp or the
 //!   captured stdout ([`crate::extract::lsdyna::termination`]) → `Outcome::FailureText`.
 //! - **Success** needs exit code 0 (checked by the executor), the normal-termination line in one of
@@ -17,13 +24,15 @@
 //!   a run `suspect` from them later, without rerunning it.
 //!
 //! The recorded outputs ([`Adapter::outputs`]) are exactly the files this judgement reads besides
-//! the rendered deck (which a replay renders again): messag, rcforc, nodout and glstat; a replay
-//! judges them with the same code, so replayed responses are bit-identical to live ones.
+//! the rendered deck (which a replay renders again): messag, rcforc, nodout, glstat and the
+//! binout files; a replay judges them with the same code, so replayed responses are
+//! bit-identical to live ones.
 
 use std::path::{Path, PathBuf};
 
 use super::{Adapter, Judged, Outcome, ResponseProblem, STDOUT_FILE};
 use crate::extract::crush::{self, SimSource, Window};
+use crate::extract::lsdyna::binout::{self, Binout, histories};
 use crate::extract::lsdyna::complete::{self, Expected, Incomplete};
 use crate::extract::lsdyna::{controls, glstat, nodout, quality, rcforc, termination};
 
@@ -83,8 +92,9 @@ impl Adapter for LsDynaAdapter {
             s.disp_to_mm,
             self.deck.to_string_lossy(),
         );
+        let wall = s.rigid_wall.map_or_else(String::new, |id| format!(" rigid_wall {id}"));
         format!(
-            "lsdyna/2 crush_force {}",
+            "lsdyna/2 crush_force {}{wall}",
             serde_json::to_string(&parts).expect("settings serialize")
         )
     }
@@ -93,6 +103,7 @@ impl Adapter for LsDynaAdapter {
         ["messag", "rcforc", "nodout", "glstat"]
             .into_iter()
             .map(PathBuf::from)
+            .chain(binout_files())
             .collect()
     }
 
@@ -100,6 +111,7 @@ impl Adapter for LsDynaAdapter {
         ["messag", "d3hsp", "rcforc", "nodout", "glstat"]
             .into_iter()
             .map(PathBuf::from)
+            .chain(binout_files())
             .collect()
     }
 
@@ -128,21 +140,19 @@ impl Adapter for LsDynaAdapter {
             }
         }
         let unparseable = |e: String| bad(ResponseProblem::Unparseable, e);
-        let rc_text = read(dir, "rcforc")?;
-        let rc = rcforc::parse(Path::new("rcforc"), &rc_text).map_err(|e| unparseable(e.to_string()))?;
-        let nod_text = read(dir, "nodout")?;
-        let nod = nodout::parse(Path::new("nodout"), &nod_text).map_err(|e| unparseable(e.to_string()))?;
         let deck = self.controls(dir)?;
-        let want = |file: &str| Expected {
-            dt: deck.interval(file).map(|i| i.dt),
-            end_time: deck.end_time,
+        let bin = open_binout(dir)?;
+        let force = match self.source.rigid_wall {
+            None => Force::Contact(self.rcforc(dir, &deck, bin.as_ref())?),
+            Some(id) => Force::Wall(self.rwforc(dir, &deck, bin.as_ref(), id)?),
         };
-        complete::ends_with_newline("rcforc", &rc_text).map_err(incomplete)?;
-        complete::rcforc(&rc, want("rcforc"), rc_text.lines().count()).map_err(incomplete)?;
-        complete::ends_with_newline("nodout", &nod_text).map_err(incomplete)?;
-        complete::nodout(&nod, &deck.history_nodes, want("nodout"), nod_text.lines().count()).map_err(incomplete)?;
-        let quality = self.glstat(dir, &deck, want("glstat"))?;
-        let curve = crush::from_lsdyna(&rc, &nod, &self.source).map_err(|e| unparseable(e.to_string()))?;
+        let nod = self.nodout(dir, &deck, bin.as_ref())?;
+        let quality = self.glstat(dir, &deck, bin.as_ref())?;
+        let curve = match &force {
+            Force::Contact(rc) => crush::from_lsdyna(rc, &nod, &self.source),
+            Force::Wall(w) => crush::from_wall(w, &nod, &self.source),
+        };
+        let curve = curve.map_err(|e| unparseable(e.to_string()))?;
         let result = crush::crush_force(&curve, self.window).map_err(|e| unparseable(e.to_string()))?;
         if !result.mean_force.is_finite() {
             return Err(unparseable("the mean crush force is not finite".into()));
@@ -151,6 +161,81 @@ impl Adapter for LsDynaAdapter {
             response: result.mean_force,
             quality,
         })
+    }
+}
+
+/// Where the crush force comes from: a contact interface (rcforc) or a rigid wall (rwforc).
+enum Force {
+    Contact(rcforc::Rcforc),
+    Wall(histories::WallSeries),
+}
+
+/// The binout file names recorded and cleared: SMP `binout` with continuation files, MPP
+/// `binout0000…` (up to 16 processes, each with continuations).
+fn binout_files() -> impl Iterator<Item = PathBuf> {
+    let stems: Vec<String> = std::iter::once(binout::STEM.to_string())
+        .chain((0..16).map(|k| format!("{}{k:04}", binout::STEM)))
+        .collect();
+    stems
+        .into_iter()
+        .flat_map(|s| std::iter::once(s.clone()).chain((1..10).map(move |k| format!("{s}%{k:03}"))))
+        .map(PathBuf::from)
+}
+
+/// The run's binout, when it wrote one: a broken one, or one missing a file of its set, is a bad
+/// response; one cut mid-record an incomplete output (both name the file and the offset).
+fn open_binout(dir: &Path) -> Result<Option<Binout>, Outcome> {
+    let bin = match binout::open_dir(dir) {
+        Ok(b) => b,
+        Err(e) if e.message.contains("missing from its set") => {
+            return Err(Outcome::IncompleteOutput {
+                file: e
+                    .file
+                    .file_name()
+                    .map_or_else(|| e.file.display().to_string(), |n| n.to_string_lossy().into()),
+                line: 0,
+                detail: e.message,
+            });
+        }
+        Err(e) => return Err(binout_error(dir, e)),
+    };
+    if let Some(note) = bin.as_ref().and_then(|b| b.db.notes().first()) {
+        return Err(Outcome::IncompleteOutput {
+            file: note
+                .file
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into()),
+            line: 0,
+            detail: format!("offset {}: {}", note.offset, note.detail),
+        });
+    }
+    Ok(bin)
+}
+
+/// A broken binout as a bad response, its file named relative to the run directory (as the ASCII
+/// files are: a replay judges in a scratch copy).
+fn binout_error(dir: &Path, e: crate::error::InputError) -> Outcome {
+    let file = e.file.strip_prefix(dir).unwrap_or(&e.file).display().to_string();
+    bad(ResponseProblem::Unparseable, format!("{file}: {}", e.message))
+}
+
+/// Whether history `name` is read from binout: the deck sends it there, or its ASCII file is
+/// absent and the binout holds it.
+fn from_binout(dir: &Path, deck: &controls::Controls, bin: Option<&Binout>, name: &str) -> bool {
+    let Some(b) = bin else { return false };
+    deck.interval(name).is_some_and(|i| i.to_binout()) || (!dir.join(name).exists() && b.db.is_dir(&format!("/{name}")))
+}
+
+/// A binout history's completeness problem, its step ordinal turned into the step and offset.
+fn binout_incomplete(b: &Binout, history: &str, i: Incomplete) -> Outcome {
+    let place = histories::place(b, &format!("/{history}"), i.line);
+    Outcome::IncompleteOutput {
+        file: b
+            .name
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into()),
+        line: 0,
+        detail: format!("{history} {place}: {}", i.detail),
     }
 }
 
@@ -170,14 +255,98 @@ impl LsDynaAdapter {
         controls::read(&path).map_err(|e| bad(ResponseProblem::Unparseable, format!("the deck: {e}")))
     }
 
+    /// What the deck asks of history `name`: its interval and the termination time.
+    fn want(deck: &controls::Controls, name: &str) -> Expected {
+        Expected {
+            dt: deck.interval(name).map(|i| i.dt),
+            end_time: deck.end_time,
+        }
+    }
+
+    /// rcforc, from binout or its ASCII file, checked for completeness.
+    fn rcforc(&self, dir: &Path, deck: &controls::Controls, bin: Option<&Binout>) -> Result<rcforc::Rcforc, Outcome> {
+        let want = Self::want(deck, "rcforc");
+        if let Some(b) = bin.filter(|b| from_binout(dir, deck, Some(b), "rcforc")) {
+            let rc = histories::rcforc(b).map_err(|e| binout_error(dir, e))?;
+            let rc = rc.ok_or_else(|| missing_in_binout(b, "rcforc"))?;
+            let steps = b.steps("/rcforc").len();
+            complete::rcforc(&rc, want, steps).map_err(|i| binout_incomplete(b, "rcforc", i))?;
+            return Ok(rc);
+        }
+        no_binout(deck, bin, "rcforc")?;
+        let text = read(dir, "rcforc")?;
+        let rc =
+            rcforc::parse(Path::new("rcforc"), &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+        complete::ends_with_newline("rcforc", &text).map_err(incomplete)?;
+        complete::rcforc(&rc, want, text.lines().count()).map_err(incomplete)?;
+        Ok(rc)
+    }
+
+    /// Rigid wall `id`'s force history from binout's rwforc, its times checked against the deck's
+    /// `*DATABASE_RWFORC` interval. (LS-DYNA's ASCII rwforc is not read: binout only.)
+    fn rwforc(
+        &self,
+        dir: &Path,
+        deck: &controls::Controls,
+        bin: Option<&Binout>,
+        id: u64,
+    ) -> Result<histories::WallSeries, Outcome> {
+        let Some(b) = bin else {
+            let detail = if dir.join("rwforc").exists() {
+                "the rigid-wall force is read from binout only: rwforc is ASCII; set BINARY = 2 or 3 on *DATABASE_RWFORC"
+            } else {
+                "no binout with rwforc (the rigid-wall force) was written"
+            };
+            return Err(bad(ResponseProblem::Missing, detail));
+        };
+        let rw = histories::rwforc(b).map_err(|e| binout_error(dir, e))?;
+        let mut rw = rw.ok_or_else(|| missing_in_binout(b, "rwforc"))?;
+        complete::times("rwforc", &rw.steps, Self::want(deck, "rwforc"), rw.steps.len())
+            .map_err(|i| binout_incomplete(b, "rwforc/forces", i))?;
+        rw.walls.remove(&id).ok_or_else(|| {
+            let have: Vec<String> = rw.walls.keys().map(|k| k.to_string()).collect();
+            bad(
+                ResponseProblem::Unparseable,
+                format!("binout rwforc has no rigid wall {id} (walls: {})", have.join(", ")),
+            )
+        })
+    }
+
+    /// nodout, from binout or its ASCII file, checked for completeness.
+    fn nodout(&self, dir: &Path, deck: &controls::Controls, bin: Option<&Binout>) -> Result<nodout::Nodout, Outcome> {
+        let want = Self::want(deck, "nodout");
+        if let Some(b) = bin.filter(|b| from_binout(dir, deck, Some(b), "nodout")) {
+            let nod = histories::nodout(b).map_err(|e| binout_error(dir, e))?;
+            let nod = nod.ok_or_else(|| missing_in_binout(b, "nodout"))?;
+            let steps = b.steps("/nodout").len();
+            complete::nodout(&nod, &deck.history_nodes, want, steps).map_err(|i| binout_incomplete(b, "nodout", i))?;
+            return Ok(nod);
+        }
+        no_binout(deck, bin, "nodout")?;
+        let text = read(dir, "nodout")?;
+        let nod =
+            nodout::parse(Path::new("nodout"), &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+        complete::ends_with_newline("nodout", &text).map_err(incomplete)?;
+        complete::nodout(&nod, &deck.history_nodes, want, text.lines().count()).map_err(incomplete)?;
+        Ok(nod)
+    }
+
     /// glstat checked for completeness, and its sanity figures; `None` when the deck does not ask
     /// for glstat and the solver wrote none.
     fn glstat(
         &self,
         dir: &Path,
         deck: &controls::Controls,
-        want: Expected,
+        bin: Option<&Binout>,
     ) -> Result<Option<quality::Quality>, Outcome> {
+        let want = Self::want(deck, "glstat");
+        if let Some(b) = bin.filter(|b| from_binout(dir, deck, Some(b), "glstat")) {
+            let gl = histories::glstat(b).map_err(|e| binout_error(dir, e))?;
+            let gl = gl.ok_or_else(|| missing_in_binout(b, "glstat"))?;
+            complete::glstat(&gl, want, b.steps("/glstat").len()).map_err(|i| binout_incomplete(b, "glstat", i))?;
+            return Ok(Some(quality::figures(&gl)));
+        }
+        no_binout(deck, bin, "glstat")?;
         if !dir.join("glstat").exists() {
             return match deck.glstat {
                 None => Ok(None),
@@ -198,6 +367,29 @@ impl LsDynaAdapter {
         complete::ends_with_newline("glstat", &text).map_err(incomplete)?;
         complete::glstat(&gl, want, text.lines().count()).map_err(incomplete)?;
         Ok(Some(quality::figures(&gl)))
+    }
+}
+
+/// A history the deck sends to binout only (BINARY 2), when no binout was written.
+fn no_binout(deck: &controls::Controls, bin: Option<&Binout>, history: &str) -> Result<(), Outcome> {
+    match deck.interval(history) {
+        Some(i) if i.binary == 2 && bin.is_none() => Err(bad(
+            ResponseProblem::Missing,
+            format!("binout was not written, though the deck sends {history} there (BINARY 2)"),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// A history the deck sends to binout but the binout lacks.
+fn missing_in_binout(b: &Binout, history: &str) -> Outcome {
+    Outcome::IncompleteOutput {
+        file: b
+            .name
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into()),
+        line: 0,
+        detail: format!("no /{history} in the binout, though the deck sends {history} there (BINARY 2 or 3)"),
     }
 }
 

@@ -205,6 +205,8 @@ impl std::fmt::Display for Outcome {
                 };
                 write!(f, "{what} response: {detail}")
             }
+            // Line 0: about the whole file, or a binary file (whose detail names the offset).
+            Outcome::IncompleteOutput { file, line: 0, detail } => write!(f, "incomplete output: {file}: {detail}"),
             Outcome::IncompleteOutput { file, line, detail } => {
                 write!(f, "incomplete output: {file}:{line}: {detail}")
             }

@@ -85,6 +85,8 @@ pub struct SimSource {
     pub disp_sign: Sign,
     /// Multiplies the solver's length unit into mm.
     pub disp_to_mm: f64,
+    /// `Some(id)`: the force is rigid wall `id`'s normal force from rwforc (binout), not rcforc's.
+    pub rigid_wall: Option<u64>,
 }
 
 impl SimSource {
@@ -102,6 +104,7 @@ impl SimSource {
             disp_axis: 2,
             disp_sign: Sign::Auto,
             disp_to_mm: 1.0,
+            rigid_wall: None,
         }
     }
 }
@@ -246,6 +249,29 @@ pub fn from_lsdyna(rcforc: &Rcforc, nodout: &Nodout, src: &SimSource) -> Result<
     let f: Vec<f64> = comp.iter().map(|v| v * src.force_to_kn).collect();
     let d: Vec<f64> = disp.iter().map(|v| v * src.disp_to_mm).collect();
     from_histories(&s.time, &f, &n.time, &d, src.force_sign, src.disp_sign)
+}
+
+/// The curve from a rigid wall's normal force (rwforc) and nodout: the wall's force against the
+/// striker's displacement, as [`from_lsdyna`] pairs rcforc's.
+pub fn from_wall(
+    wall: &super::lsdyna::binout::histories::WallSeries,
+    nodout: &Nodout,
+    src: &SimSource,
+) -> Result<ForceDisplacement, CrushError> {
+    let n = nodout
+        .nodes
+        .get(&src.node)
+        .ok_or_else(|| data("nodout", format!("no node {}", src.node)))?;
+    let disp = n
+        .disp
+        .get(src.disp_axis)
+        .ok_or_else(|| data("settings", "displacement axis must be 0, 1 or 2"))?;
+    if !(src.force_to_kn.is_finite() && src.force_to_kn > 0.0 && src.disp_to_mm.is_finite() && src.disp_to_mm > 0.0) {
+        return Err(data("settings", "unit factors must be positive and finite"));
+    }
+    let f: Vec<f64> = wall.normal.iter().map(|v| v * src.force_to_kn).collect();
+    let d: Vec<f64> = disp.iter().map(|v| v * src.disp_to_mm).collect();
+    from_histories(&wall.time, &f, &n.time, &d, src.force_sign, src.disp_sign)
 }
 
 /// Mean crush force, energy and peak over the window.
@@ -539,14 +565,37 @@ fn header(file: &Path, text: &str, no: usize, cells: &[&str], opts: CsvOptions) 
     Ok(Header { cols, unit, disp_scale })
 }
 
-/// A run's curve from the first of `dirs` holding `<dir>/<key>/rcforc` (a run directory, or a
-/// recording); `None` when none does or its histories do not parse (the run's response came from
-/// the same files, so that means they were removed).
+/// A run's curve from the first of `dirs` holding `<dir>/<key>/rcforc` or a binout (a run
+/// directory, or a recording); `None` when none does or its histories do not parse (the run's
+/// response came from the same files, so that means they were removed). A binout is read when
+/// there is one and holds the history, as the `lsdyna` adapter reads it then (the deck sends the
+/// history there).
 pub fn read_run(dirs: &[std::path::PathBuf], key: &str, source: &SimSource) -> Option<ForceDisplacement> {
+    use super::lsdyna::binout::{self, histories};
     use super::lsdyna::{nodout, rcforc};
-    let dir = dirs.iter().map(|d| d.join(key)).find(|d| d.join("rcforc").is_file())?;
+    let has_binout = |d: &Path| d.join(binout::STEM).is_file() || d.join(format!("{}0000", binout::STEM)).is_file();
+    let dir = dirs
+        .iter()
+        .map(|d| d.join(key))
+        .find(|d| d.join("rcforc").is_file() || has_binout(d))?;
+    let b = if has_binout(&dir) {
+        binout::open_dir(&dir).ok().flatten()
+    } else {
+        None
+    };
     let text = |name: &str| std::fs::read_to_string(dir.join(name)).ok();
-    let rc = rcforc::parse_interface(Path::new("rcforc"), &text("rcforc")?, source.side, source.interface).ok()?;
-    let nod = nodout::parse(Path::new("nodout"), &text("nodout")?).ok()?;
+    if let Some(id) = source.rigid_wall {
+        let b = b.as_ref()?;
+        let wall = histories::rwforc(b).ok()??.walls.remove(&id)?;
+        return from_wall(&wall, &histories::nodout(b).ok()??, source).ok();
+    }
+    let rc = match b.as_ref().and_then(|b| histories::rcforc(b).ok().flatten()) {
+        Some(rc) => rc,
+        None => rcforc::parse_interface(Path::new("rcforc"), &text("rcforc")?, source.side, source.interface).ok()?,
+    };
+    let nod = match b.as_ref().and_then(|b| histories::nodout(b).ok().flatten()) {
+        Some(nod) => nod,
+        None => nodout::parse(Path::new("nodout"), &text("nodout")?).ok()?,
+    };
     from_lsdyna(&rc, &nod, source).ok()
 }

@@ -390,3 +390,168 @@ fn significant(v: f64) -> String {
         format!("{v:.5e}")
     }
 }
+
+// --- issue 32: `lab extract` on a binout ---
+
+/// Whether `path` is a binout (an LSDA file) or a directory, rather than a CSV: read by its
+/// first bytes, not its name.
+pub fn is_binout(path: &Path) -> bool {
+    if path.is_dir() {
+        return true;
+    }
+    let mut head = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+        .is_ok_and(|_| lsda::Header::parse(&head).is_ok())
+}
+
+/// What `lab extract` is asked of a binout.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BinoutQuery {
+    /// `--list`: the histories and variables.
+    List,
+    /// `--series PATH`: one variable over time (`--json`: as JSON).
+    Series { path: String, json: bool },
+    /// The mean force over the stroke window.
+    MeanForce(crush::Window),
+}
+
+/// What to print: the answer (stdout) and the reader's notes (stderr: a cut file).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BinoutAnswer {
+    pub text: String,
+    pub notes: Vec<String>,
+}
+
+/// `lab extract BINOUT|RUN_DIR [--list | --series PATH [--json] | --window S0:S1]`.
+pub fn extract_binout(path: &Path, query: &BinoutQuery) -> Result<BinoutAnswer, Error> {
+    use crate::extract::lsdyna::binout;
+    let b = binout::open(path)?;
+    let text = match query {
+        BinoutQuery::List => b.list(),
+        BinoutQuery::Series { path: var, json: true } => {
+            serde_json::to_string(&b.series(var)?).map_err(|e| Error::Failed(e.to_string()))? + "\n"
+        }
+        BinoutQuery::Series { path: var, json: false } => series_table(&b.series(var)?),
+        BinoutQuery::MeanForce(w) => binout_mean_force(&b, *w)?,
+    };
+    Ok(BinoutAnswer { text, notes: b.notes() })
+}
+
+/// A series as text: `time value` rows (one value per id for a per-id variable).
+fn series_table(s: &crate::extract::lsdyna::binout::Series) -> String {
+    use crate::extract::lsdyna::binout::SeriesValues;
+    let mut out = String::new();
+    match &s.values {
+        SeriesValues::Text(t) => out = format!("{t}\n"),
+        SeriesValues::Scalar(v) if s.time.is_empty() => v.iter().for_each(|x| out += &format!("{x}\n")),
+        SeriesValues::Scalar(v) => s.time.iter().zip(v).for_each(|(t, x)| out += &format!("{t:e} {x}\n")),
+        SeriesValues::PerId(v) => {
+            if let Some(ids) = &s.ids {
+                out += &format!(
+                    "# time, then ids {}\n",
+                    ids.iter().map(|i| i.to_string()).collect::<Vec<_>>().join(" ")
+                );
+            }
+            for (k, t) in s.time.iter().enumerate() {
+                let row: Vec<String> = v.iter().map(|id| id[k].to_string()).collect();
+                out += &format!("{t:e} {}\n", row.join(" "));
+            }
+        }
+    }
+    out
+}
+
+/// The force history for `lab extract`: rcforc's first interface (its SURFB side) when rcforc
+/// has data, else rwforc's first wall's normal force; with the words saying which.
+fn binout_force(
+    b: &crate::extract::lsdyna::binout::Binout,
+) -> Result<(crate::extract::lsdyna::binout::histories::WallSeries, String), Error> {
+    use crate::extract::lsdyna::binout::histories;
+    use crate::extract::lsdyna::rcforc::Side;
+    if let Some(rc) = histories::rcforc(b)?
+        && let Some(((_, id), s)) = rc.interfaces.iter().find(|((side, _), _)| *side == Side::SurfB)
+    {
+        let w = histories::WallSeries {
+            time: s.time.clone(),
+            normal: Vec::new(),
+            force: [s.x.clone(), s.y.clone(), s.z.clone()],
+        };
+        return Ok((w, format!("rcforc interface {id} (SURFB/master)")));
+    }
+    if let Some(rw) = histories::rwforc(b)?
+        && let Some((id, w)) = rw.walls.into_iter().next()
+    {
+        return Ok((w, format!("rwforc rigid wall {id}")));
+    }
+    Err(InputError::file(
+        &b.name,
+        "no force history: neither rcforc resultants nor rwforc rigid-wall forces",
+    )
+    .into())
+}
+
+/// The mean force over the stroke window: the force history against the node of nodout that
+/// moves most, along its axis of largest motion. Without nodout (no stroke): the force's peak and
+/// time average. Units are the solver's.
+fn binout_mean_force(b: &crate::extract::lsdyna::binout::Binout, w: crush::Window) -> Result<String, Error> {
+    use crate::extract::lsdyna::binout::histories;
+    let (force, what) = binout_force(b)?;
+    let Some(nod) = histories::nodout(b)?.filter(|n| !n.nodes.is_empty()) else {
+        let f = if force.normal.is_empty() {
+            &force.force[2]
+        } else {
+            &force.normal
+        };
+        let (peak, at) = force.time.iter().zip(f).fold(
+            (0.0f64, 0.0),
+            |m, (t, v)| if v.abs() > m.0.abs() { (*v, *t) } else { m },
+        );
+        let span = force.time.last().copied().unwrap_or(0.0) - force.time.first().copied().unwrap_or(0.0);
+        let area: f64 = force
+            .time
+            .windows(2)
+            .zip(f.windows(2))
+            .map(|(t, v)| 0.5 * (v[0] + v[1]) * (t[1] - t[0]))
+            .sum();
+        let mean = if span > 0.0 { area / span } else { f64::NAN };
+        return Ok(format!(
+            "{what}{}: peak {peak} at time {at:e}, time average {mean} over {} outputs (the solver's force unit); no nodout in this binout, so no stroke and no mean crush force\n",
+            if force.normal.is_empty() { " z" } else { " normal force" },
+            force.time.len()
+        ));
+    };
+    let moved = |s: &crate::extract::lsdyna::nodout::NodeSeries, a: usize| {
+        let d = &s.disp[a];
+        (d.last().copied().unwrap_or(0.0) - d.first().copied().unwrap_or(0.0)).abs()
+    };
+    let (node, axis) = nod
+        .nodes
+        .iter()
+        .flat_map(|(id, s)| (0..3).map(move |a| (*id, a, moved(s, a))))
+        .max_by(|x, y| x.2.total_cmp(&y.2))
+        .map(|(id, a, _)| (id, a))
+        .expect("nodout has nodes");
+    let f = if force.normal.is_empty() {
+        &force.force[axis]
+    } else {
+        &force.normal
+    };
+    let n = &nod.nodes[&node];
+    let curve = crush::from_histories(
+        &force.time,
+        f,
+        &n.time,
+        &n.disp[axis],
+        crush::Sign::Auto,
+        crush::Sign::Auto,
+    )
+    .map_err(|e| InputError::file(&b.name, e.to_string()))?;
+    let r = crush::crush_force(&curve, w).map_err(|e| InputError::file(&b.name, e.to_string()))?;
+    let axis_name = ["x", "y", "z"][axis];
+    Ok(format!(
+        "mean crush force {} over stroke {}-{} (energy {}, peak {} at {}; the solver's units: {what} {axis_name} against node {node}'s {axis_name} displacement)\n",
+        r.mean_force, w.s0, w.s1, r.energy, r.peak_force, r.peak_at
+    ))
+}
+// --- end issue 32 ---

@@ -352,6 +352,7 @@ impl Checker<'_> {
             disp_axis,
             disp_sign: Sign::Auto,
             disp_to_mm: factor(&r.disp_to_mm, "disp_to_mm")?,
+            rigid_wall: r.rigid_wall.as_ref().map(|w| w.value),
         })
     }
 

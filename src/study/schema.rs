@@ -148,6 +148,8 @@ pub struct ResponseFile {
     pub window: Option<Spanned<Vec<Spanned<f64>>>>,
     /// rcforc interface id (default 1).
     pub interface: Option<Spanned<u64>>,
+    /// A rigid wall's id: its normal force from rwforc (binout) is the force instead of rcforc's.
+    pub rigid_wall: Option<Spanned<u64>>,
     /// `master` / `surfb` (default) or `slave` / `surfa`.
     pub side: Option<Spanned<String>>,
     /// Force component: x, y or z (default z).

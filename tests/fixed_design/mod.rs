@@ -1,5 +1,6 @@
-//! The main job with a fixed design (LHS, 8 samples and 2 check runs per design), recorded live
-//! with crushsim once per test binary. The main job itself samples sequentially, so a run that
+//! The main job with the fixed design it had before it sampled sequentially (LHS, 24 samples and
+//! 5 check runs per design: 246 runs with the hardening's probes and loop), recorded live with
+//! crushsim once per test binary. The main job itself samples sequentially, so a run that
 //! fails or is left out changes the runs it asks for next; tests that damage recordings on purpose
 //! and need every replay to ask for the same runs use this variant instead.
 
@@ -11,10 +12,11 @@ use super::crushsim_bin;
 
 /// The main job's sampling, replaced by the fixed design.
 const SEQUENTIAL: &str = "sampling: {method: sequential, batch: 3, seed: 1}";
-/// The fixed design: 8 Latin-hypercube samples and 2 check runs per design.
-pub const FIXED: &str = "sampling: {method: lhs, count: 8, seed: 1, check_runs: 2}";
+/// The fixed design: 24 Latin-hypercube samples and 5 check runs per design.
+pub const FIXED: &str = "sampling: {method: lhs, count: 24, seed: 1, check_runs: 5}";
 /// Samples per design in `FIXED`.
-pub const SAMPLES: u64 = 8;
+#[allow(dead_code)] // not every test binary that includes this module reads it
+pub const SAMPLES: u64 = 24;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

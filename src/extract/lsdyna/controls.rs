@@ -1,7 +1,8 @@
 //! What a rendered keyword deck asks of its ASCII outputs: the termination time
 //! (`*CONTROL_TERMINATION` ENDTIM), the output interval of each history file
-//! (`*DATABASE_RCFORC` / `*DATABASE_NODOUT` / `*DATABASE_GLSTAT` DT, the first field of their first
-//! card) and the nodes `*DATABASE_HISTORY_NODE` requests in nodout.
+//! (`*DATABASE_RCFORC` / `_NODOUT` / `_GLSTAT` / `_RWFORC` DT, the first field of their first
+//! card), where each goes (their BINARY, the second field: 1 the ASCII file, 2 binout, 3 both) and
+//! the nodes `*DATABASE_HISTORY_NODE` requests in nodout.
 //!
 //! Fields are read as LS-DYNA reads them (10-character fixed fields, or comma free format), with
 //! `*PARAMETER` references (`&TEND`) resolved. Only the main deck is read, not its `*INCLUDE`s: the
@@ -13,11 +14,20 @@ use std::path::Path;
 use crate::error::InputError;
 use crate::render::lsdyna::deck::{self, Block, Card, Param};
 
-/// An output interval and the deck line that set it.
+/// An output interval, where the output goes, and the deck line that set them.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Interval {
     pub dt: f64,
     pub line: usize,
+    /// BINARY: 1 (also blank or 0) the ASCII file, 2 binout only, 3 both.
+    pub binary: i64,
+}
+
+impl Interval {
+    /// Whether the deck sends this history to binout (BINARY 2 or 3).
+    pub fn to_binout(&self) -> bool {
+        self.binary >= 2
+    }
 }
 
 /// The output requests of a deck. `None` where the deck does not say.
@@ -27,17 +37,20 @@ pub struct Controls {
     pub rcforc: Option<Interval>,
     pub nodout: Option<Interval>,
     pub glstat: Option<Interval>,
+    pub rwforc: Option<Interval>,
     /// `*DATABASE_HISTORY_NODE` ids, in deck order.
     pub history_nodes: Vec<u64>,
 }
 
 impl Controls {
-    /// The interval the deck sets for a history file by name (`rcforc`, `nodout`, `glstat`).
+    /// The interval the deck sets for a history file by name (`rcforc`, `nodout`, `glstat`,
+    /// `rwforc`).
     pub fn interval(&self, file: &str) -> Option<Interval> {
         match file {
             "rcforc" => self.rcforc,
             "nodout" => self.nodout,
             "glstat" => self.glstat,
+            "rwforc" => self.rwforc,
             _ => None,
         }
     }
@@ -64,12 +77,34 @@ pub fn parse(file: &Path, text: &str) -> Result<Controls, InputError> {
                     out.end_time = field(c, 0)?;
                 }
             }
-            "DATABASE_RCFORC" | "DATABASE_NODOUT" | "DATABASE_GLSTAT" => {
+            "DATABASE_RCFORC" | "DATABASE_NODOUT" | "DATABASE_GLSTAT" | "DATABASE_RWFORC" => {
                 let Some(c) = first else { continue };
-                let interval = field(c, 0)?.map(|dt| Interval { dt, line: c.line });
+                let binary = match field(c, 1)? {
+                    None => 1,
+                    Some(v) if v == 0.0 || v == 1.0 => 1,
+                    Some(v) if v == 2.0 || v == 3.0 => v as i64,
+                    Some(v) => {
+                        return Err(InputError::at(
+                            file,
+                            text,
+                            c.line,
+                            11,
+                            format!(
+                                "*{}: BINARY is {v}, expected 1 (ASCII), 2 (binout) or 3 (both)",
+                                b.keyword
+                            ),
+                        ));
+                    }
+                };
+                let interval = field(c, 0)?.map(|dt| Interval {
+                    dt,
+                    line: c.line,
+                    binary,
+                });
                 match b.keyword.as_str() {
                     "DATABASE_RCFORC" => out.rcforc = interval,
                     "DATABASE_NODOUT" => out.nodout = interval,
+                    "DATABASE_RWFORC" => out.rwforc = interval,
                     _ => out.glstat = interval,
                 }
             }
@@ -144,12 +179,19 @@ mod tests {
     fn reads_times_intervals_and_nodes_through_parameters() {
         let deck = "*KEYWORD\n*PARAMETER\nR TEND         0.061R DTOUT       0.0005\n\
                     *CONTROL_TERMINATION\n$ endtim\n     &TEND         0\n\
-                    *DATABASE_RCFORC\n    &DTOUT         1\n*DATABASE_GLSTAT\n1.0e-3,1\n\
+                    *DATABASE_RCFORC\n    &DTOUT         1\n*DATABASE_GLSTAT\n1.0e-3,3\n\
                     *DATABASE_HISTORY_NODE\n   9000005         7\n*END\n";
         let c = parse(Path::new("main.k"), deck).unwrap();
         assert_eq!(c.end_time, Some(0.061));
-        assert_eq!(c.rcforc, Some(Interval { dt: 0.0005, line: 8 }));
-        assert_eq!(c.glstat.map(|i| i.dt), Some(1.0e-3));
+        assert_eq!(
+            c.rcforc,
+            Some(Interval {
+                dt: 0.0005,
+                line: 8,
+                binary: 1
+            })
+        );
+        assert_eq!(c.glstat.map(|i| (i.dt, i.to_binout())), Some((1.0e-3, true)));
         assert_eq!(c.nodout, None);
         assert_eq!(c.history_nodes, vec![9000005, 7]);
     }

@@ -9,9 +9,11 @@
 //! Beyond parsing: [`controls`] reads what a deck asks of its outputs, [`complete`] checks parsed
 //! histories against it, and [`quality`] computes the energy figures of glstat and their gates.
 
+pub mod binout;
 pub mod bndout;
 pub mod complete;
 pub mod controls;
+pub mod d3hsp;
 pub mod glstat;
 pub mod nodout;
 pub mod quality;
