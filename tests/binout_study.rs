@@ -13,9 +13,13 @@
 //! interpolated strokes) to 1e-4, and the solver-in-the-loop extension (a GP emulator fitted
 //! through the runs, then a two-parameter calibration) to 1e-3.
 //!
-//! Independent of the number of runs the study plans: whatever it plans is run both ways.
+//! Independent of the number of runs the study plans: whatever it plans is run both ways. The main
+//! job samples sequentially, and its next batch depends on the responses in hand, which differ in
+//! the seventh digit between the two formats; the study is therefore run with its former fixed
+//! design (`fixed_design::FIXED`), so that both ways run the same decks.
 
 mod crushsim_bin;
+mod fixed_design;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -41,6 +45,7 @@ fn study_copy(dir: &Path, binary: u8) -> PathBuf {
             continue;
         }
         let line = line
+            .replace(fixed_design::SEQUENTIAL, fixed_design::FIXED)
             .replace("../templates", &format!("{abs}/templates"))
             .replace("../fixtures", &format!("{abs}/fixtures"));
         out += &line;

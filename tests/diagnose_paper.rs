@@ -64,12 +64,17 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
 
 /// Tolerance: the issue's 2 % on θ. facts.md: the quadratic term gives θ = 0.6414 by least squares
 /// on the 11 noise-free points (1.3 % short of 0.65: x² is only the first term of the saturation).
+/// The saturation 0.65 x / (1 + x/20) = 0.65 (x − x²/20 + x³/400 − …) has a cubic term too, and on
+/// noise-free points the quadratic's residuals are that cubic, which 'cubic wear' explains: the
+/// quadratic is the leading part of the cause, not a decided cause (issue 31: `cause` means decided).
 #[test]
 fn simple_machine_names_the_saturation_term() {
     let d = run("simple-machine.yaml");
     assert!(d.discrepancy_detected);
-    assert_eq!(d.cause.as_deref(), Some("saturation"));
-    let ext = d.extended.as_ref().unwrap();
+    assert_eq!(d.cause, None);
+    let partial = d.partial.as_ref().expect("a partial explanation");
+    assert_eq!(partial.name, "saturation");
+    let ext = d.extended_model().unwrap();
     let theta = ext.parameters["theta"];
     assert!((theta / 0.65 - 1.0).abs() < 0.02, "theta = {theta}");
     assert!((theta - 0.6414).abs() < 5e-4, "theta = {theta} (facts.md: 0.6414)");

@@ -88,9 +88,11 @@ fn check_curves(results: &serde_json::Value, data: &serde_json::Value) {
             .filter(|r| r["design"] == design && r["class"] == "success" && r["role"] != "extension")
             .map(|r| (r["theta"][0].as_f64().unwrap(), r["response"].as_f64().unwrap()))
             .collect();
-        assert_eq!((runs.len(), d["runs"].as_u64()), (29, Some(29)), "{design}");
+        // Every baseline run the sequence made at the design; the report draws up to nine of them.
+        assert_eq!(Some(runs.len() as u64), d["runs"].as_u64(), "{design}");
+        assert!(runs.len() >= 3, "{design}: {} runs", runs.len());
         let sims = d["simulations"].as_array().unwrap();
-        assert_eq!(sims.len(), 9, "{design}");
+        assert_eq!(sims.len(), runs.len().min(9), "{design}");
         let mean = |c: &serde_json::Value| c["mean_force"].as_f64().unwrap();
         assert!(
             sims.windows(2).all(|w| mean(&w[0]) <= mean(&w[1])),
@@ -152,7 +154,8 @@ fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
         assert!(r["calibration"][m]["validation_error"].as_f64().is_some(), "{m}");
     }
     for (design, s) in r["surrogates"].as_object().unwrap() {
-        assert_eq!(s["check_runs"], 5, "{design}");
+        // The sequence holds back its latest batch at each design as check runs.
+        assert!(s["check_runs"].as_u64().unwrap() >= 1, "{design}: {s}");
         assert!(s["check_max_relative_error"].as_f64().unwrap() < 0.05, "{design}: {s}");
     }
     let splits = r["splits"].as_array().unwrap();

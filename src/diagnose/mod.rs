@@ -685,13 +685,17 @@ impl<'a> Context<'a> {
             weights,
         };
         let n = train.len();
+        // The residuals a fit can resolve: a minimiser locates its parameters only to about √ε
+        // relative (the objective is flat to second order at its minimum), so residuals of noise-free
+        // tests stop near √ε of the responses, not at ε; below that they are the optimiser's, not
+        // the model's, and must not be read as misfit.
         let rss_floor = {
             let ms = train
                 .iter()
                 .map(|&i| (data.weights[i] * data.means[i]).powi(2))
                 .sum::<f64>()
                 / n as f64;
-            (1e-12_f64).powi(2) * ms * n as f64
+            f64::EPSILON * ms * n as f64
         };
         let nu = noise.map_or(0, |nm| nm.dof);
         let p = inputs.parameter_names.len();

@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 use super::crushsim_bin;
 
 /// The main job's sampling, replaced by the fixed design.
-const SEQUENTIAL: &str = "sampling: {method: sequential, batch: 3, seed: 1}";
+pub const SEQUENTIAL: &str = "sampling: {method: sequential, batch: 3, seed: 1}";
 /// The fixed design: 24 Latin-hypercube samples and 5 check runs per design.
 pub const FIXED: &str = "sampling: {method: lhs, count: 24, seed: 1, check_runs: 5}";
 /// Samples per design in `FIXED`.
@@ -24,6 +24,7 @@ fn root() -> PathBuf {
 
 /// The main job with the fixed design and `extra` lines after `surrogate: linear` (e.g. a
 /// `quality:` line), written into `dir` with its paths made absolute.
+#[allow(dead_code)]
 pub fn study(dir: &Path, extra: &str) -> PathBuf {
     let text = std::fs::read_to_string(root().join("studies/honeycomb.yaml")).unwrap();
     assert!(text.contains(SEQUENTIAL), "the main job's sampling changed");
@@ -37,6 +38,7 @@ pub fn study(dir: &Path, extra: &str) -> PathBuf {
 }
 
 /// The fixed-design main job's recordings, made live with crushsim on first use.
+#[allow(dead_code)] // not every test binary that includes this module records
 pub fn recordings() -> &'static Path {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
     DIR.get_or_init(|| {
@@ -64,6 +66,7 @@ pub fn recordings() -> &'static Path {
 }
 
 /// The recording keys in `dir`, sorted.
+#[allow(dead_code)]
 pub fn keys(dir: &Path) -> Vec<String> {
     let mut keys: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
