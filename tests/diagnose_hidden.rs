@@ -837,7 +837,12 @@ fn replicate_sigma(case: &Case) -> Vec<f64> {
         let s2 = groups.iter().map(|g| g.1 / v(l, g.2)).sum::<f64>() / nu;
         -groups.iter().map(|g| g.0 * (s2 * v(l, g.2)).ln()).sum::<f64>()
     };
-    let best = (0..=1000).map(|k| k as f64 / 1000.0).max_by(|a, b| loglik(*a).total_cmp(&loglik(*b))).unwrap();
+    let ml = (0..=1000).map(|k| k as f64 / 1000.0).max_by(|a, b| loglik(*a).total_cmp(&loglik(*b))).unwrap();
+    // As the diagnosis chooses (issue 31): the likelier pure form, absolute or relative, unless the
+    // maximum-likelihood mixing beats it by the likelihood-ratio test at α = 0.01 (χ²₁ = 6.635;
+    // `loglik` is twice the profile log-likelihood).
+    let edge = if loglik(1.0) > loglik(0.0) { 1.0 } else { 0.0 };
+    let best = if loglik(ml) - loglik(edge) > 6.635 { ml } else { edge };
     case.obs
         .iter()
         .filter(|o| o.role == Role::Training)
