@@ -847,7 +847,11 @@ fn noise_and_base<'a>(
     let alpha = inputs.settings.alpha;
     let chosen = scatter.chosen_mixing(alpha);
     let first = fitted(Some(scatter.model_at(chosen, alpha)))?;
-    if fits(&first.0, &first.1) {
+    // The other mixings the replicates allow may spare the uncorrected model a claim of model
+    // error (detection). A cause's final model (the loop's, `detection` false) is judged on the
+    // noise the detection chose: re-choosing the noise per model would let a wrong cause hide its
+    // misfit where the noise form is least certain, and its rivals be judged on another noise.
+    if !detection || fits(&first.0, &first.1) {
         return Ok(first);
     }
     for lambda in scatter.set_points(alpha) {
