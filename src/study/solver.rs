@@ -34,6 +34,20 @@ pub struct SolverSimulation {
     pub slurm: Option<crate::execute::slurm::SlurmSettings>,
     /// `simulation.quality`: the gates on each run's sanity figures (defaults when absent).
     pub quality: QualitySettings,
+    /// `adapter: openradioss`: `solver.openradioss` (defaults when absent); `None` for the others.
+    pub openradioss: Option<OpenRadiossSettings>,
+}
+
+/// `solver.openradioss`: how OpenRadioss is run. `command` is the starter's argv built from these.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OpenRadiossSettings {
+    pub starter: String,
+    pub engine: String,
+    pub threads: u32,
+    /// The starter's nodal noise: amplitude (mm) and seed.
+    pub noise: Option<(f64, f64)>,
+    /// Set for both programs, on top of lab's own environment.
+    pub environment: Vec<(String, String)>,
 }
 
 /// `simulation.quality`: a run that breaks a gate is `suspect`; suspect runs feed the surrogates
