@@ -283,6 +283,78 @@ pub fn force_from_impulse(times: &[f64], impulse: &[f64]) -> Vec<f64> {
 mod tests {
     use super::*;
 
+    /// A small T01 as the engine writes one: 2 globals, one part with 2 variables, the model's
+    /// subset, an interface group (1 interface, FNZ only) and a node group (1 node, DZ only).
+    fn file(steps: &[(f32, [f32; 6])]) -> Vec<u8> {
+        let mut out = Vec::new();
+        let mut rec = |payload: Vec<u8>| {
+            let n = (payload.len() as i32).to_be_bytes();
+            out.extend(n);
+            out.extend(&payload);
+            out.extend(n);
+        };
+        let ints = |v: &[i32]| v.iter().flat_map(|i| i.to_be_bytes()).collect::<Vec<u8>>();
+        let title = |t: &str, w: usize| format!("{t:<w$}").into_bytes();
+        rec([ints(&[3040]), title("run", 80)].concat());
+        rec(title("banner", 80));
+        rec(ints(&[1, 0, 0, 1, 2, 2]));
+        rec(ints(&[1, 2]));
+        rec([ints(&[7]), title("tube", 40), ints(&[0, 1, 1, 2])].concat());
+        rec(ints(&[1, 2]));
+        rec([ints(&[0, 0, 0, 1, 0]), title("GLOBAL MODEL", 40)].concat());
+        rec(ints(&[7]));
+        rec([ints(&[3, 101, 0, 1, 1]), title("TH-INTER", 40)].concat());
+        rec([ints(&[1]), title("NODES_TO_SURFACE", 40)].concat());
+        rec(ints(&[3]));
+        rec([ints(&[2, 0, 0, 1, 1]), title("NODES", 40)].concat());
+        rec([ints(&[9000005]), title("", 40)].concat());
+        rec(ints(&[3]));
+        for (t, v) in steps {
+            let reals = |v: &[f32]| v.iter().flat_map(|x| x.to_be_bytes()).collect::<Vec<u8>>();
+            rec(reals(&[*t]));
+            rec(reals(&v[0..2]));
+            rec(reals(&v[2..4]));
+            rec(reals(&v[4..5]));
+            rec(reals(&v[5..6]));
+        }
+        out
+    }
+
+    #[test]
+    fn reads_a_small_file_by_name() {
+        let bytes = file(&[(0.0, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]), (1e-3, [5.0, 0.5, 4.0, 0.25, 2e-3, -0.01])]);
+        let th = parse(&bytes).unwrap();
+        assert_eq!(th.header.version, 3040);
+        assert_eq!(th.times, vec![0.0, f64::from(1e-3f32)]);
+        assert_eq!(th.global("KINETIC ENERGY").unwrap(), vec![0.0, 0.5]);
+        assert_eq!(th.part(7, "KE").unwrap(), vec![0.0, 0.25]);
+        assert_eq!(th.node(9000005, "DZ").unwrap(), vec![0.0, f64::from(-0.01f32)]);
+        let f = th.interface_force(1, "FNZ").unwrap();
+        assert!((f[1] - 2.0).abs() < 1e-6, "{f:?}");
+        assert_eq!(th.interfaces(), vec![1]);
+        assert!(th.node(1, "DZ").is_none() && th.global("NO SUCH").is_none());
+    }
+
+    #[test]
+    fn a_file_cut_inside_a_step_or_with_a_wrong_record_is_an_error_with_its_offset() {
+        let bytes = file(&[(0.0, [0.0; 6]), (1e-3, [1.0; 6])]);
+        let whole = parse(&bytes).unwrap();
+        assert_eq!(whole.times.len(), 2);
+        for cut in [bytes.len() - 1, bytes.len() - 12, bytes.len() - 30] {
+            match parse(&bytes[..cut]) {
+                Err(Error::Truncated { offset, what, .. }) => {
+                    assert!(offset <= cut && what.contains("step 2"), "{offset} {what}")
+                }
+                other => panic!("cut at {cut}: {other:?}"),
+            }
+        }
+        // A global record of 3 values where the header says 2.
+        let mut bad = bytes.clone();
+        let at = bad.len() - 4 * 5 - 8 * 4 - 4 * 2 - 8; // the last step's global record
+        bad.splice(at..at + 4, 12i32.to_be_bytes());
+        assert!(matches!(parse(&bad), Err(Error::Truncated { .. } | Error::Format { .. })));
+    }
+
     #[test]
     fn force_from_impulse_is_central_inside_and_one_sided_at_the_ends() {
         let t = [0.0, 1.0, 2.0, 4.0];

@@ -204,7 +204,11 @@ fn new_meshes(
     let texts: Vec<Result<(String, String), String>> = tubes
         .par_iter()
         .map(|tube| {
-            let (text, _) = mesh::include(tube).map_err(|e| e.to_string())?;
+            let made = match spec.edge_set {
+                Some(set) => mesh::include_with_edge_set(tube, set),
+                None => mesh::include(tube),
+            };
+            let (text, _) = made.map_err(|e| e.to_string())?;
             let hash = blake3::hash(text.as_bytes()).to_hex().to_string();
             Ok((text, hash))
         })

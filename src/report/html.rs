@@ -21,6 +21,8 @@ use super::summary::significant;
 mod curves;
 #[path = "html_loop.rs"]
 mod solver_loop;
+#[path = "html_solvers.rs"]
+mod solvers;
 #[path = "html_splits.rs"]
 mod splits;
 #[path = "html_stroke.rs"]
@@ -952,7 +954,7 @@ impl Page<'_> {
                 r.seconds.map_or("–".into(), seconds),
                 r.response.map_or("–".into(), |v| significant(v, 5)),
                 if ok {
-                    escape(&r.flags.join("; "))
+                    escape(&r.flags.iter().chain(&r.warnings).cloned().collect::<Vec<_>>().join("; "))
                 } else {
                     escape(&r.outcome)
                 }

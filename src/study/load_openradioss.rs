@@ -35,6 +35,7 @@ impl Checker<'_> {
                 threads: 1,
                 noise: None,
                 environment: Vec::new(),
+                standin: None,
             }));
         };
         self.openradioss_settings(node).map(Some)
@@ -61,8 +62,8 @@ impl Checker<'_> {
                 if !(a.value.is_finite() && a.value > 0.0) {
                     return Err(self.at(a, "`noise.amplitude` must be a positive length (mm)"));
                 }
-                if !(s.value.is_finite() && s.value > 0.0) {
-                    return Err(self.at(s, "`noise.seed` must be a positive number"));
+                if !(s.value.is_finite() && s.value > 0.0 && s.value <= 1.0) {
+                    return Err(self.at(s, "`noise.seed` must be in (0, 1]: the starter ignores other seeds (with a warning)"));
                 }
                 Some((a.value, s.value))
             }
@@ -75,12 +76,14 @@ impl Checker<'_> {
             }
             environment.push((name.value.clone(), value.value.clone()));
         }
+        let standin = o.standin.as_ref().map(|d| self.path.parent().unwrap_or(std::path::Path::new("")).join(&d.value));
         Ok(OpenRadiossSettings {
             starter: program(&o.starter, STARTER)?,
             engine: program(&o.engine, ENGINE)?,
             threads,
             noise,
             environment,
+            standin,
         })
     }
 }

@@ -423,11 +423,16 @@ impl Checker<'_> {
             .map(|v| positive(v, "length"))
             .transpose()?
             .unwrap_or(150.0);
+        let edge_set = match &m.edge_set {
+            Some(v) if v.value == 0 => return Err(self.at(v, "`mesh.edge_set` is a set id: 1 or more")),
+            other => other.as_ref().map(|v| v.value),
+        };
         Ok(MeshSpec {
             cell_variable,
             element_size,
             diameter,
             length,
+            edge_set,
         })
     }
 

@@ -101,6 +101,9 @@ pub struct MeshFile {
     pub cell: Option<Spanned<String>>,
     pub diameter: Option<Spanned<f64>>,
     pub length: Option<Spanned<f64>>,
+    /// The id of a `*SET_NODE_LIST` of the nodes where the cylinder cut the walls, appended to the
+    /// mesh include (default: none).
+    pub edge_set: Option<Spanned<u32>>,
 }
 
 /// `simulation.solver`: how one run is made.
@@ -141,6 +144,9 @@ pub struct OpenRadiossFile {
     /// Environment variables for both programs (RAD_CFG_PATH, LD_LIBRARY_PATH, OMP_STACKSIZE, ...).
     #[serde(default)]
     pub environment: IndexMap<Name, Spanned<String>>,
+    /// The stand-in's recordings of the same decks (relative to the study file), for the
+    /// report's comparison of the two solvers' curves.
+    pub standin: Option<Spanned<String>>,
 }
 
 /// `openradioss.noise`: the largest random displacement of each node (mm) and the seed.
