@@ -32,8 +32,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-use lab::execute::openradioss::OpenRadiossAdapter;
 use lab::execute::Adapter;
+use lab::execute::openradioss::OpenRadiossAdapter;
 use lab::extract::crush::{self, CsvOptions, SimSource, Window};
 use lab::render::Renderer;
 use lab::render::mesh::{self, TubeSpec};
@@ -48,7 +48,7 @@ const NOISE: f64 = 0.005;
 const SPECIMENS: usize = 4;
 /// Must match studies/honeycomb-openradioss.yaml (`tests/openradioss_study.rs` checks it).
 pub const MODEL: Model = Model {
-    element: 0.35,
+    element: 0.25,
     diameter: 10.0,
     length: 8.0,
     edge_set: 2,
@@ -59,7 +59,7 @@ pub const MODEL: Model = Model {
         ("ramp_time", 0.0001),
         ("term_time", 0.00105),
         ("dt_out", 0.00001),
-        ("dt_mass", 0.000000056),
+        ("dt_mass", 0.00000004),
         ("hold_edges", 1.0),
     ],
     noise: 0.005,
@@ -114,7 +114,12 @@ fn render(renderer: &Renderer, case: &Case) -> (String, String) {
     };
     let (mesh_text, _) = mesh::include_with_edge_set(&spec, MODEL.edge_set).unwrap_or_else(|e| fail(e.to_string()));
     let mut ctx = tera::Context::new();
-    let base = [("c", case.c), ("t", case.t), ("sigma_y", case.sigma_y), ("etan", case.etan)];
+    let base = [
+        ("c", case.c),
+        ("t", case.t),
+        ("sigma_y", case.sigma_y),
+        ("etan", case.etan),
+    ];
     for (k, v) in base.into_iter().chain(MODEL.constants.iter().copied()) {
         let v = case.overrides.iter().find(|(o, _)| *o == k).map_or(v, |(_, o)| *o);
         ctx.insert(k, &v);
@@ -241,11 +246,17 @@ fn tests(out: &Path, work: &Path) {
             let read = crush::read_test_csv(&path, CsvOptions::default()).unwrap_or_else(|e| fail(e.to_string()));
             let measured = crush::crush_force(&read, MODEL.window).unwrap_or_else(|e| fail(e.to_string()));
             writeln!(experiments, "{name},{c},{t},{}", measured.mean_force).unwrap();
-            eprintln!("{name}-{k}: imperfection seed {seed:.1}, mean force {:.4} kN", measured.mean_force);
+            eprintln!(
+                "{name}-{k}: imperfection seed {seed:.1}, mean force {:.4} kN",
+                measured.mean_force
+            );
         }
     }
     std::fs::write(out.join("experiments.csv"), experiments).unwrap_or_else(|e| fail(e.to_string()));
 }
+
+/// A variant of the check: its label, element size and template variables.
+type Variant<'a> = (&'a str, f64, Vec<(&'a str, f64)>);
 
 /// The mesh/speed check (see the module note).
 fn check(work: &Path, tests: Option<&Path>) {
@@ -259,16 +270,28 @@ fn check(work: &Path, tests: Option<&Path>) {
         constant("dt_mass"),
     );
     let fine = 0.72;
-    let slow = [("velocity", v / 2.0), ("ramp_time", 2.0 * ramp), ("term_time", 2.0 * term), ("dt_out", 2.0 * out)];
-    let variants: [(&str, f64, Vec<(&str, f64)>); 4] = [
+    let slow = [
+        ("velocity", v / 2.0),
+        ("ramp_time", 2.0 * ramp),
+        ("term_time", 2.0 * term),
+        ("dt_out", 2.0 * out),
+    ];
+    let variants: [Variant; 4] = [
         ("the study's model", MODEL.element, vec![]),
-        ("mesh refined", round(MODEL.element * fine), vec![("dt_mass", round(dms * fine))]),
+        (
+            "mesh refined",
+            round(MODEL.element * fine),
+            vec![("dt_mass", round(dms * fine))],
+        ),
         ("speed halved", MODEL.element, slow.to_vec()),
         ("no mass scaling", MODEL.element, vec![("dt_mass", 0.0)]),
     ];
     let scatter = tests.map(|p| specimen_scatter(p, "C6T5"));
     let mut base = None;
-    println!("| variant | element (mm) | speed (m/s) | mean force {}–{} mm (N) | change | initial peak (N) | kinetic/internal | added mass | energy error | solver time (s) |", MODEL.window.s0, MODEL.window.s1);
+    println!(
+        "| variant | element (mm) | speed (m/s) | mean force {}–{} mm (N) | change | initial peak (N) | kinetic/internal | added mass | energy error | solver time (s) |",
+        MODEL.window.s0, MODEL.window.s1
+    );
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for (label, element, overrides) in variants {
         let case = Case {
@@ -296,7 +319,9 @@ fn check(work: &Path, tests: Option<&Path>) {
             .map(|(_, f)| *f)
             .fold(0.0, f64::max);
         let mean = judged.response;
-        let change = base.map_or("–".to_string(), |b: f64| format!("{:+.1} %", 100.0 * (mean / b - 1.0)));
+        let change = base.map_or("–".to_string(), |b: f64| {
+            format!("{:+.1} %", 100.0 * (mean / b - 1.0))
+        });
         base.get_or_insert(mean);
         let q = judged.quality.unwrap_or_default();
         let pct = |v: Option<f64>| v.map_or("–".into(), |v| format!("{:.1} %", 100.0 * v));

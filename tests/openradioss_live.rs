@@ -91,7 +91,10 @@ fn mean_from_th_to_csv(t01: &Path, s0: f64, s1: f64) -> f64 {
         .records()
         .map(|r| {
             let r = r.unwrap();
-            (-r[d].trim().parse::<f64>().unwrap(), r[f].trim().parse::<f64>().unwrap() / 1000.0)
+            (
+                -r[d].trim().parse::<f64>().unwrap(),
+                r[f].trim().parse::<f64>().unwrap() / 1000.0,
+            )
         })
         .collect();
     let at = |s: f64| {
@@ -102,7 +105,10 @@ fn mean_from_th_to_csv(t01: &Path, s0: f64, s1: f64) -> f64 {
     let mut points = vec![(s0, at(s0))];
     points.extend(rows.iter().copied().filter(|(s, _)| *s > s0 && *s < s1));
     points.push((s1, at(s1)));
-    let area: f64 = points.windows(2).map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0)).sum();
+    let area: f64 = points
+        .windows(2)
+        .map(|w| 0.5 * (w[0].1 + w[1].1) * (w[1].0 - w[0].0))
+        .sum();
     area / (s1 - s0)
 }
 
@@ -115,7 +121,16 @@ fn a_live_run_is_judged_from_its_listings_and_time_history_and_replays_bit_for_b
     // gap 0.05: the plates start inside their contact distance, so the starter warns.
     let study = mini(tmp.path(), &|t| t, "  gap: 0.05\n");
     let (out, rec) = (tmp.path().join("out"), tmp.path().join("rec"));
-    let o = lab(&["run", study.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1", "--record", rec.to_str().unwrap()]);
+    let o = lab(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--jobs",
+        "1",
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     let runs = records(&out);
@@ -126,14 +141,24 @@ fn a_live_run_is_judged_from_its_listings_and_time_history_and_replays_bit_for_b
         let dir = out.join("runs").join(key);
         let mean = mean_from_th_to_csv(&dir.join("mainT01"), 0.4, 0.9);
         let response = r["response"].as_f64().unwrap();
-        assert!((response - mean).abs() <= 1e-6 * mean, "{key}: lab {response}, th_to_csv {mean}");
+        assert!(
+            (response - mean).abs() <= 1e-6 * mean,
+            "{key}: lab {response}, th_to_csv {mean}"
+        );
         let q = &r["quality"];
         assert!(q["energy_error"].as_f64().unwrap().abs() < 0.05, "{r}");
         assert!(q["kinetic_ratio"].as_f64().unwrap() < 0.10, "{r}");
         assert!(!dir.join("main_0000_0001.rst").exists() && !dir.join("main_0001_0001.rst").exists());
-        let warnings: Vec<&str> = r["warnings"].as_array().unwrap().iter().map(|w| w.as_str().unwrap()).collect();
+        let warnings: Vec<&str> = r["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w.as_str().unwrap())
+            .collect();
         assert!(
-            warnings.iter().any(|w| w.starts_with("starter: ") && w.contains("INITIAL PENETRATIONS")),
+            warnings
+                .iter()
+                .any(|w| w.starts_with("starter: ") && w.contains("INITIAL PENETRATIONS")),
             "{warnings:?}"
         );
         assert!(stderr.contains(warnings[0]), "warnings not shown:\n{stderr}");
@@ -142,15 +167,32 @@ fn a_live_run_is_judged_from_its_listings_and_time_history_and_replays_bit_for_b
         }
     }
     let replayed = tmp.path().join("replayed");
-    let o = lab(&["run", study.to_str().unwrap(), "--out", replayed.to_str().unwrap(), "--replay", rec.to_str().unwrap()]);
+    let o = lab(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        replayed.to_str().unwrap(),
+        "--replay",
+        rec.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for (a, b) in runs.iter().zip(records(&replayed)) {
-        assert_eq!(a["response"].as_f64().unwrap().to_bits(), b["response"].as_f64().unwrap().to_bits());
+        assert_eq!(
+            a["response"].as_f64().unwrap().to_bits(),
+            b["response"].as_f64().unwrap().to_bits()
+        );
         assert_eq!(a["quality"], b["quality"]);
         assert_eq!(a["warnings"], b["warnings"]);
     }
     let again = tmp.path().join("again");
-    let o = lab(&["run", study.to_str().unwrap(), "--out", again.to_str().unwrap(), "--jobs", "1"]);
+    let o = lab(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        again.to_str().unwrap(),
+        "--jobs",
+        "1",
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // The T01's banner holds the date; every number in it must repeat.
     for (r, a) in runs.iter().zip(records(&again)) {
@@ -159,8 +201,14 @@ fn a_live_run_is_judged_from_its_listings_and_time_history_and_replays_bit_for_b
         let (first, second) = (t01(&out), t01(&again));
         assert_eq!(first.times, second.times, "{key}");
         let bits = |th: &radioss_th::TimeHistory| th.values.iter().map(|v| v.to_bits()).collect::<Vec<u32>>();
-        assert!(bits(&first) == bits(&second), "{key}: a second run on one thread wrote other numbers");
-        assert_eq!(r["response"].as_f64().unwrap().to_bits(), a["response"].as_f64().unwrap().to_bits());
+        assert!(
+            bits(&first) == bits(&second),
+            "{key}: a second run on one thread wrote other numbers"
+        );
+        assert_eq!(
+            r["response"].as_f64().unwrap().to_bits(),
+            a["response"].as_f64().unwrap().to_bits()
+        );
     }
 }
 
@@ -170,7 +218,14 @@ fn fails(edit: &dyn Fn(String) -> String, listing: &str, phrase: &str) {
     let tmp = tempfile::tempdir().unwrap();
     let study = mini(tmp.path(), edit, "");
     let out = tmp.path().join("out");
-    let o = lab(&["run", study.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1"]);
+    let o = lab(&[
+        "run",
+        study.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--jobs",
+        "1",
+    ]);
     assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stderr));
     for r in records(&out) {
         assert_eq!(r["outcome"]["class"], "failure_text", "{r}");
@@ -188,7 +243,10 @@ fn a_rejected_deck_and_a_run_stopped_early_are_failures() {
     fails(
         &|t| {
             assert!(t.contains(part));
-            t.replace(part, &part.replace("         1         1         1", "         1         1        99"))
+            t.replace(
+                part,
+                &part.replace("         1         1         1", "         1         1        99"),
+            )
         },
         "main_0000.out",
         "ERROR(S)",

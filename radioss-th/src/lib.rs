@@ -322,7 +322,10 @@ mod tests {
 
     #[test]
     fn reads_a_small_file_by_name() {
-        let bytes = file(&[(0.0, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]), (1e-3, [5.0, 0.5, 4.0, 0.25, 2e-3, -0.01])]);
+        let bytes = file(&[
+            (0.0, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            (1e-3, [5.0, 0.5, 4.0, 0.25, 2e-3, -0.01]),
+        ]);
         let th = parse(&bytes).unwrap();
         assert_eq!(th.header.version, 3040);
         assert_eq!(th.times, vec![0.0, f64::from(1e-3f32)]);
@@ -352,7 +355,10 @@ mod tests {
         let mut bad = bytes.clone();
         let at = bad.len() - 4 * 5 - 8 * 4 - 4 * 2 - 8; // the last step's global record
         bad.splice(at..at + 4, 12i32.to_be_bytes());
-        assert!(matches!(parse(&bad), Err(Error::Truncated { .. } | Error::Format { .. })));
+        assert!(matches!(
+            parse(&bad),
+            Err(Error::Truncated { .. } | Error::Format { .. })
+        ));
     }
 
     #[test]

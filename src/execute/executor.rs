@@ -440,7 +440,7 @@ async fn run_attempt(
     for (step, argv) in programs.enumerate() {
         let child = match start(spec, argv, &ctx.chain.env, step > 0) {
             Ok(child) => child,
-            Err(attempt) => return attempt,
+            Err(attempt) => return *attempt,
         };
         let left = deadline.map(|d| d.saturating_duration_since(Instant::now()));
         match supervise_program(child, left, ctx.grace, cancel).await {
@@ -497,7 +497,12 @@ async fn supervise_program(
 /// solver in the run directory, in a process group of its own; a later program of the chain
 /// (`append`) appends to the attempt's stdout/stderr instead. A solver that cannot be started is
 /// judged at once (exit code 127, as a shell reports it).
-fn start(spec: &RunSpec, argv: &[String], env: &[(String, String)], append: bool) -> Result<tokio::process::Child, Attempt> {
+fn start(
+    spec: &RunSpec,
+    argv: &[String],
+    env: &[(String, String)],
+    append: bool,
+) -> Result<tokio::process::Child, Box<Attempt>> {
     let dir = &spec.dir;
     if !append {
         for rel in spec
@@ -507,7 +512,10 @@ fn start(spec: &RunSpec, argv: &[String], env: &[(String, String)], append: bool
             .chain([Path::new(STDOUT_FILE), Path::new(STDERR_FILE)])
         {
             if let Err(e) = remove_if_present(&dir.join(rel)) {
-                return Err(Attempt::Error(format!("removing {}: {e}", dir.join(rel).display())));
+                return Err(Box::new(Attempt::Error(format!(
+                    "removing {}: {e}",
+                    dir.join(rel).display()
+                ))));
             }
         }
     }
@@ -521,10 +529,10 @@ fn start(spec: &RunSpec, argv: &[String], env: &[(String, String)], append: bool
     };
     let (stdout, stderr) = match (open(STDOUT_FILE), open(STDERR_FILE)) {
         (Ok(o), Ok(e)) => (o, e),
-        (Err(e), _) | (_, Err(e)) => return Err(Attempt::Error(format!("{}: {e}", dir.display()))),
+        (Err(e), _) | (_, Err(e)) => return Err(Box::new(Attempt::Error(format!("{}: {e}", dir.display())))),
     };
     let Some((program, args)) = argv.split_first() else {
-        return Err(Attempt::Error("empty argv".to_string()));
+        return Err(Box::new(Attempt::Error("empty argv".to_string())));
     };
     let mut command = tokio::process::Command::new(program);
     command
@@ -541,7 +549,7 @@ fn start(spec: &RunSpec, argv: &[String], env: &[(String, String)], append: bool
             if let Ok(mut f) = open(STDERR_FILE) {
                 let _ = writeln!(f, "lab: cannot start `{program}`: {e}");
             }
-            Err(Attempt::Judged(Outcome::NonZeroExit { code: 127 }, None))
+            Err(Box::new(Attempt::Judged(Outcome::NonZeroExit { code: 127 }, None)))
         }
     }
 }

@@ -100,7 +100,12 @@ impl OpenRadiossAdapter {
             settings.threads.to_string(),
         ];
         if let Some((amplitude, seed)) = settings.noise {
-            argv.extend(["-rxalea".into(), amplitude.to_string(), "-rseed".into(), seed.to_string()]);
+            argv.extend([
+                "-rxalea".into(),
+                amplitude.to_string(),
+                "-rseed".into(),
+                seed.to_string(),
+            ]);
         }
         argv
     }
@@ -221,21 +226,29 @@ impl Adapter for OpenRadiossAdapter {
         if let Ok(Some(s)) = self.listing(dir, &self.starter_listing())
             && let Some(n) = s.error_count.filter(|n| *n > 0)
         {
-            let first = s.first_error().map(|m| format!(" (line {}: {})", m.line, m.title)).unwrap_or_default();
+            let first = s
+                .first_error()
+                .map(|m| format!(" (line {}: {})", m.line, m.title))
+                .unwrap_or_default();
             return failure(self.starter_listing(), format!("{n} ERROR(S){first}"));
         }
         let Ok(Some(e)) = self.listing(dir, &self.engine_listing()) else {
             return None;
         };
         if let Some(line) = e.error_termination {
-            let first = e.first_error().map(|m| format!(" (line {}: {})", m.line, m.title)).unwrap_or_default();
-            return failure(self.engine_listing(), format!("ERROR TERMINATION at line {line}{first}"));
+            let first = e
+                .first_error()
+                .map(|m| format!(" (line {}: {})", m.line, m.title))
+                .unwrap_or_default();
+            return failure(
+                self.engine_listing(),
+                format!("ERROR TERMINATION at line {line}{first}"),
+            );
         }
-        e.stopped
-            .map(|(line, why)| Outcome::FailureText {
-                file: self.engine_listing(),
-                line: format!("the run stopped early at line {line}: {why}"),
-            })
+        e.stopped.map(|(line, why)| Outcome::FailureText {
+            file: self.engine_listing(),
+            line: format!("the run stopped early at line {line}: {why}"),
+        })
     }
 
     fn extract(&self, dir: &Path) -> Result<f64, Outcome> {

@@ -41,13 +41,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use tokio::sync::mpsc;
 
+use super::openradioss::OpenRadiossAdapter;
 use super::replay::{self, InputDigest, Manifest};
 use super::store::{RUNS_DIR, run_key, write_atomic};
 use super::{
-    Adapter, CancelReason, Canceller, Chain, CommandAdapter, Executor, LsDynaAdapter, Outcome, OutcomeClass,
-    RunRecord, RunSpec, RunStore, progress,
+    Adapter, CancelReason, Canceller, Chain, CommandAdapter, Executor, LsDynaAdapter, Outcome, OutcomeClass, RunRecord,
+    RunSpec, RunStore, progress,
 };
-use super::openradioss::OpenRadiossAdapter;
 use crate::error::{Error, InputError};
 use crate::extract::lsdyna::quality::{Flag, Gates, Quality};
 use crate::plan::Plan;
@@ -113,13 +113,20 @@ pub fn chain(sim: &SolverSimulation) -> Chain {
 /// A run's force–displacement curve, read from the first of `dirs` holding `<dir>/<key>/` with
 /// the adapter's histories (rcforc and nodout, or OpenRadioss's T01); `None` when none does or
 /// they do not read.
-pub fn run_curve(sim: &SolverSimulation, dirs: &[PathBuf], key: &str) -> Option<crate::extract::crush::ForceDisplacement> {
+pub fn run_curve(
+    sim: &SolverSimulation,
+    dirs: &[PathBuf],
+    key: &str,
+) -> Option<crate::extract::crush::ForceDisplacement> {
     let Response::CrushForce { source, .. } = &sim.response else {
         return None;
     };
     match openradioss(sim) {
         Some(a) => {
-            let dir = dirs.iter().map(|d| d.join(key)).find(|d| d.join(a.time_history()).is_file())?;
+            let dir = dirs
+                .iter()
+                .map(|d| d.join(key))
+                .find(|d| d.join(a.time_history()).is_file())?;
             super::openradioss::read_curve(&dir, &a)
         }
         None => crate::extract::crush::read_run(dirs, key, source),

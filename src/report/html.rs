@@ -954,7 +954,14 @@ impl Page<'_> {
                 r.seconds.map_or("–".into(), seconds),
                 r.response.map_or("–".into(), |v| significant(v, 5)),
                 if ok {
-                    escape(&r.flags.iter().chain(&r.warnings).cloned().collect::<Vec<_>>().join("; "))
+                    escape(
+                        &r.flags
+                            .iter()
+                            .chain(&r.warnings)
+                            .cloned()
+                            .collect::<Vec<_>>()
+                            .join("; "),
+                    )
                 } else {
                     escape(&r.outcome)
                 }

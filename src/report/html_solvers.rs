@@ -78,7 +78,12 @@ impl Page<'_> {
             escape(&c.standin)
         );
         for (name, f) in MEASURES {
-            let _ = write!(s, "<tr><td class=l>{name}</td><td>{}</td><td>{}</td></tr>", cell(&d.real, f), cell(&d.standin, f));
+            let _ = write!(
+                s,
+                "<tr><td class=l>{name}</td><td>{}</td><td>{}</td></tr>",
+                cell(&d.real, f),
+                cell(&d.standin, f)
+            );
         }
         s + "</table>"
     }
@@ -90,7 +95,12 @@ impl Page<'_> {
         let series = [(real, 0), (standin, 1)]
             .into_iter()
             .map(|(curve, color)| {
-                let points = curve.displacement.iter().copied().zip(curve.force.iter().copied()).collect();
+                let points = curve
+                    .displacement
+                    .iter()
+                    .copied()
+                    .zip(curve.force.iter().copied())
+                    .collect();
                 Series::new(curve.label.clone(), color, Style::Line, points)
             })
             .collect();

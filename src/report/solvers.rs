@@ -167,9 +167,9 @@ fn detrended(points: &[(f64, f64)]) -> (Vec<f64>, f64) {
         return (vec![0.0; points.len()], 0.0);
     }
     let (mx, my) = points.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
-    let (sxx, sxy) = points
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + (p.0 - mx).powi(2), a.1 + (p.0 - mx) * (p.1 - my)));
+    let (sxx, sxy) = points.iter().fold((0.0, 0.0), |a, p| {
+        (a.0 + (p.0 - mx).powi(2), a.1 + (p.0 - mx) * (p.1 - my))
+    });
     let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
     let r: Vec<f64> = points.iter().map(|p| p.1 - my - b * (p.0 - mx)).collect();
     let rms = (r.iter().map(|v| v * v).sum::<f64>() / n).sqrt();
@@ -209,7 +209,11 @@ mod tests {
             .iter()
             .map(|&x| {
                 let plateau = 0.1 + 0.02 * (2.0 * std::f64::consts::PI * x / 1.2).sin();
-                if x < 0.4 { 0.75 * x } else { plateau + (0.3 - plateau) * (-(x - 0.4) / 0.1).exp() }
+                if x < 0.4 {
+                    0.75 * x
+                } else {
+                    plateau + (0.3 - plateau) * (-(x - 0.4) / 0.1).exp()
+                }
             })
             .collect();
         ForceDisplacement {
@@ -221,7 +225,10 @@ mod tests {
     #[test]
     fn measures_of_a_known_curve() {
         let m = measure(&curve(), Window { s0: 1.0, s1: 4.6 }).unwrap();
-        assert!((m.peak.unwrap() - 0.3).abs() < 0.005 && (m.peak_at.unwrap() - 0.4).abs() < 0.06, "{m:?}");
+        assert!(
+            (m.peak.unwrap() - 0.3).abs() < 0.005 && (m.peak_at.unwrap() - 0.4).abs() < 0.06,
+            "{m:?}"
+        );
         // Three whole folds in 3.6 mm: the mean over the window is the plateau, within a few %.
         assert!((m.plateau - 0.1).abs() < 0.003, "{m:?}");
         // A sine of amplitude 0.02 has RMS 0.02/√2 = 0.0141; relative 0.141.

@@ -14,7 +14,11 @@ const ENGINE: &str = "engine_linux64_gf";
 
 impl Checker<'_> {
     /// `solver.openradioss`, only with `adapter: openradioss`; defaults when absent.
-    pub(super) fn openradioss(&self, adapter: &str, solver: &Spanned<SolverFile>) -> Result<Option<OpenRadiossSettings>, InputError> {
+    pub(super) fn openradioss(
+        &self,
+        adapter: &str,
+        solver: &Spanned<SolverFile>,
+    ) -> Result<Option<OpenRadiossSettings>, InputError> {
         let spec = &solver.value;
         if adapter != "openradioss" {
             return match &spec.openradioss {
@@ -63,7 +67,10 @@ impl Checker<'_> {
                     return Err(self.at(a, "`noise.amplitude` must be a positive length (mm)"));
                 }
                 if !(s.value.is_finite() && s.value > 0.0 && s.value <= 1.0) {
-                    return Err(self.at(s, "`noise.seed` must be in (0, 1]: the starter ignores other seeds (with a warning)"));
+                    return Err(self.at(
+                        s,
+                        "`noise.seed` must be in (0, 1]: the starter ignores other seeds (with a warning)",
+                    ));
                 }
                 Some((a.value, s.value))
             }
@@ -76,7 +83,10 @@ impl Checker<'_> {
             }
             environment.push((name.value.clone(), value.value.clone()));
         }
-        let standin = o.standin.as_ref().map(|d| self.path.parent().unwrap_or(std::path::Path::new("")).join(&d.value));
+        let standin = o
+            .standin
+            .as_ref()
+            .map(|d| self.path.parent().unwrap_or(std::path::Path::new("")).join(&d.value));
         Ok(OpenRadiossSettings {
             starter: program(&o.starter, STARTER)?,
             engine: program(&o.engine, ENGINE)?,

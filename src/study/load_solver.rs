@@ -103,7 +103,9 @@ impl Checker<'_> {
         let (timeout, retry) = self.limits(spec)?;
         let Some(response) = &sim.response else {
             let want = if lsdyna {
-                format!("an `{adapter}` solver needs `simulation.response: {{kind: crush_force, window: [5, 60], node: ...}}`")
+                format!(
+                    "an `{adapter}` solver needs `simulation.response: {{kind: crush_force, window: [5, 60], node: ...}}`"
+                )
             } else {
                 "a solver simulation needs `simulation.response: {file, regex}`".to_string()
             };

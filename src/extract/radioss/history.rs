@@ -49,7 +49,11 @@ pub fn curve(th: &TimeHistory, source: &SimSource) -> Result<ForceDisplacement, 
     let disp = th
         .node(node, &format!("D{d_axis}"))
         .ok_or_else(|| data("T01", format!("no history node {node}")))?;
-    if !(source.force_to_kn.is_finite() && source.force_to_kn > 0.0 && source.disp_to_mm.is_finite() && source.disp_to_mm > 0.0) {
+    if !(source.force_to_kn.is_finite()
+        && source.force_to_kn > 0.0
+        && source.disp_to_mm.is_finite()
+        && source.disp_to_mm > 0.0)
+    {
         return Err(data("settings", "unit factors must be positive and finite"));
     }
     let f: Vec<f64> = force.iter().map(|v| v * source.force_to_kn).collect();
@@ -64,13 +68,21 @@ pub fn figures(th: &TimeHistory) -> Quality {
     let significant: Vec<bool> = match &internal {
         Some(ie) => {
             let peak = ie.iter().copied().fold(0.0, f64::max);
-            ie.iter().map(|v| peak > 0.0 && *v >= SIGNIFICANT_INTERNAL * peak).collect()
+            ie.iter()
+                .map(|v| peak > 0.0 && *v >= SIGNIFICANT_INTERNAL * peak)
+                .collect()
         }
         None => Vec::new(),
     };
     let ratio = |num: Option<Vec<f64>>| -> Option<f64> {
         let (num, ie) = (num?, internal.as_ref()?);
-        worst(num.iter().zip(ie).zip(&significant).filter(|(_, s)| **s).map(|((n, i), _)| n / i))
+        worst(
+            num.iter()
+                .zip(ie)
+                .zip(&significant)
+                .filter(|(_, s)| **s)
+                .map(|((n, i), _)| n / i),
+        )
     };
     Quality {
         hourglass_ratio: ratio(series("HOURGLASS ENERGY")),
@@ -107,7 +119,12 @@ fn energy_error(th: &TimeHistory) -> Option<f64> {
 
 fn added_mass(th: &TimeHistory) -> Option<f64> {
     let (added, mass) = (th.global("ADDED MASS")?, th.global("MASS")?);
-    worst(added.iter().zip(&mass).map(|(a, m)| if m - a > 0.0 { a / (m - a) } else { f64::NAN }))
+    worst(
+        added
+            .iter()
+            .zip(&mass)
+            .map(|(a, m)| if m - a > 0.0 { a / (m - a) } else { f64::NAN }),
+    )
 }
 
 /// The value largest in size (NaN wins: a non-finite figure must not pass a gate).

@@ -55,7 +55,8 @@ pub fn parse(text: &str) -> Listing {
         } else if line == "ERROR TERMINATION" {
             out.error_termination = Some(i + 1);
         } else if line.starts_with("** RUN STOPPED") || line == "USER BREAK" {
-            out.stopped.get_or_insert((i + 1, line.trim_start_matches("** ").to_string()));
+            out.stopped
+                .get_or_insert((i + 1, line.trim_start_matches("** ").to_string()));
         } else if let Some(m) = message(&lines, i) {
             out.messages.push(m);
         }
@@ -171,6 +172,9 @@ WARNING ID :    343
         assert!(l.messages.is_empty());
         let e = parse("ERROR ID :     12\n** ERROR IN INPUT\n\n      1 ERROR(S)\n");
         assert_eq!(e.error_count, Some(1));
-        assert_eq!(e.first_error().map(|m| (m.line, m.title.as_str())), Some((1, "ERROR IN INPUT")));
+        assert_eq!(
+            e.first_error().map(|m| (m.line, m.title.as_str())),
+            Some((1, "ERROR IN INPUT"))
+        );
     }
 }
