@@ -69,9 +69,9 @@ fn records(out: &Path) -> Vec<serde_json::Value> {
     v.into_iter().map(|(_, r)| r).collect()
 }
 
-/// The mean force (kN) over `[s0, s1]` from th_to_csv's CSV of `t01`: interface 1's FNZ (N)
-/// against node 9000005's DZ (stroke = −DZ), trapezoids with both ends interpolated.
-fn mean_from_th_to_csv(t01: &Path, s0: f64, s1: f64) -> f64 {
+/// th_to_csv's (stroke, force) rows of `t01`: interface 1's FNZ (kN) against node 9000005's DZ
+/// (stroke = −DZ).
+fn th_to_csv_rows(t01: &Path) -> Vec<(f64, f64)> {
     let tmp = tempfile::tempdir().unwrap();
     for name in ["mainT01", "mainT01_TITLES"] {
         std::fs::copy(t01.with_file_name(name), tmp.path().join(name)).unwrap();
@@ -87,7 +87,7 @@ fn mean_from_th_to_csv(t01: &Path, s0: f64, s1: f64) -> f64 {
     let col = |pred: &dyn Fn(&str) -> bool| header.iter().position(|h| pred(h)).unwrap();
     let f = col(&|h| h.starts_with("TH-INTER") && h.split_whitespace().nth(1) == Some("1") && h.ends_with("FNZ"));
     let d = col(&|h| h.contains("9000005") && h.ends_with(" DZ"));
-    let rows: Vec<(f64, f64)> = reader
+    reader
         .records()
         .map(|r| {
             let r = r.unwrap();
@@ -96,7 +96,12 @@ fn mean_from_th_to_csv(t01: &Path, s0: f64, s1: f64) -> f64 {
                 r[f].trim().parse::<f64>().unwrap() / 1000.0,
             )
         })
-        .collect();
+        .collect()
+}
+
+/// The mean force (kN) over `[s0, s1]` of th_to_csv's rows, trapezoids with both ends interpolated.
+fn mean_from_th_to_csv(t01: &Path, s0: f64, s1: f64) -> f64 {
+    let rows = th_to_csv_rows(t01);
     let at = |s: f64| {
         let k = rows.windows(2).position(|w| w[0].0 <= s && s <= w[1].0).unwrap();
         let ((a, fa), (b, fb)) = (rows[k], rows[k + 1]);
@@ -145,6 +150,20 @@ fn a_live_run_is_judged_from_its_listings_and_time_history_and_replays_bit_for_b
             (response - mean).abs() <= 1e-6 * mean,
             "{key}: lab {response}, th_to_csv {mean}"
         );
+        // Every force, the first (contact from the start: the plates sit inside their contact
+        // distance) and the last included, is th_to_csv's derivative of the impulse.
+        let th = radioss_th::read(&dir.join("mainT01")).unwrap();
+        let mine = th.interface_force(1, "FNZ").unwrap();
+        let theirs = th_to_csv_rows(&dir.join("mainT01"));
+        let largest = theirs.iter().fold(0.0f64, |m, r| m.max(r.1.abs()));
+        assert!(theirs[0].1 != 0.0, "{key}: no contact force over the first interval");
+        for (k, (a, b)) in mine.iter().zip(&theirs).enumerate() {
+            assert!(
+                (a / 1000.0 - b.1).abs() <= 1e-6 * largest,
+                "{key} step {k}: {a} N, th_to_csv {} kN",
+                b.1
+            );
+        }
         let q = &r["quality"];
         assert!(q["energy_error"].as_f64().unwrap().abs() < 0.05, "{r}");
         assert!(q["kinetic_ratio"].as_f64().unwrap() < 0.10, "{r}");
