@@ -280,3 +280,37 @@ fn a_rejected_deck_and_a_run_stopped_early_are_failures() {
         "ENERGY ERROR",
     );
 }
+
+/// The starter needs RAD_CFG_PATH (its keyword definitions): removed from lab's environment, runs
+/// fail; named in `openradioss.environment`, they succeed.
+#[test]
+fn the_solver_environment_comes_from_the_study_or_lab() {
+    if !have_openradioss() {
+        return;
+    }
+    let Ok(cfg) = std::env::var("RAD_CFG_PATH") else {
+        panic!("OpenRadioss is on PATH but RAD_CFG_PATH is not set (install.sh prints it)");
+    };
+    let run = |environment: &str| {
+        let tmp = tempfile::tempdir().unwrap();
+        let study = mini(tmp.path(), &|t| t, "");
+        let text = std::fs::read_to_string(&study).unwrap().replace(
+            "openradioss: {threads: 1, noise: {amplitude: 0.005, seed: 0.5}}",
+            &format!("openradioss: {{threads: 1, noise: {{amplitude: 0.005, seed: 0.5}}{environment}}}"),
+        );
+        std::fs::write(&study, text).unwrap();
+        let out = tmp.path().join("out");
+        let o = Command::new(env!("CARGO_BIN_EXE_lab"))
+            .args(["run", study.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1"])
+            .env_remove("RAD_CFG_PATH")
+            .output()
+            .unwrap();
+        (o.status.code(), records(&out))
+    };
+    let (code, without) = run("");
+    assert_eq!(code, Some(1));
+    assert!(without.iter().all(|r| r["outcome"]["class"] != "success"), "{without:?}");
+    let (code, with) = run(&format!(", environment: {{RAD_CFG_PATH: {cfg}}}"));
+    assert_eq!(code, Some(0), "{with:?}");
+    assert!(with.iter().all(|r| r["outcome"]["class"] == "success"), "{with:?}");
+}
