@@ -301,7 +301,14 @@ fn the_solver_environment_comes_from_the_study_or_lab() {
         std::fs::write(&study, text).unwrap();
         let out = tmp.path().join("out");
         let o = Command::new(env!("CARGO_BIN_EXE_lab"))
-            .args(["run", study.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "1"])
+            .args([
+                "run",
+                study.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--jobs",
+                "1",
+            ])
             .env_remove("RAD_CFG_PATH")
             .output()
             .unwrap();
@@ -309,7 +316,10 @@ fn the_solver_environment_comes_from_the_study_or_lab() {
     };
     let (code, without) = run("");
     assert_eq!(code, Some(1));
-    assert!(without.iter().all(|r| r["outcome"]["class"] != "success"), "{without:?}");
+    assert!(
+        without.iter().all(|r| r["outcome"]["class"] != "success"),
+        "{without:?}"
+    );
     let (code, with) = run(&format!(", environment: {{RAD_CFG_PATH: {cfg}}}"));
     assert_eq!(code, Some(0), "{with:?}");
     assert!(with.iter().all(|r| r["outcome"]["class"] == "success"), "{with:?}");
