@@ -17,6 +17,7 @@ fn record(key: &str, response: f64) -> RunRecord {
         ended_ms: 2,
         response: Some(response),
         quality: None,
+        warnings: Vec::new(),
     }
 }
 

@@ -350,7 +350,14 @@ fn striker(
             s.speed = -r.real_or(&b.file, c4, 2, 0.0)?;
         }
         None => {
-            s.mass = rho * g.area.get(&pid).copied().unwrap_or(0.0) * sections.get(&part.secid).copied().unwrap_or(0.0)
+            s.mass = rho * g.area.get(&pid).copied().unwrap_or(0.0) * sections.get(&part.secid).copied().unwrap_or(0.0);
+            // Driven by *BOUNDARY_PRESCRIBED_MOTION_RIGID alone: a *DATABASE_HISTORY_NODE on the
+            // striker moves with it (the OpenRadioss template's striker).
+            let on_striker = g.part_nodes.get(&pid);
+            s.node = history(blocks, r, g)?
+                .into_iter()
+                .map(|(id, _)| id)
+                .find(|id| on_striker.is_some_and(|nodes| nodes.contains(id)));
         }
     }
     if let Some(b) = motion {

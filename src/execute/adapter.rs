@@ -18,11 +18,13 @@ use regex::Regex;
 
 use super::{Outcome, Quality, ResponseProblem, STDERR_FILE, STDOUT_FILE};
 
-/// A successful judgement: the response, and the run's sanity figures when the adapter has them.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A successful judgement: the response, the run's sanity figures when the adapter has them, and
+/// the solver's warnings when it reports any (kept in the run's record and shown).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Judged {
     pub response: f64,
     pub quality: Option<Quality>,
+    pub warnings: Vec<String>,
 }
 
 /// How a solver's outputs are judged. Implementations must be pure functions of the run directory.
@@ -41,6 +43,7 @@ pub trait Adapter: Send + Sync {
         self.extract(dir).map(|response| Judged {
             response,
             quality: None,
+            warnings: Vec::new(),
         })
     }
 
@@ -53,6 +56,12 @@ pub trait Adapter: Send + Sync {
     /// Output files removed before each attempt (default: [`Adapter::outputs`]).
     fn cleared(&self) -> Vec<PathBuf> {
         self.outputs()
+    }
+
+    /// Files the solver writes that nothing reads (restart files), removed when an attempt ends
+    /// (default: none).
+    fn scratch(&self) -> Vec<PathBuf> {
+        Vec::new()
     }
 }
 

@@ -42,7 +42,7 @@
 //! benchmark); committing before reporting means what the reporter says is finished is finished on
 //! disk; one process group per solver is the only way to stop its grandchildren too.
 
-use std::fs::File;
+use std::io::Write;
 use std::os::unix::process::ExitStatusExt;
 use std::path::Path;
 use std::process::{ExitStatus, Stdio};
@@ -172,6 +172,26 @@ pub struct Executor {
     pub committer: Committer,
     pub canceller: Canceller,
     pub events: Option<mpsc::UnboundedSender<Event>>,
+    /// What every run of this executor does besides its `argv` (default: nothing).
+    pub chain: Chain,
+}
+
+/// The same for every run of a study: programs run after the spec's `argv` (OpenRadioss's engine
+/// after its starter), environment variables for all of them, and files removed when an attempt
+/// ends.
+///
+/// The programs run in order in the run directory, each in a process group of its own and with
+/// its output appended to the attempt's `lab.stdout` / `lab.stderr`; the first that does not exit
+/// 0 ends the attempt, which is judged with its status. The timeout counts from the first
+/// program's start: it bounds the whole attempt. The run holds its slot until the last program
+/// has exited.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Chain {
+    pub then: Vec<Vec<String>>,
+    /// Set on top of lab's own environment, for every program of the attempt.
+    pub env: Vec<(String, String)>,
+    /// Files (relative to the run directory) removed after the last program (restart files).
+    pub scratch: Vec<std::path::PathBuf>,
 }
 
 struct Ctx {
@@ -181,6 +201,7 @@ struct Ctx {
     adapter: Arc<dyn Adapter>,
     committer: Committer,
     events: Option<mpsc::UnboundedSender<Event>>,
+    chain: Chain,
 }
 
 impl Ctx {
@@ -206,6 +227,7 @@ impl Executor {
             committer,
             canceller: Canceller::new(),
             events: None,
+            chain: Chain::default(),
         }
     }
 
@@ -218,6 +240,7 @@ impl Executor {
             adapter: self.adapter.clone(),
             committer: self.committer.clone(),
             events: self.events.clone(),
+            chain: self.chain.clone(),
         });
         let mut cancel = self.canceller.subscribe();
         let mut units: JoinSet<UnitEnd> = JoinSet::new();
@@ -329,8 +352,9 @@ async fn unit(
             attempts: attempt,
             started_ms,
             ended_ms: now_ms(),
-            response: response.map(|j| j.response),
-            quality: response.and_then(|j| j.quality),
+            response: response.as_ref().map(|j| j.response),
+            quality: response.as_ref().and_then(|j| j.quality),
+            warnings: response.map(|j| j.warnings).unwrap_or_default(),
         };
         let committer = ctx.committer.clone();
         let to_commit = record.clone();
@@ -402,19 +426,60 @@ async fn sleep_until(at: Option<Instant>) {
     }
 }
 
-/// One attempt: start the solver, supervise it, give its slot back as soon as it has exited, judge.
+/// One attempt: start the solver (then each program of the chain while the last exited 0),
+/// supervise it, give its slot back as soon as the last has exited, remove the scratch files, judge.
 async fn run_attempt(
     spec: &RunSpec,
     slot: OwnedSemaphorePermit,
     ctx: &Ctx,
     cancel: &mut watch::Receiver<Option<CancelReason>>,
 ) -> Attempt {
-    let mut child = match start(spec) {
-        Ok(child) => child,
-        Err(attempt) => return attempt,
+    let deadline = spec.timeout.map(|t| Instant::now() + t);
+    let programs = std::iter::once(&spec.argv).chain(&ctx.chain.then);
+    let mut status = None;
+    for (step, argv) in programs.enumerate() {
+        let child = match start(spec, argv, &ctx.chain.env, step > 0) {
+            Ok(child) => child,
+            Err(attempt) => return *attempt,
+        };
+        let left = deadline.map(|d| d.saturating_duration_since(Instant::now()));
+        match supervise_program(child, left, ctx.grace, cancel).await {
+            Ok((s, None)) if s.success() => status = Some(s),
+            Ok((s, None)) => {
+                status = Some(s);
+                break;
+            }
+            Ok((_, Some(Why::Cancel))) => return Attempt::Cancelled,
+            Ok((_, Some(Why::Timeout))) => return Attempt::Judged(Outcome::Timeout, None),
+            Err(e) => return Attempt::Error(format!("waiting for the solver: {e}")),
+        }
+    }
+    drop(slot);
+    for rel in &ctx.chain.scratch {
+        let _ = remove_if_present(&spec.dir.join(rel)); // a left-over restart file harms no judgement
+    }
+    let Some(status) = status else {
+        return Attempt::Error("no program to run".to_string());
     };
+    let adapter = ctx.adapter.clone();
+    let dir = spec.dir.clone();
+    let judged = tokio::task::spawn_blocking(move || judge(status, adapter.as_ref(), &dir)).await;
+    match judged {
+        Ok((outcome, response)) => Attempt::Judged(outcome, response),
+        Err(e) => Attempt::Error(format!("judging outputs: {e}")),
+    }
+}
+
+/// Supervises one program of an attempt until it exits or is stopped: its exit status, and why it
+/// was stopped (`None`: it exited on its own).
+async fn supervise_program(
+    mut child: tokio::process::Child,
+    timeout: Option<Duration>,
+    grace: Duration,
+    cancel: &mut watch::Receiver<Option<CancelReason>>,
+) -> std::io::Result<(ExitStatus, Option<Why>)> {
     let group = GroupGuard(child.id().map(|pid| Pid::from_raw(pid as i32)));
-    let (status, phase) = supervise(&mut child, &group, spec.timeout, ctx.grace, cancel).await;
+    let (status, phase) = supervise(&mut child, &group, timeout, grace, cancel).await;
     let mut group = group;
     let why = match phase {
         Phase::Running => None,
@@ -425,50 +490,54 @@ async fn run_attempt(
         }
     };
     group.0 = None;
-    drop(slot);
-    let status = match status {
-        Ok(s) => s,
-        Err(e) => return Attempt::Error(format!("waiting for the solver: {e}")),
-    };
-    match why {
-        Some(Why::Cancel) => return Attempt::Cancelled,
-        Some(Why::Timeout) => return Attempt::Judged(Outcome::Timeout, None),
-        None => {}
-    }
-    let adapter = ctx.adapter.clone();
-    let dir = spec.dir.clone();
-    let judged = tokio::task::spawn_blocking(move || judge(status, adapter.as_ref(), &dir)).await;
-    match judged {
-        Ok((outcome, response)) => Attempt::Judged(outcome, response),
-        Err(e) => Attempt::Error(format!("judging outputs: {e}")),
-    }
+    Ok((status?, why))
 }
 
 /// Clears what a previous attempt left (declared outputs, captured stdout/stderr) and starts the
-/// solver in the run directory, in a process group of its own. A solver that cannot be started is
+/// solver in the run directory, in a process group of its own; a later program of the chain
+/// (`append`) appends to the attempt's stdout/stderr instead. A solver that cannot be started is
 /// judged at once (exit code 127, as a shell reports it).
-fn start(spec: &RunSpec) -> Result<tokio::process::Child, Attempt> {
+fn start(
+    spec: &RunSpec,
+    argv: &[String],
+    env: &[(String, String)],
+    append: bool,
+) -> Result<tokio::process::Child, Box<Attempt>> {
     let dir = &spec.dir;
-    for rel in spec
-        .outputs
-        .iter()
-        .map(|p| p.as_path())
-        .chain([Path::new(STDOUT_FILE), Path::new(STDERR_FILE)])
-    {
-        if let Err(e) = remove_if_present(&dir.join(rel)) {
-            return Err(Attempt::Error(format!("removing {}: {e}", dir.join(rel).display())));
+    if !append {
+        for rel in spec
+            .outputs
+            .iter()
+            .map(|p| p.as_path())
+            .chain([Path::new(STDOUT_FILE), Path::new(STDERR_FILE)])
+        {
+            if let Err(e) = remove_if_present(&dir.join(rel)) {
+                return Err(Box::new(Attempt::Error(format!(
+                    "removing {}: {e}",
+                    dir.join(rel).display()
+                ))));
+            }
         }
     }
-    let (stdout, stderr) = match (File::create(dir.join(STDOUT_FILE)), File::create(dir.join(STDERR_FILE))) {
-        (Ok(o), Ok(e)) => (o, e),
-        (Err(e), _) | (_, Err(e)) => return Err(Attempt::Error(format!("{}: {e}", dir.display()))),
+    let open = |name: &str| {
+        std::fs::OpenOptions::new()
+            .create(true)
+            .append(append)
+            .write(true)
+            .truncate(!append)
+            .open(dir.join(name))
     };
-    let Some((program, args)) = spec.argv.split_first() else {
-        return Err(Attempt::Error("empty argv".to_string()));
+    let (stdout, stderr) = match (open(STDOUT_FILE), open(STDERR_FILE)) {
+        (Ok(o), Ok(e)) => (o, e),
+        (Err(e), _) | (_, Err(e)) => return Err(Box::new(Attempt::Error(format!("{}: {e}", dir.display())))),
+    };
+    let Some((program, args)) = argv.split_first() else {
+        return Err(Box::new(Attempt::Error("empty argv".to_string())));
     };
     let mut command = tokio::process::Command::new(program);
     command
         .args(args)
+        .envs(env.iter().map(|(k, v)| (k, v)))
         .current_dir(dir)
         .stdin(Stdio::null())
         .stdout(stdout)
@@ -477,8 +546,10 @@ fn start(spec: &RunSpec) -> Result<tokio::process::Child, Attempt> {
     match command.spawn() {
         Ok(c) => Ok(c),
         Err(e) => {
-            let _ = std::fs::write(dir.join(STDERR_FILE), format!("lab: cannot start `{program}`: {e}\n"));
-            Err(Attempt::Judged(Outcome::NonZeroExit { code: 127 }, None))
+            if let Ok(mut f) = open(STDERR_FILE) {
+                let _ = writeln!(f, "lab: cannot start `{program}`: {e}");
+            }
+            Err(Box::new(Attempt::Judged(Outcome::NonZeroExit { code: 127 }, None)))
         }
     }
 }

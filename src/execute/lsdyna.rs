@@ -160,6 +160,7 @@ impl Adapter for LsDynaAdapter {
         Ok(Judged {
             response: result.mean_force,
             quality,
+            warnings: Vec::new(),
         })
     }
 }

@@ -56,6 +56,7 @@ pub mod calculix;
 pub mod executor;
 pub mod lock;
 pub mod lsdyna;
+pub mod openradioss;
 pub mod progress;
 pub mod replay;
 pub mod slurm;
@@ -69,7 +70,7 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::extract::lsdyna::quality::Quality;
 pub use adapter::{Adapter, CommandAdapter, Judged};
-pub use executor::{CancelReason, Canceller, Event, Executor, Summary, cancel_on_signals};
+pub use executor::{CancelReason, Canceller, Chain, Event, Executor, Summary, cancel_on_signals};
 pub use lock::{Holder, LockError, OutLock};
 pub use lsdyna::LsDynaAdapter;
 pub use store::RunStore;
@@ -234,6 +235,10 @@ pub struct RunRecord {
     /// The run's physical-sanity figures (glstat energies), when its adapter reports them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub quality: Option<Quality>,
+    /// The solver's warnings, when its adapter reports them (`openradioss`: each distinct warning
+    /// of the starter's and the engine's listings, with its count).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 /// How often, on which outcomes, and after how long a failed attempt is retried.

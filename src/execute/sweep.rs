@@ -41,10 +41,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use tokio::sync::mpsc;
 
+use super::openradioss::OpenRadiossAdapter;
 use super::replay::{self, InputDigest, Manifest};
 use super::store::{RUNS_DIR, run_key, write_atomic};
 use super::{
-    Adapter, CancelReason, Canceller, CommandAdapter, Executor, LsDynaAdapter, Outcome, OutcomeClass, RunRecord,
+    Adapter, CancelReason, Canceller, Chain, CommandAdapter, Executor, LsDynaAdapter, Outcome, OutcomeClass, RunRecord,
     RunSpec, RunStore, progress,
 };
 use crate::error::{Error, InputError};
@@ -71,8 +72,12 @@ pub struct Prepared {
     pub design_mesh: BTreeMap<String, PathBuf>,
 }
 
-/// The study's adapter: `command` (response file + regex), `lsdyna` (crush force) or `calculix`.
+/// The study's adapter: `command` (response file + regex), `lsdyna` or `openradioss` (crush
+/// force) or `calculix`.
 pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
+    if let Some(a) = openradioss(sim) {
+        return Ok(Arc::new(a));
+    }
     Ok(match &sim.response {
         Response::Regex { file, regex } => {
             Arc::new(CommandAdapter::new(file, regex, &[]).map_err(|e| Error::Failed(format!("response regex: {e}")))?)
@@ -84,6 +89,48 @@ pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
         }),
         Response::Dat(ccx) => Arc::new(ccx.clone()),
     })
+}
+
+/// The `openradioss` adapter of a study with `adapter: openradioss` and a crush-force response.
+pub fn openradioss(sim: &SolverSimulation) -> Option<OpenRadiossAdapter> {
+    let (Some(settings), Response::CrushForce { window, source }) = (&sim.openradioss, &sim.response) else {
+        return None;
+    };
+    Some(OpenRadiossAdapter {
+        window: *window,
+        source: source.clone(),
+        deck: sim.templates.first().map(|t| t.output.clone()).unwrap_or_default(),
+        settings: settings.clone(),
+    })
+}
+
+/// What every run of the study runs after `command`, with which environment and scratch files
+/// (OpenRadioss's engine after its starter; nothing for the other adapters).
+pub fn chain(sim: &SolverSimulation) -> Chain {
+    openradioss(sim).map(|a| a.chain()).unwrap_or_default()
+}
+
+/// A run's force–displacement curve, read from the first of `dirs` holding `<dir>/<key>/` with
+/// the adapter's histories (rcforc and nodout, or OpenRadioss's T01); `None` when none does or
+/// they do not read.
+pub fn run_curve(
+    sim: &SolverSimulation,
+    dirs: &[PathBuf],
+    key: &str,
+) -> Option<crate::extract::crush::ForceDisplacement> {
+    let Response::CrushForce { source, .. } = &sim.response else {
+        return None;
+    };
+    match openradioss(sim) {
+        Some(a) => {
+            let dir = dirs
+                .iter()
+                .map(|d| d.join(key))
+                .find(|d| d.join(a.time_history()).is_file())?;
+            super::openradioss::read_curve(&dir, &a)
+        }
+        None => crate::extract::crush::read_run(dirs, key, source),
+    }
 }
 
 /// Renders every planned run and computes its key. Template errors name the template and line.
@@ -164,7 +211,11 @@ fn new_meshes(
     let texts: Vec<Result<(String, String), String>> = tubes
         .par_iter()
         .map(|tube| {
-            let (text, _) = mesh::include(tube).map_err(|e| e.to_string())?;
+            let made = match spec.edge_set {
+                Some(set) => mesh::include_with_edge_set(tube, set),
+                None => mesh::include(tube),
+            };
+            let (text, _) = made.map_err(|e| e.to_string())?;
             let hash = blake3::hash(text.as_bytes()).to_hex().to_string();
             Ok((text, hash))
         })
@@ -333,8 +384,9 @@ fn judge_recording(
         attempts: 1,
         started_ms: started,
         ended_ms: now_ms(),
-        response: judged.map(|j| j.response),
-        quality: judged.and_then(|j| j.quality),
+        response: judged.as_ref().map(|j| j.response),
+        quality: judged.as_ref().and_then(|j| j.quality),
+        warnings: judged.map(|j| j.warnings).unwrap_or_default(),
     })
 }
 
@@ -556,6 +608,7 @@ pub fn run(
     }
     let (tx, rx) = mpsc::unbounded_channel();
     let mut executor = Executor::new(jobs, adapter(sim)?, store.committer());
+    executor.chain = chain(sim);
     executor.canceller = canceller.clone();
     executor.events = Some(tx);
     let bar = display(specs.len() as u64);
@@ -678,7 +731,8 @@ pub fn worker(
         .iter()
         .map(|k| spec(sim, k, out.join(super::store::RUNS_DIR).join(k)))
         .collect::<Result<Vec<RunSpec>, Error>>()?;
-    let executor = Executor::new(jobs, adapter(sim)?, committer);
+    let mut executor = Executor::new(jobs, adapter(sim)?, committer);
+    executor.chain = chain(sim);
     let summary = runtime.block_on(executor.run(specs));
     for r in &summary.records {
         println!("{} {}", r.key, r.outcome);

@@ -1,7 +1,7 @@
 //! From solver outputs (and test-machine files) to numbers: the `extract` stage of the pipeline.
 //!
 //! - [`lsdyna`]: typed readers for LS-DYNA ASCII outputs (rcforc, glstat, nodout, bndout, secforc,
-//!   spcforc) and the termination line.
+//!   spcforc) and the termination line; [`radioss`]: OpenRadioss's listings and its time history.
 //! - [`crush`]: force–displacement curves and the average crush force over a stroke window, from
 //!   contact force + striker displacement, or from a test machine's CSV.
 //! - [`grid`]: the common stroke grid curves are compared on; [`cfc`]: the SAE J211 CFC filter;
@@ -15,3 +15,4 @@ pub mod features;
 pub mod grid;
 pub mod lsdyna;
 pub mod metrics;
+pub mod radioss;

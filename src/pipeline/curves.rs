@@ -18,7 +18,7 @@ use nalgebra::DVector;
 use crate::diagnose::Role;
 use crate::diagnose::features::{CurveDesign, CurveFn, CurveHypothesis, CurveInputs, EmulatorCheck};
 use crate::error::Error;
-use crate::extract::crush::{self, ForceDisplacement};
+use crate::extract::crush::ForceDisplacement;
 use crate::extract::features::FeatureSpec;
 use crate::extract::grid::{self, StrokeGrid};
 use crate::fit::functional::{CurveModel, DesignCurves, FunctionalSurrogate};
@@ -72,14 +72,14 @@ pub fn on_grid(
     dirs: &[PathBuf],
 ) -> Vec<Option<DVector<f64>>> {
     use rayon::prelude::*;
-    let Response::CrushForce { source, .. } = &sim.response else {
+    let Response::CrushForce { .. } = &sim.response else {
         return vec![None; keys.len()];
     };
     keys.par_iter()
         .zip(usable)
         .map(|(key, y)| {
             y.as_ref()?;
-            let curve = crush::read_run(dirs, key, source)?;
+            let curve = crate::execute::sweep::run_curve(sim, dirs, key)?;
             setting.prepare(study, &curve)
         })
         .collect()

@@ -194,6 +194,7 @@ fn solver_runs<'s>(
     // with `quality.suspect: use`.
     let flags = executed.swept.flags(&sim.quality.gates);
     runs::report_suspects(&plan, &flags, sim.quality.use_suspect, reporter);
+    runs::report_warnings(&rendered.keys, &executed.store, reporter);
     let usable = executed.swept.usable(&sim.quality);
     let surrogates = surrogates(study, sim, &plan, &usable)?;
     let data = simulation_data(&plan, &usable);
@@ -670,6 +671,7 @@ fn report_data(study: &Study, simulated: &Simulated, calibration: &Calibration, 
             let reference = report::data::reference(calibration);
             data.extension_surfaces = r.extended.iter().map(|(m, at)| extend::surface(study, m, at)).collect();
             data.residual_curves = r.residual_curves.clone();
+            data.solver_comparison = report::solvers::compare(r.sim, &outputs);
             report::curves::design_curves(study, Some(&outputs), reference.as_ref())
         }
     };

@@ -309,6 +309,30 @@ pub fn report_suspects(plan: &Plan, flags: &[Vec<Flag>], used: bool, reporter: &
     }
 }
 
+/// A note for each distinct solver warning the runs' records keep (`openradioss`), with how many
+/// runs gave it: the warnings are kept in every run's record and shown in the report's run table.
+pub fn report_warnings(keys: &[String], store: &RunStore, reporter: &mut dyn Reporter) {
+    let mut seen: Vec<(&str, usize)> = Vec::new();
+    let mut runs = std::collections::BTreeSet::new();
+    for key in keys {
+        if !runs.insert(key) {
+            continue;
+        }
+        for w in store.record(key).map(|r| r.warnings.as_slice()).unwrap_or_default() {
+            match seen.iter_mut().find(|(t, _)| *t == w.as_str()) {
+                Some((_, n)) => *n += 1,
+                None => seen.push((w, 1)),
+            }
+        }
+    }
+    for (text, n) in seen {
+        reporter.report(Event::Note(format!(
+            "solver warning in {n} of {} run(s): {text}",
+            runs.len()
+        )));
+    }
+}
+
 /// The suspect runs for `results.json`, in plan order (each key once).
 pub fn suspect_runs(
     study: &Study,

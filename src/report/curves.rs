@@ -107,7 +107,10 @@ fn simulated(
         use rayon::prelude::*;
         picked
             .par_iter()
-            .map(|&j| crush::read_run(&runs.dirs, &runs.keys[ok[j].0], source))
+            .map(|&j| match &study.simulation {
+                Simulation::Solver(sim) => crate::execute::sweep::run_curve(sim, &runs.dirs, &runs.keys[ok[j].0]),
+                Simulation::Expression(_) => crush::read_run(&runs.dirs, &runs.keys[ok[j].0], source),
+            })
             .collect()
     };
     let mut curves = Vec::new();

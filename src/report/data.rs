@@ -61,6 +61,9 @@ pub struct ReportData {
     /// Calibration against curves: per tested design, where along the stroke the model errs.
     #[serde(default)]
     pub residual_curves: Vec<ResidualCurves>,
+    /// `openradioss` studies naming the stand-in's recordings: both solvers' curves compared.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solver_comparison: Option<super::solvers::SolverComparison>,
 }
 
 /// One tested design on the stroke grid of the curve calibration: the specimens' mean and
@@ -274,6 +277,9 @@ pub struct RunRow {
     /// The quality gates a successful run breaks, in words (empty: sound or not checked).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub flags: Vec<String>,
+    /// The solver's warnings the run's record keeps (`openradioss`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 /// A force–displacement curve as drawn: thinned to at most [`super::curves::MAX_POINTS`] points.
@@ -423,6 +429,7 @@ impl ReportData {
                 seconds: record.map(|r| r.ended_ms.saturating_sub(r.started_ms) as f64 / 1000.0),
                 response: record.and_then(|r| r.response),
                 flags: Vec::new(),
+                warnings: record.map(|r| r.warnings.clone()).unwrap_or_default(),
             });
         }
         self

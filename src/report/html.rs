@@ -23,6 +23,8 @@ mod curves;
 mod solver_loop;
 #[path = "html_sequence.rs"]
 mod sequence;
+#[path = "html_solvers.rs"]
+mod solvers;
 #[path = "html_splits.rs"]
 mod splits;
 #[path = "html_stroke.rs"]
@@ -991,7 +993,14 @@ impl Page<'_> {
                 r.seconds.map_or("–".into(), seconds),
                 r.response.map_or("–".into(), |v| significant(v, 5)),
                 if ok {
-                    escape(&r.flags.join("; "))
+                    escape(
+                        &r.flags
+                            .iter()
+                            .chain(&r.warnings)
+                            .cloned()
+                            .collect::<Vec<_>>()
+                            .join("; "),
+                    )
                 } else {
                     escape(&r.outcome)
                 }

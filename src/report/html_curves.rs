@@ -45,7 +45,7 @@ impl Page<'_> {
             let id = format!("fd-{}", id_part(&dc.design));
             s.push_str(&figure(&id, plot.render(), &self.curve_caption(dc)));
         }
-        s + "</div>"
+        s + "</div>" + &self.solver_comparison()
     }
 
     /// `design C6T5 (c = 6 mm, t = 0.05 mm)`.

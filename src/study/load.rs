@@ -30,6 +30,9 @@ mod curves;
 #[path = "load_quality.rs"]
 mod quality;
 
+#[path = "load_openradioss.rs"]
+mod openradioss;
+
 /// Loads and validates a study file and everything it references.
 pub fn load(path: &Path) -> Result<Study, InputError> {
     let source = std::fs::read_to_string(path)

@@ -1,4 +1,4 @@
-//! Validation of `simulation.quality`: the gates on each run's glstat energies (fractions in
+//! Validation of `simulation.quality`: the gates on each run's energies (glstat, or the T01) (fractions in
 //! (0, 1]) and `suspect: exclude | use`. Every error is at the offending value.
 
 use super::super::schema::QualityFile;
@@ -15,6 +15,7 @@ impl Checker<'_> {
             (&q.hourglass, "hourglass", &mut out.gates.hourglass),
             (&q.energy, "energy", &mut out.gates.energy),
             (&q.added_mass, "added_mass", &mut out.gates.added_mass),
+            (&q.kinetic, "kinetic", &mut out.gates.kinetic),
         ];
         for (value, key, slot) in gates {
             let Some(v) = value else { continue };

@@ -79,7 +79,9 @@ impl Checker<'_> {
         let sim = &node.value;
         let spec = &solver.value;
         let adapter = self.adapter(&spec.adapter)?;
-        let lsdyna = adapter == "lsdyna";
+        // `lsdyna` and `openradioss` both run an LS-DYNA deck and read a crush force.
+        let lsdyna = adapter == "lsdyna" || adapter == "openradioss";
+        let openradioss = self.openradioss(&adapter, solver)?;
         let mut outputs: Vec<PathBuf> = Vec::new();
         let templates = spec
             .templates
@@ -91,13 +93,21 @@ impl Checker<'_> {
             .iter()
             .map(|f| self.copied(f, &mut outputs))
             .collect::<Result<Vec<_>, _>>()?;
-        let command = self.solver_command(solver, &adapter, &templates)?;
+        let command = match &openradioss {
+            Some(settings) => {
+                let deck = self.main_deck(solver, &templates)?;
+                crate::execute::openradioss::OpenRadiossAdapter::starter_argv(settings, &deck)
+            }
+            None => self.solver_command(solver, &adapter, &templates)?,
+        };
         let (timeout, retry) = self.limits(spec)?;
         let Some(response) = &sim.response else {
             let want = if lsdyna {
-                "an `lsdyna` solver needs `simulation.response: {kind: crush_force, window: [5, 60], node: ...}`"
+                format!(
+                    "an `{adapter}` solver needs `simulation.response: {{kind: crush_force, window: [5, 60], node: ...}}`"
+                )
             } else {
-                "a solver simulation needs `simulation.response: {file, regex}`"
+                "a solver simulation needs `simulation.response: {file, regex}`".to_string()
             };
             return Err(self.at_key("solver", solver, want));
         };
@@ -109,7 +119,7 @@ impl Checker<'_> {
         };
         let response = match cluster.calculix {
             Some(ccx) => Response::Dat(ccx),
-            None if lsdyna => self.crush_response(response)?,
+            None if lsdyna => self.crush_response(response, &adapter)?,
             None => self.regex_response(response)?,
         };
         let surrogate = self.surrogate_kind(sim)?;
@@ -143,6 +153,18 @@ impl Checker<'_> {
                 .map(|q| self.quality(q))
                 .transpose()?
                 .unwrap_or_default(),
+            openradioss,
+        })
+    }
+
+    /// The first template's output: the main deck of an `openradioss` run.
+    fn main_deck(&self, solver: &Spanned<SolverFile>, templates: &[Template]) -> Result<PathBuf, InputError> {
+        templates.first().map(|t| t.output.clone()).ok_or_else(|| {
+            self.at_key(
+                "solver",
+                solver,
+                "an `openradioss` solver needs `templates: [main.k.tera, ...]` (the first is the main deck)",
+            )
         })
     }
 
@@ -246,13 +268,21 @@ impl Checker<'_> {
         })
     }
 
-    fn crush_response(&self, node: &Spanned<ResponseFile>) -> Result<Response, InputError> {
+    fn crush_response(&self, node: &Spanned<ResponseFile>, adapter: &str) -> Result<Response, InputError> {
         let r = &node.value;
         if let Some(f) = r.file.as_ref().or(r.regex.as_ref()) {
             return Err(self.at(
                 f,
-                "the lsdyna adapter reads rcforc and nodout itself: give `kind: crush_force`, `window`, `node`, not \
-                 file/regex",
+                format!(
+                    "the {adapter} adapter reads its solver's histories itself: give `kind: crush_force`, `window`, \
+                     `node`, not file/regex"
+                ),
+            ));
+        }
+        if let (Some(side), "openradioss") = (&r.side, adapter) {
+            return Err(self.at(
+                side,
+                "an OpenRadioss interface records one force: `response.side` goes with `adapter: lsdyna`",
             ));
         }
         self.crush_force_kind(node)?;
@@ -396,20 +426,25 @@ impl Checker<'_> {
             .map(|v| positive(v, "length"))
             .transpose()?
             .unwrap_or(150.0);
+        let edge_set = match &m.edge_set {
+            Some(v) if v.value == 0 => return Err(self.at(v, "`mesh.edge_set` is a set id: 1 or more")),
+            other => other.as_ref().map(|v| v.value),
+        };
         Ok(MeshSpec {
             cell_variable,
             element_size,
             diameter,
             length,
+            edge_set,
         })
     }
 
     fn adapter(&self, node: &Spanned<String>) -> Result<String, InputError> {
         match node.value.as_str() {
-            "command" | "lsdyna" | "calculix" => Ok(node.value.clone()),
+            "command" | "lsdyna" | "calculix" | "openradioss" => Ok(node.value.clone()),
             name => Err(self.at(
                 node,
-                format!("unknown adapter `{name}`: choose from command, lsdyna, calculix"),
+                format!("unknown adapter `{name}`: choose from command, lsdyna, calculix, openradioss"),
             )),
         }
     }

@@ -20,7 +20,8 @@ pub use experiments::{Experiments, TestDesign};
 pub use expr::{Expression, Symbols};
 pub use load::load;
 pub use solver::{
-    CopiedFile, MeshSpec, QualitySettings, Response, SamplingMethod, SolverSimulation, SurrogateKind, Template,
+    CopiedFile, MeshSpec, OpenRadiossSettings, QualitySettings, Response, SamplingMethod, SolverSimulation,
+    SurrogateKind, Template,
 };
 
 use crate::calibrate::Bounds;

@@ -86,6 +86,8 @@ pub struct QualityFile {
     pub hourglass: Option<Spanned<f64>>,
     pub energy: Option<Spanned<f64>>,
     pub added_mass: Option<Spanned<f64>>,
+    /// Kinetic / internal energy (a quasi-static crush; reported by `openradioss` runs).
+    pub kinetic: Option<Spanned<f64>>,
     pub suspect: Option<Spanned<String>>,
 }
 
@@ -99,6 +101,9 @@ pub struct MeshFile {
     pub cell: Option<Spanned<String>>,
     pub diameter: Option<Spanned<f64>>,
     pub length: Option<Spanned<f64>>,
+    /// The id of a `*SET_NODE_LIST` of the nodes where the cylinder cut the walls, appended to the
+    /// mesh include (default: none).
+    pub edge_set: Option<Spanned<u32>>,
 }
 
 /// `simulation.solver`: how one run is made.
@@ -120,6 +125,36 @@ pub struct SolverFile {
     pub job: Option<Spanned<String>>,
     /// Settings of `--executor slurm`.
     pub slurm: Option<Spanned<SlurmFile>>,
+    /// `adapter: openradioss`: its programs, threads, nodal noise and environment.
+    pub openradioss: Option<Spanned<OpenRadiossFile>>,
+}
+
+/// `simulation.solver.openradioss` (all optional).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpenRadiossFile {
+    /// The starter program (default `starter_linux64_gf`).
+    pub starter: Option<Spanned<String>>,
+    /// The engine program (default `engine_linux64_gf`).
+    pub engine: Option<Spanned<String>>,
+    /// Threads per program (default 1: one thread repeats bit for bit).
+    pub threads: Option<Spanned<u32>>,
+    /// The starter's random nodal noise (`-rxalea`, `-rseed`): a geometric imperfection.
+    pub noise: Option<Spanned<NoiseFile>>,
+    /// Environment variables for both programs (RAD_CFG_PATH, LD_LIBRARY_PATH, OMP_STACKSIZE, ...).
+    #[serde(default)]
+    pub environment: IndexMap<Name, Spanned<String>>,
+    /// The stand-in's recordings of the same decks (relative to the study file), for the
+    /// report's comparison of the two solvers' curves.
+    pub standin: Option<Spanned<String>>,
+}
+
+/// `openradioss.noise`: the largest random displacement of each node (mm) and the seed.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseFile {
+    pub amplitude: Spanned<f64>,
+    pub seed: Spanned<f64>,
 }
 
 /// `simulation.solver.retries`.

@@ -34,6 +34,23 @@ pub struct SolverSimulation {
     pub slurm: Option<crate::execute::slurm::SlurmSettings>,
     /// `simulation.quality`: the gates on each run's sanity figures (defaults when absent).
     pub quality: QualitySettings,
+    /// `adapter: openradioss`: `solver.openradioss` (defaults when absent); `None` for the others.
+    pub openradioss: Option<OpenRadiossSettings>,
+}
+
+/// `solver.openradioss`: how OpenRadioss is run. `command` is the starter's argv built from these.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OpenRadiossSettings {
+    pub starter: String,
+    pub engine: String,
+    pub threads: u32,
+    /// The starter's nodal noise: amplitude (mm) and seed.
+    pub noise: Option<(f64, f64)>,
+    /// Set for both programs, on top of lab's own environment.
+    pub environment: Vec<(String, String)>,
+    /// `openradioss.standin`: crushsim's recordings of the same decks, `<dir>/<run key>/`
+    /// (resolved against the study file); the report compares the two solvers' curves.
+    pub standin: Option<std::path::PathBuf>,
 }
 
 /// `simulation.quality`: a run that breaks a gate is `suspect`; suspect runs feed the surrogates
@@ -66,6 +83,8 @@ pub struct MeshSpec {
     pub element_size: f64,
     pub diameter: f64,
     pub length: f64,
+    /// `mesh.edge_set`: a node set of the cut edges appended to the include, with this id.
+    pub edge_set: Option<u32>,
 }
 
 /// A Tera template: where it was read from, where it is rendered to, and its text (already parsed

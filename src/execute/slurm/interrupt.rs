@@ -162,6 +162,7 @@ pub fn cancel(out: &Path, store: &mut RunStore) -> Result<Cancelled, Error> {
                 ended_ms: now_ms(),
                 response: None,
                 quality: None,
+                warnings: Vec::new(),
             };
             store.commit(record).map_err(Error::from)?;
             done.cancelled_runs += 1;

@@ -633,6 +633,7 @@ fn collect(
             ended_ms: now_ms(),
             response: None,
             quality: None,
+            warnings: Vec::new(),
         };
         store.commit(record.clone()).map_err(Error::from)?;
         summary.records.push(record);
@@ -677,6 +678,7 @@ mod tests {
             ended_ms: 3000,
             response: Some(1.5),
             quality: None,
+            warnings: Vec::new(),
         };
         super::super::store::Committer::new(dir.path().join(RESULTS_DIR))
             .commit(&done)

@@ -14,6 +14,10 @@
 //!   `h` (0.5 mm in the paper): each wall piece gets `max(1, round(len/h))` elements across,
 //!   the length `max(1, round(L/h))` elements.
 //!
+//! The nodes where the circle cut a wall (its free edges at the specimen's boundary, on every
+//! layer) can be listed as a node set ([`Mesh::edge_set`], [`include_with_edge_set`]) for a
+//! template to hold them, as if the honeycomb went on beyond the cut.
+//!
 //! Nodes at wall junctions are shared (one in-plane point per lattice vertex, whatever the number
 //! of walls meeting there), so there are no duplicate nodes. Node and element ids start at 1 and
 //! stay below [`FIRST_FREE_ID`], which templates use for the striker and the base.
@@ -91,6 +95,8 @@ pub struct Mesh {
     pub cells: usize,
     /// Total length of trimmed fragments dropped as too short, mm.
     pub dropped_length: f64,
+    /// In-plane points where the circle cut a wall (ascending).
+    pub cut_points: Vec<usize>,
 }
 
 /// Counts and quality of a mesh.
@@ -127,6 +133,8 @@ pub fn mesh(spec: &TubeSpec) -> Result<Mesh, MeshError> {
         walls.push(chain(&mut points, a, b, p.1 == q.1, spec.element));
     }
     let rows = ((spec.length / spec.element).round() as usize).max(1);
+    let mut cut_points = points.cuts;
+    cut_points.sort_unstable();
     let mesh = Mesh {
         spec: *spec,
         points: points.coords,
@@ -134,6 +142,7 @@ pub fn mesh(spec: &TubeSpec) -> Result<Mesh, MeshError> {
         rows,
         cells,
         dropped_length: dropped,
+        cut_points,
     };
     if mesh.node_count() >= FIRST_FREE_ID || mesh.element_count() >= FIRST_FREE_ID {
         return Err(MeshError(format!(
@@ -148,6 +157,16 @@ pub fn mesh(spec: &TubeSpec) -> Result<Mesh, MeshError> {
 pub fn include(spec: &TubeSpec) -> Result<(String, Summary), MeshError> {
     let mesh = mesh(spec)?;
     Ok((mesh.include(), mesh.summary()))
+}
+
+/// [`include`] with the cut edges' nodes as `*SET_NODE_LIST` `set` ([`Mesh::edge_set`]) before
+/// its `*END`.
+pub fn include_with_edge_set(spec: &TubeSpec, set: u32) -> Result<(String, Summary), MeshError> {
+    let mesh = mesh(spec)?;
+    let mut text = mesh.include();
+    let end = text.len() - "*END\n".len();
+    text.insert_str(end, &mesh.edge_set(set));
+    Ok((text, mesh.summary()))
 }
 
 fn check(spec: &TubeSpec) -> Result<(), MeshError> {
@@ -242,6 +261,8 @@ fn clip(p: Vertex, q: Vertex, spec: &TubeSpec) -> Option<(End, End)> {
 /// In-plane points; lattice vertices are stored once, so junctions share their node.
 struct PointSet {
     coords: Vec<[f64; 2]>,
+    /// Points made where the circle cut a wall.
+    cuts: Vec<usize>,
     vertices: HashMap<Vertex, usize>,
     half_side: f64,
     half_cell: f64,
@@ -251,6 +272,7 @@ impl PointSet {
     fn new(spec: &TubeSpec) -> Self {
         PointSet {
             coords: Vec::new(),
+            cuts: Vec::new(),
             vertices: HashMap::new(),
             half_side: spec.cell / 3f64.sqrt() / 2.0,
             half_cell: spec.cell / 2.0,
@@ -274,7 +296,11 @@ impl PointSet {
                     id
                 }
             },
-            End::Cut(p) => self.push(p),
+            End::Cut(p) => {
+                let id = self.push(p);
+                self.cuts.push(id);
+                id
+            }
         }
     }
 
@@ -388,6 +414,31 @@ impl Mesh {
         }
     }
 
+    /// The node ids of the cut edges, on every layer, ascending.
+    pub fn edge_nodes(&self) -> Vec<usize> {
+        let mut ids: Vec<usize> = (0..=self.rows)
+            .flat_map(|k| self.cut_points.iter().map(move |&p| self.node_id(p, k)))
+            .collect();
+        ids.sort_unstable();
+        ids
+    }
+
+    /// `*SET_NODE_LIST` number `set` of [`Mesh::edge_nodes`] (8 ids of 10 characters a line).
+    pub fn edge_set(&self, set: u32) -> String {
+        let ids = self.edge_nodes();
+        let mut out = format!(
+            "$ the {} nodes where the cylinder cut the walls\n*SET_NODE_LIST\n$      sid\n{set:>10}\n",
+            ids.len()
+        );
+        for line in ids.chunks(8) {
+            for id in line {
+                let _ = write!(out, "{id:>10}");
+            }
+            out.push('\n');
+        }
+        out
+    }
+
     /// The include text: a comment header with the summary, `*NODE` (I8, 3×E16, I8, I8) and
     /// `*ELEMENT_SHELL` (I8 fields), `*END` last.
     pub fn include(&self) -> String {
@@ -473,5 +524,36 @@ mod tests {
                 .collect();
             assert_eq!(data, by_format(&m), "cell {cell}, element {element}");
         }
+    }
+
+    #[test]
+    fn the_edge_set_lists_every_cut_node_on_the_circle() {
+        let spec = TubeSpec {
+            cell: 6.0,
+            diameter: 10.0,
+            length: 8.0,
+            element: 0.35,
+        };
+        let m = mesh(&spec).unwrap();
+        // One cell about the axis; its six spokes cut at r = 5 (the rest of the lattice is outside).
+        assert_eq!(m.cut_points.len(), 6);
+        let coords: std::collections::HashMap<usize, [f64; 3]> = m.nodes().collect();
+        let edge = m.edge_nodes();
+        assert_eq!(edge.len(), 6 * (m.rows + 1));
+        for id in &edge {
+            let [x, y, _] = coords[id];
+            assert!((x.hypot(y) - 5.0).abs() < 1e-9, "node {id} at r = {}", x.hypot(y));
+        }
+        let (text, _) = include_with_edge_set(&spec, 2).unwrap();
+        let plain = include(&spec).unwrap().0;
+        assert!(text.starts_with(&plain[..plain.len() - 5]) && text.ends_with("*END\n"));
+        let listed: Vec<usize> = text
+            .lines()
+            .skip_while(|l| *l != "*SET_NODE_LIST")
+            .skip(3)
+            .take_while(|l| !l.starts_with('*'))
+            .flat_map(|l| l.split_whitespace().map(|w| w.parse::<usize>().unwrap()))
+            .collect();
+        assert_eq!(listed, edge);
     }
 }
