@@ -200,6 +200,9 @@ struct InputMap {
     log: Vec<bool>,
     lower: Vec<f64>,
     width: Vec<f64>,
+    /// The inputs that vary over the box: one fixed for every run (a design variable all the tested
+    /// designs share) carries no information and would divide by a zero width.
+    keep: Vec<usize>,
 }
 
 impl InputMap {
@@ -209,14 +212,16 @@ impl InputMap {
             .collect();
         let warp = |k: usize, v: f64| if log[k] { v.ln() } else { v };
         let lower: Vec<f64> = (0..bounds.dim()).map(|k| warp(k, bounds.lower[k])).collect();
-        let width = (0..bounds.dim()).map(|k| warp(k, bounds.upper[k]) - lower[k]).collect();
-        InputMap { log, lower, width }
+        let width: Vec<f64> = (0..bounds.dim()).map(|k| warp(k, bounds.upper[k]) - lower[k]).collect();
+        let keep = (0..bounds.dim()).filter(|&k| width[k] > 0.0).collect();
+        InputMap { log, lower, width, keep }
     }
 
     /// Rows of `points` in unit-cube coordinates. A logged input at or below zero gives NaN: such
     /// points lie far outside the box the emulator was fitted on.
     fn unit(&self, points: &DMatrix<f64>) -> DMatrix<f64> {
-        DMatrix::from_fn(points.nrows(), points.ncols(), |i, k| {
+        DMatrix::from_fn(points.nrows(), self.keep.len(), |i, j| {
+            let k = self.keep[j];
             let v = if self.log[k] {
                 points[(i, k)].ln()
             } else {
@@ -270,12 +275,12 @@ impl Emulator {
         bounds: &Bounds,
         transforms: Transforms,
     ) -> Result<Self, CalibrationError> {
-        let (n, p) = inputs.shape();
         if outputs.iter().chain(inputs.iter()).any(|v| !v.is_finite()) {
             return Err(CalibrationError::NonFinite("emulator samples".into()));
         }
         let input_map = InputMap::new(bounds, transforms.log_inputs);
         let x = input_map.unit(inputs);
+        let (n, p) = x.shape();
         let log_output = transforms.log_output && outputs.iter().all(|&v| v > 0.0);
         let t = if log_output {
             outputs.map(f64::ln)
@@ -581,5 +586,30 @@ mod tests {
             assert!(rel < 3e-3, "h={h}: rel error {rel}");
             assert!(c[(i, i)] >= 0.0);
         }
+    }
+
+    #[test]
+    fn an_input_fixed_for_every_run_is_left_out() {
+        // Three designs that share c = 6 (honeycomb-openradioss): the emulator over (c, t, σy) is the
+        // emulator over (t, σy), and predicts as it does.
+        let f = |t: f64, s: f64| 1.2 * t.powf(1.6) * s.powf(0.6);
+        let mut rows = Vec::new();
+        for (i, t) in [0.05, 0.065, 0.08].into_iter().enumerate() {
+            for k in 0..4 {
+                rows.push([6.0, t, 140.0 + 25.0 * k as f64 + 7.0 * i as f64]);
+            }
+        }
+        let x3 = DMatrix::from_fn(rows.len(), 3, |i, k| rows[i][k]);
+        let x2 = DMatrix::from_fn(rows.len(), 2, |i, k| rows[i][k + 1]);
+        let y = DVector::from_iterator(rows.len(), rows.iter().map(|r| f(r[1], r[2])));
+        let b3 = Bounds::new(vec![6.0, 0.05, 140.0], vec![6.0, 0.08, 240.0]);
+        let b2 = Bounds::new(vec![0.05, 140.0], vec![0.08, 240.0]);
+        let e3 = Emulator::fit(&x3, &y, &b3).unwrap();
+        let e2 = Emulator::fit(&x2, &y, &b2).unwrap();
+        let p3 = DMatrix::from_row_slice(1, 3, &[6.0, 0.065, 185.0]);
+        let p2 = DMatrix::from_row_slice(1, 2, &[0.065, 185.0]);
+        let (m3, m2) = (e3.mean(&p3)[0], e2.mean(&p2)[0]);
+        assert!((m3 / m2 - 1.0).abs() < 1e-12, "{m3} vs {m2}");
+        assert!((m3 / f(0.065, 185.0) - 1.0).abs() < 0.01, "{m3} vs {}", f(0.065, 185.0));
     }
 }
