@@ -63,7 +63,7 @@ impl<'a> Koh<'a> {
     pub fn new(emu: &'a Emulator, problem: &Problem, design_bounds: &Bounds) -> Result<Self, CalibrationError> {
         let designs = problem.designs.clone();
         let unit_designs = DMatrix::from_fn(designs.nrows(), designs.ncols(), |i, k| {
-            (designs[(i, k)] - design_bounds.lower[k]) / design_bounds.width()[k]
+            unit_coordinate(designs[(i, k)], design_bounds, k)
         });
         let mut koh = Koh {
             emu,
@@ -263,10 +263,17 @@ pub struct Discrepancy {
     weights: DVector<f64>,
 }
 
+/// A design variable scaled to [0, 1] over its bounds; one that all tested designs share (zero
+/// width) is 0 everywhere, so it adds nothing to the distances of the discrepancy's kernel.
+fn unit_coordinate(v: f64, bounds: &Bounds, k: usize) -> f64 {
+    let width = bounds.width()[k];
+    if width > 0.0 { (v - bounds.lower[k]) / width } else { 0.0 }
+}
+
 impl Discrepancy {
     pub fn mean(&self, design: &[f64]) -> f64 {
         let u = DMatrix::from_fn(1, design.len(), |_, k| {
-            (design[k] - self.design_bounds.lower[k]) / self.design_bounds.width()[k]
+            unit_coordinate(design[k], &self.design_bounds, k)
         });
         let r = gauss_corr(&u, &self.unit_designs, &self.roughness);
         self.beta + self.var * (r * &self.weights)[0]
