@@ -280,6 +280,7 @@ impl<'a> Runner<'a> {
             predicted_error: Default::default(),
             estimates: Default::default(),
             interval95: Default::default(),
+            stopped: None,
         }
     }
 
@@ -342,11 +343,7 @@ impl<'a> Runner<'a> {
                 None
             };
             if let Some(reason) = stop {
-                self.sequence.stopped.push(Stop {
-                    stage: space.name.clone(),
-                    reason: reason.into(),
-                    runs: self.plan.runs.len() - start,
-                });
+                self.sequence.stop(&space.name, reason, self.plan.runs.len() - start);
                 self.sequence.write(&self.options.out)?;
                 return Ok(posterior);
             }
@@ -452,15 +449,11 @@ impl<'a> Runner<'a> {
         };
         let n = new.len();
         self.batch(&space, new, 1 + self.batch_of.last().copied().unwrap_or(0), store, reporter)?;
+        self.sequence.stop("probes", "planned", n);
         if let Some(last) = self.sequence.sequence.last_mut() {
             last.state = "done".into();
             reporter.report(Event::Batch(last));
         }
-        self.sequence.stopped.push(Stop {
-            stage: "probes".into(),
-            reason: "planned".into(),
-            runs: n,
-        });
         self.sequence.write(&self.options.out)
     }
 

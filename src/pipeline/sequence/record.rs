@@ -53,6 +53,9 @@ pub struct Batch {
     /// The posterior's mean and 95 % interval of each variable of the space.
     pub estimates: IndexMap<String, f64>,
     pub interval95: IndexMap<String, [f64; 2]>,
+    /// Why the stage's sequence stopped after this batch (as `stopped`); absent while it goes on.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub stopped: Option<String>,
 }
 
 /// Why a stage's sequence stopped.
@@ -112,6 +115,18 @@ impl Planned {
 }
 
 impl Sequence {
+    /// Records that `stage` stopped for `reason` after `runs` runs, on the stage's last batch too.
+    pub fn stop(&mut self, stage: &str, reason: &str, runs: usize) {
+        if let Some(last) = self.sequence.iter_mut().rev().find(|b| b.stage == stage) {
+            last.stopped = Some(reason.to_string());
+        }
+        self.stopped.push(Stop {
+            stage: stage.to_string(),
+            reason: reason.to_string(),
+            runs,
+        });
+    }
+
     /// Writes `OUT/sequence.json` (atomically).
     pub fn write(&self, out: &Path) -> Result<(), Error> {
         let bytes = serde_json::to_vec_pretty(self).map_err(|e| Error::Failed(e.to_string()))?;
@@ -157,13 +172,13 @@ impl Batch {
                 )
             })
             .collect();
-        format!(
-            "{} batch {}: {} run(s), {} in all; {error}; {}",
-            self.stage,
-            self.batch,
-            self.runs,
-            self.total,
-            estimates.join(", ")
-        )
+        let mut line = format!("{} batch {}: {} run(s), {} in all; {error}", self.stage, self.batch, self.runs, self.total);
+        if !estimates.is_empty() {
+            line += &format!("; {}", estimates.join(", "));
+        }
+        if let Some(reason) = &self.stopped {
+            line += &format!("; stopped: {reason}");
+        }
+        line
     }
 }
