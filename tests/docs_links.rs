@@ -251,7 +251,10 @@ fn links(doc: &Doc) -> Vec<(usize, String)> {
 
 /// `base/rel` with `.` and `..` resolved, or `None` when it leaves the repository.
 fn resolve(base: &Path, rel: &str) -> Option<PathBuf> {
-    let mut parts: Vec<String> = base.components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect();
+    let mut parts: Vec<String> = base
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
     for c in Path::new(rel).components() {
         match c {
             Component::Normal(s) => parts.push(s.to_string_lossy().into_owned()),
@@ -294,19 +297,21 @@ fn link_problems(rel: &Path, text: &str) -> Vec<String> {
         };
         let Some(anchor) = anchor else { continue };
         if page.extension().is_none_or(|e| e != "md") {
-            problems.push(format!("{at}: an anchor into {}, which is not a Markdown page", page.display()));
+            problems.push(format!(
+                "{at}: an anchor into {}, which is not a Markdown page",
+                page.display()
+            ));
             continue;
         }
-        let target_doc = if page == rel { doc_of(text) } else { doc_of(&read(&page)) };
+        let target_doc = if page == rel { parse(text) } else { parse(&read(&page)) };
         if !anchors(&target_doc).contains(anchor) {
-            problems.push(format!("{at}: no heading of {} has the anchor `#{anchor}`", page.display()));
+            problems.push(format!(
+                "{at}: no heading of {} has the anchor `#{anchor}`",
+                page.display()
+            ));
         }
     }
     problems
-}
-
-fn doc_of(text: &str) -> Doc {
-    parse(text)
 }
 
 /// Code spans naming a path of the repository (see [`REPOSITORY_DIRS`]) that does not exist.
@@ -384,9 +389,14 @@ fn is_study(block: &Block) -> bool {
 fn study_problems(rel: &Path, text: &str, sandbox: &Sandbox) -> Vec<String> {
     let doc = parse(text);
     let mut problems = Vec::new();
-    let stem = rel.file_stem().map_or("page".into(), |s| s.to_string_lossy().into_owned());
+    let stem = rel
+        .file_stem()
+        .map_or("page".into(), |s| s.to_string_lossy().into_owned());
     for block in doc.blocks.iter().filter(|b| is_study(b)) {
-        let file = sandbox.dir.join("studies").join(format!("docs-{stem}-{}.yaml", block.line));
+        let file = sandbox
+            .dir
+            .join("studies")
+            .join(format!("docs-{stem}-{}.yaml", block.line));
         std::fs::write(&file, &block.text).expect("the study written");
         let out = Command::new(env!("CARGO_BIN_EXE_lab"))
             .arg("check")
@@ -420,7 +430,10 @@ struct Help {
 }
 
 fn help_text(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_lab")).args(args).output().expect("lab runs");
+    let out = Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args(args)
+        .output()
+        .expect("lab runs");
     assert!(out.status.success(), "lab {args:?} fails");
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
@@ -496,7 +509,11 @@ fn lab_invocations(line: &str) -> Vec<Vec<String>> {
 fn command_problems(rel: &Path, text: &str, help: &Help) -> Vec<String> {
     let doc = parse(text);
     let mut problems = Vec::new();
-    for block in doc.blocks.iter().filter(|b| matches!(b.lang.as_str(), "sh" | "bash" | "shell" | "console")) {
+    for block in doc
+        .blocks
+        .iter()
+        .filter(|b| matches!(b.lang.as_str(), "sh" | "bash" | "shell" | "console"))
+    {
         for (k, line) in block.text.lines().enumerate() {
             let at = format!("{}:{}", rel.display(), block.line + k);
             for words in lab_invocations(line) {
@@ -527,16 +544,30 @@ fn command_problems(rel: &Path, text: &str, help: &Help) -> Vec<String> {
 
 #[track_caller]
 fn assert_none(problems: &[String]) {
-    assert!(problems.is_empty(), "{} problem(s):\n{}", problems.len(), problems.join("\n"));
+    assert!(
+        problems.is_empty(),
+        "{} problem(s):\n{}",
+        problems.len(),
+        problems.join("\n")
+    );
 }
 
 // ---- the tests ----
 
 #[test]
 fn anchors_are_spelled_as_github_spells_them() {
-    assert_eq!(slug("How a diagnosis reaches its verdict"), "how-a-diagnosis-reaches-its-verdict");
-    assert_eq!(slug("Discovering a missing term (`diagnosis.discover`)"), "discovering-a-missing-term-diagnosisdiscover");
-    assert_eq!(slug("LS-DYNA decks (`adapter: lsdyna`)"), "ls-dyna-decks-adapter-lsdyna");
+    assert_eq!(
+        slug("How a diagnosis reaches its verdict"),
+        "how-a-diagnosis-reaches-its-verdict"
+    );
+    assert_eq!(
+        slug("Discovering a missing term (`diagnosis.discover`)"),
+        "discovering-a-missing-term-diagnosisdiscover"
+    );
+    assert_eq!(
+        slug("LS-DYNA decks (`adapter: lsdyna`)"),
+        "ls-dyna-decks-adapter-lsdyna"
+    );
     assert_eq!(slug("The noise: σ² = a² + (b·y)²"), "the-noise-σ²--a²--by²");
     assert_eq!(slug("`results.json` `sampling`"), "resultsjson-sampling");
     assert_eq!(slug("Record and replay"), "record-and-replay");
@@ -555,7 +586,13 @@ fn every_relative_link_and_anchor_resolves() {
         [outside](../../etc/passwd), [binout](binout.md#no-such-anchor), [a file](../src/main.rs#L3) \
         and [this one](#page).\n\n```text\n[not a link](#inside-code)\n```\n\nAlso `[code](#nope)`.\n";
     let found = link_problems(Path::new("docs/synthetic.md"), synthetic);
-    let expect = ["#no-such-heading", "missing.md", "leaves the repository", "#no-such-anchor", "not a Markdown page"];
+    let expect = [
+        "#no-such-heading",
+        "missing.md",
+        "leaves the repository",
+        "#no-such-anchor",
+        "not a Markdown page",
+    ];
     assert_eq!(found.len(), expect.len(), "{found:#?}");
     for (f, e) in found.iter().zip(expect) {
         assert!(f.contains(e), "`{e}` not in `{f}`");
@@ -596,7 +633,11 @@ fn every_study_shown_is_one_lab_check_accepts() {
     );
     let found = study_problems(Path::new("docs/synthetic.md"), &page, &sandbox);
     assert_eq!(found.len(), 2, "{found:#?}");
-    assert!(found[0].contains("rejects it") && found[0].contains("Ee"), "{}", found[0]);
+    assert!(
+        found[0].contains("rejects it") && found[0].contains("Ee"),
+        "{}",
+        found[0]
+    );
     assert!(found[1].contains("accepts it"), "{}", found[1]);
 
     let mut problems = Vec::new();
@@ -607,7 +648,10 @@ fn every_study_shown_is_one_lab_check_accepts() {
         problems.extend(study_problems(&p, &text, &sandbox));
     }
     assert_none(&problems);
-    assert!(studies >= 3, "the docs show {studies} whole studies; the study reference shows at least three");
+    assert!(
+        studies >= 3,
+        "the docs show {studies} whole studies; the study reference shows at least three"
+    );
     // Nothing was left in the scratch copy's studies/ but the links to the repository's.
     let left: Vec<_> = std::fs::read_dir(sandbox.dir.join("studies"))
         .expect("the scratch studies/")
@@ -627,7 +671,11 @@ fn every_lab_command_shown_is_one_lab_has() {
         nice -n 10 target/release/lab status studies/honeycomb.yaml --out /tmp/x && lab report studies/honeycomb.yaml\n\
         cargo test --release --test docs_links\n```\n";
     let found = command_problems(Path::new("docs/synthetic.md"), synthetic, &help);
-    let expect = ["no subcommand `frobnicate`", "no option `--fast`", "studies/no-such.yaml"];
+    let expect = [
+        "no subcommand `frobnicate`",
+        "no option `--fast`",
+        "studies/no-such.yaml",
+    ];
     assert_eq!(found.len(), expect.len(), "{found:#?}");
     for (f, e) in found.iter().zip(expect) {
         assert!(f.contains(e), "`{e}` not in `{f}`");
