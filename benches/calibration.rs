@@ -1,5 +1,5 @@
 //! The three calibration methods on the paper's cantilever (training h = 8, 10; E in [50k, 80k]).
-//! Run: `cargo bench --bench calibration`; figures go in the README.
+//! Run: `cargo bench --bench calibration`; figures go in docs/benchmarks.md.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lab::calibrate::{Bounds, Problem, bayesian, least_squares, sensitivity};

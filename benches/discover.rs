@@ -1,4 +1,4 @@
-//! The library search for a missing term (issue 26) on a 9-design, 2-variable study: a honeycomb Y
+//! The library search for a missing term on a 9-design, 2-variable study: a honeycomb Y
 //! junction's crush force 8.61 σ t^(5/3) / c^(1/3) (σ calibrated) tested on a 3 × 3 grid of
 //! t ∈ {0.6, 1.0, 1.4} mm × c ∈ {4, 6, 8} mm, three specimens each with 1 % seeded scatter. The
 //! evidence the search starts from (every candidate fitted, tested and ranked) is timed with the
@@ -10,7 +10,7 @@
 //! - `nothing`: a 6 % spike at the centre design (outside the library): every eligible model is
 //!   judged and none passes, the search's worst case.
 //!
-//! Run: `cargo bench --bench discover`; the figures go in the README.
+//! Run: `cargo bench --bench discover`; the figures go in docs/benchmarks.md.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lab::calibrate::Bounds;

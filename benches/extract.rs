@@ -3,12 +3,12 @@
 //! mesh (the main job's C3 designs: 7.6 MB of keyword text, generated once per distinct tube).
 //! These are the main job's largest costs outside the numerics.
 //!
-//! And the same run's curve read from binout instead (issue 32): the recording's histories
+//! And the same run's curve read from binout instead: the recording's histories
 //! written into a binout as crushsim writes it (LS-DYNA's layout, float32, a symbol table per
 //! output time), then read back from disk: the rcforc interface side and the nodout node, paired
 //! into the force–displacement curve, against the same from the ASCII files.
 //!
-//! Run: `cargo bench --bench extract`; the figures go in the README (Benchmarks) and
+//! Run: `cargo bench --bench extract`; the figures go in docs/benchmarks.md and
 //! docs/binout.md.
 
 use criterion::{Criterion, criterion_group, criterion_main};

@@ -4,7 +4,7 @@
 //!
 //! Run: `cargo bench --bench koh_reference` (the Python environment comes from
 //! scripts/bench-venv.sh, or set LAB_BENCH_PYTHON). The reference runs with single-threaded BLAS;
-//! lab with its default thread pool (set RAYON_NUM_THREADS=1 for one thread). Figures: README.
+//! lab with its default thread pool (set RAYON_NUM_THREADS=1 for one thread). Figures: docs/benchmarks.md.
 
 use std::process::Command;
 use std::time::Instant;

@@ -1,7 +1,7 @@
 #!/bin/sh
-# The scale study's whole command (issue 13): four parameters, eight tested designs, 400 emulator
+# The scale study's whole command: four parameters, eight tested designs, 400 emulator
 # runs replayed from fixtures/cantilever-scale, three methods, report. Needs hyperfine (Debian
-# package) and a release build. Figures in the README.
+# package) and a release build. Figures in docs/benchmarks.md.
 set -eu
 cd "$(dirname "$0")/.."
 target="${CARGO_TARGET_DIR:-target}"

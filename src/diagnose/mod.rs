@@ -794,17 +794,18 @@ impl<'a> Context<'a> {
     }
 }
 
-const RULE: &str = "noise: sigma^2 = a^2 + (b y)^2 from the replicates' likelihood, at the likeliest mixing of the two \
-components unless the uncorrected model misses the tests there and another mixing the replicates allow (99.9 % set) \
-lets it fit (from the residuals of each fit without replicates); a model fits the tests when both its omnibus lack of \
-fit (chi^2 against F) and its largest standardised residual (Sidak-corrected for their number) pass at alpha = 0.01; \
-a candidate explains the misfit when the likelihood-ratio (F) test of its amplitude against a refit of the parameters \
-alone has p < alpha/K (K candidates), whatever the angle between its shape and the parameters' sensitivities; \
-ranking: score = (AICc + leave-one-design-out deviance)/2 (with few designs: AIC + the validation designs' predictive \
-deviance), weights exp(-score/2); the leader is the best-scored candidate that explains the misfit, and it is named \
-only when it beats every rival in an encompassing test (leader added to the rival: p < alpha) and its model fits; \
-model error is detected when a candidate explains the misfit or the uncorrected model does not fit; a listed cause \
-whose model does not fit only partly explains the misfit: it is reported as partial, never as the cause";
+const RULE: &str = "noise: sigma^2 = a^2 + (b y)^2 from the replicates' likelihood, at the likelier pure form (constant \
+sigma or constant coefficient of variation) unless the combined model beats it by a likelihood-ratio test at alpha; if \
+the uncorrected model misses the tests there, another mixing the replicates allow (99.9 % set) under which it fits and \
+no candidate explains a misfit is used instead (without replicates: from the residuals of the best fit); detection of \
+model error shares alpha = 0.01: the uncorrected model's omnibus lack of fit (chi^2 against F) and its largest \
+standardised residual (Sidak-corrected for their number) at alpha/4 each, each candidate's amplitude test (F, against \
+a refit of the parameters alone) at alpha/(2K) for K candidates, whatever the angle between its shape and the \
+parameters' sensitivities; ranking: score = (AICc + leave-one-design-out deviance)/2 (with few designs: AIC + the \
+validation designs' predictive deviance), weights exp(-score/2); the leader is the best-scored candidate that \
+explains the misfit, and it is named only when it beats every rival in an encompassing test (leader added to the \
+rival: p < alpha) and its final model fits both ways at alpha, on the noise detection chose; a listed cause whose \
+model does not fit only partly explains the misfit: it is reported as partial, never as the cause";
 
 /// Runs the diagnosis, step by step (see the module notes). Errors only when there are no training
 /// designs or the model cannot be evaluated.

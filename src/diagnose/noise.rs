@@ -19,9 +19,11 @@
 //! to the best is within χ²₁(1 − β)/2, β = α/10 (`MIXING_SET_LEVEL`). A model is called wrong only
 //! when it misses the tests under every noise model of that set (the p-value maximised over a
 //! confidence set of the nuisance, Berger & Boos 1994, JASA 89:1012, which adds at most β to the
-//! test's level): the diagnosis runs with the maximum-likelihood mixing, unless the uncorrected
-//! model's lack of fit rejects there and another mixing of the set lets it fit; then with the one
-//! of the set under which it fits best (`super::Evidence::gather`, step 1).
+//! test's level): the diagnosis runs with the chosen mixing (the likelier edge, or the combined
+//! model where its test rejects the edge), unless the uncorrected model's lack of fit rejects there,
+//! another mixing of the set lets it fit, and no candidate explains a misfit under it; then with
+//! that mixing (`super::noise_and_base`). A cause's final model is judged on the noise detection
+//! chose, never on a mixing re-chosen for it.
 
 use serde::{Deserialize, Serialize};
 

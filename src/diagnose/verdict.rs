@@ -3,14 +3,15 @@
 //! | verdict | when |
 //! |---|---|
 //! | `too_few_tests` | no test of model error is possible (no replicates and no spare designs), or the training designs barely exceed the parameters and nothing was detected (the test had almost no power) |
-//! | `no_model_error` | no candidate's amplitude test is significant at α/K and the uncorrected model's lack of fit does not reject at α |
+//! | `no_model_error` | no candidate's amplitude test is significant at α/(2K) and neither of the uncorrected model's two lack-of-fit tests (omnibus and largest residual) rejects at α/4 |
 //! | `unexplained` | the lack of fit rejects, but no candidate is significant |
-//! | `partly_explained` | the leader is significant, but its extended model's lack of fit still rejects at α, or a rival's shape still reduces the misfit with the leader's in (encompassing test at α / number of rivals): the cause helps, but it is not the whole story |
+//! | `partly_explained` | the leader is significant, but its extended model's lack of fit (either test) still rejects at α, or a rival's shape still reduces the misfit with the leader's in (encompassing test at α / number of rivals): the cause helps, but it is not the whole story |
 //! | `cannot_tell_apart` | the leader is significant, but some rival survives the encompassing test: the data cannot tell them apart |
 //! | `cause_named` | the leader is significant, beats every rival, and its extended model fits within the noise |
 //!
-//! Under no model error each of the two detection tests has false-alarm rate ≤ α, so together
-//! ≤ 2α.
+//! Under no model error the detection's tests share α (α/4 for each of the uncorrected model's two
+//! lack-of-fit tests, α/(2K) for each of the K candidates), so their false-alarm rate together is at
+//! most α.
 
 use serde::{Deserialize, Serialize};
 
