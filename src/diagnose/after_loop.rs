@@ -20,8 +20,9 @@
 //!    1982). Where both directions are significant each explains a part: the better-scored is named
 //!    and the verdict is "partly explained".
 //! 4. The named cause's own final diagnosis says whether anything listed still explains what
-//!    remains (α/K): then it only partly explains. No survivor: the best-scored final model partly
-//!    explains when its shape explained the misfit at screening. Two or more survivors, none beating
+//!    remains (α/K): then it only partly explains. No survivor: a single open explanation partly
+//!    explains when its shape explained the misfit at screening; with several, which one is the
+//!    part is not decided (cannot tell apart, ranked by score). Two or more survivors, none beating
 //!    the rest: cannot tell apart, the survivors ranked by their score (AICc and leave-one-design-out
 //!    deviance on the same training tests, step 2's score), best first.
 //!
@@ -265,6 +266,19 @@ fn is_same(screening: &Evidence, name: &str, who: Who) -> bool {
 /// Every open explanation's final model misses the tests: the best-scored partly explains.
 fn all_rejected(screening: &Evidence, open: &[Open], _alpha: f64) -> Decision {
     let best = open.iter().min_by(|a, b| key(a.score).total_cmp(&key(b.score)));
+    if open.len() > 1 {
+        // Every final model misses: which one is the part is not decided by a score alone.
+        let mut ranked: Vec<&Open> = open.iter().collect();
+        ranked.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
+        let leading: Vec<Who> = ranked.iter().map(|o| o.who).collect();
+        return Decision {
+            verdict: Verdict::CannotTellApart,
+            detected: true,
+            cause: None,
+            compare: leading.iter().take(2).copied().collect(),
+            leading,
+        };
+    }
     match best {
         Some(b) => Decision {
             verdict: Verdict::PartlyExplained,

@@ -5,8 +5,8 @@
 //! | `too_few_tests` | no test of model error is possible (no replicates and no spare designs), or the training designs barely exceed the parameters and nothing was detected (the test had almost no power) |
 //! | `no_model_error` | no candidate's amplitude test is significant at α/(2K) and neither of the uncorrected model's two lack-of-fit tests (omnibus and largest residual) rejects at α/4 |
 //! | `unexplained` | the lack of fit rejects, but no candidate is significant |
-//! | `partly_explained` | the leader is significant, but its extended model's lack of fit (either test) still rejects at α, or a rival's shape still reduces the misfit with the leader's in (encompassing test at α / number of rivals): the cause helps, but it is not the whole story |
-//! | `cannot_tell_apart` | the leader is significant, but some rival survives the encompassing test: the data cannot tell them apart |
+//! | `partly_explained` | the leader is significant and beats every rival, but its extended model's lack of fit (either test) still rejects at α, or a rival's shape still reduces the misfit with the leader's in (encompassing test at α / number of rivals): the cause helps, but it is not the whole story |
+//! | `cannot_tell_apart` | the leader is significant, but some rival survives the encompassing test: the data cannot tell them apart (whether or not the leader's model fits: an undecided part is not named) |
 //! | `cause_named` | the leader is significant, beats every rival, and its extended model fits within the noise |
 //!
 //! Under no model error the detection's tests share α (α/4 for each of the uncorrected model's two
@@ -163,7 +163,14 @@ pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
                 }
             }
             let open = open.into_iter().map(named).collect();
-            (Verdict::PartlyExplained, Some(named(l)), open, compare)
+            // The part is named only when it is decided: a leader that has not beaten every rival
+            // may be the wrong part (a shape that happens to remove most of a misfit it does not
+            // cause); then the candidates that explain are open, none named.
+            if unbeaten.is_empty() {
+                (Verdict::PartlyExplained, Some(named(l)), open, compare)
+            } else {
+                (Verdict::CannotTellApart, None, open, compare)
+            }
         } else if unbeaten.is_empty() {
             let compare = vec![named(l), closest.map_or(Who::Uncorrected, named)];
             (Verdict::CauseNamed, Some(named(l)), vec![named(l)], compare)
