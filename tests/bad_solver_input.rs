@@ -120,7 +120,7 @@ fn lsdyna_response_keys_are_checked_where_written() {
         &with("adapter: command", "adapter: lsdyna"),
         14,
         Some("out.txt"),
-        "reads rcforc and nodout itself",
+        "reads its solver's histories itself",
     );
     let lsdyna = with("adapter: command", "adapter: lsdyna");
     let bad_window = with_in(

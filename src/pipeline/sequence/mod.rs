@@ -106,6 +106,8 @@ struct Runner<'a> {
     rendered: Option<Prepared>,
     outcomes: RunOutcomes,
     sequence: Sequence,
+    /// Wall time of the planner (assessing the runs in hand and choosing the next batch), seconds.
+    planning: f64,
 }
 
 /// One stage's space: its box and names, and how a point becomes a run at a design.
@@ -205,6 +207,7 @@ impl<'a> Runner<'a> {
             rendered: None,
             outcomes: RunOutcomes::default(),
             sequence,
+            planning: 0.0,
         }
     }
 
@@ -222,6 +225,7 @@ impl<'a> Runner<'a> {
         self.sequence.planned.extend(batch.runs.iter().map(record::Planned::of));
         self.sequence.runs += batch.runs.len();
         self.sequence.sequence.push(self.in_flight(space, &batch, b));
+        self.planning = 0.0;
         self.sequence.write(&self.options.out)?;
         let rendered = sweep::prepare_after(self.study, self.sim, &batch, self.rendered.as_ref())?;
         let (swept, outcomes) = runs::sweep_plan(
@@ -281,6 +285,7 @@ impl<'a> Runner<'a> {
             estimates: Default::default(),
             interval95: Default::default(),
             stopped: None,
+            planning_seconds: self.planning,
         }
     }
 
@@ -323,6 +328,7 @@ impl<'a> Runner<'a> {
         let _ = start;
         loop {
             let seed = self.limits.seed ^ fnv(&space.name) ^ (b as u64).wrapping_mul(0x9e37_79b9);
+            let started = std::time::Instant::now();
             let (open, posterior, sites, emus) = self.assess(space, b, seed);
             if let Some(last) = self.sequence.sequence.last().filter(|l| l.stage == space.name) {
                 reporter.report(Event::Batch(last));
@@ -333,6 +339,7 @@ impl<'a> Runner<'a> {
             } else {
                 Vec::new()
             };
+            self.planning = started.elapsed().as_secs_f64();
             let stop = if !open.iter().any(|&o| o) {
                 Some("converged")
             } else if room == 0 {

@@ -53,6 +53,10 @@ pub struct Batch {
     /// The posterior's mean and 95 % interval of each variable of the space.
     pub estimates: IndexMap<String, f64>,
     pub interval95: IndexMap<String, [f64; 2]>,
+    /// Wall time the planner took to choose this batch (fitting the emulators and the posterior on
+    /// the runs in hand, then the batch), seconds; 0 for a stage's fixed start.
+    #[serde(default)]
+    pub planning_seconds: f64,
     /// Why the stage's sequence stopped after this batch (as `stopped`); absent while it goes on.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub stopped: Option<String>,
