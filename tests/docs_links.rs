@@ -326,6 +326,10 @@ fn path_problems(rel: &Path, text: &str) -> Vec<String> {
             if !REPOSITORY_DIRS.iter().any(|d| span.starts_with(d)) || span.contains([' ', '<', '{', '*', '|']) {
                 continue;
             }
+            // What `lab run` writes beside a study (`lab-out/`) is output, not part of the repository.
+            if span.contains("lab-out/") {
+                continue;
+            }
             let path = span.split(':').next().unwrap_or(&span);
             if !root().join(path).exists() {
                 problems.push(format!("{}:{line}: `{span}`: {path} does not exist", rel.display()));

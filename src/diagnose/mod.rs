@@ -35,8 +35,8 @@ pub mod extension;
 pub mod features;
 pub mod joint;
 pub mod lack_of_fit;
-pub mod limits;
 pub mod library;
+pub mod limits;
 pub mod next_test;
 pub mod noise;
 pub mod ranking;
@@ -514,9 +514,9 @@ impl Partial {
     fn new(name: String, extended: Option<Extended>, uncorrected: Option<&LackOfFit>) -> Partial {
         let remaining = extended.as_ref().and_then(|e| e.lack_of_fit.clone());
         let excess = |l: &LackOfFit| l.chi2 - l.dof as f64;
-        let share_removed = uncorrected.zip(remaining.as_ref()).and_then(|(u, r)| {
-            (excess(u) > 0.0).then(|| (1.0 - excess(r).max(0.0) / excess(u)).clamp(0.0, 1.0))
-        });
+        let share_removed = uncorrected
+            .zip(remaining.as_ref())
+            .and_then(|(u, r)| (excess(u) > 0.0).then(|| (1.0 - excess(r).max(0.0) / excess(u)).clamp(0.0, 1.0)));
         Partial {
             name,
             share_removed,
@@ -553,6 +553,10 @@ pub struct NextTest {
     pub why: String,
     /// What it takes there (specimens, power), in one clause.
     pub advice: String,
+    /// The significance level at which the programme's specimens would decide (the detection's
+    /// level for a candidate against the uncorrected model, α otherwise): its power is at this level.
+    #[serde(default)]
+    pub level: f64,
     /// The two explanations that are closest there (the second may be `uncorrected`).
     pub between: [String; 2],
     pub predictions: [f64; 2],
@@ -663,7 +667,11 @@ impl<'a> Context<'a> {
         }
         // The emulator's error floor, where the noise is the replicates' (a caller's noise, the curve
         // features', carries it already): the variance of each mean grows by that share.
-        let floor = if inputs.noise.is_none() { inputs.settings.emulator_floor } else { 0.0 };
+        let floor = if inputs.noise.is_none() {
+            inputs.settings.emulator_floor
+        } else {
+            0.0
+        };
         let weights: Vec<f64> = obs
             .iter()
             .enumerate()
@@ -754,14 +762,22 @@ impl<'a> Context<'a> {
     /// candidates and the uncorrected model's lack of fit share α (half each, Bonferroni), so that
     /// model error is claimed at level α; judging a loop model, α.
     pub fn candidates_level(&self) -> f64 {
-        if self.detection { self.alpha() / 2.0 } else { self.alpha() }
+        if self.detection {
+            self.alpha() / 2.0
+        } else {
+            self.alpha()
+        }
     }
 
     /// The level of each of the two lack-of-fit tests of the base model: detecting model error,
     /// the base shares its half of α between them (α/4 each); any other model's fit is a claim
     /// about a cause, each test at α ([`lack_of_fit`]).
     pub fn base_fit_level(&self) -> f64 {
-        if self.detection { self.alpha() / 4.0 } else { self.alpha() }
+        if self.detection {
+            self.alpha() / 4.0
+        } else {
+            self.alpha()
+        }
     }
 
     pub fn param_map(&self, theta: &DVector<f64>) -> IndexMap<String, f64> {
@@ -881,9 +897,11 @@ fn candidate_explains(cx: &Context, base: &candidates::Model) -> bool {
     let shapes = candidates::shapes(cx, base, &mut notes);
     let fitted = candidates::fit_all(cx, shapes, &mut notes);
     let k = fitted.len().max(1) as f64;
-    fitted
-        .iter()
-        .any(|m| evidence::assess_one(cx, m, Some(base)).p_value.is_some_and(|p| p * k < cx.candidates_level()))
+    fitted.iter().any(|m| {
+        evidence::assess_one(cx, m, Some(base))
+            .p_value
+            .is_some_and(|p| p * k < cx.candidates_level())
+    })
 }
 
 /// A hypothesis the loop calibrated with the solver, as the diagnosis sees it.
@@ -974,7 +992,14 @@ impl<'a> Evidence<'a> {
             a.screening_headline = text::describe(&self.facts(&self.decision, &found, None, None, &[], &[])).headline;
             a
         });
-        let mut facts = self.facts(&decision, &found, extended.as_ref(), next_test.as_ref(), loop_names, &parameter_limits);
+        let mut facts = self.facts(
+            &decision,
+            &found,
+            extended.as_ref(),
+            next_test.as_ref(),
+            loop_names,
+            &parameter_limits,
+        );
         facts.after_loop = after.as_ref();
         let mut words = text::describe(&facts);
         if let Some(s) = &search {
@@ -1030,7 +1055,11 @@ impl<'a> Evidence<'a> {
     }
 
     /// Step 5b: the screening's decision, or with loop models the decision after the loop.
-    fn final_decision(&self, looped: &[Evidence], loop_names: &[String]) -> (verdict::Decision, Option<after_loop::AfterLoop>) {
+    fn final_decision(
+        &self,
+        looped: &[Evidence],
+        loop_names: &[String],
+    ) -> (verdict::Decision, Option<after_loop::AfterLoop>) {
         if looped.is_empty() {
             (self.decision.clone(), None)
         } else {
@@ -1041,7 +1070,12 @@ impl<'a> Evidence<'a> {
 
     /// Step 6: the model extended with the decision's cause (its loop model where the loop
     /// calibrated it).
-    fn extended_of(&self, decision: &verdict::Decision, looped: &[Evidence], loop_names: &[String]) -> Option<Extended> {
+    fn extended_of(
+        &self,
+        decision: &verdict::Decision,
+        looped: &[Evidence],
+        loop_names: &[String],
+    ) -> Option<Extended> {
         let (cx, ranked) = (&self.cx, &self.ranked);
         decision.cause.and_then(|who| match who {
             verdict::Who::Candidate(k) => extension::extend(cx, ranked, k),
@@ -1088,8 +1122,18 @@ impl<'a> Evidence<'a> {
         // decide on their own. So must a test of a term the search found: the tests that chose it
         // cannot also confirm it.
         let found = search.is_some_and(|s| s.found.is_some());
-        let fresh = found || !matches!(decision.verdict, Verdict::CauseNamed | Verdict::NoModelError);
-        next_test::recommend(cx, &explanations, &self.noise, fresh)
+        // Under "no model error" the tests in hand did not show the candidate: a test that would must
+        // do so on its own specimens too.
+        let fresh = found || decision.verdict != Verdict::CauseNamed;
+        // Telling a candidate from no correction is a detection: its test would run at the level
+        // detection gives each candidate, α/(2K), and the programme must have its power there.
+        let detects = decision.compare.contains(&verdict::Who::Uncorrected) && cx.detection;
+        let level = if detects {
+            cx.candidates_level() / ranked.entries.len().max(1) as f64
+        } else {
+            cx.alpha()
+        };
+        next_test::recommend(cx, &explanations, &self.noise, fresh, level)
     }
 
     /// How far the final model's parameters move when its misfit is absorbed ([`limits`]): for the

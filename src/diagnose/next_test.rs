@@ -152,7 +152,13 @@ const DRAWS: usize = 64;
 /// tests in hand left them open, so the new specimens must decide on their own evidence — the
 /// increase of λ over what the tests in hand give reaches the target (when the tests in hand have
 /// decided, a confirming test may count them).
-pub(crate) fn recommend(cx: &Context, ex: &[Explanation], noise: &NoiseModel, fresh: bool) -> Option<NextTest> {
+pub(crate) fn recommend(
+    cx: &Context,
+    ex: &[Explanation],
+    noise: &NoiseModel,
+    fresh: bool,
+    level: f64,
+) -> Option<NextTest> {
     if cx.inputs.design_bounds.dim() == 0 {
         return None;
     }
@@ -164,7 +170,7 @@ pub(crate) fn recommend(cx: &Context, ex: &[Explanation], noise: &NoiseModel, fr
     let Some(sigma) = one_test_sigma(cx, noise) else {
         return widest_gap(cx, &ex);
     };
-    let z_alpha = stats::normal_quantile(1.0 - cx.alpha() / 2.0);
+    let z_alpha = stats::normal_quantile(1.0 - level / 2.0);
     let target = (z_alpha + stats::normal_quantile(cx.inputs.settings.power)).powi(2);
     let mut search = Search::new(cx, &ex, &sigma, target);
     search.fresh = fresh;
@@ -188,7 +194,7 @@ pub(crate) fn recommend(cx: &Context, ex: &[Explanation], noise: &NoiseModel, fr
         search.raise_for_uncertainty(&mut pick, z_alpha);
     }
     let measurements = search.measurements(target);
-    Some(describe(cx, &ex, &sigma, pick, outside, measurements, z_alpha))
+    Some(describe(cx, &ex, &sigma, pick, outside, measurements, level))
 }
 
 /// The designs and specimens chosen, and what they achieve.
@@ -869,6 +875,7 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
             crate::format::num(y)
         ),
         advice,
+        level: cx.alpha(),
         between: ["uncorrected".into(), "uncorrected".into()],
         predictions: [y, y],
         separation: 0.0,
@@ -991,6 +998,7 @@ fn describe_common(
         design: named(cx, &d),
         why: String::new(),
         advice: String::new(),
+        level: cx.alpha(),
         between: [ea.name.clone(), eb.name.clone()],
         predictions: [ya, yb],
         separation: 0.0,
@@ -1013,14 +1021,16 @@ fn describe(
     pick: Pick,
     outside: bool,
     measurements: Vec<Measurement>,
-    z_alpha: f64,
+    level: f64,
 ) -> NextTest {
+    let z_alpha = stats::normal_quantile(1.0 - level / 2.0);
     let power = pick
         .decides
         .then(|| stats::normal_cdf(pick.lambda.max(0.0).sqrt() - z_alpha));
     let mut t = describe_common(cx, ex, &pick, outside, measurements, power);
     let (ya, yb) = (t.predictions[0], t.predictions[1]);
     t.separation = (ya - yb).abs() / sigma(0.5 * (ya + yb));
+    t.level = level;
     t.advice = advice(cx, &t, pick.decides);
     t.why = why(&t, true);
     t
@@ -1029,7 +1039,7 @@ fn describe(
 /// What it takes, in one sentence, read from the typed recommendation.
 fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
     let power = 100.0 * cx.inputs.settings.power;
-    let alpha = cx.alpha();
+    let alpha = crate::format::num(t.level);
     // The power over the uncertainty of the fitted parameters: said beside, or as a caveat when
     // no programme could reach the target over it.
     let (expected, caveat) = match t.expected_power {

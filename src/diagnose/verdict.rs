@@ -85,34 +85,39 @@ pub(crate) fn name_of(who: Who, candidates: &[Candidate], loop_names: &[String])
     }
 }
 
+/// No candidate explains the misfit: too few tests, unexplained model error, or none.
+fn without_leader(cx: &Context, ranked: &Ranked, base_rejects: bool) -> Decision {
+    let best = (!ranked.entries.is_empty()).then_some(0);
+    let few = cx.mode == Mode::TooFew || cx.mode == Mode::Few && !base_rejects;
+    let verdict = if few {
+        Verdict::TooFewTests
+    } else if base_rejects {
+        Verdict::Unexplained
+    } else {
+        Verdict::NoModelError
+    };
+    // The best candidate against no correction: is there model error at all?
+    let best = best.map(Who::Candidate);
+    let compare: Vec<Who> = best.into_iter().chain([Who::Uncorrected]).collect();
+    Decision {
+        verdict,
+        detected: base_rejects,
+        cause: None,
+        leading: if verdict == Verdict::NoModelError {
+            vec![Who::Uncorrected]
+        } else {
+            compare.clone()
+        },
+        compare,
+    }
+}
+
 pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
     let alpha = cx.alpha();
     let rejects = |l: Option<&super::LackOfFit>| l.is_some_and(super::LackOfFit::rejects);
     let base_rejects = rejects(ranked.base.assessed.lack_of_fit.as_ref());
-    let best = (!ranked.entries.is_empty()).then_some(0);
     let Some(l) = ranked.leader else {
-        let few = cx.mode == Mode::TooFew || cx.mode == Mode::Few && !base_rejects;
-        let verdict = if few {
-            Verdict::TooFewTests
-        } else if base_rejects {
-            Verdict::Unexplained
-        } else {
-            Verdict::NoModelError
-        };
-        // The best candidate against no correction: is there model error at all?
-        let best = best.map(Who::Candidate);
-        let compare: Vec<Who> = best.into_iter().chain([Who::Uncorrected]).collect();
-        return Decision {
-            verdict,
-            detected: base_rejects,
-            cause: None,
-            leading: if verdict == Verdict::NoModelError {
-                vec![Who::Uncorrected]
-            } else {
-                compare.clone()
-            },
-            compare,
-        };
+        return without_leader(cx, ranked, base_rejects);
     };
     let unbeaten: Vec<usize> = ranked
         .rivals
