@@ -235,6 +235,12 @@ pub fn from_lsdyna(rcforc: &Rcforc, nodout: &Nodout, src: &SimSource) -> Result<
     let comp = s
         .component(src.force_axis)
         .ok_or_else(|| data("settings", "force axis must be 0, 1 or 2"))?;
+    against_stroke(&s.time, comp, nodout, src)
+}
+
+/// A force history (times `time`, solver units) against the striker's nodout displacement, both in
+/// the curve's units and signs: what rcforc's and rwforc's curves share.
+fn against_stroke(time: &[f64], force: &[f64], nodout: &Nodout, src: &SimSource) -> Result<ForceDisplacement, CrushError> {
     let n = nodout
         .nodes
         .get(&src.node)
@@ -246,9 +252,9 @@ pub fn from_lsdyna(rcforc: &Rcforc, nodout: &Nodout, src: &SimSource) -> Result<
     if !(src.force_to_kn.is_finite() && src.force_to_kn > 0.0 && src.disp_to_mm.is_finite() && src.disp_to_mm > 0.0) {
         return Err(data("settings", "unit factors must be positive and finite"));
     }
-    let f: Vec<f64> = comp.iter().map(|v| v * src.force_to_kn).collect();
+    let f: Vec<f64> = force.iter().map(|v| v * src.force_to_kn).collect();
     let d: Vec<f64> = disp.iter().map(|v| v * src.disp_to_mm).collect();
-    from_histories(&s.time, &f, &n.time, &d, src.force_sign, src.disp_sign)
+    from_histories(time, &f, &n.time, &d, src.force_sign, src.disp_sign)
 }
 
 /// The curve from a rigid wall's normal force (rwforc) and nodout: the wall's force against the
@@ -258,20 +264,7 @@ pub fn from_wall(
     nodout: &Nodout,
     src: &SimSource,
 ) -> Result<ForceDisplacement, CrushError> {
-    let n = nodout
-        .nodes
-        .get(&src.node)
-        .ok_or_else(|| data("nodout", format!("no node {}", src.node)))?;
-    let disp = n
-        .disp
-        .get(src.disp_axis)
-        .ok_or_else(|| data("settings", "displacement axis must be 0, 1 or 2"))?;
-    if !(src.force_to_kn.is_finite() && src.force_to_kn > 0.0 && src.disp_to_mm.is_finite() && src.disp_to_mm > 0.0) {
-        return Err(data("settings", "unit factors must be positive and finite"));
-    }
-    let f: Vec<f64> = wall.normal.iter().map(|v| v * src.force_to_kn).collect();
-    let d: Vec<f64> = disp.iter().map(|v| v * src.disp_to_mm).collect();
-    from_histories(&wall.time, &f, &n.time, &d, src.force_sign, src.disp_sign)
+    against_stroke(&wall.time, &wall.normal, nodout, src)
 }
 
 /// Mean crush force, energy and peak over the window.
