@@ -41,6 +41,23 @@ pub const DEFAULT_TOLERANCE: f64 = 0.5;
 /// The default budget: this many solver runs per tested design, in all.
 pub const DEFAULT_BUDGET_PER_DESIGN: usize = 30;
 
+/// The lattice the planner's points are snapped to, as a fraction of the box's width: far finer
+/// than an emulator resolves, far coarser than the last bits of a floating-point sum, so that a
+/// rounding difference (another CPU, another compiler, a reordered sum) does not change which run
+/// a batch asks for, and recordings replay.
+const RESOLUTION: f64 = 1e-4;
+
+/// `x` on the planner's lattice of the box (see [`RESOLUTION`]).
+pub fn snap(bounds: &Bounds, x: &[f64]) -> Vec<f64> {
+    let w = bounds.width();
+    (0..x.len())
+        .map(|j| {
+            let u = ((x[j] - bounds.lower[j]) / w[j] / RESOLUTION).round() * RESOLUTION;
+            (bounds.lower[j] + u * w[j]).clamp(bounds.lower[j], bounds.upper[j])
+        })
+        .collect()
+}
+
 /// Posterior draws (importance sampling) and space-filling candidates.
 const DRAWS: usize = 256;
 const FILL: usize = 64;
@@ -98,13 +115,12 @@ pub fn emulators(bounds: &Bounds, sites: &[Site]) -> Vec<SiteEmulators> {
 
 /// Mean and variance of every output of every site at `x` (NaN variance where no emulator).
 fn predict(emus: &[SiteEmulators], x: &[f64]) -> Vec<Vec<(f64, f64)>> {
-    let at = DMatrix::from_row_slice(1, x.len(), x);
     emus.iter()
         .map(|e| {
             e.outputs
                 .iter()
-                .map(|o| match o.as_ref().and_then(|g| g.mean_cov(&at)) {
-                    Some((m, c)) => (m[0], c[(0, 0)].max(0.0)),
+                .map(|o| match o.as_ref().and_then(|g| g.mean_var_at(x)) {
+                    Some((m, v)) => (m, v.max(0.0)),
                     None => (f64::NAN, f64::NAN),
                 })
                 .collect()
@@ -112,26 +128,50 @@ fn predict(emus: &[SiteEmulators], x: &[f64]) -> Vec<Vec<(f64, f64)>> {
         .collect()
 }
 
-/// −ln p(x), up to a constant: the training sites' tests against the emulators, their variance in
-/// the likelihood, the tests' noise scaled by the dispersion `phi`; infinite outside the box.
-fn neg_log_posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], x: &[f64], phi: f64) -> f64 {
-    if (0..x.len()).any(|j| x[j] < bounds.lower[j] || x[j] > bounds.upper[j]) {
-        return f64::INFINITY;
-    }
-    let pred = predict(emus, x);
-    let mut nlp = 0.0;
-    for (s, p) in sites.iter().zip(&pred) {
-        if !s.training {
-            continue;
-        }
-        for (k, &(mu, s2)) in p.iter().enumerate() {
-            let v = phi * s.noise[k] + s2;
-            if mu.is_finite() && v > 0.0 {
-                nlp += 0.5 * ((s.observed[k] - mu).powi(2) / v + v.ln());
+/// Mean and variance of every output of every site at every row of `points`
+/// (`[site][output][row]`; NaN where no emulator).
+fn predict_rows(emus: &[SiteEmulators], points: &DMatrix<f64>) -> Vec<Vec<Vec<(f64, f64)>>> {
+    let m = points.nrows();
+    emus.iter()
+        .map(|e| {
+            e.outputs
+                .iter()
+                .map(|o| match o.as_ref().and_then(|g| g.mean_var(points)) {
+                    Some((mu, v)) => mu.iter().zip(v.iter()).map(|(a, b)| (*a, b.max(0.0))).collect(),
+                    None => vec![(f64::NAN, f64::NAN); m],
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// −ln p(x) at every row of `points`, up to a constant: the training sites' tests against the
+/// emulators, their variance in the likelihood, the tests' noise scaled by the dispersion `phi`;
+/// infinite outside the box.
+fn neg_log_posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], points: &DMatrix<f64>, phi: f64) -> Vec<f64> {
+    let pred = predict_rows(emus, points);
+    (0..points.nrows())
+        .map(|i| {
+            let x = points.row(i);
+            if (0..x.len()).any(|j| x[j] < bounds.lower[j] || x[j] > bounds.upper[j]) {
+                return f64::INFINITY;
             }
-        }
-    }
-    nlp
+            let mut nlp = 0.0;
+            for (s, p) in sites.iter().zip(&pred) {
+                if !s.training {
+                    continue;
+                }
+                for (k, rows) in p.iter().enumerate() {
+                    let (mu, s2) = rows[i];
+                    let v = phi * s.noise[k] + s2;
+                    if mu.is_finite() && v > 0.0 {
+                        nlp += 0.5 * ((s.observed[k] - mu).powi(2) / v + v.ln());
+                    }
+                }
+            }
+            nlp
+        })
+        .collect()
 }
 
 /// The posterior of x (module notes, step 2).
@@ -161,10 +201,7 @@ pub fn posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], seed: 
     let phi = (r.norm_squared() / r.len().max(1) as f64).max(1.0);
     let cov = laplace(&residuals, &mode, bounds) * phi;
     let draws = proposal_draws(bounds, &mode, &cov, seed);
-    let nlp: Vec<f64> = draws
-        .row_iter()
-        .map(|r| neg_log_posterior(bounds, sites, emus, r.transpose().as_slice(), phi))
-        .collect();
+    let nlp = neg_log_posterior(bounds, sites, emus, &draws, phi);
     let logq: Vec<f64> = draws.row_iter().map(|r| log_proposal(&mode, &cov, &r.transpose())).collect();
     let logw: Vec<f64> = nlp.iter().zip(&logq).map(|(n, q)| -n - q).collect();
     let top = logw.iter().copied().filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max);
@@ -270,10 +307,10 @@ pub fn predicted_error(site: &Site, emus: &SiteEmulators, posterior: &Posterior)
         .enumerate()
         .map(|(k, e)| {
             let Some(e) = e else { return f64::INFINITY };
-            let Some((_, c)) = e.mean_cov(&posterior.points) else {
+            let Some((_, var)) = e.mean_var(&posterior.points) else {
                 return f64::INFINITY;
             };
-            let v: f64 = (0..c.nrows()).map(|i| posterior.weights[i] * c[(i, i)].max(0.0)).sum();
+            let v: f64 = var.iter().zip(&posterior.weights).map(|(s2, w)| w * s2.max(0.0)).sum();
             (v / site.noise[k]).sqrt()
         })
         .fold(0.0, f64::max)
@@ -297,14 +334,14 @@ pub fn choose(
         .iter()
         .zip(emus)
         .zip(open)
-        .map(|((s, e), &o)| o.then(|| Gain::new(s, e, &posterior.points, &posterior.weights, &candidates)).flatten())
+        .map(|((s, e), &o)| o.then(|| Gain::new(s, e, posterior.points.nrows(), &posterior.weights, &candidates)).flatten())
         .collect();
     let mut picks: Vec<(usize, Vec<f64>)> = Vec::new();
     // An open site without emulators (too few runs to fit them) gets a space-filling run first: the
     // candidate of the box farthest from its runs.
     for (i, s) in sites.iter().enumerate() {
         if open[i] && gains[i].is_none() && picks.len() < q {
-            picks.push((i, farthest(&scaled, &s.x, bounds)));
+            picks.push((i, snap(bounds, &farthest(&scaled, &s.x, bounds))));
         }
     }
     let mut given = vec![0usize; sites.len()];
@@ -324,7 +361,7 @@ pub fn choose(
                 _ => Some((i, b)),
             });
         let Some((site, (c, _))) = best else { break };
-        picks.push((site, candidates.row(c).iter().copied().collect()));
+        picks.push((site, snap(bounds, candidates.row(c).transpose().as_slice())));
         given[site] += 1;
         if let Some(g) = gains[site].as_mut() {
             g.condition(c);
@@ -354,35 +391,35 @@ fn stack(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
     })
 }
 
-/// One site's joint covariance over the posterior points E and the candidates C, per output
-/// scaled by 1/τ², updated as runs are added.
+/// One site's covariance over the candidates, per output scaled by 1/τ², updated as runs are
+/// added. The candidates start with the posterior points E (the first `e` rows), so the covariance
+/// between E and a candidate is a block of the same matrix.
 struct Gain {
-    /// Per output: the covariance of [E; C] (E first), in units of τ².
+    /// Per output: the covariance of the candidates, in units of τ².
     cov: Vec<DMatrix<f64>>,
     weights: Vec<f64>,
     e: usize,
 }
 
 impl Gain {
-    fn new(site: &Site, emus: &SiteEmulators, e: &DMatrix<f64>, w: &[f64], c: &DMatrix<f64>) -> Option<Gain> {
-        let all = stack(e, c);
+    fn new(site: &Site, emus: &SiteEmulators, e: usize, w: &[f64], c: &DMatrix<f64>) -> Option<Gain> {
         let cov: Option<Vec<DMatrix<f64>>> = emus
             .outputs
             .iter()
             .enumerate()
-            .map(|(k, em)| em.as_ref()?.mean_cov(&all).map(|(_, cv)| cv / site.noise[k]))
+            .map(|(k, em)| em.as_ref()?.mean_cov(c).map(|(_, cv)| cv / site.noise[k]))
             .collect();
         Some(Gain {
             cov: cov?,
             weights: w.to_vec(),
-            e: e.nrows(),
+            e,
         })
     }
 
     /// The candidate of most value and that value: Σ_k Σ_e w_e c_k(e, x*)² / c_k(x*, x*).
     fn best(&self) -> (usize, f64) {
         let n = self.cov[0].nrows();
-        (self.e..n)
+        (0..n)
             .map(|c| {
                 let v: f64 = self
                     .cov
@@ -392,24 +429,25 @@ impl Gain {
                         if var <= 1e-300 {
                             return 0.0;
                         }
-                        (0..self.e).map(|i| self.weights[i] * m[(i, c)].powi(2)).sum::<f64>() / var
+                        let col = m.column(c);
+                        (0..self.e).map(|i| self.weights[i] * col[i].powi(2)).sum::<f64>() / var
                     })
                     .sum();
-                (c - self.e, v)
+                (c, v)
             })
             .fold((0, f64::NEG_INFINITY), |acc, (c, v)| if v > acc.1 { (c, v) } else { acc })
     }
 
-    /// The covariances once a run at candidate `c` is in: c(a, b) − c(a, x*) c(x*, b) / c(x*, x*).
+    /// The covariances once a run at candidate `c` is in: c(a, b) − c(a, x*) c(x*, b) / c(x*, x*),
+    /// a rank-one update in place.
     fn condition(&mut self, c: usize) {
-        let at = self.e + c;
         for m in &mut self.cov {
-            let var = m[(at, at)];
+            let var = m[(c, c)];
             if var <= 1e-300 {
                 continue;
             }
-            let col = m.column(at).clone_owned();
-            *m -= &col * col.transpose() / var;
+            let col = m.column(c).clone_owned();
+            m.ger(-1.0 / var, &col, &col, 1.0);
         }
     }
 }

@@ -576,7 +576,7 @@ fn probe_points(posterior: &Posterior, bounds: &Bounds) -> Vec<Vec<f64>> {
         x[j] = if x[j] + sd[j] <= bounds.upper[j] { x[j] + sd[j] } else { (x[j] - sd[j]).max(bounds.lower[j]) };
         out.push(x);
     }
-    out
+    out.iter().map(|x| seq::snap(bounds, x)).collect()
 }
 
 /// Two renderings as one (the later's keys after the earlier's; meshes shared).
