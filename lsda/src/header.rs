@@ -111,6 +111,7 @@ impl Header {
     }
 
     /// The signed integer of `size` bytes at `at`, or `None` past the end.
+    #[inline(always)]
     pub(crate) fn int(&self, bytes: &[u8], at: usize, size: u8) -> Option<i64> {
         let raw = bytes.get(at..at.checked_add(size as usize)?)?;
         // The sizes LS-DYNA writes, read directly (most of a file's records are read here).

@@ -69,7 +69,7 @@ mod value;
 mod walk;
 mod write;
 
-pub use database::{Database, Note, Variable};
+pub use database::{Database, NameId, Note, Variable};
 pub use error::Error;
 pub use header::{Endian, Header};
 pub use value::{TypeId, Values};

@@ -260,6 +260,29 @@ pub(crate) fn decode_f64(h: &Header, t: TypeId, data: &[u8]) -> Vec<f64> {
     }
 }
 
+/// `data` (values of type `t`) decoded to `f64` as [`decode_f64`] does, into `out` (cleared
+/// first): a buffer used again for every step.
+pub(crate) fn decode_f64_into(h: &Header, t: TypeId, data: &[u8], out: &mut Vec<f64>) {
+    fn each<const N: usize>(data: &[u8], e: Endian, out: &mut Vec<f64>, f: impl Fn([u8; N]) -> f64) {
+        out.extend(data.chunks_exact(N).map(|c| {
+            let mut b = [0u8; N];
+            b.copy_from_slice(c);
+            if e == Endian::Big {
+                b.reverse();
+            }
+            f(b)
+        }));
+    }
+    out.clear();
+    let e = h.endian;
+    match t {
+        TypeId::R4 => each(data, e, out, |b| f32::from_le_bytes(b) as f64),
+        TypeId::R8 => each(data, e, out, f64::from_le_bytes),
+        TypeId::I4 => each(data, e, out, |b| i32::from_le_bytes(b) as f64),
+        _ => out.extend(Values::decode(h, t, data).to_f64()),
+    }
+}
+
 /// One value of type `t` (its `size` bytes) as `f64`, without allocating for the common types.
 pub(crate) fn decode_one(h: &Header, t: TypeId, b: &[u8]) -> f64 {
     fn arr<const N: usize>(b: &[u8], e: Endian) -> [u8; N] {

@@ -8,6 +8,7 @@
 //! with a [`Note`]: what a writer stopped mid-record leaves, read up to its last whole record.
 //! Anything else that breaks the format is an [`Error::Format`] naming the offset.
 
+use std::borrow::Cow;
 use std::path::Path;
 
 use crate::database::{Database, Note, Var};
@@ -22,12 +23,33 @@ pub(crate) const BEGIN_SYMBOL_TABLE: i64 = 5;
 pub(crate) const END_SYMBOL_TABLE: i64 = 6;
 pub(crate) const SYMBOL_TABLE_OFFSET: i64 = 7;
 
+/// Whether `path` is absolute and normal already (what LS-DYNA mostly writes): `/a/b`, not
+/// `/`, `a/b`, `/a/`, `/a//b`, `/a/./b` or `/a/../b`.
+pub(crate) fn is_normal(path: &str) -> bool {
+    let b = path.as_bytes();
+    if b.len() < 2 || b[0] != b'/' || b[b.len() - 1] == b'/' {
+        return false;
+    }
+    // No empty, `.` or `..` component: every `/` followed by something other than `/`, `./`
+    // or `../` (or a final `.` or `..`).
+    let mut k = 0;
+    while k < b.len() {
+        if b[k] == b'/' {
+            let rest = &b[k + 1..];
+            let dots = rest.iter().take_while(|&&c| c == b'.').count();
+            let end = rest.get(dots).is_none_or(|&c| c == b'/');
+            if rest.first() == Some(&b'/') || ((dots == 1 || dots == 2) && end) {
+                return false;
+            }
+        }
+        k += 1;
+    }
+    true
+}
+
 /// The directory `path` leads to from `cwd` (`/a/b`, `../c`, `.`); both absolute, normalised.
 pub(crate) fn change_dir(cwd: &str, path: &str) -> String {
-    // Already absolute and normal (what LS-DYNA mostly writes): as it is.
-    let clean =
-        |p: &str| p.len() > 1 && !p.ends_with('/') && !p.contains("//") && !p.split('/').any(|c| c == "." || c == "..");
-    if path.starts_with('/') && clean(path) {
+    if is_normal(path) {
         return path.to_string();
     }
     let mut parts: Vec<&str> = if path.starts_with('/') {
@@ -54,8 +76,7 @@ struct Walker<'a> {
     path: &'a Path,
     bytes: &'a [u8],
     h: Header,
-    cwd: String,
-    /// The number of `cwd` in the database.
+    /// The number of the current directory in the database.
     cwd_id: usize,
     /// The symbol tables met: where each starts and the offset its end record links to.
     tables: Vec<(usize, i64)>,
@@ -63,9 +84,13 @@ struct Walker<'a> {
     links: Vec<(usize, i64)>,
     /// DATA records met after the last symbol table.
     unindexed: usize,
-    /// Every DATA record met, in file order: (offset, type, count, name's byte range), what the
-    /// symbol tables' entries are checked against.
-    records: Vec<(usize, TypeId, usize, std::ops::Range<usize>)>,
+    /// Every DATA record met, in file order: (offset, type, number of values), what the symbol
+    /// tables' entries are checked against.
+    records: Vec<(usize, TypeId, usize)>,
+    /// Where in `records` the last entry checked was found (the next is most often the next).
+    last_found: usize,
+    /// The DATA records between the table being read and the one before.
+    unindexed_at_table: usize,
     /// Where the file was cut, when it was.
     cut: Option<usize>,
 }
@@ -80,14 +105,19 @@ pub(crate) fn walk(db: &mut Database, file: usize, path: &Path, bytes: &[u8]) ->
         path,
         bytes,
         h,
-        cwd: "/".into(),
         cwd_id: 0,
         tables: Vec::new(),
         links: Vec::new(),
         unindexed: 0,
         records: Vec::new(),
+        last_found: 0,
+        unindexed_at_table: 0,
         cut: None,
     };
+    // A binout's DATA records hold a few values each (with their symbol-table entries, some 70
+    // bytes), and its directories a few dozen: room for about as many as its size says.
+    w.db.reserve(bytes.len() / 64, bytes.len() / 1024);
+    w.records.reserve(bytes.len() / 64);
     let mut pos = h.header_len as usize;
     while pos < bytes.len() {
         match w.record(pos)? {
@@ -134,6 +164,7 @@ impl<'a> Walker<'a> {
         None
     }
 
+    #[inline(always)]
     fn int(&self, at: usize, size: u8) -> Option<i64> {
         self.h.int(self.bytes, at, size)
     }
@@ -204,15 +235,14 @@ impl<'a> Walker<'a> {
 
     fn cd(&mut self, pos: usize, body: std::ops::Range<usize>) -> Result<(), Error> {
         let path = self.text(pos, body, "a directory name")?;
-        // A directory met before, named absolutely (most CDs): no new string.
-        if let Some(id) = path.starts_with('/').then(|| self.db.dir_id(path)).flatten() {
-            self.cwd.clear();
-            self.cwd.push_str(path);
-            self.cwd_id = id;
+        // Named absolutely (most CDs): no new string.
+        if is_normal(path) {
+            self.cwd_id = self.db.ensure_dir(path);
             return Ok(());
         }
-        self.cwd = change_dir(&self.cwd, path);
-        self.cwd_id = self.db.ensure_dir(&self.cwd);
+        let cwd = self.db.dir_path(self.cwd_id).unwrap_or("/");
+        let to = change_dir(cwd, path);
+        self.cwd_id = self.db.ensure_dir(&to);
         Ok(())
     }
 
@@ -221,7 +251,7 @@ impl<'a> Walker<'a> {
         &self,
         pos: usize,
         body: std::ops::Range<usize>,
-    ) -> Result<(TypeId, &'a str, std::ops::Range<usize>), Error> {
+    ) -> Result<(TypeId, &'a [u8], std::ops::Range<usize>), Error> {
         let bytes: &'a [u8] = self.bytes;
         let ts = self.h.type_size;
         let code = self
@@ -243,15 +273,18 @@ impl<'a> Walker<'a> {
                 format!("a DATA record's name of {name_len} bytes does not fit its record"),
             ));
         }
-        let raw = &bytes[name_start..data_start];
-        let name =
-            std::str::from_utf8(raw).map_err(|_| self.err(pos, format!("a variable name is not text: {raw:?}")))?;
+        let name = &bytes[name_start..data_start];
+        if !name.is_ascii() && std::str::from_utf8(name).is_err() {
+            return Err(self.err(pos, format!("a variable name is not text: {name:?}")));
+        }
         let data = data_start..body.end;
-        if data.len() % t.size() != 0 {
+        // Sizes are 1, 2, 4 or 8 bytes.
+        if data.len() & (t.size() - 1) != 0 {
             return Err(self.err(
                 pos,
                 format!(
-                    "`{name}`: {} bytes of data, not a whole number of {} values",
+                    "`{}`: {} bytes of data, not a whole number of {} values",
+                    String::from_utf8_lossy(name),
                     data.len(),
                     t.name()
                 ),
@@ -263,14 +296,14 @@ impl<'a> Walker<'a> {
     fn data(&mut self, pos: usize, body: std::ops::Range<usize>) -> Result<(), Error> {
         let (type_id, name, data) = self.data_parts(pos, body)?;
         self.unindexed += 1;
-        let name_at = data.start - name.len()..data.start;
-        self.records.push((pos, type_id, data.len() / type_id.size(), name_at));
+        let count = data.len() >> type_id.size().trailing_zeros();
+        self.records.push((pos, type_id, count));
         let var = Var {
             file: self.file,
             record: pos,
             data: data.start,
             type_id,
-            count: data.len() / type_id.size(),
+            count,
         };
         self.db.insert(self.cwd_id, name, var);
         Ok(())
@@ -293,9 +326,11 @@ impl<'a> Walker<'a> {
 
     /// A symbol table: CD and VARIABLE entries, then the END record with the next table's offset.
     fn symbol_table(&mut self, pos: usize, body: std::ops::Range<usize>) -> Result<(), Error> {
+        self.unindexed_at_table = self.unindexed;
         self.unindexed = 0;
         let h = self.h;
-        let mut cwd = String::from("/");
+        // The directory of the entries (for messages): borrowed from the file when normal.
+        let mut cwd: Cow<'a, str> = Cow::Borrowed("/");
         let mut at = body.start;
         loop {
             let (Some(len), Some(cmd)) = (
@@ -317,8 +352,15 @@ impl<'a> Walker<'a> {
                 })?;
             let inner = at + h.record_head()..end;
             match cmd {
-                CD => cwd = change_dir(&cwd, self.text(at, inner, "a directory name")?),
-                VARIABLE => self.entry(at, inner, &cwd)?,
+                CD => {
+                    let to = self.text(at, inner, "a directory name")?;
+                    cwd = if is_normal(to) {
+                        Cow::Borrowed(to)
+                    } else {
+                        Cow::Owned(change_dir(&cwd, to))
+                    };
+                }
+                VARIABLE => self.last_found = self.entry(at, inner, &cwd)?,
                 END_SYMBOL_TABLE => {
                     let target = self.offset_field(at, &inner)?;
                     self.links.push((at, target));
@@ -340,7 +382,8 @@ impl<'a> Walker<'a> {
     }
 
     /// A VARIABLE entry: its DATA record must be at its offset, with its name, type and length.
-    fn entry(&mut self, at: usize, inner: std::ops::Range<usize>, cwd: &str) -> Result<(), Error> {
+    /// The record's place in `records`.
+    fn entry(&self, at: usize, inner: std::ops::Range<usize>, cwd: &str) -> Result<usize, Error> {
         let h = self.h;
         let tail = h.type_size as usize + h.offset_size as usize + h.length_size as usize;
         if inner.len() <= tail {
@@ -363,13 +406,28 @@ impl<'a> Walker<'a> {
         let Ok(record) = usize::try_from(offset) else {
             return Err(bad(format!("negative offset {offset}")));
         };
-        // The DATA records met so far are in file order: find the one at `record`.
-        let Ok(k) = self.records.binary_search_by_key(&record, |r| r.0) else {
-            return Err(bad(format!("no DATA record starts at offset {record}")));
+        // The DATA records met so far are in file order: find the one at `record` (most often
+        // the one after the last found).
+        let next = self.last_found + 1;
+        // Else among the records since the table before (what a table mostly indexes), else
+        // among all.
+        let since = self.records.len() - self.unindexed_at_table;
+        let k = if self.records.get(next).is_some_and(|r| r.0 == record) {
+            next
+        } else if let Ok(k) = self.records[since..].binary_search_by_key(&record, |r| r.0) {
+            since + k
+        } else {
+            let Ok(k) = self.records.binary_search_by_key(&record, |r| r.0) else {
+                return Err(bad(format!("no DATA record starts at offset {record}")));
+            };
+            k
         };
-        let (_, t, count_there, name_at) = self.records[k].clone();
-        let data_name = &self.bytes[name_at];
-        if data_name != name_bytes || Some(t) != TypeId::from_code(code) || count_there as i64 != count {
+        let (_, t, count_there) = self.records[k];
+        // Its name, read when the record was met (so in the file): a length, then the bytes.
+        let name_len_at = record + h.record_head() + h.type_size as usize;
+        let name_len = self.bytes[name_len_at] as usize;
+        let data_name = &self.bytes[name_len_at + 1..name_len_at + 1 + name_len];
+        if !crate::database::same(data_name, name_bytes) || Some(t) != TypeId::from_code(code) || count_there as i64 != count {
             return Err(bad(format!(
                 "says type code {code} and {count} value(s) at offset {record}, where the record holds `{}` of {} × {}",
                 String::from_utf8_lossy(data_name),
@@ -377,7 +435,12 @@ impl<'a> Walker<'a> {
                 t.name()
             )));
         }
-        Ok(())
+        Ok(k)
+    }
+
+    /// The symbol table starting at `at` (the tables met are in file order).
+    fn table_at(&self, at: usize) -> Option<(usize, i64)> {
+        self.tables.binary_search_by_key(&at, |s| s.0).ok().map(|k| self.tables[k])
     }
 
     /// Every link must lead to a symbol table (or be 0); a whole file's chain reaches them all.
@@ -391,7 +454,7 @@ impl<'a> Walker<'a> {
         for &(at, target) in &self.links {
             let ok = target == 0
                 || usize::try_from(target)
-                    .is_ok_and(|t| self.tables.iter().any(|s| s.0 == t) || self.cut.is_some_and(|c| t >= c));
+                    .is_ok_and(|t| self.table_at(t).is_some() || self.cut.is_some_and(|c| t >= c));
             if !ok {
                 return Err(self.err(
                     at,
@@ -405,7 +468,7 @@ impl<'a> Walker<'a> {
         let mut reached = 0;
         let mut next = first;
         while next != 0 && reached <= self.tables.len() {
-            let Some(table) = self.tables.iter().find(|s| s.0 as i64 == next) else {
+            let Some(table) = usize::try_from(next).ok().and_then(|t| self.table_at(t)) else {
                 break;
             };
             reached += 1;
@@ -432,7 +495,7 @@ impl<'a> Walker<'a> {
 
 #[cfg(test)]
 mod tests {
-    use super::change_dir;
+    use super::{change_dir, is_normal};
 
     #[test]
     fn directories_change_as_lsda_does() {
@@ -442,5 +505,16 @@ mod tests {
         assert_eq!(change_dir("/a", "../../.."), "/");
         assert_eq!(change_dir("/a", "./b//c"), "/a/b/c");
         assert_eq!(change_dir("/x", "/"), "/");
+    }
+
+    #[test]
+    fn normal_paths_are_told_apart() {
+        for p in ["/a", "/rcforc/d000001", "/a/.b", "/a/...", "/a/b..", "/a./b"] {
+            assert!(is_normal(p), "{p}");
+            assert_eq!(change_dir("/x", p), p);
+        }
+        for p in ["/", "a/b", "/a/", "/a//b", "/a/./b", "/a/../b", "/a/.", "/a/..", "/./a", "//a", ""] {
+            assert!(!is_normal(p), "{p}");
+        }
     }
 }
