@@ -18,8 +18,8 @@ use std::collections::BTreeMap;
 use super::Binout;
 use crate::error::InputError;
 use crate::extract::lsdyna::glstat::{Glstat, GlstatStep};
-use crate::extract::lsdyna::nodout::{Nodout, NodoutBlock};
-use crate::extract::lsdyna::rcforc::{Rcforc, RowAt, Side};
+use crate::extract::lsdyna::nodout::{NodeSeries, Nodout, NodoutBlock};
+use crate::extract::lsdyna::rcforc::{ContactSeries, Rcforc, RowAt, Side};
 
 /// The step directory and offset of step `ordinal` (from 1) of history `dir`, for messages.
 pub fn place(b: &Binout, dir: &str, ordinal: usize) -> String {
@@ -33,38 +33,80 @@ pub fn place(b: &Binout, dir: &str, ordinal: usize) -> String {
     }
 }
 
-/// The values of one step, read by name.
-struct Step<'a> {
-    b: &'a Binout,
-    path: &'a str,
-    /// The step directory's number in the database (one lookup of its path).
-    id: usize,
+/// The most variables a history's steps are read by (nodout: `time`, twelve, `cycle`).
+const MOST: usize = 14;
+
+/// The variable names a history's steps are read by (at most [`MOST`]), each looked up once in
+/// the database.
+struct Names<'n> {
+    names: &'n [&'n str],
+    /// By name number ([`lsda::NameId::index`]): 1 + the place of the name in `names`, or 0.
+    place: Vec<u8>,
 }
 
-impl<'a> Step<'a> {
-    fn new(b: &'a Binout, path: &'a str) -> Step<'a> {
-        let id = b.db.dir_id(path).unwrap_or(usize::MAX);
-        Step { b, path, id }
+impl<'n> Names<'n> {
+    fn new(b: &Binout, names: &'n [&'n str]) -> Names<'n> {
+        assert!(names.len() <= MOST, "at most {MOST} names");
+        let mut place = Vec::new();
+        for (k, name) in names.iter().enumerate() {
+            if let Some(id) = b.db.name_id(name) {
+                if place.len() <= id.index() {
+                    place.resize(id.index() + 1, 0);
+                }
+                place[id.index()] = k as u8 + 1;
+            }
+        }
+        Names { names, place }
+    }
+}
+
+/// The values of one step, read by name.
+struct Step<'a, 'n> {
+    b: &'a Binout,
+    /// The step directory's number in the database.
+    id: usize,
+    names: &'a Names<'n>,
+    /// The variables of the names, read in one pass over the step's variables.
+    found: [Option<lsda::Variable<'a>>; MOST],
+}
+
+impl<'a, 'n> Step<'a, 'n> {
+    fn new(b: &'a Binout, id: usize, names: &'a Names<'n>) -> Step<'a, 'n> {
+        let mut found = [None; MOST];
+        for (name, v) in b.db.variables_by_id(id) {
+            if let Some(&k) = names.place.get(name.index())
+                && k > 0
+            {
+                found[k as usize - 1] = Some(v);
+            }
+        }
+        Step { b, id, names, found }
     }
 
-    fn var(&self, name: &str) -> Option<lsda::Variable<'a>> {
-        self.b.db.variable_at(self.id, name)
+    fn path(&self) -> &'a str {
+        self.b.db.dir_path(self.id).unwrap_or("/")
     }
 
-    fn get(&self, name: &str, n: usize) -> Result<Vec<f64>, InputError> {
-        Ok(self.checked(name, n)?.to_f64())
+    /// Variable number `k` of the names.
+    fn var(&self, k: usize) -> Option<lsda::Variable<'a>> {
+        self.found[k]
     }
 
-    /// Variable `name`, which must hold `n` values.
-    fn checked(&self, name: &str, n: usize) -> Result<lsda::Variable<'a>, InputError> {
-        let v = self.var(name).ok_or_else(|| self.missing(name))?;
+    fn get(&self, k: usize, n: usize) -> Result<Vec<f64>, InputError> {
+        Ok(self.checked(k, n)?.to_f64())
+    }
+
+    /// Variable number `k` of the names, which must hold `n` values.
+    fn checked(&self, k: usize, n: usize) -> Result<lsda::Variable<'a>, InputError> {
+        let name = self.names.names[k];
+        let v = self.var(k).ok_or_else(|| self.missing(name))?;
         if v.len() != n {
             let (file, offset) = v.place();
             return Err(InputError::file(
                 file,
                 format!(
                     "offset {offset}: {}/{name} has {} value(s), expected {n} (one per entry of the metadata)",
-                    self.path,
+                    self.path(),
                     v.len()
                 ),
             ));
@@ -72,39 +114,48 @@ impl<'a> Step<'a> {
         Ok(v)
     }
 
-    fn optional(&self, name: &str, n: usize) -> Result<Option<Vec<f64>>, InputError> {
-        match self.var(name) {
+    fn optional(&self, k: usize, n: usize) -> Result<Option<lsda::Variable<'a>>, InputError> {
+        match self.var(k) {
             None => Ok(None),
-            Some(_) => self.get(name, n).map(Some),
+            Some(_) => self.checked(k, n).map(Some),
         }
     }
 
-    fn time(&self) -> Result<f64, InputError> {
-        Ok(self.get("time", 1)?[0])
+    /// The step's time: variable number `k` of the names, one value.
+    fn time(&self, k: usize) -> Result<f64, InputError> {
+        Ok(self.checked(k, 1)?.f64_at(0))
     }
 
     fn missing(&self, name: &str) -> InputError {
+        let path = self.path();
         let first = self
             .b
             .db
-            .variables(self.path)
+            .variables(path)
             .and_then(|mut v| v.next())
             .map(|(_, v)| v.place().1);
         let at = first.map_or_else(String::new, |o| format!("offset {o}: "));
-        InputError::file(
-            &self.b.name,
-            format!("{at}{}: no `{name}` in this output step", self.path),
-        )
+        InputError::file(&self.b.name, format!("{at}{path}: no `{name}` in this output step"))
     }
 }
 
-/// The steps of `dir` to read: all, except a last step cut short in a cut file.
-fn readable_steps(b: &Binout, dir: &str, needs: &[&str]) -> Vec<String> {
-    let mut steps = b.steps(dir);
+/// The step directories of `dir` to read (their numbers in the database, in the order of their
+/// names): all, except a last step cut short in a cut file.
+fn readable_steps(b: &Binout, dir: &str, needs: &[&str]) -> Vec<usize> {
+    let Some(d) = b.db.dir_id(dir) else {
+        return Vec::new();
+    };
+    let mut steps: Vec<usize> = b
+        .db
+        .subdirs_at(d)
+        .into_iter()
+        .filter(|(name, _)| super::is_step(name))
+        .map(|(_, k)| k)
+        .collect();
     let cut = !b.db.notes().is_empty();
     if cut
-        && let Some(last) = steps.last()
-        && needs.iter().any(|n| b.db.variable_in(last, n).is_none())
+        && let Some(&last) = steps.last()
+        && needs.iter().any(|n| b.db.variable_at(last, n).is_none())
     {
         steps.pop();
     }
@@ -135,6 +186,22 @@ fn ids(b: &Binout, path: &str) -> Result<Vec<u64>, InputError> {
         })
 }
 
+/// The distinct keys of `keys` in the order first met, and for each key its number among them.
+fn slots<K: Ord + Copy>(keys: &[K]) -> (Vec<K>, Vec<usize>) {
+    let mut seen = BTreeMap::new();
+    let mut distinct = Vec::new();
+    let of = keys
+        .iter()
+        .map(|key| {
+            *seen.entry(*key).or_insert_with(|| {
+                distinct.push(*key);
+                distinct.len() - 1
+            })
+        })
+        .collect();
+    (distinct, of)
+}
+
 /// rcforc from the binout; `None` when it has no `/rcforc`.
 pub fn rcforc(b: &Binout) -> Result<Option<Rcforc>, InputError> {
     if !b.db.is_dir("/rcforc") {
@@ -153,39 +220,65 @@ pub fn rcforc(b: &Binout) -> Result<Option<Rcforc>, InputError> {
         title: title(b, "/rcforc"),
         ..Default::default()
     };
-    let names = ["time", "x_force", "y_force", "z_force", "mass"];
-    for (k, path) in readable_steps(b, "/rcforc", &names).iter().enumerate() {
-        let s = Step::new(b, path);
-        let time = s.time()?;
-        let f: Vec<lsda::Variable> = names[1..]
-            .iter()
-            .map(|name| s.checked(name, n))
-            .collect::<Result<_, _>>()?;
-        let moments = ["x_moment", "y_moment", "z_moment"]
-            .iter()
-            .map(|m| s.optional(m, n))
-            .collect::<Result<Vec<_>, _>>()?;
+    let needs = ["time", "x_force", "y_force", "z_force", "mass"];
+    let steps = readable_steps(b, "/rcforc", &needs);
+    let names = Names::new(
+        b,
+        &["time", "x_force", "y_force", "z_force", "mass", "x_moment", "y_moment", "z_moment"],
+    );
+    // Each entry's series (entries of the same side and id share one, as in the map).
+    let keys: Vec<(Side, u64)> = (0..n)
+        .map(|j| (if sides[j] == 0 { Side::SurfA } else { Side::SurfB }, ids[j]))
+        .collect();
+    let (slots, slot_of) = slots(&keys);
+    let per_slot = |k: usize| steps.len() * slot_of.iter().filter(|&&s| s == k).count();
+    let mut series: Vec<ContactSeries> = (0..slots.len())
+        .map(|k| {
+            let m = per_slot(k);
+            ContactSeries {
+                time: Vec::with_capacity(m),
+                x: Vec::with_capacity(m),
+                y: Vec::with_capacity(m),
+                z: Vec::with_capacity(m),
+                mass: Vec::with_capacity(m),
+                moments: None,
+            }
+        })
+        .collect();
+    out.rows.reserve(steps.len() * n);
+    // Each step's x, y, z force and mass, decoded into the same buffers.
+    let mut cols: [Vec<f64>; 4] = Default::default();
+    for (k, &step) in steps.iter().enumerate() {
+        let s = Step::new(b, step, &names);
+        let time = s.time(0)?;
+        for (c, col) in cols.iter_mut().enumerate() {
+            s.checked(1 + c, n)?.to_f64_into(col);
+        }
+        let moments = [s.optional(5, n)?, s.optional(6, n)?, s.optional(7, n)?];
         for j in 0..n {
-            let side = if sides[j] == 0 { Side::SurfA } else { Side::SurfB };
-            let series = out.interfaces.entry((side, ids[j])).or_default();
+            let (side, id) = keys[j];
+            let series = &mut series[slot_of[j]];
             series.time.push(time);
-            series.x.push(f[0].f64_at(j));
-            series.y.push(f[1].f64_at(j));
-            series.z.push(f[2].f64_at(j));
-            series.mass.push(f[3].f64_at(j));
-            if let [Some(mx), Some(my), Some(mz)] = &moments[..] {
+            series.x.push(cols[0][j]);
+            series.y.push(cols[1][j]);
+            series.z.push(cols[2][j]);
+            series.mass.push(cols[3][j]);
+            if let [Some(mx), Some(my), Some(mz)] = &moments {
                 let m = series.moments.get_or_insert_with(Default::default);
-                m[0].push(mx[j]);
-                m[1].push(my[j]);
-                m[2].push(mz[j]);
+                m[0].push(mx.f64_at(j));
+                m[1].push(my.f64_at(j));
+                m[2].push(mz.f64_at(j));
             }
             out.rows.push(RowAt {
                 line: k + 1,
                 side,
-                interface: ids[j],
+                interface: id,
                 time,
             });
         }
+    }
+    if !steps.is_empty() {
+        out.interfaces.extend(slots.into_iter().zip(series));
     }
     Ok(Some(out))
 }
@@ -222,27 +315,52 @@ pub fn nodout(b: &Binout) -> Result<Option<Nodout>, InputError> {
     };
     let mut needs = vec!["time"];
     needs.extend(NODOUT);
-    for (k, path) in readable_steps(b, "/nodout", &needs).iter().enumerate() {
-        let s = Step::new(b, path);
-        let time = s.time()?;
-        let cycle = s.optional("cycle", 1)?.map_or(0, |c| c[0] as u64);
-        let cols: Vec<lsda::Variable> = NODOUT.iter().map(|name| s.checked(name, n)).collect::<Result<_, _>>()?;
+    let steps = readable_steps(b, "/nodout", &needs);
+    let mut with_cycle = needs.clone();
+    with_cycle.push("cycle");
+    let names = Names::new(b, &with_cycle);
+    // Each node's series (a repeated id shares one, as in the map).
+    let (slots, slot_of) = slots(&ids);
+    let column = |k: usize| Vec::with_capacity(steps.len() * slot_of.iter().filter(|&&s| s == k).count());
+    let mut series: Vec<NodeSeries> = (0..slots.len())
+        .map(|k| NodeSeries {
+            time: column(k),
+            disp: [column(k), column(k), column(k)],
+            vel: [column(k), column(k), column(k)],
+            accl: [column(k), column(k), column(k)],
+            coor: [column(k), column(k), column(k)],
+        })
+        .collect();
+    out.steps.reserve(steps.len());
+    out.blocks.reserve(steps.len());
+    // Each step's twelve columns, decoded into the same buffers.
+    let mut cols: [Vec<f64>; 12] = Default::default();
+    for (k, &step) in steps.iter().enumerate() {
+        let s = Step::new(b, step, &names);
+        let time = s.time(0)?;
+        let cycle = s.optional(13, 1)?.map_or(0, |c| c.f64_at(0) as u64);
+        for (a, col) in cols.iter_mut().enumerate() {
+            s.checked(1 + a, n)?.to_f64_into(col);
+        }
         out.steps.push((cycle, time));
         out.blocks.push(NodoutBlock {
             line: k + 1,
             time,
             nodes: ids.clone(),
         });
-        for (j, id) in ids.iter().enumerate() {
-            let series = out.nodes.entry(*id).or_default();
+        for j in 0..n {
+            let series = &mut series[slot_of[j]];
             series.time.push(time);
             for a in 0..3 {
-                series.disp[a].push(cols[a].f64_at(j));
-                series.vel[a].push(cols[3 + a].f64_at(j));
-                series.accl[a].push(cols[6 + a].f64_at(j));
-                series.coor[a].push(cols[9 + a].f64_at(j));
+                series.disp[a].push(cols[a][j]);
+                series.vel[a].push(cols[3 + a][j]);
+                series.accl[a].push(cols[6 + a][j]);
+                series.coor[a].push(cols[9 + a][j]);
             }
         }
+    }
+    if !steps.is_empty() {
+        out.nodes.extend(slots.into_iter().zip(series));
     }
     Ok(Some(out))
 }
@@ -266,11 +384,13 @@ pub fn glstat(b: &Binout) -> Result<Option<Glstat>, InputError> {
         title: title(b, "/glstat"),
         steps: Vec::new(),
     };
-    for (k, path) in readable_steps(b, "/glstat", &["time"]).iter().enumerate() {
-        let s = Step::new(b, path);
+    let names = Names::new(b, &["time", "cycle"]);
+    for (k, &id) in readable_steps(b, "/glstat", &["time"]).iter().enumerate() {
+        let s = Step::new(b, id, &names);
+        let path = s.path();
         let mut step = GlstatStep {
-            cycle: s.optional("cycle", 1)?.map(|c| c[0] as u64),
-            time: s.time()?,
+            cycle: s.optional(1, 1)?.map(|c| c.f64_at(0) as u64),
+            time: s.time(0)?,
             values: BTreeMap::new(),
             line: k + 1,
             lines: BTreeMap::new(),
@@ -319,10 +439,11 @@ pub fn rwforc(b: &Binout) -> Result<Option<Rwforc>, InputError> {
         ..Default::default()
     };
     let names = ["time", "normal_force", "x_force", "y_force", "z_force"];
-    for (k, path) in readable_steps(b, dir, &names).iter().enumerate() {
-        let s = Step::new(b, path);
-        let time = s.time()?;
-        let f: Vec<Vec<f64>> = names[1..].iter().map(|name| s.get(name, n)).collect::<Result<_, _>>()?;
+    let wanted = Names::new(b, &names);
+    for (k, &id) in readable_steps(b, dir, &names).iter().enumerate() {
+        let s = Step::new(b, id, &wanted);
+        let time = s.time(0)?;
+        let f: Vec<Vec<f64>> = (1..names.len()).map(|k| s.get(k, n)).collect::<Result<_, _>>()?;
         out.steps.push((k + 1, time));
         for (j, id) in ids.iter().enumerate() {
             let w = out.walls.entry(*id).or_default();
