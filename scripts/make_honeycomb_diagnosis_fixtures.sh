@@ -1,8 +1,9 @@
 #!/bin/sh
 # Regenerates fixtures/honeycomb-diagnosis/: the synthetic tests (tests/) for the designs of
 # studies/honeycomb-diagnosis.yaml from the same documented truth as fixtures/honeycomb, then a
-# recording of every planned run of that study (baseline and extension runs) made live with the
-# stand-in solver crushsim. Leaves fixtures/honeycomb alone (scripts/make_honeycomb_fixtures.sh).
+# recording of every run of that study and of studies/honeycomb-diagnosis-curves.yaml (both sampled
+# sequentially: screening, probes and solver-in-the-loop runs; a run both ask for is recorded once)
+# made live with the stand-in solver crushsim. Leaves fixtures/honeycomb alone (scripts/make_honeycomb_fixtures.sh).
 # See fixtures/README.md. Deterministic: the same sources give the same bytes.
 set -eu
 cd "$(dirname "$0")/.."
@@ -18,5 +19,6 @@ find "$dir" -mindepth 1 -maxdepth 1 -type d -name '[0-9a-f]*' -exec rm -rf {} +
 "$bin/examples/make_honeycomb_tests" "$dir/tests" "$bin/crushsim" "$designs" "$specimens"
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
-PATH="$bin:$PATH" "$bin/lab" run studies/honeycomb-diagnosis.yaml --out "$out" --record "$dir"
+PATH="$bin:$PATH" "$bin/lab" run studies/honeycomb-diagnosis.yaml --out "$out/response" --record "$dir"
+PATH="$bin:$PATH" "$bin/lab" run studies/honeycomb-diagnosis-curves.yaml --out "$out/curves" --record "$dir"
 du -sh "$dir"

@@ -127,10 +127,24 @@ struct Rendered {
 }
 
 fn render_study(file: &str, out: &Path) -> Rendered {
-    let study = study::load(&repo().join(file)).unwrap_or_else(|e| panic!("{e}"));
-    let Simulation::Solver(sim) = &study.simulation else {
+    let mut study = study::load(&repo().join(file)).unwrap_or_else(|e| panic!("{e}"));
+    let Simulation::Solver(sim) = &mut study.simulation else {
         panic!("{file}: a solver study")
     };
+    // A sequential study's runs depend on the results; its decks are rendered the same way as a
+    // fixed design's, so the fixed design of its initial size (with probes of every extension and
+    // check runs) stands for them here.
+    if sim.sampling.sequential.take().is_some() {
+        sim.sampling.method = study::SamplingMethod::Lhs;
+        sim.sampling.check_runs = 1;
+    }
+    let study = study;
+    let Simulation::Solver(sim) = &study.simulation else { unreachable!() };
+    let mut sim = sim.clone();
+    if sim.sampling.count == 0 {
+        sim.sampling.count = lab::plan::sweep::initial_samples(&study, &sim, study.parameters.len());
+    }
+    let sim = &sim;
     let sim: &SolverSimulation = sim;
     let store = RunStore::open(out).unwrap();
     let spec = sim.mesh.as_ref().expect("the honeycomb studies generate their mesh");

@@ -287,9 +287,10 @@ fn a_job_no_slurm_source_knows_is_lost_and_its_run_resubmitted() {
 }
 
 /// The solver in the loop through Slurm: studies/honeycomb-diagnosis.yaml live (crushsim inside
-/// the jobs) submits the screening's 63 runs, then, once the screening has named strain hardening,
-/// the loop's 63 runs over sigma_y × etan; the diagnosis equals the one replayed from the
-/// recordings (made locally).
+/// the jobs, sampled sequentially) submits the screening's batches, its probes, then, once the
+/// screening has named strain hardening, the loop's batches over sigma_y × etan, one submission per
+/// batch and every run once; the diagnosis equals the one replayed from the recordings (made
+/// locally), submitted in as many submissions as the replay has batches.
 #[test]
 fn the_loops_runs_go_through_slurm_and_give_the_recorded_diagnosis() {
     let Some(conf) = slurm_conf() else { return };
@@ -307,12 +308,7 @@ fn the_loops_runs_go_through_slurm_and_give_the_recorded_diagnosis() {
         !err.contains("replaying"),
         "crushsim is on PATH: the runs are live\n{err}"
     );
-    let submitted: Vec<&str> = err.lines().filter(|l| l.contains("submitted 63 run(s)")).collect();
-    assert_eq!(
-        submitted.len(),
-        2,
-        "the screening's and the loop's runs each submitted:\n{err}"
-    );
+    let (runs, batches) = submitted(&err);
     let o = lab(
         &conf,
         &repo(),
@@ -323,6 +319,10 @@ fn the_loops_runs_go_through_slurm_and_give_the_recorded_diagnosis() {
     .unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     let (s, r) = (results(&slurm), results(&replayed));
-    assert_eq!(s["diagnosis"]["extensions"][0]["runs"]["succeeded"], 63);
+    assert_eq!(runs as u64, r["sampling"]["runs"].as_u64().unwrap(), "{err}");
+    assert_eq!(batches, r["sampling"]["sequence"].as_array().unwrap().len(), "{err}");
+    let in_the_loop = r["runs"]["in_the_loop"].as_u64().unwrap();
+    assert!(in_the_loop > 0);
+    assert_eq!(s["diagnosis"]["extensions"][0]["runs"]["succeeded"], in_the_loop);
     assert_eq!(s["diagnosis"], r["diagnosis"]);
 }

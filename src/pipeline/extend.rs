@@ -230,10 +230,24 @@ pub fn extended_model(
         runs: LoopRuns {
             planned,
             succeeded: joint_runs.filter(|r| r.y.is_some()).count(),
-            samples_per_design: crate::plan::sweep::joint_samples(study, sim, bounds.dim()),
+            samples_per_design: samples_per_design(study, sim, bounds.dim(), &runs),
             surrogate_check_error: worst_check,
         },
     })
+}
+
+/// Runs per design the joint surrogates were fitted to (check runs not counted): the fixed design's
+/// size, or with sequential sampling the most any design got (its probes and the baseline's runs at
+/// the joint space's edge included).
+fn samples_per_design(study: &Study, sim: &SolverSimulation, dim: usize, runs: &[FitRun]) -> usize {
+    if sim.sampling.sequential.is_none() {
+        return crate::plan::sweep::joint_samples(study, sim, dim);
+    }
+    let mut per: indexmap::IndexMap<&str, usize> = indexmap::IndexMap::new();
+    for r in runs.iter().filter(|r| !r.check && r.y.is_some()) {
+        *per.entry(r.run.design.as_str()).or_insert(0) += 1;
+    }
+    per.values().copied().max().unwrap_or(0)
 }
 
 /// The study whose parameters are θ and hypothesis `k`'s ranged variables, and whose hypotheses
