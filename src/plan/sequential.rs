@@ -41,11 +41,13 @@ pub const DEFAULT_TOLERANCE: f64 = 0.5;
 /// The default budget: this many solver runs per tested design, in all.
 pub const DEFAULT_BUDGET_PER_DESIGN: usize = 30;
 
-/// The lattice the planner's points are snapped to, as a fraction of the box's width: far finer
-/// than an emulator resolves, far coarser than the last bits of a floating-point sum, so that a
-/// rounding difference (another CPU, another compiler, a reordered sum) does not change which run
-/// a batch asks for, and recordings replay.
-const RESOLUTION: f64 = 1e-4;
+/// The lattice the planner's points are snapped to, as a fraction of the box's width: finer than
+/// a posterior of precise tests is narrow (35 specimens at 0.25 % scatter know a modulus to about
+/// 1e-4 of a 50 % wide box), far coarser than the last bits of a floating-point sum or an
+/// optimiser's stopping point (1e-13 of the box), so that a rounding difference (another CPU,
+/// another compiler, a reordered sum) does not change which run a batch asks for, and recordings
+/// replay.
+const RESOLUTION: f64 = 1e-6;
 
 /// `x` on the planner's lattice of the box (see [`RESOLUTION`]).
 pub fn snap(bounds: &Bounds, x: &[f64]) -> Vec<f64> {
@@ -348,6 +350,15 @@ pub fn choose(
     for (i, _) in &picks {
         given[*i] += 1;
     }
+    // A candidate that snaps onto a run the site has, or onto a pick of this batch, would only repeat it.
+    let snapped: Vec<Vec<f64>> = candidates.row_iter().map(|r| snap(bounds, r.transpose().as_slice())).collect();
+    for (i, g) in gains.iter_mut().enumerate() {
+        if let Some(g) = g.as_mut() {
+            for x in sites[i].x.iter().chain(picks.iter().filter(|(s, _)| *s == i).map(|(_, x)| x)) {
+                g.take(&snapped, &snap(bounds, x));
+            }
+        }
+    }
     while picks.len() < q {
         let round = given.iter().zip(&gains).filter(|(_, g)| g.is_some()).map(|(n, _)| *n).min();
         let Some(round) = round else { break };
@@ -360,11 +371,17 @@ pub fn choose(
                 Some((_, (_, v))) if v >= b.1 => acc,
                 _ => Some((i, b)),
             });
-        let Some((site, (c, _))) = best else { break };
-        picks.push((site, snap(bounds, candidates.row(c).transpose().as_slice())));
+        let Some((site, (c, v))) = best else { break };
+        if v == f64::NEG_INFINITY {
+            // Every candidate of the site repeats a run: it gets no more in this batch.
+            gains[site] = None;
+            continue;
+        }
+        picks.push((site, snapped[c].clone()));
         given[site] += 1;
         if let Some(g) = gains[site].as_mut() {
             g.condition(c);
+            g.take(&snapped, &snapped[c]);
         }
     }
     picks
@@ -399,6 +416,8 @@ struct Gain {
     cov: Vec<DMatrix<f64>>,
     weights: Vec<f64>,
     e: usize,
+    /// Candidates that would repeat a run (see [`Gain::take`]).
+    taken: Vec<bool>,
 }
 
 impl Gain {
@@ -413,7 +432,15 @@ impl Gain {
             cov: cov?,
             weights: w.to_vec(),
             e,
+            taken: vec![false; c.nrows()],
         })
+    }
+
+    /// Marks every candidate whose snapped point is `x` as taken.
+    fn take(&mut self, snapped: &[Vec<f64>], x: &[f64]) {
+        for (t, s) in self.taken.iter_mut().zip(snapped) {
+            *t |= s.as_slice() == x;
+        }
     }
 
     /// The candidate of most value and that value: Σ_k Σ_e w_e c_k(e, x*)² / c_k(x*, x*).
@@ -421,6 +448,9 @@ impl Gain {
         let n = self.cov[0].nrows();
         (0..n)
             .map(|c| {
+                if self.taken[c] {
+                    return (c, f64::NEG_INFINITY);
+                }
                 let v: f64 = self
                     .cov
                     .iter()

@@ -131,3 +131,29 @@ fn snapped_points_ignore_rounding_noise() {
     }
     assert!(compared > 1990);
 }
+
+/// Tests so precise that the posterior spans a few lattice steps: a batch of several runs at one
+/// site still asks for distinct points, none of them a run the site already has.
+#[test]
+fn a_batch_never_repeats_a_run_under_a_posterior_narrower_than_the_lattice() {
+    let bounds = Bounds::new(vec![50_000.0], vec![80_000.0]);
+    let f = |e: f64| 1e6 / e;
+    let xs = [50_000.0, 60_000.0, 70_000.0, 80_000.0, 67_999.97];
+    let site = Site {
+        name: "precise".into(),
+        training: true,
+        x: xs.iter().map(|&x| vec![x]).collect(),
+        y: xs.iter().map(|&x| vec![f(x)]).collect(),
+        observed: vec![f(68_000.0)],
+        noise: vec![1e-18],
+    };
+    let sites = vec![site];
+    let emus = emulators(&bounds, &sites);
+    let post = posterior(&bounds, &sites, &emus, 5);
+    let picks = choose(&bounds, &sites, &emus, &post, &[true], 4, 5);
+    assert!(!picks.is_empty());
+    for (i, (_, x)) in picks.iter().enumerate() {
+        assert!(!sites[0].x.iter().any(|r| snap(&bounds, r) == *x), "pick {x:?} repeats a run");
+        assert!(!picks[..i].iter().any(|(_, y)| y == x), "pick {x:?} twice: {picks:?}");
+    }
+}
