@@ -226,14 +226,26 @@ fn run(study: &Study, options: &RunOptions) -> Result<i32, Error> {
 /// `lab check`: validates, then says what was read.
 fn check(study: &Study) -> Result<i32, Error> {
     let checked = verbs::check(study)?;
-    if let Some(n) = checked.rendered_runs {
-        println!("ok: {n} planned solver run(s) render");
+    let budget = checked.budget;
+    match (checked.rendered_runs, budget) {
+        (Some(n), Some(budget)) => println!(
+            "ok: the {n} run(s) of the initial design render; sampled sequentially, batches follow until the \
+             emulators are within the tolerance, at most {budget} solver run(s) in all"
+        ),
+        (Some(n), None) => println!("ok: {n} planned solver run(s) render"),
+        _ => {}
     }
     if checked.loop_runs > 0 {
-        println!(
-            "ok: {} run(s) the solver in the loop may add (extensions with ranges) render",
-            checked.loop_runs
-        );
+        match budget {
+            Some(_) => println!(
+                "ok: the solver in the loop's decks (extensions with ranges) render, {} checked over the joint space",
+                checked.loop_runs
+            ),
+            None => println!(
+                "ok: {} run(s) the solver in the loop may add (extensions with ranges) render",
+                checked.loop_runs
+            ),
+        }
     }
     println!(
         "ok: study `{}`: {} design variable(s), {} parameter(s), {} tested design(s), {} training, {} validation",

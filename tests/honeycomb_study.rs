@@ -339,3 +339,20 @@ fn the_extractor_reads_a_fixture_test_csv_and_agrees_with_the_experiments_file()
     let recorded: f64 = row.rsplit(',').next().unwrap().parse().unwrap();
     assert_eq!(value, recorded, "{text}");
 }
+
+/// `lab check` on the sequential main job says what a sequence renders before it runs: the initial
+/// design's runs (12: 4 per design, what the curve emulator needs plus one), that batches follow,
+/// and the budget (30 per tested design by default, 3 designs), not a fixed plan's size.
+#[test]
+fn check_describes_the_sequence_not_a_fixed_plan() {
+    let o = lab(&["check", "studies/honeycomb.yaml"], false);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        stdout.contains("the 12 run(s) of the initial design render; sampled sequentially")
+            && stdout.contains("at most 90 solver run(s) in all"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("the solver in the loop's decks"), "{stdout}");
+    assert!(!stdout.contains("planned solver run(s) render"), "{stdout}");
+}

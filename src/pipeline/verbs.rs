@@ -22,6 +22,8 @@ pub struct Checked {
     pub loop_runs: usize,
     /// Force–displacement curves read: (specimens, designs).
     pub curves: (usize, usize),
+    /// With sequential sampling, the most solver runs the study may make (its budget).
+    pub budget: Option<usize>,
 }
 
 /// `lab check`: renders every planned run in memory (undefined template variables show up here),
@@ -41,10 +43,15 @@ pub fn check(study: &Study) -> Result<Checked, Error> {
         Simulation::Expression(_) => (None, 0),
     };
     let curves = &study.experiments.curves;
+    let budget = match &study.simulation {
+        Simulation::Solver(sim) => crate::plan::sweep::sequential_budget(study, sim),
+        Simulation::Expression(_) => None,
+    };
     Ok(Checked {
         rendered_runs,
         loop_runs,
         curves: (curves.iter().map(|c| c.specimens.len()).sum(), curves.len()),
+        budget,
     })
 }
 

@@ -234,6 +234,14 @@ pub fn as_written(sim: &SolverSimulation, point: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// With sequential sampling, the most solver runs the study may make: its `budget`, or
+/// [`crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN`] per tested design.
+pub fn sequential_budget(study: &Study, sim: &SolverSimulation) -> Option<usize> {
+    let q = sim.sampling.sequential.as_ref()?;
+    let designs = tested_designs(study).count();
+    Some(if q.budget > 0 { q.budget } else { crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN * designs })
+}
+
 /// Every tested design (training, then validation) with its values.
 pub fn tested_designs(study: &Study) -> impl Iterator<Item = (&String, &Vec<f64>)> {
     study

@@ -75,10 +75,9 @@ struct Limits {
 impl Limits {
     fn of(study: &Study, sim: &SolverSimulation, options: &RunOptions) -> Limits {
         let q = sim.sampling.sequential.as_ref().expect("a sequential study");
-        let designs = crate::plan::sweep::tested_designs(study).count();
         Limits {
             batch: q.batch.unwrap_or(options.jobs).max(1),
-            budget: if q.budget > 0 { q.budget } else { seq::DEFAULT_BUDGET_PER_DESIGN * designs },
+            budget: crate::plan::sweep::sequential_budget(study, sim).expect("a sequential study"),
             tolerance: q.tolerance,
             seed: sim.sampling.seed,
         }
