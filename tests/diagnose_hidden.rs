@@ -188,6 +188,9 @@ struct Case {
     /// Noise-free mean response at each training design, and σ of one test there.
     mu: Vec<f64>,
     sigma: Vec<f64>,
+    /// The same at each validation design.
+    mu_val: Vec<f64>,
+    sigma_val: Vec<f64>,
     noise_relative: bool,
     magnitude: f64,
 }
@@ -256,6 +259,8 @@ fn generate(setup: &Setup, hidden: Hidden, magnitude: (f64, f64), seed: u64, sal
     let hidden = hidden_term.map(|h| names[terms.iter().position(|t| *t == h).expect("in the pool")].clone());
     let mu: Vec<f64> = setup.train.iter().map(|d| truth(d)).collect();
     let sigma = mu.iter().map(|&m| sd(m)).collect();
+    let mu_val: Vec<f64> = setup.val.iter().map(|d| truth(d)).collect();
+    let sigma_val = mu_val.iter().map(|&m| sd(m)).collect();
     Case {
         obs,
         hypotheses,
@@ -263,6 +268,8 @@ fn generate(setup: &Setup, hidden: Hidden, magnitude: (f64, f64), seed: u64, sal
         hidden_term,
         mu,
         sigma,
+        mu_val,
+        sigma_val,
         noise_relative,
         magnitude: m,
     }
@@ -380,7 +387,10 @@ fn oracle(setup: &Setup, case: &Case) -> Truth {
         };
     };
     let hv = vector(h);
-    let remaining = with(&[&hv]);
+    // The hidden term's model leaves this much at the training designs, and lab's lack of fit also
+    // reads the validation designs' predictions: what the model fitted to the training truth
+    // misses there (a saturation's first-order term, y², extrapolated beyond the training range).
+    let remaining = with(&[&hv]) + validation_miss(setup, case, h);
     let enc_min = vectors
         .iter()
         .filter(|(t, v)| {
@@ -395,6 +405,45 @@ fn oracle(setup: &Setup, case: &Case) -> Truth {
         best_remaining,
         best_detect,
     }
+}
+
+/// Σ over the validation designs of ((truth − prediction) / σ of their mean)², the prediction that
+/// of the model with the term `h`, its θ and amplitude fitted (linearised at the truth, as the
+/// rest of the oracle) to the noise-free training truth with the true weights.
+fn validation_miss(setup: &Setup, case: &Case, h: &str) -> f64 {
+    if setup.val.is_empty() {
+        return 0.0;
+    }
+    let theta = setup.truth();
+    let model = setup.model;
+    let g = setup.shape("g", h);
+    let reps = (setup.replicates as f64).sqrt();
+    // Columns: ∂y/∂θ_j, then the term, at each design; rows weighted by √n / σ.
+    let columns = |designs: &[Vec<f64>], w: &[f64]| -> DMatrix<f64> {
+        let p = theta.len();
+        DMatrix::from_fn(designs.len(), p + 1, |i, j| {
+            let d = &designs[i];
+            if j < p {
+                let step = 1e-6 * theta[j].abs().max(1e-6);
+                let (mut up, mut dn) = (theta.clone(), theta.clone());
+                up[j] += step;
+                dn[j] -= step;
+                w[i] * (model(d, &up) - model(d, &dn)) / (2.0 * step)
+            } else {
+                w[i] * g.eval(d, &theta, model(d, &theta))
+            }
+        })
+    };
+    let w: Vec<f64> = case.sigma.iter().map(|s| reps / s).collect();
+    let wv: Vec<f64> = case.sigma_val.iter().map(|s| reps / s).collect();
+    let x = columns(&setup.train, &w);
+    let e = DVector::from_fn(setup.train.len(), |i, _| w[i] * (case.mu[i] - model(&setup.train[i], &theta)));
+    let svd = x.svd(true, true);
+    let tol = 1e-10 * svd.singular_values.max();
+    let coef = svd.solve(&e, tol).unwrap();
+    let xv = columns(&setup.val, &wv);
+    let ev = DVector::from_fn(setup.val.len(), |i, _| wv[i] * (case.mu_val[i] - model(&setup.val[i], &theta)));
+    (ev - xv * coef).norm_squared()
 }
 
 fn classify(t: &Truth) -> Class {

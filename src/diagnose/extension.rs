@@ -4,7 +4,7 @@
 //!   over the training designs (`gain_loo`): one validation design can sit where the uncorrected
 //!   model happens to cross the truth, and then its "before" error is no measure of anything. Such
 //!   designs (|z| < 2 for the uncorrected prediction, noise and calibration uncertainty included)
-//!   are listed in `before_within_noise`.
+//!   are listed in `before_within_noise` — only when the noise is known from replicates.
 //! - The extended model's lack of fit against the replicate noise ([`super::evidence`]): when it
 //!   rejects, the cause is only part of the story, and `remaining` says where (designs whose
 //!   standardised residual still exceeds 2).
@@ -89,6 +89,11 @@ fn errors(cx: &Context, base: &Entry, e: &Entry) -> (f64, f64, &'static str) {
 /// Validation designs where the uncorrected prediction is within the noise (|z| < 2), among the
 /// observations the errors are measured on.
 fn within_noise(cx: &Context, base: &Entry) -> Vec<String> {
+    // Without replicates the z scale is the uncorrected model's own residual variance, model error
+    // included: "within the noise" would then only say "no worse than the model's misfit elsewhere".
+    if !cx.known() {
+        return Vec::new();
+    }
     let counts = |name: &str| {
         cx.val
             .iter()
