@@ -217,7 +217,9 @@ fn predictions_table(results: &Results) -> String {
             let mut line = format!("{:<12} {:<10} {:>14}", p.design, role, significant(p.measured, 6));
             for r in results.calibration.values() {
                 let cell = r.predictions.get(i).map_or("-".to_string(), |q| {
-                    format!("{} ({:+.2} %)", significant(q.predicted, 6), 100.0 * q.relative_error)
+                    // Rounded first, and + 0.0 turns a rounded −0 into 0: no "(-0.00 %)".
+                    let pct = (1e4 * q.relative_error).round() / 100.0 + 0.0;
+                    format!("{} ({pct:+.2} %)", significant(q.predicted, 6))
                 });
                 let _ = write!(line, " {cell:>24}");
             }
