@@ -343,6 +343,18 @@ impl Emulator {
     /// goes back to y by the delta method, diag(y) Σ_t diag(y): the KOH likelihood (A8–A9) stays in
     /// y, where the discrepancy is additive (A1).
     pub fn mean_cov(&self, points: &DMatrix<f64>) -> Option<(DVector<f64>, DMatrix<f64>)> {
+        let p = self.predictive(points)?;
+        let c = gauss_corr(&p.u, &p.u, &self.roughness) - p.w.transpose() * &p.w + p.h.transpose() * &p.h;
+        let scale = self.fit.sigma2 * self.t_sd * self.t_sd;
+        let y = p.z.map(|v| self.to_y(v));
+        let cov = DMatrix::from_fn(y.len(), y.len(), |i, j| self.back_to_y(&y, i, j, c[(i, j)] * scale));
+        Some((y, cov))
+    }
+
+    /// The pieces every prediction at the rows of `points` shares: the points in unit coordinates,
+    /// the standardised mean z, w = L⁻¹r (the runs' correlation with the points) and h, the trend
+    /// coefficients' share of the variance (A2–A3).
+    fn predictive(&self, points: &DMatrix<f64>) -> Option<Predictive> {
         let u = self.inputs.unit(points);
         let r = gauss_corr(&self.x, &u, &self.roughness);
         let fs = basis(&u, self.quadratic);
@@ -350,14 +362,12 @@ impl Emulator {
         let w = solve_lower(&self.fit.llt, &r);
         let g = fs.transpose() - self.fit.lf.transpose() * &w;
         let h = self.fit.chol_a.l().solve_lower_triangular(&g)?;
-        let c = gauss_corr(&u, &u, &self.roughness) - w.transpose() * &w + h.transpose() * h;
-        let cov_t = c * (self.fit.sigma2 * self.t_sd * self.t_sd);
-        let y = z.map(|v| self.to_y(v));
-        if !self.log_output {
-            return Some((y, cov_t));
-        }
-        let cov_y = DMatrix::from_fn(y.len(), y.len(), |i, j| y[i] * cov_t[(i, j)] * y[j]);
-        Some((y, cov_y))
+        Some(Predictive { u, z, w, h })
+    }
+
+    /// A covariance `v` of t at points i and j in y: by the delta method y_i v y_j with t = ln y.
+    fn back_to_y(&self, y: &DVector<f64>, i: usize, j: usize, v: f64) -> f64 {
+        if self.log_output { y[i] * v * y[j] } else { v }
     }
 
     /// Predictive mean and variance at one point `x`: [`Emulator::mean_var`] for a single row,
@@ -398,23 +408,24 @@ impl Emulator {
     /// Predictive mean and variance at each row of `points`: the diagonal of [`Emulator::mean_cov`]
     /// without the points' cross-covariances (O(m n²) instead of O(m² n) for m points).
     pub fn mean_var(&self, points: &DMatrix<f64>) -> Option<(DVector<f64>, DVector<f64>)> {
-        let u = self.inputs.unit(points);
-        let r = gauss_corr(&self.x, &u, &self.roughness);
-        let fs = basis(&u, self.quadratic);
-        let z = &fs * &self.fit.beta + r.transpose() * &self.fit.alpha;
-        let w = solve_lower(&self.fit.llt, &r);
-        let g = fs.transpose() - self.fit.lf.transpose() * &w;
-        let h = self.fit.chol_a.l().solve_lower_triangular(&g)?;
+        let p = self.predictive(points)?;
         let scale = self.fit.sigma2 * self.t_sd * self.t_sd;
-        let y = z.map(|v| self.to_y(v));
+        let y = p.z.map(|v| self.to_y(v));
         // The correlation of a point with itself is 1.
         let var = DVector::from_fn(y.len(), |i, _| {
-            let c = 1.0 - w.column(i).norm_squared() + h.column(i).norm_squared();
-            let v = c * scale;
-            if self.log_output { y[i] * v * y[i] } else { v }
+            let c = 1.0 - p.w.column(i).norm_squared() + p.h.column(i).norm_squared();
+            self.back_to_y(&y, i, i, c * scale)
         });
         Some((y, var))
     }
+}
+
+/// What [`Emulator::predictive`] computes once for the mean, the variances and the covariance.
+struct Predictive {
+    u: DMatrix<f64>,
+    z: DVector<f64>,
+    w: DMatrix<f64>,
+    h: DMatrix<f64>,
 }
 
 #[cfg(test)]
