@@ -205,6 +205,51 @@ fn grid_count_must_be_a_power() {
     study_error(&yaml, 16, Some("8,"), "2-th power");
 }
 
+/// `sampling.replaces` names the fixed design a sequence replaces: only a sequence takes it, and it
+/// is itself a fixed design checked as one (at its own nodes).
+#[test]
+fn replaces_belongs_to_a_sequence_and_is_a_fixed_design() {
+    study_error(
+        &with(
+            "count: 4, seed: 1}",
+            "count: 4, seed: 1, replaces: {method: lhs, count: 4}}",
+        ),
+        15,
+        Some("lhs"),
+        "`sampling.replaces` belongs to `method: sequential`",
+    );
+    let sequence = |replaces: &str| {
+        with(
+            "{method: lhs, count: 4, seed: 1}",
+            &format!("{{method: sequential, replaces: {replaces}}}"),
+        )
+    };
+    study_error(
+        &sequence("{method: sequential}"),
+        15,
+        Some("{method: sequential}}"),
+        "names a fixed design",
+    );
+    study_error(
+        &sequence("{method: lhs, count: 2}"),
+        15,
+        Some("2}"),
+        "too few for a quadratic surrogate",
+    );
+    let c = case(&sequence("{method: lhs, count: 6, check_runs: 2}"), TEMPLATE);
+    let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
+    let Simulation::Solver(sim) = &s.simulation else {
+        panic!("not a solver study")
+    };
+    let fixed = sim
+        .sampling
+        .sequential
+        .as_ref()
+        .and_then(|q| q.replaces.as_deref())
+        .expect("replaces");
+    assert_eq!((fixed.count, fixed.check_runs), (6, 2));
+}
+
 #[test]
 fn unknown_surrogate_and_sampling_method() {
     study_error(

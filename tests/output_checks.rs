@@ -488,7 +488,11 @@ fn recorded_gate_breaks_are_flagged_shown_and_left_out_unless_the_study_says_use
         "{stderr}"
     );
     for design in ["C6T5", "C3T7", "C3T8"] {
-        assert_eq!(samples(&r, design), fixed_design::SAMPLES - 1, "{design}: one sample left out");
+        assert_eq!(
+            samples(&r, design),
+            fixed_design::SAMPLES - 1,
+            "{design}: one sample left out"
+        );
     }
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(html.contains("3 suspect (breaking a quality gate; left out of the surrogates)"));
@@ -549,5 +553,47 @@ fn quality_keys_are_checked_with_file_and_line() {
     assert!(
         stderr.contains(&format!("honeycomb.yaml:{line}:")) && stderr.contains("hourglas"),
         "{stderr}"
+    );
+}
+
+/// The main job's `246 → N solver runs`: the fixed design its `sampling.replaces` names, counted
+/// from that design's plan without running it, is the number of runs that design made when it ran
+/// live (its recordings: samples, checks, the hardening's runs at every sample and the loop's);
+/// N is the sequence's own tally. The report says the same.
+#[test]
+fn the_fixed_design_the_main_job_replaces_is_counted_as_the_runs_it_made() {
+    let made = fixed_design::keys(fixed_design::recordings()).len() as u64;
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let o = Command::new(LAB)
+        .arg("run")
+        .arg(root().join("studies/honeycomb.yaml"))
+        .arg("--replay")
+        .arg(root().join("fixtures/honeycomb"))
+        .arg("--out")
+        .arg(&out)
+        .env("PATH", "/usr/bin:/bin")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    let replaces = &r["sampling"]["replaces"];
+    assert_eq!(replaces["runs"].as_u64(), Some(made), "{replaces}");
+    assert_eq!(
+        (
+            replaces["method"].as_str(),
+            replaces["count"].as_u64(),
+            replaces["check_runs"].as_u64()
+        ),
+        (Some("lhs"), Some(24), Some(5))
+    );
+    let runs = r["sampling"]["runs"].as_u64().unwrap();
+    assert!(runs < made, "{runs} sequential runs against {made}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains(&format!("{made} → {runs} solver runs")), "{stdout}");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        html.contains(&format!("24 + 5 check runs per design it replaces: {made} runs")),
+        "report"
     );
 }

@@ -603,7 +603,10 @@ fn results(
     };
     let mut results = results.with_surrogates(&runs.surrogates);
     results.splits = splits;
-    results.sampling = runs.sequence.as_ref().map(|s| s.for_results());
+    results.sampling = runs.sequence.as_ref().map(|s| sequence::Sequence {
+        replaces: sequence::record::Replaced::of(study, runs.sim, runs.joint.as_ref().map(|j| &j.plan)),
+        ..s.for_results()
+    });
     let gates = runs.sim.quality.gates;
     let use_suspect = runs.sim.quality.use_suspect;
     // The screening's runs, then the loop's.

@@ -217,7 +217,14 @@ pub fn initial_samples(study: &Study, sim: &SolverSimulation, d: usize) -> usize
         .calibration
         .against
         .curves
-        .then(|| study.calibration.curve.surrogate.unwrap_or(sim.surrogate).min_samples(d))
+        .then(|| {
+            study
+                .calibration
+                .curve
+                .surrogate
+                .unwrap_or(sim.surrogate)
+                .min_samples(d)
+        })
         .unwrap_or(0);
     sim.surrogate.min_samples(d).max(curves) + 1
 }
@@ -239,7 +246,23 @@ pub fn as_written(sim: &SolverSimulation, point: &[f64]) -> Vec<f64> {
 pub fn sequential_budget(study: &Study, sim: &SolverSimulation) -> Option<usize> {
     let q = sim.sampling.sequential.as_ref()?;
     let designs = tested_designs(study).count();
-    Some(if q.budget > 0 { q.budget } else { crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN * designs })
+    Some(if q.budget > 0 {
+        q.budget
+    } else {
+        crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN * designs
+    })
+}
+
+/// The solver runs the fixed design `fixed` would have made in place of a sequential study's:
+/// its samples and check runs, the extension hypotheses' runs at every sample, and the
+/// solver-in-the-loop's joint plan for the hypotheses the sequence took into the loop (`looped`).
+/// Planned, never run: the other side of the terminal's `246 → 36 solver runs`.
+pub fn fixed_runs(study: &Study, sim: &SolverSimulation, fixed: &Sampling, looped: &[usize]) -> usize {
+    let sim = SolverSimulation {
+        sampling: fixed.clone(),
+        ..sim.clone()
+    };
+    Plan::new(study, &sim).runs.len() + Plan::joint(study, &sim, looped).runs.len()
 }
 
 /// Every tested design (training, then validation) with its values.

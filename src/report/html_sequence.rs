@@ -15,19 +15,34 @@ pub(super) fn section(r: &Results) -> String {
         return String::new();
     };
     let mut out = format!(
-        "<h3>Sequential sampling</h3><p id=sequence-summary>{} solver runs in all; each batch was planned from the runs \
+        "<h3>Sequential sampling</h3><p id=sequence-summary>{} solver runs in all{}; each batch was planned from the runs \
          before it, where the emulators' uncertainty most affects the posterior, until their error on runs they were not \
          fitted to was at most {} of the tests' noise at every tested design. {}</p><div class=grid>",
         s.runs,
+        replaced(s),
         s.tolerance,
         escape(&stops(s))
     );
     for name in variables(s) {
-        out.push_str(&interval_plot(s, &name, r.truth.as_ref().and_then(|t| t.get(&name)).copied()));
+        out.push_str(&interval_plot(
+            s,
+            &name,
+            r.truth.as_ref().and_then(|t| t.get(&name)).copied(),
+        ));
     }
     out.push_str("</div>");
     out.push_str(&table(s));
     out
+}
+
+/// Beside the runs in all, the fixed design the study says the sequence replaces.
+fn replaced(s: &Sequence) -> String {
+    s.replaces.as_ref().map_or(String::new(), |r| {
+        format!(
+            " (the fixed {} of {} + {} check runs per design it replaces: {} runs)",
+            r.method, r.count, r.check_runs, r.runs
+        )
+    })
 }
 
 fn stops(s: &Sequence) -> String {
@@ -106,7 +121,12 @@ fn table(s: &Sequence) -> String {
             .iter()
             .map(|(n, v)| {
                 let [lo, hi] = b.interval95.get(n).copied().unwrap_or([f64::NAN; 2]);
-                format!("{n} {} [{}, {}]", crate::format::num(*v), crate::format::num(lo), crate::format::num(hi))
+                format!(
+                    "{n} {} [{}, {}]",
+                    crate::format::num(*v),
+                    crate::format::num(lo),
+                    crate::format::num(hi)
+                )
             })
             .collect();
         let _ = write!(

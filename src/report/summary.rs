@@ -20,13 +20,25 @@ pub fn render(results: &Results) -> String {
     out
 }
 
-/// A sequential study's solver runs in all, stage by stage, and why each stopped.
+/// A sequential study's solver runs in all, stage by stage, and why each stopped; first, when the
+/// study names the fixed design it replaces, that design's runs beside them (`246 → 36`).
 fn sampling_line(results: &Results) -> String {
     let Some(s) = &results.sampling else {
         return String::new();
     };
-    let stages: Vec<String> = s.stopped.iter().map(|x| format!("{} {} ({})", x.stage, x.runs, x.reason)).collect();
-    format!("solver runs: {} in all, sampled sequentially: {}\n\n", s.runs, stages.join(", "))
+    let stages: Vec<String> = s
+        .stopped
+        .iter()
+        .map(|x| format!("{} {} ({})", x.stage, x.runs, x.reason))
+        .collect();
+    let total = match &s.replaces {
+        Some(r) => format!(
+            "{} → {} solver runs: sampled sequentially in place of a fixed {} of {} + {} check runs per design",
+            r.runs, s.runs, r.method, r.count, r.check_runs
+        ),
+        None => format!("solver runs: {} in all, sampled sequentially", s.runs),
+    };
+    format!("{total}: {}\n\n", stages.join(", "))
 }
 
 /// Beside the calibrated parameters: when the diagnosis finds model error that no listed cause

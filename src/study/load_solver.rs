@@ -130,7 +130,7 @@ impl Checker<'_> {
                 "a solver simulation needs `simulation.sampling`, e.g. `{method: lhs, count: 12, seed: 1}`",
             ));
         };
-        let sampling = self.sampling(sampling, surrogate, n_parameters)?;
+        let sampling = self.sampling(&sampling.value, surrogate, n_parameters)?;
         let mesh = sim.mesh.as_ref().map(|m| self.mesh(m, design_names)).transpose()?;
         let replay = self.replay_dir(sim)?;
         Ok(SolverSimulation {
@@ -602,13 +602,7 @@ impl Checker<'_> {
             })
     }
 
-    fn sampling(
-        &self,
-        node: &Spanned<SamplingFile>,
-        surrogate: SurrogateKind,
-        p: usize,
-    ) -> Result<Sampling, InputError> {
-        let spec = &node.value;
+    fn sampling(&self, spec: &SamplingFile, surrogate: SurrogateKind, p: usize) -> Result<Sampling, InputError> {
         let method = match spec.method.value.as_str() {
             "lhs" => SamplingMethod::Lhs,
             "grid" => SamplingMethod::Grid,
@@ -625,16 +619,23 @@ impl Checker<'_> {
             ("batch", spec.batch.as_ref().map(|n| (n.line, n.column))),
             ("budget", spec.budget.as_ref().map(|n| (n.line, n.column))),
             ("tolerance", spec.tolerance.as_ref().map(|n| (n.line, n.column))),
+            ("replaces", spec.replaces.as_ref().map(|n| (n.line, n.column))),
         ] {
             if given.is_some() {
                 return Err(self.at(
                     &spec.method,
-                    format!("`sampling.{key}` belongs to `method: sequential`, not `{}`", spec.method.value),
+                    format!(
+                        "`sampling.{key}` belongs to `method: sequential`, not `{}`",
+                        spec.method.value
+                    ),
                 ));
             }
         }
         let Some(count) = &spec.count else {
-            return Err(self.at(&spec.method, format!("`method: {}` needs `count`: samples per design", spec.method.value)));
+            return Err(self.at(
+                &spec.method,
+                format!("`method: {}` needs `count`: samples per design", spec.method.value),
+            ));
         };
         let count = count.value;
         let needed = surrogate.min_samples(p);
@@ -670,7 +671,10 @@ impl Checker<'_> {
     /// at each design are its check).
     fn sequential(&self, spec: &SamplingFile, surrogate: SurrogateKind, p: usize) -> Result<Sampling, InputError> {
         if let Some(c) = &spec.count {
-            return Err(self.at(c, "`method: sequential` takes `initial` (the first samples per design), not `count`"));
+            return Err(self.at(
+                c,
+                "`method: sequential` takes `initial` (the first samples per design), not `count`",
+            ));
         }
         if let Some(c) = &spec.check_runs {
             return Err(self.at(
@@ -702,10 +706,23 @@ impl Checker<'_> {
         }
         let tolerance = match &spec.tolerance {
             Some(t) if !(t.value.is_finite() && t.value > 0.0) => {
-                return Err(self.at(t, "`sampling.tolerance` is a positive fraction of the tests' noise, e.g. 0.5"));
+                return Err(self.at(
+                    t,
+                    "`sampling.tolerance` is a positive fraction of the tests' noise, e.g. 0.5",
+                ));
             }
             Some(t) => t.value,
             None => crate::plan::sequential::DEFAULT_TOLERANCE,
+        };
+        let replaces = match &spec.replaces {
+            Some(node) if node.value.method.value == "sequential" => {
+                return Err(self.at(
+                    node,
+                    "`sampling.replaces` names a fixed design: `method: lhs` or `grid`, not `sequential`",
+                ));
+            }
+            Some(node) => Some(Box::new(self.sampling(&node.value, surrogate, p)?)),
+            None => None,
         };
         Ok(Sampling {
             method: SamplingMethod::Sequential,
@@ -716,6 +733,7 @@ impl Checker<'_> {
                 batch: spec.batch.as_ref().map(|b| b.value),
                 budget: spec.budget.as_ref().map_or(0, |b| b.value),
                 tolerance,
+                replaces,
             }),
         })
     }

@@ -139,6 +139,9 @@ pub struct Sequential {
     /// Enough: the emulator's error at the posterior, in units of the tests' noise of the mean,
     /// at or below this at every tested design.
     pub tolerance: f64,
+    /// The fixed design this sequence replaces (`sampling.replaces`): its runs are counted, never
+    /// made, so that the terminal and `results.json` say what the sequence saved.
+    pub replaces: Option<Box<Sampling>>,
 }
 
 /// The per-design surrogate over the parameters.

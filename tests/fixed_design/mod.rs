@@ -11,7 +11,8 @@ use std::sync::OnceLock;
 use super::crushsim_bin;
 
 /// The main job's sampling, replaced by the fixed design.
-pub const SEQUENTIAL: &str = "sampling: {method: sequential, batch: 3, seed: 1}";
+pub const SEQUENTIAL: &str =
+    "sampling: {method: sequential, batch: 3, seed: 1, replaces: {method: lhs, count: 24, seed: 1, check_runs: 5}}";
 /// The fixed design: 24 Latin-hypercube samples and 5 check runs per design.
 pub const FIXED: &str = "sampling: {method: lhs, count: 24, seed: 1, check_runs: 5}";
 /// Samples per design in `FIXED`.
@@ -45,10 +46,7 @@ pub fn recordings() -> &'static Path {
         let dir = tempfile::tempdir().unwrap();
         let work = tempfile::tempdir().unwrap();
         let study = study(work.path(), "");
-        let path = format!(
-            "{}:/usr/bin:/bin",
-            crushsim_bin::crushsim().parent().unwrap().display()
-        );
+        let path = format!("{}:/usr/bin:/bin", crushsim_bin::crushsim().parent().unwrap().display());
         let o = Command::new(env!("CARGO_BIN_EXE_lab"))
             .arg("run")
             .arg(&study)

@@ -8,7 +8,10 @@ use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
-use crate::plan::{PlannedRun, RunRole};
+use crate::plan::sweep::fixed_runs;
+use crate::plan::{Plan, PlannedRun, RunRole};
+use crate::study::solver::SamplingMethod;
+use crate::study::{SolverSimulation, Study};
 
 /// `OUT/sequence.json`.
 pub const FILE: &str = "sequence.json";
@@ -26,6 +29,10 @@ pub struct Sequence {
     /// The tolerance: the emulators' error allowed at the posterior, as a fraction of the tests'
     /// noise of the mean.
     pub tolerance: f64,
+    /// The fixed design the study names as the one this sequence replaces, and its runs
+    /// (`sampling.replaces`; absent when the study names none).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub replaces: Option<Replaced>,
     /// The planned runs of every batch, for `lab status` (not in `results.json`).
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub planned: Vec<Planned>,
@@ -60,6 +67,52 @@ pub struct Batch {
     /// Why the stage's sequence stopped after this batch (as `stopped`); absent while it goes on.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub stopped: Option<String>,
+}
+
+/// The fixed design a sequence replaces: what it is, and the solver runs it would have made
+/// (counted from its plan, never run; [`crate::plan::sweep::fixed_runs`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Replaced {
+    /// `lhs` or `grid`.
+    pub method: String,
+    /// Samples per design.
+    pub count: usize,
+    /// Check runs per design.
+    pub check_runs: usize,
+    /// Solver runs in all: samples, checks, the extension hypotheses' runs, and the loop's joint
+    /// plan for the hypotheses the sequence took into the loop.
+    pub runs: usize,
+}
+
+impl Replaced {
+    /// The study's `sampling.replaces` (`None` when it names none), counted with the hypotheses the
+    /// sequence took into the loop: those with runs in `joint`.
+    pub fn of(study: &Study, sim: &SolverSimulation, joint: Option<&Plan>) -> Option<Replaced> {
+        let fixed = sim.sampling.sequential.as_ref()?.replaces.as_deref()?;
+        let mut looped: Vec<usize> = joint
+            .map(|p| {
+                p.runs.iter().filter_map(|r| match r.role {
+                    RunRole::Joint(k) | RunRole::JointCheck(k) => Some(k),
+                    _ => None,
+                })
+            })
+            .into_iter()
+            .flatten()
+            .collect();
+        looped.sort_unstable();
+        looped.dedup();
+        Some(Replaced {
+            method: if fixed.method == SamplingMethod::Grid {
+                "grid"
+            } else {
+                "lhs"
+            }
+            .into(),
+            count: fixed.count,
+            check_runs: fixed.check_runs,
+            runs: fixed_runs(study, sim, fixed, &looped),
+        })
+    }
 }
 
 /// Why a stage's sequence stopped.
@@ -155,13 +208,15 @@ impl Sequence {
 impl Batch {
     /// One line for the terminal: the batch, its runs, the worst emulator error and the estimates.
     pub fn line(&self) -> String {
-        let worst = |m: &IndexMap<String, Option<f64>>| {
-            m.values().map(|v| v.unwrap_or(f64::INFINITY)).fold(0.0, f64::max)
-        };
+        let worst =
+            |m: &IndexMap<String, Option<f64>>| m.values().map(|v| v.unwrap_or(f64::INFINITY)).fold(0.0, f64::max);
         let error = if self.emulator_error.values().all(Option::is_none) {
             "nothing held out yet".to_string()
         } else {
-            format!("emulator error ≤ {} of the tests' noise", crate::format::num(worst(&self.emulator_error)))
+            format!(
+                "emulator error ≤ {} of the tests' noise",
+                crate::format::num(worst(&self.emulator_error))
+            )
         };
         let estimates: Vec<String> = self
             .estimates
@@ -176,7 +231,10 @@ impl Batch {
                 )
             })
             .collect();
-        let mut line = format!("{} batch {}: {} run(s), {} in all; {error}", self.stage, self.batch, self.runs, self.total);
+        let mut line = format!(
+            "{} batch {}: {} run(s), {} in all; {error}",
+            self.stage, self.batch, self.runs, self.total
+        );
         if !estimates.is_empty() {
             line += &format!("; {}", estimates.join(", "));
         }
