@@ -235,6 +235,15 @@ fn check(study: &Study) -> Result<i32, Error> {
         (Some(n), None) => println!("ok: {n} planned solver run(s) render"),
         _ => {}
     }
+    if let Some((fixed, without, with)) = &checked.replaces {
+        println!(
+            "in place of a fixed {} of {} + {} check runs per design: {without} solver run(s), {with} with the solver in \
+             the loop for every extension",
+            fixed.method.key(),
+            fixed.count,
+            fixed.check_runs
+        );
+    }
     if checked.loop_runs > 0 {
         match budget {
             Some(_) => println!(

@@ -355,4 +355,10 @@ fn check_describes_the_sequence_not_a_fixed_plan() {
     );
     assert!(stdout.contains("the solver in the loop's decks"), "{stdout}");
     assert!(!stdout.contains("planned solver run(s) render"), "{stdout}");
+    // `sampling.replaces`, counted: 3 designs × (24 samples + 5 checks + 24 hardening runs) = 159,
+    // and 3 × (24 + 5) more with the hardening's loop (its live count: tests/output_checks.rs).
+    assert!(
+        stdout.contains("in place of a fixed lhs of 24 + 5 check runs per design: 159 solver run(s), 246 with the solver in the loop"),
+        "{stdout}"
+    );
 }

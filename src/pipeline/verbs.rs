@@ -24,6 +24,9 @@ pub struct Checked {
     pub curves: (usize, usize),
     /// With sequential sampling, the most solver runs the study may make (its budget).
     pub budget: Option<usize>,
+    /// With `sampling.replaces`: that fixed design's method, samples and check runs per design, and
+    /// its solver runs without the loop and with the loop for every ranged extension (counted).
+    pub replaces: Option<(crate::study::solver::Sampling, usize, usize)>,
 }
 
 /// `lab check`: renders every planned run in memory (undefined template variables show up here),
@@ -47,11 +50,20 @@ pub fn check(study: &Study) -> Result<Checked, Error> {
         Simulation::Solver(sim) => crate::plan::sweep::sequential_budget(study, sim),
         Simulation::Expression(_) => None,
     };
+    let replaces = match &study.simulation {
+        Simulation::Solver(sim) => sim.sampling.sequential.as_ref().and_then(|q| q.replaces.as_deref()).map(|fixed| {
+            let every: Vec<usize> = study.extension_hypotheses().map(|(k, _)| k).collect();
+            let runs = |looped: &[usize]| crate::plan::sweep::fixed_runs(study, sim, fixed, looped);
+            (fixed.clone(), runs(&[]), runs(&every))
+        }),
+        Simulation::Expression(_) => None,
+    };
     Ok(Checked {
         rendered_runs,
         loop_runs,
         curves: (curves.iter().map(|c| c.specimens.len()).sum(), curves.len()),
         budget,
+        replaces,
     })
 }
 

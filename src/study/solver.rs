@@ -128,6 +128,17 @@ pub enum SamplingMethod {
     Sequential,
 }
 
+impl SamplingMethod {
+    /// The study's word for it (`sampling.method`).
+    pub fn key(self) -> &'static str {
+        match self {
+            SamplingMethod::Lhs => "lhs",
+            SamplingMethod::Grid => "grid",
+            SamplingMethod::Sequential => "sequential",
+        }
+    }
+}
+
 /// The settings of sequential sampling (`simulation.sampling` with `method: sequential`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sequential {

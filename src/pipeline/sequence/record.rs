@@ -10,7 +10,6 @@ use serde::{Deserialize, Serialize};
 use crate::error::Error;
 use crate::plan::sweep::fixed_runs;
 use crate::plan::{Plan, PlannedRun, RunRole};
-use crate::study::solver::SamplingMethod;
 use crate::study::{SolverSimulation, Study};
 
 /// `OUT/sequence.json`.
@@ -102,12 +101,7 @@ impl Replaced {
         looped.sort_unstable();
         looped.dedup();
         Some(Replaced {
-            method: if fixed.method == SamplingMethod::Grid {
-                "grid"
-            } else {
-                "lhs"
-            }
-            .into(),
+            method: fixed.method.key().into(),
             count: fixed.count,
             check_runs: fixed.check_runs,
             runs: fixed_runs(study, sim, fixed, &looped),
