@@ -13,8 +13,9 @@
 //! by simulating the noncentral F. Assertions:
 //! - clean data: false discoveries ≤ 1 % over ≥ 100 cases (the search also run when no model error
 //!   is detected, to measure its own rate, and as `lab run` runs it);
-//! - shapes inside the library, large enough: recovered (the found term, a shape the same over the
-//!   designs, or one the data cannot tell from it, proportional to the hidden one) in ≥ 90 %;
+//! - shapes inside the library, large enough and nameable (at most a few library shapes the data
+//!   cannot tell from the hidden one, [`nameable`]): recovered (the found term, a shape the same over
+//!   the designs, or one the data cannot tell from it, proportional to the hidden one) in ≥ 90 %;
 //! - shapes outside the library: either nothing found, or the found term improves the
 //!   leave-one-design-out error and its model passes the lack-of-fit test.
 
@@ -27,7 +28,7 @@ use lab::diagnose::{self, Diagnosis, Inputs, Observation, Role, Settings, Shape}
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use statrs::distribution::{ContinuousCDF, FisherSnedecor};
+use statrs::distribution::{ChiSquared, ContinuousCDF, FisherSnedecor, Normal};
 
 const ALPHA: f64 = 0.01;
 /// An upper bound on the number of models a search over one or two design variables tries
@@ -460,6 +461,65 @@ fn power(lambda: f64, nu: f64) -> f64 {
     hits as f64 / draws as f64
 }
 
+/// Power of the F(1, ν) test at level `alpha` with noncentrality λ, by quadrature over the
+/// χ²_ν of the denominator (the numerator is (Z + √λ)², Z standard normal): accurate in the far
+/// tail, where a simulation of a few thousand draws is not.
+fn power_at(lambda: f64, nu: f64, alpha: f64) -> f64 {
+    let crit = FisherSnedecor::new(1.0, nu).unwrap().inverse_cdf(1.0 - alpha).sqrt();
+    let (chi, z) = (ChiSquared::new(nu).unwrap(), Normal::new(0.0, 1.0).unwrap());
+    let root = lambda.max(0.0).sqrt();
+    let nodes = 400;
+    (0..nodes)
+        .map(|i| {
+            let q = chi.inverse_cdf((i as f64 + 0.5) / nodes as f64);
+            let c = crit * (q / nu).sqrt();
+            z.cdf(-c - root) + z.sf(c - root)
+        })
+        .sum::<f64>()
+        / nodes as f64
+}
+
+/// Whether the data can name the hidden shape among the library's (independently of lab's fitting):
+/// for every library shape r, the noncentrality of "h, added to the model with r in its place,
+/// reduces the misfit" is λ_r = ‖(I − P_[J, listed, r]) e‖² (the effect e lies in the span with h),
+/// tested at α as lab's *alike* rule tests it. r is told apart from h when that test has power
+/// ≥ 1 − 0.05/L over the L library shapes (all told apart together with probability ≥ 0.95). The
+/// shape can be named when at most [`GROUP_MAX`] − 1 shapes are not told apart from it.
+fn nameable(case: &Case) -> bool {
+    if case.hidden_term().is_none() {
+        return false;
+    }
+    let f = &case.family;
+    let spec = LibrarySpec {
+        units: f.units.iter().map(|u| Some(u.to_string())).collect(),
+        scales: f.scales.clone(),
+        exponents: f.exponents.clone(),
+    };
+    let library = lab::diagnose::library::build(&case.names(), &spec);
+    let (w, e, jac) = weighted(case);
+    let theta = case.truth();
+    let base: Vec<DVector<f64>> = jac
+        .into_iter()
+        .chain(case.listed.iter().map(|&(_, t, _)| term_vector(case, &w, t)))
+        .collect();
+    let need = 1.0 - 0.05 / library.shapes.len() as f64;
+    let near = library
+        .shapes
+        .iter()
+        .filter(|r| {
+            let v = DVector::from_fn(case.train.len(), |i, _| {
+                let d = &case.train[i];
+                w[i] * r.eval(d, &theta, (f.model)(d, &theta))
+            });
+            let mut with = base.clone();
+            with.push(v);
+            power_at(leftover(&with, &e), nu(case), ALPHA) < need
+        })
+        .count();
+    // The hidden shape is itself in the library, and never told apart from itself.
+    near <= GROUP_MAX
+}
+
 /// Replicate degrees of freedom of the case.
 fn nu(case: &Case) -> f64 {
     (case.obs.len() * (case.replicates - 1)) as f64
@@ -578,13 +638,14 @@ fn no_false_discoveries_on_clean_data() {
     assert!(pipeline * 100 <= cases as usize, "false discoveries {pipeline}/{cases}");
 }
 
-/// Shapes inside the library, of drawn sizes: those the oracle calls large enough are recovered.
+/// Shapes inside the library, of drawn sizes: those the oracle calls large enough (detectable at the
+/// search's level, and nameable: [`nameable`]) are recovered.
 #[test]
 fn shapes_inside_the_library_are_recovered_when_large_enough() {
     let fams = families();
     let (mut large, mut got, mut found_small, mut small) = (0usize, 0usize, 0usize, 0usize);
     let mut seed = seed_base();
-    while large < 40 && seed < seed_base() + 200 {
+    while large < 40 && seed < seed_base() + 1000 {
         let family = &fams[(seed % fams.len() as u64) as usize];
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xd15c);
         let k = rng.random_range(0..family.inside.len());
@@ -592,6 +653,7 @@ fn shapes_inside_the_library_are_recovered_when_large_enough() {
         seed += 1;
         let lambda = detect(&case);
         let pw = power(lambda, nu(&case));
+        let named = nameable(&case);
         let d = run(&case, false);
         let ok = d.discovered.as_ref().is_some_and(|f| recovered(&case, f));
         eprintln!(
@@ -600,11 +662,11 @@ fn shapes_inside_the_library_are_recovered_when_large_enough() {
                 "inside",
                 seed - 1,
                 &case,
-                &format!("λ {lambda:.1} power {pw:.2} recovered {ok}"),
+                &format!("λ {lambda:.1} power {pw:.2} nameable {named} recovered {ok}"),
                 &d
             )
         );
-        if pw >= 0.95 {
+        if pw >= 0.95 && named {
             large += 1;
             got += usize::from(ok);
         } else {
@@ -614,9 +676,12 @@ fn shapes_inside_the_library_are_recovered_when_large_enough() {
     }
     eprintln!("inside the library: recovered {got}/{large} large enough; found {found_small}/{small} of the smaller");
     assert!(large >= 40, "only {large} large-enough cases in {seed} seeds");
-    // Recovered: the hidden shape within a named group of at most GROUP_MAX shapes (measured 30/40
-    // on the tuning seeds; the bound allows about one standard error of chance on forty cases).
-    assert!(got * 3 >= large * 2, "recovered {got}/{large}");
+    // Recovered: the hidden shape within a named group of at most GROUP_MAX shapes, in ≥ 90 % of
+    // the cases the oracle calls detectable and nameable. (With detectability alone as the oracle,
+    // 30/40 on seeds from 0 and 22/40 from 271,828: most misses were groups of 7 to 14 shapes the
+    // data cannot tell apart, the truth among them — lab right to say so, the oracle wrong to
+    // expect a name.)
+    assert!(got * 10 >= large * 9, "recovered {got}/{large}");
 }
 
 /// Effects outside the library: never a claim that the lack-of-fit test rejects, and a found term
