@@ -715,6 +715,28 @@ fn step(d: &[f64]) -> f64 {
     if d[0] > 0.9 { 1.0 } else { 0.0 }
 }
 
+/// The honest answers to an effect none of the candidates is: "partly explained" with the part's
+/// model rejected by its lack of fit, or, where which candidate is the part is not decided, the
+/// leading candidates left open with every one's own model rejected and the words saying that none
+/// explains all of the misfit. Never a cause, never a model called a fit.
+fn not_explained(d: &lab::diagnose::Diagnosis) -> bool {
+    let rejected = |l: Option<&lab::diagnose::LackOfFit>| l.is_some_and(|l| l.rejects());
+    match d.verdict {
+        Verdict::PartlyExplained => {
+            d.cause.is_none() && d.extended_model().is_some_and(|x| rejected(x.lack_of_fit.as_ref()))
+        }
+        Verdict::CannotTellApart => {
+            d.cause.is_none()
+                && !d.leading.is_empty()
+                && d.leading.iter().all(|n| {
+                    d.candidates.iter().find(|c| &c.name == n).is_some_and(|c| rejected(c.lack_of_fit.as_ref()))
+                })
+                && d.headline.contains("none all of it")
+        }
+        _ => false,
+    }
+}
+
 /// An effect that is none of the candidates: never reported as explained.
 #[test]
 fn effect_outside_the_hypotheses_is_partly_explained() {
@@ -733,12 +755,7 @@ fn effect_outside_the_hypotheses_is_partly_explained() {
         eprintln!("{} [{name}]", line("outside", seed, &case, &t, &d));
         if t.best_remaining >= 60.0 && t.best_detect >= 30.0 {
             of += 1;
-            partly += usize::from(
-                d.verdict == Verdict::PartlyExplained
-                    && d.cause.is_none()
-                    && d.extended_model()
-                        .is_some_and(|x| x.lack_of_fit.as_ref().is_some_and(|l| l.rejects())),
-            );
+            partly += usize::from(not_explained(&d));
             named += usize::from(d.verdict == Verdict::CauseNamed);
         }
     }

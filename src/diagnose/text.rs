@@ -164,8 +164,26 @@ fn headline(f: &Facts) -> String {
             } else {
                 ""
             };
+            // Where every open explanation's own model misses the tests, none explains the whole
+            // misfit: each removes part of it, and which part is whose is what the data leave open.
+            let misses = |n: &String| match f.after_loop {
+                Some(a) => a.explanations.iter().find(|j| &j.name == n).is_some_and(|j| j.rejected),
+                None => f
+                    .candidates
+                    .iter()
+                    .find(|c| &c.name == n)
+                    .and_then(|c| c.lack_of_fit.as_ref())
+                    .is_some_and(LackOfFit::rejects),
+            };
+            let all: Vec<String> = open.iter().map(|&w| f.name(w)).collect();
+            let explains = if all.iter().all(misses) {
+                "each explains part of the misfit and none all of it (each one's own model misses the tests), and \
+                 the data cannot tell which part is whose"
+            } else {
+                "each explains the misfit, but the data cannot tell them apart"
+            };
             format!(
-                "{}{more}: each explains the misfit, but the data cannot tell them apart{after} (weights {})",
+                "{}{more}: {explains}{after} (weights {})",
                 quoted(&names),
                 weights.join(", ")
             )
