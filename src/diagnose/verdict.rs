@@ -152,16 +152,12 @@ pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
             let compare = vec![named(l), next.map_or(Who::Uncorrected, named)];
             // So are the rivals the leader did not beat; and where the leader's own model misses
             // the tests, its wins say little: every candidate that explains the misfit may be the
-            // whole story, and is judged by its own model after the loop.
+            // whole story, and is judged by its own model after the loop. (An unbeaten rival is open
+            // either way: it is why the part is not decided.)
             let misses = rejects(ranked.entries[l].assessed.lack_of_fit.as_ref());
             let mut open: Vec<usize> = std::iter::once(l).chain(adds).collect();
-            let others = (0..ranked.entries.len()).filter(|&k| {
-                if misses {
-                    ranked.entries[k].explains
-                } else {
-                    unbeaten.contains(&k)
-                }
-            });
+            let others = (0..ranked.entries.len())
+                .filter(|&k| unbeaten.contains(&k) || misses && ranked.entries[k].explains);
             for k in others {
                 if !open.contains(&k) {
                     open.push(k);
