@@ -139,55 +139,7 @@ fn headline(f: &Facts) -> String {
                 num(worst)
             )
         }
-        Verdict::CannotTellApart => {
-            let open: Vec<Who> = d.leading.clone();
-            let names: Vec<String> = open.iter().take(3).map(|&w| f.name(w)).collect();
-            let more = match open.len().saturating_sub(3) {
-                0 => String::new(),
-                n => format!(" (and {n} more)"),
-            };
-            let weights: Vec<String> = match f.after_loop {
-                Some(a) => names
-                    .iter()
-                    .filter_map(|n| a.explanations.iter().find(|j| &j.name == n))
-                    .map(|j| format!("{:.2}", j.weight))
-                    .collect(),
-                None => open
-                    .iter()
-                    .take(3)
-                    .filter_map(|&w| f.candidate(w))
-                    .map(|c| format!("{:.2}", c.weight))
-                    .collect(),
-            };
-            let after = if f.after_loop.is_some() {
-                " — also with the models the loop calibrated"
-            } else {
-                ""
-            };
-            // Where every open explanation's own model misses the tests, none explains the whole
-            // misfit: each removes part of it, and which part is whose is what the data leave open.
-            let misses = |n: &String| match f.after_loop {
-                Some(a) => a.explanations.iter().find(|j| &j.name == n).is_some_and(|j| j.rejected),
-                None => f
-                    .candidates
-                    .iter()
-                    .find(|c| &c.name == n)
-                    .and_then(|c| c.lack_of_fit.as_ref())
-                    .is_some_and(LackOfFit::rejects),
-            };
-            let all: Vec<String> = open.iter().map(|&w| f.name(w)).collect();
-            let explains = if all.iter().all(misses) {
-                "each explains part of the misfit and none all of it (each one's own model misses the tests), and \
-                 the data cannot tell which part is whose"
-            } else {
-                "each explains the misfit, but the data cannot tell them apart"
-            };
-            format!(
-                "{}{more}: {explains}{after} (weights {})",
-                quoted(&names),
-                weights.join(", ")
-            )
-        }
+        Verdict::CannotTellApart => cannot_tell_apart(f),
         Verdict::PartlyExplained => partly_explained(f),
         Verdict::Unexplained => format!(
             "the simulation misses the tests beyond the noise{}, and no candidate reduces the misfit significantly",
@@ -200,6 +152,59 @@ fn headline(f: &Facts) -> String {
         Verdict::TooFewTests => too_few_reason(f),
     };
     format!("{}: {detail}.", first_up(words))
+}
+
+/// "Cannot tell apart": the open explanations, their weights, and whether each explains the misfit
+/// or — every one's own model missing the tests — only part of it.
+fn cannot_tell_apart(f: &Facts) -> String {
+    let d = f.decision;
+    let open: Vec<Who> = d.leading.clone();
+    let names: Vec<String> = open.iter().take(3).map(|&w| f.name(w)).collect();
+    let more = match open.len().saturating_sub(3) {
+        0 => String::new(),
+        n => format!(" (and {n} more)"),
+    };
+    let weights: Vec<String> = match f.after_loop {
+        Some(a) => names
+            .iter()
+            .filter_map(|n| a.explanations.iter().find(|j| &j.name == n))
+            .map(|j| format!("{:.2}", j.weight))
+            .collect(),
+        None => open
+            .iter()
+            .take(3)
+            .filter_map(|&w| f.candidate(w))
+            .map(|c| format!("{:.2}", c.weight))
+            .collect(),
+    };
+    let after = if f.after_loop.is_some() {
+        " — also with the models the loop calibrated"
+    } else {
+        ""
+    };
+    // Where every open explanation's own model misses the tests, none explains the whole
+    // misfit: each removes part of it, and which part is whose is what the data leave open.
+    let misses = |n: &String| match f.after_loop {
+        Some(a) => a.explanations.iter().find(|j| &j.name == n).is_some_and(|j| j.rejected),
+        None => f
+            .candidates
+            .iter()
+            .find(|c| &c.name == n)
+            .and_then(|c| c.lack_of_fit.as_ref())
+            .is_some_and(LackOfFit::rejects),
+    };
+    let all: Vec<String> = open.iter().map(|&w| f.name(w)).collect();
+    let explains = if all.iter().all(misses) {
+        "each explains part of the misfit and none all of it (each one's own model misses the tests), and \
+         the data cannot tell which part is whose"
+    } else {
+        "each explains the misfit, but the data cannot tell them apart"
+    };
+    format!(
+        "{}{more}: {explains}{after} (weights {})",
+        quoted(&names),
+        weights.join(", ")
+    )
 }
 
 /// "Partly explained": no listed cause accounts for the misfit; which one removes part of it, how
