@@ -235,13 +235,11 @@ fn check(study: &Study) -> Result<i32, Error> {
         (Some(n), None) => println!("ok: {n} planned solver run(s) render"),
         _ => {}
     }
-    if let Some((fixed, without, with)) = &checked.replaces {
+    if let Some((fixed, with)) = &checked.replaces {
         println!(
-            "in place of a fixed {} of {} + {} check runs per design: {without} solver run(s), {with} with the solver in \
-             the loop for every extension",
-            fixed.method.key(),
-            fixed.count,
-            fixed.check_runs
+            "in place of a {}: {} solver run(s), {with} with the solver in the loop for every extension",
+            fixed.design(),
+            fixed.runs
         );
     }
     if checked.loop_runs > 0 {

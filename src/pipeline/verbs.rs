@@ -13,6 +13,7 @@ use crate::plan::Plan;
 use crate::report::Results;
 use crate::report::data::ReportData;
 use crate::study::{Simulation, Study};
+use super::sequence::record::Replaced;
 
 /// `lab check`: what was validated beyond loading the study.
 pub struct Checked {
@@ -24,9 +25,9 @@ pub struct Checked {
     pub curves: (usize, usize),
     /// With sequential sampling, the most solver runs the study may make (its budget).
     pub budget: Option<usize>,
-    /// With `sampling.replaces`: that fixed design's method, samples and check runs per design, and
-    /// its solver runs without the loop and with the loop for every ranged extension (counted).
-    pub replaces: Option<(crate::study::solver::Sampling, usize, usize)>,
+    /// With `sampling.replaces`: that fixed design counted without the loop, and its solver runs
+    /// with the loop for every ranged extension.
+    pub replaces: Option<(Replaced, usize)>,
 }
 
 /// `lab check`: renders every planned run in memory (undefined template variables show up here),
@@ -53,8 +54,8 @@ pub fn check(study: &Study) -> Result<Checked, Error> {
     let replaces = match &study.simulation {
         Simulation::Solver(sim) => sim.sampling.sequential.as_ref().and_then(|q| q.replaces.as_deref()).map(|fixed| {
             let every: Vec<usize> = study.extension_hypotheses().map(|(k, _)| k).collect();
-            let runs = |looped: &[usize]| crate::plan::sweep::fixed_runs(study, sim, fixed, looped);
-            (fixed.clone(), runs(&[]), runs(&every))
+            let with_loop = Replaced::counted(study, sim, fixed, &every).runs;
+            (Replaced::counted(study, sim, fixed, &[]), with_loop)
         }),
         Simulation::Expression(_) => None,
     };

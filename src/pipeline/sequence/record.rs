@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::Error;
 use crate::plan::sweep::fixed_runs;
 use crate::plan::{Plan, PlannedRun, RunRole};
+use crate::study::solver::Sampling;
 use crate::study::{SolverSimulation, Study};
 
 /// `OUT/sequence.json`.
@@ -100,12 +101,23 @@ impl Replaced {
             .collect();
         looped.sort_unstable();
         looped.dedup();
-        Some(Replaced {
+        Some(Replaced::counted(study, sim, fixed, &looped))
+    }
+
+    /// The fixed design `fixed`, its runs counted with the solver in the loop for `looped`.
+    pub fn counted(study: &Study, sim: &SolverSimulation, fixed: &Sampling, looped: &[usize]) -> Replaced {
+        Replaced {
             method: fixed.method.key().into(),
             count: fixed.count,
             check_runs: fixed.check_runs,
-            runs: fixed_runs(study, sim, fixed, &looped),
-        })
+            runs: fixed_runs(study, sim, fixed, looped),
+        }
+    }
+
+    /// How the terminal, the summary and the report name it: `fixed lhs of 24 + 5 check runs per
+    /// design`.
+    pub fn design(&self) -> String {
+        format!("fixed {} of {} + {} check runs per design", self.method, self.count, self.check_runs)
     }
 }
 
