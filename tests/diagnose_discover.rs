@@ -19,6 +19,7 @@
 //! - shapes outside the library: either nothing found, or the found term improves the
 //!   leave-one-design-out error and its model passes the lack-of-fit test.
 
+mod power_common;
 mod verdict_common;
 
 use lab::calibrate::Bounds;
@@ -28,7 +29,8 @@ use lab::diagnose::{self, Diagnosis, Inputs, Observation, Role, Settings, Shape}
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use statrs::distribution::{ChiSquared, ContinuousCDF, FisherSnedecor, Normal};
+use power_common::power_at;
+use statrs::distribution::{ContinuousCDF, FisherSnedecor};
 
 const ALPHA: f64 = 0.01;
 /// An upper bound on the number of models a search over one or two design variables tries
@@ -459,24 +461,6 @@ fn power(lambda: f64, nu: f64) -> f64 {
         })
         .count();
     hits as f64 / draws as f64
-}
-
-/// Power of the F(1, ν) test at level `alpha` with noncentrality λ, by quadrature over the
-/// χ²_ν of the denominator (the numerator is (Z + √λ)², Z standard normal): accurate in the far
-/// tail, where a simulation of a few thousand draws is not.
-fn power_at(lambda: f64, nu: f64, alpha: f64) -> f64 {
-    let crit = FisherSnedecor::new(1.0, nu).unwrap().inverse_cdf(1.0 - alpha).sqrt();
-    let (chi, z) = (ChiSquared::new(nu).unwrap(), Normal::new(0.0, 1.0).unwrap());
-    let root = lambda.max(0.0).sqrt();
-    let nodes = 400;
-    (0..nodes)
-        .map(|i| {
-            let q = chi.inverse_cdf((i as f64 + 0.5) / nodes as f64);
-            let c = crit * (q / nu).sqrt();
-            z.cdf(-c - root) + z.sf(c - root)
-        })
-        .sum::<f64>()
-        / nodes as f64
 }
 
 /// Whether the data can name the hidden shape among the library's (independently of lab's fitting):
