@@ -384,3 +384,29 @@ fn calculix_dat_window_is_checked_where_written() {
         );
     }
 }
+
+/// A sequence's `budget` pays at least for what it runs whatever its runs show: here its first batch
+/// (a quadratic surrogate over one parameter needs 3 samples, plus one: 4 at each of 2 designs) and
+/// one held-out run per design, 10 in all. Fewer is an error at the budget; 10 loads.
+#[test]
+fn a_budget_below_what_the_sequence_must_run_is_refused() {
+    let budget = |b: usize| {
+        with(
+            "{method: lhs, count: 4, seed: 1}",
+            &format!("{{method: sequential, budget: {b}, seed: 1}}"),
+        )
+    };
+    study_error(
+        &budget(9),
+        15,
+        Some("budget"),
+        "`sampling.budget` is 9 solver run(s), fewer than the sequence makes whatever its runs show: its first \
+         batch of 8 at the 2 tested design(s), one held-out run per design (2); a budget of at least 10",
+    );
+    let c = case(&budget(10), TEMPLATE);
+    let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
+    let Simulation::Solver(sim) = &s.simulation else {
+        panic!("not a solver study")
+    };
+    assert_eq!(lab::plan::sweep::sequential_budget(&s, sim), Some(10));
+}

@@ -362,3 +362,35 @@ fn check_describes_the_sequence_not_a_fixed_plan() {
         "{stdout}"
     );
 }
+
+/// A budget is the most solver runs in all, every stage together: live with crushsim, the main job
+/// with a budget the screening alone would spend (its least, 33: `lab check` refuses fewer) still
+/// runs its probes and its loop inside it. The screening stops on the budget, leaving them room.
+#[test]
+fn a_tight_budget_is_kept_by_every_stage_together() {
+    let budget = 33;
+    let text = std::fs::read_to_string(root().join("studies/honeycomb.yaml")).unwrap();
+    let text = text
+        .replacen("{method: sequential,", &format!("{{method: sequential, budget: {budget},"), 1)
+        .replace("../", &format!("{}/", root().display()));
+    assert!(text.contains(&format!("budget: {budget}")), "the main job's sampling changed");
+    let dir = tempfile::tempdir().unwrap();
+    let study = dir.path().join("honeycomb.yaml");
+    std::fs::write(&study, text.lines().filter(|l| !l.trim_start().starts_with("replay:")).collect::<Vec<_>>().join("\n")).unwrap();
+    let out = dir.path().join("out");
+    let o = lab(&["run", study.to_str().unwrap(), "--out", out.to_str().unwrap()], true);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = results(&out);
+    let made = r["runs"]["planned"].as_u64().unwrap();
+    assert!(made <= budget, "{made} solver runs with a budget of {budget}");
+    let stopped = r["sampling"]["stopped"].as_array().unwrap();
+    let reason = |stage: &str| {
+        stopped
+            .iter()
+            .find(|s| s["stage"].as_str().is_some_and(|n| n.starts_with(stage)))
+            .map(|s| s["reason"].as_str().unwrap().to_string())
+    };
+    assert_eq!(reason("screening").as_deref(), Some("budget"), "{stopped:?}");
+    assert_eq!(reason("probes").as_deref(), Some("planned"), "{stopped:?}");
+    assert!(reason("loop").is_some(), "the loop ran: {stopped:?}");
+}

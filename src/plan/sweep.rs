@@ -242,15 +242,67 @@ pub fn as_written(sim: &SolverSimulation, point: &[f64]) -> Vec<f64> {
 }
 
 /// With sequential sampling, the most solver runs the study may make: its `budget`, or
-/// [`crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN`] per tested design.
+/// [`crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN`] per tested design (and never less than
+/// the sequence makes whatever its runs show, [`SequenceFloor`]).
 pub fn sequential_budget(study: &Study, sim: &SolverSimulation) -> Option<usize> {
     let q = sim.sampling.sequential.as_ref()?;
     let designs = tested_designs(study).count();
     Some(if q.budget > 0 {
         q.budget
     } else {
-        crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN * designs
+        let floor = SequenceFloor::of(study, sim).map_or(0, |f| f.runs());
+        (crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN * designs).max(floor)
     })
+}
+
+/// The solver runs a sequence makes whatever its runs show, stage by stage: what a budget must at
+/// least pay for, and what the screening leaves for the stages after it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SequenceFloor {
+    /// Tested designs.
+    pub designs: usize,
+    /// The screening's first batch (its space-filling start at every design).
+    pub initial: usize,
+    /// The extension hypotheses' probes: p + 1 per design and hypothesis, at the screening's
+    /// posterior.
+    pub probes: usize,
+    /// The solver in the loop's first batches, were every ranged extension looped: the start its
+    /// joint space needs beyond the probes, and one held-out run, per design (an upper bound: a
+    /// baseline at the space's edge lends its runs too).
+    pub looped: usize,
+}
+
+impl SequenceFloor {
+    /// `None` for a fixed design.
+    pub fn of(study: &Study, sim: &SolverSimulation) -> Option<SequenceFloor> {
+        sim.sampling.sequential.as_ref()?;
+        let designs = tested_designs(study).count();
+        let p = study.parameters.len();
+        let extensions = study.extension_hypotheses().count();
+        let looped = study
+            .extension_hypotheses()
+            .map(|(_, h)| h.ranges().len())
+            .filter(|&r| r > 0)
+            .map(|r| designs * (initial_samples(study, sim, p + r).saturating_sub(p + 1) + 1))
+            .sum();
+        Some(SequenceFloor {
+            designs,
+            initial: Plan::initial(study, sim).runs.len(),
+            probes: designs * (p + 1) * extensions,
+            looped,
+        })
+    }
+
+    /// The least a budget must allow: the screening's first batch, one held-out run per design to
+    /// check its emulators, and what the screening leaves for later stages.
+    pub fn runs(&self) -> usize {
+        self.initial + self.designs + self.reserve()
+    }
+
+    /// What the screening may not spend: the probes and the loop's first batches.
+    pub fn reserve(&self) -> usize {
+        self.probes + self.looped
+    }
 }
 
 /// The solver runs the fixed design `fixed` would have made in place of a sequential study's:

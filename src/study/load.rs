@@ -188,7 +188,47 @@ impl Checker<'_> {
         };
         debug_assert_eq!(study.symbols(), symbols);
         study.diagnosis = self.diagnosis(file.diagnosis.as_ref(), &study)?;
+        self.budget(&file, &study)?;
         Ok(study)
+    }
+
+    /// A sequence's `budget` pays at least for the runs it makes whatever they show
+    /// ([`crate::plan::sweep::SequenceFloor`]): fewer could not be kept.
+    fn budget(&self, file: &StudyFile, study: &Study) -> Result<(), InputError> {
+        let (Simulation::Solver(sim), Some(node)) = (
+            &study.simulation,
+            file.simulation.value.sampling.as_ref().and_then(|s| s.value.budget.as_ref()),
+        ) else {
+            return Ok(());
+        };
+        let Some(floor) = crate::plan::sweep::SequenceFloor::of(study, sim) else {
+            return Ok(());
+        };
+        if node.value >= floor.runs() {
+            return Ok(());
+        }
+        let mut parts = vec![
+            format!("its first batch of {} at the {} tested design(s)", floor.initial, floor.designs),
+            format!("one held-out run per design ({})", floor.designs),
+        ];
+        if floor.probes > 0 {
+            parts.push(format!("the extension hypotheses' probes ({})", floor.probes));
+        }
+        if floor.looped > 0 {
+            parts.push(format!("the solver in the loop's first batches (up to {})", floor.looped));
+        }
+        Err(self.at_key(
+            "budget",
+            node,
+            format!(
+                "`sampling.budget` is {} solver run(s), fewer than the sequence makes whatever its runs show: {}; \
+                 a budget of at least {} (or none: {} per tested design)",
+                node.value,
+                parts.join(", "),
+                floor.runs(),
+                crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN
+            ),
+        ))
     }
 
     /// `constants:`, each a finite number.

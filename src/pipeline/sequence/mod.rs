@@ -120,6 +120,8 @@ struct Space<'s> {
     point: Box<dyn Fn(&PlannedRun) -> Vec<f64> + 's>,
     /// Whether a run of the plan is one of this stage's own.
     mine: Box<dyn Fn(&PlannedRun) -> bool + 's>,
+    /// Runs of the budget this stage leaves for the stages after it.
+    reserve: usize,
 }
 
 /// The screening's runs, sampled sequentially, then the probes (see the module notes).
@@ -141,6 +143,8 @@ pub fn screening(
         make: Box::new(|name, values, x| run_at(name, values, x.to_vec(), RunRole::Sample, Vec::new())),
         point: Box::new(|run| run.theta.clone()),
         mine: Box::new(|run| matches!(run.role, RunRole::Sample | RunRole::Check)),
+        // The probes and the loop's first batches come after the screening, within the budget.
+        reserve: crate::plan::sweep::SequenceFloor::of(study, sim).map_or(0, |f| f.reserve()),
     };
     r.batch(&space, Plan::initial(study, sim).runs, 0, &mut store, reporter)?;
     let posterior = r.iterate(&space, &mut store, reporter)?;
@@ -332,7 +336,7 @@ impl<'a> Runner<'a> {
             if let Some(last) = self.sequence.sequence.last().filter(|l| l.stage == space.name) {
                 reporter.report(Event::Batch(last));
             }
-            let room = self.limits.budget.saturating_sub(self.sequence.runs);
+            let room = self.limits.budget.saturating_sub(self.sequence.runs + space.reserve);
             let picks = if open.iter().any(|&o| o) && room > 0 {
                 seq::choose(&space.bounds, &sites, &emus, &posterior, &open, self.limits.batch.min(room), seed)
             } else {
@@ -452,6 +456,7 @@ impl<'a> Runner<'a> {
             make: Box::new(|_, _, _| unreachable!("probes are planned whole")),
             point: Box::new(|run| run.theta.clone()),
             mine: Box::new(|run| matches!(run.role, RunRole::Extension(_))),
+            reserve: 0,
         };
         let n = new.len();
         self.batch(&space, new, 1 + self.batch_of.last().copied().unwrap_or(0), store, reporter)?;
@@ -736,6 +741,7 @@ fn loop_space<'s>(
         make: Box::new(move |name, values, x| run_at(name, values, x[..p].to_vec(), RunRole::Joint(k), spec.at(&x[p..]))),
         point: Box::new(move |run| run.joint_point(&ranges)),
         mine: Box::new(move |run| matches!(run.role, RunRole::Joint(j) | RunRole::JointCheck(j) if j == k)),
+        reserve: 0,
     };
     Ok(Some((space, edge)))
 }
