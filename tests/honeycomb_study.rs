@@ -393,4 +393,7 @@ fn a_tight_budget_is_kept_by_every_stage_together() {
     assert_eq!(reason("screening").as_deref(), Some("budget"), "{stopped:?}");
     assert_eq!(reason("probes").as_deref(), Some("planned"), "{stopped:?}");
     assert!(reason("loop").is_some(), "the loop ran: {stopped:?}");
+    // The screening's emulators are not within the tolerance yet: the terminal says so.
+    let said = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(said.contains("screening: stopped (budget) before its emulators were within 0.5 of the tests' noise"), "{said}");
 }

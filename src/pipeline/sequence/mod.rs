@@ -353,6 +353,9 @@ impl<'a> Runner<'a> {
                 None
             };
             if let Some(reason) = stop {
+                if reason != "converged" {
+                    self.unconverged(space, reason, reporter);
+                }
                 self.sequence.stop(&space.name, reason, self.plan.runs.len() - start);
                 self.sequence.write(&self.options.out)?;
                 return Ok(posterior);
@@ -367,6 +370,26 @@ impl<'a> Runner<'a> {
             b += 1;
             self.batch(space, new, b, store, reporter)?;
         }
+    }
+
+    /// Says that a stage stopped before its emulators were within the tolerance: the decision then
+    /// counts their larger error as noise, and a larger budget would narrow it.
+    fn unconverged(&self, space: &Space, reason: &str, reporter: &mut dyn Reporter) {
+        let Some((design, measured, predicted)) =
+            self.sequence.sequence.last().filter(|l| l.stage == space.name).and_then(|l| l.worst())
+        else {
+            return;
+        };
+        let error = match measured {
+            Some(m) => format!("{m:.3} of the tests' noise on runs they were not fitted to, {predicted:.3} predicted"),
+            None => format!("not yet measured (nothing held out), {predicted:.3} of the tests' noise predicted"),
+        };
+        reporter.report(Event::Note(format!(
+            "{}: stopped ({reason}) before its emulators were within {} of the tests' noise at every tested design — \
+             at {design} their error is {error}; the decision counts that error as noise, so its intervals are wider \
+             and a cause harder to tell apart than a larger `sampling.budget` would give",
+            space.name, self.limits.tolerance
+        )));
     }
 
     /// A loop stage's first runs: where the screening's runs in its space (`prior`) are fewer at a

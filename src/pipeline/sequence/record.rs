@@ -212,6 +212,17 @@ impl Sequence {
 }
 
 impl Batch {
+    /// The tested design whose emulators are furthest from the tests' noise after this batch (by
+    /// the larger of measured and predicted error; nothing held out counts as furthest), with its
+    /// measured error (`None`: nothing held out yet) and its predicted one.
+    pub fn worst(&self) -> Option<(&str, Option<f64>, f64)> {
+        let size = |(_, m, p): &(&str, Option<f64>, f64)| m.map_or(f64::INFINITY, |m| m.max(*p));
+        self.emulator_error
+            .iter()
+            .map(|(d, m)| (d.as_str(), *m, self.predicted_error.get(d).copied().unwrap_or(0.0)))
+            .max_by(|a, b| size(a).total_cmp(&size(b)))
+    }
+
     /// One line for the terminal: the batch, its runs, the worst emulator error and the estimates.
     pub fn line(&self) -> String {
         let worst =
