@@ -141,17 +141,24 @@ fn headline(f: &Facts) -> String {
         }
         Verdict::CannotTellApart => cannot_tell_apart(f),
         Verdict::PartlyExplained => partly_explained(f),
-        Verdict::Unexplained => format!(
-            "the simulation misses the tests beyond the noise{}, and no candidate reduces the misfit significantly",
-            f.base
-                .assessed
-                .lack_of_fit
-                .as_ref()
-                .map_or(String::new(), |l| format!(" ({})", lof_text(l)))
-        ),
+        Verdict::Unexplained => unexplained(f),
         Verdict::TooFewTests => too_few_reason(f),
     };
     format!("{}: {detail}.", first_up(words))
+}
+
+/// "Unexplained": the misfit, and the candidate the data come nearest to detecting with the level
+/// its amplitude test needed (the one the next test examines).
+fn unexplained(f: &Facts) -> String {
+    let misfit = f.base.assessed.lack_of_fit.as_ref().map_or(String::new(), |l| format!(" ({})", lof_text(l)));
+    let nearest = f.decision.leading.first().and_then(|&who| f.candidate(who)).and_then(|c| {
+        let level = f.cx.candidates_level() / f.candidates.len().max(1) as f64;
+        c.p_value.map(|p| format!("; the nearest, '{}', has {} where p < {} was needed", c.name, p_text(p), num(level)))
+    });
+    format!(
+        "the simulation misses the tests beyond the noise{misfit}, and no candidate reduces the misfit significantly{}",
+        nearest.unwrap_or_default()
+    )
 }
 
 /// "Cannot tell apart": the open explanations, their weights, and whether each explains the misfit

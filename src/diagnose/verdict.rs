@@ -85,9 +85,16 @@ pub(crate) fn name_of(who: Who, candidates: &[Candidate], loop_names: &[String])
     }
 }
 
-/// No candidate explains the misfit: too few tests, unexplained model error, or none.
+/// No candidate explains the misfit: too few tests, unexplained model error, or none. What a further
+/// test should examine is the candidate the data come nearest to detecting — the smallest p of the
+/// amplitude tests that decide "explains the misfit" (the best-scored among equals) — against no
+/// correction. The best-scored candidate is not that: with no amplitude significant, the scores
+/// rank shapes that barely move the fit (a scale error with p = 0.45 above a listed extension with
+/// p = 7.9e-4 just short of α/(2K)), and a test telling such a shape from no correction asks
+/// hundreds of specimens to settle nothing.
 fn without_leader(cx: &Context, ranked: &Ranked, base_rejects: bool) -> Decision {
-    let best = (!ranked.entries.is_empty()).then_some(0);
+    let p = |k: usize| ranked.entries[k].assessed.p_value.filter(|p| p.is_finite()).unwrap_or(f64::INFINITY);
+    let best = (0..ranked.entries.len()).min_by(|&a, &b| p(a).total_cmp(&p(b)));
     let few = cx.mode == Mode::TooFew || cx.mode == Mode::Few && !base_rejects;
     let verdict = if few {
         Verdict::TooFewTests

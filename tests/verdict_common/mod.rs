@@ -207,8 +207,31 @@ fn assert_screening(d: &Value, verdict: &str, final_extended: bool) {
             assert!(!any_explains && !lof_rejects);
             assert!(d["cause"].is_null());
         }
-        "unexplained" => assert!(lof_rejects && !any_explains && d["cause"].is_null()),
+        "unexplained" => {
+            assert!(lof_rejects && !any_explains && d["cause"].is_null());
+            assert_nearest_examined(d, candidates);
+        }
         "too_few_tests" => assert!(d["cause"].is_null()),
         other => panic!("unknown verdict {other}"),
     }
+}
+
+/// With no candidate significant, the next test examines the candidate the data come nearest to
+/// detecting (the smallest amplitude-test p) against no correction — unless a library search found
+/// a term, which its own test examines.
+#[track_caller]
+fn assert_nearest_examined(d: &Value, candidates: &[Value]) {
+    if d["discovered"]["term"].is_string() {
+        return;
+    }
+    let p = |c: &Value| c["p_value"].as_f64().unwrap_or(f64::INFINITY);
+    let Some(nearest) = candidates.iter().min_by(|a, b| p(a).total_cmp(&p(b))) else {
+        return;
+    };
+    let between = &d["next_test"]["between"];
+    assert_eq!(
+        (between[0].as_str(), between[1].as_str()),
+        (nearest["name"].as_str(), Some("uncorrected")),
+        "the next test after 'no listed cause explains it'"
+    );
 }
