@@ -168,7 +168,8 @@ fn make_tests(case: &Case, dir: &Path) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
-fn write_study(case: &Case, dir: &Path) -> PathBuf {
+/// The family's study; `listed` adds hypotheses after the others.
+fn write_study(case: &Case, dir: &Path, listed: &str) -> PathBuf {
     let names: Vec<&str> = case.designs.iter().map(|d| d.0.as_str()).collect();
     let template = root().join("templates/honeycomb/main.k.tera");
     let study = format!(
@@ -207,7 +208,7 @@ diagnosis:
         etan: {{min: 0, max: 600, unit: MPa}}
     - name: cell-size effect
       term: "1/c"
-"#,
+{listed}"#,
         template = template.display(),
         sampling = sampling(),
         a = names[0],
@@ -232,12 +233,12 @@ static RUNS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0)
 /// `lab run` live with crushsim on PATH; the diagnosis of results.json.
 fn run(case: &Case) -> Value {
     let dir = tempfile::tempdir().unwrap();
-    run_in(case, dir.path())
+    run_in(case, dir.path(), "")
 }
 
-fn run_in(case: &Case, dir: &Path) -> Value {
+fn run_in(case: &Case, dir: &Path, listed: &str) -> Value {
     make_tests(case, dir);
-    let study = write_study(case, dir);
+    let study = write_study(case, dir, listed);
     let bin = crushsim_bin::crushsim().parent().unwrap().to_path_buf();
     let out = dir.join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_lab"))
@@ -314,6 +315,65 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
     assert!(t.close * 10 >= t.named * 8, "σy within 3 % and ETAN within 20 % in {} of {}", t.close, t.named);
     assert!(t.covered * 10 >= t.named * 7, "the truths inside the intervals in {} of {}", t.covered, t.named);
     assert_eq!(t.rate_named, 0, "a cause named with an unlisted rate effect in the tests");
+}
+
+/// The rate effect listed as a hypothesis too (Cowper–Symonds C over a range, p = 4, as in
+/// `studies/honeycomb-diagnosis-curves.yaml`), on the family's pure-rate draws (ETAN = 0): no other
+/// cause is ever named decisively, and a loop model's intervals stay within the ranges the study
+/// gave its variables (checked for every case by `verdict_common`). How often the rate is named is
+/// printed, not asserted: with two training designs its cell-size signature is often within the
+/// noise, and the honest answer is then an open one. Where it is named, whether the truths lie inside
+/// the rate model's 95 % intervals is printed (an open finding, below).
+#[test]
+fn a_listed_rate_effect_is_the_only_cause_named() {
+    let n = env_u64("LAB_CURVES_RATE_SEEDS", 6) as usize;
+    let base = env_u64("LAB_CURVES_SEED_BASE", 0);
+    let listed = "    - name: strain rate\n      extension:\n        src: {min: 1000, max: 40000, unit: 1/s}\n        srp: 4\n";
+    let cases: Vec<Case> = (base..)
+        .map(draw)
+        .filter(|c| c.family == Family::Rate && c.etan == 0.0)
+        .take(n)
+        .collect();
+    let (mut named, mut covered, mut wrong) = (0, 0, Vec::new());
+    for case in &cases {
+        let dir = tempfile::tempdir().unwrap();
+        let d = run_in(case, dir.path(), listed);
+        let cause = d["cause"].as_str().map(str::to_string);
+        eprintln!(
+            "seed {} rate only: sigma_y {:.1} src {:.0} designs {:?} → {} ({cause:?}; leading {})",
+            case.seed,
+            case.sigma_y,
+            case.src,
+            case.designs.iter().map(|d| d.0.as_str()).collect::<Vec<_>>(),
+            d["verdict"],
+            d["leading"]
+        );
+        let rate = d["extensions"].as_array().into_iter().flatten().find(|x| x["hypothesis"] == "strain rate");
+        let inside = |x: &Value, name: &str, truth: f64| {
+            let iv = &x["interval95"][name];
+            iv[0].as_f64().is_some_and(|lo| lo <= truth) && iv[1].as_f64().is_some_and(|hi| truth <= hi)
+        };
+        let truths_inside = rate.is_some_and(|x| inside(x, "sigma_y", case.sigma_y) && inside(x, "src", case.src));
+        if let Some(x) = rate {
+            eprintln!(
+                "  sigma_y {} {}, src {} {}; truths inside {truths_inside}",
+                x["parameters"]["sigma_y"], x["interval95"]["sigma_y"], x["parameters"]["src"], x["interval95"]["src"]
+            );
+        }
+        match cause.as_deref() {
+            Some("strain rate") => {
+                named += 1;
+                covered += usize::from(truths_inside);
+            }
+            Some(_) => wrong.push(case.seed),
+            None => {}
+        }
+    }
+    eprintln!("listed rate: named {named} of {}, both truths inside the 95 % intervals in {covered}", cases.len());
+    assert!(wrong.is_empty(), "another cause named where the rate effect is listed and true: seeds {wrong:?}");
+    // Not asserted yet (open, docs/diagnosis.md): from seed 0 the truths are inside the rate model's
+    // 95 % intervals in 4 of 6; its loop emulator over C ∈ [1000, 40000] struggles with the
+    // Cowper–Symonds (ε̇/C)^(1/4) (runs to its budget, error 1–5× the noise) and the intervals miss.
 }
 
 /// The families' outcomes, case by case.
@@ -424,6 +484,6 @@ fn debug_one() {
     std::fs::create_dir_all(&dir).unwrap();
     let case = draw(seed);
     eprintln!("{case:?}");
-    let d = run_in(&case, &dir);
+    let d = run_in(&case, &dir, "");
     eprintln!("{}", d["summary"].as_str().unwrap_or(""));
 }

@@ -63,6 +63,21 @@ pub fn assert_verdict_follows_evidence(d: &Value) {
             .unwrap()
             .starts_with(d["headline"].as_str().unwrap())
     );
+    assert_intervals_within_ranges(d);
+}
+
+/// Each loop model's 95 % interval of an extension variable lies within the range the study gave it.
+#[track_caller]
+fn assert_intervals_within_ranges(d: &Value) {
+    for x in d["extensions"].as_array().into_iter().flatten() {
+        for (name, range) in x["variables"].as_object().into_iter().flatten() {
+            let (Some(lo), Some(hi)) = (x["interval95"][name][0].as_f64(), x["interval95"][name][1].as_f64()) else {
+                continue;
+            };
+            let (min, max) = (range["min"].as_f64().unwrap(), range["max"].as_f64().unwrap());
+            assert!(min <= lo && hi <= max, "{name}: 95 % {lo} to {hi} outside its range {min} to {max}");
+        }
+    }
 }
 
 /// The decision after the loop: each open explanation's final model out when its lack of fit
