@@ -499,12 +499,21 @@ fn killed_in_the_loop_resumes_without_rerunning_and_recovers_the_shear_term() {
     assert!(rerun.is_empty(), "finished runs were run again: {rerun:?}");
     let distinct: BTreeSet<&String> = keys.iter().collect();
     assert_eq!(distinct.len(), RANGED_SCREENING + RANGED_LOOP);
-    // At most the runs in flight at the kill (--jobs 2) started twice.
-    assert!(
-        keys.len() <= RANGED_SCREENING + RANGED_LOOP + 2,
-        "{} starts",
-        keys.len()
-    );
+    // Started twice: only runs started before the kill without a committed record then — in flight
+    // (--jobs 2), or exited and being judged (the executor gives a slot back before it judges and
+    // commits, so under load more than two) — and each of those once.
+    let mut starts: BTreeMap<&String, usize> = BTreeMap::new();
+    for k in &keys {
+        *starts.entry(k).or_default() += 1;
+    }
+    let before: BTreeSet<&String> = keys[..seen].iter().collect();
+    for (k, n) in &starts {
+        assert!(*n <= 2, "{k} started {n} times");
+        assert!(
+            *n == 1 || before.contains(*k) && !finished.contains_key(*k),
+            "{k} started twice without having been cut off by the kill"
+        );
+    }
     let status = lab(dir.path(), &["status", "ranged.yaml", "--out", "killed"], None, 0.0)
         .output()
         .unwrap();
