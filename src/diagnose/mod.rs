@@ -769,6 +769,12 @@ impl<'a> Context<'a> {
         }
     }
 
+    /// The level of one of `k` candidates' amplitude tests (Bonferroni over them): what "explains the
+    /// misfit" needs, and what a test telling a candidate from no correction must reach.
+    pub fn amplitude_level(&self, k: usize) -> f64 {
+        self.candidates_level() / k.max(1) as f64
+    }
+
     /// The level of each of the two lack-of-fit tests of the base model: detecting model error,
     /// the base shares its half of α between them (α/4 each); any other model's fit is a claim
     /// about a cause, each test at α ([`lack_of_fit`]).
@@ -1129,7 +1135,7 @@ impl<'a> Evidence<'a> {
         // detection gives each candidate, α/(2K), and the programme must have its power there.
         let detects = decision.compare.contains(&verdict::Who::Uncorrected) && cx.detection;
         let level = if detects {
-            cx.candidates_level() / ranked.entries.len().max(1) as f64
+            cx.amplitude_level(ranked.entries.len())
         } else {
             cx.alpha()
         };

@@ -152,7 +152,7 @@ fn headline(f: &Facts) -> String {
 fn unexplained(f: &Facts) -> String {
     let misfit = f.base.assessed.lack_of_fit.as_ref().map_or(String::new(), |l| format!(" ({})", lof_text(l)));
     let nearest = f.decision.leading.first().and_then(|&who| f.candidate(who)).and_then(|c| {
-        let level = f.cx.candidates_level() / f.candidates.len().max(1) as f64;
+        let level = f.cx.amplitude_level(f.candidates.len());
         c.p_value.map(|p| format!("; the nearest, '{}', has {} where p < {} was needed", c.name, p_text(p), num(level)))
     });
     format!(
