@@ -397,3 +397,49 @@ fn extension_range_errors_are_located() {
     assert!(unknown.to_string().contains("min"), "{unknown}");
     error_at(&with("[0, 1]"), TEMPLATE, 18, "shear", "a number, or a range");
 }
+
+/// Whether the baseline is the edge of an extension's joint space is decided once, when the study
+/// loads, and it decides what the budget keeps for the solver in the loop: where the baseline's runs
+/// are runs of the extended model at the ranges' lower bounds (the template's default is that bound),
+/// the loop starts from them and needs only its held-out run per design. The load-time rendering is
+/// checked against the run keys the executor computes for a baseline run and a joint run there.
+#[test]
+fn the_baseline_is_the_edge_when_it_renders_like_the_lower_bounds() {
+    let sequential = SOLVER.replace("{method: lhs, count: 4, seed: 1}", "{method: sequential, batch: 2, seed: 1}");
+    // Tera writes the float 0.0 as `0.0` and the integer default 0 as `0`: the default must be
+    // written as the bound is rendered (docs/extensions.md). A fixed variable at a value of its own
+    // moves the edge off the baseline (at the template's default it would be refused as unused).
+    let with_default = |shear: &str, kappa: &str| {
+        format!("h = {{{{ h }}}}\nE = {{{{ E }}}}\nshear = {{{{ shear | default(value={shear}) }}}}\nkappa = {{{{ kappa | default(value={kappa}) }}}}\n")
+    };
+    let cases = [
+        ("{shear: {min: 0, max: 2}}", with_default("0.0", "1.0"), true),
+        ("{shear: {min: 0, max: 2}}", with_default("0", "1.0"), false),
+        ("{shear: {min: 0.5, max: 2}}", with_default("0.0", "1.0"), false),
+        ("{shear: {min: 0, max: 2}, kappa: 0.8}", with_default("0.0", "1.0"), false),
+    ];
+    for (extension, template, edge) in cases {
+        let (_dir, path) = write_case(&sequential.replace("{shear: 1}", extension), &template);
+        let s = study::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let spec = s.diagnosis.hypotheses[0].extension_spec().unwrap();
+        assert_eq!(spec.baseline_at_edge, edge, "{extension}");
+        let Simulation::Solver(sim) = &s.simulation else {
+            panic!()
+        };
+        let base = Plan::initial(&s, sim).runs[0].clone();
+        let lows: Vec<f64> = spec.ranges.iter().map(|r| r.min).collect();
+        let joint = lab::plan::sweep::PlannedRun {
+            role: RunRole::Joint(0),
+            extension: spec.at(&lows),
+            ..base.clone()
+        };
+        let keys = sweep::prepare(&s, sim, &Plan { runs: vec![base, joint] }).unwrap().keys;
+        assert_eq!(keys[0] == keys[1], edge, "{extension}: the run keys disagree with the load-time rendering");
+        // E × shear under a linear surrogate starts from 4 runs per design; the probes give 2 (p + 1),
+        // the screening's first batch 3 more where the baseline is the edge. Then one held-out run.
+        let floor = lab::plan::sweep::SequenceFloor::of(&s, sim).unwrap();
+        assert_eq!((floor.initial, floor.probes), (6, 4), "{extension}");
+        assert_eq!(floor.looped, if edge { 2 } else { 2 * (4 - 2 + 1) }, "{extension}");
+        assert_eq!(floor.runs(), 6 + 2 + 4 + floor.looped, "{extension}");
+    }
+}

@@ -266,9 +266,9 @@ pub struct SequenceFloor {
     /// The extension hypotheses' probes: p + 1 per design and hypothesis, at the screening's
     /// posterior.
     pub probes: usize,
-    /// The solver in the loop's first batches, were every ranged extension looped: the start its
-    /// joint space needs beyond the probes, and one held-out run, per design (an upper bound: a
-    /// baseline at the space's edge lends its runs too).
+    /// The solver in the loop's first batches, were every ranged extension looped: per design, the
+    /// start its joint space needs beyond the runs it already has there (the probes, and the
+    /// screening's first batch where the baseline is the space's edge), and one held-out run.
     pub looped: usize,
 }
 
@@ -279,11 +279,14 @@ impl SequenceFloor {
         let designs = tested_designs(study).count();
         let p = study.parameters.len();
         let extensions = study.extension_hypotheses().count();
+        let screened = initial_samples(study, sim, p);
         let looped = study
             .extension_hypotheses()
-            .map(|(_, h)| h.ranges().len())
-            .filter(|&r| r > 0)
-            .map(|r| designs * (initial_samples(study, sim, p + r).saturating_sub(p + 1) + 1))
+            .filter_map(|(_, h)| h.extension_spec().filter(|e| !e.ranges.is_empty()))
+            .map(|e| {
+                let have = p + 1 + if e.baseline_at_edge { screened } else { 0 };
+                designs * (initial_samples(study, sim, p + e.ranges.len()).saturating_sub(have) + 1)
+            })
             .sum();
         Some(SequenceFloor {
             designs,

@@ -8,6 +8,10 @@
 //! extension's variables, then without each one in turn; a variable whose absence renders the same
 //! bytes (or whose value equals what the template would render anyway) has no effect and is an
 //! error. A template that does not render without the variable (no `default`) uses it as well.
+//!
+//! An extension with ranges is also checked for whether the baseline is its joint space's edge
+//! ([`Extension::baseline_at_edge`]): the same rendering without the extension and with its ranges
+//! at their lower bounds.
 
 use indexmap::IndexMap;
 
@@ -51,6 +55,7 @@ impl Checker<'_> {
         let mut extension = Extension {
             screening: Vec::new(),
             ranges: Vec::new(),
+            baseline_at_edge: false,
         };
         for (var, value) in &node.value {
             let (screening, range) = self.extension_variable(study, &who, var, value)?;
@@ -58,6 +63,12 @@ impl Checker<'_> {
             extension.ranges.extend(range);
         }
         self.used_by_templates(study, sim, &who, node, &extension.screening)?;
+        if !extension.ranges.is_empty() {
+            let lows: Vec<f64> = extension.ranges.iter().map(|r| r.min).collect();
+            let edge = render_at_centre(study, sim, &extension.at(&lows));
+            let base = render_at_centre(study, sim, &[]);
+            extension.baseline_at_edge = matches!((base, edge), (Ok(b), Ok(e)) if b == e);
+        }
         Ok(extension)
     }
 
@@ -152,19 +163,8 @@ impl Checker<'_> {
         node: &Spanned<IndexMap<Name, Spanned<ExtensionValueFile>>>,
         vars: &[(String, f64)],
     ) -> Result<(), InputError> {
-        let renderer = crate::render::Renderer::new(&sim.templates)?;
+        let render = |vars: &[(String, f64)]| render_at_centre(study, sim, vars);
         let design = &study.training[0];
-        let values = study
-            .experiments
-            .get(design)
-            .map(|t| t.values.clone())
-            .unwrap_or_default();
-        let theta: Vec<f64> = study.parameter_bounds().center().iter().copied().collect();
-        let render = |vars: &[(String, f64)]| {
-            let mut ctx = crate::render::context(study, design, &values, &theta);
-            crate::render::extend(&mut ctx, vars);
-            renderer.render(&ctx)
-        };
         let full = render(vars).map_err(|mut e| {
             e.message = format!("{} (rendering the extension of {who})", e.message);
             e
@@ -190,4 +190,24 @@ impl Checker<'_> {
         }
         Ok(())
     }
+}
+
+/// The templates rendered at the first training design, the parameters at the centre of their
+/// bounds, with the template variables `vars` set.
+fn render_at_centre(
+    study: &Study,
+    sim: &SolverSimulation,
+    vars: &[(String, f64)],
+) -> Result<crate::render::Inputs, InputError> {
+    let renderer = crate::render::Renderer::new(&sim.templates)?;
+    let design = &study.training[0];
+    let values = study
+        .experiments
+        .get(design)
+        .map(|t| t.values.clone())
+        .unwrap_or_default();
+    let theta: Vec<f64> = study.parameter_bounds().center().iter().copied().collect();
+    let mut ctx = crate::render::context(study, design, &values, &theta);
+    crate::render::extend(&mut ctx, vars);
+    renderer.render(&ctx)
 }

@@ -215,6 +215,12 @@ pub struct Extension {
     /// The variables given a range: the extension's own parameters, calibrated through new solver
     /// runs over the joint space with the study's parameters ([`crate::plan::RunRole::Joint`]).
     pub ranges: Vec<Parameter>,
+    /// The baseline is the edge of the joint space: the templates render the same bytes without
+    /// the extension as with its ranged variables at their lower bounds and its fixed ones at their
+    /// values (checked by `lab check` at the first training design, parameters at the centre of
+    /// their bounds). Then a baseline run is a run of the extended model there, with the same run
+    /// key, and the solver in the loop reuses the baseline's runs.
+    pub baseline_at_edge: bool,
 }
 
 impl Extension {

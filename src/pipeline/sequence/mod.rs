@@ -676,7 +676,7 @@ pub fn looped(
     let mut stages = Vec::new();
     let mut edges = Vec::new();
     for &k in hypotheses {
-        let Some((space, edge)) = loop_space(study, sim, k, screening)? else {
+        let Some((space, edge)) = loop_space(study, k) else {
             continue;
         };
         if edge.is_none() {
@@ -744,17 +744,10 @@ pub fn looped(
 
 /// Hypothesis `k`'s joint space (`None`: no ranged variables), and its edge at the baseline.
 #[allow(clippy::type_complexity)]
-fn loop_space<'s>(
-    study: &'s Study,
-    sim: &SolverSimulation,
-    k: usize,
-    screening: &ScreeningRuns,
-) -> Result<Option<(Space<'s>, Option<Vec<(String, f64)>>)>, Error> {
+fn loop_space(study: &Study, k: usize) -> Option<(Space<'_>, Option<Vec<(String, f64)>>)> {
     let h = &study.diagnosis.hypotheses[k];
-    let Some(spec) = h.extension_spec().filter(|e| !e.ranges.is_empty()) else {
-        return Ok(None);
-    };
-    let edge = edge(study, sim, k, screening)?;
+    let spec = h.extension_spec().filter(|e| !e.ranges.is_empty())?;
+    let edge = edge(study, k);
     let ranges = spec.ranges.clone();
     let p = study.parameters.len();
     let space = Space {
@@ -766,7 +759,7 @@ fn loop_space<'s>(
         mine: Box::new(move |run| matches!(run.role, RunRole::Joint(j) | RunRole::JointCheck(j) if j == k)),
         reserve: 0,
     };
-    Ok(Some((space, edge)))
+    Some((space, edge))
 }
 
 fn clone_prepared(p: &Prepared) -> Prepared {
@@ -779,29 +772,13 @@ fn clone_prepared(p: &Prepared) -> Prepared {
     }
 }
 
-/// Whether the study's baseline is the edge of hypothesis `k`'s joint space: a baseline run
-/// rendered again with the extension's ranged variables at their lower bounds (and its fixed ones
-/// at their values) gives the same inputs byte for byte, hence the same run key. Then those values
-/// are the edge, and the baseline's runs are runs of the extended model there.
-fn edge(study: &Study, sim: &SolverSimulation, k: usize, screening: &ScreeningRuns) -> Result<Option<Vec<(String, f64)>>, Error> {
+/// The extension's values at the edge of hypothesis `k`'s joint space, where the baseline is that
+/// edge ([`crate::study::Extension::baseline_at_edge`]): its ranged variables at their lower
+/// bounds, its fixed ones at their values. There the baseline's runs are runs of the extended model.
+fn edge(study: &Study, k: usize) -> Option<Vec<(String, f64)>> {
     let spec = study.diagnosis.hypotheses[k].extension_spec().expect("an extension");
-    let Some(base) = screening.plan.runs.iter().find(|r| r.role == RunRole::Sample) else {
-        return Ok(None);
-    };
     let lows: Vec<f64> = spec.ranges.iter().map(|r| r.min).collect();
-    let variables = spec.at(&lows);
-    let both = Plan {
-        runs: vec![
-            base.clone(),
-            PlannedRun {
-                role: RunRole::Joint(k),
-                extension: variables.clone(),
-                ..base.clone()
-            },
-        ],
-    };
-    let rendered = sweep::prepare_after(study, sim, &both, Some(screening.rendered))?;
-    Ok((rendered.keys[0] == rendered.keys[1]).then_some(variables))
+    spec.baseline_at_edge.then(|| spec.at(&lows))
 }
 
 /// The screening's runs that are points of hypothesis `k`'s joint space: its probes, and the
