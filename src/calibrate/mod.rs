@@ -79,7 +79,33 @@ impl Bounds {
     pub fn clamp(&self, x: &DVector<f64>) -> DVector<f64> {
         x.zip_zip_map(&self.lower, &self.upper, |v, lo, hi| v.clamp(lo, hi))
     }
+
+    /// Whether coordinate `k` is spread uniformly in ln x ([`Bounds::spread`]): a positive range
+    /// wider than [`LOG_SPREAD_RATIO`].
+    pub fn spread_in_ln(&self, k: usize) -> bool {
+        self.lower[k] > 0.0 && self.upper[k] > LOG_SPREAD_RATIO * self.lower[k]
+    }
+
+    /// The point of the box a sampling design puts at `u` of the unit cube: linearly, except over a
+    /// positive range wider than a decade, where uniformly in ln x. Such a variable (a Cowper–Symonds
+    /// C from 1,000 to 40,000 /s, a stiffness over decades) acts per decade, not per unit: spread
+    /// linearly, 24 runs would put one in its lowest decade, where (ε̇/C)^(1/p) changes most.
+    pub fn spread(&self, u: &[f64]) -> Vec<f64> {
+        (0..self.dim())
+            .map(|k| {
+                let (lo, hi) = (self.lower[k], self.upper[k]);
+                if self.spread_in_ln(k) {
+                    (lo.ln() + u[k] * (hi.ln() - lo.ln())).exp().clamp(lo, hi)
+                } else {
+                    lo + u[k] * (hi - lo)
+                }
+            })
+            .collect()
+    }
 }
+
+/// Upper/lower ratio above which a positive range is spread uniformly in ln x ([`Bounds::spread`]).
+pub const LOG_SPREAD_RATIO: f64 = 10.0;
 
 /// What every method needs: the training tests, the model, and the parameter bounds.
 pub struct Problem<'a> {
@@ -185,5 +211,30 @@ pub(crate) mod testing {
     pub fn cantilever_el(hs: &[f64]) -> Problem<'static> {
         static MODEL: fn(&[f64], &[f64]) -> f64 = |d, th| euler(d[0], th[0], th[1]);
         problem(hs, Bounds::new(vec![50_000.0, 15.0], vec![80_000.0, 25.0]), &MODEL)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Bounds;
+
+    /// A range wider than a decade is spread uniformly in ln x, a narrower one linearly; the ends of
+    /// the unit interval are the bounds either way, and strata of equal width in u hold equal
+    /// ratios in x.
+    #[test]
+    fn a_range_wider_than_a_decade_is_spread_in_ln_x() {
+        let b = Bounds::new(vec![1000.0, 100.0, -1.0], vec![40000.0, 250.0, 1.0]);
+        assert!(b.spread_in_ln(0) && !b.spread_in_ln(1) && !b.spread_in_ln(2));
+        let mid = b.spread(&[0.5, 0.5, 0.5]);
+        assert!((mid[0] - (1000.0f64 * 40000.0).sqrt()).abs() < 1e-9, "{mid:?}");
+        assert_eq!(&mid[1..], &[175.0, 0.0]);
+        assert_eq!(b.spread(&[0.0, 0.0, 0.0]), vec![1000.0, 100.0, -1.0]);
+        let top = b.spread(&[1.0, 1.0, 1.0]);
+        assert!((top[0] - 40000.0).abs() < 1e-9 && top[1] == 250.0 && top[2] == 1.0, "{top:?}");
+        let q = |u: f64| b.spread(&[u, 0.0, 0.0])[0];
+        assert!((q(0.25) / q(0.0) - q(1.0) / q(0.75)).abs() < 1e-9);
+        // Exactly a decade is still spread linearly (the emulators log it: ln x is measured
+        // harmless there).
+        assert!(!Bounds::new(vec![1.0], vec![10.0]).spread_in_ln(0));
     }
 }

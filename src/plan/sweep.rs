@@ -339,9 +339,8 @@ fn planned_points(sim: &SolverSimulation, bounds: &Bounds, unit: DMatrix<f64>) -
     };
     (0..unit.nrows())
         .map(|i| {
-            (0..bounds.dim())
-                .map(|k| fit(bounds.lower[k] + unit[(i, k)] * bounds.width()[k]))
-                .collect()
+            let u: Vec<f64> = unit.row(i).iter().copied().collect();
+            bounds.spread(&u).into_iter().map(fit).collect()
         })
         .collect()
 }

@@ -625,9 +625,7 @@ fn fnv(s: &str) -> u64 {
 /// A space-filling start in a box: `n` seeded Latin-hypercube points.
 fn initial_points(bounds: &Bounds, n: usize, seed: u64) -> Vec<Vec<f64>> {
     let u: DMatrix<f64> = latin_hypercube(n, bounds.dim(), seed);
-    (0..n)
-        .map(|i| (0..bounds.dim()).map(|j| bounds.lower[j] + u[(i, j)] * bounds.width()[j]).collect())
-        .collect()
+    (0..n).map(|i| bounds.spread(&u.row(i).iter().copied().collect::<Vec<_>>())).collect()
 }
 
 /// What the loop learns from the screening: its runs, their responses and curves, their rendering.
