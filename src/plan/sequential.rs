@@ -179,24 +179,19 @@ fn neg_log_posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], po
 /// The posterior of x (module notes, step 2).
 pub fn posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], seed: u64) -> Posterior {
     let p = bounds.dim();
-    // One residual per training output whatever θ is (the Jacobian differences residual vectors):
-    // `None` where the output's emulator cannot predict at θ, which then adds nothing there.
-    let parts = |t: &DVector<f64>| -> Vec<Option<f64>> {
+    let residuals = |t: &DVector<f64>| -> DVector<f64> {
         let pred = predict(emus, t.as_slice());
-        sites
+        let r: Vec<f64> = sites
             .iter()
             .zip(&pred)
             .filter(|(s, _)| s.training)
             .flat_map(|(s, p)| {
-                p.iter()
-                    .enumerate()
-                    .map(move |(k, &(mu, s2))| Some((s.observed[k] - mu) / (s.noise[k] + s2).sqrt()).filter(|r| r.is_finite()))
+                p.iter().enumerate().filter(|(_, (mu, _))| mu.is_finite()).map(move |(k, &(mu, s2))| {
+                    (s.observed[k] - mu) / (s.noise[k] + s2).sqrt()
+                })
             })
-            .collect()
-    };
-    let residuals = |t: &DVector<f64>| {
-        let r = parts(t);
-        DVector::from_iterator(r.len(), r.into_iter().map(|v| v.unwrap_or(0.0)))
+            .collect();
+        DVector::from_vec(r)
     };
     let centre = DVector::from_iterator(p, (0..p).map(|j| 0.5 * (bounds.lower[j] + bounds.upper[j])));
     let mode = optimize::least_squares(&residuals, bounds).map_or(centre, |m| m.theta);
@@ -204,8 +199,8 @@ pub fn posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], seed: 
     // model alone is too sure of itself: the tests' noise is scaled by that dispersion (quasi-
     // likelihood, McCullagh & Nelder 1989, §9.2), so the runs spread over where an explanation of
     // the misfit may put θ. A model that fits is left as it is.
-    let r: Vec<f64> = parts(&mode).into_iter().flatten().collect();
-    let phi = (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).max(1.0);
+    let r = residuals(&mode);
+    let phi = (r.norm_squared() / r.len().max(1) as f64).max(1.0);
     let cov = laplace(&residuals, &mode, bounds) * phi;
     let draws = proposal_draws(bounds, &mode, &cov, seed);
     let nlp = neg_log_posterior(bounds, sites, emus, &draws, phi);
@@ -219,17 +214,15 @@ pub fn posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], seed: 
 }
 
 /// The Gauss–Newton covariance (JᵀJ)⁻¹ at the mode, inflated where the Jacobian is flat so that the
-/// proposal still spans a part of the box. The Jacobian is taken in the unit cube (the optimiser's
-/// coordinates, where its difference step and clamping to [0, 1] apply), x = lower + D u with
-/// D = diag(width): then (J_xᵀJ_x + F)⁻¹ = D (J_uᵀJ_u + 16 I)⁻¹ D for the floor F = diag(4/width)².
+/// proposal still spans a part of the box.
 fn laplace(residuals: &impl Fn(&DVector<f64>) -> DVector<f64>, mode: &DVector<f64>, bounds: &Bounds) -> DMatrix<f64> {
     let p = mode.len();
-    let in_unit = |u: &DVector<f64>| residuals(&bounds.from_unit(u));
-    let j = optimize::jacobian(&in_unit, &bounds.to_unit(mode));
-    let floored = j.transpose() * &j + DMatrix::identity(p, p) * 16.0;
-    let cov_u = floored.try_inverse().unwrap_or_else(|| DMatrix::identity(p, p) / 16.0);
-    let d = DMatrix::from_diagonal(&bounds.width());
-    &d * cov_u * &d
+    let j = optimize::jacobian(residuals, mode);
+    let info = j.transpose() * &j;
+    let floor = DMatrix::from_fn(p, p, |a, b| if a == b { (4.0 / bounds.width()[a]).powi(2) } else { 0.0 });
+    (info + floor).try_inverse().unwrap_or_else(|| DMatrix::from_fn(p, p, |a, b| {
+        if a == b { (bounds.width()[a] / 4.0).powi(2) } else { 0.0 }
+    }))
 }
 
 /// The proposal's spread: the Laplace covariance widened by this factor (in standard deviations),
