@@ -2,12 +2,12 @@
 """Runs to the answer: sequential sampling against fixed Latin hypercubes (6, 12 and 24 samples per
 design), median over seeds, live with the stand-in solver crushsim (every solver run counted).
 
-    scripts/bench-sampling.py [--seeds 10] [--studies honeycomb,honeycomb-diagnosis,...]
+    scripts/bench-sampling.py [--seeds 10] [--studies honeycomb,honeycomb-diagnosis,...] [--methods sequential,lhs6,...]
 
 Needs a release build (`cargo build --release`: target/release/lab and crushsim). Each study is
 copied with its `simulation.sampling` line replaced and its `replay` line dropped (so it runs live),
 into target/bench-sampling/, one output directory per (study, method, seed). Prints a Markdown table
-(docs/benchmarks.md keeps the figures) and writes target/bench-sampling/summary.json.
+(docs/benchmarks.md keeps the figures) and writes target/bench-sampling/summary-METHODS.json.
 
 A run "answers" when the diagnosis names the study's documented cause and, for the main job, the
 extended model's yield stress is within 3 % of 185 MPa and ETAN within 20 % of 200 MPa (the truth in
@@ -74,20 +74,21 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--studies", default="honeycomb,honeycomb-diagnosis,honeycomb-diagnosis-curves")
+    ap.add_argument("--methods", default=",".join(METHODS), help="a subset of " + ", ".join(METHODS))
     args = ap.parse_args()
     WORK.mkdir(parents=True, exist_ok=True)
     summary = {}
     print("| study | sampling | median runs | right answers | planner s/batch (median, max) |")
     print("|---|---|---|---|---|")
     for name in args.studies.split(","):
-        for method in METHODS:
+        for method in args.methods.split(","):
             rows = [run(name, method, s) for s in range(1, args.seeds + 1)]
             summary[f"{name}/{method}"] = rows
             plan = [t for r in rows for t in r["planning"]]
             timing = f"{statistics.median(plan):.3f}, {max(plan):.3f}" if plan else "-"
             print(f"| {name} | {method} | {statistics.median(r['runs'] for r in rows):g} | "
                   f"{sum(r['right'] for r in rows)}/{len(rows)} | {timing} |", flush=True)
-    (WORK / "summary.json").write_text(json.dumps(summary, indent=1))
+    (WORK / f"summary-{args.methods.replace(',', '-')}.json").write_text(json.dumps(summary, indent=1))
 
 
 if __name__ == "__main__":

@@ -227,8 +227,11 @@ fn sampling() -> String {
     std::env::var("LAB_FAMILY_SAMPLING").unwrap_or_else(|_| "{method: sequential, seed: 1}".into())
 }
 
-/// Solver runs made by the cases run so far.
-static RUNS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+thread_local! {
+    /// Solver runs made by this thread's cases: each test runs on a thread of its own, so a
+    /// family's total is not swollen by another test running beside it.
+    static RUNS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
 
 /// `lab run` live with crushsim on PATH; the diagnosis of results.json.
 fn run(case: &Case) -> Value {
@@ -262,7 +265,7 @@ fn run_in(case: &Case, dir: &Path, listed: &str) -> Value {
     );
     let r: Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
     verdict_common::assert_verdict_follows_evidence(&r["diagnosis"]);
-    RUNS.fetch_add(r["runs"]["planned"].as_u64().unwrap_or(0), std::sync::atomic::Ordering::Relaxed);
+    RUNS.with(|n| n.set(n.get() + r["runs"]["planned"].as_u64().unwrap_or(0)));
     r["diagnosis"].clone()
 }
 
@@ -302,7 +305,7 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
     eprintln!(
         "{}; {} solver runs for {n} cases ({})",
         t.line(),
-        RUNS.load(std::sync::atomic::Ordering::Relaxed),
+        RUNS.with(std::cell::Cell::get),
         sampling()
     );
     assert!(t.clean >= 3 && t.large >= 1 && t.rate >= 3, "too few cases in a family");
@@ -372,8 +375,8 @@ fn a_listed_rate_effect_is_the_only_cause_named() {
     eprintln!("listed rate: named {named} of {}, both truths inside the 95 % intervals in {covered}", cases.len());
     assert!(wrong.is_empty(), "another cause named where the rate effect is listed and true: seeds {wrong:?}");
     // Not asserted yet (open, docs/diagnosis.md): from seed 0 the truths are inside the rate model's
-    // 95 % intervals in 4 of 6; its loop emulator over C ∈ [1000, 40000] struggles with the
-    // Cowper–Symonds (ε̇/C)^(1/4) (runs to its budget, error 1–5× the noise) and the intervals miss.
+    // 95 % intervals in 5 of 6; the miss (seed 5) is an interval a few MPa wide whose optimum is the
+    // loop emulators' (run with the solver itself, the truth fits the tests better).
 }
 
 /// The families' outcomes, case by case.

@@ -137,8 +137,11 @@ fn sampling() -> String {
     std::env::var("LAB_FAMILY_SAMPLING").unwrap_or_else(|_| "{method: sequential, seed: 1}".into())
 }
 
-/// Solver runs made by the cases run so far.
-static RUNS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+thread_local! {
+    /// Solver runs made by this thread's cases: each test runs on a thread of its own, so a
+    /// family's total is not swollen by another test running beside it.
+    static RUNS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
 
 /// `lab run` on the case; its `diagnosis`.
 fn run(case: &Case) -> Value {
@@ -163,7 +166,7 @@ fn run(case: &Case) -> Value {
         String::from_utf8_lossy(&o.stderr)
     );
     let results: Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
-    RUNS.fetch_add(results["runs"]["planned"].as_u64().unwrap_or(0), std::sync::atomic::Ordering::Relaxed);
+    RUNS.with(|n| n.set(n.get() + results["runs"]["planned"].as_u64().unwrap_or(0)));
     if std::env::var("LAB_LOOP_VERBOSE").is_ok() {
         eprintln!("surrogates: {}", results["surrogates"]);
         for c in results["diagnosis"]["candidates"].as_array().unwrap() {
@@ -415,7 +418,7 @@ fn loop_decides_where_the_evidence_does_and_says_so_where_it_does_not() {
     eprintln!(
         "decidable {decides}: named {named}, intervals hold {inside}; undecidable {open}: not named {not_named}, \
          with a next test {with_test}; shear named {shear_named}; {} solver runs for {} cases ({})",
-        RUNS.load(std::sync::atomic::Ordering::Relaxed),
+        RUNS.with(std::cell::Cell::get),
         decides + open,
         sampling()
     );

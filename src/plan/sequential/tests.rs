@@ -157,3 +157,19 @@ fn a_batch_never_repeats_a_run_under_a_posterior_narrower_than_the_lattice() {
         assert!(!picks[..i].iter().any(|(_, y)| y == x), "pick {x:?} twice: {picks:?}");
     }
 }
+
+/// A posterior in a narrow box far from the unit cube, with an output its emulator cannot predict:
+/// one residual per output everywhere (the Jacobian differences them). A study with a yield stress
+/// pinned to [162.3, 162.5] MPa panicked on mismatched residual lengths.
+#[test]
+fn a_narrow_box_far_from_the_unit_cube_has_a_posterior() {
+    let bounds = Bounds::new(vec![162.3], vec![162.5]);
+    let xs = [162.3, 162.35, 162.4, 162.45, 162.5];
+    let mut sites = vec![linear_site("a", &xs, 10.0, 0.5, 91.2, 0.04)];
+    sites[0].y.iter_mut().for_each(|y| y.push(f64::NAN));
+    sites[0].observed.push(1.0);
+    sites[0].noise.push(0.01);
+    let emus = emulators(&bounds, &sites);
+    let post = posterior(&bounds, &sites, &emus, 3);
+    assert!((post.mode[0] - 162.4).abs() < 0.01, "{:?}", post.mode);
+}
