@@ -102,6 +102,11 @@ impl Bounds {
             })
             .collect()
     }
+
+    /// [`Bounds::spread`] of every row of `unit` (a sampling design in the unit cube).
+    pub fn spread_rows(&self, unit: &DMatrix<f64>) -> Vec<Vec<f64>> {
+        unit.row_iter().map(|u| self.spread(&u.iter().copied().collect::<Vec<_>>())).collect()
+    }
 }
 
 /// Upper/lower ratio above which a positive range is spread uniformly in ln x ([`Bounds::spread`]).

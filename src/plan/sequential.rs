@@ -340,7 +340,7 @@ pub fn choose(
     seed: u64,
 ) -> Vec<(usize, Vec<f64>)> {
     let fill = latin_hypercube(FILL, bounds.dim(), seed ^ 0xf111);
-    let spread: Vec<Vec<f64>> = (0..FILL).map(|i| bounds.spread(&fill.row(i).iter().copied().collect::<Vec<_>>())).collect();
+    let spread = bounds.spread_rows(&fill);
     let scaled = DMatrix::from_fn(FILL, bounds.dim(), |i, j| spread[i][j]);
     let candidates = stack(&posterior.points, &scaled);
     let mut gains: Vec<Option<Gain>> = sites

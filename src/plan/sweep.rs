@@ -337,12 +337,7 @@ fn planned_points(sim: &SolverSimulation, bounds: &Bounds, unit: DMatrix<f64>) -
         Some(w) => crate::render::lsdyna::field::fit_real(v, w).unwrap_or(v),
         None => v,
     };
-    (0..unit.nrows())
-        .map(|i| {
-            let u: Vec<f64> = unit.row(i).iter().copied().collect();
-            bounds.spread(&u).into_iter().map(fit).collect()
-        })
-        .collect()
+    bounds.spread_rows(&unit).into_iter().map(|x| x.into_iter().map(fit).collect()).collect()
 }
 
 /// For each model-extension hypothesis, in study order, a copy of every baseline sample run with

@@ -17,7 +17,7 @@ use indexmap::IndexMap;
 
 use super::super::schema::{ExtensionRangeFile, ExtensionValueFile, Name};
 use super::super::yaml::Spanned;
-use super::super::{Extension, Parameter, Simulation, SolverSimulation, Study};
+use super::super::{Extension, Parameter, Simulation, Study};
 use super::Checker;
 use crate::error::InputError;
 
@@ -62,11 +62,11 @@ impl Checker<'_> {
             extension.screening.push(screening);
             extension.ranges.extend(range);
         }
-        self.used_by_templates(study, sim, &who, node, &extension.screening)?;
+        let renderer = crate::render::Renderer::new(&sim.templates)?;
+        self.used_by_templates(study, &renderer, &who, node, &extension.screening)?;
         if !extension.ranges.is_empty() {
-            let lows: Vec<f64> = extension.ranges.iter().map(|r| r.min).collect();
-            let edge = render_at_centre(study, sim, &extension.at(&lows));
-            let base = render_at_centre(study, sim, &[]);
+            let edge = render_at_centre(study, &renderer, &extension.at_lower_bounds());
+            let base = render_at_centre(study, &renderer, &[]);
             extension.baseline_at_edge = matches!((base, edge), (Ok(b), Ok(e)) if b == e);
         }
         Ok(extension)
@@ -158,12 +158,12 @@ impl Checker<'_> {
     fn used_by_templates(
         &self,
         study: &Study,
-        sim: &SolverSimulation,
+        renderer: &crate::render::Renderer,
         who: &str,
         node: &Spanned<IndexMap<Name, Spanned<ExtensionValueFile>>>,
         vars: &[(String, f64)],
     ) -> Result<(), InputError> {
-        let render = |vars: &[(String, f64)]| render_at_centre(study, sim, vars);
+        let render = |vars: &[(String, f64)]| render_at_centre(study, renderer, vars);
         let design = &study.training[0];
         let full = render(vars).map_err(|mut e| {
             e.message = format!("{} (rendering the extension of {who})", e.message);
@@ -196,10 +196,9 @@ impl Checker<'_> {
 /// bounds, with the template variables `vars` set.
 fn render_at_centre(
     study: &Study,
-    sim: &SolverSimulation,
+    renderer: &crate::render::Renderer,
     vars: &[(String, f64)],
 ) -> Result<crate::render::Inputs, InputError> {
-    let renderer = crate::render::Renderer::new(&sim.templates)?;
     let design = &study.training[0];
     let values = study
         .experiments

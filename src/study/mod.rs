@@ -235,6 +235,12 @@ impl Extension {
             })
             .collect()
     }
+
+    /// [`Extension::at`] the ranges' lower bounds: the joint space's edge the baseline may be
+    /// ([`Extension::baseline_at_edge`]).
+    pub fn at_lower_bounds(&self) -> Vec<(String, f64)> {
+        self.at(&self.ranges.iter().map(|r| r.min).collect::<Vec<_>>())
+    }
 }
 
 impl Hypothesis {

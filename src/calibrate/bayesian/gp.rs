@@ -470,7 +470,7 @@ mod tests {
         use rand::{Rng, SeedableRng};
         let p = bounds.dim();
         let plan = crate::plan::latin_hypercube(n, p, seed);
-        let spread: Vec<Vec<f64>> = (0..n).map(|i| bounds.spread(&plan.row(i).iter().copied().collect::<Vec<_>>())).collect();
+        let spread = bounds.spread_rows(&plan);
         let x = DMatrix::from_fn(n, p, |i, k| spread[i][k]);
         let y = DVector::from_fn(n, |i, _| f(x.row(i).transpose().as_slice()));
         let emu = Emulator::fit_with(&x, &y, bounds, tr).unwrap();

@@ -23,7 +23,7 @@
 pub mod record;
 pub mod sites;
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
 use super::runs::{self, Executed, RunOutcomes, Source};
 use super::{Engine, Event, Reporter, RunOptions, curves};
@@ -624,8 +624,7 @@ fn fnv(s: &str) -> u64 {
 
 /// A space-filling start in a box: `n` seeded Latin-hypercube points.
 fn initial_points(bounds: &Bounds, n: usize, seed: u64) -> Vec<Vec<f64>> {
-    let u: DMatrix<f64> = latin_hypercube(n, bounds.dim(), seed);
-    (0..n).map(|i| bounds.spread(&u.row(i).iter().copied().collect::<Vec<_>>())).collect()
+    bounds.spread_rows(&latin_hypercube(n, bounds.dim(), seed))
 }
 
 /// What the loop learns from the screening: its runs, their responses and curves, their rendering.
@@ -775,8 +774,7 @@ fn clone_prepared(p: &Prepared) -> Prepared {
 /// bounds, its fixed ones at their values. There the baseline's runs are runs of the extended model.
 fn edge(study: &Study, k: usize) -> Option<Vec<(String, f64)>> {
     let spec = study.diagnosis.hypotheses[k].extension_spec().expect("an extension");
-    let lows: Vec<f64> = spec.ranges.iter().map(|r| r.min).collect();
-    spec.baseline_at_edge.then(|| spec.at(&lows))
+    spec.baseline_at_edge.then(|| spec.at_lower_bounds())
 }
 
 /// The screening's runs that are points of hypothesis `k`'s joint space: its probes, and the
