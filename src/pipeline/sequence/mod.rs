@@ -449,8 +449,8 @@ impl<'a> Runner<'a> {
     /// Each design's latest batch of the stage's own runs becomes its check runs.
     fn mark_checks(&mut self, space: &Space, check: RunRole) {
         let names: Vec<String> = self.tests.designs.iter().map(|t| t.name.clone()).collect();
-        let with_prior: Vec<String> = names.iter().filter(|n| self.prior.iter().any(|(p, ..)| p == *n)).cloned().collect();
-        for i in latest_batches(&self.plan, &self.batch_of, &*space.mine, &names, &with_prior) {
+        let prior = usable_counts(&self.prior);
+        for i in latest_batches(&self.plan, &self.batch_of, &*space.mine, &names, &prior, space.bounds.dim()) {
             self.plan.runs[i].role = check;
         }
     }
@@ -498,12 +498,13 @@ impl<'a> Runner<'a> {
         &self,
         stages: &[(usize, Space, Option<Vec<(String, f64)>>, usize)],
         edges: Vec<(usize, Vec<(String, f64)>)>,
+        screening: &ScreeningRuns,
     ) -> super::extend::JointRuns {
         let mut plan = self.plan.clone();
         let names: Vec<String> = self.tests.designs.iter().map(|t| t.name.clone()).collect();
-        for (k, space, _, _) in stages {
-            // Every design has the screening's probes in the loop's space: each has runs to hold out.
-            for i in latest_batches(&plan, &self.batch_of, &*space.mine, &names, &names) {
+        for (k, space, edge, _) in stages {
+            let prior = usable_counts(&prior_runs(self.study, *k, edge.as_deref(), screening));
+            for i in latest_batches(&plan, &self.batch_of, &*space.mine, &names, &prior, space.bounds.dim()) {
                 plan.runs[i].role = RunRole::JointCheck(*k);
             }
         }
@@ -556,26 +557,45 @@ impl<'a> Runner<'a> {
 }
 
 /// The runs of a stage (`mine`) that are their design's latest batch: what each design's emulator
-/// is checked on. A design whose runs all came in one batch has nothing held out, unless an earlier
-/// stage's runs (`with_prior`) are what its emulator was fitted to.
+/// is checked on. A design's latest batch is held out only where the runs left to fit its emulator
+/// — its earlier batches and the earlier stages' runs it also learns from (`prior`: usable runs
+/// per design) — are at least what the least emulator over the stage's `d` variables needs (a
+/// linear one, d + 1): otherwise nothing is held out there, and its error stays unmeasured. (A loop
+/// stage left only its first batch by the budget, which an earlier stage spent, held all of it out
+/// and then could not fit its emulator from the two probes left: `lab run` stopped with an error.)
 fn latest_batches(
     plan: &Plan,
     batch_of: &[usize],
     mine: &dyn Fn(&PlannedRun) -> bool,
     designs: &[String],
-    with_prior: &[String],
+    prior: &[(String, usize)],
+    d: usize,
 ) -> Vec<usize> {
+    let least = crate::study::SurrogateKind::Linear.min_samples(d);
     let mut out = Vec::new();
     for name in designs {
         let runs: Vec<usize> = (0..plan.runs.len())
             .filter(|&i| &plan.runs[i].design == name && mine(&plan.runs[i]))
             .collect();
         let Some(last) = runs.iter().map(|&i| batch_of[i]).max() else { continue };
-        let first = runs.iter().map(|&i| batch_of[i]).min();
-        if first == Some(last) && !with_prior.contains(name) {
+        let earlier = runs.iter().filter(|&&i| batch_of[i] < last).count();
+        let before = prior.iter().find(|(n, _)| n == name).map_or(0, |p| p.1);
+        if earlier + before < least {
             continue;
         }
         out.extend(runs.into_iter().filter(|&i| batch_of[i] == last));
+    }
+    out
+}
+
+/// Usable runs per design among an earlier stage's runs.
+fn usable_counts(prior: &[(String, Vec<f64>, Option<f64>, Option<DVector<f64>>)]) -> Vec<(String, usize)> {
+    let mut out: Vec<(String, usize)> = Vec::new();
+    for (design, ..) in prior.iter().filter(|p| p.2.is_some()) {
+        match out.iter_mut().find(|(n, _)| n == design) {
+            Some(e) => e.1 += 1,
+            None => out.push((design.clone(), 1)),
+        }
     }
     out
 }
@@ -705,7 +725,7 @@ pub fn looped(
         if round == TIGHTENINGS || r.sequence.runs >= r.limits.budget || stages.is_empty() {
             break;
         }
-        let provisional = r.provisional(&stages, edges.clone());
+        let provisional = r.provisional(&stages, edges.clone(), screening);
         let f = r.limits.tolerance;
         let (measured, worst) = (decide(&provisional, 0.0), decide(&provisional, f * f));
         if measured == worst {
@@ -806,3 +826,43 @@ fn prior_runs(
         .collect()
 }
 
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `per_design[i]`: the batches design `d{i}`'s runs came in.
+    fn plan_of(per_design: &[&[usize]]) -> (Plan, Vec<usize>, Vec<String>) {
+        let mut runs = Vec::new();
+        let mut batch_of = Vec::new();
+        for (i, batches) in per_design.iter().enumerate() {
+            for &b in *batches {
+                runs.push(run_at(&format!("d{i}"), &[i as f64], vec![0.5, 0.5], RunRole::Joint(0), Vec::new()));
+                batch_of.push(b);
+            }
+        }
+        let names = (0..per_design.len()).map(|i| format!("d{i}")).collect();
+        (Plan { runs }, batch_of, names)
+    }
+
+    #[test]
+    fn a_latest_batch_is_held_out_only_where_the_rest_can_fit_a_linear_emulator() {
+        // Over two variables a linear emulator needs three runs.
+        let (plan, batch_of, names) = plan_of(&[&[0, 0, 0], &[0, 0, 0], &[0, 0, 1, 1, 2], &[0, 0, 0]]);
+        let mine = |_: &PlannedRun| true;
+        let prior = vec![("d0".to_string(), 2), ("d1".to_string(), 3)];
+        let held = latest_batches(&plan, &batch_of, &mine, &names, &prior, 2);
+        let designs: Vec<&str> = held.iter().map(|&i| plan.runs[i].design.as_str()).collect();
+        // d0: one batch and two probes (2 < 3), kept to fit; d1: three earlier runs, its batch held
+        // out; d2: four runs before its last batch, that batch (one run) held out; d3: nothing before.
+        assert_eq!(designs, ["d1", "d1", "d1", "d2"]);
+        assert_eq!(batch_of[held[3]], 2);
+    }
+
+    #[test]
+    fn usable_runs_are_counted_per_design() {
+        let run = |d: &str, y: Option<f64>| (d.to_string(), vec![0.0], y, None);
+        let counts = usable_counts(&[run("a", Some(1.0)), run("b", None), run("a", Some(2.0)), run("b", Some(3.0))]);
+        assert_eq!(counts, [("a".to_string(), 2), ("b".to_string(), 1)]);
+    }
+}
