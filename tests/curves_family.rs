@@ -169,7 +169,7 @@ fn make_tests(case: &Case, dir: &Path) {
 }
 
 /// The family's study; `listed` adds hypotheses after the others.
-fn write_study(case: &Case, dir: &Path, listed: &str) -> PathBuf {
+fn write_study(case: &Case, dir: &Path, listed: &str, sampling: &str) -> PathBuf {
     let names: Vec<&str> = case.designs.iter().map(|d| d.0.as_str()).collect();
     let template = root().join("templates/honeycomb/main.k.tera");
     let study = format!(
@@ -210,7 +210,6 @@ diagnosis:
       term: "1/c"
 {listed}"#,
         template = template.display(),
-        sampling = sampling(),
         a = names[0],
         b = names[1],
         v = names[2],
@@ -240,8 +239,16 @@ fn run(case: &Case) -> Value {
 }
 
 fn run_in(case: &Case, dir: &Path, listed: &str) -> Value {
+    let r = results_of(case, dir, listed, &sampling());
+    verdict_common::assert_verdict_follows_evidence(&r["diagnosis"]);
+    RUNS.with(|n| n.set(n.get() + r["runs"]["planned"].as_u64().unwrap_or(0)));
+    r["diagnosis"].clone()
+}
+
+/// `lab run` live on `case` with `sampling`: the whole results.json.
+fn results_of(case: &Case, dir: &Path, listed: &str, sampling: &str) -> Value {
     make_tests(case, dir);
-    let study = write_study(case, dir, listed);
+    let study = write_study(case, dir, listed, sampling);
     let bin = crushsim_bin::crushsim().parent().unwrap().to_path_buf();
     let out = dir.join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_lab"))
@@ -263,10 +270,7 @@ fn run_in(case: &Case, dir: &Path, listed: &str) -> Value {
         case.seed,
         String::from_utf8_lossy(&o.stderr)
     );
-    let r: Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
-    verdict_common::assert_verdict_follows_evidence(&r["diagnosis"]);
-    RUNS.with(|n| n.set(n.get() + r["runs"]["planned"].as_u64().unwrap_or(0)));
-    r["diagnosis"].clone()
+    serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap()
 }
 
 /// The extended model's value of `name` and whether `truth` lies in its 95 % interval.
@@ -320,6 +324,43 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
     assert_eq!(t.rate_named, 0, "a cause named with an unlisted rate effect in the tests");
 }
 
+/// The rate effect as a listed hypothesis (Cowper–Symonds C over a range, p = 4).
+const LISTED_RATE: &str = "    - name: strain rate\n      extension:\n        src: {min: 1000, max: 40000, unit: 1/s}\n        srp: 4\n";
+
+/// With two hypotheses in the loop, their stages take turns, a batch each: the budget is not the
+/// first one's to spend. A pure-rate draw whose screening leaves the hardening and the listed rate
+/// both open (rate family, seed 424,268), under a budget the hardening's loop alone would spend
+/// (run one stage after the other, the hardening took every run left and the rate's loop kept only
+/// its first batch, which left its emulator unfittable).
+#[test]
+fn loop_stages_take_turns_with_the_budget() {
+    let case = draw(424_268);
+    assert!(case.family == Family::Rate && case.etan == 0.0);
+    let dir = tempfile::tempdir().unwrap();
+    let r = results_of(&case, dir.path(), LISTED_RATE, "{method: sequential, seed: 1, budget: 60}");
+    let sequence = r["sampling"]["sequence"].as_array().unwrap();
+    let stages: Vec<&str> = ["loop: strain hardening in the fold hinges", "loop: strain rate"].into();
+    // Per stage: its batches after the first of the loop's (its probes or first batch), and how it stopped.
+    let turns: Vec<(usize, Option<&str>)> = stages
+        .iter()
+        .map(|s| {
+            let mine: Vec<&Value> = sequence.iter().filter(|b| b["stage"] == *s).collect();
+            let first = mine.first().map_or(0, |b| b["batch"].as_u64().unwrap());
+            let later = mine.iter().filter(|b| b["batch"].as_u64().unwrap() > first).count();
+            (later, mine.iter().rev().find_map(|b| b["stopped"].as_str()))
+        })
+        .collect();
+    eprintln!("loop stages' later batches and stops: {turns:?}; {} runs", r["runs"]["planned"]);
+    for (a, (n, stop)) in turns.iter().enumerate() {
+        for (b, (m, _)) in turns.iter().enumerate() {
+            if a != b && *stop == Some("budget") {
+                assert!(n.abs_diff(*m) <= 1, "{}: {n} batches, {}: {m}, when the budget ran out", stages[a], stages[b]);
+            }
+        }
+    }
+    assert!(turns.iter().all(|(n, _)| *n >= 1), "a loop stage had no batch of its own: {turns:?}");
+}
+
 /// The rate effect listed as a hypothesis too (Cowper–Symonds C over a range, p = 4, as in
 /// `studies/honeycomb-diagnosis-curves.yaml`), on the family's pure-rate draws (ETAN = 0): no other
 /// cause is ever named decisively, and a loop model's intervals stay within the ranges the study
@@ -331,7 +372,7 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
 fn a_listed_rate_effect_is_the_only_cause_named() {
     let n = env_u64("LAB_CURVES_RATE_SEEDS", 6) as usize;
     let base = env_u64("LAB_CURVES_SEED_BASE", 0);
-    let listed = "    - name: strain rate\n      extension:\n        src: {min: 1000, max: 40000, unit: 1/s}\n        srp: 4\n";
+    let listed = LISTED_RATE;
     let cases: Vec<Case> = (base..)
         .map(draw)
         .filter(|c| c.family == Family::Rate && c.etan == 0.0)

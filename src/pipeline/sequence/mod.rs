@@ -314,69 +314,72 @@ impl<'a> Runner<'a> {
     /// Batches until every tested design's emulators are good enough at the posterior, or the
     /// budget is spent; the stage's last posterior.
     fn iterate(&mut self, space: &Space, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<Posterior, Error> {
-        let b = self.batch_of.last().copied().unwrap_or(0);
-        self.iterate_from(space, b, 0, store, reporter)
-    }
-
-    /// [`Runner::iterate`] for a stage whose own runs start at `start` in the plan, its latest batch
-    /// numbered `b`.
-    fn iterate_from(
-        &mut self,
-        space: &Space,
-        mut b: usize,
-        start: usize,
-        store: &mut RunStore,
-        reporter: &mut dyn Reporter,
-    ) -> Result<Posterior, Error> {
-        let _ = start;
         loop {
-            let seed = self.limits.seed ^ fnv(&space.name) ^ (b as u64).wrapping_mul(0x9e37_79b9);
-            let started = std::time::Instant::now();
-            let (open, posterior, sites, emus) = self.assess(space, b, seed);
-            if let Some(last) = self.sequence.sequence.last().filter(|l| l.stage == space.name) {
-                reporter.report(Event::Batch(last));
-            }
-            let room = self.limits.budget.saturating_sub(self.sequence.runs + space.reserve);
-            let picks = if open.iter().any(|&o| o) && room > 0 {
-                seq::choose(&space.bounds, &sites, &emus, &posterior, &open, self.limits.batch.min(room), seed)
-            } else {
-                Vec::new()
-            };
-            self.planning = started.elapsed().as_secs_f64();
-            let stop = if !open.iter().any(|&o| o) {
-                Some("converged")
-            } else if room == 0 {
-                Some("budget")
-            } else if picks.is_empty() {
-                Some("nowhere to run")
-            } else {
-                None
-            };
-            if let Some(reason) = stop {
-                if reason != "converged" {
-                    self.unconverged(space, reason, reporter);
-                }
-                self.sequence.stop(&space.name, reason, self.plan.runs.len() - start);
-                self.sequence.write(&self.options.out)?;
+            if let Some(posterior) = self.step(space, 0, store, reporter)? {
                 return Ok(posterior);
             }
-            let new: Vec<PlannedRun> = picks
-                .iter()
-                .map(|(s, x)| {
-                    let t = &self.tests.designs[*s];
-                    (space.make)(&t.name, &t.values, &as_written(self.sim, x))
-                })
-                .collect();
-            b += 1;
-            self.batch(space, new, b, store, reporter)?;
         }
+    }
+
+    /// The latest batch of a stage's own runs (0 before any).
+    fn stage_batch(&self, space: &Space) -> usize {
+        self.plan.runs.iter().zip(&self.batch_of).filter(|(run, _)| (space.mine)(run)).map(|(_, b)| *b).max().unwrap_or(0)
+    }
+
+    /// One step of a stage whose own runs start at `start` in the plan: the runs in hand assessed,
+    /// and either the stage stopped (its last posterior) or its next batch run (`None`). New
+    /// batches are numbered after every stage's, so that stages may take turns.
+    fn step(&mut self, space: &Space, start: usize, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<Option<Posterior>, Error> {
+        // The candidates' seed follows the latest batch of any stage (as when stages ran one after
+        // another); the record completed is this stage's own latest batch.
+        let latest = self.batch_of.last().copied().unwrap_or(0);
+        let seed = self.limits.seed ^ fnv(&space.name) ^ (latest as u64).wrapping_mul(0x9e37_79b9);
+        let started = std::time::Instant::now();
+        let (open, posterior, sites, emus) = self.assess(space, self.stage_batch(space), seed);
+        if let Some(last) = self.sequence.sequence.iter().rev().find(|l| l.stage == space.name) {
+            reporter.report(Event::Batch(last));
+        }
+        let room = self.limits.budget.saturating_sub(self.sequence.runs + space.reserve);
+        let picks = if open.iter().any(|&o| o) && room > 0 {
+            seq::choose(&space.bounds, &sites, &emus, &posterior, &open, self.limits.batch.min(room), seed)
+        } else {
+            Vec::new()
+        };
+        self.planning = started.elapsed().as_secs_f64();
+        let stop = if !open.iter().any(|&o| o) {
+            Some("converged")
+        } else if room == 0 {
+            Some("budget")
+        } else if picks.is_empty() {
+            Some("nowhere to run")
+        } else {
+            None
+        };
+        if let Some(reason) = stop {
+            if reason != "converged" {
+                self.unconverged(space, reason, reporter);
+            }
+            let own = self.plan.runs[start..].iter().filter(|run| (space.mine)(run)).count();
+            self.sequence.stop(&space.name, reason, own);
+            self.sequence.write(&self.options.out)?;
+            return Ok(Some(posterior));
+        }
+        let new: Vec<PlannedRun> = picks
+            .iter()
+            .map(|(s, x)| {
+                let t = &self.tests.designs[*s];
+                (space.make)(&t.name, &t.values, &as_written(self.sim, x))
+            })
+            .collect();
+        self.batch(space, new, latest + 1, store, reporter)?;
+        Ok(None)
     }
 
     /// Says that a stage stopped before its emulators were within the tolerance: the decision then
     /// counts their larger error as noise, and a larger budget would narrow it.
     fn unconverged(&self, space: &Space, reason: &str, reporter: &mut dyn Reporter) {
         let Some((design, measured, predicted)) =
-            self.sequence.sequence.last().filter(|l| l.stage == space.name).and_then(|l| l.worst())
+            self.sequence.sequence.iter().rev().find(|l| l.stage == space.name).and_then(|l| l.worst())
         else {
             return;
         };
@@ -432,7 +435,7 @@ impl<'a> Runner<'a> {
             .zip(&predicted)
             .map(|(m, p)| !(m.is_some_and(|m| m <= f) && *p <= f))
             .collect();
-        if let Some(last) = self.sequence.sequence.last_mut().filter(|l| l.batch == b && l.stage == space.name) {
+        if let Some(last) = self.sequence.sequence.iter_mut().rev().find(|l| l.batch == b && l.stage == space.name) {
             last.state = "done".into();
             for (t, (m, p)) in self.tests.designs.iter().zip(measured.iter().zip(&predicted)) {
                 last.emulator_error.insert(t.name.clone(), *m);
@@ -717,10 +720,16 @@ pub fn looped(
         stages.push((k, space, edge, start));
     }
     for round in 0..=TIGHTENINGS {
-        for (k, space, edge, start) in &stages {
-            r.prior = prior_runs(study, *k, edge.as_deref(), screening);
-            let b = r.batch_of.last().copied().unwrap_or(0);
-            r.iterate_from(space, b, *start, store, reporter)?;
+        // The stages take turns, a batch each, so that one hypothesis's loop (a wrong one chasing
+        // its own misfit) cannot spend the budget the others need.
+        let mut open = vec![true; stages.len()];
+        while open.iter().any(|&o| o) {
+            for ((k, space, edge, start), open) in stages.iter().zip(&mut open) {
+                if *open {
+                    r.prior = prior_runs(study, *k, edge.as_deref(), screening);
+                    *open = r.step(space, *start, store, reporter)?.is_none();
+                }
+            }
         }
         if round == TIGHTENINGS || r.sequence.runs >= r.limits.budget || stages.is_empty() {
             break;
