@@ -315,7 +315,7 @@ impl<'a> Runner<'a> {
     /// budget is spent; the stage's last posterior.
     fn iterate(&mut self, space: &Space, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<Posterior, Error> {
         loop {
-            if let Some(posterior) = self.step(space, 0, store, reporter)? {
+            if let Some(posterior) = self.step(space, store, reporter)? {
                 return Ok(posterior);
             }
         }
@@ -326,10 +326,10 @@ impl<'a> Runner<'a> {
         self.plan.runs.iter().zip(&self.batch_of).filter(|(run, _)| (space.mine)(run)).map(|(_, b)| *b).max().unwrap_or(0)
     }
 
-    /// One step of a stage whose own runs start at `start` in the plan: the runs in hand assessed,
-    /// and either the stage stopped (its last posterior) or its next batch run (`None`). New
-    /// batches are numbered after every stage's, so that stages may take turns.
-    fn step(&mut self, space: &Space, start: usize, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<Option<Posterior>, Error> {
+    /// One step of a stage: the runs in hand assessed, and either the stage stopped (its last
+    /// posterior) or its next batch run (`None`). New batches are numbered after every stage's, so
+    /// that stages may take turns.
+    fn step(&mut self, space: &Space, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<Option<Posterior>, Error> {
         // The candidates' seed follows the latest batch of any stage (as when stages ran one after
         // another); the record completed is this stage's own latest batch.
         let latest = self.batch_of.last().copied().unwrap_or(0);
@@ -359,7 +359,7 @@ impl<'a> Runner<'a> {
             if reason != "converged" {
                 self.unconverged(space, reason, reporter);
             }
-            let own = self.plan.runs[start..].iter().filter(|run| (space.mine)(run)).count();
+            let own = self.plan.runs.iter().filter(|run| (space.mine)(run)).count();
             self.sequence.stop(&space.name, reason, own);
             self.sequence.write(&self.options.out)?;
             return Ok(Some(posterior));
@@ -499,13 +499,13 @@ impl<'a> Runner<'a> {
     #[allow(clippy::type_complexity)]
     fn provisional(
         &self,
-        stages: &[(usize, Space, Option<Vec<(String, f64)>>, usize)],
+        stages: &[(usize, Space, Option<Vec<(String, f64)>>)],
         edges: Vec<(usize, Vec<(String, f64)>)>,
         screening: &ScreeningRuns,
     ) -> super::extend::JointRuns {
         let mut plan = self.plan.clone();
         let names: Vec<String> = self.tests.designs.iter().map(|t| t.name.clone()).collect();
-        for (k, space, edge, _) in stages {
+        for (k, space, edge) in stages {
             let prior = usable_counts(&prior_runs(self.study, *k, edge.as_deref(), screening));
             for i in latest_batches(&plan, &self.batch_of, &*space.mine, &names, &prior, space.bounds.dim()) {
                 plan.runs[i].role = RunRole::JointCheck(*k);
@@ -717,17 +717,17 @@ pub fn looped(
         if !initial.is_empty() {
             r.batch(&space, initial, b, store, reporter)?;
         }
-        stages.push((k, space, edge, start));
+        stages.push((k, space, edge));
     }
     for round in 0..=TIGHTENINGS {
         // The stages take turns, a batch each, so that one hypothesis's loop (a wrong one chasing
         // its own misfit) cannot spend the budget the others need.
         let mut open = vec![true; stages.len()];
         while open.iter().any(|&o| o) {
-            for ((k, space, edge, start), open) in stages.iter().zip(&mut open) {
+            for ((k, space, edge), open) in stages.iter().zip(&mut open) {
                 if *open {
                     r.prior = prior_runs(study, *k, edge.as_deref(), screening);
-                    *open = r.step(space, *start, store, reporter)?.is_none();
+                    *open = r.step(space, store, reporter)?.is_none();
                 }
             }
         }
@@ -749,7 +749,7 @@ pub fn looped(
             r.limits.tolerance
         )));
     }
-    for (k, space, edge, _) in &stages {
+    for (k, space, edge) in &stages {
         r.prior = prior_runs(study, *k, edge.as_deref(), screening);
         r.mark_checks(space, RunRole::JointCheck(*k));
     }
@@ -834,7 +834,6 @@ fn prior_runs(
         })
         .collect()
 }
-
 
 #[cfg(test)]
 mod tests {
