@@ -424,9 +424,17 @@ impl<'a> Runner<'a> {
     fn assess(&mut self, space: &Space, b: usize, seed: u64) -> (Vec<bool>, Posterior, Vec<seq::Site>, Vec<seq::SiteEmulators>) {
         let data = self.run_data(space);
         let sites = sites::sites(&self.tests, &data);
-        let emus = seq::emulators(&space.bounds, &sites);
-        let posterior = seq::posterior(&space.bounds, &sites, &emus, seed);
-        let measured = sites::measured_errors(&self.tests, &data, sites::kinds(self.study, self.sim), &space.bounds);
+        let kinds = sites::kinds(self.study, self.sim);
+        let bounds = &space.bounds;
+        // The study's surrogates' held-out errors do not depend on the planner's emulators: both at once.
+        let ((emus, posterior), measured) = rayon::join(
+            || {
+                let emus = seq::emulators(bounds, &sites);
+                let posterior = seq::posterior(bounds, &sites, &emus, seed);
+                (emus, posterior)
+            },
+            || sites::measured_errors(&self.tests, &data, kinds, bounds),
+        );
         let predicted: Vec<f64> =
             sites.iter().zip(&emus).map(|(s, e)| seq::predicted_error(s, e, &posterior)).collect();
         let f = self.limits.tolerance;

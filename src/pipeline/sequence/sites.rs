@@ -101,9 +101,10 @@ pub struct RunData<'a> {
 
 /// The planner's sites: every tested design with its runs' points and outputs.
 pub fn sites(tests: &Tests, runs: &[RunData]) -> Vec<Site> {
+    use rayon::prelude::*;
     tests
         .designs
-        .iter()
+        .par_iter()
         .map(|t| {
             let mine: Vec<&RunData> = runs.iter().filter(|r| r.design == t.name).collect();
             Site {
@@ -128,9 +129,10 @@ pub fn measured_errors(
     kinds: (SurrogateKind, Option<SurrogateKind>),
     bounds: &Bounds,
 ) -> Vec<Option<f64>> {
+    use rayon::prelude::*;
     tests
         .designs
-        .iter()
+        .par_iter()
         .map(|t| {
             let mine: Vec<&RunData> = runs.iter().filter(|r| r.design == t.name).collect();
             let last = mine.iter().map(|r| r.batch).max()?;
