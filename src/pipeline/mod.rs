@@ -288,17 +288,20 @@ fn diagnose_with_solver(
     };
     // A sequential loop asks for the decision from its runs so far (see sequence::looped).
     let (sim, plan, usable, surrogates) = (runs.sim, &runs.plan, &runs.usable, &runs.surrogates);
-    let mut decide = |joint: &extend::JointRuns, floor: f64| -> Option<String> {
+    let mut decide = |joint: &extend::JointRuns, floor: f64| -> Option<sequence::Provisional> {
         let models = chosen
             .iter()
             .map(|&k| extend::extended_model(study, sim, k, (plan, usable), joint))
             .collect::<Result<Vec<_>, _>>()
             .ok()?;
-        let d = match stage {
-            None => conclude_on_response(study, surrogates, &inputs, &models, &extensions, floor).ok()?.0,
-            Some(st) => conclude_on_curves(study, (sim, plan, &dirs), st, &inputs, &models, joint, floor).ok()?.ok()?.0,
+        let (d, own, _) = match stage {
+            None => conclude_on_response(study, surrogates, &inputs, &models, &extensions, floor).ok()?,
+            Some(st) => conclude_on_curves(study, (sim, plan, &dirs), st, &inputs, &models, joint, floor).ok()?.ok()?,
         };
-        Some(format!("{:?}, cause {:?}, partial {:?}", d.verdict, d.cause, d.partial.as_ref().map(|p| &p.name)))
+        Some(sequence::Provisional {
+            key: format!("{:?}, cause {:?}, partial {:?}", d.verdict, d.cause, d.partial.as_ref().map(|p| &p.name)),
+            points: fitted_points(&chosen, &own),
+        })
     };
     let store = (&mut runs.executed.store, &mut runs.sequence);
     let looped = loop_runs(study, screened, store, stage, &chosen, (source, options, engine), reporter, &mut decide);
@@ -327,6 +330,19 @@ fn diagnose_with_solver(
     let (diagnosis, residuals) = with_features(study, stage, problem.as_ref(), diagnosis, &loop_curves);
     runs.residual_curves = residuals;
     Ok(Ok(diagnosis.with_extensions(records)))
+}
+
+/// Each looped hypothesis's fitted values and standard errors, from its model's own diagnosis.
+fn fitted_points(chosen: &[usize], own: &[Diagnosis]) -> Vec<(usize, sequence::Fitted)> {
+    chosen
+        .iter()
+        .zip(own)
+        .map(|(&k, o)| {
+            let u = &o.uncorrected;
+            let se = u.precision.as_ref().map(|p| p.se.clone());
+            (k, sequence::Fitted { values: u.parameters.clone(), se })
+        })
+        .collect()
 }
 
 /// The screening's runs as the loop reads them.

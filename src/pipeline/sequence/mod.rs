@@ -109,6 +109,9 @@ struct Runner<'a> {
     planning: f64,
 }
 
+/// The loop's stages: each hypothesis, its joint space, and its edge at the baseline.
+type Stages<'s> = [(usize, Space<'s>, Option<Vec<(String, f64)>>)];
+
 /// One stage's space: its box and names, and how a point becomes a run at a design.
 struct Space<'s> {
     name: String,
@@ -289,6 +292,7 @@ impl<'a> Runner<'a> {
             interval95: Default::default(),
             stopped: None,
             planning_seconds: self.planning,
+            placed: None,
         }
     }
 
@@ -455,6 +459,109 @@ impl<'a> Runner<'a> {
             }
         }
         (open, posterior, sites, emus)
+    }
+
+    /// The loop's stages, taking turns a batch each (so that one hypothesis's loop, a wrong one
+    /// chasing its own misfit, cannot spend the budget the others need), until each one's emulators
+    /// are within the tolerance; the tolerance halved while the decision after the loop could still
+    /// change within their remaining error ([`TIGHTENINGS`] times at most). The decision then, with
+    /// the error as measured.
+    fn converge(
+        &mut self,
+        stages: &Stages,
+        edges: &[(usize, Vec<(String, f64)>)],
+        screening: &ScreeningRuns,
+        decide: &mut Decide,
+        store: &mut RunStore,
+        reporter: &mut dyn Reporter,
+    ) -> Result<Option<Provisional>, Error> {
+        let mut round = 0;
+        loop {
+            let mut open = vec![true; stages.len()];
+            while open.iter().any(|&o| o) {
+                for ((k, space, edge), open) in stages.iter().zip(&mut open) {
+                    if *open {
+                        self.prior = prior_runs(self.study, *k, edge.as_deref(), screening);
+                        *open = self.step(space, store, reporter)?.is_none();
+                    }
+                }
+            }
+            if stages.is_empty() {
+                return Ok(None);
+            }
+            let provisional = self.provisional(stages, edges.to_vec(), screening);
+            let measured = decide(&provisional, 0.0);
+            if round == TIGHTENINGS || self.sequence.runs >= self.limits.budget {
+                return Ok(measured);
+            }
+            let f = self.limits.tolerance;
+            let worst = decide(&provisional, f * f);
+            let key = |d: &Option<Provisional>| d.as_ref().map(|d| d.key.clone());
+            if key(&measured) == key(&worst) {
+                return Ok(measured);
+            }
+            self.limits.tolerance = f / 2.0;
+            round += 1;
+            reporter.report(Event::Note(format!(
+                "the decision after the loop could still change within the emulators' remaining error ({} with it as \
+                 measured, {} at the tolerance's worst case): the loop goes on at a tolerance of {}",
+                key(&measured).as_deref().unwrap_or("none"),
+                key(&worst).as_deref().unwrap_or("none"),
+                self.limits.tolerance
+            )));
+        }
+    }
+
+    /// Runs at the provisional decision's fitted point (`d`), one per tested design, as a batch of
+    /// each looped stage's own: held out when the stage next assesses its emulators, they measure
+    /// the emulators' error where the decision reads them. `false` when there is nothing new to
+    /// place (every design already run there, [`Fitted::at`]) or the budget has no room for it.
+    fn verify(&mut self, stages: &Stages, d: &Provisional, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<bool, Error> {
+        let placed: Vec<(&Space, Vec<PlannedRun>)> = stages
+            .iter()
+            .filter_map(|(k, space, _)| {
+                let fitted = &d.points.iter().find(|(j, _)| j == k)?.1;
+                let x: Vec<f64> = space.names.iter().map(|n| fitted.values.get(n).copied()).collect::<Option<_>>()?;
+                let x = as_written(self.sim, &x);
+                // A design already run there (by an earlier check, now in its emulators' fit) needs
+                // no second run.
+                let had = |t: &&sites::TestedDesign| {
+                    self.plan
+                        .runs
+                        .iter()
+                        .any(|run| (space.mine)(run) && run.design == t.name && fitted.at(&space.names, &(space.point)(run)))
+                };
+                let runs: Vec<PlannedRun> = self
+                    .tests
+                    .designs
+                    .iter()
+                    .filter(|t| !had(t))
+                    .map(|t| (space.make)(&t.name, &t.values, &x))
+                    .collect();
+                (!runs.is_empty()).then_some((space, runs))
+            })
+            .collect();
+        let n: usize = placed.iter().map(|(_, runs)| runs.len()).sum();
+        if n == 0 {
+            return Ok(false);
+        }
+        if self.sequence.runs + n > self.limits.budget {
+            reporter.report(Event::Note(format!(
+                "the loop's emulators were not checked by solver runs at the decision's fitted point: the {n} run(s) \
+                 it takes do not fit in the budget ({} of {} spent); the decision reads them there unchecked",
+                self.sequence.runs, self.limits.budget
+            )));
+            return Ok(false);
+        }
+        for (space, runs) in placed {
+            let b = self.batch_of.last().map_or(0, |b| b + 1);
+            self.batch(space, runs, b, store, reporter)?;
+            if let Some(last) = self.sequence.sequence.last_mut() {
+                last.placed = Some("the decision's fitted point".into());
+            }
+        }
+        self.sequence.write(&self.options.out)?;
+        Ok(true)
     }
 
     /// Each design's latest batch of the stage's own runs becomes its check runs.
@@ -667,13 +774,43 @@ pub struct ScreeningRuns<'a> {
 }
 
 /// The decision after the loop from provisional joint runs, with the emulators' error counted at
-/// least at a floor (a share of the tests' noise variance): a key that changes when the verdict,
-/// the cause or the partial explanation does (`None`: no decision could be made).
-pub type Decide<'d> = dyn FnMut(&super::extend::JointRuns, f64) -> Option<String> + 'd;
+/// least at a floor (a share of the tests' noise variance) (`None`: no decision could be made).
+pub type Decide<'d> = dyn FnMut(&super::extend::JointRuns, f64) -> Option<Provisional> + 'd;
+
+/// A provisional decision after the loop: what may not change, and where it reads the emulators.
+#[derive(Debug, Clone)]
+pub struct Provisional {
+    /// Changes when the verdict, the cause or the partial explanation does.
+    pub key: String,
+    /// Each looped hypothesis's fitted point.
+    pub points: Vec<(usize, Fitted)>,
+}
+
+/// A looped hypothesis's fitted values (θ and its ranged variables, by name) and their standard
+/// errors (absent without a covariance).
+#[derive(Debug, Clone)]
+pub struct Fitted {
+    pub values: indexmap::IndexMap<String, f64>,
+    pub se: Option<indexmap::IndexMap<String, f64>>,
+}
+
+impl Fitted {
+    /// Whether `x` (values in the order of `names`) is where the fit is, as closely as the tests
+    /// tell: within half a standard error in every variable (exactly, without standard errors).
+    fn at(&self, names: &[String], x: &[f64]) -> bool {
+        names.iter().zip(x).all(|(n, v)| {
+            let half = self.se.as_ref().and_then(|se| se.get(n)).map_or(0.0, |s| 0.5 * s);
+            self.values.get(n).is_some_and(|f| (f - v).abs() <= half)
+        })
+    }
+}
 
 /// The most times the loop's tolerance is halved for a decision that its emulators' remaining error
 /// could still change.
 const TIGHTENINGS: usize = 3;
+
+/// The most times the loop's emulators are checked by solver runs at the decision's fitted point.
+const VERIFICATIONS: usize = 3;
 
 /// The solver-in-the-loop's runs of `hypotheses`, sampled sequentially in each one's joint space
 /// (θ × its ranged variables) from what the screening already ran there: its probes, and its
@@ -727,35 +864,21 @@ pub fn looped(
         }
         stages.push((k, space, edge));
     }
-    for round in 0..=TIGHTENINGS {
-        // The stages take turns, a batch each, so that one hypothesis's loop (a wrong one chasing
-        // its own misfit) cannot spend the budget the others need.
-        let mut open = vec![true; stages.len()];
-        while open.iter().any(|&o| o) {
-            for ((k, space, edge), open) in stages.iter().zip(&mut open) {
-                if *open {
-                    r.prior = prior_runs(study, *k, edge.as_deref(), screening);
-                    *open = r.step(space, store, reporter)?.is_none();
-                }
-            }
-        }
-        if round == TIGHTENINGS || r.sequence.runs >= r.limits.budget || stages.is_empty() {
+    let mut decision = r.converge(&stages, &edges, screening, decide, store, reporter)?;
+    // The stages stop where the emulators are within the tolerance at the posterior; the decision
+    // reads them at its own fitted point, which may lie where no run checked them (a fit that ends
+    // at a bound, a feature the posterior weighs little). A run per tested design there, held out,
+    // is the check; where it fails, the stages go on with it.
+    for _ in 0..VERIFICATIONS {
+        let Some(d) = decision.take() else { break };
+        if !r.verify(&stages, &d, store, reporter)? {
             break;
         }
-        let provisional = r.provisional(&stages, edges.clone(), screening);
-        let f = r.limits.tolerance;
-        let (measured, worst) = (decide(&provisional, 0.0), decide(&provisional, f * f));
-        if measured == worst {
+        let checked = r.plan.runs.len();
+        decision = r.converge(&stages, &edges, screening, decide, store, reporter)?;
+        if r.plan.runs.len() == checked {
             break;
         }
-        r.limits.tolerance = f / 2.0;
-        reporter.report(Event::Note(format!(
-            "the decision after the loop could still change within the emulators' remaining error ({} with it as \
-             measured, {} at the tolerance's worst case): the loop goes on at a tolerance of {}",
-            measured.as_deref().unwrap_or("none"),
-            worst.as_deref().unwrap_or("none"),
-            r.limits.tolerance
-        )));
     }
     for (k, space, edge) in &stages {
         r.prior = prior_runs(study, *k, edge.as_deref(), screening);
@@ -846,6 +969,25 @@ fn prior_runs(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A run counts as at the fitted point within half a standard error in every variable, and
+    /// exactly where the fit has no standard errors.
+    #[test]
+    fn a_run_is_at_the_fitted_point_within_half_a_standard_error() {
+        let names = vec!["sigma_y".to_string(), "etan".to_string()];
+        let values: indexmap::IndexMap<String, f64> = [("sigma_y".into(), 184.6), ("etan".into(), 195.3)].into();
+        let se = Some([("sigma_y".to_string(), 1.0), ("etan".to_string(), 12.0)].into());
+        let fitted = Fitted { values: values.clone(), se };
+        assert!(fitted.at(&names, &[184.6, 195.3]));
+        assert!(fitted.at(&names, &[185.05, 189.5]));
+        assert!(!fitted.at(&names, &[185.2, 195.3]), "σy 0.6 SE away");
+        assert!(!fitted.at(&names, &[184.6, 202.0]), "ETAN 0.56 SE away");
+        let exact = Fitted { values, se: None };
+        assert!(exact.at(&names, &[184.6, 195.3]));
+        assert!(!exact.at(&names, &[184.6, 195.31]));
+        let unknown = ["sigma_y".to_string(), "src".to_string()];
+        assert!(!fitted.at(&unknown, &[184.6, 1000.0]), "a variable the fit does not have");
+    }
 
     /// `per_design[i]`: the batches design `d{i}`'s runs came in.
     fn plan_of(per_design: &[&[usize]]) -> (Plan, Vec<usize>, Vec<String>) {

@@ -67,6 +67,11 @@ pub struct Batch {
     /// Why the stage's sequence stopped after this batch (as `stopped`); absent while it goes on.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub stopped: Option<String>,
+    /// Where the batch was placed when not by the planner: `the decision's fitted point` for a
+    /// loop's runs at its provisional decision's fitted values, one per tested design, that check
+    /// its emulators where the decision reads them.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub placed: Option<String>,
 }
 
 /// The fixed design a sequence replaces: what it is, and the solver runs it would have made
@@ -183,6 +188,9 @@ impl Sequence {
         if let Some(last) = self.sequence.iter_mut().rev().find(|b| b.stage == stage) {
             last.stopped = Some(reason.to_string());
         }
+        // A stage stopped again (the loop's tolerance tightened, or its emulators checked at the
+        // decision's fitted point) has one stop: its last.
+        self.stopped.retain(|s| s.stage != stage);
         self.stopped.push(Stop {
             stage: stage.to_string(),
             reason: reason.to_string(),
@@ -248,8 +256,9 @@ impl Batch {
                 )
             })
             .collect();
+        let placed = self.placed.as_ref().map_or_else(String::new, |p| format!(" at {p}"));
         let mut line = format!(
-            "{} batch {}: {} run(s), {} in all; {error}",
+            "{} batch {}: {} run(s){placed}, {} in all; {error}",
             self.stage, self.batch, self.runs, self.total
         );
         if !estimates.is_empty() {
