@@ -271,15 +271,17 @@ impl Drawn {
 /// given x here, so this is a secant towards x = 1, not the Jacobian. The importance weights correct
 /// the posterior for the proposal it shapes. Corrected (differenced in the unit cube), the main job
 /// keeps its verdicts, but a listed-rate curves case (draw 777,782) names 'linear in c' where the
-/// truth is the rate: the loop's decision then rejects the rate on an emulator error at a fitted
-/// point no run checked. The correction waits for that check.
+/// truth is the rate: the loop's decision rejects the rate on an emulator error at a fitted point
+/// no run checked. The loop's check at the decision's fitted point does not catch it yet (its
+/// "already run" rule is too loose, docs/diagnosis.md); the correction waits for that.
 fn laplace(residuals: &impl Fn(&DVector<f64>) -> DVector<f64>, mode: &DVector<f64>, bounds: &Bounds) -> DMatrix<f64> {
     let p = mode.len();
+    let w = bounds.width();
     let j = optimize::jacobian(residuals, mode);
     let info = j.transpose() * &j;
-    let floor = DMatrix::from_fn(p, p, |a, b| if a == b { (4.0 / bounds.width()[a]).powi(2) } else { 0.0 });
+    let floor = DMatrix::from_fn(p, p, |a, b| if a == b { (4.0 / w[a]).powi(2) } else { 0.0 });
     (info + floor).try_inverse().unwrap_or_else(|| DMatrix::from_fn(p, p, |a, b| {
-        if a == b { (bounds.width()[a] / 4.0).powi(2) } else { 0.0 }
+        if a == b { (w[a] / 4.0).powi(2) } else { 0.0 }
     }))
 }
 

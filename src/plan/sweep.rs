@@ -311,7 +311,7 @@ impl SequenceFloor {
 /// The solver runs the fixed design `fixed` would have made in place of a sequential study's:
 /// its samples and check runs, the extension hypotheses' runs at every sample, and the
 /// solver-in-the-loop's joint plan for the hypotheses the sequence took into the loop (`looped`).
-/// Planned, never run: the other side of the terminal's `246 → 36 solver runs`.
+/// Planned, never run: the other side of the terminal's `246 → 45 solver runs`.
 pub fn fixed_runs(study: &Study, sim: &SolverSimulation, fixed: &Sampling, looped: &[usize]) -> usize {
     let sim = SolverSimulation {
         sampling: fixed.clone(),

@@ -21,7 +21,7 @@ pub fn render(results: &Results) -> String {
 }
 
 /// A sequential study's solver runs in all, stage by stage, and why each stopped; first, when the
-/// study names the fixed design it replaces, that design's runs beside them (`246 → 36`).
+/// study names the fixed design it replaces, that design's runs beside them (`246 → 45`).
 fn sampling_line(results: &Results) -> String {
     let Some(s) = &results.sampling else {
         return String::new();

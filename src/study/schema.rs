@@ -221,7 +221,7 @@ pub struct SamplingFile {
     /// Extra Latin-hypercube runs per design that measure the surrogate's error (paper: 5).
     pub check_runs: Option<Spanned<usize>>,
     /// `sequential`: the fixed design (`lhs` or `grid`) it replaces, counted (never run) for the
-    /// terminal's `246 → 36 solver runs` and `results.json` `sampling.replaces`.
+    /// terminal's `246 → 45 solver runs` and `results.json` `sampling.replaces`.
     pub replaces: Option<Spanned<Box<SamplingFile>>>,
 }
 
