@@ -26,6 +26,12 @@
 //!    the rest: cannot tell apart, the survivors ranked by their score (AICc and leave-one-design-out
 //!    deviance on the same training tests, step 2's score), best first.
 //!
+//! 5. **Unchecked loop models.** A loop model whose emulators no solver run checked at its fitted
+//!    point (the loop's budget ran out first) may miss the tests by the emulators' error rather
+//!    than its own: it is not rejected on its lack of fit, and where it misses beside another open
+//!    explanation the verdict is "cannot tell apart" (neither is decided over the other until runs
+//!    there check it).
+//!
 //! Pure: the inputs are the screening's and each loop model's evidence ([`super::Evidence`]).
 
 use serde::{Deserialize, Serialize};
@@ -46,6 +52,10 @@ pub struct Judged {
     pub lack_of_fit: Option<LackOfFit>,
     /// Out: its final model misses the tests beyond the noise at α.
     pub rejected: bool,
+    /// Its final model misses the tests, but no solver run checked its emulators at its fitted
+    /// point: the miss may be theirs, so it is not out (step 5).
+    #[serde(skip_serializing_if = "std::ops::Not::not", default)]
+    pub unchecked: bool,
     /// The score of step 2 on the training tests (smaller is better), and its weight among the
     /// open explanations.
     #[serde(skip_serializing_if = "Option::is_none", default)]
@@ -78,6 +88,24 @@ struct Open {
     name: String,
     lof: Option<LackOfFit>,
     score: Option<f64>,
+    /// A screening model, or a loop model whose emulators were checked at its fitted point.
+    checked: bool,
+}
+
+impl Open {
+    fn misses(&self) -> bool {
+        self.lof.as_ref().is_some_and(LackOfFit::rejects)
+    }
+
+    /// Out on its lack of fit.
+    fn rejected(&self) -> bool {
+        self.checked && self.misses()
+    }
+
+    /// Misses, but its emulators were not checked where it was fitted (step 5).
+    fn unsettled(&self) -> bool {
+        !self.checked && self.misses()
+    }
 }
 
 /// The final decision, and the record of how it was reached. `loop_names[j]` is the hypothesis the
@@ -90,14 +118,14 @@ pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[St
         .iter()
         .filter_map(|&who| open_one(screening, looped, loop_names, who))
         .collect();
-    let rejected = |o: &Open| o.lof.as_ref().is_some_and(LackOfFit::rejects);
-    let mut survivors: Vec<&Open> = open.iter().filter(|o| !rejected(o)).collect();
+    let mut survivors: Vec<&Open> = open.iter().filter(|o| !o.rejected()).collect();
     survivors.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
     let mut pairwise = Vec::new();
-    let decision = match survivors.as_slice() {
-        [] => all_rejected(screening, &open, alpha),
-        [one] => named(screening, looped, one, None),
-        many => {
+    let decision = match (unsettled(&open), survivors.as_slice()) {
+        (Some(d), _) => d,
+        (None, []) => all_rejected(screening, &open, alpha),
+        (None, [one]) => named(screening, looped, one, None),
+        (None, many) => {
             let p = |e: &Open, f: &Open, out: &mut Vec<Pairwise>| {
                 let p = added_to(screening, looped, e, f);
                 out.push(Pairwise {
@@ -160,7 +188,8 @@ pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[St
                 }
                 .into(),
                 lack_of_fit: o.lof.clone(),
-                rejected: rejected(o),
+                rejected: o.rejected(),
+                unchecked: o.unsettled(),
                 score: o.score,
                 weight: w,
             })
@@ -187,6 +216,7 @@ fn open_one(screening: &Evidence, looped: &[Evidence], loop_names: &[String], wh
                 name,
                 lof: base.assessed.lack_of_fit.clone(),
                 score: base.score.as_ref().map(|s| s.score),
+                checked: looped[j].checked,
             }
         }
         None => Open {
@@ -194,6 +224,7 @@ fn open_one(screening: &Evidence, looped: &[Evidence], loop_names: &[String], wh
             name,
             lof: entry.assessed.lack_of_fit.clone(),
             score: entry.score.as_ref().map(|s| s.score),
+            checked: true,
         },
     })
 }
@@ -263,6 +294,24 @@ fn is_same(screening: &Evidence, name: &str, who: Who) -> bool {
     Decision::candidate(who).is_some_and(|k| screening.ranked.entries[k].model.name() == name)
 }
 
+/// Step 5: an unchecked loop model that misses the tests beside another open explanation leaves
+/// them open, ranked by score (`None`: no such model, or it is the only explanation open).
+fn unsettled(open: &[Open]) -> Option<Decision> {
+    if open.len() < 2 || !open.iter().any(Open::unsettled) {
+        return None;
+    }
+    let mut ranked: Vec<&Open> = open.iter().collect();
+    ranked.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
+    let leading: Vec<Who> = ranked.iter().map(|o| o.who).collect();
+    Some(Decision {
+        verdict: Verdict::CannotTellApart,
+        detected: true,
+        cause: None,
+        compare: leading.iter().take(2).copied().collect(),
+        leading,
+    })
+}
+
 /// Every open explanation's final model misses the tests: the best-scored partly explains.
 fn all_rejected(screening: &Evidence, open: &[Open], _alpha: f64) -> Decision {
     let best = open.iter().min_by(|a, b| key(a.score).total_cmp(&key(b.score)));
@@ -303,4 +352,47 @@ fn weights(open: &[Open]) -> Vec<f64> {
         .collect();
     let total: f64 = raw.iter().sum();
     raw.iter().map(|r| r / total.max(f64::MIN_POSITIVE)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn open(k: usize, score: f64, fits: bool, checked: bool) -> Open {
+        Open {
+            who: Who::Extended(k),
+            name: format!("h{k}"),
+            lof: Some(LackOfFit {
+                chi2: if fits { 1.0 } else { 40.0 },
+                dof: 4,
+                noise_dof: 10,
+                p_value: if fits { 0.4 } else { 1e-6 },
+                largest: None,
+                level: 0.05,
+                fits,
+            }),
+            score: Some(score),
+            checked,
+        }
+    }
+
+    /// A loop model that misses the tests with its emulators unchecked at its fitted point is
+    /// neither out nor beaten: the two stay open, the better-scored first. Checked, it is out.
+    #[test]
+    fn an_unchecked_miss_leaves_the_explanations_open() {
+        let both = [open(0, 12.0, true, true), open(1, 30.0, false, false)];
+        let d = unsettled(&both).expect("left open");
+        assert_eq!(d.verdict, Verdict::CannotTellApart);
+        assert_eq!(d.cause, None);
+        assert_eq!(d.leading, vec![Who::Extended(0), Who::Extended(1)]);
+        assert!(both[1].unsettled() && !both[1].rejected());
+
+        let checked = [open(0, 12.0, true, true), open(1, 30.0, false, true)];
+        assert!(unsettled(&checked).is_none());
+        assert!(checked[1].rejected());
+
+        let fits = [open(0, 12.0, true, true), open(1, 30.0, true, false)];
+        assert!(unsettled(&fits).is_none(), "an unchecked model that fits is judged as any other");
+        assert!(unsettled(&[open(1, 30.0, false, false)]).is_none(), "alone, nothing else is open");
+    }
 }

@@ -918,6 +918,9 @@ pub struct LoopModel<'a> {
     /// variables; its candidates are the study's terms and the other hypotheses' screening shapes
     /// (so that each can be tested with the extended model as the base).
     pub inputs: Inputs<'a>,
+    /// Its emulators were checked by solver runs at its fitted point. Unchecked, its lack of fit
+    /// may be theirs: the decision does not reject it on it ([`after_loop`]).
+    pub checked: bool,
 }
 
 /// The diagnosis from all the evidence: the screening of `inputs`, then every model the loop
@@ -927,7 +930,7 @@ pub fn conclude(inputs: &Inputs, looped: &[LoopModel]) -> Result<(Diagnosis, Vec
     let screening = Evidence::gather(inputs, true)?;
     let evidence: Vec<Evidence> = looped
         .iter()
-        .map(|m| Evidence::gather(&m.inputs, false))
+        .map(|m| Evidence::gather(&m.inputs, false).map(|e| Evidence { checked: m.checked, ..e }))
         .collect::<Result<_, _>>()?;
     let own: Vec<Diagnosis> = evidence.iter().map(|e| e.conclusion(&[], &[])).collect();
     let names: Vec<String> = looped.iter().map(|m| m.hypothesis.clone()).collect();
@@ -950,6 +953,8 @@ pub(crate) struct Evidence<'a> {
     pub decision: verdict::Decision,
     pub noise: NoiseModel,
     pub notes: Vec<String>,
+    /// A loop model's emulators were checked at its fitted point ([`LoopModel::checked`]).
+    pub checked: bool,
 }
 
 impl<'a> Evidence<'a> {
@@ -970,6 +975,7 @@ impl<'a> Evidence<'a> {
             decision,
             noise,
             notes,
+            checked: true,
         })
     }
 

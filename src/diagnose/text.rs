@@ -643,6 +643,12 @@ fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
             "fitted with the parameters (not extended by the loop)"
         };
         out.push(match &j.lack_of_fit {
+            Some(l) if j.unchecked => format!(
+                "'{}' {what}: misses the tests ({}), but no solver run checked its emulators at its fitted point \
+                 (the loop's budget ran out first), so the miss may be theirs: not rejected on it.",
+                j.name,
+                lof_text(l)
+            ),
             Some(l) if j.rejected => format!(
                 "'{}' {what}: rejected, its model still misses the tests beyond the noise ({}; α = {alpha}).",
                 j.name,

@@ -108,6 +108,11 @@ pub struct JointRuns {
     /// decks are byte for byte the extension's at these values), the edge: the screening's
     /// baseline runs then join its emulators there.
     pub edges: Vec<(usize, Vec<(String, f64)>)>,
+    /// The hypotheses whose emulators no solver run checked at the decision's fitted point (a
+    /// sequential loop whose budget ran out first, [`super::sequence::looped`]), each with the error
+    /// its last check there measured (units of the tests' noise; `None`: never checked); none for a
+    /// fixed plan, whose decision reads its emulators as its check runs measured them.
+    pub unchecked: Vec<(usize, Option<f64>)>,
 }
 
 impl JointRuns {
@@ -163,6 +168,7 @@ pub fn execute(
         flags,
         usable,
         edges: Vec::new(),
+        unchecked: Vec::new(),
     })
 }
 
@@ -174,6 +180,12 @@ pub struct ExtendedModel {
     pub surrogates: SurrogateModel,
     pub data: SimulationData,
     pub runs: LoopRuns,
+    /// Its emulators were checked by solver runs at the decision's fitted point (or the plan was
+    /// fixed, or an earlier check there measured their error, see [`JointRuns::unchecked`]).
+    pub checked: bool,
+    /// The emulators' error its decision counts at least, as a share of the tests' noise variance:
+    /// the square of what the last check at a fitted point measured, where none checked the latest.
+    pub emulator_floor: f64,
 }
 
 /// The extended model of hypothesis `k` from its joint runs (`joint`) and its screening runs
@@ -223,6 +235,8 @@ pub fn extended_model(
     let joint_runs = runs.iter().filter(|r| matches!(r.run.role, RunRole::Joint(_) | RunRole::JointCheck(_)));
     let planned = joint_runs.clone().count();
     Ok(ExtendedModel {
+        checked: joint.unchecked.iter().all(|(j, missed)| *j != k || missed.is_some()),
+        emulator_floor: joint.unchecked.iter().find(|(j, _)| *j == k).and_then(|(_, e)| *e).map_or(0.0, |e| e * e),
         hypothesis: k,
         study: extended,
         surrogates: SurrogateModel { designs },
@@ -304,6 +318,7 @@ pub fn loop_model<'m>(
     diagnose::LoopModel {
         hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
         inputs,
+        checked: m.checked,
     }
 }
 

@@ -332,16 +332,12 @@ fn diagnose_with_solver(
     Ok(Ok(diagnosis.with_extensions(records)))
 }
 
-/// Each looped hypothesis's fitted values and standard errors, from its model's own diagnosis.
+/// Each looped hypothesis's fitted values, from its model's own diagnosis.
 fn fitted_points(chosen: &[usize], own: &[Diagnosis]) -> Vec<(usize, sequence::Fitted)> {
     chosen
         .iter()
         .zip(own)
-        .map(|(&k, o)| {
-            let u = &o.uncorrected;
-            let se = u.precision.as_ref().map(|p| p.se.clone());
-            (k, sequence::Fitted { values: u.parameters.clone(), se })
-        })
+        .map(|(&k, o)| (k, sequence::Fitted { values: o.uncorrected.parameters.clone() }))
         .collect()
 }
 
@@ -400,7 +396,7 @@ fn conclude_on_response(
         .iter()
         .map(|m| {
             let mut l = extend::loop_model(study, m, &baseline, extensions);
-            l.inputs.settings.emulator_floor = floor;
+            l.inputs.settings.emulator_floor = floor.max(m.emulator_floor);
             l
         })
         .collect();
@@ -435,7 +431,7 @@ fn conclude_on_curves(
             let others =
                 curves::extension_hypotheses(study, &stage.extension_fns(), Some((baseline.clone(), p)), Some(m.hypothesis));
             let mut ci = curves::inputs(&m.study, &stage.setting, stage.designs.clone(), model, others);
-            ci.settings.emulator_floor = floor;
+            ci.settings.emulator_floor = floor.max(m.emulator_floor);
             ci
         })
         .collect();
@@ -450,6 +446,7 @@ fn conclude_on_curves(
         .map(|(m, (p, ci))| crate::diagnose::LoopModel {
             hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
             inputs: p.inputs(ci),
+            checked: m.checked,
         })
         .collect();
     Ok(crate::diagnose::conclude(inputs, &looped).map(|(d, own)| (d, own, loop_curves)))
