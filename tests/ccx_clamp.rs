@@ -180,7 +180,7 @@ fn live_clamp_extension_recovers_e_and_clamp_e_with_the_solver_in_the_loop() {
     // the sequence made runs, and at most 45 % of the fixed design's 238 runs (the issue asks a
     // quarter; see docs/sampling.md for where the rest goes): 91 before the loop's emulators were
     // checked by solver runs at the decision's fitted point, which costs one run per design (7) a
-    // check (107 with two checks, the first missing by 0.6 of the tests' noise against 0.5).
+    // check (100 measured; 107 with two checks where the first missed by 0.6 of the tests' noise against 0.5).
     let total = results["sampling"]["runs"].as_u64().unwrap();
     let in_loop = results["runs"]["in_the_loop"].as_u64().unwrap();
     assert_eq!(x["runs"]["planned"].as_u64(), Some(in_loop), "{x}");

@@ -27,10 +27,10 @@
 //!    deviance on the same training tests, step 2's score), best first.
 //!
 //! 5. **Unchecked loop models.** A loop model whose emulators no solver run checked at its fitted
-//!    point (the loop's budget ran out first) may miss the tests by the emulators' error rather
-//!    than its own: it is not rejected on its lack of fit, and where it misses beside another open
-//!    explanation the verdict is "cannot tell apart" (neither is decided over the other until runs
-//!    there check it).
+//!    point (the loop's budget ran out first) may miss the tests, or fit them, by the emulators'
+//!    error rather than its own: it is not rejected on its lack of fit, and beside another open
+//!    explanation the verdict is "cannot tell apart" (nothing is decided over it, nor it over
+//!    another, until runs there check it).
 //!
 //! Pure: the inputs are the screening's and each loop model's evidence ([`super::Evidence`]).
 
@@ -52,8 +52,8 @@ pub struct Judged {
     pub lack_of_fit: Option<LackOfFit>,
     /// Out: its final model misses the tests beyond the noise at α.
     pub rejected: bool,
-    /// Its final model misses the tests, but no solver run checked its emulators at its fitted
-    /// point: the miss may be theirs, so it is not out (step 5).
+    /// A loop model whose emulators no solver run checked at its fitted point. Beside another
+    /// explanation not out, it is not out on its lack of fit and nothing is decided over it (step 5).
     #[serde(skip_serializing_if = "std::ops::Not::not", default)]
     pub unchecked: bool,
     /// The score of step 2 on the training tests (smaller is better), and its weight among the
@@ -97,14 +97,9 @@ impl Open {
         self.lof.as_ref().is_some_and(LackOfFit::rejects)
     }
 
-    /// Out on its lack of fit.
-    fn rejected(&self) -> bool {
-        self.checked && self.misses()
-    }
-
-    /// Misses, but its emulators were not checked where it was fitted (step 5).
-    fn unsettled(&self) -> bool {
-        !self.checked && self.misses()
+    /// Out on its lack of fit; `held`: step 5 holds an unchecked model open instead.
+    fn rejected(&self, held: bool) -> bool {
+        self.misses() && !(held && !self.checked)
     }
 }
 
@@ -118,10 +113,13 @@ pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[St
         .iter()
         .filter_map(|&who| open_one(screening, looped, loop_names, who))
         .collect();
-    let mut survivors: Vec<&Open> = open.iter().filter(|o| !o.rejected()).collect();
+    let held = unsettled(&open);
+    let step5 = held.is_some();
+    let rejected = |o: &Open| o.rejected(step5);
+    let mut survivors: Vec<&Open> = open.iter().filter(|o| !rejected(o)).collect();
     survivors.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
     let mut pairwise = Vec::new();
-    let decision = match (unsettled(&open), survivors.as_slice()) {
+    let decision = match (held, survivors.as_slice()) {
         (Some(d), _) => d,
         (None, []) => all_rejected(screening, &open, alpha),
         (None, [one]) => named(screening, looped, one, None),
@@ -188,8 +186,8 @@ pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[St
                 }
                 .into(),
                 lack_of_fit: o.lof.clone(),
-                rejected: o.rejected(),
-                unchecked: o.unsettled(),
+                rejected: rejected(o),
+                unchecked: !o.checked,
                 score: o.score,
                 weight: w,
             })
@@ -294,13 +292,15 @@ fn is_same(screening: &Evidence, name: &str, who: Who) -> bool {
     Decision::candidate(who).is_some_and(|k| screening.ranked.entries[k].model.name() == name)
 }
 
-/// Step 5: an unchecked loop model that misses the tests beside another open explanation leaves
-/// them open, ranked by score (`None`: no such model, or it is the only explanation open).
+/// Step 5: an unchecked loop model beside another explanation not out (every one but a checked
+/// model that misses) leaves those open, ranked by score. `None`: no such model, or nothing beside
+/// it: alone, it is judged by steps 2–4 (a miss partly explains, never a fit).
 fn unsettled(open: &[Open]) -> Option<Decision> {
-    if open.len() < 2 || !open.iter().any(Open::unsettled) {
+    let standing: Vec<&Open> = open.iter().filter(|o| !(o.checked && o.misses())).collect();
+    if standing.len() < 2 || standing.iter().all(|o| o.checked) {
         return None;
     }
-    let mut ranked: Vec<&Open> = open.iter().collect();
+    let mut ranked = standing;
     ranked.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
     let leading: Vec<Who> = ranked.iter().map(|o| o.who).collect();
     Some(Decision {
@@ -376,8 +376,8 @@ mod tests {
         }
     }
 
-    /// A loop model that misses the tests with its emulators unchecked at its fitted point is
-    /// neither out nor beaten: the two stay open, the better-scored first. Checked, it is out.
+    /// A loop model with its emulators unchecked at its fitted point is neither out nor beaten, nor
+    /// named over another: the two stay open, the better-scored first. Checked, a miss is out.
     #[test]
     fn an_unchecked_miss_leaves_the_explanations_open() {
         let both = [open(0, 12.0, true, true), open(1, 30.0, false, false)];
@@ -385,14 +385,20 @@ mod tests {
         assert_eq!(d.verdict, Verdict::CannotTellApart);
         assert_eq!(d.cause, None);
         assert_eq!(d.leading, vec![Who::Extended(0), Who::Extended(1)]);
-        assert!(both[1].unsettled() && !both[1].rejected());
+        assert!(!both[1].rejected(true));
 
         let checked = [open(0, 12.0, true, true), open(1, 30.0, false, true)];
         assert!(unsettled(&checked).is_none());
-        assert!(checked[1].rejected());
+        assert!(checked[1].rejected(false));
 
-        let fits = [open(0, 12.0, true, true), open(1, 30.0, true, false)];
-        assert!(unsettled(&fits).is_none(), "an unchecked model that fits is judged as any other");
+        // Beside a checked model that misses (out), an unchecked one stands alone: judged as any.
+        let alone = [open(0, 12.0, false, true), open(1, 30.0, false, false)];
+        assert!(unsettled(&alone).is_none());
+        assert!(alone[1].rejected(false), "alone, its miss is a miss: never called a fit");
+
+        let fits = [open(0, 30.0, true, true), open(1, 12.0, true, false)];
+        let d = unsettled(&fits).expect("an unchecked model that fits is not named over the other");
+        assert_eq!(d.leading, vec![Who::Extended(1), Who::Extended(0)]);
         assert!(unsettled(&[open(1, 30.0, false, false)]).is_none(), "alone, nothing else is open");
     }
 }

@@ -643,10 +643,11 @@ fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
             "fitted with the parameters (not extended by the loop)"
         };
         out.push(match &j.lack_of_fit {
-            Some(l) if j.unchecked => format!(
-                "'{}' {what}: misses the tests ({}), but no solver run checked its emulators at its fitted point \
-                 (the loop's budget ran out first), so the miss may be theirs: not rejected on it.",
+            Some(l) if j.unchecked && !j.rejected => format!(
+                "'{}' {what}: {} ({}), but no solver run checked its emulators at its fitted point (the loop's \
+                 budget ran out first), so that may be theirs: it is neither rejected nor decided on.",
                 j.name,
+                if l.rejects() { "misses the tests" } else { "fits within the noise" },
                 lof_text(l)
             ),
             Some(l) if j.rejected => format!(

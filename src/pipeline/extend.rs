@@ -109,10 +109,9 @@ pub struct JointRuns {
     /// baseline runs then join its emulators there.
     pub edges: Vec<(usize, Vec<(String, f64)>)>,
     /// The hypotheses whose emulators no solver run checked at the decision's fitted point (a
-    /// sequential loop whose budget ran out first, [`super::sequence::looped`]), each with the error
-    /// its last check there measured (units of the tests' noise; `None`: never checked); none for a
-    /// fixed plan, whose decision reads its emulators as its check runs measured them.
-    pub unchecked: Vec<(usize, Option<f64>)>,
+    /// sequential loop whose budget ran out first, [`super::sequence::looped`]); none for a fixed
+    /// plan, whose decision reads its emulators as its check runs measured them.
+    pub unchecked: Vec<usize>,
 }
 
 impl JointRuns {
@@ -181,11 +180,8 @@ pub struct ExtendedModel {
     pub data: SimulationData,
     pub runs: LoopRuns,
     /// Its emulators were checked by solver runs at the decision's fitted point (or the plan was
-    /// fixed, or an earlier check there measured their error, see [`JointRuns::unchecked`]).
+    /// fixed, see [`JointRuns::unchecked`]).
     pub checked: bool,
-    /// The emulators' error its decision counts at least, as a share of the tests' noise variance:
-    /// the square of what the last check at a fitted point measured, where none checked the latest.
-    pub emulator_floor: f64,
 }
 
 /// The extended model of hypothesis `k` from its joint runs (`joint`) and its screening runs
@@ -235,8 +231,7 @@ pub fn extended_model(
     let joint_runs = runs.iter().filter(|r| matches!(r.run.role, RunRole::Joint(_) | RunRole::JointCheck(_)));
     let planned = joint_runs.clone().count();
     Ok(ExtendedModel {
-        checked: joint.unchecked.iter().all(|(j, missed)| *j != k || missed.is_some()),
-        emulator_floor: joint.unchecked.iter().find(|(j, _)| *j == k).and_then(|(_, e)| *e).map_or(0.0, |e| e * e),
+        checked: !joint.unchecked.contains(&k),
         hypothesis: k,
         study: extended,
         surrogates: SurrogateModel { designs },

@@ -396,7 +396,7 @@ fn conclude_on_response(
         .iter()
         .map(|m| {
             let mut l = extend::loop_model(study, m, &baseline, extensions);
-            l.inputs.settings.emulator_floor = floor.max(m.emulator_floor);
+            l.inputs.settings.emulator_floor = floor;
             l
         })
         .collect();
@@ -431,7 +431,7 @@ fn conclude_on_curves(
             let others =
                 curves::extension_hypotheses(study, &stage.extension_fns(), Some((baseline.clone(), p)), Some(m.hypothesis));
             let mut ci = curves::inputs(&m.study, &stage.setting, stage.designs.clone(), model, others);
-            ci.settings.emulator_floor = floor.max(m.emulator_floor);
+            ci.settings.emulator_floor = floor;
             ci
         })
         .collect();

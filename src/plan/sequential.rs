@@ -265,19 +265,17 @@ impl Drawn {
 }
 
 /// The Gauss–Newton covariance (JᵀJ)⁻¹ at the mode, inflated where the Jacobian is flat so that the
-/// proposal still spans a part of the box.
-///
-/// Known, open (docs/sampling.md): `optimize::jacobian` steps and clamps as in the unit cube, and is
-/// given x here, so this is a secant towards x = 1, not the Jacobian. The importance weights correct
-/// the posterior for the proposal it shapes. Corrected (differenced in the unit cube), the main job
-/// keeps its verdicts, but a listed-rate curves case (draw 777,782) names 'linear in c' where the
-/// truth is the rate: the loop's decision rejects the rate on an emulator error at a fitted point
-/// no run checked. The loop's check at the decision's fitted point does not catch it yet (its
-/// "already run" rule is too loose, docs/diagnosis.md); the correction waits for that.
+/// proposal still spans a part of the box. The Jacobian is differenced in the unit cube (the step
+/// [`optimize::jacobian`] is made for) and scaled back to the box's units column by column.
 fn laplace(residuals: &impl Fn(&DVector<f64>) -> DVector<f64>, mode: &DVector<f64>, bounds: &Bounds) -> DMatrix<f64> {
     let p = mode.len();
     let w = bounds.width();
-    let j = optimize::jacobian(residuals, mode);
+    let in_cube = |u: &DVector<f64>| residuals(&DVector::from_fn(p, |j, _| bounds.lower[j] + u[j] * w[j]));
+    let u = DVector::from_fn(p, |j, _| (mode[j] - bounds.lower[j]) / w[j]);
+    let mut j = optimize::jacobian(&in_cube, &u);
+    for (c, wc) in w.iter().enumerate() {
+        j.column_mut(c).unscale_mut(*wc);
+    }
     let info = j.transpose() * &j;
     let floor = DMatrix::from_fn(p, p, |a, b| if a == b { (4.0 / w[a]).powi(2) } else { 0.0 });
     (info + floor).try_inverse().unwrap_or_else(|| DMatrix::from_fn(p, p, |a, b| {

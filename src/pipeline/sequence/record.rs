@@ -183,13 +183,6 @@ impl Planned {
 }
 
 impl Sequence {
-    /// The largest error measured at `stage`'s latest check at a decision's fitted point, in units of
-    /// the tests' noise (`None`: no check there was measured).
-    pub fn last_check(&self, stage: &str) -> Option<f64> {
-        let b = self.sequence.iter().rev().find(|b| b.stage == stage && b.placed.is_some())?;
-        b.emulator_error.values().flatten().copied().reduce(f64::max)
-    }
-
     /// Records that `stage` stopped for `reason` after `runs` runs, on the stage's last batch too.
     pub fn stop(&mut self, stage: &str, reason: &str, runs: usize) {
         if let Some(last) = self.sequence.iter_mut().rev().find(|b| b.stage == stage) {
@@ -203,6 +196,11 @@ impl Sequence {
             reason: reason.to_string(),
             runs,
         });
+    }
+
+    /// Whether `stage` last stopped with its emulators within the tolerance.
+    pub fn converged(&self, stage: &str) -> bool {
+        self.stopped.iter().any(|s| s.stage == stage && s.reason == "converged")
     }
 
     /// Writes `OUT/sequence.json` (atomically).
