@@ -512,6 +512,62 @@ impl<'a> Runner<'a> {
         }
     }
 
+    /// The stages converged ([`Runner::converge`]), then checked at the decision's fitted point
+    /// ([`Runner::verify`]) until the check passes ([`VERIFICATIONS`] times at most): the looped
+    /// hypotheses whose latest fit no run checked.
+    fn converge_and_check(
+        &mut self,
+        stages: &Stages,
+        edges: &[(usize, Vec<(String, f64)>)],
+        screening: &ScreeningRuns,
+        decide: &mut Decide,
+        store: &mut RunStore,
+        reporter: &mut dyn Reporter,
+    ) -> Result<Vec<usize>, Error> {
+        let mut decision = self.converge(stages, edges, screening, decide, store, reporter)?;
+        // The stages stop where the emulators are within the tolerance at the posterior; the decision
+        // reads them at its own fitted point, which may lie where no run checked them (a fit that ends
+        // at a bound, a feature the posterior weighs little). A run per tested design there, held out,
+        // is the check; where it fails, the stages go on with it. A stage is checked when its runs at
+        // the fitted point were the last it made and it converged with them held out: its emulators
+        // (so its fit) are the ones the check passed.
+        let mut checked = vec![false; stages.len()];
+        for _ in 0..VERIFICATIONS {
+            let Some(d) = decision.take() else { break };
+            let at = match self.verify(stages, &d, &checked, store, reporter)? {
+                Check::NoRoom => break,
+                Check::Had(at) => {
+                    checked = at;
+                    break;
+                }
+                Check::Placed(at) => at,
+            };
+            let before = self.counts(stages);
+            decision = self.converge(stages, edges, screening, decide, store, reporter)?;
+            let after = self.counts(stages);
+            // Passed: no run since, because the stage converged with the check held out (not because
+            // the budget stopped it).
+            checked = stages
+                .iter()
+                .zip(at.iter().zip(before.iter().zip(&after)))
+                .map(|((_, space, _), (a, (b, c)))| *a && b == c && self.sequence.converged(&space.name))
+                .collect();
+            if before == after {
+                break;
+            }
+        }
+        let unchecked: Vec<usize> = stages.iter().zip(&checked).filter(|(_, c)| !**c).map(|((k, _, _), _)| *k).collect();
+        for k in &unchecked {
+            reporter.report(Event::Note(format!(
+                "'{}': no solver run checked the loop's emulators at the decision's fitted point (or the last check \
+                 missed and the budget left no room for another), so its fit there may be theirs: beside another \
+                 explanation, the decision neither rejects it nor names it over that one",
+                self.study.diagnosis.hypotheses[*k].name
+            )));
+        }
+        Ok(unchecked)
+    }
+
     /// Runs at the provisional decision's fitted point (`d`), one per tested design, as a batch of
     /// each looped stage's own: held out when the stage next assesses its emulators, they measure
     /// the emulators' error where the decision reads them. A stage already `checked` (no run of its
@@ -875,47 +931,7 @@ pub fn looped(
     for (_, space, _) in &mut stages {
         space.reserve = checks;
     }
-    let mut decision = r.converge(&stages, &edges, screening, decide, store, reporter)?;
-    // The stages stop where the emulators are within the tolerance at the posterior; the decision
-    // reads them at its own fitted point, which may lie where no run checked them (a fit that ends
-    // at a bound, a feature the posterior weighs little). A run per tested design there, held out,
-    // is the check; where it fails, the stages go on with it. A stage is checked when its runs at
-    // the fitted point were the last it made and it converged with them held out: its emulators
-    // (so its fit) are the ones the check passed.
-    let mut checked = vec![false; stages.len()];
-    for _ in 0..VERIFICATIONS {
-        let Some(d) = decision.take() else { break };
-        let at = match r.verify(&stages, &d, &checked, store, reporter)? {
-            Check::NoRoom => break,
-            Check::Had(at) => {
-                checked = at;
-                break;
-            }
-            Check::Placed(at) => at,
-        };
-        let before = r.counts(&stages);
-        decision = r.converge(&stages, &edges, screening, decide, store, reporter)?;
-        let after = r.counts(&stages);
-        // Passed: no run since, because the stage converged with the check held out (not because
-        // the budget stopped it).
-        checked = stages
-            .iter()
-            .zip(at.iter().zip(before.iter().zip(&after)))
-            .map(|((_, space, _), (a, (b, c)))| *a && b == c && r.sequence.converged(&space.name))
-            .collect();
-        if before == after {
-            break;
-        }
-    }
-    let unchecked: Vec<usize> = stages.iter().zip(&checked).filter(|(_, c)| !**c).map(|((k, _, _), _)| *k).collect();
-    for k in &unchecked {
-        reporter.report(Event::Note(format!(
-            "'{}': no solver run checked the loop's emulators at the decision's fitted point (or the last check \
-             missed and the budget left no room for another), so its fit there may be theirs: the decision neither \
-             rejects it nor names it over another explanation",
-            study.diagnosis.hypotheses[*k].name
-        )));
-    }
+    let unchecked = r.converge_and_check(&stages, &edges, screening, decide, store, reporter)?;
     for (k, space, edge) in &stages {
         r.prior = prior_runs(study, *k, edge.as_deref(), screening);
         r.mark_checks(space, RunRole::JointCheck(*k));
