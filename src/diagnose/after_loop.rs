@@ -99,7 +99,7 @@ impl Open {
 
     /// Out on its lack of fit; `held`: step 5 holds an unchecked model open instead.
     fn rejected(&self, held: bool) -> bool {
-        self.misses() && !(held && !self.checked)
+        self.misses() && (!held || self.checked)
     }
 }
 

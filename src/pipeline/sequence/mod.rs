@@ -109,6 +109,14 @@ struct Runner<'a> {
     planning: f64,
 }
 
+/// What the loop's stages read: the stages, their edges at the baseline, the screening's runs.
+#[derive(Clone, Copy)]
+struct Looping<'a, 's> {
+    stages: &'a Stages<'s>,
+    edges: &'a [(usize, Vec<(String, f64)>)],
+    screening: &'a ScreeningRuns<'a>,
+}
+
 /// The loop's stages: each hypothesis, its joint space, and its edge at the baseline.
 type Stages<'s> = [(usize, Space<'s>, Option<Vec<(String, f64)>>)];
 
@@ -468,13 +476,12 @@ impl<'a> Runner<'a> {
     /// the error as measured.
     fn converge(
         &mut self,
-        stages: &Stages,
-        edges: &[(usize, Vec<(String, f64)>)],
-        screening: &ScreeningRuns,
+        l: Looping,
         decide: &mut Decide,
         store: &mut RunStore,
         reporter: &mut dyn Reporter,
     ) -> Result<Option<Provisional>, Error> {
+        let Looping { stages, edges, screening } = l;
         let mut round = 0;
         loop {
             let mut open = vec![true; stages.len()];
@@ -517,14 +524,13 @@ impl<'a> Runner<'a> {
     /// hypotheses whose latest fit no run checked.
     fn converge_and_check(
         &mut self,
-        stages: &Stages,
-        edges: &[(usize, Vec<(String, f64)>)],
-        screening: &ScreeningRuns,
+        l: Looping,
         decide: &mut Decide,
         store: &mut RunStore,
         reporter: &mut dyn Reporter,
     ) -> Result<Vec<usize>, Error> {
-        let mut decision = self.converge(stages, edges, screening, decide, store, reporter)?;
+        let stages = l.stages;
+        let mut decision = self.converge(l, decide, store, reporter)?;
         // The stages stop where the emulators are within the tolerance at the posterior; the decision
         // reads them at its own fitted point, which may lie where no run checked them (a fit that ends
         // at a bound, a feature the posterior weighs little). A run per tested design there, held out,
@@ -543,7 +549,7 @@ impl<'a> Runner<'a> {
                 Check::Placed(at) => at,
             };
             let before = self.counts(stages);
-            decision = self.converge(stages, edges, screening, decide, store, reporter)?;
+            decision = self.converge(l, decide, store, reporter)?;
             let after = self.counts(stages);
             // Passed: no run since, because the stage converged with the check held out (not because
             // the budget stopped it).
@@ -931,7 +937,8 @@ pub fn looped(
     for (_, space, _) in &mut stages {
         space.reserve = checks;
     }
-    let unchecked = r.converge_and_check(&stages, &edges, screening, decide, store, reporter)?;
+    let l = Looping { stages: &stages, edges: &edges, screening };
+    let unchecked = r.converge_and_check(l, decide, store, reporter)?;
     for (k, space, edge) in &stages {
         r.prior = prior_runs(study, *k, edge.as_deref(), screening);
         r.mark_checks(space, RunRole::JointCheck(*k));
