@@ -227,6 +227,7 @@ mod tests {
         let m = least_squares(&r, &Bounds::new(vec![-1.3], vec![2.0])).unwrap();
         assert!(m.theta[0].abs() < 1e-7, "{}", m.theta);
         assert!((m.cost - 2.0).abs() < 1e-12, "{}", m.cost);
+        // Zig-zagging, the five starts would spend their 500 iterations of at least 3 evaluations.
         assert!(calls.get() < 1000, "{} residual evaluations", calls.get());
     }
 

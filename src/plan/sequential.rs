@@ -270,9 +270,8 @@ impl Drawn {
 fn laplace(residuals: &impl Fn(&DVector<f64>) -> DVector<f64>, mode: &DVector<f64>, bounds: &Bounds) -> DMatrix<f64> {
     let p = mode.len();
     let w = bounds.width();
-    let in_cube = |u: &DVector<f64>| residuals(&DVector::from_fn(p, |j, _| bounds.lower[j] + u[j] * w[j]));
-    let u = DVector::from_fn(p, |j, _| (mode[j] - bounds.lower[j]) / w[j]);
-    let mut j = optimize::jacobian(&in_cube, &u);
+    let in_cube = |u: &DVector<f64>| residuals(&bounds.from_unit(u));
+    let mut j = optimize::jacobian(&in_cube, &bounds.to_unit(mode));
     for (c, wc) in w.iter().enumerate() {
         j.column_mut(c).unscale_mut(*wc);
     }
