@@ -31,6 +31,13 @@
 //!    error rather than its own: it is not rejected on its lack of fit, and beside another open
 //!    explanation the verdict is "cannot tell apart" (nothing is decided over it, nor it over
 //!    another, until runs there check it).
+//! 6. **Runs that cannot change the decision.** While some loops are still running, [`settled`]
+//!    asks whether the decision would be the same whatever their final models show: missing the
+//!    tests or fitting them, checked or not, beaten by each other explanation's shape or not, scored
+//!    anywhere among the rest, leaving something explained or not. Every such outcome is decided by
+//!    steps 2–5; where all give the same verdict and cause, more runs of those loops can only buy
+//!    their own fit, and the loop stops them (a logical invariance, not a threshold: no outcome of
+//!    theirs is left that could name another cause).
 //!
 //! Pure: the inputs are the screening's and each loop model's evidence ([`super::Evidence`]).
 
@@ -80,9 +87,14 @@ pub struct AfterLoop {
     pub screening_headline: String,
     pub explanations: Vec<Judged>,
     pub pairwise: Vec<Pairwise>,
+    /// The decision is the same whatever the loops still running show ([`settled`]): their runs
+    /// cannot change it. True when no loop is running.
+    #[serde(skip, default)]
+    pub settled: bool,
 }
 
 /// An open explanation with its final model.
+#[derive(Clone)]
 struct Open {
     who: Who,
     name: String,
@@ -90,11 +102,28 @@ struct Open {
     score: Option<f64>,
     /// A screening model, or a loop model whose emulators were checked at its fitted point.
     checked: bool,
+    /// A loop model still running: what its final model will show is not known yet.
+    running: bool,
+    /// What its final model is assumed to show, in place of its evidence ([`settled`]).
+    assumed: Option<Assumed>,
+}
+
+/// One outcome a running loop's final model may have, as the decision reads it.
+#[derive(Debug, Clone)]
+struct Assumed {
+    misses: bool,
+    /// Something listed still explains what its model leaves (step 4).
+    remains: bool,
+    /// The other open explanations whose shape, added to its model, is significant at α.
+    beaten_by: Vec<String>,
 }
 
 impl Open {
     fn misses(&self) -> bool {
-        self.lof.as_ref().is_some_and(LackOfFit::rejects)
+        match &self.assumed {
+            Some(a) => a.misses,
+            None => self.lof.as_ref().is_some_and(LackOfFit::rejects),
+        }
     }
 
     /// Out on its lack of fit; `held`: step 5 holds an unchecked model open instead.
@@ -106,73 +135,12 @@ impl Open {
 /// The final decision, and the record of how it was reached. `loop_names[j]` is the hypothesis the
 /// j-th loop model extends.
 pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[String]) -> (Decision, AfterLoop) {
-    let s = &screening.decision;
-    let alpha = screening.cx.alpha();
-    let open: Vec<Open> = s
-        .leading
-        .iter()
-        .filter_map(|&who| open_one(screening, looped, loop_names, who))
-        .collect();
-    let held = unsettled(&open);
-    let step5 = held.is_some();
-    let rejected = |o: &Open| o.rejected(step5);
-    let mut survivors: Vec<&Open> = open.iter().filter(|o| !rejected(o)).collect();
-    survivors.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
-    let mut pairwise = Vec::new();
-    let decision = match (held, survivors.as_slice()) {
-        (Some(d), _) => d,
-        (None, []) => all_rejected(screening, &open, alpha),
-        (None, [one]) => named(screening, looped, one, None),
-        (None, many) => {
-            let p = |e: &Open, f: &Open, out: &mut Vec<Pairwise>| {
-                let p = added_to(screening, looped, e, f);
-                out.push(Pairwise {
-                    shape_of: e.name.clone(),
-                    added_to: f.name.clone(),
-                    p_value: p,
-                });
-                p
-            };
-            let mut beats_all = Vec::new();
-            for (i, e) in many.iter().enumerate() {
-                let all = many
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, _)| *j != i)
-                    .all(|(_, f)| p(e, f, &mut pairwise).is_some_and(|p| p < alpha));
-                if all {
-                    beats_all.push(*e);
-                }
-            }
-            match beats_all.as_slice() {
-                [one] => {
-                    // A rival's shape that still counts with the cause in: the cause is only a part.
-                    let also = many
-                        .iter()
-                        .filter(|f| f.who != one.who)
-                        .find(|f| {
-                            pairwise.iter().any(|x| {
-                                x.shape_of == f.name && x.added_to == one.name && x.p_value.is_some_and(|p| p < alpha)
-                            })
-                        })
-                        .map(|f| f.who);
-                    named(screening, looped, one, also)
-                }
-                // Both (or more) beat each other: each explains a part; the best-scored is named.
-                [first, ..] => named(screening, looped, first, beats_all.get(1).map(|o| o.who)),
-                [] => Decision {
-                    verdict: Verdict::CannotTellApart,
-                    detected: true,
-                    cause: None,
-                    leading: many.iter().map(|o| o.who).collect(),
-                    compare: many.iter().take(2).map(|o| o.who).collect(),
-                },
-            }
-        }
-    };
+    let open = opens(screening, looped, loop_names);
+    let mut readings = FromEvidence::new(screening, looped);
+    let judged = judge(&mut readings, &open);
     let weights = weights(&open);
     let record = AfterLoop {
-        screening_verdict: s.verdict,
+        screening_verdict: screening.decision.verdict,
         screening_headline: String::new(),
         explanations: open
             .iter()
@@ -186,15 +154,224 @@ pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[St
                 }
                 .into(),
                 lack_of_fit: o.lof.clone(),
-                rejected: rejected(o),
+                rejected: o.rejected(judged.step5),
                 unchecked: !o.checked,
                 score: o.score,
                 weight: w,
             })
             .collect(),
-        pairwise,
+        pairwise: judged.pairwise,
+        settled: settled(&mut readings, &open),
     };
-    (decision, record)
+    (judged.decision, record)
+}
+
+/// The open explanations the screening left, each with its final model.
+fn opens(screening: &Evidence, looped: &[Evidence], loop_names: &[String]) -> Vec<Open> {
+    screening
+        .decision
+        .leading
+        .iter()
+        .filter_map(|&who| open_one(screening, looped, loop_names, who))
+        .collect()
+}
+
+/// Steps 2–5 over the open explanations, and the pairwise tests they read.
+struct Judgement {
+    decision: Decision,
+    pairwise: Vec<Pairwise>,
+    /// Step 5 held an unchecked model open.
+    step5: bool,
+}
+
+/// What steps 2–5 read besides the open explanations' own facts: the screening's tests and the
+/// loop models' own diagnoses ([`FromEvidence`]), or a table in the tests.
+trait Readings {
+    fn alpha(&self) -> f64;
+    /// p of e's shape added to f's final model.
+    fn added_to(&mut self, e: &Open, f: &Open) -> Option<f64>;
+    /// Something listed still explains what `one`'s final model leaves (step 4).
+    fn remains(&mut self, one: &Open) -> bool;
+    /// The screening's closest rival to confirm `one` against, when no rival still adds.
+    fn rival(&self, one: &Open) -> Option<Who>;
+    /// The decision when nothing is open: the screening's.
+    fn screening(&self) -> Decision;
+}
+
+/// Steps 2–5.
+fn judge(r: &mut dyn Readings, open: &[Open]) -> Judgement {
+    let alpha = r.alpha();
+    let held = unsettled(open);
+    let step5 = held.is_some();
+    let mut survivors: Vec<&Open> = open.iter().filter(|o| !o.rejected(step5)).collect();
+    survivors.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
+    let mut pairwise = Vec::new();
+    let decision = match (held, survivors.as_slice()) {
+        (Some(d), _) => d,
+        (None, []) => all_rejected(r, open),
+        (None, [one]) => named(r, one, None),
+        (None, many) => {
+            let mut p = |r: &mut dyn Readings, e: &Open, f: &Open| {
+                let value = match &f.assumed {
+                    Some(a) => Some(if a.beaten_by.contains(&e.name) { 0.0 } else { 1.0 }),
+                    None => r.added_to(e, f),
+                };
+                pairwise.push(Pairwise {
+                    shape_of: e.name.clone(),
+                    added_to: f.name.clone(),
+                    p_value: value,
+                });
+                value.is_some_and(|p| p < alpha)
+            };
+            against_each_other(r, many, &mut p)
+        }
+    };
+    Judgement {
+        decision,
+        pairwise,
+        step5,
+    }
+}
+
+/// Step 3: two or more survivors, each against the others. `beats(e, f)`: e's shape added to f's
+/// final model is significant at α.
+fn against_each_other(
+    r: &mut dyn Readings,
+    many: &[&Open],
+    beats: &mut dyn FnMut(&mut dyn Readings, &Open, &Open) -> bool,
+) -> Decision {
+    let mut significant: Vec<(String, String)> = Vec::new();
+    let mut beats_all = Vec::new();
+    for (i, e) in many.iter().enumerate() {
+        let all = many.iter().enumerate().filter(|(j, _)| *j != i).all(|(_, f)| {
+            let s = beats(r, e, f);
+            if s {
+                significant.push((e.name.clone(), f.name.clone()));
+            }
+            s
+        });
+        if all {
+            beats_all.push(*e);
+        }
+    }
+    match beats_all.as_slice() {
+        [one] => {
+            // A rival's shape that still counts with the cause in: the cause is only a part.
+            let also = many
+                .iter()
+                .filter(|f| f.who != one.who)
+                .find(|f| significant.iter().any(|(e, g)| *e == f.name && *g == one.name))
+                .map(|f| f.who);
+            named(r, one, also)
+        }
+        // Both (or more) beat each other: each explains a part; the best-scored is named.
+        [first, ..] => named(r, first, beats_all.get(1).map(|o| o.who)),
+        [] => Decision {
+            verdict: Verdict::CannotTellApart,
+            detected: true,
+            cause: None,
+            leading: many.iter().map(|o| o.who).collect(),
+            compare: many.iter().take(2).map(|o| o.who).collect(),
+        },
+    }
+}
+
+/// Step 6: whether the decision is the same whatever the running loops' final models show. Each
+/// running loop model may miss the tests or fit them, be checked or not, be beaten or not by each
+/// other open explanation's shape, score anywhere among them, and leave something explained or
+/// not; every combination is decided by steps 2–5 and compared by verdict and cause. More
+/// combinations than [`MOST_OUTCOMES`]: not settled (the loops go on).
+fn settled(r: &mut dyn Readings, open: &[Open]) -> bool {
+    let running: Vec<usize> = (0..open.len()).filter(|&i| open[i].running).collect();
+    if running.is_empty() {
+        return true;
+    }
+    let choices: Vec<Vec<Outcome>> = running.iter().map(|&i| outcomes(open, i)).collect();
+    if choices.iter().map(Vec::len).try_fold(1usize, |n, c| n.checked_mul(c)).is_none_or(|n| n > MOST_OUTCOMES) {
+        return false;
+    }
+    let mut first: Option<(Verdict, Option<Who>)> = None;
+    let mut at = vec![0usize; running.len()];
+    loop {
+        let mut case: Vec<Open> = open.to_vec();
+        for (c, &i) in running.iter().enumerate() {
+            choices[c][at[c]].apply(&mut case[i]);
+        }
+        let d = judge(r, &case).decision;
+        let this = (d.verdict, d.cause);
+        match &first {
+            None => first = Some(this),
+            Some(f) if *f != this => return false,
+            Some(_) => {}
+        }
+        // The next combination (an odometer over the running loops' outcomes).
+        let mut c = 0;
+        loop {
+            if c == at.len() {
+                return true;
+            }
+            at[c] += 1;
+            if at[c] < choices[c].len() {
+                break;
+            }
+            at[c] = 0;
+            c += 1;
+        }
+    }
+}
+
+/// The most combinations of outcomes [`settled`] decides (a few milliseconds).
+const MOST_OUTCOMES: usize = 1 << 16;
+
+/// One outcome of a running loop model: its facts, its check and its score.
+#[derive(Debug, Clone)]
+struct Outcome {
+    assumed: Assumed,
+    checked: bool,
+    score: f64,
+}
+
+impl Outcome {
+    fn apply(&self, o: &mut Open) {
+        o.assumed = Some(self.assumed.clone());
+        o.checked = self.checked;
+        o.score = Some(self.score);
+    }
+}
+
+/// Every outcome open explanation `i` (a running loop model) may have beside the others.
+fn outcomes(open: &[Open], i: usize) -> Vec<Outcome> {
+    let others: Vec<&Open> = open.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, o)| o).collect();
+    // A score just better than each other's, and one worse than all: every place in the ranking.
+    let finite: Vec<f64> = others.iter().filter_map(|o| o.score).filter(|s| s.is_finite()).collect();
+    let worst = finite.iter().copied().fold(0.0, f64::max);
+    let mut scores: Vec<f64> = finite.iter().map(|s| s - 1e-9 * (1.0 + s.abs())).collect();
+    scores.push(worst + 1.0);
+    let mut all = Vec::new();
+    for misses in [false, true] {
+        for checked in [true, false] {
+            for remains in [false, true] {
+                for mask in 0..(1usize << others.len()) {
+                    let beaten_by: Vec<String> = (0..others.len())
+                        .filter(|b| mask >> b & 1 == 1)
+                        .map(|b| others[b].name.clone())
+                        .collect();
+                    for &score in &scores {
+                        all.push(Outcome {
+                            assumed: Assumed {
+                                misses,
+                                remains,
+                                beaten_by: beaten_by.clone(),
+                            },
+                            checked,
+                            score,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    all
 }
 
 fn key(score: Option<f64>) -> f64 {
@@ -215,6 +392,8 @@ fn open_one(screening: &Evidence, looped: &[Evidence], loop_names: &[String], wh
                 lof: base.assessed.lack_of_fit.clone(),
                 score: base.score.as_ref().map(|s| s.score),
                 checked: looped[j].checked,
+                running: looped[j].running,
+                assumed: None,
             }
         }
         None => Open {
@@ -223,53 +402,97 @@ fn open_one(screening: &Evidence, looped: &[Evidence], loop_names: &[String], wh
             lof: entry.assessed.lack_of_fit.clone(),
             score: entry.score.as_ref().map(|s| s.score),
             checked: true,
+            running: false,
+            assumed: None,
         },
     })
 }
 
-/// p of e's shape added to f's final model.
-fn added_to(screening: &Evidence, looped: &[Evidence], e: &Open, f: &Open) -> Option<f64> {
-    match f.who {
-        // f's own diagnosis fitted e's shape as a candidate.
-        Who::Extended(j) => looped[j]
-            .ranked
-            .entries
-            .iter()
-            .find(|x| x.model.name() == e.name)
-            .and_then(|x| x.assessed.p_value),
-        Who::Candidate(fk) => {
-            let entries = &screening.ranked.entries;
-            let ek = entries.iter().position(|x| x.model.name() == e.name)?;
-            ranking::encompassing(&screening.cx, &entries[ek], &entries[fk]).p_leader_given_rival
+/// The readings from the evidence: the screening's tests (each made once: the outcomes
+/// [`settled`] tries read them again and again) and the loop models' own diagnoses.
+struct FromEvidence<'e, 'a> {
+    screening: &'e Evidence<'a>,
+    looped: &'e [Evidence<'a>],
+    known: Vec<((String, String), Option<f64>)>,
+}
+
+impl<'e, 'a> FromEvidence<'e, 'a> {
+    fn new(screening: &'e Evidence<'a>, looped: &'e [Evidence<'a>]) -> Self {
+        FromEvidence {
+            screening,
+            looped,
+            known: Vec::new(),
         }
-        Who::Uncorrected => None,
+    }
+}
+
+impl Readings for FromEvidence<'_, '_> {
+    fn alpha(&self) -> f64 {
+        self.screening.cx.alpha()
+    }
+
+    fn added_to(&mut self, e: &Open, f: &Open) -> Option<f64> {
+        let pair = (e.name.clone(), f.name.clone());
+        if let Some((_, v)) = self.known.iter().find(|(k, _)| *k == pair) {
+            return *v;
+        }
+        let v = match f.who {
+            // f's own diagnosis fitted e's shape as a candidate.
+            Who::Extended(j) => self.looped[j]
+                .ranked
+                .entries
+                .iter()
+                .find(|x| x.model.name() == e.name)
+                .and_then(|x| x.assessed.p_value),
+            Who::Candidate(fk) => {
+                let entries = &self.screening.ranked.entries;
+                entries
+                    .iter()
+                    .position(|x| x.model.name() == e.name)
+                    .and_then(|ek| ranking::encompassing(&self.screening.cx, &entries[ek], &entries[fk]).p_leader_given_rival)
+            }
+            Who::Uncorrected => None,
+        };
+        self.known.push((pair, v));
+        v
+    }
+
+    fn remains(&mut self, one: &Open) -> bool {
+        // Anything listed still explaining what the cause's final model leaves, at α over the rivals:
+        // a loop model's own diagnosis has the other candidates as its candidates (α/K); a screening
+        // candidate is set against every other candidate as the screening sets its leader (step 4).
+        let s = self.screening;
+        match one.who {
+            Who::Extended(j) => self.looped[j].ranked.leader.is_some(),
+            Who::Candidate(k) => {
+                let rivals = ranking::rival_tests(&s.cx, &s.ranked.entries, k);
+                let bound = s.cx.alpha() / rivals.len().max(1) as f64;
+                rivals.iter().any(|r| r.p_rival_given_leader.is_some_and(|p| p < bound))
+            }
+            Who::Uncorrected => false,
+        }
+    }
+
+    fn rival(&self, one: &Open) -> Option<Who> {
+        let s = self.screening;
+        let is_same = |who: Who| Decision::candidate(who).is_some_and(|k| s.ranked.entries[k].model.name() == one.name);
+        s.decision.compare.iter().copied().find(|w| *w != one.who && !is_same(*w))
+    }
+
+    fn screening(&self) -> Decision {
+        self.screening.decision.clone()
     }
 }
 
 /// `one` named; `also`: a rival that still explains part of what remains.
-fn named(screening: &Evidence, looped: &[Evidence], one: &Open, also: Option<Who>) -> Decision {
-    // Anything listed still explaining what the cause's final model leaves, at α over the rivals:
-    // a loop model's own diagnosis has the other candidates as its candidates (α/K); a screening
-    // candidate is set against every other candidate as the screening sets its leader (step 4).
-    let remains = match one.who {
-        Who::Extended(j) => looped[j].ranked.leader.is_some(),
-        Who::Candidate(k) => {
-            let rivals = ranking::rival_tests(&screening.cx, &screening.ranked.entries, k);
-            let bound = screening.cx.alpha() / rivals.len().max(1) as f64;
-            rivals.iter().any(|r| r.p_rival_given_leader.is_some_and(|p| p < bound))
-        }
-        Who::Uncorrected => false,
+fn named(r: &mut dyn Readings, one: &Open, also: Option<Who>) -> Decision {
+    let remains = match &one.assumed {
+        Some(a) => a.remains,
+        None => r.remains(one),
     };
     let partly = also.is_some() || remains;
     // To confirm it: against the rival that still adds, else the screening's closest rival.
-    let rival = also.or_else(|| {
-        screening
-            .decision
-            .compare
-            .iter()
-            .copied()
-            .find(|w| *w != one.who && !is_same(screening, looped_name(one), *w))
-    });
+    let rival = also.or_else(|| r.rival(one));
     Decision {
         verdict: if partly {
             Verdict::PartlyExplained
@@ -281,15 +504,6 @@ fn named(screening: &Evidence, looped: &[Evidence], one: &Open, also: Option<Who
         leading: vec![one.who],
         compare: vec![one.who, rival.unwrap_or(Who::Uncorrected)],
     }
-}
-
-fn looped_name(one: &Open) -> &str {
-    &one.name
-}
-
-/// Whether `who` is the screening candidate named `name`.
-fn is_same(screening: &Evidence, name: &str, who: Who) -> bool {
-    Decision::candidate(who).is_some_and(|k| screening.ranked.entries[k].model.name() == name)
 }
 
 /// Step 5: an unchecked loop model beside another explanation not out (every one but a checked
@@ -313,7 +527,7 @@ fn unsettled(open: &[Open]) -> Option<Decision> {
 }
 
 /// Every open explanation's final model misses the tests: the best-scored partly explains.
-fn all_rejected(screening: &Evidence, open: &[Open], _alpha: f64) -> Decision {
+fn all_rejected(r: &dyn Readings, open: &[Open]) -> Decision {
     let best = open.iter().min_by(|a, b| key(a.score).total_cmp(&key(b.score)));
     if open.len() > 1 {
         // Every final model misses: which one is the part is not decided by a score alone.
@@ -336,7 +550,7 @@ fn all_rejected(screening: &Evidence, open: &[Open], _alpha: f64) -> Decision {
             leading: vec![b.who],
             compare: vec![b.who, Who::Uncorrected],
         },
-        None => screening.decision.clone(),
+        None => r.screening(),
     }
 }
 
@@ -373,6 +587,8 @@ mod tests {
             }),
             score: Some(score),
             checked,
+            running: false,
+            assumed: None,
         }
     }
 
@@ -400,5 +616,98 @@ mod tests {
         let d = unsettled(&fits).expect("an unchecked model that fits is not named over the other");
         assert_eq!(d.leading, vec![Who::Extended(1), Who::Extended(0)]);
         assert!(unsettled(&[open(1, 30.0, false, false)]).is_none(), "alone, nothing else is open");
+    }
+
+    /// The screening's and the loop models' readings as a table: p of (shape of, added to).
+    struct Table {
+        p: Vec<(&'static str, &'static str, f64)>,
+    }
+
+    impl Table {
+        /// Neither loop model's shape beats `t`, nor `t`'s `h1`, nor either loop model the other; `t`
+        /// against `h0`'s final model at `p`.
+        fn with_t_against_h0(p: f64) -> Self {
+            let mut p = vec![("h0", "t", 0.2), ("h1", "t", 0.6), ("t", "h0", p), ("t", "h1", 0.8)];
+            p.extend([("h1", "h0", 0.5), ("h0", "h1", 0.5)]);
+            Table { p }
+        }
+    }
+
+    impl Readings for Table {
+        fn alpha(&self) -> f64 {
+            0.05
+        }
+        fn added_to(&mut self, e: &Open, f: &Open) -> Option<f64> {
+            self.p.iter().find(|(a, b, _)| *a == e.name && *b == f.name).map(|x| x.2)
+        }
+        fn remains(&mut self, _: &Open) -> bool {
+            false
+        }
+        fn rival(&self, _: &Open) -> Option<Who> {
+            None
+        }
+        fn screening(&self) -> Decision {
+            Decision {
+                verdict: Verdict::CannotTellApart,
+                detected: true,
+                cause: None,
+                leading: Vec::new(),
+                compare: Vec::new(),
+            }
+        }
+    }
+
+    /// A screening candidate `t` that fits, and two loop models: `h0` that fits (checked), `h1`.
+    fn three(running: [bool; 2]) -> Vec<Open> {
+        let mut t = open(0, 15.0, true, true);
+        t.who = Who::Candidate(0);
+        t.name = "t".into();
+        let mut h0 = open(0, 18.0, true, true);
+        let mut h1 = open(1, 17.0, true, true);
+        h0.running = running[0];
+        h1.running = running[1];
+        vec![t, h0, h1]
+    }
+
+    /// The honeycomb diagnosis draw 8's case: neither loop model's shape beats the term `t`
+    /// (screening tests, which no loop run changes), and `t`'s shape does not beat `h0`'s final
+    /// model. Whatever `h1`'s runs show (out, in, beaten by either, anywhere in the ranking,
+    /// checked or not), the verdict is "cannot tell apart": settled.
+    #[test]
+    fn a_loop_whose_every_outcome_leaves_the_verdict_is_settled() {
+        let mut r = Table::with_t_against_h0(0.3);
+        let open = three([false, true]);
+        assert_eq!(judge(&mut r, &open).decision.verdict, Verdict::CannotTellApart);
+        assert!(settled(&mut r, &open));
+        assert!(settled(&mut r, &three([false, false])), "nothing running: settled");
+    }
+
+    /// Where `t`'s shape beats `h0`'s final model, `h1` decides: out, `t` beats every survivor and
+    /// is named; in and not beaten by `t`, the three stay apart. Not settled: its runs go on.
+    #[test]
+    fn a_loop_whose_outcome_can_name_a_cause_is_not_settled() {
+        let mut r = Table::with_t_against_h0(0.001);
+        assert!(!settled(&mut r, &three([false, true])));
+        let mut out = three([false, false]);
+        out[2].lof.as_mut().unwrap().fits = false;
+        assert_eq!(judge(&mut r, &out).decision.cause, Some(Who::Candidate(0)), "h1 out: t named");
+    }
+
+    /// Settled for each running loop alone is not settled for both together: with `h0` and `h1`
+    /// both out, `t` is named; with `h0` as it is (fits, not beaten), it is not.
+    #[test]
+    fn running_loops_are_settled_together() {
+        let mut r = Table::with_t_against_h0(0.3);
+        assert!(settled(&mut r, &three([false, true])));
+        assert!(!settled(&mut r, &three([true, true])));
+    }
+
+    /// A loop model alone: whether it fits decides between a named cause and a partial one.
+    #[test]
+    fn a_lone_running_loop_is_not_settled() {
+        let mut r = Table { p: Vec::new() };
+        let mut one = open(0, 10.0, true, true);
+        one.running = true;
+        assert!(!settled(&mut r, &[one]));
     }
 }

@@ -921,6 +921,9 @@ pub struct LoopModel<'a> {
     /// Its emulators were checked by solver runs at its fitted point. Unchecked, its lack of fit
     /// may be theirs: the decision does not reject it on it ([`after_loop`]).
     pub checked: bool,
+    /// Its loop is still running (its emulators not yet within the tolerance): the decision then
+    /// says whether anything its final model may show could change it ([`after_loop::AfterLoop::settled`]).
+    pub running: bool,
 }
 
 /// The diagnosis from all the evidence: the screening of `inputs`, then every model the loop
@@ -930,7 +933,13 @@ pub fn conclude(inputs: &Inputs, looped: &[LoopModel]) -> Result<(Diagnosis, Vec
     let screening = Evidence::gather(inputs, true)?;
     let evidence: Vec<Evidence> = looped
         .iter()
-        .map(|m| Evidence::gather(&m.inputs, false).map(|e| Evidence { checked: m.checked, ..e }))
+        .map(|m| {
+            Evidence::gather(&m.inputs, false).map(|e| Evidence {
+                checked: m.checked,
+                running: m.running,
+                ..e
+            })
+        })
         .collect::<Result<_, _>>()?;
     let own: Vec<Diagnosis> = evidence.iter().map(|e| e.conclusion(&[], &[])).collect();
     let names: Vec<String> = looped.iter().map(|m| m.hypothesis.clone()).collect();
@@ -955,6 +964,8 @@ pub(crate) struct Evidence<'a> {
     pub notes: Vec<String>,
     /// A loop model's emulators were checked at its fitted point ([`LoopModel::checked`]).
     pub checked: bool,
+    /// A loop model whose loop is still running ([`LoopModel::running`]).
+    pub running: bool,
 }
 
 impl<'a> Evidence<'a> {
@@ -976,6 +987,7 @@ impl<'a> Evidence<'a> {
             noise,
             notes,
             checked: true,
+            running: false,
         })
     }
 

@@ -112,6 +112,9 @@ pub struct JointRuns {
     /// sequential loop whose budget ran out first, [`super::sequence::looped`]); none for a fixed
     /// plan, whose decision reads its emulators as its check runs measured them.
     pub unchecked: Vec<usize>,
+    /// The hypotheses whose sequential loop is still running (its emulators not yet within the
+    /// tolerance), when the loop asks for a provisional decision; none once it has stopped.
+    pub running: Vec<usize>,
 }
 
 impl JointRuns {
@@ -168,6 +171,7 @@ pub fn execute(
         usable,
         edges: Vec::new(),
         unchecked: Vec::new(),
+        running: Vec::new(),
     })
 }
 
@@ -182,6 +186,8 @@ pub struct ExtendedModel {
     /// Its emulators were checked by solver runs at the decision's fitted point (or the plan was
     /// fixed, see [`JointRuns::unchecked`]).
     pub checked: bool,
+    /// Its loop is still running ([`JointRuns::running`]).
+    pub running: bool,
 }
 
 /// The extended model of hypothesis `k` from its joint runs (`joint`) and its screening runs
@@ -232,6 +238,7 @@ pub fn extended_model(
     let planned = joint_runs.clone().count();
     Ok(ExtendedModel {
         checked: !joint.unchecked.contains(&k),
+        running: joint.running.contains(&k),
         hypothesis: k,
         study: extended,
         surrogates: SurrogateModel { designs },
@@ -314,6 +321,7 @@ pub fn loop_model<'m>(
         hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
         inputs,
         checked: m.checked,
+        running: m.running,
     }
 }
 

@@ -301,6 +301,7 @@ fn diagnose_with_solver(
         Some(sequence::Provisional {
             key: format!("{:?}, cause {:?}, partial {:?}", d.verdict, d.cause, d.partial.as_ref().map(|p| &p.name)),
             points: fitted_points(&chosen, &own),
+            settled: d.after_loop.as_ref().is_some_and(|a| a.settled),
         })
     };
     let store = (&mut runs.executed.store, &mut runs.sequence);
@@ -447,6 +448,7 @@ fn conclude_on_curves(
             hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
             inputs: p.inputs(ci),
             checked: m.checked,
+            running: m.running,
         })
         .collect();
     Ok(crate::diagnose::conclude(inputs, &looped).map(|(d, own)| (d, own, loop_curves)))

@@ -107,6 +107,9 @@ struct Runner<'a> {
     sequence: Sequence,
     /// Wall time of the planner (assessing the runs in hand and choosing the next batch), seconds.
     planning: f64,
+    /// The loop's stages stopped because nothing their runs could show would change the decision
+    /// ([`Runner::settled`]); reopened when that no longer holds.
+    parked: Vec<String>,
 }
 
 /// What the loop's stages read: the stages, their edges at the baseline, the screening's runs.
@@ -222,6 +225,7 @@ impl<'a> Runner<'a> {
             outcomes: RunOutcomes::default(),
             sequence,
             planning: 0.0,
+            parked: Vec::new(),
         }
     }
 
@@ -327,7 +331,7 @@ impl<'a> Runner<'a> {
     /// budget is spent; the stage's last posterior.
     fn iterate(&mut self, space: &Space, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<Posterior, Error> {
         loop {
-            if let Some(posterior) = self.step(space, store, reporter)? {
+            if let Some(posterior) = self.step(space, false, store, reporter)? {
                 return Ok(posterior);
             }
         }
@@ -340,8 +344,15 @@ impl<'a> Runner<'a> {
 
     /// One step of a stage: the runs in hand assessed, and either the stage stopped (its last
     /// posterior) or its next batch run (`None`). New batches are numbered after every stage's, so
-    /// that stages may take turns.
-    fn step(&mut self, space: &Space, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<Option<Posterior>, Error> {
+    /// that stages may take turns. `settled`: the decision does not depend on what the stage's runs
+    /// may still show ([`Runner::settled`]); it stops.
+    fn step(
+        &mut self,
+        space: &Space,
+        settled: bool,
+        store: &mut RunStore,
+        reporter: &mut dyn Reporter,
+    ) -> Result<Option<Posterior>, Error> {
         // The candidates' seed follows the latest batch of any stage (as when stages ran one after
         // another); the record completed is this stage's own latest batch.
         let latest = self.batch_of.last().copied().unwrap_or(0);
@@ -352,7 +363,7 @@ impl<'a> Runner<'a> {
             reporter.report(Event::Batch(last));
         }
         let room = self.limits.budget.saturating_sub(self.sequence.runs + space.reserve);
-        let picks = if open.iter().any(|&o| o) && room > 0 {
+        let picks = if open.iter().any(|&o| o) && room > 0 && !settled {
             seq::choose(&space.bounds, &sites, &emus, &posterior, &open, self.limits.batch.min(room), seed)
         } else {
             Vec::new()
@@ -360,6 +371,8 @@ impl<'a> Runner<'a> {
         self.planning = started.elapsed().as_secs_f64();
         let stop = if !open.iter().any(|&o| o) {
             Some("converged")
+        } else if settled {
+            Some("settled")
         } else if room == 0 {
             Some("budget")
         } else if picks.is_empty() {
@@ -368,7 +381,7 @@ impl<'a> Runner<'a> {
             None
         };
         if let Some(reason) = stop {
-            if reason != "converged" {
+            if reason != "converged" && reason != "settled" {
                 self.unconverged(space, reason, reporter);
             }
             let own = self.plan.runs.iter().filter(|run| (space.mine)(run)).count();
@@ -484,12 +497,16 @@ impl<'a> Runner<'a> {
         let Looping { stages, edges, screening } = l;
         let mut round = 0;
         loop {
-            let mut open = vec![true; stages.len()];
+            let mut open: Vec<bool> = stages.iter().map(|(_, space, _)| !self.parked.contains(&space.name)).collect();
             while open.iter().any(|&o| o) {
+                let settled = self.settled(l, &mut open, decide, reporter);
                 for ((k, space, edge), open) in stages.iter().zip(&mut open) {
                     if *open {
                         self.prior = prior_runs(self.study, *k, edge.as_deref(), screening);
-                        *open = self.step(space, store, reporter)?.is_none();
+                        *open = self.step(space, settled, store, reporter)?.is_none();
+                        if settled && !self.sequence.converged(&space.name) {
+                            self.parked.push(space.name.clone());
+                        }
                     }
                 }
             }
@@ -517,6 +534,55 @@ impl<'a> Runner<'a> {
                 self.limits.tolerance
             )));
         }
+    }
+
+    /// Whether nothing the still running stages' runs may show could change the decision: the
+    /// provisional decision from the runs in hand, with the open and the parked stages' loop models
+    /// running ([`crate::diagnose::after_loop`], step 6). When it holds, the open stages stop
+    /// (`settled`) and join the parked; when it does not, the parked reopen, unless the decision is
+    /// settled whatever the parked alone show (the others taken as they are).
+    fn settled(&mut self, l: Looping, open: &mut [bool], decide: &mut Decide, reporter: &mut dyn Reporter) -> bool {
+        let Looping { stages, edges, screening } = l;
+        let ask = |this: &Self, running: &dyn Fn(usize, &Space) -> bool, decide: &mut Decide| {
+            let mut joint = this.provisional(stages, edges.to_vec(), screening);
+            joint.running = stages
+                .iter()
+                .enumerate()
+                .filter(|(i, (_, space, _))| running(*i, space))
+                .map(|(_, (k, _, _))| *k)
+                .collect();
+            decide(&joint, 0.0).is_some_and(|d| d.settled)
+        };
+        let parked = |_: usize, space: &Space| self.parked.contains(&space.name);
+        if !open.iter().any(|&o| o) || self.plan.runs.is_empty() {
+            return false;
+        }
+        let all = |i: usize, space: &Space| open[i] || self.parked.contains(&space.name);
+        if ask(self, &all, decide) {
+            let names: Vec<&str> = stages
+                .iter()
+                .zip(open.iter())
+                .filter(|(_, o)| **o)
+                .map(|((k, _, _), _)| self.study.diagnosis.hypotheses[*k].name.as_str())
+                .collect();
+            reporter.report(Event::Note(format!(
+                "{}: whatever the loop's further runs would show of {}, the verdict and the cause after the loop \
+                 are the same: those runs are not made (its fit stays unchecked, and beside another explanation the \
+                 decision neither rejects it nor names it over that one)",
+                names.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", "),
+                if names.len() == 1 { "its model" } else { "their models" }
+            )));
+            return true;
+        }
+        if !self.parked.is_empty() && !ask(self, &parked, decide) {
+            for ((_, space, _), o) in stages.iter().zip(open.iter_mut()) {
+                if self.parked.contains(&space.name) {
+                    *o = true;
+                }
+            }
+            self.parked.clear();
+        }
+        false
     }
 
     /// The stages converged ([`Runner::converge`]), then checked at the decision's fitted point
@@ -563,7 +629,9 @@ impl<'a> Runner<'a> {
             }
         }
         let unchecked: Vec<usize> = stages.iter().zip(&checked).filter(|(_, c)| !**c).map(|((k, _, _), _)| *k).collect();
-        for k in &unchecked {
+        let parked: Vec<usize> =
+            stages.iter().filter(|(_, space, _)| self.parked.contains(&space.name)).map(|(k, _, _)| *k).collect();
+        for k in unchecked.iter().filter(|k| !parked.contains(k)) {
             reporter.report(Event::Note(format!(
                 "'{}': no solver run checked the loop's emulators at the decision's fitted point (or the last check \
                  missed and the budget left no room for another), so its fit there may be theirs: beside another \
@@ -589,7 +657,9 @@ impl<'a> Runner<'a> {
     ) -> Result<Check, Error> {
         let mut at = checked.to_vec();
         let mut placed: Vec<(&Space, Vec<PlannedRun>)> = Vec::new();
-        for (i, (k, space, _)) in stages.iter().enumerate().filter(|(i, _)| !checked[*i]) {
+        // A parked stage is not checked: nothing its fit shows could change the decision.
+        let unchecked = |(i, (_, space, _)): &(usize, &(usize, Space, _))| !checked[*i] && !self.parked.contains(&space.name);
+        for (i, (k, space, _)) in stages.iter().enumerate().filter(unchecked) {
             let Some(x) = d.points.iter().find(|(j, _)| j == k).and_then(|(_, f)| f.point(&space.names)) else {
                 continue;
             };
@@ -711,6 +781,7 @@ impl<'a> Runner<'a> {
             usable: self.responses.clone(),
             edges,
             unchecked: Vec::new(),
+            running: Vec::new(),
         }
     }
 
@@ -847,6 +918,9 @@ pub struct Provisional {
     pub key: String,
     /// Each looped hypothesis's fitted point.
     pub points: Vec<(usize, Fitted)>,
+    /// Nothing the running loops' models may show would change the verdict or the cause
+    /// ([`crate::diagnose::after_loop::AfterLoop::settled`]).
+    pub settled: bool,
 }
 
 /// A looped hypothesis's fitted values (θ and its ranged variables, by name).
@@ -955,6 +1029,7 @@ pub fn looped(
         usable,
         edges,
         unchecked,
+        running: Vec::new(),
     };
     Ok((joint, r.sequence))
 }
