@@ -554,6 +554,8 @@ impl<'a> Runner<'a> {
             decide(&joint, 0.0).is_some_and(|d| d.settled)
         };
         let parked = |_: usize, space: &Space| self.parked.contains(&space.name);
+        // Before the loop's own first runs the question waits a round: a stage stopped with none of
+        // its own would leave its model fitted to the probes alone, unchecked by any run of its own.
         if !open.iter().any(|&o| o) || self.plan.runs.is_empty() {
             return false;
         }

@@ -238,15 +238,19 @@ impl Batch {
 
     /// One line for the terminal: the batch, its runs, the worst emulator error and the estimates.
     pub fn line(&self) -> String {
-        let worst =
-            |m: &IndexMap<String, Option<f64>>| m.values().map(|v| v.unwrap_or(f64::INFINITY)).fold(0.0, f64::max);
-        let error = if self.emulator_error.values().all(Option::is_none) {
+        // The largest over the designs measured; those with nothing held out yet are counted apart
+        // (an infinite "error" would say nothing the engineer can act on).
+        let measured: Vec<f64> = self.emulator_error.values().flatten().copied().collect();
+        let unmeasured = self.emulator_error.len() - measured.len();
+        let error = if measured.is_empty() {
             "nothing held out yet".to_string()
         } else {
-            format!(
-                "emulator error ≤ {} of the tests' noise",
-                crate::format::num(worst(&self.emulator_error))
-            )
+            let worst = measured.iter().copied().fold(0.0, f64::max);
+            let rest = match unmeasured {
+                0 => String::new(),
+                n => format!(" ({n} design(s) with nothing held out yet)"),
+            };
+            format!("emulator error ≤ {} of the tests' noise{rest}", crate::format::num(worst))
         };
         let estimates: Vec<String> = self
             .estimates
