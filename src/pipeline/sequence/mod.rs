@@ -499,14 +499,21 @@ impl<'a> Runner<'a> {
         loop {
             let mut open: Vec<bool> = stages.iter().map(|(_, space, _)| !self.parked.contains(&space.name)).collect();
             while open.iter().any(|&o| o) {
-                let settled = self.settled(l, &mut open, decide, reporter);
-                for ((k, space, edge), open) in stages.iter().zip(&mut open) {
-                    if *open {
-                        self.prior = prior_runs(self.study, *k, edge.as_deref(), screening);
-                        *open = self.step(space, settled, store, reporter)?.is_none();
-                        if settled && !self.sequence.converged(&space.name) {
-                            self.parked.push(space.name.clone());
-                        }
+                let mut settled = self.settled(l, &mut open, decide, reporter);
+                for (i, (k, space, edge)) in stages.iter().enumerate() {
+                    if !open[i] {
+                        continue;
+                    }
+                    self.prior = prior_runs(self.study, *k, edge.as_deref(), screening);
+                    open[i] = self.step(space, settled, store, reporter)?.is_none();
+                    if settled && !self.sequence.converged(&space.name) {
+                        self.parked.push(space.name.clone());
+                    }
+                    // A stage that stopped leaves fewer running: where only stages yet to take their
+                    // turn in this round are open, they ask again before they run another batch.
+                    let later = open[i + 1..].iter().any(|&o| o) && !open[..=i].iter().any(|&o| o);
+                    if !settled && !open[i] && later {
+                        settled = self.settled(l, &mut open, decide, reporter);
                     }
                 }
             }
