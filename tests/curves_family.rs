@@ -241,6 +241,7 @@ fn run(case: &Case) -> Value {
 fn run_in(case: &Case, dir: &Path, listed: &str) -> Value {
     let r = results_of(case, dir, listed, &sampling());
     verdict_common::assert_verdict_follows_evidence(&r["diagnosis"]);
+    verdict_common::assert_settled_stages_decide_nothing(&r);
     RUNS.with(|n| n.set(n.get() + r["runs"]["planned"].as_u64().unwrap_or(0)));
     r["diagnosis"].clone()
 }

@@ -204,6 +204,7 @@ fn run(case: &Case) -> Value {
     }
     let d = results["diagnosis"].clone();
     verdict_common::assert_verdict_follows_evidence(&d);
+    verdict_common::assert_settled_stages_decide_nothing(&results);
     d
 }
 
