@@ -33,6 +33,8 @@ use rand_chacha::ChaCha8Rng;
 
 use super::latin_hypercube;
 use crate::calibrate::bayesian::gp::Emulator;
+
+pub mod shared;
 use crate::calibrate::{Bounds, optimize};
 
 /// The default `tolerance`: the emulator's error at the posterior may be half the tests' noise of the
@@ -83,6 +85,22 @@ pub struct Site {
 /// One site's emulators, one per output (`None`: too few runs, or the fit failed).
 pub struct SiteEmulators {
     pub outputs: Vec<Option<Emulator>>,
+    /// The design's coordinates, which an emulator shared by every design takes before the point
+    /// of the box (see [`shared`]); empty for the site's own emulators.
+    pub at: Vec<f64>,
+}
+
+impl SiteEmulators {
+    /// `x` as the emulators take it: the design's coordinates, then x.
+    fn point(&self, x: &[f64]) -> Vec<f64> {
+        self.at.iter().chain(x).copied().collect()
+    }
+
+    /// Every row of `points` as the emulators take it (see [`SiteEmulators::point`]).
+    fn rows(&self, points: &DMatrix<f64>) -> DMatrix<f64> {
+        let a = self.at.len();
+        DMatrix::from_fn(points.nrows(), a + points.ncols(), |i, j| if j < a { self.at[j] } else { points[(i, j - a)] })
+    }
 }
 
 /// The posterior of x as weighted points.
@@ -112,7 +130,7 @@ pub fn emulators(bounds: &Bounds, sites: &[Site]) -> Vec<SiteEmulators> {
                     Emulator::fit(&x, &y, bounds).ok()
                 })
                 .collect();
-            SiteEmulators { outputs }
+            SiteEmulators { outputs, at: Vec::new() }
         })
         .collect()
 }
@@ -123,7 +141,7 @@ fn predict(emus: &[SiteEmulators], x: &[f64]) -> Vec<Vec<(f64, f64)>> {
         .map(|e| {
             e.outputs
                 .iter()
-                .map(|o| match o.as_ref().and_then(|g| g.mean_var_at(x)) {
+                .map(|o| match o.as_ref().and_then(|g| g.mean_var_at(&e.point(x))) {
                     Some((m, v)) => (m, v.max(0.0)),
                     None => (f64::NAN, f64::NAN),
                 })
@@ -138,9 +156,10 @@ fn predict_rows(emus: &[SiteEmulators], points: &DMatrix<f64>) -> Vec<Vec<Vec<(f
     let m = points.nrows();
     emus.iter()
         .map(|e| {
+            let rows = e.rows(points);
             e.outputs
                 .iter()
-                .map(|o| match o.as_ref().and_then(|g| g.mean_var(points)) {
+                .map(|o| match o.as_ref().and_then(|g| g.mean_var(&rows)) {
                     Some((mu, v)) => mu.iter().zip(v.iter()).map(|(a, b)| (*a, b.max(0.0))).collect(),
                     None => vec![(f64::NAN, f64::NAN); m],
                 })
@@ -361,12 +380,13 @@ fn quantile(sorted: &[(f64, f64)], q: f64) -> f64 {
 /// A site's emulator error at the posterior, predicted: √(Σ_e w_e s²(e)/τ²), the largest over its
 /// outputs (infinite where an output has no emulator).
 pub fn predicted_error(site: &Site, emus: &SiteEmulators, posterior: &Posterior) -> f64 {
+    let points = emus.rows(&posterior.points);
     emus.outputs
         .iter()
         .enumerate()
         .map(|(k, e)| {
             let Some(e) = e else { return f64::INFINITY };
-            let Some((_, var)) = e.mean_var(&posterior.points) else {
+            let Some((_, var)) = e.mean_var(&points) else {
                 return f64::INFINITY;
             };
             let v: f64 = var.iter().zip(&posterior.weights).map(|(s2, w)| w * s2.max(0.0)).sum();
@@ -376,7 +396,9 @@ pub fn predicted_error(site: &Site, emus: &SiteEmulators, posterior: &Posterior)
 }
 
 /// The next `q` runs among the `open` sites (module notes, step 3): each open site gets one run
-/// before any gets a second, in order of value; each at the candidate of most value.
+/// before any gets a second, in order of value; each at the candidate of most value. With one
+/// emulator across the designs ([`shared::emulators`]) the runs go wherever they are worth most
+/// over every open site at once ([`shared`]).
 pub fn choose(
     bounds: &Bounds,
     sites: &[Site],
@@ -386,6 +408,9 @@ pub fn choose(
     q: usize,
     seed: u64,
 ) -> Vec<(usize, Vec<f64>)> {
+    if emus.iter().any(|e| !e.at.is_empty()) {
+        return shared::choose(bounds, sites, emus, posterior, open, q, seed);
+    }
     let fill = latin_hypercube(FILL, bounds.dim(), seed ^ 0xf111);
     let spread = bounds.spread_rows(&fill);
     let scaled = DMatrix::from_fn(FILL, bounds.dim(), |i, j| spread[i][j]);
@@ -397,7 +422,7 @@ pub fn choose(
             .par_iter()
             .zip(emus)
             .zip(open)
-            .map(|((s, e), &o)| o.then(|| Gain::new(s, e, posterior.points.nrows(), &posterior.weights, &candidates)).flatten())
+            .map(|((s, e), &o)| o.then(|| Gain::of_site(s, e, &posterior.weights, &candidates)).flatten())
             .collect()
     };
     let mut picks: Vec<(usize, Vec<f64>)> = Vec::new();
@@ -470,32 +495,37 @@ fn stack(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
     })
 }
 
-/// One site's covariance over the candidates, per output scaled by 1/τ², updated as runs are
-/// added. The candidates start with the posterior points E (the first `e` rows), so the covariance
-/// between E and a candidate is a block of the same matrix.
+/// The covariance of the candidates, per output, updated as runs are added; each row and column
+/// scaled by 1/τ of its site's output, so that c(a, x*)² / c(x*, x*) is the variance a run at x*
+/// removes at a, in units of the tests' noise there. The points the answer depends on (the
+/// posterior's, at the sites still open) are candidates too and carry their posterior weight; the
+/// other candidates weigh nothing.
 struct Gain {
-    /// Per output: the covariance of the candidates, in units of τ².
     cov: Vec<DMatrix<f64>>,
+    /// Per candidate: its posterior weight, or 0.
     weights: Vec<f64>,
-    e: usize,
     /// Candidates that would repeat a run (see [`Gain::take`]).
     taken: Vec<bool>,
 }
 
 impl Gain {
-    fn new(site: &Site, emus: &SiteEmulators, e: usize, w: &[f64], c: &DMatrix<f64>) -> Option<Gain> {
+    fn new(cov: Vec<DMatrix<f64>>, weights: Vec<f64>) -> Gain {
+        let n = weights.len();
+        Gain { cov, weights, taken: vec![false; n] }
+    }
+
+    /// One site's gain over the candidates `c`, whose first rows are the posterior's points `w`
+    /// weighs.
+    fn of_site(site: &Site, emus: &SiteEmulators, w: &[f64], c: &DMatrix<f64>) -> Option<Gain> {
+        let rows = emus.rows(c);
         let cov: Option<Vec<DMatrix<f64>>> = emus
             .outputs
             .iter()
             .enumerate()
-            .map(|(k, em)| em.as_ref()?.mean_cov(c).map(|(_, cv)| cv / site.noise[k]))
+            .map(|(k, em)| em.as_ref()?.mean_cov(&rows).map(|(_, cv)| cv / site.noise[k]))
             .collect();
-        Some(Gain {
-            cov: cov?,
-            weights: w.to_vec(),
-            e,
-            taken: vec![false; c.nrows()],
-        })
+        let weights = (0..c.nrows()).map(|i| w.get(i).copied().unwrap_or(0.0)).collect();
+        Some(Gain::new(cov?, weights))
     }
 
     /// Marks every candidate whose snapped point is `x` as taken.
@@ -507,7 +537,8 @@ impl Gain {
 
     /// The candidate of most value and that value: Σ_k Σ_e w_e c_k(e, x*)² / c_k(x*, x*).
     fn best(&self) -> (usize, f64) {
-        let n = self.cov[0].nrows();
+        let n = self.weights.len();
+        let targets: Vec<usize> = (0..n).filter(|&i| self.weights[i] > 0.0).collect();
         (0..n)
             .map(|c| {
                 if self.taken[c] {
@@ -522,7 +553,7 @@ impl Gain {
                             return 0.0;
                         }
                         let col = m.column(c);
-                        (0..self.e).map(|i| self.weights[i] * col[i].powi(2)).sum::<f64>() / var
+                        targets.iter().map(|&i| self.weights[i] * col[i].powi(2)).sum::<f64>() / var
                     })
                     .sum();
                 (c, v)
