@@ -36,6 +36,8 @@ METHODS = {
     "lhs12": "{method: lhs, count: 12, seed: %d, check_runs: 2}",
     "lhs24": "{method: lhs, count: 24, seed: %d, check_runs: 5}",
     "sequential": "{method: sequential, batch: 3, seed: %d}",
+    # One emulator across the designs (needs `surrogate: gp` in the study).
+    "across": "{method: sequential, batch: 3, seed: %d, across_designs: true}",
 }
 
 

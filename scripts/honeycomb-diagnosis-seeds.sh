@@ -4,7 +4,9 @@
 # 2018), each run live with crushsim through the whole loop. Prints one line per seed: the verdict,
 # the cause, the loop's sigma_y and etan with their 95 % intervals, and the solver runs it took.
 # Cases the fixtures are not. SAMPLING replaces the study's `simulation.sampling` (e.g.
-# SAMPLING='{method: lhs, count: 2, seed: 1, check_runs: 1}', its former fixed design).
+# SAMPLING='{method: lhs, count: 2, seed: 1, check_runs: 1}', its former fixed design), SURROGATE its
+# `simulation.surrogate` (e.g. SAMPLING='{method: sequential, batch: 3, seed: 1, across_designs: true}'
+# SURROGATE=gp: one emulator across the designs).
 #
 #   scripts/honeycomb-diagnosis-seeds.sh [N [FIRST]]     # default 10 seeds from 1
 set -eu
@@ -23,6 +25,9 @@ while [ "$seed" -lt $((first + n)) ]; do
         studies/honeycomb-diagnosis.yaml > "$d/study.yaml"
     if [ -n "${SAMPLING:-}" ]; then
         sed -i "s|^  sampling: .*\$|  sampling: $SAMPLING|" "$d/study.yaml"
+    fi
+    if [ -n "${SURROGATE:-}" ]; then
+        sed -i "s|^  surrogate: .*\$|  surrogate: $SURROGATE|" "$d/study.yaml"
     fi
     PATH="$bin:$PATH" "$bin/lab" run "$d/study.yaml" --out "$d/out" --jobs 2 >/dev/null 2>&1 || true
     python3 - "$d/out/results.json" "$seed" <<'PY'

@@ -46,6 +46,16 @@ pub struct LoopRuns {
     pub samples_per_design: usize,
     /// Largest |relative error| of the joint surrogates at their check runs (absent without any).
     pub surrogate_check_error: Option<f64>,
+    /// Solver runs checked the joint surrogates at the decision's fitted point (or the plan was
+    /// fixed); `false` where the loop stopped first, so that its fitted values may be the
+    /// emulators' rather than the solver's.
+    #[serde(default = "checked_by_default")]
+    pub checked: bool,
+}
+
+/// Results written before `checked` existed were checked or fixed.
+fn checked_by_default() -> bool {
+    true
 }
 
 /// What the calibration stage says of the extended model (the study's methods, identifiability).
@@ -213,6 +223,12 @@ impl SolverExtension {
                 100.0 * b,
                 100.0 * a
             ));
+        }
+        if !self.runs.checked {
+            line.push_str(
+                "; no solver run checked its emulators at this fitted point (the loop stopped first), so these \
+                 values may be the emulators' rather than the solver's",
+            );
         }
         line.push('.');
         line

@@ -644,8 +644,9 @@ fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
         };
         out.push(match &j.lack_of_fit {
             Some(l) if j.unchecked && !j.rejected => format!(
-                "'{}' {what}: {} ({}), but no solver run checked its emulators at its fitted point (the loop's \
-                 budget ran out first), so that may be theirs: it is neither rejected nor decided on.",
+                "'{}' {what}: {} ({}), but no solver run checked its emulators at its fitted point (the loop \
+                 stopped first: its budget ran out, or nothing its further runs could show would change the verdict), \
+                 so that may be theirs: it is neither rejected nor decided on.",
                 j.name,
                 if l.rejects() { "misses the tests" } else { "fits within the noise" },
                 lof_text(l)

@@ -42,6 +42,8 @@ enum Fitted {
         coefficients: DVector<f64>,
     },
     Gp(Box<Emulator>),
+    /// One emulator across the designs, taken at this design's values.
+    Across { emulator: std::sync::Arc<Emulator>, at: Vec<f64> },
 }
 
 /// Why a surrogate could not be fitted.
@@ -122,6 +124,19 @@ impl Surrogate {
                 .map(|(f, c)| f * c)
                 .sum(),
             Fitted::Gp(emulator) => emulator.mean(&DMatrix::from_row_slice(1, theta.len(), theta))[0],
+            Fitted::Across { emulator, at } => {
+                let x: Vec<f64> = at.iter().chain(theta).copied().collect();
+                emulator.mean(&DMatrix::from_row_slice(1, x.len(), &x))[0]
+            }
+        }
+    }
+
+    /// The design at `at` of an emulator across the designs (whose inputs are the designs' values,
+    /// then θ): a Gaussian-process surrogate of that design.
+    pub fn across(emulator: std::sync::Arc<Emulator>, at: Vec<f64>) -> Surrogate {
+        Surrogate {
+            kind: SurrogateKind::Gp,
+            fitted: Fitted::Across { emulator, at },
         }
     }
 

@@ -14,7 +14,7 @@
 //! study's own calibration methods and diagnosis run on it.
 
 use super::runs::{self, RunOutcomes, Source};
-use super::stages::{FitRun, calibrate, emulator_data, fit_designs, problem};
+use super::stages::{FitRun, calibrate, emulator_data, fit_surrogates, problem};
 use super::{Engine, Event, Reporter, RunOptions};
 use crate::calibrate::Model;
 use crate::calibrate::bayesian::SimulationData;
@@ -218,7 +218,7 @@ pub fn extended_model(
             })
         })
         .collect();
-    let designs = fit_designs(study, sim.surrogate, &bounds, &runs)
+    let designs = fit_surrogates(study, sim, &bounds, &runs)
         .into_iter()
         .map(|d| {
             d.map_err(|(name, e)| {
@@ -248,6 +248,7 @@ pub fn extended_model(
             succeeded: joint_runs.filter(|r| r.y.is_some()).count(),
             samples_per_design: samples_per_design(study, sim, bounds.dim(), &runs),
             surrogate_check_error: worst_check,
+            checked: !joint.unchecked.contains(&k),
         },
     })
 }

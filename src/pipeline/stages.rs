@@ -71,6 +71,73 @@ pub fn fit_designs(
         .collect()
 }
 
+/// The study's surrogates over `bounds`, one per tested design: its own ([`fit_designs`]), or with
+/// `sampling.across_designs` the designs' slices of one emulator ([`fit_across`]).
+pub fn fit_surrogates(
+    study: &Study,
+    sim: &SolverSimulation,
+    bounds: &Bounds,
+    runs: &[FitRun],
+) -> Vec<Result<DesignSurrogate, (String, String)>> {
+    if sim.across_designs() {
+        fit_across(study, bounds, runs)
+    } else {
+        fit_designs(study, sim.surrogate, bounds, runs)
+    }
+}
+
+/// One Gaussian process across the tested designs, over their values and `bounds`, fitted to every
+/// successful run, the check runs too; each design gets its slice, checked at its check runs (its
+/// latest batch) by the emulator fitted to every other run: the error the sequence measured when it
+/// stopped ([`crate::pipeline::sequence::sites::measured_errors_across`]).
+pub fn fit_across(study: &Study, bounds: &Bounds, runs: &[FitRun]) -> Vec<Result<DesignSurrogate, (String, String)>> {
+    use rayon::prelude::*;
+    let rows: Vec<(&FitRun, Vec<f64>, f64)> = runs
+        .iter()
+        .filter_map(|r| Some((r, r.run.design_values.iter().chain(&r.point).copied().collect(), r.y?)))
+        .collect();
+    let names: Vec<&String> = study.training.iter().chain(&study.validation).collect();
+    let values: Vec<Vec<f64>> = names
+        .iter()
+        .filter_map(|n| rows.iter().find(|r| &&r.0.run.design == n).map(|r| r.0.run.design_values.clone()))
+        .collect();
+    let joint = crate::plan::sequential::shared::joint_bounds(&values, bounds);
+    let fit = |keep: &dyn Fn(usize) -> bool| {
+        let kept: Vec<usize> = (0..rows.len()).filter(|&i| keep(i)).collect();
+        let x = DMatrix::from_fn(kept.len(), joint.dim(), |i, k| rows[kept[i]].1[k]);
+        let y = DVector::from_iterator(kept.len(), kept.iter().map(|&i| rows[i].2));
+        bayesian::gp::Emulator::fit(&x, &y, &joint)
+    };
+    let whole = fit(&|_| true).map(std::sync::Arc::new);
+    names
+        .into_par_iter()
+        .filter_map(|name| {
+            let mine: Vec<usize> = (0..rows.len()).filter(|&i| &rows[i].0.run.design == name).collect();
+            let values = rows.get(*mine.first()?)?.0.run.design_values.clone();
+            let emulator = match &whole {
+                Ok(e) => e.clone(),
+                Err(e) => return Some(Err((name.clone(), e.to_string()))),
+            };
+            let held: Vec<usize> = mine.iter().copied().filter(|&i| rows[i].0.check).collect();
+            let errors: Vec<f64> = match fit(&|j| !held.contains(&j)) {
+                Ok(others) if !held.is_empty() => {
+                    let x = DMatrix::from_fn(held.len(), joint.dim(), |r, k| rows[held[r]].1[k]);
+                    let m = others.mean(&x);
+                    held.iter().zip(m.iter()).map(|(&i, m)| ((m - rows[i].2) / rows[i].2).abs()).collect()
+                }
+                _ => Vec::new(),
+            };
+            Some(Ok(DesignSurrogate {
+                design: name.clone(),
+                values: values.clone(),
+                check: crate::fit::CheckError::of(&errors),
+                surrogate: Surrogate::across(emulator, values),
+                samples: mine.len(),
+            }))
+        })
+        .collect()
+}
+
 /// The sample runs among `runs` that succeeded, as emulator data for the Bayesian method: design
 /// values then the run's point per row, the response as output.
 pub fn emulator_data(runs: &[FitRun]) -> bayesian::SimulationData {
@@ -112,7 +179,7 @@ pub fn surrogates(
     responses: &[Option<f64>],
 ) -> Result<SurrogateModel, Error> {
     let runs = baseline_runs(plan, responses);
-    let designs = fit_designs(study, sim.surrogate, &study.parameter_bounds(), &runs)
+    let designs = fit_surrogates(study, sim, &study.parameter_bounds(), &runs)
         .into_iter()
         .map(|d| d.map_err(|(name, e)| Error::Failed(format!("design `{name}`: cannot fit its surrogate: {e}"))))
         .collect::<Result<_, _>>()?;
@@ -231,7 +298,12 @@ pub fn extension_surrogates(
             // linear surrogate of the extension there.
             let per_design = runs.len() / crate::plan::sweep::tested_designs(study).count().max(1);
             let kind = super::sequence::sites::kind_for(sim.surrogate, per_design, bounds.dim());
-            let designs = fit_designs(study, kind, &bounds, &runs)
+            let fitted = if sim.across_designs() {
+                fit_across(study, &bounds, &runs)
+            } else {
+                fit_designs(study, kind, &bounds, &runs)
+            };
+            let designs = fitted
                 .into_iter()
                 .filter_map(Result::ok)
                 .collect();

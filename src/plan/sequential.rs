@@ -96,6 +96,12 @@ impl SiteEmulators {
         self.at.iter().chain(x).copied().collect()
     }
 
+    /// The emulators' mean of every output at `x` (`None` where an output has no emulator).
+    pub fn predict(&self, x: &[f64]) -> Option<Vec<f64>> {
+        let p = self.point(x);
+        self.outputs.iter().map(|o| o.as_ref()?.mean_var_at(&p).map(|m| m.0)).collect()
+    }
+
     /// Every row of `points` as the emulators take it (see [`SiteEmulators::point`]).
     fn rows(&self, points: &DMatrix<f64>) -> DMatrix<f64> {
         let a = self.at.len();

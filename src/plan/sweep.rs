@@ -119,11 +119,44 @@ impl Plan {
         Plan { runs }
     }
 
+    /// With one emulator across the designs: a run at every tested design, their θ one Latin
+    /// hypercube (each design in its own stratum), and more round the designs until the emulator's
+    /// linear trend over the designs' values and θ has a run to spare (`sampling.initial`, if given,
+    /// is the number in all).
+    fn initial_across(study: &Study, sim: &SolverSimulation) -> Plan {
+        let bounds = study.parameter_bounds();
+        let designs: Vec<(&String, &Vec<f64>)> = tested_designs(study).collect();
+        let d = designs.first().map_or(0, |(_, v)| v.len());
+        let n = match sim.sampling.count {
+            0 => designs.len().max(d + bounds.dim() + 2),
+            n => n,
+        };
+        let samples = planned_points(sim, &bounds, latin_hypercube(n, bounds.dim(), sim.sampling.seed));
+        let runs = samples
+            .into_iter()
+            .enumerate()
+            .map(|(i, theta)| {
+                let (name, values) = designs[i % designs.len()];
+                PlannedRun {
+                    design: name.clone(),
+                    design_values: values.clone(),
+                    theta,
+                    role: RunRole::Sample,
+                    extension: Vec::new(),
+                }
+            })
+            .collect();
+        Plan { runs }
+    }
+
     /// A sequential study's initial design: at every tested design the same
     /// [`initial_samples`] Latin-hypercube points over θ, no check runs (each design's latest batch
     /// checks its emulator) and no extension runs (the probes are planned from the screening's
     /// posterior).
     pub fn initial(study: &Study, sim: &SolverSimulation) -> Plan {
+        if sim.across_designs() {
+            return Plan::initial_across(study, sim);
+        }
         let bounds = study.parameter_bounds();
         let n = initial_samples(study, sim, bounds.dim());
         let samples = planned_points(sim, &bounds, latin_hypercube(n, bounds.dim(), sim.sampling.seed));
@@ -291,7 +324,7 @@ impl SequenceFloor {
         Some(SequenceFloor {
             designs,
             initial: Plan::initial(study, sim).runs.len(),
-            probes: designs * (p + 1) * extensions,
+            probes: designs * (if sim.across_designs() { 1 } else { p + 1 }) * extensions,
             looped,
         })
     }
@@ -315,6 +348,7 @@ impl SequenceFloor {
 pub fn fixed_runs(study: &Study, sim: &SolverSimulation, fixed: &Sampling, looped: &[usize]) -> usize {
     let sim = SolverSimulation {
         sampling: fixed.clone(),
+        surrogate: fixed.surrogate.unwrap_or(sim.surrogate),
         ..sim.clone()
     };
     Plan::new(study, &sim).runs.len() + Plan::joint(study, &sim, looped).runs.len()

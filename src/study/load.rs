@@ -189,7 +189,24 @@ impl Checker<'_> {
         debug_assert_eq!(study.symbols(), symbols);
         study.diagnosis = self.diagnosis(file.diagnosis.as_ref(), &study)?;
         self.budget(&file, &study)?;
+        self.across_designs(&file, &study)?;
         Ok(study)
+    }
+
+    /// One emulator across the designs emulates the response: the curves' emulators are per design
+    /// and would have too few runs at each.
+    fn across_designs(&self, file: &StudyFile, study: &Study) -> Result<(), InputError> {
+        let node = file.simulation.value.sampling.as_ref().and_then(|s| s.value.across_designs.as_ref());
+        match node {
+            Some(node) if node.value && study.calibration.against.curves => Err(self.at_key(
+                "across_designs",
+                node,
+                "`sampling.across_designs` emulates the response across the designs; the curves' emulators \
+                 (`calibration.against: [response, curves]`) are fitted per design and would have too few runs \
+                 at each: calibrate against the response, or sample per design",
+            )),
+            _ => Ok(()),
+        }
     }
 
     /// A sequence's `budget` pays at least for the runs it makes whatever they show

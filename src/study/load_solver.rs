@@ -603,6 +603,14 @@ impl Checker<'_> {
     }
 
     fn sampling(&self, spec: &SamplingFile, surrogate: SurrogateKind, p: usize) -> Result<Sampling, InputError> {
+        if let Some(s) = &spec.surrogate {
+            return Err(self.at(s, "`surrogate` goes in `sampling.replaces` (the replaced design's own), not in `sampling`"));
+        }
+        self.sampling_with(spec, surrogate, p)
+    }
+
+    /// `sampling` (or `sampling.replaces`, whose own `surrogate` has been taken) with `surrogate`.
+    fn sampling_with(&self, spec: &SamplingFile, surrogate: SurrogateKind, p: usize) -> Result<Sampling, InputError> {
         let method = match spec.method.value.as_str() {
             "lhs" => SamplingMethod::Lhs,
             "grid" => SamplingMethod::Grid,
@@ -619,6 +627,7 @@ impl Checker<'_> {
             ("batch", spec.batch.as_ref().map(|n| (n.line, n.column))),
             ("budget", spec.budget.as_ref().map(|n| (n.line, n.column))),
             ("tolerance", spec.tolerance.as_ref().map(|n| (n.line, n.column))),
+            ("across_designs", spec.across_designs.as_ref().map(|n| (n.line, n.column))),
             ("replaces", spec.replaces.as_ref().map(|n| (n.line, n.column))),
         ] {
             if given.is_some() {
@@ -663,6 +672,7 @@ impl Checker<'_> {
             seed: spec.seed,
             check_runs,
             sequential: None,
+            surrogate: None,
         })
     }
 
@@ -721,9 +731,30 @@ impl Checker<'_> {
                     "`sampling.replaces` names a fixed design: `method: lhs` or `grid`, not `sequential`",
                 ));
             }
-            Some(node) => Some(Box::new(self.sampling(&node.value, surrogate, p)?)),
+            Some(node) => {
+                let own = match &node.value.surrogate {
+                    Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
+                        self.at(s, format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value))
+                    })?,
+                    None => surrogate,
+                };
+                let mut fixed = self.sampling_with(&node.value, own, p)?;
+                fixed.surrogate = node.value.surrogate.is_some().then_some(own);
+                Some(Box::new(fixed))
+            }
             None => None,
         };
+        let across_designs = spec.across_designs.as_ref().is_some_and(|a| a.value);
+        if let Some(a) = spec.across_designs.as_ref().filter(|a| a.value && surrogate != SurrogateKind::Gp) {
+            return Err(self.at(
+                a,
+                format!(
+                    "`sampling.across_designs` fits one Gaussian process across the designs: it needs `surrogate: gp`, \
+                     not `{}`",
+                    surrogate.key()
+                ),
+            ));
+        }
         Ok(Sampling {
             method: SamplingMethod::Sequential,
             count: initial,
@@ -734,7 +765,9 @@ impl Checker<'_> {
                 budget: spec.budget.as_ref().map_or(0, |b| b.value),
                 tolerance,
                 replaces,
+                across_designs,
             }),
+            surrogate: None,
         })
     }
 }

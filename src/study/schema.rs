@@ -216,6 +216,9 @@ pub struct SamplingFile {
     pub budget: Option<Spanned<usize>>,
     /// `sequential`: the emulator's error at the posterior allowed, as a fraction of the tests' noise.
     pub tolerance: Option<Spanned<f64>>,
+    /// `sequential`: one emulator across the tested designs (their values and the parameters), not
+    /// one per design.
+    pub across_designs: Option<Spanned<bool>>,
     #[serde(default)]
     pub seed: u64,
     /// Extra Latin-hypercube runs per design that measure the surrogate's error (paper: 5).
@@ -223,6 +226,8 @@ pub struct SamplingFile {
     /// `sequential`: the fixed design (`lhs` or `grid`) it replaces, counted (never run) for the
     /// terminal's `246 → 45 solver runs` and `results.json` `sampling.replaces`.
     pub replaces: Option<Spanned<Box<SamplingFile>>>,
+    /// In `replaces` only: the surrogate the fixed design was fitted with, when not the study's.
+    pub surrogate: Option<Spanned<String>>,
 }
 
 #[derive(Debug, Deserialize)]

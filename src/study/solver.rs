@@ -38,6 +38,13 @@ pub struct SolverSimulation {
     pub openradioss: Option<OpenRadiossSettings>,
 }
 
+impl SolverSimulation {
+    /// Whether one emulator spans the tested designs (`sampling.across_designs`).
+    pub fn across_designs(&self) -> bool {
+        self.sampling.sequential.as_ref().is_some_and(|q| q.across_designs)
+    }
+}
+
 /// `solver.openradioss`: how OpenRadioss is run. `command` is the starter's argv built from these.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OpenRadiossSettings {
@@ -117,6 +124,8 @@ pub struct Sampling {
     pub check_runs: usize,
     /// `method: sequential`: batches chosen by the runs so far (`count` is then the initial design).
     pub sequential: Option<Sequential>,
+    /// A fixed design named in `sampling.replaces` with its own surrogate (`None`: the study's).
+    pub surrogate: Option<SurrogateKind>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -153,6 +162,9 @@ pub struct Sequential {
     /// The fixed design this sequence replaces (`sampling.replaces`): its runs are counted, never
     /// made, so that the terminal and `results.json` say what the sequence saved.
     pub replaces: Option<Box<Sampling>>,
+    /// One Gaussian process across the tested designs, over their values and the parameters
+    /// (`sampling.across_designs`), for the planner and for the surrogates after it.
+    pub across_designs: bool,
 }
 
 /// The per-design surrogate over the parameters.

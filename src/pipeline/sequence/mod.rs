@@ -423,6 +423,9 @@ impl<'a> Runner<'a> {
     /// A loop stage's first runs: where the screening's runs in its space (`prior`) are fewer at a
     /// design than a space-filling start needs there, seeded Latin-hypercube points of the joint box.
     fn initial_loop_runs(&self, space: &Space, start: usize) -> Vec<PlannedRun> {
+        if self.sim.across_designs() {
+            return self.initial_loop_runs_across(space, start);
+        }
         let d = space.bounds.dim();
         let needed = initial_samples(self.study, self.sim, d);
         let have = self
@@ -444,6 +447,28 @@ impl<'a> Runner<'a> {
             .collect()
     }
 
+    /// A loop stage's first runs with one emulator across the designs: where the screening's runs in
+    /// its space are fewer than its linear trend over the designs' values and the space needs with a
+    /// run to spare, seeded Latin-hypercube points of the joint box, round the designs.
+    fn initial_loop_runs_across(&self, space: &Space, start: usize) -> Vec<PlannedRun> {
+        let designs = &self.tests.designs;
+        let d = designs.first().map_or(0, |t| t.values.len());
+        let needed = d + space.bounds.dim() + 2;
+        let have = self.prior.iter().filter(|(_, _, y, _)| y.is_some()).count();
+        if have >= needed || designs.is_empty() {
+            return Vec::new();
+        }
+        let seed = self.limits.seed ^ fnv(&space.name) ^ start as u64;
+        initial_points(&space.bounds, needed - have, seed)
+            .iter()
+            .enumerate()
+            .map(|(i, x)| {
+                let t = &designs[i % designs.len()];
+                (space.make)(&t.name, &t.values, &as_written(self.sim, x))
+            })
+            .collect()
+    }
+
     /// The sites, their emulators and the posterior now; which designs are still open; the latest
     /// batch's record completed with what it bought.
     fn assess(&mut self, space: &Space, b: usize, seed: u64) -> (Vec<bool>, Posterior, Vec<seq::Site>, Vec<seq::SiteEmulators>) {
@@ -452,13 +477,25 @@ impl<'a> Runner<'a> {
         let kinds = sites::kinds(self.study, self.sim);
         let bounds = &space.bounds;
         // The study's surrogates' held-out errors do not depend on the planner's emulators: both at once.
+        let across = self.sim.across_designs();
+        let values: Vec<Vec<f64>> = self.tests.designs.iter().map(|t| t.values.clone()).collect();
         let ((emus, posterior), measured) = rayon::join(
             || {
-                let emus = seq::emulators(bounds, &sites);
+                let emus = if across {
+                    seq::shared::emulators(&values, bounds, &sites)
+                } else {
+                    seq::emulators(bounds, &sites)
+                };
                 let posterior = seq::posterior(bounds, &sites, &emus, seed);
                 (emus, posterior)
             },
-            || sites::measured_errors(&self.tests, &data, kinds, bounds),
+            || {
+                if across {
+                    sites::measured_errors_across(&self.tests, &data, bounds)
+                } else {
+                    sites::measured_errors(&self.tests, &data, kinds, bounds)
+                }
+            },
         );
         let predicted: Vec<f64> =
             sites.iter().zip(&emus).map(|(s, e)| seq::predicted_error(s, e, &posterior)).collect();
@@ -705,11 +742,19 @@ impl<'a> Runner<'a> {
         stages.iter().map(|(_, space, _)| self.plan.runs.iter().filter(|r| (space.mine)(r)).count()).collect()
     }
 
+    /// The fewest runs a design's emulator needs besides its latest batch for that batch to be held
+    /// out: a linear one over the stage's variables (d + 1); none with one emulator across the
+    /// designs, which the other designs' runs fit (it is then fitted to the check runs as well, and
+    /// checked by a refit without them: [`super::stages::fit_across`]).
+    fn least(&self, space: &Space) -> usize {
+        if self.sim.across_designs() { 0 } else { crate::study::SurrogateKind::Linear.min_samples(space.bounds.dim()) }
+    }
+
     /// Each design's latest batch of the stage's own runs becomes its check runs.
     fn mark_checks(&mut self, space: &Space, check: RunRole) {
         let names: Vec<String> = self.tests.designs.iter().map(|t| t.name.clone()).collect();
         let prior = usable_counts(&self.prior);
-        for i in latest_batches(&self.plan, &self.batch_of, &*space.mine, &names, &prior, space.bounds.dim()) {
+        for i in latest_batches(&self.plan, &self.batch_of, &*space.mine, &names, &prior, self.least(space)) {
             self.plan.runs[i].role = check;
         }
     }
@@ -719,11 +764,16 @@ impl<'a> Runner<'a> {
     /// what a linear surrogate of the extension's effect over θ needs there).
     fn probes(&mut self, posterior: &Posterior, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<(), Error> {
         let points = probe_points(posterior, &self.study.parameter_bounds());
+        // With one emulator across the designs, the designs take the points in turn, one each: the
+        // emulator learns how the effect changes with θ across them.
+        let across = self.sim.across_designs();
         let mut new = Vec::new();
         for (k, h) in self.study.extension_hypotheses() {
             let variables = h.extension().unwrap_or_default().to_vec();
-            for t in &self.tests.designs {
-                for x in &points {
+            for (i, t) in self.tests.designs.iter().enumerate() {
+                let mine: Vec<&Vec<f64>> =
+                    if across { vec![&points[i % points.len()]] } else { points.iter().collect() };
+                for x in mine {
                     new.push(run_at(&t.name, &t.values, as_written(self.sim, x), RunRole::Extension(k), variables.clone()));
                 }
             }
@@ -763,7 +813,7 @@ impl<'a> Runner<'a> {
         let names: Vec<String> = self.tests.designs.iter().map(|t| t.name.clone()).collect();
         for (k, space, edge) in stages {
             let prior = usable_counts(&prior_runs(self.study, *k, edge.as_deref(), screening));
-            for i in latest_batches(&plan, &self.batch_of, &*space.mine, &names, &prior, space.bounds.dim()) {
+            for i in latest_batches(&plan, &self.batch_of, &*space.mine, &names, &prior, self.least(space)) {
                 plan.runs[i].role = RunRole::JointCheck(*k);
             }
         }
@@ -820,8 +870,8 @@ impl<'a> Runner<'a> {
 /// The runs of a stage (`mine`) that are their design's latest batch: what each design's emulator
 /// is checked on. A design's latest batch is held out only where the runs left to fit its emulator
 /// — its earlier batches and the earlier stages' runs it also learns from (`prior`: usable runs
-/// per design) — are at least what the least emulator over the stage's `d` variables needs (a
-/// linear one, d + 1): otherwise nothing is held out there, and its error stays unmeasured. (A loop
+/// per design) — are at least `least` (the least emulator over the stage's variables, a linear
+/// one: d + 1): otherwise nothing is held out there, and its error stays unmeasured. (A loop
 /// stage left only its first batch by the budget, which an earlier stage spent, held all of it out
 /// and then could not fit its emulator from the two probes left: `lab run` stopped with an error.)
 fn latest_batches(
@@ -830,9 +880,8 @@ fn latest_batches(
     mine: &dyn Fn(&PlannedRun) -> bool,
     designs: &[String],
     prior: &[(String, usize)],
-    d: usize,
+    least: usize,
 ) -> Vec<usize> {
-    let least = crate::study::SurrogateKind::Linear.min_samples(d);
     let mut out = Vec::new();
     for name in designs {
         let runs: Vec<usize> = (0..plan.runs.len())
@@ -1134,7 +1183,7 @@ mod tests {
         let (plan, batch_of, names) = plan_of(&[&[0, 0, 0], &[0, 0, 0], &[0, 0, 1, 1, 2], &[0, 0, 0]]);
         let mine = |_: &PlannedRun| true;
         let prior = vec![("d0".to_string(), 2), ("d1".to_string(), 3)];
-        let held = latest_batches(&plan, &batch_of, &mine, &names, &prior, 2);
+        let held = latest_batches(&plan, &batch_of, &mine, &names, &prior, 3);
         let designs: Vec<&str> = held.iter().map(|&i| plan.runs[i].design.as_str()).collect();
         // d0: one batch and two probes (2 < 3), kept to fit; d1: three earlier runs, its batch held
         // out; d2: four runs before its last batch, that batch (one run) held out; d3: nothing before.

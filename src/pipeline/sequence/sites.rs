@@ -99,6 +99,12 @@ pub struct RunData<'a> {
     pub curve: Option<&'a DVector<f64>>,
 }
 
+impl<'a> RunData<'a> {
+    fn copy(&self) -> RunData<'a> {
+        RunData { point: self.point.clone(), ..*self }
+    }
+}
+
 /// The planner's sites: every tested design with its runs' points and outputs.
 pub fn sites(tests: &Tests, runs: &[RunData]) -> Vec<Site> {
     use rayon::prelude::*;
@@ -141,6 +147,40 @@ pub fn measured_errors(
                 return None;
             }
             Some(held_out_error(tests, t, &fit, &held, kinds, bounds))
+        })
+        .collect()
+}
+
+/// With one emulator across the designs ([`crate::plan::sequential::shared`]): per tested design,
+/// the emulator fitted to every run but the design's latest batch, its RMS error there in units of
+/// the tests' noise of the mean, the largest over the outputs (`None`: the design has no run yet;
+/// infinite: the emulator could not be fitted without them).
+pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) -> Vec<Option<f64>> {
+    use rayon::prelude::*;
+    let values: Vec<Vec<f64>> = tests.designs.iter().map(|t| t.values.clone()).collect();
+    (0..tests.designs.len())
+        .into_par_iter()
+        .map(|s| {
+            let name = &tests.designs[s].name;
+            let last = runs.iter().filter(|r| r.design == name.as_str()).map(|r| r.batch).max()?;
+            let held = |r: &RunData| r.design == name.as_str() && r.batch == last;
+            let kept: Vec<RunData> = runs.iter().filter(|r| !held(r)).map(RunData::copy).collect();
+            let emus = crate::plan::sequential::shared::emulators(&values, bounds, &sites(tests, &kept));
+            let t = &tests.designs[s];
+            let mut sq = vec![0.0; t.observed.len()];
+            let mut n = 0usize;
+            for r in runs.iter().filter(|r| held(r)) {
+                let truth = tests.outputs(&t.values, r.response, r.curve);
+                let Some(emulated) = emus[s].predict(&r.point) else { return Some(f64::INFINITY) };
+                if truth.iter().chain(&emulated).any(|v| !v.is_finite()) {
+                    continue;
+                }
+                n += 1;
+                for k in 0..sq.len() {
+                    sq[k] += (truth[k] - emulated[k]).powi(2) / t.noise[k];
+                }
+            }
+            Some(if n == 0 { f64::INFINITY } else { sq.iter().map(|s| (s / n as f64).sqrt()).fold(0.0, f64::max) })
         })
         .collect()
 }

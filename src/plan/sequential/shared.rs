@@ -13,7 +13,7 @@
 use super::*;
 
 /// The joint space's bounds: the designs' coordinates' range, then the box.
-fn joint_bounds(designs: &[Vec<f64>], bounds: &Bounds) -> Bounds {
+pub fn joint_bounds(designs: &[Vec<f64>], bounds: &Bounds) -> Bounds {
     let d = designs.first().map_or(0, Vec::len);
     let lo = (0..d).map(|j| designs.iter().map(|v| v[j]).fold(f64::INFINITY, f64::min));
     let hi = (0..d).map(|j| designs.iter().map(|v| v[j]).fold(f64::NEG_INFINITY, f64::max));
