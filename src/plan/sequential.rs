@@ -417,10 +417,7 @@ pub fn choose(
     if emus.iter().any(|e| !e.at.is_empty()) {
         return shared::choose(bounds, sites, emus, posterior, open, q, seed);
     }
-    let fill = latin_hypercube(FILL, bounds.dim(), seed ^ 0xf111);
-    let spread = bounds.spread_rows(&fill);
-    let scaled = DMatrix::from_fn(FILL, bounds.dim(), |i, j| spread[i][j]);
-    let candidates = stack(&posterior.points, &scaled);
+    let (scaled, candidates) = candidates(bounds, posterior, seed);
     // Each open site's candidate covariances, the sites in parallel (independent of one another).
     let mut gains: Vec<Option<Gain>> = {
         use rayon::prelude::*;
@@ -478,6 +475,16 @@ pub fn choose(
         }
     }
     picks
+}
+
+/// A batch's candidates (module notes): the seeded space-filling points of the box, and every
+/// candidate in order (the posterior's points, then the space-filling ones).
+fn candidates(bounds: &Bounds, posterior: &Posterior, seed: u64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let fill = latin_hypercube(FILL, bounds.dim(), seed ^ 0xf111);
+    let spread = bounds.spread_rows(&fill);
+    let scaled = DMatrix::from_fn(FILL, bounds.dim(), |i, j| spread[i][j]);
+    let all = stack(&posterior.points, &scaled);
+    (scaled, all)
 }
 
 /// The row of `candidates` whose nearest run (in units of the box) is farthest (maximin).

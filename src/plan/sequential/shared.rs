@@ -72,10 +72,7 @@ pub(super) fn choose(
     q: usize,
     seed: u64,
 ) -> Vec<(usize, Vec<f64>)> {
-    let fill = latin_hypercube(FILL, bounds.dim(), seed ^ 0xf111);
-    let spread = bounds.spread_rows(&fill);
-    let scaled = DMatrix::from_fn(FILL, bounds.dim(), |i, j| spread[i][j]);
-    let points = stack(&posterior.points, &scaled);
+    let (scaled, points) = candidates(bounds, posterior, seed);
     let opened: Vec<usize> = (0..sites.len()).filter(|&s| open[s]).collect();
     let Some(mut gain) = joint_gain(sites, emus, posterior, &opened, &points) else {
         return opened
