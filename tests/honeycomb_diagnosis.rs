@@ -230,6 +230,30 @@ fn the_curves_name_strain_hardening_from_the_same_recordings() {
     assert_eq!(f["emulator"]["runs"], latest_batch_runs(&r, "screening"), "{f}");
     assert!(f["emulator"]["runs"].as_u64().unwrap() >= 9, "{f}");
     assert!(r["curve_calibration"]["least_squares"]["parameters"]["sigma_y"].is_number());
+    // Issue 30: fewer solver runs than the fixed design this study replaced (2 + 1 check runs per
+    // design, 126 runs in all), from one emulator across the designs for the curves as well.
+    let runs = r["sampling"]["runs"].as_u64().unwrap();
+    assert!(runs < 126, "{} solver runs: {}", runs, r["sampling"]["stopped"]);
+    assert_eq!(r["runs"]["planned"].as_u64(), Some(runs), "{}", r["runs"]);
+}
+
+/// `sampling.across_designs` fits the curves' emulator as Gaussian processes across the designs: a
+/// study that asks for another kind of curve surrogate is refused at the key, with exit code 2.
+#[test]
+fn across_the_designs_refuses_a_curve_surrogate_that_is_not_a_gaussian_process() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("studies/honeycomb-diagnosis-curves.yaml"))
+        .unwrap()
+        .replace("../", &format!("{}/", root().display()))
+        .replace("points: 121, surrogate: gp}", "points: 121, surrogate: quadratic}");
+    let study = dir.path().join("curves.yaml");
+    std::fs::write(&study, &text).unwrap();
+    let line = 1 + text.lines().position(|l| l.contains("across_designs: true")).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_lab")).arg("check").arg(&study).output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&format!("curves.yaml:{line}:")), "{stderr}");
+    assert!(stderr.contains("`calibration.curve.surrogate` says `quadratic`"), "{stderr}");
 }
 
 /// Runs in each design's latest batch of `stage` (`sampling.sequence`), summed over the designs.

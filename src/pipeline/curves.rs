@@ -21,7 +21,7 @@ use crate::error::Error;
 use crate::extract::crush::ForceDisplacement;
 use crate::extract::features::FeatureSpec;
 use crate::extract::grid::{self, StrokeGrid};
-use crate::fit::functional::{CurveModel, DesignCurves, FunctionalSurrogate};
+use crate::fit::functional::{AcrossRun, CurveModel, CurvesAcross, DesignCurves, FunctionalSurrogate, check_error};
 use crate::plan::PlannedRun;
 use crate::study::{HypothesisKind, Response, SolverSimulation, Study, SurrogateKind};
 
@@ -125,13 +125,18 @@ pub fn kind(study: &Study, sim: &SolverSimulation) -> SurrogateKind {
 }
 
 /// One curve emulator per tested design over `bounds`, fitted to its runs among `runs` and checked
-/// at its check runs.
+/// at its check runs; `across` (with `sampling.across_designs`), the designs' slices of one
+/// ([`emulators_across`]).
 pub fn emulators(
     study: &Study,
     kind: SurrogateKind,
     bounds: &crate::calibrate::Bounds,
     runs: &[CurveRun],
+    across: bool,
 ) -> Result<CurveModel, Error> {
+    if across {
+        return emulators_across(study, bounds, runs);
+    }
     let designs = study
         .training
         .iter()
@@ -146,21 +151,75 @@ pub fn emulators(
                     .collect()
             };
             let samples = of(false);
-            let checks = of(true);
             Some(
                 FunctionalSurrogate::fit(kind, &samples, bounds)
-                    .map(|surrogate| DesignCurves {
-                        design: name.clone(),
-                        values,
-                        check: surrogate.check(&checks),
-                        surrogate,
-                        samples: samples.len(),
-                        checks,
+                    .map(|surrogate| {
+                        let checks = surrogate.checks(of(true));
+                        DesignCurves {
+                            design: name.clone(),
+                            values,
+                            check: check_error(&checks),
+                            surrogate,
+                            samples: samples.len(),
+                            checks,
+                        }
                     })
                     .map_err(|e| Error::Failed(format!("design `{name}`: cannot fit its curve emulator: {e}"))),
             )
         })
         .collect::<Result<Vec<_>, _>>()?;
+    Ok(CurveModel { designs })
+}
+
+/// One curve emulator across the tested designs ([`CurvesAcross`]), fitted to every run with a
+/// curve, the check runs too; each design's check runs (its latest batch) are predicted by the
+/// emulator fitted to every other run, as the response's are
+/// ([`super::stages::fit_across`]). Each design's curves are emulated in units of its tests' mean
+/// force.
+fn emulators_across(study: &Study, bounds: &crate::calibrate::Bounds, runs: &[CurveRun]) -> Result<CurveModel, Error> {
+    use rayon::prelude::*;
+    let scale = |name: &str| {
+        let r = study.experiments.get(name).map(|t| t.replicates.as_slice()).unwrap_or_default();
+        crate::fit::functional::unit(r.iter().sum::<f64>() / r.len().max(1) as f64)
+    };
+    let usable: Vec<(&CurveRun, &DVector<f64>, f64)> =
+        runs.iter().filter_map(|r| Some((r, r.curve.as_ref()?, scale(&r.run.design)))).collect();
+    let names: Vec<&String> = study.training.iter().chain(&study.validation).collect();
+    let values: Vec<Vec<f64>> = names
+        .iter()
+        .filter_map(|n| usable.iter().find(|r| &&r.0.run.design == n).map(|r| r.0.run.design_values.clone()))
+        .collect();
+    let joint = crate::plan::sequential::shared::joint_bounds(&values, bounds);
+    let fit = |keep: &dyn Fn(&CurveRun) -> bool| {
+        let kept: Vec<AcrossRun> = usable
+            .iter()
+            .filter(|r| keep(r.0))
+            .map(|(r, c, s)| AcrossRun { design: &r.run.design_values, theta: &r.point, curve: c, scale: *s })
+            .collect();
+        CurvesAcross::fit(&kept, &joint)
+    };
+    let whole = fit(&|_| true).map_err(|e| Error::Failed(format!("cannot fit the curve emulator across the designs: {e}")))?;
+    let designs = names
+        .into_par_iter()
+        .filter_map(|name| {
+            let mine: Vec<&(&CurveRun, &DVector<f64>, f64)> = usable.iter().filter(|r| &r.0.run.design == name).collect();
+            let values = mine.first()?.0.run.design_values.clone();
+            let held: Vec<(Vec<f64>, DVector<f64>)> =
+                mine.iter().filter(|r| r.0.check).map(|r| (r.0.point.clone(), r.1.clone())).collect();
+            let checks = match fit(&|r| !(r.check && &r.run.design == name)) {
+                Ok(others) if !held.is_empty() => others.at(&values, scale(name)).checks(held),
+                _ => Vec::new(),
+            };
+            Some(DesignCurves {
+                design: name.clone(),
+                surrogate: whole.at(&values, scale(name)),
+                values,
+                check: check_error(&checks),
+                samples: mine.len(),
+                checks,
+            })
+        })
+        .collect();
     Ok(CurveModel { designs })
 }
 
@@ -191,7 +250,7 @@ pub fn inputs<'s>(
         checks: model
             .check_runs()
             .into_iter()
-            .map(|(design, theta, curve)| EmulatorCheck { design, theta, curve })
+            .map(|(design, c)| EmulatorCheck { design, theta: c.theta, curve: c.curve, emulated: c.emulated })
             .collect(),
         parameter_names: study.parameters.iter().map(|p| p.name.clone()).collect(),
         parameter_bounds: study.parameter_bounds(),
@@ -272,7 +331,9 @@ impl CurveStage {
             kind,
             &bounds,
             &of(&|r| matches!(r, RunRole::Sample | RunRole::Check)),
+            sim.across_designs(),
         )?;
+        let probes_across = crate::plan::sweep::probes_across(study, sim);
         let extensions = study
             .extension_hypotheses()
             .filter_map(|(k, _)| {
@@ -281,7 +342,7 @@ impl CurveStage {
                 // a linear emulator of the extension's curves over θ there.
                 let per_design = runs.len() / crate::plan::sweep::tested_designs(study).count().max(1);
                 let kind = super::sequence::sites::kind_for(kind, per_design, bounds.dim());
-                let model = emulators(study, kind, &bounds, &runs).ok()?;
+                let model = emulators(study, kind, &bounds, &runs, probes_across).ok()?;
                 Some((k, model))
             })
             .collect();
@@ -327,7 +388,7 @@ impl CurveStage {
                 })
             })
             .collect();
-        let model = emulators(study, kind(study, sim), &bounds, &runs)?;
+        let model = emulators(study, kind(study, sim), &bounds, &runs, sim.across_designs())?;
         Ok(model)
     }
 }

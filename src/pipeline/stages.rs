@@ -298,7 +298,7 @@ pub fn extension_surrogates(
             // linear surrogate of the extension there.
             let per_design = runs.len() / crate::plan::sweep::tested_designs(study).count().max(1);
             let kind = super::sequence::sites::kind_for(sim.surrogate, per_design, bounds.dim());
-            let fitted = if sim.across_designs() {
+            let fitted = if crate::plan::sweep::probes_across(study, sim) {
                 fit_across(study, &bounds, &runs)
             } else {
                 fit_designs(study, kind, &bounds, &runs)

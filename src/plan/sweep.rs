@@ -305,6 +305,17 @@ pub struct SequenceFloor {
     pub looped: usize,
 }
 
+/// Whether the extension hypotheses' probes are one per design, the designs taking the probe points
+/// in turn for one emulator across the designs, rather than p + 1 at every design. Across the
+/// designs for the response alone; per design when the calibration reads the curves, whose
+/// extension shapes the diagnosis compares at a few tenths of a percent of the plateau: from one
+/// probe per design the emulator interpolates each shape across the designs, and on the honeycomb
+/// diagnosis that left 'scale error' explaining part of what 'strain hardening' did not
+/// (encompassing test p < 1e-6), where p + 1 probes per design named hardening before the loop.
+pub fn probes_across(study: &Study, sim: &SolverSimulation) -> bool {
+    sim.across_designs() && !study.calibration.against.curves
+}
+
 impl SequenceFloor {
     /// `None` for a fixed design.
     pub fn of(study: &Study, sim: &SolverSimulation) -> Option<SequenceFloor> {
@@ -324,7 +335,7 @@ impl SequenceFloor {
         Some(SequenceFloor {
             designs,
             initial: Plan::initial(study, sim).runs.len(),
-            probes: designs * (if sim.across_designs() { 1 } else { p + 1 }) * extensions,
+            probes: designs * (if probes_across(study, sim) { 1 } else { p + 1 }) * extensions,
             looped,
         })
     }

@@ -11,7 +11,7 @@ use super::schema::{BayesianFile, CalibrationFile, DiagnosisFile, Name, Simulati
 use super::yaml::{self, Spanned};
 use super::{
     CalibrationSettings, DesignVariable, DiagnosisSettings, Experiments, Expression, Hypothesis, HypothesisKind,
-    Method, Parameter, Simulation, Study, Symbols, experiments,
+    Method, Parameter, Simulation, Study, SurrogateKind, Symbols, experiments,
 };
 use crate::calibrate::bayesian::Settings as BayesianSettings;
 use crate::error::InputError;
@@ -193,17 +193,20 @@ impl Checker<'_> {
         Ok(study)
     }
 
-    /// One emulator across the designs emulates the response: the curves' emulators are per design
-    /// and would have too few runs at each.
+    /// One emulator across the designs is a Gaussian process: the curves' emulator across the designs
+    /// is one too, so `calibration.curve.surrogate` may only say `gp`.
     fn across_designs(&self, file: &StudyFile, study: &Study) -> Result<(), InputError> {
         let node = file.simulation.value.sampling.as_ref().and_then(|s| s.value.across_designs.as_ref());
-        match node {
-            Some(node) if node.value && study.calibration.against.curves => Err(self.at_key(
+        let curve = study.calibration.curve.surrogate.filter(|k| *k != SurrogateKind::Gp);
+        match (node, curve) {
+            (Some(node), Some(kind)) if node.value && study.calibration.against.curves => Err(self.at_key(
                 "across_designs",
                 node,
-                "`sampling.across_designs` emulates the response across the designs; the curves' emulators \
-                 (`calibration.against: [response, curves]`) are fitted per design and would have too few runs \
-                 at each: calibrate against the response, or sample per design",
+                format!(
+                    "`sampling.across_designs` fits the curves' emulator as Gaussian processes across the designs, \
+                     but `calibration.curve.surrogate` says `{}`: set it to `gp` or leave it out, or sample per design",
+                    kind.key()
+                ),
             )),
             _ => Ok(()),
         }

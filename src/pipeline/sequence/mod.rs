@@ -765,8 +765,8 @@ impl<'a> Runner<'a> {
     fn probes(&mut self, posterior: &Posterior, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<(), Error> {
         let points = probe_points(posterior, &self.study.parameter_bounds());
         // With one emulator across the designs, the designs take the points in turn, one each: the
-        // emulator learns how the effect changes with θ across them.
-        let across = self.sim.across_designs();
+        // emulator learns how the effect changes with θ across them ([`crate::plan::sweep::probes_across`]).
+        let across = crate::plan::sweep::probes_across(self.study, self.sim);
         let mut new = Vec::new();
         for (k, h) in self.study.extension_hypotheses() {
             let variables = h.extension().unwrap_or_default().to_vec();

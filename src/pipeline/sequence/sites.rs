@@ -10,7 +10,7 @@ use crate::calibrate::Bounds;
 use crate::diagnose::features::{CurveDesign, Whitening};
 use crate::diagnose::{NoiseModel, Observation, Role};
 use crate::extract::features::FeatureSpec;
-use crate::fit::functional::FunctionalSurrogate;
+use crate::fit::functional::{AcrossRun, CurvesAcross, FunctionalSurrogate};
 use crate::fit::Surrogate;
 use crate::plan::sequential::Site;
 use crate::study::{SolverSimulation, Study, SurrogateKind};
@@ -33,6 +33,14 @@ pub struct TestedDesign {
     pub training: bool,
     pub observed: Vec<f64>,
     pub noise: Vec<f64>,
+}
+
+impl TestedDesign {
+    /// The unit a curve emulator across the designs takes this design's curves in: its tests' mean
+    /// force ([`crate::fit::functional::unit`]).
+    pub fn scale(&self) -> f64 {
+        crate::fit::functional::unit(self.observed[0])
+    }
 }
 
 impl Tests {
@@ -152,12 +160,14 @@ pub fn measured_errors(
 }
 
 /// With one emulator across the designs ([`crate::plan::sequential::shared`]): per tested design,
-/// the emulator fitted to every run but the design's latest batch, its RMS error there in units of
-/// the tests' noise of the mean, the largest over the outputs (`None`: the design has no run yet;
-/// infinite: the emulator could not be fitted without them).
+/// the emulators fitted to every run but the design's latest batch — the response's, and with
+/// curves the study's curve emulator across the designs ([`CurvesAcross`]) — their RMS error there
+/// in units of the tests' noise of the mean, the largest over the outputs (`None`: the design has
+/// no run yet; infinite: the emulators could not be fitted without them).
 pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) -> Vec<Option<f64>> {
     use rayon::prelude::*;
     let values: Vec<Vec<f64>> = tests.designs.iter().map(|t| t.values.clone()).collect();
+    let joint = crate::plan::sequential::shared::joint_bounds(&values, bounds);
     (0..tests.designs.len())
         .into_par_iter()
         .map(|s| {
@@ -166,23 +176,58 @@ pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) 
             let held = |r: &RunData| r.design == name.as_str() && r.batch == last;
             let kept: Vec<RunData> = runs.iter().filter(|r| !held(r)).map(RunData::copy).collect();
             let emus = crate::plan::sequential::shared::emulators(&values, bounds, &sites(tests, &kept));
+            let curves = match tests.whitening {
+                Some(_) => match curves_across(tests, &kept, &joint) {
+                    Ok(c) => Some(c.at(&values[s], tests.designs[s].scale())),
+                    Err(_) => return Some(f64::INFINITY),
+                },
+                None => None,
+            };
             let t = &tests.designs[s];
-            let mut sq = vec![0.0; t.observed.len()];
-            let mut n = 0usize;
-            for r in runs.iter().filter(|r| held(r)) {
-                let truth = tests.outputs(&t.values, r.response, r.curve);
-                let Some(emulated) = emus[s].predict(&r.point) else { return Some(f64::INFINITY) };
-                if truth.iter().chain(&emulated).any(|v| !v.is_finite()) {
-                    continue;
-                }
-                n += 1;
-                for k in 0..sq.len() {
-                    sq[k] += (truth[k] - emulated[k]).powi(2) / t.noise[k];
-                }
-            }
-            Some(if n == 0 { f64::INFINITY } else { sq.iter().map(|s| (s / n as f64).sqrt()).fold(0.0, f64::max) })
+            let held: Vec<&RunData> = runs.iter().filter(|r| held(r)).collect();
+            let emulated = |r: &RunData| {
+                let y = emus[s].predict(&r.point)?;
+                let curve = curves.as_ref().map(|c| c.predict(&r.point));
+                Some(tests.outputs(&t.values, Some(y[0]), curve.as_ref()))
+            };
+            Some(rms_in_noise(tests, t, &held, &emulated))
         })
         .collect()
+}
+
+/// The study's curve emulator across the designs fitted to `runs` ([`CurvesAcross`]), each design's
+/// curves in units of its tests' mean force.
+fn curves_across(tests: &Tests, runs: &[RunData], joint: &Bounds) -> Result<CurvesAcross, crate::fit::FitError> {
+    let rows: Vec<AcrossRun> = runs
+        .iter()
+        .filter_map(|r| {
+            let t = tests.designs.iter().find(|t| t.name == r.design)?;
+            Some(AcrossRun { design: &t.values, theta: &r.point, curve: r.curve?, scale: t.scale() })
+        })
+        .collect();
+    CurvesAcross::fit(&rows, joint)
+}
+
+/// The RMS error over `held` of the emulated outputs per output, in units of the tests' noise of
+/// the mean, the largest over the outputs (infinite where nothing could be emulated).
+fn rms_in_noise(tests: &Tests, t: &TestedDesign, held: &[&RunData], emulated: &dyn Fn(&RunData) -> Option<Vec<f64>>) -> f64 {
+    let mut sq = vec![0.0; t.observed.len()];
+    let mut n = 0usize;
+    for r in held {
+        let truth = tests.outputs(&t.values, r.response, r.curve);
+        let Some(emulated) = emulated(r) else { return f64::INFINITY };
+        if truth.iter().chain(&emulated).any(|v| !v.is_finite()) {
+            continue;
+        }
+        n += 1;
+        for k in 0..sq.len() {
+            sq[k] += (truth[k] - emulated[k]).powi(2) / t.noise[k];
+        }
+    }
+    if n == 0 {
+        return f64::INFINITY;
+    }
+    sq.iter().map(|s| (s / n as f64).sqrt()).fold(0.0, f64::max)
 }
 
 /// The study's own emulators (the response's surrogate, the curve emulator) fitted to `fit`, at
@@ -212,24 +257,11 @@ fn held_out_error(
         }
         None => None,
     };
-    let mut sq = vec![0.0; t.observed.len()];
-    let mut n = 0usize;
-    for r in held {
-        let truth = tests.outputs(&t.values, r.response, r.curve);
-        let emulated_curve = curves.as_ref().map(|f| f.predict(&r.point));
-        let emulated = tests.outputs(&t.values, Some(surrogate.predict(&r.point)), emulated_curve.as_ref());
-        if truth.iter().chain(&emulated).any(|v| !v.is_finite()) {
-            continue;
-        }
-        n += 1;
-        for k in 0..sq.len() {
-            sq[k] += (truth[k] - emulated[k]).powi(2) / t.noise[k];
-        }
-    }
-    if n == 0 {
-        return f64::INFINITY;
-    }
-    sq.iter().map(|s| (s / n as f64).sqrt()).fold(0.0, f64::max)
+    let emulated = |r: &RunData| {
+        let curve = curves.as_ref().map(|f| f.predict(&r.point));
+        Some(tests.outputs(&t.values, Some(surrogate.predict(&r.point)), curve.as_ref()))
+    };
+    rms_in_noise(tests, t, held, &emulated)
 }
 
 /// The surrogate kind a design's few runs can carry: `kind`, or linear where `n` runs are too few
