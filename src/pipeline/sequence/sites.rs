@@ -175,7 +175,13 @@ pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) 
             let last = runs.iter().filter(|r| r.design == name.as_str()).map(|r| r.batch).max()?;
             let held = |r: &RunData| r.design == name.as_str() && r.batch == last;
             let kept: Vec<RunData> = runs.iter().filter(|r| !held(r)).map(RunData::copy).collect();
-            let emus = crate::plan::sequential::shared::emulators(&values, bounds, &sites(tests, &kept));
+            // With curves their features come from the curve emulator below: the planner's
+            // emulators are fitted for the response alone.
+            let mut kept_sites = sites(tests, &kept);
+            if tests.whitening.is_some() {
+                kept_sites.iter_mut().for_each(response_only);
+            }
+            let emus = crate::plan::sequential::shared::emulators(&values, bounds, &kept_sites);
             let curves = match tests.whitening {
                 Some(_) => match curves_across(tests, &kept, &joint) {
                     Ok(c) => Some(c.at(&values[s], tests.designs[s].scale())),
@@ -193,6 +199,13 @@ pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) 
             Some(rms_in_noise(tests, t, &held, &emulated))
         })
         .collect()
+}
+
+/// A site's first output, the response, alone.
+fn response_only(site: &mut Site) {
+    site.y.iter_mut().for_each(|y| y.truncate(1));
+    site.observed.truncate(1);
+    site.noise.truncate(1);
 }
 
 /// The study's curve emulator across the designs fitted to `runs` ([`CurvesAcross`]), each design's
