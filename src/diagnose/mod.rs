@@ -588,6 +588,11 @@ pub struct NextTest {
     /// Independent measurements of a parameter that would decide with the tests in hand.
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub measurements: Vec<next_test::Measurement>,
+    /// No programme decides, where exact simulations would: the explanations differ by less than
+    /// their emulators' own error (measured on runs they were not fitted to), so more solver runs,
+    /// not more specimens, come first.
+    #[serde(skip_serializing_if = "std::ops::Not::not", default)]
+    pub limited_by_emulators: bool,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

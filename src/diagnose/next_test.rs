@@ -61,6 +61,9 @@ pub(crate) struct Explanation<'e> {
     /// model in every other; the model a found term extends in the found one): only the larger as
     /// true counts when the two are compared.
     parts: Vec<String>,
+    /// The relative variance of its simulation's own error at each observation point (its
+    /// emulator's, measured on runs it was not fitted to; empty for a closed form).
+    code: Vec<(Vec<f64>, f64)>,
 }
 
 impl<'e> Explanation<'e> {
@@ -76,8 +79,17 @@ impl<'e> Explanation<'e> {
         );
         let mut names = cx.inputs.parameter_names.clone();
         names.extend((0..model.fit.gamma.len()).map(|k| format!("γ{k}")));
+        let code = (0..cx.data.designs.len())
+            .map(|i| {
+                let v = cx.inputs.emulator_variance.get(i).copied().unwrap_or(0.0);
+                let y = cx.data.means[i];
+                let rel = if y != 0.0 && v > 0.0 { v / (y * y) } else { 0.0 };
+                (cx.data.designs[i].clone(), rel)
+            })
+            .collect();
         Explanation {
             name,
+            code,
             eval: Box::new(move |pt, b| cx.data.predict(&model.shapes(), &b[..p], &b[p..], pt)),
             gradient: Box::new(move |pt| cx.data.gradient(&model.shapes(), &model.fit, pt)),
             beta,
@@ -101,6 +113,24 @@ impl<'e> Explanation<'e> {
     pub fn simulated_by(mut self, hypothesis: &str) -> Self {
         self.parts.insert(0, format!("simulation: {hypothesis}"));
         self
+    }
+
+    /// The simulation it runs: `None` for the study's own (the screening's), else the hypothesis
+    /// the loop extended it with.
+    fn simulation(&self) -> Option<&str> {
+        self.parts.first().and_then(|p| p.strip_prefix("simulation: "))
+    }
+
+    /// The variance of its simulation's own error at `pt` where it predicts `y`: measured at a
+    /// tested point, elsewhere the largest measured (relative).
+    fn code_variance(&self, pt: &[f64], y: f64) -> f64 {
+        let rel = self
+            .code
+            .iter()
+            .find(|(at, _)| at.as_slice() == pt)
+            .map(|c| c.1)
+            .unwrap_or_else(|| self.code.iter().map(|c| c.1).fold(0.0, f64::max));
+        rel * y * y
     }
 
     /// Whether every part of this model is one of `other`'s.
@@ -172,28 +202,22 @@ pub(crate) fn recommend(
     };
     let z_alpha = stats::normal_quantile(1.0 - level / 2.0);
     let target = (z_alpha + stats::normal_quantile(cx.inputs.settings.power)).powi(2);
-    let mut search = Search::new(cx, &ex, &sigma, target);
+    let mut search = Search::new(cx, &ex, &sigma, target, true);
     search.fresh = fresh;
-    let inside = search.cheapest(&candidate_points(
-        cx,
-        &cx.inputs.design_bounds,
-        cx.inputs.settings.grid_per_axis,
-    ));
-    let (found, outside) = match inside {
-        Some(p) => (Some(p), false),
-        None => match widened(cx) {
-            Some(wide) => {
-                let outside = search.cheapest(&candidate_points(cx, &wide, cx.inputs.settings.grid_per_axis));
-                (outside.clone().or_else(|| search.closest(cx)), outside.is_some())
-            }
-            None => (search.closest(cx), false),
-        },
-    };
+    let (found, outside) = search.inside_then_outside();
     let mut pick = found?;
+    // Where nothing decides, say whether exact simulations would: then it is the emulators' error,
+    // not the specimens, that stands between the explanations.
+    let limited_by_emulators = !pick.decides && ex.iter().any(|e| e.code.iter().any(|c| c.1 > 0.0)) && {
+        let mut exact = Search::new(cx, &ex, &sigma, target, false);
+        exact.fresh = fresh;
+        exact.inside_then_outside().0.is_some_and(|p| p.decides)
+    };
     if pick.decides {
         search.raise_for_uncertainty(&mut pick, z_alpha);
     }
     let measurements = search.measurements(target);
+    pick.limited_by_emulators = limited_by_emulators;
     Some(describe(cx, &ex, &sigma, pick, outside, measurements, level))
 }
 
@@ -209,6 +233,8 @@ struct Pick {
     decides: bool,
     /// Mean power over the uncertainty of the true explanation's fitted numbers.
     expected_power: Option<f64>,
+    /// It does not decide, where exact simulations would: the emulators' error stands between.
+    limited_by_emulators: bool,
 }
 
 impl Pick {
@@ -219,12 +245,48 @@ impl Pick {
 
 type Sigma = Box<dyn Fn(f64) -> f64 + Send + Sync>;
 
-/// One specimen's rows at a design: Σeᵀe, Σjᵀe, Σjᵀj over its observed outputs.
+/// One specimen's rows at a design: Σeᵀe, Σjᵀe, Σjᵀj over its observed outputs; with the
+/// variance of the two simulations' own error there in units of one test's (`code`, mean over the
+/// outputs) and the training specimens tested there (`tested`), which [`Rows::count`] needs.
 #[derive(Clone)]
 struct Rows {
     ete: f64,
     jte: DVector<f64>,
     jtj: DMatrix<f64>,
+    code: f64,
+    tested: f64,
+}
+
+impl Rows {
+    fn zero(q: usize) -> Self {
+        Rows {
+            ete: 0.0,
+            jte: DVector::zeros(q),
+            jtj: DMatrix::zeros(q, q),
+            code: 0.0,
+            tested: 0.0,
+        }
+    }
+
+    /// What `m` new specimens at this design count for, in specimens of exact simulations. The
+    /// simulations' error there is one draw shared by every specimen of the design (Kennedy &
+    /// O'Hagan 2001, the code's uncertainty in the likelihood), so the mean of n specimens has
+    /// variance σ²(1/n + k) and counts n/(1 + n·k): the new ones add what the tested ones lack of
+    /// that, and no number of specimens tells apart what differs by less than the simulations' error.
+    fn count(&self, m: f64) -> f64 {
+        let counts = |n: f64| n / (1.0 + n * self.code);
+        counts(self.tested + m) - counts(self.tested)
+    }
+}
+
+/// The variance of the difference of two explanations' simulation errors at `pt`: none when they
+/// run the same simulation (its error cancels), else the sum of both.
+fn pair_code(a: &Explanation, b: &Explanation, pt: &[f64], ya: f64, yb: f64) -> f64 {
+    if a.simulation() == b.simulation() {
+        0.0
+    } else {
+        a.code_variance(pt, ya) + b.code_variance(pt, yb)
+    }
 }
 
 /// A true explanation `truth` and a refitted rival `rival`, over the training tests.
@@ -277,10 +339,14 @@ struct Search<'a, 'e> {
     pairs: Vec<((usize, usize), Vec<Direction>)>,
     /// Count only what new specimens add to λ (see [`recommend`]).
     fresh: bool,
+    /// Count the simulations' own error (see [`Search::new`]).
+    code: bool,
 }
 
 impl<'a, 'e> Search<'a, 'e> {
-    fn new(cx: &'a Context<'a>, ex: &'a [&'a Explanation<'e>], sigma: &'a Sigma, target: f64) -> Self {
+    /// `code`: count the simulations' own error ([`Rows::count`]); without it, the search says what
+    /// exact simulations would decide.
+    fn new(cx: &'a Context<'a>, ex: &'a [&'a Explanation<'e>], sigma: &'a Sigma, target: f64, code: bool) -> Self {
         let unit = if cx.known() { 1.0 } else { 1.0 / sigma(1.0) };
         let mut pairs = Vec::new();
         for a in 0..ex.len() {
@@ -292,7 +358,7 @@ impl<'a, 'e> Search<'a, 'e> {
                 };
                 let ds: Vec<Direction> = dirs
                     .into_iter()
-                    .filter_map(|(t, r)| direction(cx, ex, t, r, unit, None))
+                    .filter_map(|(t, r)| direction(cx, ex, (t, r), unit, code, None))
                     .collect();
                 if !ds.is_empty() {
                     pairs.push(((a, b), ds));
@@ -307,6 +373,7 @@ impl<'a, 'e> Search<'a, 'e> {
             unit: 1.0,
             pairs,
             fresh: false,
+            code,
         }
         .with_unit(unit)
     }
@@ -320,20 +387,16 @@ impl<'a, 'e> Search<'a, 'e> {
     /// `None`); `None` where either explanation is not finite (a solver study's untested design).
     fn rows(&self, d: &[f64], truth: usize, rival: usize, beta: Option<&DVector<f64>>) -> Option<Rows> {
         let (a, b) = (self.ex[truth], self.ex[rival]);
-        let q = b.beta.len();
-        let mut rows = Rows {
-            ete: 0.0,
-            jte: DVector::zeros(q),
-            jtj: DMatrix::zeros(q, q),
-        };
-        for pt in observation_points(self.cx, d) {
+        let mut rows = Rows::zero(b.beta.len());
+        let points = observation_points(self.cx, d);
+        for pt in &points {
             let ya = match beta {
-                Some(bb) => (a.eval)(&pt, bb.as_slice()),
-                None => a.predict(&pt),
+                Some(bb) => (a.eval)(pt, bb.as_slice()),
+                None => a.predict(pt),
             };
-            let yb = b.predict(&pt);
+            let yb = b.predict(pt);
             let w = 1.0 / (self.sigma)(ya);
-            let j = (b.gradient)(&pt) * w;
+            let j = (b.gradient)(pt) * w;
             let e = w * (ya - yb);
             if !(e.is_finite() && j.iter().all(|v| v.is_finite())) {
                 return None;
@@ -341,7 +404,11 @@ impl<'a, 'e> Search<'a, 'e> {
             rows.ete += e * e;
             rows.jte += &j * e;
             rows.jtj += &j * j.transpose();
+            if self.code {
+                rows.code += pair_code(a, b, pt, ya, yb) * w * w / points.len() as f64;
+            }
         }
+        rows.tested = trained_at(self.cx, d) as f64;
         Some(rows)
     }
 
@@ -378,7 +445,10 @@ impl<'a, 'e> Search<'a, 'e> {
     fn weakest_in(&self, table: &Table, runs: &[(usize, usize)]) -> (f64, (usize, usize)) {
         let mut worst = (f64::INFINITY, (0, 1));
         for (k, (pair, dir)) in self.directions().into_iter().enumerate() {
-            let adds: Vec<(&Rows, f64)> = runs.iter().map(|&(i, m)| (&table.rows[i][k], m as f64)).collect();
+            let adds: Vec<(&Rows, f64)> = runs
+                .iter()
+                .map(|&(i, m)| (&table.rows[i][k], table.rows[i][k].count(m as f64)))
+                .collect();
             let lam = dir.lambda(&adds) - if self.fresh { dir.lambda(&[]) } else { 0.0 };
             if lam < worst.0 {
                 worst = (lam, pair);
@@ -397,6 +467,24 @@ impl<'a, 'e> Search<'a, 'e> {
                 &runs.iter().enumerate().map(|(i, r)| (i, r.1)).collect::<Vec<_>>(),
             )
         })
+    }
+
+    /// The cheapest programme inside the design bounds; else outside them (closed forms only),
+    /// and whether it lies there; else the design where the explanations differ most.
+    fn inside_then_outside(&self) -> (Option<Pick>, bool) {
+        let cx = self.cx;
+        let per_axis = cx.inputs.settings.grid_per_axis;
+        if let Some(p) = self.cheapest(&candidate_points(cx, &cx.inputs.design_bounds, per_axis)) {
+            return (Some(p), false);
+        }
+        match widened(cx) {
+            Some(wide) => {
+                let outside = self.cheapest(&candidate_points(cx, &wide, per_axis));
+                let found = outside.is_some();
+                (outside.or_else(|| self.closest(cx)), found)
+            }
+            None => (self.closest(cx), false),
+        }
     }
 
     /// The cheapest programme over `points` that reaches the target: one design, else two, else three
@@ -422,6 +510,7 @@ impl<'a, 'e> Search<'a, 'e> {
                 lambda: in_hand,
                 decides: true,
                 expected_power: None,
+                limited_by_emulators: false,
             });
         }
         let single = (0..table.points.len())
@@ -479,6 +568,7 @@ impl<'a, 'e> Search<'a, 'e> {
             lambda,
             decides: true,
             expected_power: None,
+            limited_by_emulators: false,
         })
     }
 
@@ -543,6 +633,7 @@ impl<'a, 'e> Search<'a, 'e> {
                     lambda,
                     decides: false,
                     expected_power: None,
+                    limited_by_emulators: false,
                 })
             })
             .max_by(|a, b| a.lambda.total_cmp(&b.lambda))
@@ -589,10 +680,22 @@ impl<'a, 'e> Search<'a, 'e> {
                 for dir in dirs {
                     let truth = self.ex[dir.truth];
                     let beta = draw(truth, &mut rng)?;
-                    let moved = direction(self.cx, self.ex, dir.truth, dir.rival, self.unit, Some(&beta))?;
+                    let moved = direction(
+                        self.cx,
+                        self.ex,
+                        (dir.truth, dir.rival),
+                        self.unit,
+                        self.code,
+                        Some(&beta),
+                    )?;
                     let rows: Vec<(Rows, f64)> = runs
                         .iter()
-                        .map(|(d, m)| self.rows(d, dir.truth, dir.rival, Some(&beta)).map(|r| (r, *m as f64)))
+                        .map(|(d, m)| {
+                            self.rows(d, dir.truth, dir.rival, Some(&beta)).map(|r| {
+                                let k = r.count(*m as f64);
+                                (r, k)
+                            })
+                        })
                         .collect::<Option<_>>()?;
                     let adds: Vec<(&Rows, f64)> = rows.iter().map(|(r, m)| (r, *m)).collect();
                     let fresh = if self.fresh { moved.lambda(&[]) } else { 0.0 };
@@ -631,11 +734,7 @@ impl<'a, 'e> Search<'a, 'e> {
                         let Some(j) = r.names.iter().position(|n| n == name) else {
                             return 0.0;
                         };
-                        let mut row = Rows {
-                            ete: 0.0,
-                            jte: DVector::zeros(r.beta.len()),
-                            jtj: DMatrix::zeros(r.beta.len(), r.beta.len()),
-                        };
+                        let mut row = Rows::zero(r.beta.len());
                         let e = (t.value(name).unwrap_or(f64::NAN) - r.beta[j]) / sigma;
                         row.ete = e * e;
                         row.jte[j] = e / sigma;
@@ -699,12 +798,14 @@ fn splits(total: usize, n: usize) -> Vec<Vec<usize>> {
 }
 
 /// The training part of a direction (truth's numbers `beta`, β̂ when `None`).
+/// With `code`, each test's variance carries the two simulations' error at its design
+/// ([`pair_code`]).
 fn direction(
     cx: &Context,
     ex: &[&Explanation],
-    truth: usize,
-    rival: usize,
+    (truth, rival): (usize, usize),
     unit: f64,
+    code: bool,
     beta: Option<&DVector<f64>>,
 ) -> Option<Direction> {
     let (a, b) = (ex[truth], ex[rival]);
@@ -714,9 +815,12 @@ fn direction(
     let mut r = DVector::zeros(n);
     for (row, &i) in cx.train.iter().enumerate() {
         let pt = &cx.data.designs[i];
-        let w = unit * cx.data.weights[i];
         let ya = beta.map_or_else(|| a.predict(pt), |bb| (a.eval)(pt, bb.as_slice()));
-        r[row] = w * (ya - b.predict(pt));
+        let yb = b.predict(pt);
+        let tests = unit * cx.data.weights[i];
+        let simulations = if code { pair_code(a, b, pt, ya, yb) } else { 0.0 };
+        let w = 1.0 / (1.0 / (tests * tests) + simulations).sqrt();
+        r[row] = w * (ya - yb);
         jac.set_row(row, &((b.gradient)(pt) * w).transpose());
     }
     if r.iter().chain(jac.iter()).any(|v| !v.is_finite()) {
@@ -893,6 +997,7 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
         }],
         outside_range: false,
         measurements: Vec::new(),
+        limited_by_emulators: false,
         design,
     })
 }
@@ -925,6 +1030,7 @@ fn widest_gap(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
         lambda: 0.0,
         decides: false,
         expected_power: None,
+        limited_by_emulators: false,
     };
     let mut t = describe_common(cx, ex, &pick, false, Vec::new(), None);
     t.separation = gap;
@@ -951,18 +1057,28 @@ fn at_text(design: &IndexMap<String, f64>) -> String {
 
 /// The tested design at `d` (within 1e-6 of the box on every variable), with its specimens.
 fn tested_at(cx: &Context, d: &[f64]) -> Option<(String, usize)> {
+    observation_at(cx, d, 0..cx.inputs.observations.len()).map(|o| (o.group.clone(), o.count))
+}
+
+/// The specimens of the training tests at `d` (0 where none was trained on).
+fn trained_at(cx: &Context, d: &[f64]) -> usize {
+    observation_at(cx, d, cx.train.iter().copied()).map_or(0, |o| o.count)
+}
+
+/// The first of the observations `among` at `d` (within 1e-6 of the box on every variable).
+fn observation_at<'c>(
+    cx: &'c Context,
+    d: &[f64],
+    among: impl Iterator<Item = usize>,
+) -> Option<&'c super::Observation> {
     let width = cx.inputs.design_bounds.width();
-    cx.inputs
-        .observations
-        .iter()
-        .find(|o| {
-            o.design
-                .iter()
-                .zip(d)
-                .enumerate()
-                .all(|(j, (a, b))| (a - b).abs() <= 1e-6 * width[j].abs().max(1e-12))
-        })
-        .map(|o| (o.group.clone(), o.count))
+    among.map(|i| &cx.inputs.observations[i]).find(|o| {
+        o.design
+            .iter()
+            .zip(d)
+            .enumerate()
+            .all(|(j, (a, b))| (a - b).abs() <= 1e-6 * width[j].abs().max(1e-12))
+    })
 }
 
 /// The fields every recommendation shares, from the pick.
@@ -1011,6 +1127,7 @@ fn describe_common(
         programme: if pick.decides { programme } else { Vec::new() },
         outside_range: outside,
         measurements,
+        limited_by_emulators: pick.limited_by_emulators,
     }
 }
 
@@ -1058,6 +1175,18 @@ fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
         None => (String::new(), String::new()),
     };
     let measure = measurement_words(&t.measurements);
+    if !decides && t.limited_by_emulators {
+        let mut s = format!(
+            "no programme of specimens makes the difference decisive (power {power:.0} % at α = {alpha}): the \
+             explanations differ by less than their emulators' own error, measured on solver runs they were not \
+             fitted to; with exact simulations a programme would decide, so more solver runs for their models come \
+             before more specimens"
+        );
+        if let Some(m) = measure {
+            s.push_str(&format!("; {m}"));
+        }
+        return s;
+    }
     if !decides {
         let mut s = format!(
             "no programme of up to three designs inside the design bounds makes the difference decisive (power \
@@ -1154,4 +1283,119 @@ fn why(t: &NextTest, noise_known: bool) -> String {
         crate::format::pct(rel),
         t.advice
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibrate::Bounds;
+    use crate::diagnose::{Inputs, Observation, Role, Settings};
+
+    /// n specimens of an exact simulation count n; with its error shared by a design's specimens
+    /// (k = its variance in units of one test's) no number counts more than 1/k, and new specimens
+    /// at a tested design add only what the tested ones lack of that.
+    #[test]
+    fn a_designs_specimens_count_up_to_the_simulations_error() {
+        let mut rows = Rows::zero(1);
+        assert_eq!(rows.count(7.0), 7.0);
+        rows.code = 0.04;
+        assert!((rows.count(1e9) - 25.0).abs() < 1e-3, "{}", rows.count(1e9));
+        assert!((rows.count(5.0) - 5.0 / 1.2).abs() < 1e-12);
+        rows.tested = 5.0;
+        let both = 10.0 / 1.4 - 5.0 / 1.2;
+        assert!((rows.count(5.0) - both).abs() < 1e-12);
+        assert!(
+            rows.count(5.0)
+                < Rows {
+                    tested: 0.0,
+                    ..rows.clone()
+                }
+                .count(5.0)
+        );
+    }
+
+    fn simulation(d: &[f64], theta: &[f64]) -> f64 {
+        theta[0] * d[0].powi(-3)
+    }
+
+    /// Tests at x = 8..12 (5 specimens, σ = 0.002) of y = 1000 x⁻³ + 2 x⁻²; a design box 4..16.
+    fn inputs() -> Inputs<'static> {
+        let observations = (0..5)
+            .map(|i| {
+                let x = 8.0 + f64::from(i);
+                let y = 1000.0 * x.powi(-3) + 2.0 * x.powi(-2);
+                let reps: Vec<f64> = [-2.0, -1.0, 0.0, 1.0, 2.0]
+                    .iter()
+                    .map(|z| y + 0.002 * z / 1.58)
+                    .collect();
+                Observation::from_replicates(format!("x{i}"), vec![x], Role::Training, &reps)
+            })
+            .collect();
+        Inputs {
+            observations,
+            model: &simulation,
+            parameter_names: vec!["theta".into()],
+            parameter_bounds: Bounds::new(vec![100.0], vec![3000.0]),
+            design_names: vec!["x".into()],
+            design_bounds: Bounds::new(vec![4.0], vec![16.0]),
+            hypotheses: Vec::new(),
+            settings: Settings::default(),
+            discover: false,
+            library: Default::default(),
+            outputs: Vec::new(),
+            built_ins: Some(Vec::new()),
+            noise: None,
+            emulator_variance: Vec::new(),
+            relative_error: None,
+        }
+    }
+
+    /// An explanation y = θ x⁻³ + γ xᵖ run by a simulation of its own (`simulation: name`), whose
+    /// error has relative variance `rel` at every tested design; β fitted to the tests here.
+    fn explanation<'e>(cx: &'e Context<'e>, name: &str, power: i32, rel: f64) -> Explanation<'e> {
+        let cols = move |x: f64| [x.powi(-3), x.powi(power)];
+        let a = DMatrix::from_fn(cx.train.len(), 2, |r, j| cols(cx.data.designs[cx.train[r]][0])[j]);
+        let y = DVector::from_iterator(cx.train.len(), cx.train.iter().map(|&i| cx.data.means[i]));
+        let beta = (a.transpose() * &a).lu().solve(&(a.transpose() * y)).unwrap();
+        Explanation {
+            name: name.into(),
+            eval: Box::new(move |pt, b| b[0] * cols(pt[0])[0] + b[1] * cols(pt[0])[1]),
+            gradient: Box::new(move |pt| DVector::from_row_slice(&cols(pt[0]))),
+            beta,
+            names: vec!["theta".into(), "γ0".into()],
+            cov: None,
+            bounds: &cx.inputs.parameter_bounds,
+            parts: vec![format!("simulation: {name}")],
+            code: cx.data.designs.iter().map(|d| (d.clone(), rel)).collect(),
+        }
+    }
+
+    /// Two explanations that only a programme outside the tested band tells apart: with exact
+    /// simulations a programme decides; with simulations whose error is ten times the tests' noise,
+    /// none does, and the next test says that the emulators, not the specimens, stand between.
+    #[test]
+    fn no_programme_is_claimed_from_differences_within_the_simulations_error() {
+        let inputs = inputs();
+        let noise = NoiseModel::constant(0.002, 20, String::new());
+        let cx = Context::new(&inputs, Some(&noise), false).unwrap();
+        let level = cx.alpha();
+        let next = |rel: f64| {
+            let ex = [explanation(&cx, "a", -1, rel), explanation(&cx, "b", -2, rel)];
+            recommend(&cx, &ex, &noise, true, level).unwrap()
+        };
+        let exact = next(0.0);
+        assert!(!exact.programme.is_empty() && !exact.limited_by_emulators, "{exact:?}");
+        // The response is about 2 at x = 8 and 0.3 at x = 16: σ = 0.002 is 0.1 to 0.7 % of it,
+        // and a relative simulation error of 5 % (variance 0.0025) is far beyond.
+        let rough = next(0.0025);
+        assert!(rough.programme.is_empty() && rough.limited_by_emulators, "{rough:?}");
+        assert!(rough.advice.contains("emulators' own error"), "{}", rough.advice);
+        // An error far below the noise changes the programme by little.
+        let fine = next(1e-12);
+        let total = |t: &NextTest| t.programme.iter().map(|r| r.additional).sum::<usize>() as f64;
+        assert!(
+            (total(&fine) - total(&exact)).abs() <= 0.05 * total(&exact) + 1.0,
+            "{fine:?}"
+        );
+    }
 }
