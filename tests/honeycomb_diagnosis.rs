@@ -210,6 +210,10 @@ fn the_curves_name_strain_hardening_from_the_same_recordings() {
         serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap();
     assert_eq!(r["runs"]["succeeded"], stage_runs(&r, None), "{}", r["runs"]);
     assert_eq!(r["runs"]["failed"], 0);
+    // What tests/diagnosis_studies.rs checks of every other study (it leaves this one, the slowest
+    // replay, to this test).
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    verdict_common::assert_study_reads_its_verdict("honeycomb-diagnosis-curves.yaml", &stdout, out.path(), &r);
     let d = &r["diagnosis"];
     assert_eq!(d["verdict"], "cause_named", "{}", d["summary"]);
     assert_eq!(d["cause"], "strain hardening");

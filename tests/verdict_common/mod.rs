@@ -282,3 +282,59 @@ pub fn assert_settled_stages_decide_nothing(results: &Value) {
         assert_eq!(e["rejected"], false, "'{stage}' settled, its model rejected: {e}");
     }
 }
+
+/// What every study's run must show besides a verdict that follows from its evidence: the
+/// terminal leads with the verdict, and no sentence of the summary or the report calls a p-value
+/// at or above α significant.
+#[allow(dead_code)] // used by the tests that run whole studies
+pub fn assert_study_reads_its_verdict(study: &str, stdout: &str, out: &std::path::Path, r: &Value) {
+    let d = &r["diagnosis"];
+    assert_verdict_follows_evidence(d);
+    let headline = d["headline"].as_str().unwrap();
+    assert!(
+        stdout.contains(&format!("diagnosis: {headline}")),
+        "{study}: the terminal does not lead with the verdict"
+    );
+    let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for text in [d["summary"].as_str().unwrap().to_string(), page_text(&page)] {
+        significance_is_backed(study, &text);
+    }
+}
+
+#[allow(dead_code)]
+/// The report's text without tags (entities for <, > and & decoded).
+pub fn page_text(html: &str) -> String {
+    let tags = regex::Regex::new(r"<[^>]*>").unwrap();
+    tags.replace_all(html, "\n")
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&amp;", "&")
+        .replace("&#39;", "'")
+        .replace("&quot;", "\"")
+}
+
+#[allow(dead_code)]
+/// Every sentence that calls something significant (not "no significant …") quotes a p-value below
+/// the diagnosis's α = 0.01: the words come from the same test and level as the decision.
+pub fn significance_is_backed(what: &str, text: &str) {
+    let p_value = regex::Regex::new(r"p (=|<) ?([0-9.]+(e-?[0-9]+)?)").unwrap();
+    let negated = regex::Regex::new(r"(?i)\b(no|not|nothing|without)( \w+)? significant").unwrap();
+    for sentence in text.split(['\n']).flat_map(|l| l.split(". ")) {
+        if !sentence.contains("significant") || negated.is_match(sentence) {
+            continue;
+        }
+        let ps: Vec<f64> = p_value
+            .captures_iter(sentence)
+            .filter_map(|c| c[2].trim_end_matches('.').parse::<f64>().ok())
+            .collect();
+        if ps.is_empty() {
+            continue; // a definition ("explains misfit (p < α/K)"), not a finding
+        }
+        let smallest = ps.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(
+            smallest < 0.01,
+            "{what}: {sentence:?} calls a p-value of {smallest} significant"
+        );
+    }
+}
+
