@@ -33,6 +33,7 @@ use rand_chacha::ChaCha8Rng;
 use serde_json::Value;
 
 mod crushsim_bin;
+mod family_runs;
 mod verdict_common;
 
 const HARDENING: &str = "strain hardening in the fold hinges";
@@ -230,30 +231,6 @@ fn sampling() -> String {
 /// `sampling.replaces` counts (never runs): 2,430 over the 12 cases at base 0 when it was run.
 const FIXED_DESIGN: &str = "{method: lhs, count: 24, seed: 1, check_runs: 5}";
 
-thread_local! {
-    /// Solver runs made by this thread's cases: each test runs on a thread of its own, so a
-    /// family's total is not swollen by another test running beside it.
-    static RUNS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
-    /// The runs the fixed design would have made on the same cases (`sampling.replaces.runs`).
-    static FIXED: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
-}
-
-/// Adds a case's runs, and those its fixed design would have made, to this thread's tallies.
-fn tally(results: &Value, runs: u64) {
-    RUNS.with(|n| n.set(n.get() + runs));
-    let fixed = results["sampling"]["replaces"]["runs"].as_u64().unwrap_or(0);
-    FIXED.with(|n| n.set(n.get() + fixed));
-}
-
-/// Issue 30: a sequential family spends at most a third of the runs its fixed design would have.
-fn assert_a_third_of_the_fixed_design() {
-    let (runs, fixed) = (RUNS.with(std::cell::Cell::get), FIXED.with(std::cell::Cell::get));
-    eprintln!("{runs} solver runs where the fixed design {FIXED_DESIGN} would have made {fixed}");
-    if std::env::var("LAB_FAMILY_SAMPLING").is_err() {
-        assert!(fixed > 0 && runs * 3 <= fixed, "{runs} runs against the fixed design's {fixed}");
-    }
-}
-
 /// `lab run` live with crushsim on PATH; the diagnosis of results.json.
 fn run(case: &Case) -> Value {
     let dir = tempfile::tempdir().unwrap();
@@ -264,7 +241,7 @@ fn run_in(case: &Case, dir: &Path, listed: &str) -> Value {
     let r = results_of(case, dir, listed, &sampling());
     verdict_common::assert_verdict_follows_evidence(&r["diagnosis"]);
     verdict_common::assert_settled_stages_decide_nothing(&r);
-    tally(&r, r["runs"]["planned"].as_u64().unwrap_or(0));
+    family_runs::tally(&r, r["runs"]["planned"].as_u64().unwrap_or(0));
     r["diagnosis"].clone()
 }
 
@@ -332,7 +309,7 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
     eprintln!(
         "{}; {} solver runs for {n} cases ({})",
         t.line(),
-        RUNS.with(std::cell::Cell::get),
+        family_runs::runs(),
         sampling()
     );
     assert!(t.clean >= 3 && t.large >= 1 && t.rate >= 3, "too few cases in a family");
@@ -345,7 +322,7 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
     assert!(t.close * 10 >= t.named * 8, "σy within 3 % and ETAN within 20 % in {} of {}", t.close, t.named);
     assert!(t.covered * 10 >= t.named * 7, "the truths inside the intervals in {} of {}", t.covered, t.named);
     assert_eq!(t.rate_named, 0, "a cause named with an unlisted rate effect in the tests");
-    assert_a_third_of_the_fixed_design();
+    family_runs::assert_a_third_of(FIXED_DESIGN);
 }
 
 /// The rate effect as a listed hypothesis (Cowper–Symonds C over a range, p = 4).

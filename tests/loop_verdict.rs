@@ -20,6 +20,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde_json::Value;
 
+mod family_runs;
 mod verdict_common;
 
 const F: f64 = 600.0;
@@ -141,30 +142,6 @@ fn sampling() -> String {
 /// `sampling.replaces` counts (never runs): 11,844 runs over base 0's 36 cases when it was run.
 const FIXED_DESIGN: &str = "{method: lhs, count: 6, seed: 1, check_runs: 1}";
 
-thread_local! {
-    /// Solver runs made by this thread's cases: each test runs on a thread of its own, so a
-    /// family's total is not swollen by another test running beside it.
-    static RUNS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
-    /// The runs the fixed design would have made on the same cases (`sampling.replaces.runs`).
-    static FIXED: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
-}
-
-/// Adds a case's runs, and those its fixed design would have made, to this thread's tallies.
-fn tally(results: &Value, runs: u64) {
-    RUNS.with(|n| n.set(n.get() + runs));
-    let fixed = results["sampling"]["replaces"]["runs"].as_u64().unwrap_or(0);
-    FIXED.with(|n| n.set(n.get() + fixed));
-}
-
-/// Issue 30: a sequential family spends at most a third of the runs its fixed design would have.
-fn assert_a_third_of_the_fixed_design() {
-    let (runs, fixed) = (RUNS.with(std::cell::Cell::get), FIXED.with(std::cell::Cell::get));
-    eprintln!("{runs} solver runs where the fixed design {FIXED_DESIGN} would have made {fixed}");
-    if std::env::var("LAB_FAMILY_SAMPLING").is_err() {
-        assert!(fixed > 0 && runs * 3 <= fixed, "{runs} runs against the fixed design's {fixed}");
-    }
-}
-
 /// `lab run` on the case; its `diagnosis`.
 fn run(case: &Case) -> Value {
     let dir = tempfile::tempdir().unwrap();
@@ -199,7 +176,7 @@ fn run(case: &Case) -> Value {
         "{}",
         results["runs"]
     );
-    tally(&results, invoked);
+    family_runs::tally(&results, invoked);
     if std::env::var("LAB_LOOP_VERBOSE").is_ok() {
         eprintln!("surrogates: {}", results["surrogates"]);
         for c in results["diagnosis"]["candidates"].as_array().unwrap() {
@@ -418,7 +395,7 @@ fn clamp_case_names_clamp_compliance_from_the_loops_evidence() {
     // Issue 30: this beam, tried as a new user would with a fixed design, took 399 solver runs; the
     // sequential design must reach the same verdict from at most a quarter of them (85 measured;
     // 38 with `across_designs`; the family's fixed design of 6 + 1 per design makes 280).
-    let runs = RUNS.with(std::cell::Cell::get);
+    let runs = family_runs::runs();
     eprintln!("solver runs: {runs} ({})", sampling());
     if std::env::var("LAB_FAMILY_SAMPLING").is_err() {
         assert!(runs * 4 <= 399, "{runs} solver runs");
@@ -535,7 +512,7 @@ fn loop_decides_where_the_evidence_does_and_says_so_where_it_does_not() {
     eprintln!(
         "decidable {decides}: named {named}, intervals hold {inside}; undecidable {open}: not named {not_named}, \
          with a next test {with_test}; shear named {shear_named}; {} solver runs for {} cases ({})",
-        RUNS.with(std::cell::Cell::get),
+        family_runs::runs(),
         decides + open,
         sampling()
     );
@@ -558,5 +535,5 @@ fn loop_decides_where_the_evidence_does_and_says_so_where_it_does_not() {
         programmes.len()
     );
     assert!(programmes.iter().all(|&p| p >= 0.5), "{programmes:?}");
-    assert_a_third_of_the_fixed_design();
+    family_runs::assert_a_third_of(FIXED_DESIGN);
 }
