@@ -301,10 +301,9 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
     let n = env_u64("LAB_CURVES_SEEDS", 12);
     let base = env_u64("LAB_CURVES_SEED_BASE", 0);
     let mut t = Tally::default();
-    for seed in base..base + n {
-        let case = draw(seed);
-        let d = run(&case);
-        t.count(&case, &d);
+    let cases: Vec<Case> = (base..base + n).map(draw).collect();
+    for (case, d) in cases.iter().zip(family_runs::in_parallel(&cases, run)) {
+        t.count(case, &d);
     }
     eprintln!(
         "{}; {} solver runs for {n} cases ({})",
@@ -380,9 +379,11 @@ fn a_listed_rate_effect_is_the_only_cause_named() {
         .take(n)
         .collect();
     let (mut named, mut covered, mut wrong) = (0, 0, Vec::new());
-    for case in &cases {
+    let diagnoses = family_runs::in_parallel(&cases, |case| {
         let dir = tempfile::tempdir().unwrap();
-        let d = run_in(case, dir.path(), listed);
+        run_in(case, dir.path(), listed)
+    });
+    for (case, d) in cases.iter().zip(diagnoses) {
         let cause = d["cause"].as_str().map(str::to_string);
         eprintln!(
             "seed {} rate only: sigma_y {:.1} src {:.0} designs {:?} → {} ({cause:?}; leading {})",

@@ -246,19 +246,11 @@ pub fn initial_samples(study: &Study, sim: &SolverSimulation, d: usize) -> usize
     if sim.sampling.count > 0 {
         return sim.sampling.count;
     }
-    let curves = study
-        .calibration
-        .against
-        .curves
-        .then(|| {
-            study
-                .calibration
-                .curve
-                .surrogate
-                .unwrap_or(sim.surrogate)
-                .min_samples(d)
-        })
-        .unwrap_or(0);
+    let curves = if study.calibration.against.curves {
+        study.calibration.curve.surrogate.unwrap_or(sim.surrogate).min_samples(d)
+    } else {
+        0
+    };
     sim.surrogate.min_samples(d).max(curves) + 1
 }
 

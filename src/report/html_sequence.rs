@@ -65,12 +65,14 @@ fn variables(s: &Sequence) -> Vec<String> {
 
 /// A variable's estimate and 95 % interval after each batch, against the runs so far.
 fn interval_plot(s: &Sequence, name: &str, truth: Option<f64>) -> String {
-    let at: Vec<(f64, f64, [f64; 2])> = s
+    // (runs so far, estimate, interval) after each batch.
+    type Point = (f64, f64, [f64; 2]);
+    let at: Vec<Point> = s
         .sequence
         .iter()
         .filter_map(|b| Some((b.total as f64, *b.estimates.get(name)?, *b.interval95.get(name)?)))
         .collect();
-    let line = |label: &str, color, style, f: &dyn Fn(&(f64, f64, [f64; 2])) -> f64| {
+    let line = |label: &str, color, style, f: &dyn Fn(&Point) -> f64| {
         Series::new(label, color, style, at.iter().map(|p| (p.0, f(p))).collect())
     };
     let mut series = vec![

@@ -100,7 +100,7 @@ struct Runner<'a> {
     responses: Vec<Option<f64>>,
     curves: Vec<Option<DVector<f64>>>,
     /// Runs of an earlier stage this stage's emulators also learn from, at their point in its space.
-    prior: Vec<(String, Vec<f64>, Option<f64>, Option<DVector<f64>>)>,
+    prior: Vec<PriorRun>,
     /// Every run's rendering so far (the meshes are made once).
     rendered: Option<Prepared>,
     outcomes: RunOutcomes,
@@ -120,6 +120,16 @@ struct Looping<'a, 's> {
     screening: &'a ScreeningRuns<'a>,
 }
 
+/// An earlier stage's run as a later stage sees it: its design, its point in the later stage's box,
+/// its response and its curve (None where the run failed).
+type PriorRun = (String, Vec<f64>, Option<f64>, Option<DVector<f64>>);
+
+/// How a stage makes the run at a tested design (name, values) and a point of its box.
+type MakeRun<'s> = Box<dyn Fn(&str, &[f64], &[f64]) -> PlannedRun + 's>;
+
+/// A run's point in a stage's box.
+type RunPoint<'s> = Box<dyn Fn(&PlannedRun) -> Vec<f64> + 's>;
+
 /// The loop's stages: each hypothesis, its joint space, and its edge at the baseline.
 type Stages<'s> = [(usize, Space<'s>, Option<Vec<(String, f64)>>)];
 
@@ -129,9 +139,9 @@ struct Space<'s> {
     bounds: Bounds,
     names: Vec<String>,
     /// The run at a tested design (name, values) and a point of the box.
-    make: Box<dyn Fn(&str, &[f64], &[f64]) -> PlannedRun + 's>,
+    make: MakeRun<'s>,
     /// A run's point in the box.
-    point: Box<dyn Fn(&PlannedRun) -> Vec<f64> + 's>,
+    point: RunPoint<'s>,
     /// Whether a run of the plan is one of this stage's own.
     mine: Box<dyn Fn(&PlannedRun) -> bool + 's>,
     /// Runs of the budget this stage leaves for the stages after it.
@@ -899,7 +909,7 @@ fn latest_batches(
 }
 
 /// Usable runs per design among an earlier stage's runs.
-fn usable_counts(prior: &[(String, Vec<f64>, Option<f64>, Option<DVector<f64>>)]) -> Vec<(String, usize)> {
+fn usable_counts(prior: &[PriorRun]) -> Vec<(String, usize)> {
     let mut out: Vec<(String, usize)> = Vec::new();
     for (design, ..) in prior.iter().filter(|p| p.2.is_some()) {
         match out.iter_mut().find(|(n, _)| n == design) {
@@ -1137,7 +1147,7 @@ fn prior_runs(
     k: usize,
     edge: Option<&[(String, f64)]>,
     s: &ScreeningRuns,
-) -> Vec<(String, Vec<f64>, Option<f64>, Option<DVector<f64>>)> {
+) -> Vec<PriorRun> {
     let ranges = study.diagnosis.hypotheses[k].ranges();
     s.plan
         .runs
