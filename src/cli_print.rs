@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use crate::error::{Error, InputError};
-use crate::extract::crush;
 use crate::execute::progress;
+use crate::extract::crush;
 use crate::pipeline::{Event, Reporter, verbs};
 use crate::study::Study;
 
@@ -61,7 +61,14 @@ pub(super) fn status(study: &Study, out: &Path) -> Result<i32, Error> {
     );
     if let Some(b) = &s.batches {
         let done: Vec<String> = b.done.iter().map(|(stage, n)| format!("{stage} {n}")).collect();
-        println!("batches done: {}", if done.is_empty() { "none".into() } else { done.join(", ") });
+        println!(
+            "batches done: {}",
+            if done.is_empty() {
+                "none".into()
+            } else {
+                done.join(", ")
+            }
+        );
         if let Some((stage, batch, runs)) = &b.in_flight {
             println!("in flight: {stage} batch {batch} ({runs} run(s))");
         }
@@ -79,7 +86,13 @@ pub(super) fn status(study: &Study, out: &Path) -> Result<i32, Error> {
 }
 
 /// `lab extract CURVE --window S0:S1`, or a binout with `--list` / `--series PATH [--json]`.
-pub(super) fn extract(curve: &Path, window: &str, list: bool, series: Option<String>, json: bool) -> Result<i32, Error> {
+pub(super) fn extract(
+    curve: &Path,
+    window: &str,
+    list: bool,
+    series: Option<String>,
+    json: bool,
+) -> Result<i32, Error> {
     let bad = || InputError::file(curve, format!("--window `{window}`: give S0:S1 in mm, e.g. 5:60"));
     let (a, b) = window.split_once(':').ok_or_else(bad)?;
     let (s0, s1) = (

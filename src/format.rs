@@ -56,7 +56,12 @@ pub fn params(p: &IndexMap<String, f64>) -> String {
 /// Both figures of a lack-of-fit test: `χ² = … on … degrees of freedom, p = …; largest residual
 /// z = … at D (Šidák p = … over N)`.
 pub fn lack_of_fit(l: &LackOfFit) -> String {
-    let omnibus = format!("χ² = {} on {} degrees of freedom, {}", num(l.chi2), l.dof, p_text(l.p_value));
+    let omnibus = format!(
+        "χ² = {} on {} degrees of freedom, {}",
+        num(l.chi2),
+        l.dof,
+        p_text(l.p_value)
+    );
     match &l.largest {
         Some(r) => format!(
             "{omnibus}; largest residual z = {} at {} (Šidák {} over {})",

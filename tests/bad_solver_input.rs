@@ -251,14 +251,29 @@ fn replaces_belongs_to_a_sequence_and_is_a_fixed_design() {
     assert_eq!(fixed.surrogate, None, "the study's surrogate");
     // The replaced design may name the surrogate it was fitted with: then it is checked as one of
     // those (2 samples are enough for a linear one over E, not for the study's quadratic).
-    let c = case(&sequence("{method: lhs, count: 2, check_runs: 1, surrogate: linear}"), TEMPLATE);
+    let c = case(
+        &sequence("{method: lhs, count: 2, check_runs: 1, surrogate: linear}"),
+        TEMPLATE,
+    );
     let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
-    let Simulation::Solver(sim) = &s.simulation else { panic!("not a solver study") };
-    let fixed = sim.sampling.sequential.as_ref().and_then(|q| q.replaces.as_deref()).expect("replaces");
+    let Simulation::Solver(sim) = &s.simulation else {
+        panic!("not a solver study")
+    };
+    let fixed = sim
+        .sampling
+        .sequential
+        .as_ref()
+        .and_then(|q| q.replaces.as_deref())
+        .expect("replaces");
     assert_eq!(fixed.surrogate, Some(lab::study::SurrogateKind::Linear));
     // Counted with its own surrogate: 2 samples + 1 check at each of the 2 designs.
     assert_eq!(lab::plan::sweep::fixed_runs(&s, sim, fixed, &[]), 6);
-    study_error(&sequence("{method: lhs, count: 2, surrogate: spline}"), 15, Some("spline}"), "unknown surrogate `spline`");
+    study_error(
+        &sequence("{method: lhs, count: 2, surrogate: spline}"),
+        15,
+        Some("spline}"),
+        "unknown surrogate `spline`",
+    );
     study_error(
         &with("count: 4, seed: 1}", "count: 4, seed: 1, surrogate: linear}"),
         15,
@@ -277,15 +292,27 @@ fn across_designs_needs_a_sequence_and_a_gaussian_process() {
         Some("lhs"),
         "`sampling.across_designs` belongs to `method: sequential`",
     );
-    let across = with("{method: lhs, count: 4, seed: 1}", "{method: sequential, seed: 1, across_designs: true}");
+    let across = with(
+        "{method: lhs, count: 4, seed: 1}",
+        "{method: sequential, seed: 1, across_designs: true}",
+    );
     study_error(&across, 15, Some("true}"), "needs `surrogate: gp`, not `quadratic`");
     let c = case(&across.replace("surrogate: quadratic", "surrogate: gp"), TEMPLATE);
     let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
-    let lab::study::Simulation::Solver(sim) = &s.simulation else { panic!("a solver study") };
+    let lab::study::Simulation::Solver(sim) = &s.simulation else {
+        panic!("a solver study")
+    };
     assert!(sim.across_designs());
-    let c = case(&across.replace("surrogate: quadratic", "surrogate: gp").replace(", across_designs: true", ""), TEMPLATE);
+    let c = case(
+        &across
+            .replace("surrogate: quadratic", "surrogate: gp")
+            .replace(", across_designs: true", ""),
+        TEMPLATE,
+    );
     let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
-    let lab::study::Simulation::Solver(sim) = &s.simulation else { panic!("a solver study") };
+    let lab::study::Simulation::Solver(sim) = &s.simulation else {
+        panic!("a solver study")
+    };
     assert!(!sim.across_designs());
 }
 

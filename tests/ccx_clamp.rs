@@ -184,7 +184,12 @@ fn live_clamp_extension_recovers_e_and_clamp_e_with_the_solver_in_the_loop() {
     let in_loop = results["runs"]["in_the_loop"].as_u64().unwrap();
     assert_eq!(x["runs"]["planned"].as_u64(), Some(in_loop), "{x}");
     assert_eq!(x["runs"]["succeeded"].as_u64(), Some(in_loop), "{x}");
-    assert_eq!(results["runs"]["succeeded"].as_u64(), Some(total), "{}", results["runs"]);
+    assert_eq!(
+        results["runs"]["succeeded"].as_u64(),
+        Some(total),
+        "{}",
+        results["runs"]
+    );
     assert!(total * 4 <= 238, "{total} ccx runs");
     let runs: Vec<_> = std::fs::read_dir(out.path().join("runs"))
         .unwrap()

@@ -224,7 +224,8 @@ diagnosis:
 /// `LAB_FAMILY_SAMPLING` (e.g. `{method: lhs, count: 24, seed: 1, check_runs: 5}`, the fixed design
 /// this family used before) to compare the solver runs two plans spend on the same verdicts.
 fn sampling() -> String {
-    std::env::var("LAB_FAMILY_SAMPLING").unwrap_or_else(|_| format!("{{method: sequential, seed: 1, replaces: {FIXED_DESIGN}}}"))
+    std::env::var("LAB_FAMILY_SAMPLING")
+        .unwrap_or_else(|_| format!("{{method: sequential, seed: 1, replaces: {FIXED_DESIGN}}}"))
 }
 
 /// The fixed design this family used before the sequential one, which each case's
@@ -312,20 +313,48 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
         sampling()
     );
     assert!(t.clean >= 3 && t.large >= 1 && t.rate >= 3, "too few cases in a family");
-    assert!(t.false_claims.is_empty(), "a cause named that the tests do not hold: seeds {:?}", t.false_claims);
+    assert!(
+        t.false_claims.is_empty(),
+        "a cause named that the tests do not hold: seeds {:?}",
+        t.false_claims
+    );
     assert!(t.clean_quiet == t.clean, "a cause claimed on the baseline physics");
-    assert!(t.leads * 10 >= t.large * 9, "hardening leads in {} of {}", t.leads, t.large);
-    assert!(t.named * 2 > t.large, "hardening named decisively in {} of {}", t.named, t.large);
+    assert!(
+        t.leads * 10 >= t.large * 9,
+        "hardening leads in {} of {}",
+        t.leads,
+        t.large
+    );
+    assert!(
+        t.named * 2 > t.large,
+        "hardening named decisively in {} of {}",
+        t.named,
+        t.large
+    );
     // σy within 3 % and ETAN within 20 % (README), the truths inside the 95 % intervals: the
     // intervals are 95 %, so one miss in a handful is chance; none may be far off.
-    assert!(t.close * 10 >= t.named * 8, "σy within 3 % and ETAN within 20 % in {} of {}", t.close, t.named);
-    assert!(t.covered * 10 >= t.named * 7, "the truths inside the intervals in {} of {}", t.covered, t.named);
-    assert_eq!(t.rate_named, 0, "a cause named with an unlisted rate effect in the tests");
+    assert!(
+        t.close * 10 >= t.named * 8,
+        "σy within 3 % and ETAN within 20 % in {} of {}",
+        t.close,
+        t.named
+    );
+    assert!(
+        t.covered * 10 >= t.named * 7,
+        "the truths inside the intervals in {} of {}",
+        t.covered,
+        t.named
+    );
+    assert_eq!(
+        t.rate_named, 0,
+        "a cause named with an unlisted rate effect in the tests"
+    );
     family_runs::assert_a_third_of(FIXED_DESIGN);
 }
 
 /// The rate effect as a listed hypothesis (Cowper–Symonds C over a range, p = 4).
-const LISTED_RATE: &str = "    - name: strain rate\n      extension:\n        src: {min: 1000, max: 40000, unit: 1/s}\n        srp: 4\n";
+const LISTED_RATE: &str =
+    "    - name: strain rate\n      extension:\n        src: {min: 1000, max: 40000, unit: 1/s}\n        srp: 4\n";
 
 /// With two hypotheses in the loop, their stages take turns, a batch each: the budget is not the
 /// first one's to spend. A pure-rate draw whose screening leaves the hardening and the listed rate
@@ -337,7 +366,12 @@ fn loop_stages_take_turns_with_the_budget() {
     let case = draw(424_268);
     assert!(case.family == Family::Rate && case.etan == 0.0);
     let dir = tempfile::tempdir().unwrap();
-    let r = results_of(&case, dir.path(), LISTED_RATE, "{method: sequential, seed: 1, budget: 60}");
+    let r = results_of(
+        &case,
+        dir.path(),
+        LISTED_RATE,
+        "{method: sequential, seed: 1, budget: 60}",
+    );
     let sequence = r["sampling"]["sequence"].as_array().unwrap();
     let stages: Vec<&str> = ["loop: strain hardening in the fold hinges", "loop: strain rate"].into();
     // Per stage: its batches after the first of the loop's (its probes or first batch), and how it stopped.
@@ -350,15 +384,26 @@ fn loop_stages_take_turns_with_the_budget() {
             (later, mine.iter().rev().find_map(|b| b["stopped"].as_str()))
         })
         .collect();
-    eprintln!("loop stages' later batches and stops: {turns:?}; {} runs", r["runs"]["planned"]);
+    eprintln!(
+        "loop stages' later batches and stops: {turns:?}; {} runs",
+        r["runs"]["planned"]
+    );
     for (a, (n, stop)) in turns.iter().enumerate() {
         for (b, (m, _)) in turns.iter().enumerate() {
             if a != b && *stop == Some("budget") {
-                assert!(n.abs_diff(*m) <= 1, "{}: {n} batches, {}: {m}, when the budget ran out", stages[a], stages[b]);
+                assert!(
+                    n.abs_diff(*m) <= 1,
+                    "{}: {n} batches, {}: {m}, when the budget ran out",
+                    stages[a],
+                    stages[b]
+                );
             }
         }
     }
-    assert!(turns.iter().all(|(n, _)| *n >= 1), "a loop stage had no batch of its own: {turns:?}");
+    assert!(
+        turns.iter().all(|(n, _)| *n >= 1),
+        "a loop stage had no batch of its own: {turns:?}"
+    );
 }
 
 /// The rate effect listed as a hypothesis too (Cowper–Symonds C over a range, p = 4, as in
@@ -394,7 +439,11 @@ fn a_listed_rate_effect_is_the_only_cause_named() {
             d["verdict"],
             d["leading"]
         );
-        let rate = d["extensions"].as_array().into_iter().flatten().find(|x| x["hypothesis"] == "strain rate");
+        let rate = d["extensions"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .find(|x| x["hypothesis"] == "strain rate");
         let inside = |x: &Value, name: &str, truth: f64| {
             let iv = &x["interval95"][name];
             iv[0].as_f64().is_some_and(|lo| lo <= truth) && iv[1].as_f64().is_some_and(|hi| truth <= hi)
@@ -415,8 +464,14 @@ fn a_listed_rate_effect_is_the_only_cause_named() {
             None => {}
         }
     }
-    eprintln!("listed rate: named {named} of {}, both truths inside the 95 % intervals in {covered}", cases.len());
-    assert!(wrong.is_empty(), "another cause named where the rate effect is listed and true: seeds {wrong:?}");
+    eprintln!(
+        "listed rate: named {named} of {}, both truths inside the 95 % intervals in {covered}",
+        cases.len()
+    );
+    assert!(
+        wrong.is_empty(),
+        "another cause named where the rate effect is listed and true: seeds {wrong:?}"
+    );
     // Not asserted yet (open, docs/diagnosis.md): from seed 0 the truths are inside the rate model's
     // 95 % intervals in 5 of 6; the miss (seed 5) is an interval a few MPa wide whose optimum is the
     // loop emulators' (run with the solver itself, the truth fits the tests better).
@@ -490,7 +545,8 @@ impl Tally {
         let sy = estimate(d, "sigma_y", case.sigma_y);
         let et = estimate(d, "etan", case.etan);
         eprintln!("  sigma_y {sy:?}, etan {et:?}");
-        let within = |e: Option<(f64, bool)>, truth: f64, tol: f64| e.is_some_and(|(v, _)| (v / truth - 1.0).abs() < tol);
+        let within =
+            |e: Option<(f64, bool)>, truth: f64, tol: f64| e.is_some_and(|(v, _)| (v / truth - 1.0).abs() < tol);
         let inside = |e: Option<(f64, bool)>| e.is_some_and(|(_, inside)| inside);
         self.close += usize::from(within(sy, case.sigma_y, 0.03) && within(et, case.etan, 0.2));
         self.covered += usize::from(inside(sy) && inside(et));

@@ -139,7 +139,9 @@ fn render_study(file: &str, out: &Path) -> Rendered {
         sim.sampling.check_runs = 1;
     }
     let study = study;
-    let Simulation::Solver(sim) = &study.simulation else { unreachable!() };
+    let Simulation::Solver(sim) = &study.simulation else {
+        unreachable!()
+    };
     let mut sim = sim.clone();
     if sim.sampling.count == 0 {
         sim.sampling.count = lab::plan::sweep::initial_samples(&study, &sim, study.parameters.len());

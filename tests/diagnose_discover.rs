@@ -27,9 +27,9 @@ use lab::diagnose::discover::{Discovered, Outcome};
 use lab::diagnose::library::LibrarySpec;
 use lab::diagnose::{self, Diagnosis, Inputs, Observation, Role, Settings, Shape};
 use nalgebra::{DMatrix, DVector};
+use power_common::power_at;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use power_common::power_at;
 use statrs::distribution::{ContinuousCDF, FisherSnedecor};
 
 const ALPHA: f64 = 0.01;
@@ -551,7 +551,10 @@ fn recovered_beside(case: &Case, d: &Discovered) -> bool {
         return false;
     }
     let (w, _, _) = weighted(case);
-    let groups_small = d.terms.iter().all(|t| 1 + t.same_shape.len() + t.alike.len() <= GROUP_MAX);
+    let groups_small = d
+        .terms
+        .iter()
+        .all(|t| 1 + t.same_shape.len() + t.alike.len() <= GROUP_MAX);
     if !groups_small {
         return false;
     }

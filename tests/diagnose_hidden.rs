@@ -443,12 +443,16 @@ fn validation_miss(setup: &Setup, case: &Case, h: &str) -> f64 {
     let w: Vec<f64> = case.sigma.iter().map(|s| reps / s).collect();
     let wv: Vec<f64> = case.sigma_val.iter().map(|s| reps / s).collect();
     let x = columns(&setup.train, &w);
-    let e = DVector::from_fn(setup.train.len(), |i, _| w[i] * (case.mu[i] - model(&setup.train[i], &theta)));
+    let e = DVector::from_fn(setup.train.len(), |i, _| {
+        w[i] * (case.mu[i] - model(&setup.train[i], &theta))
+    });
     let svd = x.svd(true, true);
     let tol = 1e-10 * svd.singular_values.max();
     let coef = svd.solve(&e, tol).unwrap();
     let xv = columns(&setup.val, &wv);
-    let ev = DVector::from_fn(setup.val.len(), |i, _| wv[i] * (case.mu_val[i] - model(&setup.val[i], &theta)));
+    let ev = DVector::from_fn(setup.val.len(), |i, _| {
+        wv[i] * (case.mu_val[i] - model(&setup.val[i], &theta))
+    });
     (ev - xv * coef).norm_squared()
 }
 
@@ -735,7 +739,10 @@ fn not_explained(d: &lab::diagnose::Diagnosis) -> bool {
             d.cause.is_none()
                 && !d.leading.is_empty()
                 && d.leading.iter().all(|n| {
-                    d.candidates.iter().find(|c| &c.name == n).is_some_and(|c| rejected(c.lack_of_fit.as_ref()))
+                    d.candidates
+                        .iter()
+                        .find(|c| &c.name == n)
+                        .is_some_and(|c| rejected(c.lack_of_fit.as_ref()))
                 })
                 && d.headline.contains("none all of it")
         }
@@ -855,7 +862,10 @@ fn validation_design_at_a_crossing_point_is_flagged() {
         }
     }
     assert!(of >= 12, "only {of} of {} draws nameable", seed - seed_base());
-    assert!(nameable_named * 10 >= of * 9, "right cause in {nameable_named} of {of} nameable draws");
+    assert!(
+        nameable_named * 10 >= of * 9,
+        "right cause in {nameable_named} of {of} nameable draws"
+    );
     assert!(
         4 * flagged >= 3 * named,
         "crossing flagged with a leave-one-out gain ≥ 50 % in {flagged}/{named}"
@@ -920,7 +930,13 @@ fn replicate_sigma(case: &Case) -> Vec<f64> {
         .obs
         .iter()
         .filter(|o| o.count >= 2)
-        .map(|o| ((o.count - 1) as f64, (o.count - 1) as f64 * o.std_dev.unwrap().powi(2), o.mean))
+        .map(|o| {
+            (
+                (o.count - 1) as f64,
+                (o.count - 1) as f64 * o.std_dev.unwrap().powi(2),
+                o.mean,
+            )
+        })
         .collect();
     let nu: f64 = groups.iter().map(|g| g.0).sum();
     let m = (groups.iter().map(|g| g.2 * g.2).sum::<f64>() / groups.len() as f64).sqrt();
@@ -929,7 +945,10 @@ fn replicate_sigma(case: &Case) -> Vec<f64> {
         let s2 = groups.iter().map(|g| g.1 / v(l, g.2)).sum::<f64>() / nu;
         -groups.iter().map(|g| g.0 * (s2 * v(l, g.2)).ln()).sum::<f64>()
     };
-    let ml = (0..=1000).map(|k| k as f64 / 1000.0).max_by(|a, b| loglik(*a).total_cmp(&loglik(*b))).unwrap();
+    let ml = (0..=1000)
+        .map(|k| k as f64 / 1000.0)
+        .max_by(|a, b| loglik(*a).total_cmp(&loglik(*b)))
+        .unwrap();
     // As the diagnosis chooses (issue 31): the likelier pure form, absolute or relative, unless the
     // maximum-likelihood mixing beats it by the likelihood-ratio test at α = 0.01 (χ²₁ = 6.635;
     // `loglik` is twice the profile log-likelihood).

@@ -58,7 +58,11 @@ struct Family {
 
 fn families() -> Vec<Family> {
     let cantilever_family = |proportional| Family {
-        name: if proportional { "cantilever, proportional noise" } else { "cantilever, constant noise" },
+        name: if proportional {
+            "cantilever, proportional noise"
+        } else {
+            "cantilever, constant noise"
+        },
         model: cantilever,
         designs: (0..9).map(|i| vec![7.0 + 0.75 * i as f64]).collect(),
         design_names: vec!["h"],
@@ -108,7 +112,10 @@ fn diagnose_draw(f: &Family, salt: u64, seed: u64) -> diagnose::Diagnosis {
             let sd = if f.proportional { cv * mu } else { cv * level };
             let n = rng.random_range(2..=3);
             let reps: Vec<f64> = (0..n)
-                .map(|_| { let z: f64 = StandardNormal.sample(&mut rng); mu + sd * z })
+                .map(|_| {
+                    let z: f64 = StandardNormal.sample(&mut rng);
+                    mu + sd * z
+                })
                 .collect();
             Observation::from_replicates(format!("d{i}"), d.clone(), Role::Training, &reps)
         })
@@ -187,8 +194,10 @@ fn debug_one() {
     let f = &families()[k];
     let d = diagnose_draw(f, k as u64, seed);
     for r in &d.residuals {
-        eprintln!("{} mean {} sd {:?} n {} pred {} z {}", r.design, r.measured, r.std_dev, r.count, r.predicted, r.z);
+        eprintln!(
+            "{} mean {} sd {:?} n {} pred {} z {}",
+            r.design, r.measured, r.std_dev, r.count, r.predicted, r.z
+        );
     }
     eprintln!("{}", d.summary);
 }
-

@@ -405,18 +405,27 @@ fn extension_range_errors_are_located() {
 /// checked against the run keys the executor computes for a baseline run and a joint run there.
 #[test]
 fn the_baseline_is_the_edge_when_it_renders_like_the_lower_bounds() {
-    let sequential = SOLVER.replace("{method: lhs, count: 4, seed: 1}", "{method: sequential, batch: 2, seed: 1}");
+    let sequential = SOLVER.replace(
+        "{method: lhs, count: 4, seed: 1}",
+        "{method: sequential, batch: 2, seed: 1}",
+    );
     // Tera writes the float 0.0 as `0.0` and the integer default 0 as `0`: the default must be
     // written as the bound is rendered (docs/extensions.md). A fixed variable at a value of its own
     // moves the edge off the baseline (at the template's default it would be refused as unused).
     let with_default = |shear: &str, kappa: &str| {
-        format!("h = {{{{ h }}}}\nE = {{{{ E }}}}\nshear = {{{{ shear | default(value={shear}) }}}}\nkappa = {{{{ kappa | default(value={kappa}) }}}}\n")
+        format!(
+            "h = {{{{ h }}}}\nE = {{{{ E }}}}\nshear = {{{{ shear | default(value={shear}) }}}}\nkappa = {{{{ kappa | default(value={kappa}) }}}}\n"
+        )
     };
     let cases = [
         ("{shear: {min: 0, max: 2}}", with_default("0.0", "1.0"), true),
         ("{shear: {min: 0, max: 2}}", with_default("0", "1.0"), false),
         ("{shear: {min: 0.5, max: 2}}", with_default("0.0", "1.0"), false),
-        ("{shear: {min: 0, max: 2}, kappa: 0.8}", with_default("0.0", "1.0"), false),
+        (
+            "{shear: {min: 0, max: 2}, kappa: 0.8}",
+            with_default("0.0", "1.0"),
+            false,
+        ),
     ];
     for (extension, template, edge) in cases {
         let (_dir, path) = write_case(&sequential.replace("{shear: 1}", extension), &template);
@@ -433,8 +442,20 @@ fn the_baseline_is_the_edge_when_it_renders_like_the_lower_bounds() {
             extension: spec.at(&lows),
             ..base.clone()
         };
-        let keys = sweep::prepare(&s, sim, &Plan { runs: vec![base, joint] }).unwrap().keys;
-        assert_eq!(keys[0] == keys[1], edge, "{extension}: the run keys disagree with the load-time rendering");
+        let keys = sweep::prepare(
+            &s,
+            sim,
+            &Plan {
+                runs: vec![base, joint],
+            },
+        )
+        .unwrap()
+        .keys;
+        assert_eq!(
+            keys[0] == keys[1],
+            edge,
+            "{extension}: the run keys disagree with the load-time rendering"
+        );
         // E × shear under a linear surrogate starts from 4 runs per design; the probes give 2 (p + 1),
         // the screening's first batch 3 more where the baseline is the edge. Then one held-out run.
         let floor = lab::plan::sweep::SequenceFloor::of(&s, sim).unwrap();

@@ -187,7 +187,10 @@ fn crushsim_live_gives_the_replayed_diagnosis() {
     // The same batches, up to the planner's wall time.
     let batches = |r: &serde_json::Value| {
         let mut s = r["sampling"]["sequence"].clone();
-        s.as_array_mut().unwrap().iter_mut().for_each(|b| drop(b.as_object_mut().unwrap().remove("planning_seconds")));
+        s.as_array_mut()
+            .unwrap()
+            .iter_mut()
+            .for_each(|b| drop(b.as_object_mut().unwrap().remove("planning_seconds")));
         s
     };
     assert_eq!(batches(&a), batches(&b));
@@ -253,17 +256,29 @@ fn across_the_designs_refuses_a_curve_surrogate_that_is_not_a_gaussian_process()
     let study = dir.path().join("curves.yaml");
     std::fs::write(&study, &text).unwrap();
     let line = 1 + text.lines().position(|l| l.contains("across_designs: true")).unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_lab")).arg("check").arg(&study).output().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_lab"))
+        .arg("check")
+        .arg(&study)
+        .output()
+        .unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains(&format!("curves.yaml:{line}:")), "{stderr}");
-    assert!(stderr.contains("`calibration.curve.surrogate` says `quadratic`"), "{stderr}");
+    assert!(
+        stderr.contains("`calibration.curve.surrogate` says `quadratic`"),
+        "{stderr}"
+    );
 }
 
 /// Runs in each design's latest batch of `stage` (`sampling.sequence`), summed over the designs.
 fn latest_batch_runs(r: &serde_json::Value, stage: &str) -> u64 {
     let mut latest = std::collections::BTreeMap::new();
-    for b in r["sampling"]["sequence"].as_array().unwrap().iter().filter(|b| b["stage"] == stage) {
+    for b in r["sampling"]["sequence"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|b| b["stage"] == stage)
+    {
         for (design, n) in b["designs"].as_object().unwrap() {
             latest.insert(design.clone(), n.as_u64().unwrap());
         }

@@ -193,16 +193,22 @@ fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
 fn decided_where_solver_runs_checked_the_emulators(r: &serde_json::Value, out: &Path) {
     let stage = "loop: strain hardening in the fold hinges";
     let tolerance = r["sampling"]["tolerance"].as_f64().unwrap();
-    let batches: Vec<&serde_json::Value> =
-        r["sampling"]["sequence"].as_array().unwrap().iter().filter(|b| b["stage"] == stage).collect();
+    let batches: Vec<&serde_json::Value> = r["sampling"]["sequence"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|b| b["stage"] == stage)
+        .collect();
     let last = batches.last().expect("a loop stage");
     assert_eq!(last["placed"], "the decision's fitted point", "{last}");
     for (design, e) in last["emulator_error"].as_object().unwrap() {
         let e = e.as_f64().unwrap_or(f64::INFINITY);
-        assert!(e <= tolerance, "{design}: emulator error {e} at the fitted point, tolerance {tolerance}");
+        assert!(
+            e <= tolerance,
+            "{design}: emulator error {e} at the fitted point, tolerance {tolerance}"
+        );
     }
-    let record: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("sequence.json")).unwrap()).unwrap();
+    let record: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("sequence.json")).unwrap()).unwrap();
     let planned = record["planned"].as_array().unwrap();
     let n = last["runs"].as_u64().unwrap() as usize;
     let checks = &planned[planned.len() - n..];
@@ -213,7 +219,10 @@ fn decided_where_solver_runs_checked_the_emulators(r: &serde_json::Value, out: &
         let sigma_y = c["theta"][0].as_f64().unwrap();
         let etan = c["extension"][0][1].as_f64().unwrap();
         for (name, at) in [("sigma_y", sigma_y), ("etan", etan)] {
-            let (v, se) = (x["parameters"][name].as_f64().unwrap(), x["parameter_se"][name].as_f64().unwrap());
+            let (v, se) = (
+                x["parameters"][name].as_f64().unwrap(),
+                x["parameter_se"][name].as_f64().unwrap(),
+            );
             assert!((at - v).abs() <= 0.5 * se, "{name}: run at {at}, fitted {v} ± {se}");
         }
     }
@@ -407,12 +416,26 @@ fn a_tight_budget_is_kept_by_every_stage_together() {
     let budget = 24;
     let text = std::fs::read_to_string(root().join("studies/honeycomb.yaml")).unwrap();
     let text = text
-        .replacen("{method: sequential,", &format!("{{method: sequential, budget: {budget},"), 1)
+        .replacen(
+            "{method: sequential,",
+            &format!("{{method: sequential, budget: {budget},"),
+            1,
+        )
         .replace("../", &format!("{}/", root().display()));
-    assert!(text.contains(&format!("budget: {budget}")), "the main job's sampling changed");
+    assert!(
+        text.contains(&format!("budget: {budget}")),
+        "the main job's sampling changed"
+    );
     let dir = tempfile::tempdir().unwrap();
     let study = dir.path().join("honeycomb.yaml");
-    std::fs::write(&study, text.lines().filter(|l| !l.trim_start().starts_with("replay:")).collect::<Vec<_>>().join("\n")).unwrap();
+    std::fs::write(
+        &study,
+        text.lines()
+            .filter(|l| !l.trim_start().starts_with("replay:"))
+            .collect::<Vec<_>>()
+            .join("\n"),
+    )
+    .unwrap();
     let out = dir.path().join("out");
     let o = lab(&["run", study.to_str().unwrap(), "--out", out.to_str().unwrap()], true);
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
@@ -430,6 +453,13 @@ fn a_tight_budget_is_kept_by_every_stage_together() {
     assert_eq!(reason("probes").as_deref(), Some("planned"), "{stopped:?}");
     assert!(reason("loop").is_some(), "the loop ran: {stopped:?}");
     // The screening's emulators are not within the tolerance yet: the terminal says so.
-    let said = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
-    assert!(said.contains("screening: stopped (budget) before its emulators were within 0.5 of the tests' noise"), "{said}");
+    let said = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        said.contains("screening: stopped (budget) before its emulators were within 0.5 of the tests' noise"),
+        "{said}"
+    );
 }

@@ -135,7 +135,8 @@ fn write_study(case: &Case, dir: &Path) -> PathBuf {
 /// `LAB_FAMILY_SAMPLING` (e.g. `{method: lhs, count: 6, seed: 1, check_runs: 1}`, the fixed design
 /// these families used before) to compare the solver runs two plans spend on the same verdicts.
 fn sampling() -> String {
-    std::env::var("LAB_FAMILY_SAMPLING").unwrap_or_else(|_| format!("{{method: sequential, seed: 1, replaces: {FIXED_DESIGN}}}"))
+    std::env::var("LAB_FAMILY_SAMPLING")
+        .unwrap_or_else(|_| format!("{{method: sequential, seed: 1, replaces: {FIXED_DESIGN}}}"))
 }
 
 /// The fixed design this family used before the sequential one, which each case's
@@ -460,9 +461,7 @@ fn loop_decides_where_the_evidence_does_and_says_so_where_it_does_not() {
             let o = oracle(&case);
             (seed, case, o)
         })
-        .filter(|(_, _, (shear, offset, trend))| {
-            (*shear >= 40.0 && *offset >= 40.0 && *trend >= 40.0) || *shear <= 2.0
-        })
+        .filter(|(_, _, (shear, offset, trend))| (*shear >= 40.0 && *offset >= 40.0 && *trend >= 40.0) || *shear <= 2.0)
         .collect();
     let diagnoses = family_runs::in_parallel(&cases, |(_, case, _)| run(case));
     for ((seed, case, (shear, offset, trend)), d) in cases.into_iter().zip(diagnoses) {

@@ -268,7 +268,10 @@ fn programmes_decide_where_single_designs_cannot() {
         named_open += usize::from(d.verdict == Verdict::CauseNamed);
         // The programme is checked where the next test tells A from B (with no model error detected,
         // it looks for a hidden error instead).
-        let Some(t) = d.next_test.as_ref().filter(|t| t.compared.contains_key("A") && t.compared.contains_key("B"))
+        let Some(t) = d
+            .next_test
+            .as_ref()
+            .filter(|t| t.compared.contains_key("A") && t.compared.contains_key("B"))
         else {
             continue;
         };
@@ -315,7 +318,10 @@ fn programmes_decide_where_single_designs_cannot() {
             if !single_decides {
                 only_programme += 1;
             }
-            eprintln!("seed {seed}: {} designs, single decides: {single_decides}", programme.len());
+            eprintln!(
+                "seed {seed}: {} designs, single decides: {single_decides}",
+                programme.len()
+            );
         }
     }
     eprintln!(
@@ -325,8 +331,14 @@ fn programmes_decide_where_single_designs_cannot() {
     );
     assert!(open >= 10, "too few open cases: {open}");
     assert_eq!(a_named, 0, "A named: the truth is B's shape");
-    assert!(named_open * 10 <= open, "a cause named decisively in {named_open} of {open} open cases");
+    assert!(
+        named_open * 10 <= open,
+        "a cause named decisively in {named_open} of {open} open cases"
+    );
     assert!(compares >= 10, "only {compares} next tests between A and B");
     assert!(checked * 10 >= compares * 8, "{checked} of {compares} have a programme");
-    assert!(only_programme >= 3, "only {only_programme} cases where only a programme decides");
+    assert!(
+        only_programme >= 3,
+        "only {only_programme} cases where only a programme decides"
+    );
 }

@@ -355,7 +355,11 @@ impl Database {
             at = f.next;
         }
         let k = self.vars.len() as u32;
-        self.vars.push(Filed { name: id, next: END, var });
+        self.vars.push(Filed {
+            name: id,
+            next: END,
+            var,
+        });
         if d.last == END {
             d.first = k;
         } else {

@@ -427,7 +427,10 @@ impl<'a> Walker<'a> {
         let name_len_at = record + h.record_head() + h.type_size as usize;
         let name_len = self.bytes[name_len_at] as usize;
         let data_name = &self.bytes[name_len_at + 1..name_len_at + 1 + name_len];
-        if !crate::database::same(data_name, name_bytes) || Some(t) != TypeId::from_code(code) || count_there as i64 != count {
+        if !crate::database::same(data_name, name_bytes)
+            || Some(t) != TypeId::from_code(code)
+            || count_there as i64 != count
+        {
             return Err(bad(format!(
                 "says type code {code} and {count} value(s) at offset {record}, where the record holds `{}` of {} × {}",
                 String::from_utf8_lossy(data_name),
@@ -440,7 +443,10 @@ impl<'a> Walker<'a> {
 
     /// The symbol table starting at `at` (the tables met are in file order).
     fn table_at(&self, at: usize) -> Option<(usize, i64)> {
-        self.tables.binary_search_by_key(&at, |s| s.0).ok().map(|k| self.tables[k])
+        self.tables
+            .binary_search_by_key(&at, |s| s.0)
+            .ok()
+            .map(|k| self.tables[k])
     }
 
     /// Every link must lead to a symbol table (or be 0); a whole file's chain reaches them all.
@@ -513,7 +519,9 @@ mod tests {
             assert!(is_normal(p), "{p}");
             assert_eq!(change_dir("/x", p), p);
         }
-        for p in ["/", "a/b", "/a/", "/a//b", "/a/./b", "/a/../b", "/a/.", "/a/..", "/./a", "//a", ""] {
+        for p in [
+            "/", "a/b", "/a/", "/a//b", "/a/./b", "/a/../b", "/a/.", "/a/..", "/./a", "//a", "",
+        ] {
             assert!(!is_normal(p), "{p}");
         }
     }

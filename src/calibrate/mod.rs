@@ -105,7 +105,9 @@ impl Bounds {
 
     /// [`Bounds::spread`] of every row of `unit` (a sampling design in the unit cube).
     pub fn spread_rows(&self, unit: &DMatrix<f64>) -> Vec<Vec<f64>> {
-        unit.row_iter().map(|u| self.spread(&u.iter().copied().collect::<Vec<_>>())).collect()
+        unit.row_iter()
+            .map(|u| self.spread(&u.iter().copied().collect::<Vec<_>>()))
+            .collect()
     }
 }
 
@@ -235,7 +237,10 @@ mod tests {
         assert_eq!(&mid[1..], &[175.0, 0.0]);
         assert_eq!(b.spread(&[0.0, 0.0, 0.0]), vec![1000.0, 100.0, -1.0]);
         let top = b.spread(&[1.0, 1.0, 1.0]);
-        assert!((top[0] - 40000.0).abs() < 1e-9 && top[1] == 250.0 && top[2] == 1.0, "{top:?}");
+        assert!(
+            (top[0] - 40000.0).abs() < 1e-9 && top[1] == 250.0 && top[2] == 1.0,
+            "{top:?}"
+        );
         let q = |u: f64| b.spread(&[u, 0.0, 0.0])[0];
         assert!((q(0.25) / q(0.0) - q(1.0) / q(0.75)).abs() < 1e-9);
         // Exactly a decade is still spread linearly (the emulators log it: ln x is measured

@@ -109,7 +109,11 @@ fn levenberg_marquardt(r: &impl Fn(&DVector<f64>) -> DVector<f64>, mut u: DVecto
             if trial_cost.is_finite() && trial_cost < cost {
                 let h = &trial - &u;
                 let predicted = -(2.0 * h.dot(&gradient) + h.dot(&(&jtj * &h)));
-                let gain = if predicted > 0.0 { (cost - trial_cost) / predicted } else { 0.0 };
+                let gain = if predicted > 0.0 {
+                    (cost - trial_cost) / predicted
+                } else {
+                    0.0
+                };
                 let converged = (cost - trial_cost) <= 1e-15 * cost || h.amax() < 1e-13;
                 (u, res, cost) = (trial, trial_res, trial_cost);
                 damping = (damping * (1.0 / 3.0f64).max(1.0 - (2.0 * gain - 1.0).powi(3))).max(1e-12);
@@ -131,7 +135,10 @@ fn levenberg_marquardt(r: &impl Fn(&DVector<f64>) -> DVector<f64>, mut u: DVecto
 /// instead point partly out of the box and crawl along the face (the projected Newton method of
 /// Bertsekas 1982, SIAM J. Control Optim. 20:221).
 fn held_on_faces(u: &DVector<f64>, gradient: &DVector<f64>) -> Vec<bool> {
-    u.iter().zip(gradient.iter()).map(|(&u, &g)| (u <= 0.0 && g > 0.0) || (u >= 1.0 && g < 0.0)).collect()
+    u.iter()
+        .zip(gradient.iter())
+        .map(|(&u, &g)| (u <= 0.0 && g > 0.0) || (u >= 1.0 && g < 0.0))
+        .collect()
 }
 
 /// Solves (JᵀJ + λ·diag(JᵀJ)) δ = −Jᵀr over the coordinates not `held` (their δ is 0).

@@ -287,7 +287,12 @@ fn settled(r: &mut dyn Readings, open: &[Open]) -> bool {
         return true;
     }
     let choices: Vec<Vec<Outcome>> = running.iter().map(|&i| outcomes(open, i)).collect();
-    if choices.iter().map(Vec::len).try_fold(1usize, |n, c| n.checked_mul(c)).is_none_or(|n| n > MOST_OUTCOMES) {
+    if choices
+        .iter()
+        .map(Vec::len)
+        .try_fold(1usize, |n, c| n.checked_mul(c))
+        .is_none_or(|n| n > MOST_OUTCOMES)
+    {
         return false;
     }
     let mut first: Option<(Verdict, Option<Who>)> = None;
@@ -341,9 +346,18 @@ impl Outcome {
 
 /// Every outcome open explanation `i` (a running loop model) may have beside the others.
 fn outcomes(open: &[Open], i: usize) -> Vec<Outcome> {
-    let others: Vec<&Open> = open.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, o)| o).collect();
+    let others: Vec<&Open> = open
+        .iter()
+        .enumerate()
+        .filter(|(j, _)| *j != i)
+        .map(|(_, o)| o)
+        .collect();
     // A score just better than each other's, and one worse than all: every place in the ranking.
-    let finite: Vec<f64> = others.iter().filter_map(|o| o.score).filter(|s| s.is_finite()).collect();
+    let finite: Vec<f64> = others
+        .iter()
+        .filter_map(|o| o.score)
+        .filter(|s| s.is_finite())
+        .collect();
     let worst = finite.iter().copied().fold(0.0, f64::max);
     let mut scores: Vec<f64> = finite.iter().map(|s| s - 1e-9 * (1.0 + s.abs())).collect();
     scores.push(worst + 1.0);
@@ -446,10 +460,9 @@ impl Readings for FromEvidence<'_, '_> {
                 .and_then(|x| x.assessed.p_value),
             Who::Candidate(fk) => {
                 let entries = &self.screening.ranked.entries;
-                entries
-                    .iter()
-                    .position(|x| x.model.name() == e.name)
-                    .and_then(|ek| ranking::encompassing(&self.screening.cx, &entries[ek], &entries[fk]).p_leader_given_rival)
+                entries.iter().position(|x| x.model.name() == e.name).and_then(|ek| {
+                    ranking::encompassing(&self.screening.cx, &entries[ek], &entries[fk]).p_leader_given_rival
+                })
             }
             Who::Uncorrected => None,
         };
@@ -476,7 +489,11 @@ impl Readings for FromEvidence<'_, '_> {
     fn rival(&self, one: &Open) -> Option<Who> {
         let s = self.screening;
         let is_same = |who: Who| Decision::candidate(who).is_some_and(|k| s.ranked.entries[k].model.name() == one.name);
-        s.decision.compare.iter().copied().find(|w| *w != one.who && !is_same(*w))
+        s.decision
+            .compare
+            .iter()
+            .copied()
+            .find(|w| *w != one.who && !is_same(*w))
     }
 
     fn screening(&self) -> Decision {
@@ -610,12 +627,18 @@ mod tests {
         // Beside a checked model that misses (out), an unchecked one stands alone: judged as any.
         let alone = [open(0, 12.0, false, true), open(1, 30.0, false, false)];
         assert!(unsettled(&alone).is_none());
-        assert!(alone[1].rejected(false), "alone, its miss is a miss: never called a fit");
+        assert!(
+            alone[1].rejected(false),
+            "alone, its miss is a miss: never called a fit"
+        );
 
         let fits = [open(0, 30.0, true, true), open(1, 12.0, true, false)];
         let d = unsettled(&fits).expect("an unchecked model that fits is not named over the other");
         assert_eq!(d.leading, vec![Who::Extended(1), Who::Extended(0)]);
-        assert!(unsettled(&[open(1, 30.0, false, false)]).is_none(), "alone, nothing else is open");
+        assert!(
+            unsettled(&[open(1, 30.0, false, false)]).is_none(),
+            "alone, nothing else is open"
+        );
     }
 
     /// The screening's and the loop models' readings as a table: p of (shape of, added to).
@@ -638,7 +661,10 @@ mod tests {
             0.05
         }
         fn added_to(&mut self, e: &Open, f: &Open) -> Option<f64> {
-            self.p.iter().find(|(a, b, _)| *a == e.name && *b == f.name).map(|x| x.2)
+            self.p
+                .iter()
+                .find(|(a, b, _)| *a == e.name && *b == f.name)
+                .map(|x| x.2)
         }
         fn remains(&mut self, _: &Open) -> bool {
             false
@@ -690,7 +716,11 @@ mod tests {
         assert!(!settled(&mut r, &three([false, true])));
         let mut out = three([false, false]);
         out[2].lof.as_mut().unwrap().fits = false;
-        assert_eq!(judge(&mut r, &out).decision.cause, Some(Who::Candidate(0)), "h1 out: t named");
+        assert_eq!(
+            judge(&mut r, &out).decision.cause,
+            Some(Who::Candidate(0)),
+            "h1 out: t named"
+        );
     }
 
     /// Settled for each running loop alone is not settled for both together: with `h0` and `h1`

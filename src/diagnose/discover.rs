@@ -71,9 +71,9 @@ use super::library::{self, Dropped, LibrarySpec};
 use super::next_test::Explanation;
 use super::ranking::Entry;
 use super::shapes::{Origin, Shape};
-use crate::format::{num, p_text, pct};
 use super::verdict::{Decision, Verdict, Who};
 use super::{Context, Evidence, LackOfFit, Mode, evidence, stats};
+use crate::format::{num, p_text, pct};
 
 /// Singles fitted for real after the linear screening.
 pub const SHORTLIST_SINGLES: usize = 10;
@@ -475,7 +475,9 @@ fn kept(cx: &Context, base: &Model, base_shapes: &[Shape], base_name: &str, spec
         } else if v.iter().all(|&x| x == 0.0) {
             Some("vanishes at every training design".to_string())
         } else if base_vectors.iter().any(same) {
-            Some(format!("the same shape over the training designs as the base '{base_name}'"))
+            Some(format!(
+                "the same shape over the training designs as the base '{base_name}'"
+            ))
         } else {
             None
         };
@@ -485,7 +487,10 @@ fn kept(cx: &Context, base: &Model, base_shapes: &[Shape], base_name: &str, spec
                 reason,
             });
         } else if let Some((first, _)) = kept.iter().find(|(_, w)| same(w)) {
-            same_shape.entry(first.term.clone()).or_default().push(shape.term.clone());
+            same_shape
+                .entry(first.term.clone())
+                .or_default()
+                .push(shape.term.clone());
         } else {
             kept.push((shape, v));
         }
@@ -595,7 +600,12 @@ fn judge_shortlist(s: &Searcher, tried: &[Tried], size: &Size, vectors: &[Vec<f6
     let mut failed: Vec<(Tried, String)> = Vec::new();
     for w in tried.iter().filter(|t| t.terms.len() == 1 && ok(t)) {
         match judge(s, w, rivals_alpha(s, 1), vectors) {
-            Judgement::Pass(p) => return Judged { winner: Some(*p), failed },
+            Judgement::Pass(p) => {
+                return Judged {
+                    winner: Some(*p),
+                    failed,
+                };
+            }
             Judgement::Fail { why, adder } => {
                 if let Some((r, fit)) = adder.filter(|_| size.pairs) {
                     let pair = s.tried(vec![w.terms[0], r], fit, true);
@@ -612,7 +622,12 @@ fn judge_shortlist(s: &Searcher, tried: &[Tried], size: &Size, vectors: &[Vec<f6
         pool.sort_by(|a, b| a.press(s.cx).total_cmp(&b.press(s.cx)));
         for w in &pool {
             match judge(s, w, rivals_alpha(s, 2), vectors) {
-                Judgement::Pass(p) => return Judged { winner: Some(*p), failed },
+                Judgement::Pass(p) => {
+                    return Judged {
+                        winner: Some(*p),
+                        failed,
+                    };
+                }
                 Judgement::Fail { why, .. } => failed.push((w.clone(), why)),
             }
         }

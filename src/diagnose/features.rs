@@ -304,11 +304,7 @@ pub struct EmulatorError {
 /// code's own uncertainty in the prediction's variance; here it is measured, not modelled): per
 /// whitened feature k, s²_k = mean over the checks of (L⁻¹φ(simulated) − L⁻¹φ(emulated))_k², the
 /// mean square rather than the variance, so that a bias counts too. `None` without check runs.
-pub fn emulator_error(
-    w: &Whitening,
-    spec: &FeatureSpec,
-    checks: &[EmulatorCheck],
-) -> Option<EmulatorError> {
+pub fn emulator_error(w: &Whitening, spec: &FeatureSpec, checks: &[EmulatorCheck]) -> Option<EmulatorError> {
     let errors: Vec<DVector<f64>> = checks
         .iter()
         .filter_map(|c| {

@@ -165,7 +165,10 @@ mod tests {
         for &(p, n) in &[(0.01, 12usize), (0.2, 3), (1e-9, 40)] {
             let direct = 1.0 - (1.0f64 - p).powi(n as i32);
             let ours = sidak(p, n);
-            assert!((ours - direct).abs() <= 1e-12 + 1e-9 * direct, "{p} {n}: {ours} vs {direct}");
+            assert!(
+                (ours - direct).abs() <= 1e-12 + 1e-9 * direct,
+                "{p} {n}: {ours} vs {direct}"
+            );
         }
         // Where 1 − (1 − p)^n cancels, the correction is n·p to first order.
         assert!((sidak(1e-15, 10) / 1e-14 - 1.0).abs() < 1e-6);
@@ -177,7 +180,9 @@ mod tests {
     /// but not the residual test (12 × 2 t.sf(5.3, 8) = 0.0087).
     #[test]
     fn one_large_residual_fails_the_model_that_the_omnibus_test_passes() {
-        let mut z: Vec<(String, f64)> = (0..11).map(|i| (format!("d{i}"), 0.4 * ((i % 3) as f64 - 1.0))).collect();
+        let mut z: Vec<(String, f64)> = (0..11)
+            .map(|i| (format!("d{i}"), 0.4 * ((i % 3) as f64 - 1.0)))
+            .collect();
         z.push(("C3T7".into(), -5.3));
         let l = LackOfFit::new(57.0, 10, 8, &z, 0.01); // a cause's model: each test at α
         assert!((l.p_value - 0.0106).abs() < 0.0002, "omnibus p {}", l.p_value);
@@ -195,7 +200,9 @@ mod tests {
 
     #[test]
     fn a_model_within_the_noise_fits_both_ways() {
-        let z: Vec<(String, f64)> = (0..10).map(|i| (format!("d{i}"), 0.9 * ((i % 5) as f64 - 2.0) / 2.0)).collect();
+        let z: Vec<(String, f64)> = (0..10)
+            .map(|i| (format!("d{i}"), 0.9 * ((i % 5) as f64 - 2.0) / 2.0))
+            .collect();
         let chi2: f64 = z.iter().map(|(_, v)| v * v).sum();
         let l = LackOfFit::new(chi2, 10, 30, &z, 0.01);
         assert!(l.fits && l.failed_by().is_none() && l.p_either() >= 0.01);

@@ -42,7 +42,12 @@ pub(crate) fn limits(
     if absorbed.is_empty() {
         return Vec::new();
     }
-    let rest: Vec<usize> = cx.train.iter().copied().filter(|i| !absorbed.iter().any(|(j, _)| j == i)).collect();
+    let rest: Vec<usize> = cx
+        .train
+        .iter()
+        .copied()
+        .filter(|i| !absorbed.iter().any(|(j, _)| j == i))
+        .collect();
     if rest.len() < m.k() {
         return Vec::new();
     }
@@ -70,7 +75,11 @@ fn absorbed(cx: &Context, z: &indexmap::IndexMap<String, f64>) -> Vec<(usize, f6
     if !beyond.is_empty() {
         return beyond;
     }
-    train.into_iter().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).into_iter().collect()
+    train
+        .into_iter()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .into_iter()
+        .collect()
 }
 
 fn moves(

@@ -169,7 +169,11 @@ impl Scatter {
     /// when it beats that edge by more than χ²₁(1 − α)/2 in log-likelihood.
     pub fn chosen_mixing(&self, alpha: f64) -> f64 {
         let ll = |l: f64| self.profile(l).1;
-        let edge = if self.max_mixing() == 1.0 && ll(1.0) > ll(0.0) { 1.0 } else { 0.0 };
+        let edge = if self.max_mixing() == 1.0 && ll(1.0) > ll(0.0) {
+            1.0
+        } else {
+            0.0
+        };
         let ml = self.ml_mixing();
         if ll(ml) - ll(edge) > 0.5 * super::stats::chi2_quantile(1.0 - alpha, 1.0) {
             ml
@@ -187,7 +191,10 @@ impl Scatter {
             .map(|k| top * k as f64 / 1000.0)
             .filter(|l| self.profile(*l).1 >= cut)
             .collect();
-        [inside.first().copied().unwrap_or(0.0), inside.last().copied().unwrap_or(top)]
+        [
+            inside.first().copied().unwrap_or(0.0),
+            inside.last().copied().unwrap_or(top),
+        ]
     }
 
     /// Mixings to try when the maximum-likelihood one says the uncorrected model misses: five
@@ -231,7 +238,14 @@ impl Scatter {
         }
     }
 
-    fn note(&self, lambda: f64, ml: f64, set: [f64; 2], (a, b): (f64, f64), (ll_abs, ll_rel): (f64, Option<f64>)) -> String {
+    fn note(
+        &self,
+        lambda: f64,
+        ml: f64,
+        set: [f64; 2],
+        (a, b): (f64, f64),
+        (ll_abs, ll_rel): (f64, Option<f64>),
+    ) -> String {
         let designs = self.groups.len();
         let num = crate::format::num;
         let form = format!(
@@ -241,8 +255,12 @@ impl Scatter {
             100.0 * b
         );
         let edges = match ll_rel {
-            Some(lr) => format!("log-likelihood {ll_abs:.1} for a constant σ, {lr:.1} for a constant coefficient of variation"),
-            None => format!("log-likelihood {ll_abs:.1} for a constant σ; a replicated level is zero, so no constant coefficient of variation"),
+            Some(lr) => {
+                format!("log-likelihood {ll_abs:.1} for a constant σ, {lr:.1} for a constant coefficient of variation")
+            }
+            None => format!(
+                "log-likelihood {ll_abs:.1} for a constant σ; a replicated level is zero, so no constant coefficient of variation"
+            ),
         };
         let mut note = format!(
             "replicates at {designs} designs ({} degrees of freedom): {form}; mixing λ = {:.2} (0: constant σ, 1: constant \
@@ -250,7 +268,11 @@ impl Scatter {
             self.nu as usize, lambda, set[0], set[1]
         );
         let _ = ml;
-        let levels = self.groups.iter().map(|g| g.2.abs()).fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        let levels = self
+            .groups
+            .iter()
+            .map(|g| g.2.abs())
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
         if designs < 2 || levels.1 <= levels.0 * 1.05 {
             note.push_str("; the replicated levels hardly differ, so the two components cannot really be told apart");
         }
@@ -289,7 +311,11 @@ pub(crate) fn finalise(
     };
     let dof = n.saturating_sub(best.model.k());
     if dof == 0 {
-        let mut nm = NoiseModel::constant(0.0, 0, "no replicates and no spare designs: the noise cannot be estimated".into());
+        let mut nm = NoiseModel::constant(
+            0.0,
+            0,
+            "no replicates and no spare designs: the noise cannot be estimated".into(),
+        );
         nm.kind = NoiseKind::FromResiduals;
         return nm;
     }
@@ -361,7 +387,11 @@ mod tests {
         assert_eq!(ml.kind, NoiseKind::Combined, "{}", ml.note);
         for o in &obs {
             let want = o.std_dev.unwrap();
-            assert!((ml.sigma_at(o.mean) / want - 1.0).abs() < 0.02, "{} vs {want}", ml.sigma_at(o.mean));
+            assert!(
+                (ml.sigma_at(o.mean) / want - 1.0).abs() < 0.02,
+                "{} vs {want}",
+                ml.sigma_at(o.mean)
+            );
         }
         let set = ml.mixing_set.unwrap();
         assert!(set[0] <= ml.mixing.unwrap() && ml.mixing.unwrap() <= set[1]);

@@ -270,7 +270,10 @@ fn precision(cx: &Context, theta: &nalgebra::DVector<f64>, cov: &nalgebra::DMatr
             .enumerate()
             .map(|(j, n)| {
                 let (lo, hi) = range(j);
-                (n.clone(), [(theta[j] - q * se[j]).max(lo), (theta[j] + q * se[j]).min(hi)])
+                (
+                    n.clone(),
+                    [(theta[j] - q * se[j]).max(lo), (theta[j] + q * se[j]).min(hi)],
+                )
             })
             .collect(),
         correlation: names

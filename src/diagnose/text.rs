@@ -150,11 +150,28 @@ fn headline(f: &Facts) -> String {
 /// "Unexplained": the misfit, and the candidate the data come nearest to detecting with the level
 /// its amplitude test needed (the one the next test examines).
 fn unexplained(f: &Facts) -> String {
-    let misfit = f.base.assessed.lack_of_fit.as_ref().map_or(String::new(), |l| format!(" ({})", lof_text(l)));
-    let nearest = f.decision.leading.first().and_then(|&who| f.candidate(who)).and_then(|c| {
-        let level = f.cx.amplitude_level(f.candidates.len());
-        c.p_value.map(|p| format!("; the nearest, '{}', has {} where p < {} was needed", c.name, p_text(p), num(level)))
-    });
+    let misfit = f
+        .base
+        .assessed
+        .lack_of_fit
+        .as_ref()
+        .map_or(String::new(), |l| format!(" ({})", lof_text(l)));
+    let nearest = f
+        .decision
+        .leading
+        .first()
+        .and_then(|&who| f.candidate(who))
+        .and_then(|c| {
+            let level = f.cx.amplitude_level(f.candidates.len());
+            c.p_value.map(|p| {
+                format!(
+                    "; the nearest, '{}', has {} where p < {} was needed",
+                    c.name,
+                    p_text(p),
+                    num(level)
+                )
+            })
+        });
     format!(
         "the simulation misses the tests beyond the noise{misfit}, and no candidate reduces the misfit significantly{}",
         nearest.unwrap_or_default()
@@ -228,7 +245,9 @@ fn partly_explained(f: &Facts) -> String {
             let excess = |l: &LackOfFit| l.chi2 - l.dof as f64;
             (excess(u) > 0.0).then(|| (1.0 - excess(e).max(0.0) / excess(u)).clamp(0.0, 1.0))
         })
-        .map_or(String::new(), |s| format!(" (it removes {:.0} % of the misfit beyond the noise)", 100.0 * s));
+        .map_or(String::new(), |s| {
+            format!(" (it removes {:.0} % of the misfit beyond the noise)", 100.0 * s)
+        });
     let lof = f
         .extended
         .and_then(|e| e.lack_of_fit.as_ref())
@@ -256,7 +275,12 @@ fn partly_explained(f: &Facts) -> String {
         .after_loop
         .and(d.compare.get(1))
         .filter(|w| **w != Who::Uncorrected)
-        .map(|&w| format!("'{}' still explains part of what remains with it in the model", f.name(w)));
+        .map(|&w| {
+            format!(
+                "'{}' still explains part of what remains with it in the model",
+                f.name(w)
+            )
+        });
     let mut why: Vec<String> = lof.into_iter().chain(rival).chain(also).collect();
     if why.is_empty() {
         why.push("a listed shape still explains part of what its model leaves".into());
@@ -588,7 +612,8 @@ fn parameter_limits(limits: &[super::limits::ParameterLimit]) -> Vec<String> {
                 num(l.estimate),
                 num(l.moved_to),
                 100.0 * l.relative,
-                l.standard_errors.map_or(String::new(), |s| format!(", {} standard errors", num(s)))
+                l.standard_errors
+                    .map_or(String::new(), |s| format!(", {} standard errors", num(s)))
             )
         })
         .collect();
@@ -648,7 +673,11 @@ fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
                  stopped first: its budget ran out, or nothing its further runs could show would change the verdict), \
                  so that may be theirs: it is neither rejected nor decided on.",
                 j.name,
-                if l.rejects() { "misses the tests" } else { "fits within the noise" },
+                if l.rejects() {
+                    "misses the tests"
+                } else {
+                    "fits within the noise"
+                },
                 lof_text(l)
             ),
             Some(l) if j.rejected => format!(

@@ -93,7 +93,13 @@ pub(crate) fn name_of(who: Who, candidates: &[Candidate], loop_names: &[String])
 /// p = 7.9e-4 just short of α/(2K)), and a test telling such a shape from no correction asks
 /// hundreds of specimens to settle nothing.
 fn without_leader(cx: &Context, ranked: &Ranked, base_rejects: bool) -> Decision {
-    let p = |k: usize| ranked.entries[k].assessed.p_value.filter(|p| p.is_finite()).unwrap_or(f64::INFINITY);
+    let p = |k: usize| {
+        ranked.entries[k]
+            .assessed
+            .p_value
+            .filter(|p| p.is_finite())
+            .unwrap_or(f64::INFINITY)
+    };
     let best = (0..ranked.entries.len()).min_by(|&a, &b| p(a).total_cmp(&p(b)));
     let few = cx.mode == Mode::TooFew || cx.mode == Mode::Few && !base_rejects;
     let verdict = if few {
@@ -163,8 +169,8 @@ pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
             // either way: it is why the part is not decided.)
             let misses = rejects(ranked.entries[l].assessed.lack_of_fit.as_ref());
             let mut open: Vec<usize> = std::iter::once(l).chain(adds).collect();
-            let others = (0..ranked.entries.len())
-                .filter(|&k| unbeaten.contains(&k) || misses && ranked.entries[k].explains);
+            let others =
+                (0..ranked.entries.len()).filter(|&k| unbeaten.contains(&k) || misses && ranked.entries[k].explains);
             for k in others {
                 if !open.contains(&k) {
                     open.push(k);

@@ -240,7 +240,12 @@ pub fn from_lsdyna(rcforc: &Rcforc, nodout: &Nodout, src: &SimSource) -> Result<
 
 /// A force history (times `time`, solver units) against the striker's nodout displacement, both in
 /// the curve's units and signs: what rcforc's and rwforc's curves share.
-fn against_stroke(time: &[f64], force: &[f64], nodout: &Nodout, src: &SimSource) -> Result<ForceDisplacement, CrushError> {
+fn against_stroke(
+    time: &[f64],
+    force: &[f64],
+    nodout: &Nodout,
+    src: &SimSource,
+) -> Result<ForceDisplacement, CrushError> {
     let n = nodout
         .nodes
         .get(&src.node)

@@ -52,8 +52,11 @@ impl FunctionalSurrogate {
         let basis = Basis::of(&curves, needed, kind.key(), bounds.dim())?;
         let weights = (0..basis.basis.ncols())
             .map(|c| {
-                let samples: Vec<(Vec<f64>, f64)> =
-                    runs.iter().zip(basis.scores.column(c).iter()).map(|(r, w)| (r.0.clone(), *w)).collect();
+                let samples: Vec<(Vec<f64>, f64)> = runs
+                    .iter()
+                    .zip(basis.scores.column(c).iter())
+                    .map(|(r, w)| (r.0.clone(), *w))
+                    .collect();
                 Surrogate::fit(kind, &samples, bounds)
             })
             .collect::<Result<Vec<_>, _>>()?;
@@ -80,7 +83,11 @@ impl FunctionalSurrogate {
     /// The check runs `(θ, curve)` with this emulator's predictions there.
     pub fn checks(&self, runs: Vec<(Vec<f64>, DVector<f64>)>) -> Vec<CurveCheck> {
         runs.into_iter()
-            .map(|(theta, curve)| CurveCheck { emulated: self.predict(&theta), theta, curve })
+            .map(|(theta, curve)| CurveCheck {
+                emulated: self.predict(&theta),
+                theta,
+                curve,
+            })
             .collect()
     }
 }
@@ -118,10 +125,18 @@ impl Basis {
     fn of(curves: &[&DVector<f64>], needed: usize, kind: &'static str, p: usize) -> Result<Basis, FitError> {
         let n = curves.len();
         if n < needed {
-            return Err(FitError::TooFewRuns { kind, p, needed, given: n });
+            return Err(FitError::TooFewRuns {
+                kind,
+                p,
+                needed,
+                given: n,
+            });
         }
         let points = curves[0].len();
-        if curves.iter().any(|c| c.len() != points || c.iter().any(|v| !v.is_finite())) {
+        if curves
+            .iter()
+            .any(|c| c.len() != points || c.iter().any(|v| !v.is_finite()))
+        {
             return Err(FitError::NonFinite);
         }
         let y = DMatrix::from_fn(n, points, |i, j| curves[i][j]);
@@ -194,12 +209,17 @@ impl CurvesAcross {
         let refs: Vec<&DVector<f64>> = scaled.iter().collect();
         let needed = SurrogateKind::Gp.min_samples(joint.dim()).max(2);
         let basis = Basis::of(&refs, needed, SurrogateKind::Gp.key(), joint.dim())?;
-        let rows: Vec<Vec<f64>> = runs.iter().map(|r| r.design.iter().chain(r.theta).copied().collect()).collect();
+        let rows: Vec<Vec<f64>> = runs
+            .iter()
+            .map(|r| r.design.iter().chain(r.theta).copied().collect())
+            .collect();
         let x = DMatrix::from_fn(runs.len(), joint.dim(), |i, k| rows[i][k]);
         let weights = (0..basis.basis.ncols())
             .map(|c| {
                 let y = DVector::from_iterator(runs.len(), basis.scores.column(c).iter().copied());
-                Emulator::fit(&x, &y, joint).map(Arc::new).map_err(|e| FitError::Numerics(e.to_string()))
+                Emulator::fit(&x, &y, joint)
+                    .map(Arc::new)
+                    .map_err(|e| FitError::Numerics(e.to_string()))
             })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(CurvesAcross {
@@ -215,7 +235,11 @@ impl CurvesAcross {
         FunctionalSurrogate {
             mean: self.mean.clone(),
             basis: self.basis.clone(),
-            weights: self.weights.iter().map(|e| Surrogate::across(e.clone(), values.to_vec())).collect(),
+            weights: self
+                .weights
+                .iter()
+                .map(|e| Surrogate::across(e.clone(), values.to_vec()))
+                .collect(),
             scale,
             reconstruction_error: self.reconstruction_error,
         }
@@ -292,7 +316,11 @@ mod tests {
         let s: Vec<f64> = (0..60).map(|i| i as f64 / 59.0).collect();
         let level = |d: f64| d.powf(5.0 / 3.0);
         let curve = |d: f64, t: f64| {
-            DVector::from_iterator(60, s.iter().map(|&x| level(d) * t * (1.0 - (-8.0 * x).exp() + 0.2 * t * d * x)))
+            DVector::from_iterator(
+                60,
+                s.iter()
+                    .map(|&x| level(d) * t * (1.0 - (-8.0 * x).exp() + 0.2 * t * d * x)),
+            )
         };
         let designs = [1.0, 1.5, 2.0, 2.5, 3.0, 4.0];
         // c in [1, 4], θ in [1, 2].
@@ -310,7 +338,12 @@ mod tests {
         let fit = |unit: &dyn Fn(f64) -> f64| {
             let runs: Vec<AcrossRun> = rows
                 .iter()
-                .map(|(d, t, c)| AcrossRun { design: d, theta: t, curve: c, scale: unit(d[0]) })
+                .map(|(d, t, c)| AcrossRun {
+                    design: d,
+                    theta: t,
+                    curve: c,
+                    scale: unit(d[0]),
+                })
                 .collect();
             CurvesAcross::fit(&runs, &joint).unwrap()
         };

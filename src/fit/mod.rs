@@ -43,7 +43,10 @@ enum Fitted {
     },
     Gp(Box<Emulator>),
     /// One emulator across the designs, taken at this design's values.
-    Across { emulator: std::sync::Arc<Emulator>, at: Vec<f64> },
+    Across {
+        emulator: std::sync::Arc<Emulator>,
+        at: Vec<f64>,
+    },
 }
 
 /// Why a surrogate could not be fitted.

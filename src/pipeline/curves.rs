@@ -179,33 +179,54 @@ pub fn emulators(
 fn emulators_across(study: &Study, bounds: &crate::calibrate::Bounds, runs: &[CurveRun]) -> Result<CurveModel, Error> {
     use rayon::prelude::*;
     let scale = |name: &str| {
-        let r = study.experiments.get(name).map(|t| t.replicates.as_slice()).unwrap_or_default();
+        let r = study
+            .experiments
+            .get(name)
+            .map(|t| t.replicates.as_slice())
+            .unwrap_or_default();
         crate::fit::functional::unit(r.iter().sum::<f64>() / r.len().max(1) as f64)
     };
-    let usable: Vec<(&CurveRun, &DVector<f64>, f64)> =
-        runs.iter().filter_map(|r| Some((r, r.curve.as_ref()?, scale(&r.run.design)))).collect();
+    let usable: Vec<(&CurveRun, &DVector<f64>, f64)> = runs
+        .iter()
+        .filter_map(|r| Some((r, r.curve.as_ref()?, scale(&r.run.design))))
+        .collect();
     let names: Vec<&String> = study.training.iter().chain(&study.validation).collect();
     let values: Vec<Vec<f64>> = names
         .iter()
-        .filter_map(|n| usable.iter().find(|r| &&r.0.run.design == n).map(|r| r.0.run.design_values.clone()))
+        .filter_map(|n| {
+            usable
+                .iter()
+                .find(|r| &&r.0.run.design == n)
+                .map(|r| r.0.run.design_values.clone())
+        })
         .collect();
     let joint = crate::plan::sequential::shared::joint_bounds(&values, bounds);
     let fit = |keep: &dyn Fn(&CurveRun) -> bool| {
         let kept: Vec<AcrossRun> = usable
             .iter()
             .filter(|r| keep(r.0))
-            .map(|(r, c, s)| AcrossRun { design: &r.run.design_values, theta: &r.point, curve: c, scale: *s })
+            .map(|(r, c, s)| AcrossRun {
+                design: &r.run.design_values,
+                theta: &r.point,
+                curve: c,
+                scale: *s,
+            })
             .collect();
         CurvesAcross::fit(&kept, &joint)
     };
-    let whole = fit(&|_| true).map_err(|e| Error::Failed(format!("cannot fit the curve emulator across the designs: {e}")))?;
+    let whole =
+        fit(&|_| true).map_err(|e| Error::Failed(format!("cannot fit the curve emulator across the designs: {e}")))?;
     let designs = names
         .into_par_iter()
         .filter_map(|name| {
-            let mine: Vec<&(&CurveRun, &DVector<f64>, f64)> = usable.iter().filter(|r| &r.0.run.design == name).collect();
+            let mine: Vec<&(&CurveRun, &DVector<f64>, f64)> =
+                usable.iter().filter(|r| &r.0.run.design == name).collect();
             let values = mine.first()?.0.run.design_values.clone();
-            let held: Vec<(Vec<f64>, DVector<f64>)> =
-                mine.iter().filter(|r| r.0.check).map(|r| (r.0.point.clone(), r.1.clone())).collect();
+            let held: Vec<(Vec<f64>, DVector<f64>)> = mine
+                .iter()
+                .filter(|r| r.0.check)
+                .map(|r| (r.0.point.clone(), r.1.clone()))
+                .collect();
             let checks = match fit(&|r| !(r.check && &r.run.design == name)) {
                 Ok(others) if !held.is_empty() => others.at(&values, scale(name)).checks(held),
                 _ => Vec::new(),
@@ -250,7 +271,12 @@ pub fn inputs<'s>(
         checks: model
             .check_runs()
             .into_iter()
-            .map(|(design, c)| EmulatorCheck { design, theta: c.theta, curve: c.curve, emulated: c.emulated })
+            .map(|(design, c)| EmulatorCheck {
+                design,
+                theta: c.theta,
+                curve: c.curve,
+                emulated: c.emulated,
+            })
             .collect(),
         parameter_names: study.parameters.iter().map(|p| p.name.clone()).collect(),
         parameter_bounds: study.parameter_bounds(),
@@ -476,7 +502,10 @@ fn curve_methods(
     study: &Study,
     problem: &crate::calibrate::curves::CurveProblem,
     names: &[String],
-) -> (indexmap::IndexMap<String, crate::report::results::CurveMethodResult>, Option<DVector<f64>>) {
+) -> (
+    indexmap::IndexMap<String, crate::report::results::CurveMethodResult>,
+    Option<DVector<f64>>,
+) {
     use crate::calibrate::curves as cc;
     use crate::calibrate::outcome::Method;
     use crate::report::results::CurveMethodResult;
@@ -532,7 +561,13 @@ pub fn calibrate(study: &Study, stage: &CurveStage) -> crate::report::results::C
     let targets = CurveTarget::new(
         designs
             .iter()
-            .map(|d| (d.name.clone(), d.role == crate::diagnose::Role::Training, d.specimens.clone()))
+            .map(|d| {
+                (
+                    d.name.clone(),
+                    d.role == crate::diagnose::Role::Training,
+                    d.specimens.clone(),
+                )
+            })
             .collect(),
     );
     let grid = stage.setting.grid;

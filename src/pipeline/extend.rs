@@ -122,7 +122,9 @@ impl JointRuns {
     /// its own runs, its probes, and the baseline's runs where the baseline is the space's edge.
     pub fn point(&self, k: usize, ranges: &[crate::study::Parameter], run: &PlannedRun) -> Option<Vec<f64>> {
         match run.role {
-            RunRole::Extension(j) | RunRole::Joint(j) | RunRole::JointCheck(j) if j == k => Some(run.joint_point(ranges)),
+            RunRole::Extension(j) | RunRole::Joint(j) | RunRole::JointCheck(j) if j == k => {
+                Some(run.joint_point(ranges))
+            }
             RunRole::Sample | RunRole::Check => {
                 let (_, edge) = self.edges.iter().find(|(j, _)| *j == k)?;
                 let value = |name: &str| edge.iter().find(|(n, _)| n == name).map(|v| v.1);
@@ -234,7 +236,9 @@ pub fn extended_model(
         .filter_map(|d| d.check.max_relative_error)
         .fold(None, |w: Option<f64>, e| Some(w.map_or(e, |w| w.max(e))));
     let data = emulator_data(&runs);
-    let joint_runs = runs.iter().filter(|r| matches!(r.run.role, RunRole::Joint(_) | RunRole::JointCheck(_)));
+    let joint_runs = runs
+        .iter()
+        .filter(|r| matches!(r.run.role, RunRole::Joint(_) | RunRole::JointCheck(_)));
     let planned = joint_runs.clone().count();
     Ok(ExtendedModel {
         checked: !joint.unchecked.contains(&k),

@@ -99,7 +99,11 @@ pub fn fit_across(study: &Study, bounds: &Bounds, runs: &[FitRun]) -> Vec<Result
     let names: Vec<&String> = study.training.iter().chain(&study.validation).collect();
     let values: Vec<Vec<f64>> = names
         .iter()
-        .filter_map(|n| rows.iter().find(|r| &&r.0.run.design == n).map(|r| r.0.run.design_values.clone()))
+        .filter_map(|n| {
+            rows.iter()
+                .find(|r| &&r.0.run.design == n)
+                .map(|r| r.0.run.design_values.clone())
+        })
         .collect();
     let joint = crate::plan::sequential::shared::joint_bounds(&values, bounds);
     let fit = |keep: &dyn Fn(usize) -> bool| {
@@ -123,7 +127,10 @@ pub fn fit_across(study: &Study, bounds: &Bounds, runs: &[FitRun]) -> Vec<Result
                 Ok(others) if !held.is_empty() => {
                     let x = DMatrix::from_fn(held.len(), joint.dim(), |r, k| rows[held[r]].1[k]);
                     let m = others.mean(&x);
-                    held.iter().zip(m.iter()).map(|(&i, m)| ((m - rows[i].2) / rows[i].2).abs()).collect()
+                    held.iter()
+                        .zip(m.iter())
+                        .map(|(&i, m)| ((m - rows[i].2) / rows[i].2).abs())
+                        .collect()
                 }
                 _ => Vec::new(),
             };
@@ -303,10 +310,7 @@ pub fn extension_surrogates(
             } else {
                 fit_designs(study, kind, &bounds, &runs)
             };
-            let designs = fitted
-                .into_iter()
-                .filter_map(Result::ok)
-                .collect();
+            let designs = fitted.into_iter().filter_map(Result::ok).collect();
             (k, SurrogateModel { designs })
         })
         .collect()

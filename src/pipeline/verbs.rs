@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use super::sequence::record::Replaced;
 use crate::error::{Error, InputError};
 use crate::execute::store::Snapshot;
 use crate::execute::{lock, sweep};
@@ -13,7 +14,6 @@ use crate::plan::Plan;
 use crate::report::Results;
 use crate::report::data::ReportData;
 use crate::study::{Simulation, Study};
-use super::sequence::record::Replaced;
 
 /// `lab check`: what was validated beyond loading the study.
 pub struct Checked {
@@ -52,11 +52,16 @@ pub fn check(study: &Study) -> Result<Checked, Error> {
         Simulation::Expression(_) => None,
     };
     let replaces = match &study.simulation {
-        Simulation::Solver(sim) => sim.sampling.sequential.as_ref().and_then(|q| q.replaces.as_deref()).map(|fixed| {
-            let every: Vec<usize> = study.extension_hypotheses().map(|(k, _)| k).collect();
-            let with_loop = Replaced::counted(study, sim, fixed, &every).runs;
-            (Replaced::counted(study, sim, fixed, &[]), with_loop)
-        }),
+        Simulation::Solver(sim) => sim
+            .sampling
+            .sequential
+            .as_ref()
+            .and_then(|q| q.replaces.as_deref())
+            .map(|fixed| {
+                let every: Vec<usize> = study.extension_hypotheses().map(|(k, _)| k).collect();
+                let with_loop = Replaced::counted(study, sim, fixed, &every).runs;
+                (Replaced::counted(study, sim, fixed, &[]), with_loop)
+            }),
         Simulation::Expression(_) => None,
     };
     Ok(Checked {

@@ -99,13 +99,18 @@ impl SiteEmulators {
     /// The emulators' mean of every output at `x` (`None` where an output has no emulator).
     pub fn predict(&self, x: &[f64]) -> Option<Vec<f64>> {
         let p = self.point(x);
-        self.outputs.iter().map(|o| o.as_ref()?.mean_var_at(&p).map(|m| m.0)).collect()
+        self.outputs
+            .iter()
+            .map(|o| o.as_ref()?.mean_var_at(&p).map(|m| m.0))
+            .collect()
     }
 
     /// Every row of `points` as the emulators take it (see [`SiteEmulators::point`]).
     fn rows(&self, points: &DMatrix<f64>) -> DMatrix<f64> {
         let a = self.at.len();
-        DMatrix::from_fn(points.nrows(), a + points.ncols(), |i, j| if j < a { self.at[j] } else { points[(i, j - a)] })
+        DMatrix::from_fn(points.nrows(), a + points.ncols(), |i, j| {
+            if j < a { self.at[j] } else { points[(i, j - a)] }
+        })
     }
 }
 
@@ -136,7 +141,10 @@ pub fn emulators(bounds: &Bounds, sites: &[Site]) -> Vec<SiteEmulators> {
                     Emulator::fit(&x, &y, bounds).ok()
                 })
                 .collect();
-            SiteEmulators { outputs, at: Vec::new() }
+            SiteEmulators {
+                outputs,
+                at: Vec::new(),
+            }
         })
         .collect()
 }
@@ -177,7 +185,13 @@ fn predict_rows(emus: &[SiteEmulators], points: &DMatrix<f64>) -> Vec<Vec<Vec<(f
 /// −ln p(x) at every row of `points`, up to a constant: the training sites' tests against the
 /// emulators, their variance in the likelihood, the tests' noise scaled by the dispersion `phi`;
 /// infinite outside the box.
-fn neg_log_posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], points: &DMatrix<f64>, phi: f64) -> Vec<f64> {
+fn neg_log_posterior(
+    bounds: &Bounds,
+    sites: &[Site],
+    emus: &[SiteEmulators],
+    points: &DMatrix<f64>,
+    phi: f64,
+) -> Vec<f64> {
     let pred = predict_rows(emus, points);
     (0..points.nrows())
         .map(|i| {
@@ -221,9 +235,9 @@ pub fn posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], seed: 
             .zip(&pred)
             .filter(|(s, _)| s.training)
             .flat_map(|(s, p)| {
-                p.iter()
-                    .enumerate()
-                    .map(move |(k, &(mu, s2))| Some((s.observed[k] - mu) / (s.noise[k] + s2).sqrt()).filter(|r| r.is_finite()))
+                p.iter().enumerate().map(move |(k, &(mu, s2))| {
+                    Some((s.observed[k] - mu) / (s.noise[k] + s2).sqrt()).filter(|r| r.is_finite())
+                })
             })
             .collect()
     };
@@ -241,8 +255,21 @@ pub fn posterior(bounds: &Bounds, sites: &[Site], emus: &[SiteEmulators], seed: 
         let cov = laplace(&residuals, &mode, bounds) * phi;
         let draws = proposal_draws(bounds, &mode, &cov, seed);
         let nlp = neg_log_posterior(bounds, sites, emus, &draws, phi);
-        let at_mode = neg_log_posterior(bounds, sites, emus, &DMatrix::from_row_slice(1, p, mode.as_slice()), phi)[0];
-        Drawn { mode, cov, draws, nlp, at_mode, phi }
+        let at_mode = neg_log_posterior(
+            bounds,
+            sites,
+            emus,
+            &DMatrix::from_row_slice(1, p, mode.as_slice()),
+            phi,
+        )[0];
+        Drawn {
+            mode,
+            cov,
+            draws,
+            nlp,
+            at_mode,
+            phi,
+        }
     };
     let centre = DVector::from_iterator(p, (0..p).map(|j| 0.5 * (bounds.lower[j] + bounds.upper[j])));
     let mut drawn = around(optimize::least_squares(&residuals, bounds).map_or(centre, |m| m.theta));
@@ -279,10 +306,21 @@ impl Drawn {
     /// best draw where that still beats it clearly after the second search.
     fn weighted(self) -> Posterior {
         let mode = self.better_draw().unwrap_or_else(|| self.mode.clone());
-        let logq: Vec<f64> = self.draws.row_iter().map(|r| log_proposal(&self.mode, &self.cov, &r.transpose())).collect();
+        let logq: Vec<f64> = self
+            .draws
+            .row_iter()
+            .map(|r| log_proposal(&self.mode, &self.cov, &r.transpose()))
+            .collect();
         let logw: Vec<f64> = self.nlp.iter().zip(&logq).map(|(n, q)| -n - q).collect();
-        let top = logw.iter().copied().filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max);
-        let raw: Vec<f64> = logw.iter().map(|v| if v.is_finite() { (v - top).exp() } else { 0.0 }).collect();
+        let top = logw
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(f64::NEG_INFINITY, f64::max);
+        let raw: Vec<f64> = logw
+            .iter()
+            .map(|v| if v.is_finite() { (v - top).exp() } else { 0.0 })
+            .collect();
         let total: f64 = raw.iter().sum();
         let weights: Vec<f64> = raw.iter().map(|w| w / total.max(f64::MIN_POSITIVE)).collect();
         summarise(self.draws, weights, mode.as_slice().to_vec())
@@ -302,9 +340,9 @@ fn laplace(residuals: &impl Fn(&DVector<f64>) -> DVector<f64>, mode: &DVector<f6
     }
     let info = j.transpose() * &j;
     let floor = DMatrix::from_fn(p, p, |a, b| if a == b { (4.0 / w[a]).powi(2) } else { 0.0 });
-    (info + floor).try_inverse().unwrap_or_else(|| DMatrix::from_fn(p, p, |a, b| {
-        if a == b { (w[a] / 4.0).powi(2) } else { 0.0 }
-    }))
+    (info + floor)
+        .try_inverse()
+        .unwrap_or_else(|| DMatrix::from_fn(p, p, |a, b| if a == b { (w[a] / 4.0).powi(2) } else { 0.0 }))
 }
 
 /// The proposal's spread: the Laplace covariance widened by this factor (in standard deviations),
@@ -315,7 +353,11 @@ const WIDEN: f64 = 2.0;
 /// in the normalised weights).
 fn proposal_draws(bounds: &Bounds, mode: &DVector<f64>, cov: &DMatrix<f64>, seed: u64) -> DMatrix<f64> {
     let p = mode.len();
-    let l = cov.clone().cholesky().map(|c| c.l()).unwrap_or_else(|| DMatrix::from_diagonal(&cov.diagonal().map(f64::sqrt)));
+    let l = cov
+        .clone()
+        .cholesky()
+        .map(|c| c.l())
+        .unwrap_or_else(|| DMatrix::from_diagonal(&cov.diagonal().map(f64::sqrt)));
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9057_e410);
     let mut out = DMatrix::zeros(DRAWS, p);
     for i in 0..DRAWS {
@@ -425,7 +467,10 @@ pub fn choose(
             .par_iter()
             .zip(emus)
             .zip(open)
-            .map(|((s, e), &o)| o.then(|| Gain::of_site(s, e, &posterior.weights, &candidates)).flatten())
+            .map(|((s, e), &o)| {
+                o.then(|| Gain::of_site(s, e, &posterior.weights, &candidates))
+                    .flatten()
+            })
             .collect()
     };
     let mut picks: Vec<(usize, Vec<f64>)> = Vec::new();
@@ -441,16 +486,28 @@ pub fn choose(
         given[*i] += 1;
     }
     // A candidate that snaps onto a run the site has, or onto a pick of this batch, would only repeat it.
-    let snapped: Vec<Vec<f64>> = candidates.row_iter().map(|r| snap(bounds, r.transpose().as_slice())).collect();
+    let snapped: Vec<Vec<f64>> = candidates
+        .row_iter()
+        .map(|r| snap(bounds, r.transpose().as_slice()))
+        .collect();
     for (i, g) in gains.iter_mut().enumerate() {
         if let Some(g) = g.as_mut() {
-            for x in sites[i].x.iter().chain(picks.iter().filter(|(s, _)| *s == i).map(|(_, x)| x)) {
+            for x in sites[i]
+                .x
+                .iter()
+                .chain(picks.iter().filter(|(s, _)| *s == i).map(|(_, x)| x))
+            {
                 g.take(&snapped, &snap(bounds, x));
             }
         }
     }
     while picks.len() < q {
-        let round = given.iter().zip(&gains).filter(|(_, g)| g.is_some()).map(|(n, _)| *n).min();
+        let round = given
+            .iter()
+            .zip(&gains)
+            .filter(|(_, g)| g.is_some())
+            .map(|(n, _)| *n)
+            .min();
         let Some(round) = round else { break };
         let best = gains
             .iter()
@@ -492,7 +549,11 @@ fn farthest(candidates: &DMatrix<f64>, runs: &[Vec<f64>], bounds: &Bounds) -> Ve
     let w = bounds.width();
     let nearest = |i: usize| {
         runs.iter()
-            .map(|r| (0..r.len()).map(|j| ((candidates[(i, j)] - r[j]) / w[j]).powi(2)).sum::<f64>())
+            .map(|r| {
+                (0..r.len())
+                    .map(|j| ((candidates[(i, j)] - r[j]) / w[j]).powi(2))
+                    .sum::<f64>()
+            })
             .fold(f64::INFINITY, f64::min)
     };
     let best = (0..candidates.nrows()).fold((0, f64::NEG_INFINITY), |acc, i| {
@@ -504,7 +565,11 @@ fn farthest(candidates: &DMatrix<f64>, runs: &[Vec<f64>], bounds: &Bounds) -> Ve
 
 fn stack(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
     DMatrix::from_fn(a.nrows() + b.nrows(), a.ncols(), |i, j| {
-        if i < a.nrows() { a[(i, j)] } else { b[(i - a.nrows(), j)] }
+        if i < a.nrows() {
+            a[(i, j)]
+        } else {
+            b[(i - a.nrows(), j)]
+        }
     })
 }
 
@@ -524,7 +589,11 @@ struct Gain {
 impl Gain {
     fn new(cov: Vec<DMatrix<f64>>, weights: Vec<f64>) -> Gain {
         let n = weights.len();
-        Gain { cov, weights, taken: vec![false; n] }
+        Gain {
+            cov,
+            weights,
+            taken: vec![false; n],
+        }
     }
 
     /// One site's gain over the candidates `c`, whose first rows are the posterior's points `w`
@@ -571,7 +640,10 @@ impl Gain {
                     .sum();
                 (c, v)
             })
-            .fold((0, f64::NEG_INFINITY), |acc, (c, v)| if v > acc.1 { (c, v) } else { acc })
+            .fold(
+                (0, f64::NEG_INFINITY),
+                |acc, (c, v)| if v > acc.1 { (c, v) } else { acc },
+            )
     }
 
     /// The covariances once a run at candidate `c` is in: c(a, b) − c(a, x*) c(x*, b) / c(x*, x*),

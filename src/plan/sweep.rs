@@ -247,7 +247,12 @@ pub fn initial_samples(study: &Study, sim: &SolverSimulation, d: usize) -> usize
         return sim.sampling.count;
     }
     let curves = if study.calibration.against.curves {
-        study.calibration.curve.surrogate.unwrap_or(sim.surrogate).min_samples(d)
+        study
+            .calibration
+            .curve
+            .surrogate
+            .unwrap_or(sim.surrogate)
+            .min_samples(d)
     } else {
         0
     };
@@ -374,7 +379,11 @@ fn planned_points(sim: &SolverSimulation, bounds: &Bounds, unit: DMatrix<f64>) -
         Some(w) => crate::render::lsdyna::field::fit_real(v, w).unwrap_or(v),
         None => v,
     };
-    bounds.spread_rows(&unit).into_iter().map(|x| x.into_iter().map(fit).collect()).collect()
+    bounds
+        .spread_rows(&unit)
+        .into_iter()
+        .map(|x| x.into_iter().map(fit).collect())
+        .collect()
 }
 
 /// For each model-extension hypothesis, in study order, a copy of every baseline sample run with

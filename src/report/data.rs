@@ -565,9 +565,16 @@ fn solver_info(sim: &SolverSimulation) -> SolverInfo {
              posterior is at most {} of the tests' noise at every tested design{}",
             s.seed,
             q.tolerance,
-            if q.budget > 0 { format!(", or at {} runs", q.budget) } else { String::new() }
+            if q.budget > 0 {
+                format!(", or at {} runs", q.budget)
+            } else {
+                String::new()
+            }
         ),
-        None => format!("{method}, {} samples + {} check runs per design, seed {}", s.count, s.check_runs, s.seed),
+        None => format!(
+            "{method}, {} samples + {} check runs per design, seed {}",
+            s.count, s.check_runs, s.seed
+        ),
     };
     SolverInfo {
         adapter: sim.adapter.clone(),

@@ -19,10 +19,10 @@ use super::summary::significant;
 
 #[path = "html_curves.rs"]
 mod curves;
-#[path = "html_loop.rs"]
-mod solver_loop;
 #[path = "html_sequence.rs"]
 mod sequence;
+#[path = "html_loop.rs"]
+mod solver_loop;
 #[path = "html_solvers.rs"]
 mod solvers;
 #[path = "html_splits.rs"]
@@ -755,7 +755,11 @@ impl Page<'_> {
             let _ = write!(s, "<p id=decided-by>Decided by: {}</p>", escape(&figure));
         }
         s.push_str("</div>");
-        for l in dg.limits.iter().filter(|l| l.starts_with("The calibrated parameters are only as good")) {
+        for l in dg
+            .limits
+            .iter()
+            .filter(|l| l.starts_with("The calibrated parameters are only as good"))
+        {
             let _ = write!(s, "<p class=warn id=parameter-limits>{}</p>", escape(l));
         }
         s
@@ -1206,18 +1210,28 @@ fn deciding_figure(dg: &crate::diagnose::Diagnosis) -> Option<String> {
             )
         }),
         Verdict::PartlyExplained => dg.partial.as_ref().map(|p| {
-            let share = p.share_removed.map_or(String::new(), |s| format!(" removes {:.0} % of the misfit, but", 100.0 * s));
-            let rest = p.remaining.as_ref().map_or("leaves more than the noise".to_string(), |l| {
-                format!("its model leaves {}", lack_of_fit(l))
+            let share = p.share_removed.map_or(String::new(), |s| {
+                format!(" removes {:.0} % of the misfit, but", 100.0 * s)
             });
+            let rest = p
+                .remaining
+                .as_ref()
+                .map_or("leaves more than the noise".to_string(), |l| {
+                    format!("its model leaves {}", lack_of_fit(l))
+                });
             format!("'{}'{share} {rest}", p.name)
         }),
-        Verdict::NoModelError | Verdict::Unexplained => {
-            dg.lack_of_fit.as_ref().map(|l| format!("the uncorrected simulation against the tests: {}", lack_of_fit(l)))
-        }
+        Verdict::NoModelError | Verdict::Unexplained => dg
+            .lack_of_fit
+            .as_ref()
+            .map(|l| format!("the uncorrected simulation against the tests: {}", lack_of_fit(l))),
         Verdict::CannotTellApart => {
             let weights: Vec<String> = match &dg.after_loop {
-                Some(a) => a.explanations.iter().map(|j| format!("'{}' {:.2}", j.name, j.weight)).collect(),
+                Some(a) => a
+                    .explanations
+                    .iter()
+                    .map(|j| format!("'{}' {:.2}", j.name, j.weight))
+                    .collect(),
                 None => dg
                     .candidates
                     .iter()
@@ -1259,7 +1273,12 @@ fn discovered_block(f: &crate::diagnose::discover::Discovered) -> String {
     if !f.library.dropped.is_empty() {
         s.push_str("<ul id=discovered-dropped class=note>");
         for d in &f.library.dropped {
-            let _ = write!(s, "<li><code>{}</code> left out: {}</li>", escape(&d.term), escape(&d.reason));
+            let _ = write!(
+                s,
+                "<li><code>{}</code> left out: {}</li>",
+                escape(&d.term),
+                escape(&d.reason)
+            );
         }
         s.push_str("</ul>");
     }
@@ -1279,9 +1298,9 @@ fn found_table(f: &crate::diagnose::discover::Discovered, term: &str) -> String 
         .iter()
         .map(|(n, v)| format!("{} = {}", escape(n), significant(*v, 6)))
         .collect();
-    let interval = f
-        .interval
-        .map_or("-".to_string(), |[a, b]| format!("{} to {}", significant(a, 4), significant(b, 4)));
+    let interval = f.interval.map_or("-".to_string(), |[a, b]| {
+        format!("{} to {}", significant(a, 4), significant(b, 4))
+    });
     let coefficient = f.coefficient.map_or("-".into(), |c| significant(c, 4));
     let rows = [
         ("shape", escape(f.shape.as_deref().unwrap_or("-"))),
@@ -1289,11 +1308,21 @@ fn found_table(f: &crate::diagnose::discover::Discovered, term: &str) -> String 
         ("parameters with the term", params.join(", ")),
         (
             "validation error before → after (gain)",
-            format!("{} → {} ({})", pct(f.validation_error_before), pct(f.validation_error_after), pct(f.gain)),
+            format!(
+                "{} → {} ({})",
+                pct(f.validation_error_before),
+                pct(f.validation_error_after),
+                pct(f.gain)
+            ),
         ),
         (
             "leave-one-design-out error before → after (gain)",
-            format!("{} → {} ({})", pct(f.loo_error_before), pct(f.loo_error_after), pct(f.gain_loo)),
+            format!(
+                "{} → {} ({})",
+                pct(f.loo_error_before),
+                pct(f.loo_error_after),
+                pct(f.gain_loo)
+            ),
         ),
         (
             "test against the search's size",
@@ -1306,7 +1335,10 @@ fn found_table(f: &crate::diagnose::discover::Discovered, term: &str) -> String 
         ),
     ];
     s.push_str("<table id=discovered-table>");
-    for (k, v) in rows.iter().chain(f.reading.as_ref().map(|r| ("reading", escape(r))).iter()) {
+    for (k, v) in rows
+        .iter()
+        .chain(f.reading.as_ref().map(|r| ("reading", escape(r))).iter())
+    {
         let _ = write!(s, "<tr><th class=l>{k}</th><td class=l>{v}</td></tr>");
     }
     s.push_str("</table>");

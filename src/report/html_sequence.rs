@@ -37,9 +37,9 @@ pub(super) fn section(r: &Results) -> String {
 
 /// Beside the runs in all, the fixed design the study says the sequence replaces.
 fn replaced(s: &Sequence) -> String {
-    s.replaces
-        .as_ref()
-        .map_or(String::new(), |r| format!(" (the {} it replaces: {} runs)", r.design(), r.runs))
+    s.replaces.as_ref().map_or(String::new(), |r| {
+        format!(" (the {} it replaces: {} runs)", r.design(), r.runs)
+    })
 }
 
 fn stops(s: &Sequence) -> String {

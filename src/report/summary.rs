@@ -32,7 +32,12 @@ fn sampling_line(results: &Results) -> String {
         .map(|x| format!("{} {} ({})", x.stage, x.runs, x.reason))
         .collect();
     let total = match &s.replaces {
-        Some(r) => format!("{} → {} solver runs: sampled sequentially in place of a {}", r.runs, s.runs, r.design()),
+        Some(r) => format!(
+            "{} → {} solver runs: sampled sequentially in place of a {}",
+            r.runs,
+            s.runs,
+            r.design()
+        ),
         None => format!("solver runs: {} in all, sampled sequentially", s.runs),
     };
     format!("{total}: {}\n\n", stages.join(", "))

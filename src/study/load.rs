@@ -196,7 +196,12 @@ impl Checker<'_> {
     /// One emulator across the designs is a Gaussian process: the curves' emulator across the designs
     /// is one too, so `calibration.curve.surrogate` may only say `gp`.
     fn across_designs(&self, file: &StudyFile, study: &Study) -> Result<(), InputError> {
-        let node = file.simulation.value.sampling.as_ref().and_then(|s| s.value.across_designs.as_ref());
+        let node = file
+            .simulation
+            .value
+            .sampling
+            .as_ref()
+            .and_then(|s| s.value.across_designs.as_ref());
         let curve = study.calibration.curve.surrogate.filter(|k| *k != SurrogateKind::Gp);
         match (node, curve) {
             (Some(node), Some(kind)) if node.value && study.calibration.against.curves => Err(self.at_key(
@@ -217,7 +222,11 @@ impl Checker<'_> {
     fn budget(&self, file: &StudyFile, study: &Study) -> Result<(), InputError> {
         let (Simulation::Solver(sim), Some(node)) = (
             &study.simulation,
-            file.simulation.value.sampling.as_ref().and_then(|s| s.value.budget.as_ref()),
+            file.simulation
+                .value
+                .sampling
+                .as_ref()
+                .and_then(|s| s.value.budget.as_ref()),
         ) else {
             return Ok(());
         };
@@ -228,14 +237,20 @@ impl Checker<'_> {
             return Ok(());
         }
         let mut parts = vec![
-            format!("its first batch of {} at the {} tested design(s)", floor.initial, floor.designs),
+            format!(
+                "its first batch of {} at the {} tested design(s)",
+                floor.initial, floor.designs
+            ),
             format!("one held-out run per design ({})", floor.designs),
         ];
         if floor.probes > 0 {
             parts.push(format!("the extension hypotheses' probes ({})", floor.probes));
         }
         if floor.looped > 0 {
-            parts.push(format!("the solver in the loop's first batches (up to {})", floor.looped));
+            parts.push(format!(
+                "the solver in the loop's first batches (up to {})",
+                floor.looped
+            ));
         }
         Err(self.at_key(
             "budget",

@@ -148,20 +148,33 @@ impl Checker<'_> {
             Some(node) => self.curve_settings(&node.value, simulation)?,
         };
         if against.curves {
-            self.curves_possible(spec.and_then(|c| c.against.as_ref()), simulation, experiments, &settings)?;
+            self.curves_possible(
+                spec.and_then(|c| c.against.as_ref()),
+                simulation,
+                experiments,
+                &settings,
+            )?;
             self.specimens_cover(experiments, training, validation, &settings, simulation)?;
         }
         Ok((against, settings))
     }
 
     /// `calibration.curve`: metric, points, filter, window and surrogate, each checked.
-    fn curve_settings(&self, c: &crate::study::schema::CurveFile, simulation: &Simulation) -> Result<CurveSettings, InputError> {
+    fn curve_settings(
+        &self,
+        c: &crate::study::schema::CurveFile,
+        simulation: &Simulation,
+    ) -> Result<CurveSettings, InputError> {
         let metric = match &c.metric {
             None => CurveMetric::Mse,
             Some(m) => CurveMetric::from_key(m.value.trim()).ok_or_else(|| {
                 self.at(
                     m,
-                    format!("unknown curve metric `{}`: choose from {}", m.value, CurveMetric::KEYS.join(", ")),
+                    format!(
+                        "unknown curve metric `{}`: choose from {}",
+                        m.value,
+                        CurveMetric::KEYS.join(", ")
+                    ),
                 )
             })?,
         };
@@ -181,7 +194,10 @@ impl Checker<'_> {
         let surrogate = match &c.surrogate {
             None => None,
             Some(k) => Some(SurrogateKind::from_key(k.value.trim()).ok_or_else(|| {
-                self.at(k, format!("unknown surrogate `{}`: choose from linear, quadratic, gp", k.value))
+                self.at(
+                    k,
+                    format!("unknown surrogate `{}`: choose from linear, quadratic, gp", k.value),
+                )
             })?),
         };
         Ok(CurveSettings {
@@ -198,7 +214,10 @@ impl Checker<'_> {
         let cfc = self.finite(&f.cfc, "`calibration.curve.filter.cfc`")?;
         let speed = self.finite(&f.speed, "`calibration.curve.filter.speed`")?;
         if cfc <= 0.0 {
-            return Err(self.at(&f.cfc, "the channel frequency class must be positive (e.g. 60, 180, 600)"));
+            return Err(self.at(
+                &f.cfc,
+                "the channel frequency class must be positive (e.g. 60, 180, 600)",
+            ));
         }
         if speed <= 0.0 {
             return Err(self.at(

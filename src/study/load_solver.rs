@@ -604,7 +604,10 @@ impl Checker<'_> {
 
     fn sampling(&self, spec: &SamplingFile, surrogate: SurrogateKind, p: usize) -> Result<Sampling, InputError> {
         if let Some(s) = &spec.surrogate {
-            return Err(self.at(s, "`surrogate` goes in `sampling.replaces` (the replaced design's own), not in `sampling`"));
+            return Err(self.at(
+                s,
+                "`surrogate` goes in `sampling.replaces` (the replaced design's own), not in `sampling`",
+            ));
         }
         self.sampling_with(spec, surrogate, p)
     }
@@ -627,7 +630,10 @@ impl Checker<'_> {
             ("batch", spec.batch.as_ref().map(|n| (n.line, n.column))),
             ("budget", spec.budget.as_ref().map(|n| (n.line, n.column))),
             ("tolerance", spec.tolerance.as_ref().map(|n| (n.line, n.column))),
-            ("across_designs", spec.across_designs.as_ref().map(|n| (n.line, n.column))),
+            (
+                "across_designs",
+                spec.across_designs.as_ref().map(|n| (n.line, n.column)),
+            ),
             ("replaces", spec.replaces.as_ref().map(|n| (n.line, n.column))),
         ] {
             if given.is_some() {
@@ -734,7 +740,10 @@ impl Checker<'_> {
             Some(node) => {
                 let own = match &node.value.surrogate {
                     Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
-                        self.at(s, format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value))
+                        self.at(
+                            s,
+                            format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value),
+                        )
                     })?,
                     None => surrogate,
                 };
@@ -745,7 +754,11 @@ impl Checker<'_> {
             None => None,
         };
         let across_designs = spec.across_designs.as_ref().is_some_and(|a| a.value);
-        if let Some(a) = spec.across_designs.as_ref().filter(|a| a.value && surrogate != SurrogateKind::Gp) {
+        if let Some(a) = spec
+            .across_designs
+            .as_ref()
+            .filter(|a| a.value && surrogate != SurrogateKind::Gp)
+        {
             return Err(self.at(
                 a,
                 format!(

@@ -30,7 +30,10 @@ pub fn assert_a_third_of(fixed_design: &str) {
     let (runs, fixed) = (runs(), FIXED.with(std::cell::Cell::get));
     eprintln!("{runs} solver runs where the fixed design {fixed_design} would have made {fixed}");
     if std::env::var("LAB_FAMILY_SAMPLING").is_err() {
-        assert!(fixed > 0 && runs * 3 <= fixed, "{runs} runs against the fixed design's {fixed}");
+        assert!(
+            fixed > 0 && runs * 3 <= fixed,
+            "{runs} runs against the fixed design's {fixed}"
+        );
     }
 }
 
@@ -39,7 +42,9 @@ pub fn assert_a_third_of(fixed_design: &str) {
 /// call tallies on its worker thread are added to this thread's tallies.
 pub fn in_parallel<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
     use std::sync::atomic::{AtomicUsize, Ordering};
-    let workers = std::thread::available_parallelism().map_or(2, |n| n.get()).min(items.len().max(1));
+    let workers = std::thread::available_parallelism()
+        .map_or(2, |n| n.get())
+        .min(items.len().max(1));
     let next = AtomicUsize::new(0);
     let mut out: Vec<(usize, R, u64, u64)> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..workers)

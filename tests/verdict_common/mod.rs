@@ -15,7 +15,11 @@ fn rejects(l: &Value) -> bool {
     let omnibus = l["p_value"].as_f64().is_some_and(|p| p < level);
     let residual = l["largest"]["p_corrected"].as_f64().is_some_and(|p| p < level);
     if l.is_object() {
-        assert_eq!(l["fits"].as_bool(), Some(!(omnibus || residual)), "`fits` disagrees with its figures: {l}");
+        assert_eq!(
+            l["fits"].as_bool(),
+            Some(!(omnibus || residual)),
+            "`fits` disagrees with its figures: {l}"
+        );
     }
     omnibus || residual
 }
@@ -23,7 +27,11 @@ fn rejects(l: &Value) -> bool {
 /// The model extended with the cause: `extended` for a named cause, `partial.extended` for one
 /// that partly explains.
 fn extended(d: &Value) -> &Value {
-    if d["extended"].is_object() { &d["extended"] } else { &d["partial"]["extended"] }
+    if d["extended"].is_object() {
+        &d["extended"]
+    } else {
+        &d["partial"]["extended"]
+    }
 }
 
 /// The diagnosis's decision rule, read back from the numbers it reports (α = 0.01): the screening's
@@ -75,7 +83,10 @@ fn assert_intervals_within_ranges(d: &Value) {
                 continue;
             };
             let (min, max) = (range["min"].as_f64().unwrap(), range["max"].as_f64().unwrap());
-            assert!(min <= lo && hi <= max, "{name}: 95 % {lo} to {hi} outside its range {min} to {max}");
+            assert!(
+                min <= lo && hi <= max,
+                "{name}: 95 % {lo} to {hi} outside its range {min} to {max}"
+            );
         }
     }
 }
@@ -90,12 +101,22 @@ fn assert_after_loop(d: &Value, after: &Value, verdict: &str) {
     // out (a checked model that misses is out), is not out either: nothing is decided over it, nor
     // it over another. Alone, it is judged as any.
     let unchecked = |e: &Value| e["unchecked"] == true;
-    let standing: Vec<&Value> = explanations.iter().filter(|e| unchecked(e) || !rejects(&e["lack_of_fit"])).collect();
+    let standing: Vec<&Value> = explanations
+        .iter()
+        .filter(|e| unchecked(e) || !rejects(&e["lack_of_fit"]))
+        .collect();
     if standing.len() >= 2 && standing.iter().any(|e| unchecked(e)) {
         for e in explanations {
-            assert_eq!(e["rejected"].as_bool(), Some(rejects(&e["lack_of_fit"]) && !unchecked(e)), "{e}");
+            assert_eq!(
+                e["rejected"].as_bool(),
+                Some(rejects(&e["lack_of_fit"]) && !unchecked(e)),
+                "{e}"
+            );
         }
-        assert_eq!(verdict, "cannot_tell_apart", "an unchecked loop model beside another explanation");
+        assert_eq!(
+            verdict, "cannot_tell_apart",
+            "an unchecked loop model beside another explanation"
+        );
         assert!(d["cause"].is_null());
         return;
     }
@@ -189,12 +210,19 @@ fn assert_screening(d: &Value, verdict: &str, final_extended: bool) {
             let cause = if final_extended {
                 d["cause"].as_str().expect("a cause").to_string()
             } else {
-                let headline = d["after_loop"]["screening_headline"].as_str().expect("the screening's headline");
-                headline.split('\'').nth(1).expect("a cause in the screening's headline").to_string()
+                let headline = d["after_loop"]["screening_headline"]
+                    .as_str()
+                    .expect("the screening's headline");
+                headline
+                    .split('\'')
+                    .nth(1)
+                    .expect("a cause in the screening's headline")
+                    .to_string()
             };
             let leader = candidates.iter().find(|c| explains(c)).expect("a significant leader");
             assert_eq!(
-                leader["name"], cause.as_str(),
+                leader["name"],
+                cause.as_str(),
                 "the cause is the best-ranked significant candidate"
             );
             for r in rivals {
@@ -220,7 +248,10 @@ fn assert_screening(d: &Value, verdict: &str, final_extended: bool) {
         }
         "partly_explained" => {
             // After the loop the final verdict may differ; the screening's partial is then not recorded.
-            assert!(d["cause"].is_null() || !final_extended, "a partial explanation is never the cause");
+            assert!(
+                d["cause"].is_null() || !final_extended,
+                "a partial explanation is never the cause"
+            );
             assert!(d["partial"]["name"].is_string() || !final_extended);
             assert!(
                 ext_rejects || !final_extended,
@@ -277,7 +308,10 @@ pub fn assert_settled_stages_decide_nothing(results: &Value) {
         let hypothesis = stage.strip_prefix("loop: ").expect("only a loop stage is settled");
         assert_eq!(d["verdict"], "cannot_tell_apart", "'{stage}' settled: {}", d["summary"]);
         let explanations = d["after_loop"]["explanations"].as_array().expect("after the loop");
-        let e = explanations.iter().find(|e| e["name"] == hypothesis).expect("the settled hypothesis is open");
+        let e = explanations
+            .iter()
+            .find(|e| e["name"] == hypothesis)
+            .expect("the settled hypothesis is open");
         assert_eq!(e["unchecked"], true, "'{stage}' settled, its model checked: {e}");
         assert_eq!(e["rejected"], false, "'{stage}' settled, its model rejected: {e}");
     }
@@ -337,4 +371,3 @@ pub fn significance_is_backed(what: &str, text: &str) {
         );
     }
 }
-

@@ -207,7 +207,12 @@ impl InputMap {
         let lower: Vec<f64> = (0..bounds.dim()).map(|k| warp(k, bounds.lower[k])).collect();
         let width: Vec<f64> = (0..bounds.dim()).map(|k| warp(k, bounds.upper[k]) - lower[k]).collect();
         let keep = (0..bounds.dim()).filter(|&k| width[k] > 0.0).collect();
-        InputMap { log, lower, width, keep }
+        InputMap {
+            log,
+            lower,
+            width,
+            keep,
+        }
     }
 
     /// Rows of `points` in unit-cube coordinates. A logged input at or below zero gives NaN: such
@@ -273,14 +278,18 @@ impl Emulator {
         if outputs.iter().chain(inputs.iter()).any(|v| !v.is_finite()) {
             return Err(CalibrationError::NonFinite("emulator samples".into()));
         }
-        let logged: Vec<bool> = (0..bounds.dim()).map(|k| transforms.log_inputs && bounds.lower[k] > 0.0).collect();
+        let logged: Vec<bool> = (0..bounds.dim())
+            .map(|k| transforms.log_inputs && bounds.lower[k] > 0.0)
+            .collect();
         let best = Self::fit_mapped(inputs, outputs, InputMap::new(bounds, logged.clone()), transforms)?;
         // A range wider than a decade: ln x or x, whichever the runs make more likely (both have the
         // same hyperparameters, and the output is the same, so the likelihoods compare directly).
         if !(0..bounds.dim()).any(|k| logged[k] && bounds.spread_in_ln(k)) {
             return Ok(best);
         }
-        let linear: Vec<bool> = (0..bounds.dim()).map(|k| logged[k] && !bounds.spread_in_ln(k)).collect();
+        let linear: Vec<bool> = (0..bounds.dim())
+            .map(|k| logged[k] && !bounds.spread_in_ln(k))
+            .collect();
         match Self::fit_mapped(inputs, outputs, InputMap::new(bounds, linear), transforms) {
             Ok(other) if other.fit.neg_log_lik < best.fit.neg_log_lik => Ok(other),
             _ => Ok(best),
@@ -397,7 +406,9 @@ impl Emulator {
         let n = self.x.nrows();
         let r: Vec<f64> = (0..n)
             .map(|i| {
-                let d2: f64 = (0..u.len()).map(|k| self.roughness[k] * (self.x[(i, k)] - u[k]).powi(2)).sum();
+                let d2: f64 = (0..u.len())
+                    .map(|k| self.roughness[k] * (self.x[(i, k)] - u[k]).powi(2))
+                    .sum();
                 (-d2).exp()
             })
             .collect();
@@ -412,7 +423,9 @@ impl Emulator {
             w[i] = (w[i] - s) / l[(i, i)];
         }
         let q = fs.ncols();
-        let g = DVector::from_fn(q, |c, _| fs[(0, c)] - (0..n).map(|i| self.fit.lf[(i, c)] * w[i]).sum::<f64>());
+        let g = DVector::from_fn(q, |c, _| {
+            fs[(0, c)] - (0..n).map(|i| self.fit.lf[(i, c)] * w[i]).sum::<f64>()
+        });
         let h = self.fit.chol_a.l().solve_lower_triangular(&g)?;
         let c = 1.0 - w.iter().map(|v| v * v).sum::<f64>() + h.norm_squared();
         let y = self.to_y(z);
@@ -500,12 +513,16 @@ mod tests {
     #[test]
     fn diagonal_predictions_match_the_covariance() {
         let euler_case = |x: &[f64]| euler(x[0], x[1], 400.0);
-        let cases: [(&dyn Fn(&[f64]) -> f64, usize, Transforms); 2] =
-            [(&euler_case, 30, TRANSFORMS), (&|x: &[f64]| 3.0 * x[0] - 1e-4 * x[1] + 2.0, 6, PLAIN)];
+        let cases: [(&dyn Fn(&[f64]) -> f64, usize, Transforms); 2] = [
+            (&euler_case, 30, TRANSFORMS),
+            (&|x: &[f64]| 3.0 * x[0] - 1e-4 * x[1] + 2.0, 6, PLAIN),
+        ];
         for (f, n, tr) in cases {
             let (x, y, bounds) = grid_data(|a, b| f(&[a, b]), n);
             let emu = Emulator::fit_with(&x, &y, &bounds, tr).unwrap();
-            let pts = DMatrix::from_fn(40, 2, |i, k| bounds.lower[k] + ((i * 7 + k * 3) % 40) as f64 / 39.0 * bounds.width()[k]);
+            let pts = DMatrix::from_fn(40, 2, |i, k| {
+                bounds.lower[k] + ((i * 7 + k * 3) % 40) as f64 / 39.0 * bounds.width()[k]
+            });
             let (m, c) = emu.mean_cov(&pts).unwrap();
             let (m2, v2) = emu.mean_var(&pts).unwrap();
             for i in 0..40 {
@@ -551,7 +568,11 @@ mod tests {
                 Bounds::new(vec![0.25, 0.25], vec![1.0, 1.0]),
                 &|x: &[f64]| 2.0 + x[0] + x[1],
             ),
-            ("rate σ(1+(ε̇/C)^¼)", Bounds::new(vec![100.0, 1000.0], vec![250.0, 40000.0]), &rate),
+            (
+                "rate σ(1+(ε̇/C)^¼)",
+                Bounds::new(vec![100.0, 1000.0], vec![250.0, 40000.0]),
+                &rate,
+            ),
         ];
         let options = [
             ("none", PLAIN),

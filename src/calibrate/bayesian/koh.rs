@@ -267,7 +267,11 @@ pub struct Discrepancy {
 /// width) is 0 everywhere, so it adds nothing to the distances of the discrepancy's kernel.
 fn unit_coordinate(v: f64, bounds: &Bounds, k: usize) -> f64 {
     let width = bounds.width()[k];
-    if width > 0.0 { (v - bounds.lower[k]) / width } else { 0.0 }
+    if width > 0.0 {
+        (v - bounds.lower[k]) / width
+    } else {
+        0.0
+    }
 }
 
 impl Discrepancy {

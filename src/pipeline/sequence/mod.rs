@@ -29,8 +29,8 @@ use super::runs::{self, Executed, RunOutcomes, Source};
 use super::{Engine, Event, Reporter, RunOptions, curves};
 use crate::calibrate::Bounds;
 use crate::error::Error;
-use crate::execute::sweep::{self, Prepared};
 use crate::execute::RunStore;
+use crate::execute::sweep::{self, Prepared};
 use crate::plan::sequential::{self as seq, Posterior};
 use crate::plan::sweep::{as_written, initial_samples, joint_bounds};
 use crate::plan::{Plan, PlannedRun, RunRole, latin_hypercube};
@@ -327,19 +327,30 @@ impl<'a> Runner<'a> {
             response: *y,
             curve: c.as_ref(),
         });
-        let own = self.plan.runs.iter().enumerate().filter(|(_, run)| (space.mine)(run)).map(|(i, run)| RunData {
-            design: &run.design,
-            point: (space.point)(run),
-            batch: self.batch_of[i],
-            response: self.responses[i],
-            curve: self.curves[i].as_ref(),
-        });
+        let own = self
+            .plan
+            .runs
+            .iter()
+            .enumerate()
+            .filter(|(_, run)| (space.mine)(run))
+            .map(|(i, run)| RunData {
+                design: &run.design,
+                point: (space.point)(run),
+                batch: self.batch_of[i],
+                response: self.responses[i],
+                curve: self.curves[i].as_ref(),
+            });
         prior.chain(own).collect()
     }
 
     /// Batches until every tested design's emulators are good enough at the posterior, or the
     /// budget is spent; the stage's last posterior.
-    fn iterate(&mut self, space: &Space, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<Posterior, Error> {
+    fn iterate(
+        &mut self,
+        space: &Space,
+        store: &mut RunStore,
+        reporter: &mut dyn Reporter,
+    ) -> Result<Posterior, Error> {
         loop {
             if let Some(posterior) = self.step(space, false, store, reporter)? {
                 return Ok(posterior);
@@ -349,7 +360,14 @@ impl<'a> Runner<'a> {
 
     /// The latest batch of a stage's own runs (0 before any).
     fn stage_batch(&self, space: &Space) -> usize {
-        self.plan.runs.iter().zip(&self.batch_of).filter(|(run, _)| (space.mine)(run)).map(|(_, b)| *b).max().unwrap_or(0)
+        self.plan
+            .runs
+            .iter()
+            .zip(&self.batch_of)
+            .filter(|(run, _)| (space.mine)(run))
+            .map(|(_, b)| *b)
+            .max()
+            .unwrap_or(0)
     }
 
     /// One step of a stage: the runs in hand assessed, and either the stage stopped (its last
@@ -374,7 +392,15 @@ impl<'a> Runner<'a> {
         }
         let room = self.limits.budget.saturating_sub(self.sequence.runs + space.reserve);
         let picks = if open.iter().any(|&o| o) && room > 0 && !settled {
-            seq::choose(&space.bounds, &sites, &emus, &posterior, &open, self.limits.batch.min(room), seed)
+            seq::choose(
+                &space.bounds,
+                &sites,
+                &emus,
+                &posterior,
+                &open,
+                self.limits.batch.min(room),
+                seed,
+            )
         } else {
             Vec::new()
         };
@@ -413,8 +439,13 @@ impl<'a> Runner<'a> {
     /// Says that a stage stopped before its emulators were within the tolerance: the decision then
     /// counts their larger error as noise, and a larger budget would narrow it.
     fn unconverged(&self, space: &Space, reason: &str, reporter: &mut dyn Reporter) {
-        let Some((design, measured, predicted)) =
-            self.sequence.sequence.iter().rev().find(|l| l.stage == space.name).and_then(|l| l.worst())
+        let Some((design, measured, predicted)) = self
+            .sequence
+            .sequence
+            .iter()
+            .rev()
+            .find(|l| l.stage == space.name)
+            .and_then(|l| l.worst())
         else {
             return;
         };
@@ -442,7 +473,12 @@ impl<'a> Runner<'a> {
             .tests
             .designs
             .iter()
-            .map(|t| self.prior.iter().filter(|(n, _, y, _)| *n == t.name && y.is_some()).count())
+            .map(|t| {
+                self.prior
+                    .iter()
+                    .filter(|(n, _, y, _)| *n == t.name && y.is_some())
+                    .count()
+            })
             .min()
             .unwrap_or(0);
         if have >= needed {
@@ -453,7 +489,11 @@ impl<'a> Runner<'a> {
         self.tests
             .designs
             .iter()
-            .flat_map(|t| points.iter().map(|x| (space.make)(&t.name, &t.values, &as_written(self.sim, x))))
+            .flat_map(|t| {
+                points
+                    .iter()
+                    .map(|x| (space.make)(&t.name, &t.values, &as_written(self.sim, x)))
+            })
             .collect()
     }
 
@@ -481,7 +521,12 @@ impl<'a> Runner<'a> {
 
     /// The sites, their emulators and the posterior now; which designs are still open; the latest
     /// batch's record completed with what it bought.
-    fn assess(&mut self, space: &Space, b: usize, seed: u64) -> (Vec<bool>, Posterior, Vec<seq::Site>, Vec<seq::SiteEmulators>) {
+    fn assess(
+        &mut self,
+        space: &Space,
+        b: usize,
+        seed: u64,
+    ) -> (Vec<bool>, Posterior, Vec<seq::Site>, Vec<seq::SiteEmulators>) {
         let data = self.run_data(space);
         let sites = sites::sites(&self.tests, &data);
         let kinds = sites::kinds(self.study, self.sim);
@@ -507,15 +552,24 @@ impl<'a> Runner<'a> {
                 }
             },
         );
-        let predicted: Vec<f64> =
-            sites.iter().zip(&emus).map(|(s, e)| seq::predicted_error(s, e, &posterior)).collect();
+        let predicted: Vec<f64> = sites
+            .iter()
+            .zip(&emus)
+            .map(|(s, e)| seq::predicted_error(s, e, &posterior))
+            .collect();
         let f = self.limits.tolerance;
         let open: Vec<bool> = measured
             .iter()
             .zip(&predicted)
             .map(|(m, p)| !(m.is_some_and(|m| m <= f) && *p <= f))
             .collect();
-        if let Some(last) = self.sequence.sequence.iter_mut().rev().find(|l| l.batch == b && l.stage == space.name) {
+        if let Some(last) = self
+            .sequence
+            .sequence
+            .iter_mut()
+            .rev()
+            .find(|l| l.batch == b && l.stage == space.name)
+        {
             last.state = "done".into();
             for (t, (m, p)) in self.tests.designs.iter().zip(measured.iter().zip(&predicted)) {
                 last.emulator_error.insert(t.name.clone(), *m);
@@ -541,10 +595,17 @@ impl<'a> Runner<'a> {
         store: &mut RunStore,
         reporter: &mut dyn Reporter,
     ) -> Result<Option<Provisional>, Error> {
-        let Looping { stages, edges, screening } = l;
+        let Looping {
+            stages,
+            edges,
+            screening,
+        } = l;
         let mut round = 0;
         loop {
-            let mut open: Vec<bool> = stages.iter().map(|(_, space, _)| !self.parked.contains(&space.name)).collect();
+            let mut open: Vec<bool> = stages
+                .iter()
+                .map(|(_, space, _)| !self.parked.contains(&space.name))
+                .collect();
             while open.iter().any(|&o| o) {
                 let mut settled = self.settled(l, &mut open, decide, reporter);
                 for (i, (k, space, edge)) in stages.iter().enumerate() {
@@ -596,7 +657,11 @@ impl<'a> Runner<'a> {
     /// (`settled`) and join the parked; when it does not, the parked reopen, unless the decision is
     /// settled whatever the parked alone show (the others taken as they are).
     fn settled(&mut self, l: Looping, open: &mut [bool], decide: &mut Decide, reporter: &mut dyn Reporter) -> bool {
-        let Looping { stages, edges, screening } = l;
+        let Looping {
+            stages,
+            edges,
+            screening,
+        } = l;
         let ask = |this: &Self, running: &dyn Fn(usize, &Space) -> bool, decide: &mut Decide| {
             let mut joint = this.provisional(stages, edges.to_vec(), screening);
             joint.running = stages
@@ -684,9 +749,17 @@ impl<'a> Runner<'a> {
                 break;
             }
         }
-        let unchecked: Vec<usize> = stages.iter().zip(&checked).filter(|(_, c)| !**c).map(|((k, _, _), _)| *k).collect();
-        let parked: Vec<usize> =
-            stages.iter().filter(|(_, space, _)| self.parked.contains(&space.name)).map(|(k, _, _)| *k).collect();
+        let unchecked: Vec<usize> = stages
+            .iter()
+            .zip(&checked)
+            .filter(|(_, c)| !**c)
+            .map(|((k, _, _), _)| *k)
+            .collect();
+        let parked: Vec<usize> = stages
+            .iter()
+            .filter(|(_, space, _)| self.parked.contains(&space.name))
+            .map(|(k, _, _)| *k)
+            .collect();
         for k in unchecked.iter().filter(|k| !parked.contains(k)) {
             reporter.report(Event::Note(format!(
                 "'{}': no solver run checked the loop's emulators at the decision's fitted point (or the last check \
@@ -714,13 +787,24 @@ impl<'a> Runner<'a> {
         let mut at = checked.to_vec();
         let mut placed: Vec<(&Space, Vec<PlannedRun>)> = Vec::new();
         // A parked stage is not checked: nothing its fit shows could change the decision.
-        let unchecked = |(i, (_, space, _)): &(usize, &(usize, Space, _))| !checked[*i] && !self.parked.contains(&space.name);
+        let unchecked =
+            |(i, (_, space, _)): &(usize, &(usize, Space, _))| !checked[*i] && !self.parked.contains(&space.name);
         for (i, (k, space, _)) in stages.iter().enumerate().filter(unchecked) {
-            let Some(x) = d.points.iter().find(|(j, _)| j == k).and_then(|(_, f)| f.point(&space.names)) else {
+            let Some(x) = d
+                .points
+                .iter()
+                .find(|(j, _)| j == k)
+                .and_then(|(_, f)| f.point(&space.names))
+            else {
                 continue;
             };
             let x = as_written(self.sim, &x);
-            let runs: Vec<PlannedRun> = self.tests.designs.iter().map(|t| (space.make)(&t.name, &t.values, &x)).collect();
+            let runs: Vec<PlannedRun> = self
+                .tests
+                .designs
+                .iter()
+                .map(|t| (space.make)(&t.name, &t.values, &x))
+                .collect();
             at[i] = true;
             placed.push((space, runs));
         }
@@ -749,7 +833,10 @@ impl<'a> Runner<'a> {
 
     /// Each stage's own runs so far.
     fn counts(&self, stages: &Stages) -> Vec<usize> {
-        stages.iter().map(|(_, space, _)| self.plan.runs.iter().filter(|r| (space.mine)(r)).count()).collect()
+        stages
+            .iter()
+            .map(|(_, space, _)| self.plan.runs.iter().filter(|r| (space.mine)(r)).count())
+            .collect()
     }
 
     /// The fewest runs a design's emulator needs besides its latest batch for that batch to be held
@@ -757,14 +844,25 @@ impl<'a> Runner<'a> {
     /// designs, which the other designs' runs fit (it is then fitted to the check runs as well, and
     /// checked by a refit without them: [`super::stages::fit_across`]).
     fn least(&self, space: &Space) -> usize {
-        if self.sim.across_designs() { 0 } else { crate::study::SurrogateKind::Linear.min_samples(space.bounds.dim()) }
+        if self.sim.across_designs() {
+            0
+        } else {
+            crate::study::SurrogateKind::Linear.min_samples(space.bounds.dim())
+        }
     }
 
     /// Each design's latest batch of the stage's own runs becomes its check runs.
     fn mark_checks(&mut self, space: &Space, check: RunRole) {
         let names: Vec<String> = self.tests.designs.iter().map(|t| t.name.clone()).collect();
         let prior = usable_counts(&self.prior);
-        for i in latest_batches(&self.plan, &self.batch_of, &*space.mine, &names, &prior, self.least(space)) {
+        for i in latest_batches(
+            &self.plan,
+            &self.batch_of,
+            &*space.mine,
+            &names,
+            &prior,
+            self.least(space),
+        ) {
             self.plan.runs[i].role = check;
         }
     }
@@ -772,7 +870,12 @@ impl<'a> Runner<'a> {
     /// The extension hypotheses' screening runs at their probe values, placed at the posterior: its
     /// mode, and the mode moved by one standard deviation along each parameter (p + 1 per design:
     /// what a linear surrogate of the extension's effect over θ needs there).
-    fn probes(&mut self, posterior: &Posterior, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<(), Error> {
+    fn probes(
+        &mut self,
+        posterior: &Posterior,
+        store: &mut RunStore,
+        reporter: &mut dyn Reporter,
+    ) -> Result<(), Error> {
         let points = probe_points(posterior, &self.study.parameter_bounds());
         // With one emulator across the designs, the designs take the points in turn, one each: the
         // emulator learns how the effect changes with θ across them ([`crate::plan::sweep::probes_across`]).
@@ -781,10 +884,19 @@ impl<'a> Runner<'a> {
         for (k, h) in self.study.extension_hypotheses() {
             let variables = h.extension().unwrap_or_default().to_vec();
             for (i, t) in self.tests.designs.iter().enumerate() {
-                let mine: Vec<&Vec<f64>> =
-                    if across { vec![&points[i % points.len()]] } else { points.iter().collect() };
+                let mine: Vec<&Vec<f64>> = if across {
+                    vec![&points[i % points.len()]]
+                } else {
+                    points.iter().collect()
+                };
                 for x in mine {
-                    new.push(run_at(&t.name, &t.values, as_written(self.sim, x), RunRole::Extension(k), variables.clone()));
+                    new.push(run_at(
+                        &t.name,
+                        &t.values,
+                        as_written(self.sim, x),
+                        RunRole::Extension(k),
+                        variables.clone(),
+                    ));
                 }
             }
         }
@@ -801,7 +913,13 @@ impl<'a> Runner<'a> {
             reserve: 0,
         };
         let n = new.len();
-        self.batch(&space, new, 1 + self.batch_of.last().copied().unwrap_or(0), store, reporter)?;
+        self.batch(
+            &space,
+            new,
+            1 + self.batch_of.last().copied().unwrap_or(0),
+            store,
+            reporter,
+        )?;
         self.sequence.stop("probes", "planned", n);
         if let Some(last) = self.sequence.sequence.last_mut() {
             last.state = "done".into();
@@ -856,7 +974,11 @@ impl<'a> Runner<'a> {
 
     /// The stage's whole plan rendered and swept once more (every run finished: nothing runs), so
     /// that its results are read back from the store like a fixed plan's; the stage's outcome table.
-    fn finish(&mut self, store: &mut RunStore, reporter: &mut dyn Reporter) -> Result<(Plan, Prepared, sweep::SweepResult, RunOutcomes), Error> {
+    fn finish(
+        &mut self,
+        store: &mut RunStore,
+        reporter: &mut dyn Reporter,
+    ) -> Result<(Plan, Prepared, sweep::SweepResult, RunOutcomes), Error> {
         let plan = std::mem::replace(&mut self.plan, Plan { runs: Vec::new() });
         let rendered = sweep::prepare_after(self.study, self.sim, &plan, self.rendered.as_ref())?;
         let (swept, _) = runs::sweep_plan(
@@ -897,7 +1019,9 @@ fn latest_batches(
         let runs: Vec<usize> = (0..plan.runs.len())
             .filter(|&i| &plan.runs[i].design == name && mine(&plan.runs[i]))
             .collect();
-        let Some(last) = runs.iter().map(|&i| batch_of[i]).max() else { continue };
+        let Some(last) = runs.iter().map(|&i| batch_of[i]).max() else {
+            continue;
+        };
         let earlier = runs.iter().filter(|&&i| batch_of[i] < last).count();
         let before = prior.iter().find(|(n, _)| n == name).map_or(0, |p| p.1);
         if earlier + before < least {
@@ -940,7 +1064,11 @@ fn probe_points(posterior: &Posterior, bounds: &Bounds) -> Vec<Vec<f64>> {
     let mut out = vec![posterior.mode.clone()];
     for j in 0..p {
         let mut x = posterior.mode.clone();
-        x[j] = if x[j] + sd[j] <= bounds.upper[j] { x[j] + sd[j] } else { (x[j] - sd[j]).max(bounds.lower[j]) };
+        x[j] = if x[j] + sd[j] <= bounds.upper[j] {
+            x[j] + sd[j]
+        } else {
+            (x[j] - sd[j]).max(bounds.lower[j])
+        };
         out.push(x);
     }
     out.iter().map(|x| seq::snap(bounds, x)).collect()
@@ -959,7 +1087,9 @@ fn merge(earlier: Option<Prepared>, later: Prepared) -> Prepared {
 
 /// A stable hash of a stage's name (FNV-1a), so that each stage draws its own candidates.
 fn fnv(s: &str) -> u64 {
-    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 /// A space-filling start in a box: `n` seeded Latin-hypercube points.
@@ -1079,7 +1209,11 @@ pub fn looped(
     for (_, space, _) in &mut stages {
         space.reserve = checks;
     }
-    let l = Looping { stages: &stages, edges: &edges, screening };
+    let l = Looping {
+        stages: &stages,
+        edges: &edges,
+        screening,
+    };
     let unchecked = r.converge_and_check(l, decide, store, reporter)?;
     for (k, space, edge) in &stages {
         r.prior = prior_runs(study, *k, edge.as_deref(), screening);
@@ -1114,7 +1248,9 @@ fn loop_space(study: &Study, k: usize) -> Option<(Space<'_>, Option<Vec<(String,
         name: format!("loop: {}", h.name),
         bounds: joint_bounds(study, &ranges),
         names: study.parameters.iter().chain(&ranges).map(|q| q.name.clone()).collect(),
-        make: Box::new(move |name, values, x| run_at(name, values, x[..p].to_vec(), RunRole::Joint(k), spec.at(&x[p..]))),
+        make: Box::new(move |name, values, x| {
+            run_at(name, values, x[..p].to_vec(), RunRole::Joint(k), spec.at(&x[p..]))
+        }),
         point: Box::new(move |run| run.joint_point(&ranges)),
         mine: Box::new(move |run| matches!(run.role, RunRole::Joint(j) | RunRole::JointCheck(j) if j == k)),
         reserve: 0,
@@ -1142,12 +1278,7 @@ fn edge(study: &Study, k: usize) -> Option<Vec<(String, f64)>> {
 
 /// The screening's runs that are points of hypothesis `k`'s joint space: its probes, and the
 /// baseline's runs at the edge.
-fn prior_runs(
-    study: &Study,
-    k: usize,
-    edge: Option<&[(String, f64)]>,
-    s: &ScreeningRuns,
-) -> Vec<PriorRun> {
+fn prior_runs(study: &Study, k: usize, edge: Option<&[(String, f64)]>, s: &ScreeningRuns) -> Vec<PriorRun> {
     let ranges = study.diagnosis.hypotheses[k].ranges();
     s.plan
         .runs
@@ -1179,7 +1310,13 @@ mod tests {
         let mut batch_of = Vec::new();
         for (i, batches) in per_design.iter().enumerate() {
             for &b in *batches {
-                runs.push(run_at(&format!("d{i}"), &[i as f64], vec![0.5, 0.5], RunRole::Joint(0), Vec::new()));
+                runs.push(run_at(
+                    &format!("d{i}"),
+                    &[i as f64],
+                    vec![0.5, 0.5],
+                    RunRole::Joint(0),
+                    Vec::new(),
+                ));
                 batch_of.push(b);
             }
         }
@@ -1204,7 +1341,12 @@ mod tests {
     #[test]
     fn usable_runs_are_counted_per_design() {
         let run = |d: &str, y: Option<f64>| (d.to_string(), vec![0.0], y, None);
-        let counts = usable_counts(&[run("a", Some(1.0)), run("b", None), run("a", Some(2.0)), run("b", Some(3.0))]);
+        let counts = usable_counts(&[
+            run("a", Some(1.0)),
+            run("b", None),
+            run("a", Some(2.0)),
+            run("b", Some(3.0)),
+        ]);
         assert_eq!(counts, [("a".to_string(), 2), ("b".to_string(), 1)]);
     }
 }

@@ -122,7 +122,10 @@ impl Replaced {
     /// How the terminal, the summary and the report name it: `fixed lhs of 24 + 5 check runs per
     /// design`.
     pub fn design(&self) -> String {
-        format!("fixed {} of {} + {} check runs per design", self.method, self.count, self.check_runs)
+        format!(
+            "fixed {} of {} + {} check runs per design",
+            self.method, self.count, self.check_runs
+        )
     }
 }
 
@@ -250,7 +253,10 @@ impl Batch {
                 0 => String::new(),
                 n => format!(" ({n} design(s) with nothing held out yet)"),
             };
-            format!("emulator error ≤ {} of the tests' noise{rest}", crate::format::num(worst))
+            format!(
+                "emulator error ≤ {} of the tests' noise{rest}",
+                crate::format::num(worst)
+            )
         };
         let estimates: Vec<String> = self
             .estimates

@@ -10,8 +10,8 @@ use crate::calibrate::Bounds;
 use crate::diagnose::features::{CurveDesign, Whitening};
 use crate::diagnose::{NoiseModel, Observation, Role};
 use crate::extract::features::FeatureSpec;
-use crate::fit::functional::{AcrossRun, CurvesAcross, FunctionalSurrogate};
 use crate::fit::Surrogate;
+use crate::fit::functional::{AcrossRun, CurvesAcross, FunctionalSurrogate};
 use crate::plan::sequential::Site;
 use crate::study::{SolverSimulation, Study, SurrogateKind};
 
@@ -51,12 +51,22 @@ impl Tests {
         let observations: Vec<Observation> = crate::plan::sweep::tested_designs(study)
             .filter_map(|(name, values)| {
                 let t = study.experiments.get(name)?;
-                let role = if study.training.contains(name) { Role::Training } else { Role::Validation };
-                Some(Observation::from_replicates(name.clone(), values.clone(), role, &t.replicates))
+                let role = if study.training.contains(name) {
+                    Role::Training
+                } else {
+                    Role::Validation
+                };
+                Some(Observation::from_replicates(
+                    name.clone(),
+                    values.clone(),
+                    role,
+                    &t.replicates,
+                ))
             })
             .collect();
         let noise = crate::diagnose::noise::from_replicates(&observations, alpha);
-        let whitening = specimens.and_then(|(d, spec)| Whitening::of_specimens(d, &spec, alpha).ok().map(|w| (w, spec)));
+        let whitening =
+            specimens.and_then(|(d, spec)| Whitening::of_specimens(d, &spec, alpha).ok().map(|w| (w, spec)));
         let designs = observations
             .iter()
             .map(|o| {
@@ -67,7 +77,12 @@ impl Tests {
                 if let (Some((w, spec)), Some((d, _))) = (&whitening, specimens) {
                     let specs = d.iter().find(|c| c.name == o.name);
                     let z: Vec<DVector<f64>> = specs
-                        .map(|c| c.specimens.iter().filter_map(|s| w.whiten(spec, &c.values, s.as_slice())).collect())
+                        .map(|c| {
+                            c.specimens
+                                .iter()
+                                .filter_map(|s| w.whiten(spec, &c.values, s.as_slice()))
+                                .collect()
+                        })
                         .unwrap_or_default();
                     let m = z.len().max(1) as f64;
                     for k in 0..w.read.len() {
@@ -109,7 +124,10 @@ pub struct RunData<'a> {
 
 impl<'a> RunData<'a> {
     fn copy(&self) -> RunData<'a> {
-        RunData { point: self.point.clone(), ..*self }
+        RunData {
+            point: self.point.clone(),
+            ..*self
+        }
     }
 }
 
@@ -125,7 +143,10 @@ pub fn sites(tests: &Tests, runs: &[RunData]) -> Vec<Site> {
                 name: t.name.clone(),
                 training: t.training,
                 x: mine.iter().map(|r| r.point.clone()).collect(),
-                y: mine.iter().map(|r| tests.outputs(&t.values, r.response, r.curve)).collect(),
+                y: mine
+                    .iter()
+                    .map(|r| tests.outputs(&t.values, r.response, r.curve))
+                    .collect(),
                 observed: t.observed.clone(),
                 noise: t.noise.clone(),
             }
@@ -172,7 +193,11 @@ pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) 
         .into_par_iter()
         .map(|s| {
             let name = &tests.designs[s].name;
-            let last = runs.iter().filter(|r| r.design == name.as_str()).map(|r| r.batch).max()?;
+            let last = runs
+                .iter()
+                .filter(|r| r.design == name.as_str())
+                .map(|r| r.batch)
+                .max()?;
             let held = |r: &RunData| r.design == name.as_str() && r.batch == last;
             let kept: Vec<RunData> = runs.iter().filter(|r| !held(r)).map(RunData::copy).collect();
             // With curves their features come from the curve emulator below: the planner's
@@ -215,7 +240,12 @@ fn curves_across(tests: &Tests, runs: &[RunData], joint: &Bounds) -> Result<Curv
         .iter()
         .filter_map(|r| {
             let t = tests.designs.iter().find(|t| t.name == r.design)?;
-            Some(AcrossRun { design: &t.values, theta: &r.point, curve: r.curve?, scale: t.scale() })
+            Some(AcrossRun {
+                design: &t.values,
+                theta: &r.point,
+                curve: r.curve?,
+                scale: t.scale(),
+            })
         })
         .collect();
     CurvesAcross::fit(&rows, joint)
@@ -223,12 +253,19 @@ fn curves_across(tests: &Tests, runs: &[RunData], joint: &Bounds) -> Result<Curv
 
 /// The RMS error over `held` of the emulated outputs per output, in units of the tests' noise of
 /// the mean, the largest over the outputs (infinite where nothing could be emulated).
-fn rms_in_noise(tests: &Tests, t: &TestedDesign, held: &[&RunData], emulated: &dyn Fn(&RunData) -> Option<Vec<f64>>) -> f64 {
+fn rms_in_noise(
+    tests: &Tests,
+    t: &TestedDesign,
+    held: &[&RunData],
+    emulated: &dyn Fn(&RunData) -> Option<Vec<f64>>,
+) -> f64 {
     let mut sq = vec![0.0; t.observed.len()];
     let mut n = 0usize;
     for r in held {
         let truth = tests.outputs(&t.values, r.response, r.curve);
-        let Some(emulated) = emulated(r) else { return f64::INFINITY };
+        let Some(emulated) = emulated(r) else {
+            return f64::INFINITY;
+        };
         if truth.iter().chain(&emulated).any(|v| !v.is_finite()) {
             continue;
         }
@@ -253,16 +290,20 @@ fn held_out_error(
     (response_kind, curve_kind): (SurrogateKind, Option<SurrogateKind>),
     bounds: &Bounds,
 ) -> f64 {
-    let samples: Vec<(Vec<f64>, f64)> =
-        fit.iter().filter_map(|r| r.response.map(|y| (r.point.clone(), y))).collect();
+    let samples: Vec<(Vec<f64>, f64)> = fit
+        .iter()
+        .filter_map(|r| r.response.map(|y| (r.point.clone(), y)))
+        .collect();
     let surrogate = match Surrogate::fit(response_kind, &samples, bounds) {
         Ok(s) => s,
         Err(_) => return f64::INFINITY,
     };
     let curves = match curve_kind {
         Some(kind) => {
-            let runs: Vec<(Vec<f64>, DVector<f64>)> =
-                fit.iter().filter_map(|r| r.curve.map(|c| (r.point.clone(), c.clone()))).collect();
+            let runs: Vec<(Vec<f64>, DVector<f64>)> = fit
+                .iter()
+                .filter_map(|r| r.curve.map(|c| (r.point.clone(), c.clone())))
+                .collect();
             match FunctionalSurrogate::fit(kind_for(kind, runs.len(), bounds.dim()), &runs, bounds) {
                 Ok(f) => Some(f),
                 Err(_) => return f64::INFINITY,
@@ -280,7 +321,11 @@ fn held_out_error(
 /// The surrogate kind a design's few runs can carry: `kind`, or linear where `n` runs are too few
 /// for it (probe runs, a joint space's first runs).
 pub fn kind_for(kind: SurrogateKind, n: usize, d: usize) -> SurrogateKind {
-    if n >= kind.min_samples(d) { kind } else { SurrogateKind::Linear }
+    if n >= kind.min_samples(d) {
+        kind
+    } else {
+        SurrogateKind::Linear
+    }
 }
 
 /// The response's and the curves' surrogate kinds of a study.

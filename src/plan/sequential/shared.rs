@@ -84,7 +84,10 @@ pub(super) fn choose(
     let candidates: Vec<Candidate> = opened
         .iter()
         .flat_map(|&site| points.row_iter().map(move |r| (site, r)))
-        .map(|(site, r)| Candidate { site, snapped: snap(bounds, r.transpose().as_slice()) })
+        .map(|(site, r)| Candidate {
+            site,
+            snapped: snap(bounds, r.transpose().as_slice()),
+        })
         .collect();
     for &s in &opened {
         for x in &sites[s].x {
@@ -116,7 +119,13 @@ fn take(gain: &mut Gain, candidates: &[Candidate], site: usize, x: &[f64]) {
 /// The gain over the `points` at every site of `opened` (rows: site by site, the points in order;
 /// the posterior's points first, weighted), with each output's covariance between sites scaled by
 /// 1/τ of each row's site. `None` where an output has no shared emulator.
-fn joint_gain(sites: &[Site], emus: &[SiteEmulators], posterior: &Posterior, opened: &[usize], points: &DMatrix<f64>) -> Option<Gain> {
+fn joint_gain(
+    sites: &[Site],
+    emus: &[SiteEmulators],
+    posterior: &Posterior,
+    opened: &[usize],
+    points: &DMatrix<f64>,
+) -> Option<Gain> {
     let m = points.nrows();
     let rows: Vec<DMatrix<f64>> = opened.iter().map(|&s| emus[s].rows(points)).collect();
     let joint = DMatrix::from_fn(m * opened.len(), rows.first()?.ncols(), |i, j| rows[i / m][(i % m, j)]);
@@ -124,11 +133,17 @@ fn joint_gain(sites: &[Site], emus: &[SiteEmulators], posterior: &Posterior, ope
     let cov: Option<Vec<DMatrix<f64>>> = (0..outputs)
         .map(|k| {
             let (_, c) = emus.first()?.outputs[k].as_ref()?.mean_cov(&joint)?;
-            let tau: Vec<f64> = (0..joint.nrows()).map(|i| sites[opened[i / m]].noise[k].sqrt()).collect();
-            Some(DMatrix::from_fn(c.nrows(), c.ncols(), |a, b| c[(a, b)] / (tau[a] * tau[b])))
+            let tau: Vec<f64> = (0..joint.nrows())
+                .map(|i| sites[opened[i / m]].noise[k].sqrt())
+                .collect();
+            Some(DMatrix::from_fn(c.nrows(), c.ncols(), |a, b| {
+                c[(a, b)] / (tau[a] * tau[b])
+            }))
         })
         .collect();
-    let weights = (0..joint.nrows()).map(|i| posterior.weights.get(i % m).copied().unwrap_or(0.0)).collect();
+    let weights = (0..joint.nrows())
+        .map(|i| posterior.weights.get(i % m).copied().unwrap_or(0.0))
+        .collect();
     Some(Gain::new(cov?, weights))
 }
 

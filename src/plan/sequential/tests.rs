@@ -29,10 +29,20 @@ fn posterior_of_linear_outputs_is_the_least_squares_normal() {
     // Closed form: x̂ = Σ (b/τ²)(y − a) / Σ b²/τ², sd = (Σ b²/τ²)^(-1/2).
     let (num, den) = [(-9.0, 2.0, 1.2, 0.04), (3.0, -1.0, -2.1, 0.09)]
         .iter()
-        .fold((0.0, 0.0), |(n, d), &(a, b, y, t): &(f64, f64, f64, f64)| (n + b * (y - a) / t, d + b * b / t));
+        .fold((0.0, 0.0), |(n, d), &(a, b, y, t): &(f64, f64, f64, f64)| {
+            (n + b * (y - a) / t, d + b * b / t)
+        });
     let (mean, sd) = (num / den, den.powf(-0.5));
-    assert!((post.mode[0] - mean).abs() < 1e-3 * sd.max(1e-3) + 1e-6, "mode {} vs {mean}", post.mode[0]);
-    assert!((post.mean[0] - mean).abs() < 0.1 * sd, "mean {} vs {mean} (sd {sd})", post.mean[0]);
+    assert!(
+        (post.mode[0] - mean).abs() < 1e-3 * sd.max(1e-3) + 1e-6,
+        "mode {} vs {mean}",
+        post.mode[0]
+    );
+    assert!(
+        (post.mean[0] - mean).abs() < 0.1 * sd,
+        "mean {} vs {mean} (sd {sd})",
+        post.mean[0]
+    );
     let [lo, hi] = post.interval[0];
     assert!((lo - (mean - 1.96 * sd)).abs() < 0.15 * sd, "lo {lo}");
     assert!((hi - (mean + 1.96 * sd)).abs() < 0.15 * sd, "hi {hi}");
@@ -78,7 +88,9 @@ fn a_batch_shares_the_runs_among_open_sites_and_repeats_exactly() {
     let bounds = Bounds::new(vec![0.0, 0.0], vec![1.0, 1.0]);
     let f = |x: &[f64], s: f64| (3.0 * x[0] + s).sin() + x[1] * x[1];
     let make = |name: &str, s: f64| {
-        let pts: Vec<Vec<f64>> = (0..6).map(|i| vec![i as f64 / 5.0, ((i * 3) % 6) as f64 / 5.0]).collect();
+        let pts: Vec<Vec<f64>> = (0..6)
+            .map(|i| vec![i as f64 / 5.0, ((i * 3) % 6) as f64 / 5.0])
+            .collect();
         Site {
             name: name.into(),
             training: true,
@@ -97,8 +109,25 @@ fn a_batch_shares_the_runs_among_open_sites_and_repeats_exactly() {
     assert!(batch.iter().all(|(s, _)| *s != 1), "a closed site got a run");
     let count = |s: usize| batch.iter().filter(|(i, _)| *i == s).count();
     assert!(count(0) >= 2 && count(2) >= 2, "{batch:?}");
-    assert_eq!(&batch[..2].iter().map(|b| b.0).collect::<Vec<_>>().iter().copied().collect::<std::collections::BTreeSet<_>>(), &[0usize, 2].into_iter().collect());
-    let again = choose(&bounds, &sites, &emus, &posterior(&bounds, &sites, &emulators(&bounds, &sites), 11), &open, 5, 11);
+    assert_eq!(
+        &batch[..2]
+            .iter()
+            .map(|b| b.0)
+            .collect::<Vec<_>>()
+            .iter()
+            .copied()
+            .collect::<std::collections::BTreeSet<_>>(),
+        &[0usize, 2].into_iter().collect()
+    );
+    let again = choose(
+        &bounds,
+        &sites,
+        &emus,
+        &posterior(&bounds, &sites, &emulators(&bounds, &sites), 11),
+        &open,
+        5,
+        11,
+    );
     assert_eq!(batch, again);
 }
 
@@ -111,7 +140,9 @@ fn snapped_points_ignore_rounding_noise() {
     let mut rng = ChaCha8Rng::seed_from_u64(31);
     let mut compared = 0;
     for _ in 0..2000 {
-        let x: Vec<f64> = (0..3).map(|j| bounds.lower[j] + rng.random::<f64>() * bounds.width()[j]).collect();
+        let x: Vec<f64> = (0..3)
+            .map(|j| bounds.lower[j] + rng.random::<f64>() * bounds.width()[j])
+            .collect();
         let s = snap(&bounds, &x);
         for j in 0..3 {
             let step = RESOLUTION * bounds.width()[j];
@@ -153,7 +184,10 @@ fn a_batch_never_repeats_a_run_under_a_posterior_narrower_than_the_lattice() {
     let picks = choose(&bounds, &sites, &emus, &post, &[true], 4, 5);
     assert!(!picks.is_empty());
     for (i, (_, x)) in picks.iter().enumerate() {
-        assert!(!sites[0].x.iter().any(|r| snap(&bounds, r) == *x), "pick {x:?} repeats a run");
+        assert!(
+            !sites[0].x.iter().any(|r| snap(&bounds, r) == *x),
+            "pick {x:?} repeats a run"
+        );
         assert!(!picks[..i].iter().any(|(_, y)| y == x), "pick {x:?} twice: {picks:?}");
     }
 }
@@ -192,7 +226,9 @@ fn the_mode_lies_where_the_posterior_has_its_mass() {
             .map(|s| {
                 let slope = rng.random_range(0.5..1.5);
                 let f = move |x: f64| slope * x + wiggle * (x / 9.0 + phase + s as f64).sin();
-                let mut xs: Vec<f64> = (0..4).map(|i| 100.0 + 150.0 * (i as f64 + rng.random_range(0.0..1.0)) / 4.0).collect();
+                let mut xs: Vec<f64> = (0..4)
+                    .map(|i| 100.0 + 150.0 * (i as f64 + rng.random_range(0.0..1.0)) / 4.0)
+                    .collect();
                 xs.extend((0..3).map(|_| answer + rng.random_range(-4.0..4.0)));
                 let tau2: f64 = rng.random_range(0.05..0.5);
                 Site {
@@ -209,7 +245,10 @@ fn the_mode_lies_where_the_posterior_has_its_mass() {
         let post = posterior(&bounds, &sites, &emus, case);
         let [lo, hi] = post.interval[0];
         if post.mode[0] < lo - 0.5 || post.mode[0] > hi + 0.5 {
-            misplaced.push(format!("case {case}: mode {:.1}, 95 % {lo:.1} to {hi:.1}", post.mode[0]));
+            misplaced.push(format!(
+                "case {case}: mode {:.1}, 95 % {lo:.1} to {hi:.1}",
+                post.mode[0]
+            ));
         }
     }
     assert!(misplaced.is_empty(), "{}", misplaced.join("; "));

@@ -145,13 +145,12 @@ fn readable_steps(b: &Binout, dir: &str, needs: &[&str]) -> Vec<usize> {
     let Some(d) = b.db.dir_id(dir) else {
         return Vec::new();
     };
-    let mut steps: Vec<usize> = b
-        .db
-        .subdirs_at(d)
-        .into_iter()
-        .filter(|(name, _)| super::is_step(name))
-        .map(|(_, k)| k)
-        .collect();
+    let mut steps: Vec<usize> =
+        b.db.subdirs_at(d)
+            .into_iter()
+            .filter(|(name, _)| super::is_step(name))
+            .map(|(_, k)| k)
+            .collect();
     let cut = !b.db.notes().is_empty();
     if cut
         && let Some(&last) = steps.last()
@@ -224,7 +223,9 @@ pub fn rcforc(b: &Binout) -> Result<Option<Rcforc>, InputError> {
     let steps = readable_steps(b, "/rcforc", &needs);
     let names = Names::new(
         b,
-        &["time", "x_force", "y_force", "z_force", "mass", "x_moment", "y_moment", "z_moment"],
+        &[
+            "time", "x_force", "y_force", "z_force", "mass", "x_moment", "y_moment", "z_moment",
+        ],
     );
     // Each entry's series (entries of the same side and id share one, as in the map).
     let keys: Vec<(Side, u64)> = (0..n)

@@ -42,7 +42,10 @@ fn sites(case: &Case, runs: &[Run]) -> Vec<Site> {
                 name: format!("d{s}"),
                 training: case.training[s],
                 x: mine.iter().map(|r| r.1.clone()).collect(),
-                y: mine.iter().map(|r| vec![(case.solver)(&case.designs[s], &r.1)]).collect(),
+                y: mine
+                    .iter()
+                    .map(|r| vec![(case.solver)(&case.designs[s], &r.1)])
+                    .collect(),
                 observed: vec![case.observed[s]],
                 noise: vec![case.noise[s]],
             }
@@ -110,14 +113,28 @@ fn sequence(case: &Case, shared: bool, seed: u64) -> Outcome {
         let post = posterior(&case.bounds, &s, &emus, seed + b as u64);
         let measured = measured(case, &runs, shared);
         let open: Vec<bool> = (0..s.len())
-            .map(|i| !(measured[i].is_some_and(|m| m <= TOLERANCE) && predicted_error(&s[i], &emus[i], &post) <= TOLERANCE))
+            .map(|i| {
+                !(measured[i].is_some_and(|m| m <= TOLERANCE) && predicted_error(&s[i], &emus[i], &post) <= TOLERANCE)
+            })
             .collect();
         let converged = !open.contains(&true);
         if converged || runs.len() >= budget {
             let true_error = (0..s.len()).map(|i| true_error(case, &emus[i], i, &post)).collect();
-            return Outcome { runs: runs.len(), converged, true_error };
+            return Outcome {
+                runs: runs.len(),
+                converged,
+                true_error,
+            };
         }
-        let picks = choose(&case.bounds, &s, &emus, &post, &open, BATCH.min(budget - runs.len()), seed + b as u64);
+        let picks = choose(
+            &case.bounds,
+            &s,
+            &emus,
+            &post,
+            &open,
+            BATCH.min(budget - runs.len()),
+            seed + b as u64,
+        );
         assert!(!picks.is_empty(), "no run chosen with sites open");
         runs.extend(picks.into_iter().map(|(site, x)| (site, x, b)));
     }
@@ -125,7 +142,9 @@ fn sequence(case: &Case, shared: bool, seed: u64) -> Outcome {
 }
 
 fn true_error(case: &Case, emus: &SiteEmulators, s: usize, post: &Posterior) -> f64 {
-    let Some(g) = emus.outputs[0].as_ref() else { return f64::INFINITY };
+    let Some(g) = emus.outputs[0].as_ref() else {
+        return f64::INFINITY;
+    };
     let sq: f64 = post
         .points
         .row_iter()
@@ -162,9 +181,18 @@ fn honeycomb_with(rng: &mut ChaCha8Rng, rough: f64) -> Case {
         let j = jitter[((d[1] * 1000.0).round() as usize * 31 + 7 * d[0] as usize) % 64];
         let s = th[0] / 185.0;
         let a = a + tilt * (d[1] / (0.07 * d[0] / 3.0)).ln();
-        7.1 * m * j * 185f64.powf(a) * s.powf(a) * d[1].powf(b) * d[0].powf(-2.0 / 3.0) * (1.0 + bend * (s - 1.0).powi(2))
+        7.1 * m
+            * j
+            * 185f64.powf(a)
+            * s.powf(a)
+            * d[1].powf(b)
+            * d[0].powf(-2.0 / 3.0)
+            * (1.0 + bend * (s - 1.0).powi(2))
     };
-    let mut designs: Vec<Vec<f64>> = [3.0, 6.0].iter().flat_map(|&c| [0.05, 0.065, 0.08, 0.1].map(|t| vec![c, t])).collect();
+    let mut designs: Vec<Vec<f64>> = [3.0, 6.0]
+        .iter()
+        .flat_map(|&c| [0.05, 0.065, 0.08, 0.1].map(|t| vec![c, t]))
+        .collect();
     designs.push(vec![3.0, 0.07]);
     let truth = |d: &[f64]| {
         let h = 0.82 * d[1].powf(1.0 / 3.0) * (d[0] / 3f64.sqrt()).powf(2.0 / 3.0);
@@ -192,7 +220,10 @@ fn cantilever(rng: &mut ChaCha8Rng) -> Case {
         let i = b * h.powi(3) / 12.0;
         f * l.powi(3) / (3.0 * e * i) + f * l / (5.0 / 6.0 * e / (2.0 * (1.0 + nu)) * b * h)
     };
-    let (e_true, clamp) = (rng.random_range(60_000.0..75_000.0), rng.random_range(150_000.0..300_000.0));
+    let (e_true, clamp) = (
+        rng.random_range(60_000.0..75_000.0),
+        rng.random_range(150_000.0..300_000.0),
+    );
     let designs: Vec<Vec<f64>> = (7..=13).map(|h| vec![h as f64]).collect();
     let observed: Vec<f64> = designs
         .iter()
@@ -218,7 +249,10 @@ fn compare(family: fn(&mut ChaCha8Rng) -> Case, n: u64, base: u64) -> (usize, us
         let case = family(&mut ChaCha8Rng::seed_from_u64(seed));
         let own = sequence(&case, false, seed);
         let shared = sequence(&case, true, seed);
-        println!("seed {seed}: per design {} runs, across designs {} runs; true error across {:?}", own.runs, shared.runs, shared.true_error);
+        println!(
+            "seed {seed}: per design {} runs, across designs {} runs; true error across {:?}",
+            own.runs, shared.runs, shared.true_error
+        );
         for o in [&own, &shared] {
             assert!(o.converged, "seed {seed}: {o:?}");
             assert!(o.true_error.iter().all(|e| *e <= 2.0 * TOLERANCE), "seed {seed}: {o:?}");
@@ -257,7 +291,10 @@ fn across_rough_designs_the_stop_is_still_honest() {
 #[test]
 #[ignore]
 fn shared_family() {
-    let base = std::env::var("LAB_SHARED_SEED_BASE").ok().and_then(|v| v.parse().ok()).unwrap_or(1);
+    let base = std::env::var("LAB_SHARED_SEED_BASE")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1);
     compare(honeycomb, 10, base);
     compare(cantilever, 10, base);
     compare(|r| honeycomb_with(r, 0.02), 10, base);
