@@ -251,11 +251,9 @@ fn diagnose_with_solver(
         let hypotheses = curves::extension_hypotheses(study, &s.extension_fns(), None, None);
         curves::inputs(study, &s.setting, s.designs.clone(), &s.baseline, hypotheses)
     });
-    let problem = match curve_inputs.as_ref().map(crate::diagnose::features::FeatureProblem::new) {
-        Some(Err(e)) => {
-            return Ok(Err(CalibrationError::Numerics(format!("the curves cannot be diagnosed: {e}"))));
-        }
-        other => other.map(|p| p.expect("checked")),
+    let problem = match feature_problem(curve_inputs.as_ref()) {
+        Ok(p) => p,
+        Err(e) => return Ok(Err(e)),
     };
     let inputs = match (&problem, &curve_inputs) {
         (Some(p), Some(ci)) => p.inputs(ci),
@@ -286,36 +284,37 @@ fn diagnose_with_solver(
         usable: &runs.usable,
         rendered: &runs.rendered,
     };
+    let after = AfterLoop {
+        study,
+        sim: runs.sim,
+        plan: &runs.plan,
+        usable: &runs.usable,
+        dirs: &dirs,
+        surrogates: &runs.surrogates,
+        stage,
+        inputs: &inputs,
+        extensions: &extensions,
+    };
     // A sequential loop asks for the decision from its runs so far (see sequence::looped).
-    let (sim, plan, usable, surrogates) = (runs.sim, &runs.plan, &runs.usable, &runs.surrogates);
     let mut decide = |joint: &extend::JointRuns, floor: f64| -> Option<sequence::Provisional> {
-        let models = chosen
-            .iter()
-            .map(|&k| extend::extended_model(study, sim, k, (plan, usable), joint))
-            .collect::<Result<Vec<_>, _>>()
-            .ok()?;
-        let (d, own, _) = match stage {
-            None => conclude_on_response(study, surrogates, &inputs, &models, &extensions, floor).ok()?,
-            Some(st) => conclude_on_curves(study, (sim, plan, &dirs), st, &inputs, &models, joint, floor).ok()?.ok()?,
-        };
-        Some(sequence::Provisional {
-            key: format!("{:?}, cause {:?}, partial {:?}", d.verdict, d.cause, d.partial.as_ref().map(|p| &p.name)),
-            points: fitted_points(&chosen, &own),
-            settled: d.after_loop.as_ref().is_some_and(|a| a.settled),
-        })
+        let models = after.models(&chosen, joint).ok()?;
+        let (d, own, _) = after.conclude(&models, joint, floor).ok()?.ok()?;
+        Some(provisional(&chosen, &d, &own))
     };
     let store = (&mut runs.executed.store, &mut runs.sequence);
-    let looped = loop_runs(study, screened, store, stage, &chosen, (source, options, engine), reporter, &mut decide);
+    let looped = loop_runs(
+        study,
+        screened,
+        store,
+        stage,
+        &chosen,
+        (source, options, engine),
+        reporter,
+        &mut decide,
+    );
     let joint = looped?;
-    let models = chosen
-        .iter()
-        .map(|&k| extend::extended_model(study, runs.sim, k, (&runs.plan, &runs.usable), &joint))
-        .collect::<Result<Vec<_>, _>>()?;
-    let concluded = match stage {
-        None => Ok(conclude_on_response(study, &runs.surrogates, &inputs, &models, &extensions, 0.0)),
-        Some(stage) => conclude_on_curves(study, (runs.sim, &runs.plan, &dirs), stage, &inputs, &models, &joint, 0.0),
-    }?;
-    let (diagnosis, own, loop_curves) = match concluded {
+    let models = after.models(&chosen, &joint)?;
+    let (diagnosis, own, loop_curves) = match after.conclude(&models, &joint, 0.0)? {
         Ok(c) => c,
         Err(e) => return Ok(Err(e)),
     };
@@ -333,12 +332,97 @@ fn diagnose_with_solver(
     Ok(Ok(diagnosis.with_extensions(records)))
 }
 
+/// The curves' feature problem, where the study reads curves.
+fn feature_problem(
+    curve_inputs: Option<&crate::diagnose::features::CurveInputs>,
+) -> Result<Option<crate::diagnose::features::FeatureProblem>, CalibrationError> {
+    curve_inputs
+        .map(crate::diagnose::features::FeatureProblem::new)
+        .transpose()
+        .map_err(|e| CalibrationError::Numerics(format!("the curves cannot be diagnosed: {e}")))
+}
+
+/// What the decision after the loop reads besides the loop's runs: the screening's runs, its
+/// surrogates or curve stage, and the screening diagnosis's inputs.
+struct AfterLoop<'a> {
+    study: &'a Study,
+    sim: &'a SolverSimulation,
+    plan: &'a Plan,
+    usable: &'a [Option<f64>],
+    dirs: &'a [PathBuf],
+    surrogates: &'a SurrogateModel,
+    stage: Option<&'a curves::CurveStage>,
+    inputs: &'a crate::diagnose::Inputs<'a>,
+    extensions: &'a [(usize, std::sync::Arc<dyn Model + Send>)],
+}
+
+impl AfterLoop<'_> {
+    /// The `chosen` hypotheses' extended models over the joint runs.
+    fn models(&self, chosen: &[usize], joint: &extend::JointRuns) -> Result<Vec<extend::ExtendedModel>, Error> {
+        chosen
+            .iter()
+            .map(|&k| extend::extended_model(self.study, self.sim, k, (self.plan, self.usable), joint))
+            .collect()
+    }
+
+    /// The decision with the extended models, on the mean force or on the curves; `floor` is the
+    /// emulators' error a provisional decision allows for (0 for the final one).
+    fn conclude(
+        &self,
+        models: &[extend::ExtendedModel],
+        joint: &extend::JointRuns,
+        floor: f64,
+    ) -> Result<Result<Concluded, CalibrationError>, Error> {
+        let (study, inputs) = (self.study, self.inputs);
+        match self.stage {
+            None => Ok(conclude_on_response(
+                study,
+                self.surrogates,
+                inputs,
+                models,
+                self.extensions,
+                floor,
+            )),
+            Some(st) => conclude_on_curves(
+                study,
+                (self.sim, self.plan, self.dirs),
+                st,
+                inputs,
+                models,
+                joint,
+                floor,
+            ),
+        }
+    }
+}
+
+/// The loop's decision so far as the sequence compares it from batch to batch.
+fn provisional(chosen: &[usize], d: &Diagnosis, own: &[Diagnosis]) -> sequence::Provisional {
+    sequence::Provisional {
+        key: format!(
+            "{:?}, cause {:?}, partial {:?}",
+            d.verdict,
+            d.cause,
+            d.partial.as_ref().map(|p| &p.name)
+        ),
+        points: fitted_points(chosen, own),
+        settled: d.after_loop.as_ref().is_some_and(|a| a.settled),
+    }
+}
+
 /// Each looped hypothesis's fitted values, from its model's own diagnosis.
 fn fitted_points(chosen: &[usize], own: &[Diagnosis]) -> Vec<(usize, sequence::Fitted)> {
     chosen
         .iter()
         .zip(own)
-        .map(|(&k, o)| (k, sequence::Fitted { values: o.uncorrected.parameters.clone() }))
+        .map(|(&k, o)| {
+            (
+                k,
+                sequence::Fitted {
+                    values: o.uncorrected.parameters.clone(),
+                },
+            )
+        })
         .collect()
 }
 
@@ -365,7 +449,9 @@ fn loop_runs(
     decide: &mut sequence::Decide,
 ) -> Result<extend::JointRuns, Error> {
     let Some(record) = sequence.take() else {
-        return extend::execute(study, s.sim, chosen, s.rendered, source, options, engine, store, reporter);
+        return extend::execute(
+            study, s.sim, chosen, s.rendered, source, options, engine, store, reporter,
+        );
     };
     let none = vec![None; s.plan.runs.len()];
     let screening = sequence::ScreeningRuns {
@@ -374,14 +460,19 @@ fn loop_runs(
         curves: stage.map_or(&none, |c| &c.runs),
         rendered: s.rendered,
     };
-    let (joint, record) =
-        sequence::looped(study, s.sim, chosen, &screening, source, options, engine, store, reporter, record, decide)?;
+    let (joint, record) = sequence::looped(
+        study, s.sim, chosen, &screening, source, options, engine, store, reporter, record, decide,
+    )?;
     *sequence = Some(record);
     Ok(joint)
 }
 
 /// What the loop's models concluded: the diagnosis, each loop model's own, and their curve models.
-type Concluded = (Diagnosis, Vec<Diagnosis>, Vec<(usize, crate::fit::functional::CurveModel)>);
+type Concluded = (
+    Diagnosis,
+    Vec<Diagnosis>,
+    Vec<(usize, crate::fit::functional::CurveModel)>,
+);
 
 /// The decision after the loop on the mean force: each extended model through its surrogate.
 fn conclude_on_response(
@@ -429,8 +520,12 @@ fn conclude_on_curves(
         .iter()
         .zip(&loop_curves)
         .map(|(m, (_, model))| {
-            let others =
-                curves::extension_hypotheses(study, &stage.extension_fns(), Some((baseline.clone(), p)), Some(m.hypothesis));
+            let others = curves::extension_hypotheses(
+                study,
+                &stage.extension_fns(),
+                Some((baseline.clone(), p)),
+                Some(m.hypothesis),
+            );
             let mut ci = curves::inputs(&m.study, &stage.setting, stage.designs.clone(), model, others);
             ci.settings.emulator_floor = floor;
             ci
