@@ -16,7 +16,7 @@ use argmin::solver::quasinewton::LBFGS;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use super::gp::{GlsFit, gls_with_corr};
+use super::gp::{GlsFit, gls_with_corr, symmetric_exp};
 use super::optim::FAILED;
 
 /// ln λ range in the unit cube: from nearly flat to wiggles of ~1/20 of the box.
@@ -72,7 +72,7 @@ impl<'a> Profiled<'a> {
         for (d, &l) in self.d2.iter().zip(roughness).skip(1) {
             s.zip_apply(d, |a, b| *a += l * b);
         }
-        s.map(|v| (-v).exp())
+        symmetric_exp(&s)
     }
 
     /// ℓ and ∂ℓ/∂ ln λ at the roughness `roughness` (module doc), or `None` if R is singular.
