@@ -205,6 +205,15 @@ fn grid_count_must_be_a_power() {
     study_error(&yaml, 16, Some("8,"), "2-th power");
 }
 
+/// A sequential solver study's simulation and the fixed design its `sampling.replaces` names.
+fn replaced(s: &study::Study) -> (&study::SolverSimulation, &study::solver::Sampling) {
+    let Simulation::Solver(sim) = &s.simulation else {
+        panic!("not a solver study")
+    };
+    let fixed = sim.sampling.sequential.as_ref().and_then(|q| q.replaces.as_deref());
+    (sim, fixed.expect("replaces"))
+}
+
 /// `sampling.replaces` names the fixed design a sequence replaces: only a sequence takes it, and it
 /// is itself a fixed design checked as one (at its own nodes).
 #[test]
@@ -238,15 +247,7 @@ fn replaces_belongs_to_a_sequence_and_is_a_fixed_design() {
     );
     let c = case(&sequence("{method: lhs, count: 6, check_runs: 2}"), TEMPLATE);
     let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
-    let Simulation::Solver(sim) = &s.simulation else {
-        panic!("not a solver study")
-    };
-    let fixed = sim
-        .sampling
-        .sequential
-        .as_ref()
-        .and_then(|q| q.replaces.as_deref())
-        .expect("replaces");
+    let (_, fixed) = replaced(&s);
     assert_eq!((fixed.count, fixed.check_runs), (6, 2));
     assert_eq!(fixed.surrogate, None, "the study's surrogate");
     // The replaced design may name the surrogate it was fitted with: then it is checked as one of
@@ -256,15 +257,7 @@ fn replaces_belongs_to_a_sequence_and_is_a_fixed_design() {
         TEMPLATE,
     );
     let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
-    let Simulation::Solver(sim) = &s.simulation else {
-        panic!("not a solver study")
-    };
-    let fixed = sim
-        .sampling
-        .sequential
-        .as_ref()
-        .and_then(|q| q.replaces.as_deref())
-        .expect("replaces");
+    let (sim, fixed) = replaced(&s);
     assert_eq!(fixed.surrogate, Some(lab::study::SurrogateKind::Linear));
     // Counted with its own surrogate: 2 samples + 1 check at each of the 2 designs.
     assert_eq!(lab::plan::sweep::fixed_runs(&s, sim, fixed, &[]), 6);
