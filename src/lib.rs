@@ -23,15 +23,14 @@
 //!
 //! Numerics never read files and never block on I/O; everything else hands them arrays.
 
+pub mod base;
 pub mod calibrate;
 pub mod cli;
 pub mod diagnose;
+pub mod emulate;
 pub mod error;
 pub mod execute;
 pub mod extract;
-pub mod fit;
-pub mod format;
-pub mod model;
 pub mod pipeline;
 pub mod plan;
 pub mod render;

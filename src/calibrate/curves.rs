@@ -22,8 +22,8 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::bayesian::cubature::{Rule, integrate};
-use super::bayesian::optim::nelder_mead;
 use super::{Bounds, CalibrationError, optimize};
+use crate::base::optim::nelder_mead;
 use crate::extract::metrics;
 use crate::study::CurveMetric;
 
@@ -332,7 +332,7 @@ pub fn bayesian(p: &CurveProblem) -> Result<CurveEstimate, CalibrationError> {
 /// Latin hypercube.
 fn posterior_mode(f: &dyn Fn(&[f64]) -> f64, bounds: &Bounds) -> DVector<f64> {
     let cost = |u: &[f64]| -f(bounds.from_unit(&DVector::from_column_slice(u)).as_slice());
-    let plan = crate::plan::latin_hypercube(24, bounds.dim(), 7);
+    let plan = crate::base::latin_hypercube(24, bounds.dim(), 7);
     let start = plan
         .row_iter()
         .map(|r| r.iter().copied().collect::<Vec<f64>>())

@@ -17,102 +17,15 @@ pub mod bayesian;
 pub mod curves;
 pub mod identifiability;
 pub mod least_squares;
-pub mod optimize;
 pub mod outcome;
 pub mod sensitivity;
 
+/// The box and the numerics' error live in the shared leaves; named here too, where the methods use them.
+pub use crate::base::{Bounds, CalibrationError, optimize};
+pub use crate::emulate::Model;
 pub use outcome::{Calibrated, Calibration, Method};
 
 use nalgebra::{DMatrix, DVector};
-
-/// The simulation as the numerics see it: a response `y(d, θ)` at design `d` and parameters `θ`.
-///
-/// Implemented by closed-form expressions and by surrogates fitted to solver runs.
-pub trait Model: Sync {
-    fn predict(&self, design: &[f64], theta: &[f64]) -> f64;
-}
-
-impl<F: Fn(&[f64], &[f64]) -> f64 + Sync> Model for F {
-    fn predict(&self, design: &[f64], theta: &[f64]) -> f64 {
-        self(design, theta)
-    }
-}
-
-/// A box `lower ≤ x ≤ upper`, one interval per coordinate.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Bounds {
-    pub lower: DVector<f64>,
-    pub upper: DVector<f64>,
-}
-
-impl Bounds {
-    pub fn new(lower: Vec<f64>, upper: Vec<f64>) -> Self {
-        assert_eq!(lower.len(), upper.len(), "bounds need as many lower as upper values");
-        Bounds {
-            lower: DVector::from_vec(lower),
-            upper: DVector::from_vec(upper),
-        }
-    }
-
-    pub fn dim(&self) -> usize {
-        self.lower.len()
-    }
-
-    pub fn width(&self) -> DVector<f64> {
-        &self.upper - &self.lower
-    }
-
-    pub fn center(&self) -> DVector<f64> {
-        (&self.upper + &self.lower) / 2.0
-    }
-
-    /// Maps `x` into the unit cube.
-    pub fn to_unit(&self, x: &DVector<f64>) -> DVector<f64> {
-        (x - &self.lower).component_div(&self.width())
-    }
-
-    /// Maps a point of the unit cube back into the box.
-    pub fn from_unit(&self, u: &DVector<f64>) -> DVector<f64> {
-        &self.lower + u.component_mul(&self.width())
-    }
-
-    pub fn clamp(&self, x: &DVector<f64>) -> DVector<f64> {
-        x.zip_zip_map(&self.lower, &self.upper, |v, lo, hi| v.clamp(lo, hi))
-    }
-
-    /// Whether coordinate `k` is spread uniformly in ln x ([`Bounds::spread`]): a positive range
-    /// wider than [`LOG_SPREAD_RATIO`].
-    pub fn spread_in_ln(&self, k: usize) -> bool {
-        self.lower[k] > 0.0 && self.upper[k] > LOG_SPREAD_RATIO * self.lower[k]
-    }
-
-    /// The point of the box a sampling design puts at `u` of the unit cube: linearly, except over a
-    /// positive range wider than a decade, where uniformly in ln x. Such a variable (a Cowper–Symonds
-    /// C from 1,000 to 40,000 /s, a stiffness over decades) acts per decade, not per unit: spread
-    /// linearly, 24 runs would put one in its lowest decade, where (ε̇/C)^(1/p) changes most.
-    pub fn spread(&self, u: &[f64]) -> Vec<f64> {
-        (0..self.dim())
-            .map(|k| {
-                let (lo, hi) = (self.lower[k], self.upper[k]);
-                if self.spread_in_ln(k) {
-                    (lo.ln() + u[k] * (hi.ln() - lo.ln())).exp().clamp(lo, hi)
-                } else {
-                    lo + u[k] * (hi - lo)
-                }
-            })
-            .collect()
-    }
-
-    /// [`Bounds::spread`] of every row of `unit` (a sampling design in the unit cube).
-    pub fn spread_rows(&self, unit: &DMatrix<f64>) -> Vec<Vec<f64>> {
-        unit.row_iter()
-            .map(|u| self.spread(&u.iter().copied().collect::<Vec<_>>()))
-            .collect()
-    }
-}
-
-/// Upper/lower ratio above which a positive range is spread uniformly in ln x ([`Bounds::spread`]).
-pub const LOG_SPREAD_RATIO: f64 = 10.0;
 
 /// What every method needs: the training tests, the model, and the parameter bounds.
 pub struct Problem<'a> {
@@ -161,21 +74,6 @@ impl Discrepancy {
             Discrepancy::Constant(d) => *d,
         }
     }
-}
-
-/// Why a method could not produce an estimate.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum CalibrationError {
-    #[error("{method} needs at least {needed} training designs, the study gives {given}")]
-    TooFewDesigns {
-        method: &'static str,
-        needed: usize,
-        given: usize,
-    },
-    #[error("the model returned a non-finite value at the starting point ({0})")]
-    NonFinite(String),
-    #[error("{0}")]
-    Numerics(String),
 }
 
 /// The paper's cantilever (Sec. 3) as a ready-made problem, for the numerics' own tests.

@@ -7,30 +7,7 @@ use nalgebra::DVector;
 use super::identifiability::Identifiability;
 use super::{CalibrationError, Estimate, Model, bayesian};
 
-/// A calibration method, as a study names it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Method {
-    LeastSquares,
-    Sensitivity,
-    Bayesian,
-}
-
-impl Method {
-    /// The name used in the study file and in `results.json`.
-    pub fn key(self) -> &'static str {
-        match self {
-            Method::LeastSquares => "least_squares",
-            Method::Sensitivity => "sensitivity",
-            Method::Bayesian => "bayesian",
-        }
-    }
-
-    pub fn from_key(key: &str) -> Option<Method> {
-        [Method::LeastSquares, Method::Sensitivity, Method::Bayesian]
-            .into_iter()
-            .find(|m| m.key() == key)
-    }
-}
+pub use crate::study::Method;
 
 /// A method's calibrated model, whatever its kind.
 pub enum Calibrated {

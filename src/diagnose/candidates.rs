@@ -19,7 +19,7 @@ use rayon::prelude::*;
 use super::fit::Fit;
 use super::shapes::{Origin, Shape};
 use super::{Context, Mode, stats};
-use crate::calibrate::CalibrationError;
+use crate::base::CalibrationError;
 
 /// A fitted model: the uncorrected one (no shape) or a candidate.
 pub(crate) struct Model {

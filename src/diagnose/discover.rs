@@ -73,7 +73,7 @@ use super::ranking::Entry;
 use super::shapes::{Origin, Shape};
 use super::verdict::{Decision, Verdict, Who};
 use super::{Context, Evidence, LackOfFit, Mode, evidence, stats};
-use crate::format::{num, p_text, pct};
+use crate::base::format::{num, p_text, pct};
 
 /// Singles fitted for real after the linear screening.
 pub const SHORTLIST_SINGLES: usize = 10;
@@ -768,7 +768,7 @@ fn judge(s: &Searcher, w: &Tried, bound: f64, vectors: &[Vec<f64>]) -> Judgement
         let l = assessed.lack_of_fit.as_ref().filter(|l| l.rejects())?;
         Some(format!(
             "its model still misses the tests beyond the noise ({})",
-            crate::format::lack_of_fit(l)
+            crate::diagnose::text::lack_of_fit(l)
         ))
     };
     // (1) Cheap.
@@ -1220,7 +1220,7 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
                     format!("'{}'", d.base)
                 },
                 num(t.coefficient),
-                crate::format::params(&d.parameters),
+                crate::base::format::params(&d.parameters),
                 d.p_value.map_or("-".into(), p_text),
             ));
             if let Some(r) = &d.reading {

@@ -277,7 +277,7 @@ pub(crate) fn absorbed_sentences(candidates: &[Candidate]) -> Vec<String> {
                     if v.abs() > own {
                         format!("{n} by more than its own value")
                     } else {
-                        format!("{n} by up to {}", crate::format::num(v.abs()))
+                        format!("{n} by up to {}", crate::base::format::num(v.abs()))
                     }
                 })
                 .collect::<Vec<_>>();

@@ -195,5 +195,5 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
 }
 
 fn num(v: f64) -> String {
-    crate::format::num(v)
+    crate::base::format::num(v)
 }

@@ -43,7 +43,8 @@ use serde::{Deserialize, Serialize};
 
 use super::shapes::{Origin, Shape};
 use super::{Inputs, NoiseModel, Observation, Role, Settings};
-use crate::calibrate::{Bounds, Model};
+use crate::base::Bounds;
+use crate::emulate::Model;
 use crate::extract::features::{self, FeatureSpec};
 
 /// The simulation's curve on the grid at a design and θ (`None`: no emulator there).
@@ -471,8 +472,8 @@ impl FeatureProblem {
                 "whitened by a scale factor per specimen plus independent noise along the stroke, which the features' \
                  own scatter does not reject (χ² = {} on {f} degrees of freedom, p = {}); the tests take the \
                  specimens' {} degrees of freedom",
-                crate::format::num(t),
-                crate::format::num(p),
+                crate::base::format::num(t),
+                crate::base::format::num(p),
                 whitening.dof
             ),
             (_, check) => format!(
@@ -483,8 +484,8 @@ impl FeatureProblem {
                 check.map_or(String::new(), |(t, f, p)| format!(
                     "; a scale factor plus independent noise along the stroke was rejected: χ² = {} on {f} degrees of \
                      freedom, p = {}",
-                    crate::format::num(t),
-                    crate::format::num(p)
+                    crate::base::format::num(t),
+                    crate::base::format::num(p)
                 ))
             ),
         };
@@ -495,7 +496,7 @@ impl FeatureProblem {
                 e.runs,
                 e.variance
                     .iter()
-                    .map(|v| crate::format::num(*v))
+                    .map(|v| crate::base::format::num(*v))
                     .collect::<Vec<_>>()
                     .join(", ")
             ),

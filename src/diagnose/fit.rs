@@ -2,7 +2,7 @@
 //!
 //! The model with shapes g_1..g_m is `y(d, θ) + Σ_k γ_k g_k(d, θ, y)`. For a fixed θ the amplitudes
 //! enter linearly, so they are solved in closed form and the bounded Levenberg–Marquardt of
-//! [`crate::calibrate::optimize`] only searches θ (variable projection, Golub & Pereyra 1973): γ
+//! [`crate::base::optimize`] only searches θ (variable projection, Golub & Pereyra 1973): γ
 //! needs no bounds, and a shape the data cannot tell from θ cannot drag the search.
 //!
 //! The covariance of (θ, γ) is the Gauss–Newton one, s² (AᵀA)⁻¹ with A the weighted Jacobian of

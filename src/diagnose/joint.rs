@@ -211,7 +211,7 @@ impl SolverExtension {
         if let Some(l) = &self.lack_of_fit {
             line.push_str(&format!(
                 "; lack of fit against the replicate noise {}",
-                crate::format::lack_of_fit(l)
+                crate::diagnose::text::lack_of_fit(l)
             ));
         }
         if let (Some(b), Some(a)) = (self.validation_error_before, self.validation_error_after) {
@@ -265,5 +265,5 @@ fn standardised(d: &Diagnosis) -> IndexMap<String, f64> {
 }
 
 fn num(v: f64) -> String {
-    crate::format::num(v)
+    crate::base::format::num(v)
 }

@@ -46,7 +46,7 @@ pub mod stats;
 pub mod verdict;
 
 mod fit;
-mod text;
+pub mod text;
 
 use indexmap::IndexMap;
 use nalgebra::DVector;
@@ -218,6 +218,23 @@ impl Inputs<'_> {
 /// surrogate of its runs is skipped with a note: see [`inputs_with_extensions`]).
 pub fn inputs_from_study<'a>(study: &Study, model: &'a dyn Model) -> Inputs<'a> {
     inputs_with_extensions(study, model, &[])
+}
+
+/// Per-design surrogates' own error at each observation, as a variance in the response's units:
+/// the mean square relative error at the design's check runs times the observation's level squared
+/// (0 where a design has no check runs).
+pub fn emulator_variance(model: &crate::emulate::SurrogateModel, observations: &[Observation]) -> Vec<f64> {
+    observations
+        .iter()
+        .map(|o| {
+            model
+                .designs
+                .iter()
+                .find(|d| d.values == o.design)
+                .and_then(|d| d.check.mean_square_relative)
+                .map_or(0.0, |m| m * o.mean * o.mean)
+        })
+        .collect()
 }
 
 /// [`inputs_from_study`], with the model of each extension hypothesis's runs: `(k, y_ext)` for

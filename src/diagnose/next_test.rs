@@ -55,7 +55,7 @@ pub(crate) struct Explanation<'e> {
     names: Vec<String>,
     cov: Option<DMatrix<f64>>,
     /// θ's bounds (the first entries of β), which parameter draws are kept inside.
-    bounds: &'e crate::calibrate::Bounds,
+    bounds: &'e crate::base::Bounds,
     /// What the model is made of: its simulation (empty for the study's own) and its shapes, by
     /// name and term. A model whose parts all lie in another's is nested in it (the uncorrected
     /// model in every other; the model a found term extends in the found one): only the larger as
@@ -871,7 +871,7 @@ fn one_test_sigma(cx: &Context, noise: &NoiseModel) -> Option<Sigma> {
 
 /// A grid of `per_axis` points per design variable (a Latin hypercube above three), plus every
 /// tested design inside `bounds`.
-fn candidate_points(cx: &Context, bounds: &crate::calibrate::Bounds, per_axis: usize) -> Vec<Vec<f64>> {
+fn candidate_points(cx: &Context, bounds: &crate::base::Bounds, per_axis: usize) -> Vec<Vec<f64>> {
     let dim = bounds.dim();
     let mut points: Vec<Vec<f64>> = if dim <= 3 {
         let m = per_axis.max(2);
@@ -887,7 +887,7 @@ fn candidate_points(cx: &Context, bounds: &crate::calibrate::Bounds, per_axis: u
             })
             .collect()
     } else {
-        crate::plan::latin_hypercube(cx.inputs.settings.search_points, dim, 0)
+        crate::base::latin_hypercube(cx.inputs.settings.search_points, dim, 0)
             .row_iter()
             .map(|r| bounds.from_unit(&r.transpose()).iter().copied().collect())
             .collect()
@@ -917,7 +917,7 @@ fn coarse(cx: &Context, table: &Table) -> Vec<usize> {
 
 /// The design box widened by half its width on each side (a positive lower bound stays above half
 /// of itself); `None` for a solver study, whose surrogates exist at its tested designs only.
-fn widened(cx: &Context) -> Option<crate::calibrate::Bounds> {
+fn widened(cx: &Context) -> Option<crate::base::Bounds> {
     let b = &cx.inputs.design_bounds;
     let probe: Vec<f64> = (0..b.dim())
         .map(|j| b.lower[j] - 0.25 * (b.upper[j] - b.lower[j]))
@@ -939,7 +939,7 @@ fn widened(cx: &Context) -> Option<crate::calibrate::Bounds> {
             (lo, b.upper[j] + 0.5 * w)
         })
         .unzip();
-    Some(crate::calibrate::Bounds::new(lower, upper))
+    Some(crate::base::Bounds::new(lower, upper))
 }
 
 /// With nothing to compare (no candidate could be fitted): the design in the box farthest from
@@ -976,7 +976,7 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
              next test is the design farthest from those tested, where the calibrated simulation predicts {}. In \
              numbers: {advice}.",
             at_text(&design),
-            crate::format::num(y)
+            crate::base::format::num(y)
         ),
         advice,
         level: cx.alpha(),
@@ -1050,7 +1050,7 @@ fn named(cx: &Context, d: &[f64]) -> IndexMap<String, f64> {
 fn at_text(design: &IndexMap<String, f64>) -> String {
     design
         .iter()
-        .map(|(n, v)| format!("{n} = {}", crate::format::num(*v)))
+        .map(|(n, v)| format!("{n} = {}", crate::base::format::num(*v)))
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -1156,7 +1156,7 @@ fn describe(
 /// What it takes, in one sentence, read from the typed recommendation.
 fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
     let power = 100.0 * cx.inputs.settings.power;
-    let alpha = crate::format::num(t.level);
+    let alpha = crate::base::format::num(t.level);
     // The power over the uncertainty of the fitted parameters: said beside, or as a caveat when
     // no programme could reach the target over it.
     let (expected, caveat) = match t.expected_power {
@@ -1251,9 +1251,9 @@ fn measurement_words(ms: &[Measurement]) -> Option<String> {
         "an independent measurement of {} to ±{} (standard uncertainty; the explanations want {} and {}) would tell \
          them apart with the tests in hand",
         m.parameter,
-        crate::format::pct(m.relative_uncertainty),
-        crate::format::num(m.values[0]),
-        crate::format::num(m.values[1])
+        crate::base::format::pct(m.relative_uncertainty),
+        crate::base::format::num(m.values[0]),
+        crate::base::format::num(m.values[1])
     ))
 }
 
@@ -1262,7 +1262,7 @@ fn why(t: &NextTest, noise_known: bool) -> String {
     let preds = t
         .compared
         .iter()
-        .map(|(n, y)| format!("'{n}' {}", crate::format::num(*y)))
+        .map(|(n, y)| format!("'{n}' {}", crate::base::format::num(*y)))
         .collect::<Vec<_>>()
         .join(", ");
     let (ya, yb) = (t.predictions[0], t.predictions[1]);
@@ -1280,7 +1280,7 @@ fn why(t: &NextTest, noise_known: bool) -> String {
     };
     format!(
         "Test at {place}: there {preds}; the closest two are {} apart, {chosen}. In numbers: {}.",
-        crate::format::pct(rel),
+        crate::base::format::pct(rel),
         t.advice
     )
 }
@@ -1288,7 +1288,7 @@ fn why(t: &NextTest, noise_known: bool) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibrate::Bounds;
+    use crate::base::Bounds;
     use crate::diagnose::{Inputs, Observation, Role, Settings};
 
     /// n specimens of an exact simulation count n; with its error shared by a design's specimens

@@ -247,7 +247,7 @@ impl Scatter {
         (ll_abs, ll_rel): (f64, Option<f64>),
     ) -> String {
         let designs = self.groups.len();
-        let num = crate::format::num;
+        let num = crate::base::format::num;
         let form = format!(
             "σ² = a² + (b·y)² with a = {}, b = {} (a coefficient of variation of {:.3} %)",
             num(a),
@@ -330,7 +330,7 @@ pub(crate) fn finalise(
     } else {
         format!(
             "no replicates: σ = {} estimated from the residuals of {who} ({dof} degrees of freedom)",
-            crate::format::num(sigma)
+            crate::base::format::num(sigma)
         )
     };
     let mut nm = NoiseModel::constant(sigma, dof, note);

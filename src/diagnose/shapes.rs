@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::calibrate::Model;
+use crate::emulate::Model;
 use crate::study::expr::ExprError;
 use crate::study::{Expression, Hypothesis, HypothesisKind, Study, Symbols};
 
@@ -152,7 +152,7 @@ impl Shape {
             .map(|(k, v)| format!("{k} = {v}"))
             .collect::<Vec<_>>()
             .join(", ");
-        let g = crate::format::num(gamma);
+        let g = crate::base::format::num(gamma);
         let mut s = format!(
             "γ = {g}: the tests want {g} × the effect of the extension as specified ({set}); γ = 1 is the \
              extension exactly, γ = 0 the baseline. The extension enters linearised around the baseline, exact when \
@@ -161,8 +161,8 @@ impl Shape {
         if let [(k, v)] = variables.as_slice() {
             s.push_str(&format!(
                 ": then, with {k} = 0 in the baseline, the tests want {k} ≈ γ × {} = {}",
-                crate::format::num(*v),
-                crate::format::num(gamma * v)
+                crate::base::format::num(*v),
+                crate::base::format::num(gamma * v)
             ));
         }
         s.push('.');

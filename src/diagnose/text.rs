@@ -8,7 +8,7 @@ use super::ranking::RivalTest;
 use super::verdict::{Decision, Verdict, Who};
 use super::{Candidate, Context, Extended, LackOfFit, NextTest, NoiseModel, Residual, Role, Trend};
 
-pub(crate) use crate::format::{num, p_text, params, pct};
+pub(crate) use crate::base::format::{num, p_text, params, pct};
 
 pub(crate) struct Facts<'a> {
     pub cx: &'a Context<'a>,
@@ -99,7 +99,7 @@ pub(crate) fn summary(headline: &str, action: &str, evidence: &[String], limits:
 }
 
 fn lof_text(l: &LackOfFit) -> String {
-    crate::format::lack_of_fit(l)
+    lack_of_fit(l)
 }
 
 fn headline(f: &Facts) -> String {
@@ -711,4 +711,25 @@ fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
         });
     }
     out
+}
+
+/// Both figures of a lack-of-fit test: `χ² = … on … degrees of freedom, p = …; largest residual
+/// z = … at D (Šidák p = … over N)`.
+pub fn lack_of_fit(l: &super::LackOfFit) -> String {
+    let omnibus = format!(
+        "χ² = {} on {} degrees of freedom, {}",
+        num(l.chi2),
+        l.dof,
+        p_text(l.p_value)
+    );
+    match &l.largest {
+        Some(r) => format!(
+            "{omnibus}; largest residual z = {} at {} (Šidák {} over {})",
+            num(r.z),
+            r.design,
+            p_text(r.p_corrected),
+            r.residuals
+        ),
+        None => omnibus,
+    }
 }

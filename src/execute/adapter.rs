@@ -81,12 +81,7 @@ impl CommandAdapter {
         regex: &str,
         failure_patterns: &[&str],
     ) -> Result<Self, regex::Error> {
-        let regex = Regex::new(regex)?;
-        if regex.captures_len() < 2 {
-            return Err(regex::Error::Syntax(format!(
-                "response regex `{regex}` has no capture group for the number"
-            )));
-        }
+        let regex = crate::study::settings::response_regex(regex)?;
         let failure_patterns = failure_patterns
             .iter()
             .map(|p| Regex::new(p))

@@ -18,60 +18,11 @@
 //! assert_eq!(a.extract(dir.path()).unwrap(), 0.3055);
 //! ```
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use super::{Adapter, Outcome, ResponseProblem, STDERR_FILE, STDOUT_FILE};
-use crate::extract::calculix::{Missing, Reduce, WindowMissing, find, parse_dat, window_mean};
-
-/// The text CalculiX starts its error messages with.
-pub const ERROR_TEXT: &str = "*ERROR";
-
-/// Which `.dat` block, set and component the response is, and how the column is reduced.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DatResponse {
-    /// Block kind as in the header, lowercase: `displacements`, `forces`, `total force`, `stresses`.
-    pub block: String,
-    pub set: String,
-    /// Component name as in the header, lowercase: `vx`, `vy`, `fz`, `sxx`, ...
-    pub component: String,
-    pub reduce: Reduce,
-    /// Step-time window `[t0, t1]`: when given, the response is the mean of every block's reduced
-    /// value over the window (`window_mean`), not the last block's value.
-    pub window: Option<(f64, f64)>,
-}
-
-#[derive(Debug, Clone)]
-pub struct CalculixAdapter {
-    /// The job name: the input is `JOB.inp`, results `JOB.dat`.
-    pub job: String,
-    pub response: DatResponse,
-}
-
-impl CalculixAdapter {
-    pub fn new(job: impl Into<String>, response: DatResponse) -> Self {
-        CalculixAdapter {
-            job: job.into(),
-            response,
-        }
-    }
-
-    /// `ccx -i JOB`.
-    pub fn argv(&self) -> Vec<String> {
-        vec!["ccx".into(), "-i".into(), self.job.clone()]
-    }
-
-    pub fn dat_file(&self) -> PathBuf {
-        PathBuf::from(format!("{}.dat", self.job))
-    }
-
-    /// Files ccx writes (removed before each attempt).
-    pub fn outputs(&self) -> Vec<PathBuf> {
-        ["dat", "frd", "sta", "cvg"]
-            .iter()
-            .map(|ext| PathBuf::from(format!("{}.{ext}", self.job)))
-            .collect()
-    }
-}
+use crate::extract::calculix::{Missing, WindowMissing, find, parse_dat, window_mean};
+pub use crate::study::settings::{CalculixAdapter, DatResponse, ERROR_TEXT};
 
 fn bad(problem: ResponseProblem, detail: String) -> Outcome {
     Outcome::BadResponse { problem, detail }

@@ -69,6 +69,7 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 pub use crate::extract::lsdyna::quality::Quality;
+pub use crate::study::settings::{Backoff, OutcomeClass, RetryPolicy};
 pub use adapter::{Adapter, CommandAdapter, Judged};
 pub use executor::{CancelReason, Canceller, Chain, Event, Executor, Summary, cancel_on_signals};
 pub use lock::{Holder, LockError, OutLock};
@@ -157,21 +158,6 @@ pub enum ResponseProblem {
     Unparseable,
 }
 
-/// The class of an [`Outcome`], without its details: what retry policies and summaries count.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum OutcomeClass {
-    Success,
-    NonZeroExit,
-    FailureText,
-    BadResponse,
-    IncompleteOutput,
-    Timeout,
-    Signal,
-    Cancelled,
-    Lost,
-}
-
 impl Outcome {
     pub fn class(&self) -> OutcomeClass {
         match self {
@@ -241,59 +227,10 @@ pub struct RunRecord {
     pub warnings: Vec<String>,
 }
 
-/// How often, on which outcomes, and after how long a failed attempt is retried.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RetryPolicy {
-    /// Attempts in all, counting the first; 1 means no retries.
-    pub max_attempts: u32,
-    /// Outcome classes that are retried; others are final at once.
-    pub retry_on: Vec<OutcomeClass>,
-    pub backoff: Backoff,
-}
-
 impl RetryPolicy {
-    /// One attempt, no retries.
-    pub fn none() -> Self {
-        RetryPolicy {
-            max_attempts: 1,
-            retry_on: Vec::new(),
-            backoff: Backoff::Fixed(Duration::ZERO),
-        }
-    }
-
     /// Whether an attempt numbered `attempt` (from 1) that ended in `outcome` is tried again.
     pub fn retries(&self, attempt: u32, outcome: &Outcome) -> bool {
         !outcome.is_success() && attempt < self.max_attempts && self.retry_on.contains(&outcome.class())
-    }
-}
-
-impl Default for RetryPolicy {
-    fn default() -> Self {
-        RetryPolicy::none()
-    }
-}
-
-/// Delay before a retry.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Backoff {
-    Fixed(Duration),
-    /// `initial · 2^(retry−1)`, capped at `max`.
-    Exponential {
-        initial: Duration,
-        max: Duration,
-    },
-}
-
-impl Backoff {
-    /// Delay before retry number `retry` (1 for the first retry).
-    pub fn delay(&self, retry: u32) -> Duration {
-        match self {
-            Backoff::Fixed(d) => *d,
-            Backoff::Exponential { initial, max } => {
-                let factor = 2u32.saturating_pow(retry.saturating_sub(1));
-                initial.saturating_mul(factor).min(*max)
-            }
-        }
     }
 }
 

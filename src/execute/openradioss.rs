@@ -88,26 +88,9 @@ impl OpenRadiossAdapter {
         self.file("T01")
     }
 
-    /// The starter's argv on `deck`.
+    /// The starter's argv on `deck` ([`OpenRadiossSettings::starter_argv`]).
     pub fn starter_argv(settings: &OpenRadiossSettings, deck: &Path) -> Vec<String> {
-        let mut argv = vec![
-            settings.starter.clone(),
-            "-i".into(),
-            deck.display().to_string(),
-            "-np".into(),
-            "1".into(),
-            "-nt".into(),
-            settings.threads.to_string(),
-        ];
-        if let Some((amplitude, seed)) = settings.noise {
-            argv.extend([
-                "-rxalea".into(),
-                amplitude.to_string(),
-                "-rseed".into(),
-                seed.to_string(),
-            ]);
-        }
-        argv
+        settings.starter_argv(deck)
     }
 
     /// The engine's argv, on the input the starter wrote.

@@ -28,6 +28,7 @@
 //! assert_eq!(b.reduce("vy", Reduce::Mean).unwrap(), 0.4);
 //! ```
 
+pub use crate::study::settings::Reduce;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -45,39 +46,6 @@ pub struct DatBlock {
     pub line: usize,
     /// Value rows (each `components.len()` long); ids are dropped.
     pub rows: Vec<Vec<f64>>,
-}
-
-/// How a column of a block becomes one number.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Reduce {
-    Mean,
-    MaxAbs,
-    Sum,
-    /// The column of a single-row block (`total force`): an error if there are more rows.
-    Value,
-}
-
-impl Reduce {
-    pub const KEYS: [&'static str; 4] = ["mean", "max_abs", "sum", "value"];
-
-    pub fn from_key(key: &str) -> Option<Reduce> {
-        match key {
-            "mean" => Some(Reduce::Mean),
-            "max_abs" => Some(Reduce::MaxAbs),
-            "sum" => Some(Reduce::Sum),
-            "value" => Some(Reduce::Value),
-            _ => None,
-        }
-    }
-
-    pub fn key(self) -> &'static str {
-        match self {
-            Reduce::Mean => "mean",
-            Reduce::MaxAbs => "max_abs",
-            Reduce::Sum => "sum",
-            Reduce::Value => "value",
-        }
-    }
 }
 
 /// A malformed `.dat` file, at a line.
@@ -335,9 +303,7 @@ mod tests {
     const SAMPLE: &str = "
                         S T E P       1
 
-
                                 INCREMENT     1
-
 
  displacements (vx,vy,vz) for set NTIP and time  0.1000000E+01
 

@@ -12,7 +12,7 @@ pub mod calculix;
 pub mod cfc;
 pub mod crush;
 pub mod features;
-pub mod grid;
+pub use crate::base::grid;
 pub mod lsdyna;
 pub mod metrics;
 pub mod radioss;

@@ -17,11 +17,11 @@ use nalgebra::DVector;
 
 use crate::diagnose::Role;
 use crate::diagnose::features::{CurveDesign, CurveFn, CurveHypothesis, CurveInputs, EmulatorCheck};
+use crate::emulate::functional::{AcrossRun, CurveModel, CurvesAcross, DesignCurves, FunctionalSurrogate, check_error};
 use crate::error::Error;
 use crate::extract::crush::ForceDisplacement;
 use crate::extract::features::FeatureSpec;
 use crate::extract::grid::{self, StrokeGrid};
-use crate::fit::functional::{AcrossRun, CurveModel, CurvesAcross, DesignCurves, FunctionalSurrogate, check_error};
 use crate::plan::PlannedRun;
 use crate::study::{HypothesisKind, Response, SolverSimulation, Study, SurrogateKind};
 
@@ -130,7 +130,7 @@ pub fn kind(study: &Study, sim: &SolverSimulation) -> SurrogateKind {
 pub fn emulators(
     study: &Study,
     kind: SurrogateKind,
-    bounds: &crate::calibrate::Bounds,
+    bounds: &crate::base::Bounds,
     runs: &[CurveRun],
     across: bool,
 ) -> Result<CurveModel, Error> {
@@ -176,7 +176,7 @@ pub fn emulators(
 /// emulator fitted to every other run, as the response's are
 /// ([`super::stages::fit_across`]). Each design's curves are emulated in units of its tests' mean
 /// force.
-fn emulators_across(study: &Study, bounds: &crate::calibrate::Bounds, runs: &[CurveRun]) -> Result<CurveModel, Error> {
+fn emulators_across(study: &Study, bounds: &crate::base::Bounds, runs: &[CurveRun]) -> Result<CurveModel, Error> {
     use rayon::prelude::*;
     let scale = |name: &str| {
         let r = study
@@ -184,7 +184,7 @@ fn emulators_across(study: &Study, bounds: &crate::calibrate::Bounds, runs: &[Cu
             .get(name)
             .map(|t| t.replicates.as_slice())
             .unwrap_or_default();
-        crate::fit::functional::unit(r.iter().sum::<f64>() / r.len().max(1) as f64)
+        crate::emulate::functional::unit(r.iter().sum::<f64>() / r.len().max(1) as f64)
     };
     let usable: Vec<(&CurveRun, &DVector<f64>, f64)> = runs
         .iter()
@@ -200,7 +200,7 @@ fn emulators_across(study: &Study, bounds: &crate::calibrate::Bounds, runs: &[Cu
                 .map(|r| r.0.run.design_values.clone())
         })
         .collect();
-    let joint = crate::plan::sequential::shared::joint_bounds(&values, bounds);
+    let joint = crate::emulate::sequential::shared::joint_bounds(&values, bounds);
     let fit = |keep: &dyn Fn(&CurveRun) -> bool| {
         let kept: Vec<AcrossRun> = usable
             .iter()

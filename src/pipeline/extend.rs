@@ -16,14 +16,14 @@
 use super::runs::{self, RunOutcomes, Source};
 use super::stages::{FitRun, calibrate, emulator_data, fit_surrogates, problem};
 use super::{Engine, Event, Reporter, RunOptions};
-use crate::calibrate::Model;
 use crate::calibrate::bayesian::SimulationData;
 use crate::diagnose::joint::{Calibrated, LoopRuns, MethodEstimate, SolverExtension, VariableRange};
 use crate::diagnose::{self, Diagnosis};
+use crate::emulate::Model;
+use crate::emulate::{DesignSurrogate, SurrogateModel};
 use crate::error::Error;
 use crate::execute::RunStore;
 use crate::execute::sweep::{self, Prepared, SweepResult};
-use crate::fit::{DesignSurrogate, SurrogateModel};
 use crate::plan::{Plan, PlannedRun, RunRole, sweep::joint_bounds};
 use crate::report::Results;
 use crate::study::{HypothesisKind, SolverSimulation, Study};
@@ -307,7 +307,7 @@ pub fn loop_model<'m>(
     extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
 ) -> diagnose::LoopModel<'m> {
     let mut inputs = diagnose::inputs_from_study(&m.study, &m.surrogates);
-    inputs.emulator_variance = m.surrogates.error_variance(&inputs.observations);
+    inputs.emulator_variance = crate::diagnose::emulator_variance(&m.surrogates, &inputs.observations);
     // The library search runs once, on the final decision (from the screening's inputs).
     inputs.discover = false;
     let p = study.parameters.len();
@@ -351,9 +351,7 @@ pub fn assess(
         s,
         model,
         &calibration,
-        Err(crate::calibrate::CalibrationError::Numerics(
-            "diagnosed separately".into(),
-        )),
+        Err(crate::base::CalibrationError::Numerics("diagnosed separately".into())),
     );
     let hypothesis = &study.diagnosis.hypotheses[m.hypothesis];
     let extension = hypothesis.extension_spec().expect("chosen: an extension");

@@ -38,10 +38,10 @@ pub use stages::{
 use crate::calibrate::bayesian::SimulationData;
 use crate::calibrate::{Calibration, CalibrationError, Model};
 use crate::diagnose::Diagnosis;
+use crate::emulate::SurrogateModel;
 use crate::error::{Error, InputError};
 use crate::execute::sweep::{self, Prepared, Signals};
 use crate::extract::lsdyna::quality::Flag;
-use crate::fit::SurrogateModel;
 use crate::plan::Plan;
 use crate::report::data::ReportData;
 use crate::report::results::{RunsResult, SplitResult};
@@ -259,7 +259,7 @@ fn diagnose_with_solver(
         (Some(p), Some(ci)) => p.inputs(ci),
         _ => {
             let mut inputs = crate::diagnose::inputs_with_extensions(study, &runs.surrogates, &extensions);
-            inputs.emulator_variance = runs.surrogates.error_variance(&inputs.observations);
+            inputs.emulator_variance = crate::diagnose::emulator_variance(&runs.surrogates, &inputs.observations);
             inputs
         }
     };
@@ -471,7 +471,7 @@ fn loop_runs(
 type Concluded = (
     Diagnosis,
     Vec<Diagnosis>,
-    Vec<(usize, crate::fit::functional::CurveModel)>,
+    Vec<(usize, crate::emulate::functional::CurveModel)>,
 );
 
 /// The decision after the loop on the mean force: each extended model through its surrogate.
@@ -555,7 +555,7 @@ fn with_features(
     stage: Option<&curves::CurveStage>,
     problem: Option<&crate::diagnose::features::FeatureProblem>,
     d: Diagnosis,
-    loops: &[(usize, crate::fit::functional::CurveModel)],
+    loops: &[(usize, crate::emulate::functional::CurveModel)],
 ) -> (Diagnosis, Vec<crate::report::data::ResidualCurves>) {
     match (stage, problem) {
         (Some(stage), Some(problem)) => {

@@ -12,9 +12,9 @@ use crate::calibrate::{
     Calibrated, Calibration, CalibrationError, Method, Model, Problem, bayesian, least_squares, sensitivity,
 };
 use crate::diagnose::{self, Diagnosis};
+use crate::emulate::ExpressionModel;
+use crate::emulate::{DesignSurrogate, Surrogate, SurrogateModel};
 use crate::error::Error;
-use crate::fit::{DesignSurrogate, Surrogate, SurrogateModel};
-use crate::model::ExpressionModel;
 use crate::plan::{Plan, PlannedRun, RunRole};
 use crate::study::solver::SurrogateKind;
 use crate::study::{SolverSimulation, Study};
@@ -105,12 +105,12 @@ pub fn fit_across(study: &Study, bounds: &Bounds, runs: &[FitRun]) -> Vec<Result
                 .map(|r| r.0.run.design_values.clone())
         })
         .collect();
-    let joint = crate::plan::sequential::shared::joint_bounds(&values, bounds);
+    let joint = crate::emulate::sequential::shared::joint_bounds(&values, bounds);
     let fit = |keep: &dyn Fn(usize) -> bool| {
         let kept: Vec<usize> = (0..rows.len()).filter(|&i| keep(i)).collect();
         let x = DMatrix::from_fn(kept.len(), joint.dim(), |i, k| rows[kept[i]].1[k]);
         let y = DVector::from_iterator(kept.len(), kept.iter().map(|&i| rows[i].2));
-        bayesian::gp::Emulator::fit(&x, &y, &joint)
+        crate::emulate::gp::Emulator::fit(&x, &y, &joint)
     };
     let whole = fit(&|_| true).map(std::sync::Arc::new);
     names
@@ -137,7 +137,7 @@ pub fn fit_across(study: &Study, bounds: &Bounds, runs: &[FitRun]) -> Vec<Result
             Some(Ok(DesignSurrogate {
                 design: name.clone(),
                 values: values.clone(),
-                check: crate::fit::CheckError::of(&errors),
+                check: crate::emulate::CheckError::of(&errors),
                 surrogate: Surrogate::across(emulator, values),
                 samples: mine.len(),
             }))

@@ -1,9 +1,7 @@
 //! Planning: which simulations to run. Sampling plans over boxes of variables ([`latin_hypercube`],
 //! [`sweep::grid`]) and the run [`Plan`] of a solver study.
 
-mod lhs;
-pub mod sequential;
 pub mod sweep;
 
-pub use lhs::latin_hypercube;
+pub use crate::base::latin_hypercube;
 pub use sweep::{Plan, PlannedRun, RunRole};

@@ -23,104 +23,22 @@
 pub mod lsdyna;
 pub mod mesh;
 
-use std::path::PathBuf;
+use tera::Context;
 
-use tera::{Context, ErrorKind, Tera};
-
+pub use crate::base::template::{Inputs, Renderer, extend};
 use crate::error::InputError;
-use crate::study::{CopiedFile, Study, Template};
+use crate::study::{CopiedFile, Study};
 
-/// The rendered inputs of one run: (path relative to the run directory, bytes).
-pub type Inputs = Vec<(PathBuf, Vec<u8>)>;
-
-/// A study's templates, parsed once, ready to render any number of runs.
-pub struct Renderer {
-    tera: Tera,
-    templates: Vec<Template>,
-}
-
-/// The Tera name of template `i` (no suffix, so nothing is autoescaped by name either).
-fn name(i: usize) -> String {
-    format!("template-{i}")
-}
-
-impl Renderer {
-    /// Parses every template; a syntax error names the template file, line and column.
-    pub fn new(templates: &[Template]) -> Result<Self, InputError> {
-        let mut tera = Tera::new();
-        tera.autoescape_on(Vec::<&str>::new());
-        lsdyna::register(&mut tera); // dyna_real / dyna_int / dyna_text for keyword decks
-        for (i, t) in templates.iter().enumerate() {
-            tera.add_raw_template(&name(i), &t.source).map_err(|e| located(t, &e))?;
-        }
-        Ok(Renderer {
-            tera,
-            templates: templates.to_vec(),
-        })
-    }
-
-    /// Renders every template with `context`, in the study's order.
-    pub fn render(&self, context: &Context) -> Result<Inputs, InputError> {
-        self.templates
-            .iter()
-            .enumerate()
-            .map(|(i, t)| {
-                let text = self.tera.render(&name(i), context).map_err(|e| located(t, &e))?;
-                Ok((t.output.clone(), text.into_bytes()))
-            })
-            .collect()
-    }
-}
-
-/// A Tera error as an input error at the template's file and line.
-fn located(template: &Template, error: &tera::Error) -> InputError {
-    let (what, report) = match error.kind() {
-        ErrorKind::SyntaxError(r) => ("template syntax error", r),
-        ErrorKind::RenderingError(r) => ("template rendering error", r),
-        other => return InputError::file(&template.file, format!("template error: {other}")),
-    };
-    let span = report.span();
-    let message = format!("{what}: {}", report.message());
-    if span.start_line == 0 {
-        return InputError::file(&template.file, message);
-    }
-    InputError::at(
-        &template.file,
-        &template.source,
-        span.start_line,
-        span.start_col + 1,
-        message,
-    )
-}
-
-/// The template context of a run: design variables, parameters, constants, `design_name`.
+/// The template context of a run: design variables, parameters, constants, `design_name`
+/// ([`Study::context`]).
 pub fn context(study: &Study, design_name: &str, design: &[f64], theta: &[f64]) -> Context {
-    let mut ctx = Context::new();
-    let named = study
-        .design
-        .iter()
-        .map(|d| &d.name)
-        .zip(design)
-        .chain(study.parameters.iter().map(|p| &p.name).zip(theta))
-        .chain(study.constants.iter().map(|(n, v)| (n, v)));
-    for (name, value) in named {
-        ctx.insert(name.clone(), value);
-    }
-    ctx.insert("design_name", design_name);
-    ctx
-}
-
-/// Adds a model extension's template variables to a run's context (they override constants).
-pub fn extend(ctx: &mut Context, variables: &[(String, f64)]) {
-    for (name, value) in variables {
-        ctx.insert(name.clone(), value);
-    }
+    study.context(design_name, design, theta)
 }
 
 /// The template context of a planned run: [`context`], plus the model extension's variables the
 /// plan set for it (screening and joint runs of an extension hypothesis).
 pub fn run_context(study: &Study, run: &crate::plan::PlannedRun) -> Context {
-    let mut ctx = context(study, &run.design, &run.design_values, &run.theta);
+    let mut ctx = study.context(&run.design, &run.design_values, &run.theta);
     extend(&mut ctx, &run.extension);
     ctx
 }
@@ -135,6 +53,8 @@ pub fn inputs(renderer: &Renderer, files: &[CopiedFile], context: &Context) -> R
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::study::Template;
+    use std::path::PathBuf;
 
     fn template(source: &str) -> Template {
         Template {

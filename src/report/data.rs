@@ -18,10 +18,10 @@ use std::path::Path;
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
-use crate::calibrate::Model;
 use crate::calibrate::{Calibrated, Calibration};
+use crate::emulate::Model;
+use crate::emulate::SurrogateModel;
 use crate::execute::store::RunStore;
-use crate::fit::SurrogateModel;
 use crate::plan::{Plan, RunRole};
 use crate::study::{Simulation, SolverSimulation, Study};
 
@@ -139,7 +139,7 @@ impl ExtensionSurface {
     pub fn sweep(
         study: &crate::study::Study,
         hypothesis: &str,
-        model: &dyn crate::calibrate::Model,
+        model: &dyn crate::emulate::Model,
         at: &[f64],
         (j, lo, hi): (usize, f64, f64),
         variable: &crate::study::Parameter,

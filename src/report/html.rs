@@ -1193,8 +1193,8 @@ fn verdict_block(dg: &crate::diagnose::Diagnosis) -> String {
 /// the share a partial cause removes and what its model leaves, the uncorrected model's fit when
 /// there is no model error (or none explained), the open explanations' weights otherwise.
 fn deciding_figure(dg: &crate::diagnose::Diagnosis) -> Option<String> {
+    use crate::diagnose::text::lack_of_fit;
     use crate::diagnose::verdict::Verdict;
-    use crate::format::lack_of_fit;
     let decided_by = dg
         .features
         .as_ref()
@@ -1388,8 +1388,8 @@ fn remaining_block(ext: &crate::diagnose::Extended) -> String {
         headings: vec![],
     };
     let verdict = match &ext.lack_of_fit {
-        Some(l) if l.rejects() => format!("beyond the noise: {}", crate::format::lack_of_fit(l)),
-        Some(l) => format!("within the noise both ways: {}", crate::format::lack_of_fit(l)),
+        Some(l) if l.rejects() => format!("beyond the noise: {}", crate::diagnose::text::lack_of_fit(l)),
+        Some(l) => format!("within the noise both ways: {}", crate::diagnose::text::lack_of_fit(l)),
         None => "no replicates, so no test against the noise".into(),
     };
     let caption = format!(

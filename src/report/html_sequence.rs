@@ -113,7 +113,7 @@ fn table(s: &Sequence) -> String {
         let errors: Vec<String> = b
             .emulator_error
             .iter()
-            .map(|(d, e)| format!("{d} {}", e.map_or("–".into(), crate::format::num)))
+            .map(|(d, e)| format!("{d} {}", e.map_or("–".into(), crate::base::format::num)))
             .collect();
         let estimates: Vec<String> = b
             .estimates
@@ -122,9 +122,9 @@ fn table(s: &Sequence) -> String {
                 let [lo, hi] = b.interval95.get(n).copied().unwrap_or([f64::NAN; 2]);
                 format!(
                     "{n} {} [{}, {}]",
-                    crate::format::num(*v),
-                    crate::format::num(lo),
-                    crate::format::num(hi)
+                    crate::base::format::num(*v),
+                    crate::base::format::num(lo),
+                    crate::base::format::num(hi)
                 )
             })
             .collect();

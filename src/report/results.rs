@@ -386,7 +386,7 @@ impl Results {
     }
 
     /// Adds the surrogates of a solver study, keyed by design name.
-    pub fn with_surrogates(mut self, model: &crate::fit::SurrogateModel) -> Results {
+    pub fn with_surrogates(mut self, model: &crate::emulate::SurrogateModel) -> Results {
         let entries = model.designs.iter().map(|d| {
             let result = SurrogateResult {
                 kind: d.surrogate.kind.key().to_string(),

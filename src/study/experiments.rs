@@ -5,8 +5,8 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::base::curve::ForceDisplacement;
 use crate::error::InputError;
-use crate::extract::crush::ForceDisplacement;
 
 /// All tested designs of a study, in the order they first appear in the CSV.
 #[derive(Debug, Clone, PartialEq)]

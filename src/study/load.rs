@@ -6,6 +6,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
+use super::BayesianSettings;
 use super::expr::ExprError;
 use super::schema::{BayesianFile, CalibrationFile, DiagnosisFile, Name, SimulationFile, StudyFile};
 use super::yaml::{self, Spanned};
@@ -13,7 +14,6 @@ use super::{
     CalibrationSettings, DesignVariable, DiagnosisSettings, Experiments, Expression, Hypothesis, HypothesisKind,
     Method, Parameter, Simulation, Study, SurrogateKind, Symbols, experiments,
 };
-use crate::calibrate::bayesian::Settings as BayesianSettings;
 use crate::error::InputError;
 
 #[path = "load_cluster.rs"]
@@ -230,7 +230,7 @@ impl Checker<'_> {
         ) else {
             return Ok(());
         };
-        let Some(floor) = crate::plan::sweep::SequenceFloor::of(study, sim) else {
+        let Some(floor) = super::sequence::SequenceFloor::of(study, sim) else {
             return Ok(());
         };
         if node.value >= floor.runs() {
@@ -261,7 +261,7 @@ impl Checker<'_> {
                 node.value,
                 parts.join(", "),
                 floor.runs(),
-                crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN
+                crate::study::solver::DEFAULT_BUDGET_PER_DESIGN
             ),
         ))
     }

@@ -8,9 +8,9 @@ use super::super::schema::{DatFile, ResponseFile, SlurmFile, SolverFile};
 use super::super::yaml::Spanned;
 use super::Checker;
 use crate::error::InputError;
-use crate::execute::calculix::{CalculixAdapter, DatResponse};
-use crate::execute::slurm::SlurmSettings;
-use crate::extract::calculix::Reduce;
+use crate::study::settings::Reduce;
+use crate::study::settings::SlurmSettings;
+use crate::study::settings::{CalculixAdapter, DatResponse};
 
 /// `.dat` block kinds a response may name.
 const DAT_BLOCKS: [&str; 4] = ["displacements", "forces", "total force", "stresses"];

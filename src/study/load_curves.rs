@@ -14,8 +14,8 @@ use super::super::schema::CalibrationFile;
 use super::super::yaml::Spanned;
 use super::super::{CfcFilter, CurveMetric, CurveSettings, Experiments, Response, Simulation, SurrogateKind, Targets};
 use super::Checker;
+use crate::base::curve as crush;
 use crate::error::InputError;
-use crate::extract::crush;
 
 /// The stand-in for the design name in `experiments.curves`.
 const DESIGN: &str = "{design}";
@@ -330,7 +330,7 @@ impl Checker<'_> {
                 continue;
             }
             for (file, curve) in &sc.specimens {
-                crate::extract::grid::resample(curve, &grid).map_err(|e| {
+                crate::base::grid::resample(curve, &grid).map_err(|e| {
                     InputError::file(
                         file,
                         format!("cannot put this specimen's curve on the calibration grid: {e}"),

@@ -62,7 +62,7 @@ impl Checker<'_> {
             extension.screening.push(screening);
             extension.ranges.extend(range);
         }
-        let renderer = crate::render::Renderer::new(&sim.templates)?;
+        let renderer = crate::base::template::Renderer::new(&sim.templates)?;
         self.used_by_templates(study, &renderer, &who, node, &extension.screening)?;
         if !extension.ranges.is_empty() {
             let edge = render_at_centre(study, &renderer, &extension.at_lower_bounds());
@@ -158,7 +158,7 @@ impl Checker<'_> {
     fn used_by_templates(
         &self,
         study: &Study,
-        renderer: &crate::render::Renderer,
+        renderer: &crate::base::template::Renderer,
         who: &str,
         node: &Spanned<IndexMap<Name, Spanned<ExtensionValueFile>>>,
         vars: &[(String, f64)],
@@ -196,9 +196,9 @@ impl Checker<'_> {
 /// bounds, with the template variables `vars` set.
 fn render_at_centre(
     study: &Study,
-    renderer: &crate::render::Renderer,
+    renderer: &crate::base::template::Renderer,
     vars: &[(String, f64)],
-) -> Result<crate::render::Inputs, InputError> {
+) -> Result<crate::base::template::Inputs, InputError> {
     let design = &study.training[0];
     let values = study
         .experiments
@@ -206,7 +206,7 @@ fn render_at_centre(
         .map(|t| t.values.clone())
         .unwrap_or_default();
     let theta: Vec<f64> = study.parameter_bounds().center().iter().copied().collect();
-    let mut ctx = crate::render::context(study, design, &values, &theta);
-    crate::render::extend(&mut ctx, vars);
+    let mut ctx = study.context(design, &values, &theta);
+    crate::base::template::extend(&mut ctx, vars);
     renderer.render(&ctx)
 }

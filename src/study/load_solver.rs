@@ -12,9 +12,9 @@ use super::super::solver::{
 use super::super::yaml::Spanned;
 use super::Checker;
 use crate::error::InputError;
-use crate::execute::{Backoff, CommandAdapter, OutcomeClass, RetryPolicy};
-use crate::extract::crush::{Sign, SimSource, Window};
-use crate::extract::lsdyna::rcforc::Side;
+use crate::study::settings::Side;
+use crate::study::settings::{Backoff, OutcomeClass, RetryPolicy};
+use crate::study::settings::{Sign, SimSource, Window};
 
 /// Outcome classes a retry policy may name, by their study-file names.
 const RETRY_CLASSES: [(&str, OutcomeClass); 6] = [
@@ -96,7 +96,7 @@ impl Checker<'_> {
         let command = match &openradioss {
             Some(settings) => {
                 let deck = self.main_deck(solver, &templates)?;
-                crate::execute::openradioss::OpenRadiossAdapter::starter_argv(settings, &deck)
+                settings.starter_argv(&deck)
             }
             None => self.solver_command(solver, &adapter, &templates)?,
         };
@@ -260,7 +260,7 @@ impl Checker<'_> {
             ));
         };
         let response_file = self.relative_path(file, "response.file")?;
-        CommandAdapter::new(&response_file, &regex.value, &[])
+        crate::study::settings::response_regex(&regex.value)
             .map_err(|e| self.at(regex, format!("response regex: {e}")))?;
         Ok(Response::Regex {
             file: response_file,
@@ -520,7 +520,7 @@ impl Checker<'_> {
         let source = std::fs::read_to_string(&file)
             .map_err(|e| self.at(node, format!("cannot read template {}: {e}", file.display())))?;
         let template = Template { file, output, source };
-        crate::render::Renderer::new(std::slice::from_ref(&template))?;
+        crate::base::template::Renderer::new(std::slice::from_ref(&template))?;
         Ok(template)
     }
 
@@ -728,7 +728,7 @@ impl Checker<'_> {
                 ));
             }
             Some(t) => t.value,
-            None => crate::plan::sequential::DEFAULT_TOLERANCE,
+            None => crate::study::solver::DEFAULT_TOLERANCE,
         };
         let replaces = match &spec.replaces {
             Some(node) if node.value.method.value == "sequential" => {

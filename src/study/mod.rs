@@ -7,10 +7,13 @@
 //! Vocabulary follows Dakota: *variables* (design variables and calibration parameters), the
 //! *simulation* (how a response is computed), *experiments* (measured responses), *methods*.
 
+mod calibration;
 pub mod experiments;
 pub mod expr;
 mod load;
 mod schema;
+pub mod sequence;
+pub mod settings;
 pub mod solver;
 mod yaml;
 
@@ -24,10 +27,9 @@ pub use solver::{
     SurrogateKind, Template,
 };
 
-use crate::calibrate::Bounds;
-/// The calibration methods a study names (defined beside the calibration they select).
-pub use crate::calibrate::Method;
+use crate::base::Bounds;
 use crate::error::InputError;
+pub use calibration::{BayesianSettings, Method};
 
 /// A validated study.
 #[derive(Debug, Clone)]
@@ -52,6 +54,26 @@ pub struct Study {
     pub splits: Vec<Split>,
     /// Known parameter values (`truth`), by parameter name, in parameter order.
     pub truth: Vec<(String, f64)>,
+}
+
+impl Study {
+    /// The template context of a run: design variables, parameters, constants, each by name as a
+    /// number, and `design_name` (the contract's names visible to templates).
+    pub fn context(&self, design_name: &str, design: &[f64], theta: &[f64]) -> tera::Context {
+        let mut ctx = tera::Context::new();
+        let named = self
+            .design
+            .iter()
+            .map(|d| &d.name)
+            .zip(design)
+            .chain(self.parameters.iter().map(|p| &p.name).zip(theta))
+            .chain(self.constants.iter().map(|(n, v)| (n, v)));
+        for (name, value) in named {
+            ctx.insert(name.clone(), value);
+        }
+        ctx.insert("design_name", design_name);
+        ctx
+    }
 }
 
 /// A train/validate split of the tested designs.
@@ -94,7 +116,7 @@ pub enum Simulation {
 pub struct CalibrationSettings {
     /// Methods to run, in the order listed.
     pub methods: Vec<Method>,
-    pub bayesian: crate::calibrate::bayesian::Settings,
+    pub bayesian: BayesianSettings,
     /// What the parameters are calibrated against (`calibration.against`).
     pub against: Targets,
     /// How curves are compared (`calibration.curve`), when `against` has `curves`.
@@ -326,7 +348,7 @@ impl Study {
 
 /// The stroke grid curves are compared on: `calibration.curve.window` (default: the crush-force
 /// response's window) with `calibration.curve.points`; `None` without a crush-force response.
-pub fn curve_grid(settings: &CurveSettings, simulation: &Simulation) -> Option<crate::extract::grid::StrokeGrid> {
+pub fn curve_grid(settings: &CurveSettings, simulation: &Simulation) -> Option<crate::base::grid::StrokeGrid> {
     let Simulation::Solver(sim) = simulation else {
         return None;
     };
@@ -334,7 +356,7 @@ pub fn curve_grid(settings: &CurveSettings, simulation: &Simulation) -> Option<c
         return None;
     };
     let [s0, s1] = settings.window.unwrap_or([window.s0, window.s1]);
-    Some(crate::extract::grid::StrokeGrid {
+    Some(crate::base::grid::StrokeGrid {
         s0,
         s1,
         points: settings.points,

@@ -2,9 +2,18 @@
 //! validated by [`super::load`]: templates read and parsed, regex compiled, counts checked.
 
 use std::path::PathBuf;
+
+pub use crate::base::template::Template;
 use std::time::Duration;
 
-use crate::execute::RetryPolicy;
+use crate::study::settings::RetryPolicy;
+
+/// The default `tolerance`: the emulator's error at the posterior may be half the tests' noise of the
+/// mean. Counted as noise, it then widens the intervals by at most √(1 + 0.5²) − 1 ≈ 12 %.
+pub const DEFAULT_TOLERANCE: f64 = 0.5;
+
+/// The default budget: this many solver runs per tested design, in all.
+pub const DEFAULT_BUDGET_PER_DESIGN: usize = 30;
 
 /// `simulation.solver` plus the keys that go with it.
 #[derive(Debug, Clone)]
@@ -31,7 +40,7 @@ pub struct SolverSimulation {
     /// (10 for `lsdyna`), so the surrogates see exactly the values the solver read.
     pub parameter_width: Option<usize>,
     /// `solver.slurm`: settings of `--executor slurm` (defaults when absent).
-    pub slurm: Option<crate::execute::slurm::SlurmSettings>,
+    pub slurm: Option<crate::study::settings::SlurmSettings>,
     /// `simulation.quality`: the gates on each run's sanity figures (defaults when absent).
     pub quality: QualitySettings,
     /// `adapter: openradioss`: `solver.openradioss` (defaults when absent); `None` for the others.
@@ -60,11 +69,35 @@ pub struct OpenRadiossSettings {
     pub standin: Option<std::path::PathBuf>,
 }
 
+impl OpenRadiossSettings {
+    /// The starter's argv on `deck`.
+    pub fn starter_argv(&self, deck: &std::path::Path) -> Vec<String> {
+        let mut argv = vec![
+            self.starter.clone(),
+            "-i".into(),
+            deck.display().to_string(),
+            "-np".into(),
+            "1".into(),
+            "-nt".into(),
+            self.threads.to_string(),
+        ];
+        if let Some((amplitude, seed)) = self.noise {
+            argv.extend([
+                "-rxalea".into(),
+                amplitude.to_string(),
+                "-rseed".into(),
+                seed.to_string(),
+            ]);
+        }
+        argv
+    }
+}
+
 /// `simulation.quality`: a run that breaks a gate is `suspect`; suspect runs feed the surrogates
 /// only with `suspect: use`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct QualitySettings {
-    pub gates: crate::extract::lsdyna::quality::Gates,
+    pub gates: crate::study::settings::Gates,
     pub use_suspect: bool,
 }
 
@@ -75,11 +108,11 @@ pub enum Response {
     Regex { file: PathBuf, regex: String },
     /// `lsdyna`: mean crush force (kN) over a stroke window, from rcforc and nodout.
     CrushForce {
-        window: crate::extract::crush::Window,
-        source: crate::extract::crush::SimSource,
+        window: crate::study::settings::Window,
+        source: crate::study::settings::SimSource,
     },
     /// `calculix`: a value from a block of `JOB.dat` (`response.dat`), judged by the ccx adapter.
-    Dat(crate::execute::calculix::CalculixAdapter),
+    Dat(crate::study::settings::CalculixAdapter),
 }
 
 /// `simulation.mesh: {kind: honeycomb_tube, ...}`.
@@ -92,17 +125,6 @@ pub struct MeshSpec {
     pub length: f64,
     /// `mesh.edge_set`: a node set of the cut edges appended to the include, with this id.
     pub edge_set: Option<u32>,
-}
-
-/// A Tera template: where it was read from, where it is rendered to, and its text (already parsed
-/// once without error).
-#[derive(Debug, Clone)]
-pub struct Template {
-    /// The template file (relative paths resolved against the study file's directory).
-    pub file: PathBuf,
-    /// Its name in the run directory: the file name without `.tera`.
-    pub output: PathBuf,
-    pub source: String,
 }
 
 /// A file copied into every run directory unchanged.
@@ -133,7 +155,7 @@ pub enum SamplingMethod {
     Lhs,
     Grid,
     /// Batch after batch, where the runs most reduce what the answer depends on
-    /// ([`crate::plan::sequential`]).
+    /// ([`crate::emulate::sequential`]).
     Sequential,
 }
 
@@ -154,7 +176,7 @@ pub struct Sequential {
     /// Runs per batch (`None`: as many as can be in flight, `--jobs`).
     pub batch: Option<usize>,
     /// The most solver runs the study may make in all (screening, probes and the loop); 0: the
-    /// default, [`crate::plan::sequential::DEFAULT_BUDGET_PER_DESIGN`] per tested design.
+    /// default, [`crate::emulate::sequential::DEFAULT_BUDGET_PER_DESIGN`] per tested design.
     pub budget: usize,
     /// Enough: the emulator's error at the posterior, in units of the tests' noise of the mean,
     /// at or below this at every tested design.

@@ -181,7 +181,7 @@ impl<'a, 'b> Marginal<'a, 'b> {
     }
 
     /// θ's box.
-    pub fn theta_bounds(&self) -> &crate::calibrate::Bounds {
+    pub fn theta_bounds(&self) -> &crate::base::Bounds {
         self.koh.theta_bounds()
     }
 

@@ -10,9 +10,9 @@
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use super::gp::{Emulator, cholesky_jittered, gauss_corr};
-use super::optim::{FAILED, line_search, nelder_mead};
+use crate::base::optim::{FAILED, line_search, nelder_mead};
 use crate::calibrate::{Bounds, CalibrationError, Problem};
+use crate::emulate::gp::{Emulator, cholesky_jittered, gauss_corr};
 
 /// How the discrepancy's constant trend β_d enters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -189,7 +189,7 @@ impl<'a> Koh<'a> {
     /// polish of θ at the found hyperparameters. The optimum sits on a hyperparameter bound with few
     /// tests, where a joint search stops short in θ; the polish finishes the job in θ alone.
     pub fn fit_ml(&self, seed: u64) -> (Vec<f64>, f64) {
-        let starts = crate::plan::latin_hypercube(10, self.dim(), seed);
+        let starts = crate::base::latin_hypercube(10, self.dim(), seed);
         let cost = |u: &[f64]| self.cost(u, Trend::Profile);
         let mut best = (0..starts.nrows())
             .into_par_iter()

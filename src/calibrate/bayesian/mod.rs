@@ -18,19 +18,16 @@ pub mod convergence;
 pub mod coords;
 pub mod cubature;
 pub mod exact;
-pub mod gp;
 pub mod koh;
 pub mod mcmc;
-pub(crate) mod optim;
 pub mod proposal;
-mod roughness;
 
 use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
 use super::{Bounds, CalibrationError, Problem};
-use gp::Emulator;
+use crate::emulate::gp::Emulator;
 use koh::{Discrepancy, Koh};
 
 /// Simulation samples for the emulator: one row per run, columns = design variables then parameters.
@@ -67,45 +64,8 @@ impl SimulationData {
     }
 }
 
-/// Knobs of the Bayesian method; defaults follow the paper (24 emulator samples).
-///
-/// The sampler ([`by_sampling`]): `mcmc_walkers` walkers take `mcmc_burn_in / 2` ensemble slice
-/// steps (about five density evaluations each), then two adaptation rounds of `mcmc_burn_in`
-/// independence steps (one evaluation each); then `mcmc_chains` of them run on with the adapted
-/// kernel, checked for convergence first after `mcmc_steps` steps and stopped at `mcmc_max_steps`.
-/// Quadrature (one or two parameters) ignores them.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Settings {
-    pub emulator_samples: usize,
-    pub seed: u64,
-    pub mcmc_walkers: usize,
-    /// Chains of the run after adaptation: split R-hat ≤ 1.01 asks each for an ESS near 50, so
-    /// fewer, longer chains reach it with fewer evaluations (Vehtari et al. 2021 use four).
-    pub mcmc_chains: usize,
-    pub mcmc_steps: usize,
-    pub mcmc_burn_in: usize,
-    /// The sampler's budget: it stops here if R-hat ≤ 1.01 and ESS ≥ 1000 are not met before
-    /// (never before `mcmc_steps`).
-    pub mcmc_max_steps: usize,
-    /// Up to this many parameters the posterior is computed by quadrature, not sampled (0: always
-    /// sample).
-    pub quadrature_max_params: usize,
-}
-
-impl Default for Settings {
-    fn default() -> Self {
-        Settings {
-            emulator_samples: 24,
-            seed: 1,
-            mcmc_walkers: 16,
-            mcmc_chains: 8,
-            mcmc_steps: 300,
-            mcmc_burn_in: 100,
-            mcmc_max_steps: 5_000,
-            quadrature_max_params: 2,
-        }
-    }
-}
+/// The method's knobs are study settings (`calibration.bayesian`).
+pub use crate::study::BayesianSettings as Settings;
 
 /// Most posterior rows kept in [`BayesianFit::posterior`] (quantiles use every sample).
 const MAX_POSTERIOR_ROWS: usize = 5000;
@@ -162,7 +122,7 @@ impl BayesianFit {
 /// evaluates the problem's model there.
 pub fn emulator_samples(problem: &Problem, design_bounds: &Bounds, settings: &Settings) -> SimulationData {
     let bounds = joint_bounds(design_bounds, &problem.bounds);
-    let plan = crate::plan::latin_hypercube(settings.emulator_samples, bounds.dim(), settings.seed);
+    let plan = crate::base::latin_hypercube(settings.emulator_samples, bounds.dim(), settings.seed);
     let inputs = DMatrix::from_fn(plan.nrows(), plan.ncols(), |i, k| {
         bounds.lower[k] + plan[(i, k)] * bounds.width()[k]
     });

@@ -5,6 +5,7 @@ use std::time::Instant;
 use nalgebra::{DMatrix, DVector};
 
 use super::*;
+use crate::emulate::gp;
 
 const F: f64 = 600.0;
 const B: f64 = 2.0;

@@ -37,41 +37,6 @@
 pub mod interrupt;
 pub mod lost;
 
-/// `simulation.solver.slurm`: how runs are submitted.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SlurmSettings {
-    pub partition: Option<String>,
-    pub time_limit_minutes: Option<u32>,
-    /// CPUs per job: the runs of one job run this many at once.
-    pub cpus: u32,
-    pub memory_mb: Option<u32>,
-    /// Runs packed into one job (the scheduler starts about 2 jobs a second).
-    pub runs_per_job: usize,
-    /// More sbatch options, one argv element each.
-    pub options: Vec<String>,
-    /// How long a job may be unknown to squeue, scontrol and the jobcomp record before its
-    /// unfinished runs are given up as `lost` (see [`lost`]).
-    pub lost_after: Duration,
-}
-
-/// Default of `slurm.lost_after`: two minutes — far above the few seconds between sbatch and
-/// squeue showing the job, and short enough that a vanished job does not stall a study for long.
-pub const DEFAULT_LOST_AFTER: Duration = Duration::from_secs(120);
-
-impl Default for SlurmSettings {
-    fn default() -> Self {
-        SlurmSettings {
-            partition: None,
-            time_limit_minutes: None,
-            cpus: 1,
-            memory_mb: None,
-            runs_per_job: 8,
-            options: Vec::new(),
-            lost_after: DEFAULT_LOST_AFTER,
-        }
-    }
-}
-
 // ---------------------------------------------------------------------------------------------
 // The executor.
 //
@@ -102,6 +67,7 @@ use serde::{Deserialize, Serialize};
 use super::store::{RESULTS_DIR, write_atomic};
 use super::{Canceller, Outcome, RunRecord, RunStore};
 use crate::error::Error;
+pub use crate::study::settings::{DEFAULT_LOST_AFTER, SlurmSettings};
 
 /// Directory (under `--out`) of the journal and the batch scripts.
 pub const SLURM_DIR: &str = "slurm";

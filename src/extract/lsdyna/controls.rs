@@ -12,7 +12,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use crate::error::InputError;
-use crate::render::lsdyna::deck::{self, Block, Card, Param};
+use lsdyna_keyword::deck::{self, Block, Card, Param};
 
 /// An output interval, where the output goes, and the deck line that set them.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -19,6 +19,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::glstat::Glstat;
+pub use crate::study::settings::Gates;
 
 /// Steps whose internal energy is below this fraction of its largest value are left out of the
 /// hourglass ratio.
@@ -35,37 +36,6 @@ pub struct Quality {
     pub added_mass_ratio: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub kinetic_ratio: Option<f64>,
-}
-
-/// The limits a run must keep to count as sound (fractions, not per cent).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Gates {
-    pub hourglass: f64,
-    pub energy: f64,
-    pub added_mass: f64,
-    /// Kinetic over internal energy (a quasi-static crush); added after the others, so a
-    /// `results.json` written before it reads with the default.
-    #[serde(default = "default_kinetic")]
-    pub kinetic: f64,
-}
-
-fn default_kinetic() -> f64 {
-    0.10
-}
-
-impl Default for Gates {
-    /// Common crash-analysis practice: hourglass ≤ 10 % of internal energy, energy balance within
-    /// ± 5 %, added mass ≤ 1 %; for a quasi-static crush kinetic energy ≤ 10 % of the internal
-    /// energy (the usual guidance is 5–10 %; the first fold's snap-through alone reaches 3–6 %
-    /// in the reduced honeycomb specimen, see docs/openradioss.md).
-    fn default() -> Self {
-        Gates {
-            hourglass: 0.10,
-            energy: 0.05,
-            added_mass: 0.01,
-            kinetic: default_kinetic(),
-        }
-    }
 }
 
 /// One broken gate, with the figure and the limit.

@@ -9,17 +9,9 @@
 
 use super::text::{Tok, body, err, read_text, tokens_into};
 use crate::error::InputError;
+pub use crate::study::settings::Side;
 use std::collections::BTreeMap;
 use std::path::Path;
-
-/// Which side of a contact interface a resultant belongs to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Side {
-    /// `slave` in older output, `SURFA` in newer.
-    SurfA,
-    /// `master` in older output, `SURFB` in newer.
-    SurfB,
-}
 
 impl Side {
     fn from_label(w: &str) -> Option<Side> {

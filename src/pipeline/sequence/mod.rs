@@ -27,11 +27,11 @@ use nalgebra::DVector;
 
 use super::runs::{self, Executed, RunOutcomes, Source};
 use super::{Engine, Event, Reporter, RunOptions, curves};
-use crate::calibrate::Bounds;
+use crate::base::Bounds;
+use crate::emulate::sequential::{self as seq, Posterior};
 use crate::error::Error;
 use crate::execute::RunStore;
 use crate::execute::sweep::{self, Prepared};
-use crate::plan::sequential::{self as seq, Posterior};
 use crate::plan::sweep::{as_written, initial_samples, joint_bounds};
 use crate::plan::{Plan, PlannedRun, RunRole, latin_hypercube};
 use crate::study::{SolverSimulation, Study};

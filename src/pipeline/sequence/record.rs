@@ -255,7 +255,7 @@ impl Batch {
             };
             format!(
                 "emulator error ≤ {} of the tests' noise{rest}",
-                crate::format::num(worst)
+                crate::base::format::num(worst)
             )
         };
         let estimates: Vec<String> = self
@@ -265,9 +265,9 @@ impl Batch {
                 let [lo, hi] = self.interval95.get(n).copied().unwrap_or([f64::NAN; 2]);
                 format!(
                     "{n} {} [{}, {}]",
-                    crate::format::num(*v),
-                    crate::format::num(lo),
-                    crate::format::num(hi)
+                    crate::base::format::num(*v),
+                    crate::base::format::num(lo),
+                    crate::base::format::num(hi)
                 )
             })
             .collect();

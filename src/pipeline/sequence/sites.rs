@@ -1,4 +1,4 @@
-//! The runs and tests as the planner sees them ([`crate::plan::sequential::Site`]): per tested
+//! The runs and tests as the planner sees them ([`crate::emulate::sequential::Site`]): per tested
 //! design, the runs' points in the space and their outputs — the response, and with curves the
 //! features the diagnosis reads, whitened by the specimens' scatter — and the tests' means and the
 //! noise of those means, in the same units. Also the emulators' error measured on each design's
@@ -6,13 +6,13 @@
 
 use nalgebra::DVector;
 
-use crate::calibrate::Bounds;
+use crate::base::Bounds;
 use crate::diagnose::features::{CurveDesign, Whitening};
 use crate::diagnose::{NoiseModel, Observation, Role};
+use crate::emulate::Surrogate;
+use crate::emulate::functional::{AcrossRun, CurvesAcross, FunctionalSurrogate};
+use crate::emulate::sequential::Site;
 use crate::extract::features::FeatureSpec;
-use crate::fit::Surrogate;
-use crate::fit::functional::{AcrossRun, CurvesAcross, FunctionalSurrogate};
-use crate::plan::sequential::Site;
 use crate::study::{SolverSimulation, Study, SurrogateKind};
 
 /// Fallback noise of a response without replicates: this fraction of its level (the tolerance is
@@ -37,9 +37,9 @@ pub struct TestedDesign {
 
 impl TestedDesign {
     /// The unit a curve emulator across the designs takes this design's curves in: its tests' mean
-    /// force ([`crate::fit::functional::unit`]).
+    /// force ([`crate::emulate::functional::unit`]).
     pub fn scale(&self) -> f64 {
-        crate::fit::functional::unit(self.observed[0])
+        crate::emulate::functional::unit(self.observed[0])
     }
 }
 
@@ -180,7 +180,7 @@ pub fn measured_errors(
         .collect()
 }
 
-/// With one emulator across the designs ([`crate::plan::sequential::shared`]): per tested design,
+/// With one emulator across the designs ([`crate::emulate::sequential::shared`]): per tested design,
 /// the emulators fitted to every run but the design's latest batch — the response's, and with
 /// curves the study's curve emulator across the designs ([`CurvesAcross`]) — their RMS error there
 /// in units of the tests' noise of the mean, the largest over the outputs (`None`: the design has
@@ -188,7 +188,7 @@ pub fn measured_errors(
 pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) -> Vec<Option<f64>> {
     use rayon::prelude::*;
     let values: Vec<Vec<f64>> = tests.designs.iter().map(|t| t.values.clone()).collect();
-    let joint = crate::plan::sequential::shared::joint_bounds(&values, bounds);
+    let joint = crate::emulate::sequential::shared::joint_bounds(&values, bounds);
     (0..tests.designs.len())
         .into_par_iter()
         .map(|s| {
@@ -206,7 +206,7 @@ pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) 
             if tests.whitening.is_some() {
                 kept_sites.iter_mut().for_each(response_only);
             }
-            let emus = crate::plan::sequential::shared::emulators(&values, bounds, &kept_sites);
+            let emus = crate::emulate::sequential::shared::emulators(&values, bounds, &kept_sites);
             let curves = match tests.whitening {
                 Some(_) => match curves_across(tests, &kept, &joint) {
                     Ok(c) => Some(c.at(&values[s], tests.designs[s].scale())),
@@ -235,7 +235,7 @@ fn response_only(site: &mut Site) {
 
 /// The study's curve emulator across the designs fitted to `runs` ([`CurvesAcross`]), each design's
 /// curves in units of its tests' mean force.
-fn curves_across(tests: &Tests, runs: &[RunData], joint: &Bounds) -> Result<CurvesAcross, crate::fit::FitError> {
+fn curves_across(tests: &Tests, runs: &[RunData], joint: &Bounds) -> Result<CurvesAcross, crate::emulate::FitError> {
     let rows: Vec<AcrossRun> = runs
         .iter()
         .filter_map(|r| {

@@ -1,9 +1,9 @@
 //! The simulation as a function `y(d, θ)` — Dakota's *model*.
 //!
 //! A closed-form study evaluates its expression; solver studies answer from per-design
-//! surrogates fitted to runs ([`crate::fit::SurrogateModel`]). Either way the numerics see a [`crate::calibrate::Model`].
+//! surrogates fitted to runs ([`crate::emulate::SurrogateModel`]). Either way the numerics see a [`crate::emulate::Model`].
 
-use crate::calibrate::Model;
+use super::Model;
 use crate::study::{Expression, Simulation, Study};
 
 /// A closed-form simulation bound to the study's constants.

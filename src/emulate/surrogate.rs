@@ -3,7 +3,7 @@
 //!
 //! - `linear`, `quadratic`: least squares (SVD) on a polynomial in the parameters scaled to
 //!   [-1, 1] (scaling keeps the normal equations well conditioned whatever the units).
-//! - `gp`: the Bayesian module's GP emulator ([`crate::calibrate::bayesian::gp::Emulator`]) over the
+//! - `gp`: the Bayesian module's GP emulator ([`crate::emulate::gp::Emulator`]) over the
 //!   parameters alone.
 //!
 //! Together the surrogates form a [`SurrogateModel`], a [`Model`] whose `predict(design, θ)` looks
@@ -11,7 +11,7 @@
 //!
 //! ```
 //! use lab::calibrate::Bounds;
-//! use lab::fit::Surrogate;
+//! use lab::emulate::Surrogate;
 //! use lab::study::SurrogateKind;
 //! let bounds = Bounds::new(vec![0.0], vec![10.0]);
 //! let samples: Vec<(Vec<f64>, f64)> = (0..4).map(|i| (vec![i as f64 * 3.0], 2.0 + 0.5 * i as f64 * 3.0)).collect();
@@ -19,12 +19,11 @@
 //! assert!((s.predict(&[5.0]) - 4.5).abs() < 1e-12);
 //! ```
 
-pub mod functional;
-
 use nalgebra::{DMatrix, DVector};
 
-use crate::calibrate::bayesian::gp::Emulator;
-use crate::calibrate::{Bounds, Model};
+use super::Model;
+use super::gp::Emulator;
+use crate::base::Bounds;
 use crate::study::SurrogateKind;
 
 /// A fitted surrogate of one design.
@@ -200,24 +199,6 @@ pub struct DesignSurrogate {
     pub samples: usize,
 }
 
-impl SurrogateModel {
-    /// The surrogates' own error at each observation, as a variance in the response's units: the
-    /// mean square relative error at the design's check runs times the observation's level squared
-    /// (0 where a design has no check runs).
-    pub fn error_variance(&self, observations: &[crate::diagnose::Observation]) -> Vec<f64> {
-        observations
-            .iter()
-            .map(|o| {
-                self.designs
-                    .iter()
-                    .find(|d| d.values == o.design)
-                    .and_then(|d| d.check.mean_square_relative)
-                    .map_or(0.0, |m| m * o.mean * o.mean)
-            })
-            .collect()
-    }
-}
-
 /// Per-design surrogates as one model. A design that was not planned has no surrogate: its
 /// prediction is NaN (the numerics report non-finite values rather than use a made-up number).
 #[derive(Debug, Clone)]
@@ -239,7 +220,7 @@ mod tests {
     use super::*;
 
     fn samples(f: impl Fn(f64, f64) -> f64) -> Vec<(Vec<f64>, f64)> {
-        let plan = crate::plan::latin_hypercube(12, 2, 3);
+        let plan = crate::base::latin_hypercube(12, 2, 3);
         (0..12)
             .map(|i| {
                 let t = vec![1.0 + 2.0 * plan[(i, 0)], 100.0 + 50.0 * plan[(i, 1)]];

@@ -17,9 +17,9 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
+use super::gp::Emulator;
 use super::{CheckError, FitError, Surrogate};
-use crate::calibrate::Bounds;
-use crate::calibrate::bayesian::gp::Emulator;
+use crate::base::Bounds;
 use crate::study::SurrogateKind;
 
 /// The share of the runs' variance about their mean curve the kept components hold.
@@ -203,7 +203,7 @@ pub struct AcrossRun<'a> {
 
 impl CurvesAcross {
     /// Fits the emulator to `runs` over `joint`, the designs' range then the parameter box
-    /// ([`crate::plan::sequential::shared::joint_bounds`]).
+    /// ([`crate::emulate::sequential::shared::joint_bounds`]).
     pub fn fit(runs: &[AcrossRun], joint: &Bounds) -> Result<CurvesAcross, FitError> {
         let scaled: Vec<DVector<f64>> = runs.iter().map(|r| r.curve / r.scale).collect();
         let refs: Vec<&DVector<f64>> = scaled.iter().collect();

@@ -1,4 +1,4 @@
-//! Tera 2 filters for fixed-format keyword fields, built on [`super::field`].
+//! Tera 2 filters for fixed-format keyword fields, built on `lsdyna_keyword::field`.
 //!
 //! Register them on the engine's `tera::Tera` with [`register`]:
 //!
@@ -13,7 +13,7 @@
 
 use tera::{Error, Kwargs, State, Tera, TeraResult, Value};
 
-use super::field;
+use lsdyna_keyword::field;
 
 /// Registers `dyna_real`, `dyna_int` and `dyna_text` on `tera`.
 pub fn register(tera: &mut Tera) {

@@ -6,7 +6,7 @@
 //! crush force, and the curve features the diagnosis reads, whitened by the specimens' scatter).
 //! Each output of a site has the tests' mean and the noise variance of that mean, τ².
 //!
-//! 1. **Emulators.** Per site and output, the Gaussian process of [`crate::calibrate::bayesian::gp`]
+//! 1. **Emulators.** Per site and output, the Gaussian process of [`crate::emulate::gp`]
 //!    (maximum-likelihood roughness, universal kriging): mean μ(x) and covariance c(x, x').
 //! 2. **Posterior** of x from the training sites' tests, with the emulator's own variance in the
 //!    likelihood (Kennedy & O'Hagan 2001): −ln p(x) = Σ_{site, k} [(ȳ − μ)² / (τ² + s²) + ln(τ² + s²)] / 2,
@@ -31,18 +31,11 @@ use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::latin_hypercube;
-use crate::calibrate::bayesian::gp::Emulator;
+use super::gp::Emulator;
+use crate::base::latin_hypercube;
 
 pub mod shared;
-use crate::calibrate::{Bounds, optimize};
-
-/// The default `tolerance`: the emulator's error at the posterior may be half the tests' noise of the
-/// mean. Counted as noise, it then widens the intervals by at most √(1 + 0.5²) − 1 ≈ 12 %.
-pub const DEFAULT_TOLERANCE: f64 = 0.5;
-
-/// The default budget: this many solver runs per tested design, in all.
-pub const DEFAULT_BUDGET_PER_DESIGN: usize = 30;
+use crate::base::{Bounds, optimize};
 
 /// The lattice the planner's points are snapped to, as a fraction of the box's width: finer than
 /// a posterior of precise tests is narrow (35 specimens at 0.25 % scatter know a modulus to about

@@ -3,7 +3,7 @@
 //! accurate at the stop as the stop says.
 
 use super::*;
-use crate::plan::sequential::{emulators as per_site_emulators, posterior, predicted_error};
+use crate::emulate::sequential::{emulators as per_site_emulators, posterior, predicted_error};
 
 /// The stand-in for a solver: the response at a design's coordinates and a point of the box.
 type Solver = Box<dyn Fn(&[f64], &[f64]) -> f64>;

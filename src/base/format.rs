@@ -4,8 +4,6 @@
 
 use indexmap::IndexMap;
 
-use crate::diagnose::LackOfFit;
-
 /// A number with four significant digits, without trailing noise.
 pub fn num(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
@@ -51,27 +49,6 @@ pub fn params(p: &IndexMap<String, f64>) -> String {
         .map(|(k, v)| format!("{k} = {}", num(*v)))
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-/// Both figures of a lack-of-fit test: `χ² = … on … degrees of freedom, p = …; largest residual
-/// z = … at D (Šidák p = … over N)`.
-pub fn lack_of_fit(l: &LackOfFit) -> String {
-    let omnibus = format!(
-        "χ² = {} on {} degrees of freedom, {}",
-        num(l.chi2),
-        l.dof,
-        p_text(l.p_value)
-    );
-    match &l.largest {
-        Some(r) => format!(
-            "{omnibus}; largest residual z = {} at {} (Šidák {} over {})",
-            num(r.z),
-            r.design,
-            p_text(r.p_corrected),
-            r.residuals
-        ),
-        None => omnibus,
-    }
 }
 
 #[cfg(test)]

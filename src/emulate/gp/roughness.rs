@@ -16,8 +16,8 @@ use argmin::solver::quasinewton::LBFGS;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use super::gp::{GlsFit, gls_with_corr, symmetric_exp};
-use super::optim::FAILED;
+use super::{GlsFit, gls_with_corr, symmetric_exp};
+use crate::base::optim::FAILED;
 
 /// ln λ range in the unit cube: from nearly flat to wiggles of ~1/20 of the box.
 pub const LOG_ROUGHNESS: (f64, f64) = (-4.6, 6.2);
@@ -160,7 +160,7 @@ fn descend(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>, v0: Vec<f64>) -
 /// box, the best optimum kept.
 pub fn fit(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>) -> Vec<f64> {
     let p = x.ncols();
-    let starts = crate::plan::latin_hypercube(STARTS, p, 0x5eed);
+    let starts = crate::base::latin_hypercube(STARTS, p, 0x5eed);
     let logit = |u: f64| {
         let u = u.clamp(0.02, 0.98);
         (u / (1.0 - u)).ln()
@@ -183,7 +183,7 @@ mod tests {
 
     /// Standardised runs of a smooth function of two inputs on a Latin hypercube, linear trend.
     fn data(n: usize) -> (DMatrix<f64>, DVector<f64>, DMatrix<f64>) {
-        let x = crate::plan::latin_hypercube(n, 2, 5);
+        let x = crate::base::latin_hypercube(n, 2, 5);
         let y = DVector::from_fn(n, |i, _| (3.0 * x[(i, 0)]).sin() + x[(i, 1)].powi(2));
         let z = y.add_scalar(-y.mean()) / y.variance().sqrt();
         let f = DMatrix::from_fn(n, 3, |i, c| if c == 0 { 1.0 } else { x[(i, c - 1)] });
@@ -230,7 +230,7 @@ mod tests {
         let cost = |u: &[f64]| p.nll_grad_log(&to_l(u)).map_or(FAILED, |v| v.0);
         let nm = [[0.2, 0.2], [0.5, 0.5], [0.8, 0.3]]
             .iter()
-            .map(|s| super::super::optim::nelder_mead(&cost, s, 0.1, 2000).1)
+            .map(|s| crate::base::optim::nelder_mead(&cost, s, 0.1, 2000).1)
             .fold(f64::INFINITY, f64::min);
         let lambda = fit(&x, &z, &f);
         let (c, g) = p.nll_grad_log(&lambda).unwrap();

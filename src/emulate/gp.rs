@@ -7,7 +7,9 @@
 use faer::linalg::solvers::{DenseSolveCore, Llt};
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
-use crate::calibrate::{Bounds, CalibrationError};
+use crate::base::{Bounds, CalibrationError};
+
+mod roughness;
 
 /// Relative nugget on the correlation matrix: conditioning only, the data are deterministic.
 const NUGGET: f64 = 1e-8;
@@ -283,7 +285,7 @@ impl Emulator {
     /// - Timoshenko (Euler plus shear, no longer a power law) in (h, E, L): 134 % / 1.9 % / 0.65 %;
     /// - 2 + a + b on [0.25, 1]²: 3e-16 / 0.02 % / 0.05 %, the price of the logs when the response
     ///   is already linear. On boxes wider than a decade the runs are spread uniformly in ln x
-    ///   ([`crate::calibrate::Bounds::spread`]): spread linearly they would crowd into the top of the
+    ///   ([`crate::base::Bounds::spread`]): spread linearly they would crowd into the top of the
     ///   unit cube in ln x (a linear response on [0.01, 1]² was then off by 6 %).
     ///
     /// So both: ln x is clearly better for power laws and costs little otherwise.
@@ -344,7 +346,7 @@ impl Emulator {
                 "{n} emulator samples are too few for {p} inputs"
             )));
         }
-        let roughness = super::roughness::fit(&x, &z, &f);
+        let roughness = roughness::fit(&x, &z, &f);
         let fit = gls_with_corr(&gauss_corr(&x, &x, &roughness), &z, &f)
             .ok_or_else(|| CalibrationError::Numerics("emulator correlation matrix is singular".into()))?;
         Ok(Emulator {
@@ -483,7 +485,7 @@ mod tests {
     use super::*;
 
     fn grid_data(f: impl Fn(f64, f64) -> f64, n: usize) -> (DMatrix<f64>, DVector<f64>, Bounds) {
-        let plan = crate::plan::latin_hypercube(n, 2, 3);
+        let plan = crate::base::latin_hypercube(n, 2, 3);
         let bounds = Bounds::new(vec![7.0, 50_000.0], vec![13.0, 80_000.0]);
         let x = DMatrix::from_fn(n, 2, |i, k| bounds.lower[k] + plan[(i, k)] * bounds.width()[k]);
         let y = DVector::from_fn(n, |i, _| f(x[(i, 0)], x[(i, 1)]));
@@ -494,7 +496,7 @@ mod tests {
     /// takes the full pass), so no fit or replay changes with it.
     #[test]
     fn a_matrix_correlated_with_itself_is_the_full_pass_bit_for_bit() {
-        let plan = crate::plan::latin_hypercube(23, 3, 11);
+        let plan = crate::base::latin_hypercube(23, 3, 11);
         let roughness = [0.7, 3.1, 12.5];
         let full = gauss_corr(&plan, &plan.clone(), &roughness);
         let lower = gauss_corr(&plan, &plan, &roughness);
@@ -519,7 +521,7 @@ mod tests {
     fn box_error(f: &dyn Fn(&[f64]) -> f64, bounds: &Bounds, n: usize, seed: u64, tr: Transforms) -> (f64, f64) {
         use rand::{Rng, SeedableRng};
         let p = bounds.dim();
-        let plan = crate::plan::latin_hypercube(n, p, seed);
+        let plan = crate::base::latin_hypercube(n, p, seed);
         let spread = bounds.spread_rows(&plan);
         let x = DMatrix::from_fn(n, p, |i, k| spread[i][k]);
         let y = DVector::from_fn(n, |i, _| f(x.row(i).transpose().as_slice()));

@@ -8,8 +8,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{Bounds, CalibrationError};
-use crate::plan::latin_hypercube;
+use super::{Bounds, CalibrationError, latin_hypercube};
 
 /// Residual function: parameters → residual vector.
 pub trait Residuals {

@@ -19,7 +19,7 @@
 
 use std::path::Path;
 
-use super::crush::{ForceDisplacement, data_lines};
+use super::curve::{ForceDisplacement, data_lines};
 use crate::error::InputError;
 
 /// `points` equally spaced strokes from `s0` to `s1` mm, both ends included.
@@ -117,7 +117,7 @@ impl GridError {
 }
 
 /// The error as bad input in `file`: at the line of the sample it is about when `text` (the file's
-/// text as read by [`super::crush::parse_test_csv`]) has that data row, else about the whole file.
+/// text as read by [`super::curve::parse_test_csv`]) has that data row, else about the whole file.
 pub fn to_input_error(err: &GridError, file: &Path, text: &str) -> InputError {
     let line = err
         .sample()
@@ -357,7 +357,7 @@ mod tests {
     #[test]
     fn the_error_names_the_line_of_the_sample() {
         let text = "# machine 7\ndisplacement [mm],force [kN]\n0,0\n1,1\n\n0.5,2\n2,3\n";
-        let c = super::super::crush::parse_test_csv(Path::new("t.csv"), text, Default::default()).unwrap();
+        let c = super::super::curve::parse_test_csv(Path::new("t.csv"), text, Default::default()).unwrap();
         let e = resample(&c, &grid(0.0, 2.0, 3)).unwrap_err();
         let input = to_input_error(&e, Path::new("t.csv"), text);
         assert_eq!(input.span.as_ref().map(|s| s.line), Some(6), "{input}");
