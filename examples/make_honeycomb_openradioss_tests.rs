@@ -33,7 +33,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 
 use lab::execute::Adapter;
-use lab::execute::openradioss::OpenRadiossAdapter;
+use lab::extract::adapters::openradioss::OpenRadiossAdapter;
 use lab::extract::crush::{self, CsvOptions, SimSource, Window};
 use lab::render::Renderer;
 use lab::render::mesh::{self, TubeSpec};
@@ -228,7 +228,7 @@ fn tests(out: &Path, work: &Path) {
             let adapter = adapter(seed);
             let dir = work.join(format!("{name}-{k}"));
             run(&adapter, &dir, &deck, &mesh_text);
-            let curve = lab::execute::openradioss::read_curve(&dir, &adapter)
+            let curve = lab::extract::adapters::openradioss::read_curve(&dir, &adapter)
                 .unwrap_or_else(|| fail(format!("{}: no curve", dir.display())));
             let plain = crush::crush_force(&curve, MODEL.window).unwrap_or_else(|e| fail(e.to_string()));
             let factor = 1.0 + SCATTER * normal(&mut rng);
@@ -310,7 +310,8 @@ fn check(work: &Path, tests: Option<&Path>) {
         run(&adapter, &dir, &deck, &mesh_text);
         let seconds = started.elapsed().as_secs_f64();
         let judged = adapter.judge(&dir).unwrap_or_else(|o| fail(o.to_string()));
-        let curve = lab::execute::openradioss::read_curve(&dir, &adapter).unwrap_or_else(|| fail("no curve".into()));
+        let curve =
+            lab::extract::adapters::openradioss::read_curve(&dir, &adapter).unwrap_or_else(|| fail("no curve".into()));
         let peak = curve
             .displacement
             .iter()

@@ -193,7 +193,7 @@ fn execute(command: Command) -> Result<i32, Error> {
         } => compare(&a, &b, window, points as usize, json),
         Command::Report { study, out } => {
             let dir = out_dir(&study::load(&study)?, out);
-            if let Some(warning) = verbs::rewrite_report(&dir)? {
+            if let Some(warning) = report::run::rewrite_report(&dir)? {
                 eprintln!("warning: {warning}");
             }
             println!("wrote {}", dir.join("report.html").display());
@@ -215,12 +215,13 @@ fn run(study: &Study, options: &RunOptions) -> Result<i32, Error> {
         signals: &signals,
     };
     let outcome = pipeline::run(study, options, &engine, &mut Stderr)?;
-    print!("{}", report::summary::render(&outcome.results));
+    let written = report::run::write_run(study, outcome, &options.out)?;
+    print!("{}", report::summary::render(&written.results));
     println!("\nwrote {}", options.out.join("results.json").display());
-    if let Some(splits) = &outcome.results.splits {
+    if let Some(splits) = &written.results.splits {
         print!("{}", report::summary::splits(splits));
     }
-    Ok(outcome.exit_code())
+    Ok(written.exit_code())
 }
 
 /// `lab check`: validates, then says what was read.

@@ -7,7 +7,8 @@ mod crushsim_bin;
 use std::path::PathBuf;
 use std::process::Command;
 
-use lab::execute::{Adapter, LsDynaAdapter, Outcome};
+use lab::execute::{Adapter, Outcome};
+use lab::extract::adapters::LsDynaAdapter;
 use lab::extract::crush::{SimSource, Window};
 use lab::extract::lsdyna::binout::{self, histories};
 use lab::extract::lsdyna::d3hsp;

@@ -12,8 +12,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Arc;
 
-use lab::execute::calculix::{CalculixAdapter, DatResponse};
 use lab::execute::{Adapter, Executor, Outcome, ResponseProblem, RetryPolicy, RunSpec, RunStore, STDOUT_FILE};
+use lab::extract::adapters::calculix::{CalculixAdapter, DatResponse};
 use lab::extract::calculix::{Reduce, parse_dat};
 use lab::render::{self, Renderer};
 use lab::study::{Simulation, Study};

@@ -75,7 +75,7 @@ fn tip(inp: &[u8]) -> f64 {
     let Response::Dat(study_adapter) = &sim.response else {
         panic!("a CalculiX study")
     };
-    let adapter = lab::execute::calculix::CalculixAdapter::new("beam", study_adapter.response.clone());
+    let adapter = lab::extract::adapters::calculix::CalculixAdapter::new("beam", study_adapter.response.clone());
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("beam.inp"), inp).unwrap();
     let out = Command::new("ccx")

@@ -159,7 +159,8 @@ fn render_study(file: &str, out: &Path) -> Rendered {
     // screening chooses, so planning all of them covers whichever it chooses.
     let every_hypothesis: Vec<usize> = (0..study.diagnosis.hypotheses.len()).collect();
     for plan in [Plan::new(&study, sim), Plan::joint(&study, sim, &every_hypothesis)] {
-        let prepared = sweep::prepare(&study, sim, &plan).unwrap_or_else(|e| panic!("{e}"));
+        let prepared = sweep::prepare(&study, &lab::extract::adapters::solver(sim).unwrap(), &plan)
+            .unwrap_or_else(|e| panic!("{e}"));
         sweep::write_meshes(out, &prepared).unwrap();
         for (i, run) in plan.runs.iter().enumerate() {
             let role = match run.role {

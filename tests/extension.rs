@@ -131,7 +131,7 @@ fn extension_runs_repeat_the_samples_with_their_own_keys() {
         panic!("a solver study")
     };
     let plan = Plan::new(&s, sim);
-    let prepared = sweep::prepare(&s, sim, &plan).unwrap();
+    let prepared = sweep::prepare(&s, &lab::extract::adapters::solver(sim).unwrap(), &plan).unwrap();
     let base: Vec<usize> = (0..plan.runs.len())
         .filter(|&i| plan.runs[i].role == RunRole::Sample)
         .collect();
@@ -169,7 +169,9 @@ fn extension_runs_repeat_the_samples_with_their_own_keys() {
         panic!()
     };
     let plan2 = Plan::new(&s2, sim2);
-    let keys2 = sweep::prepare(&s2, sim2, &plan2).unwrap().keys;
+    let keys2 = sweep::prepare(&s2, &lab::extract::adapters::solver(sim2).unwrap(), &plan2)
+        .unwrap()
+        .keys;
     assert_eq!(keys2[..], prepared.keys[..70]);
 }
 
@@ -292,7 +294,7 @@ fn extension_variable_no_template_uses_is_an_error() {
     let Simulation::Solver(sim) = &s.simulation else {
         panic!()
     };
-    let e = sweep::prepare(&s, sim, &Plan::new(&s, sim))
+    let e = sweep::prepare(&s, &lab::extract::adapters::solver(sim).unwrap(), &Plan::new(&s, sim))
         .err()
         .expect("baseline runs cannot render `shear`");
     assert!(e.to_string().contains("beam.txt.tera:3:"), "{e}");
@@ -358,8 +360,12 @@ fn extension_range_loads_with_its_probe_and_plans_joint_runs() {
         "each of the 6 samples and the 5 checks at its own shear"
     );
     // Rendered with their values: every joint run has keys of its own, none a screening run's.
-    let keys = sweep::prepare(&s, sim, &joint).unwrap().keys;
-    let screening = sweep::prepare(&s, sim, &Plan::new(&s, sim)).unwrap().keys;
+    let keys = sweep::prepare(&s, &lab::extract::adapters::solver(sim).unwrap(), &joint)
+        .unwrap()
+        .keys;
+    let screening = sweep::prepare(&s, &lab::extract::adapters::solver(sim).unwrap(), &Plan::new(&s, sim))
+        .unwrap()
+        .keys;
     assert!(keys.iter().all(|k| !screening.contains(k)));
     // Nothing to extend without ranges.
     let (_dir2, fixed) = write_case(SOLVER, TEMPLATE);
@@ -444,7 +450,7 @@ fn the_baseline_is_the_edge_when_it_renders_like_the_lower_bounds() {
         };
         let keys = sweep::prepare(
             &s,
-            sim,
+            &lab::extract::adapters::solver(sim).unwrap(),
             &Plan {
                 runs: vec![base, joint],
             },

@@ -17,8 +17,8 @@
 
 use std::path::{Path, PathBuf};
 
-use lab::execute::openradioss::OpenRadiossAdapter;
 use lab::execute::{Adapter, Outcome};
+use lab::extract::adapters::openradioss::OpenRadiossAdapter;
 
 fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -29,7 +29,7 @@ fn adapter() -> OpenRadiossAdapter {
     let lab::study::Simulation::Solver(sim) = &study.simulation else {
         panic!("a solver study")
     };
-    lab::execute::sweep::openradioss(sim).unwrap()
+    lab::extract::adapters::openradioss(sim).unwrap()
 }
 
 /// The first recording (by key) and the record lab made of it.

@@ -16,7 +16,8 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use lab::execute::{Adapter, LsDynaAdapter, Outcome};
+use lab::execute::{Adapter, Outcome};
+use lab::extract::adapters::LsDynaAdapter;
 use lab::extract::crush::{SimSource, Window};
 use lab::extract::lsdyna::quality::Gates;
 use lab::render::lsdyna;

@@ -374,7 +374,8 @@ fn write_sample() {
 /// The lsdyna adapter, through the real executor, classifies each of crushsim's failure switches.
 #[test]
 fn lsdyna_adapter_classifies_the_outcomes() {
-    use lab::execute::{Executor, LsDynaAdapter, OutcomeClass, RetryPolicy, RunSpec, RunStore};
+    use lab::execute::{Executor, OutcomeClass, RetryPolicy, RunSpec, RunStore};
+    use lab::extract::adapters::LsDynaAdapter;
     use lab::extract::crush::{SimSource, Window};
     use std::sync::Arc;
     let adapter = LsDynaAdapter {

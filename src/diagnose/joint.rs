@@ -37,6 +37,37 @@ pub struct MethodEstimate {
     pub error: Option<String>,
 }
 
+impl MethodEstimate {
+    /// A method's estimate by parameter name (`names` in the study's order), its 95 % interval
+    /// where it has one, or why it gave none.
+    pub fn of(
+        names: &[String],
+        outcome: &Result<crate::calibrate::Calibrated, crate::calibrate::CalibrationError>,
+    ) -> MethodEstimate {
+        match outcome {
+            Ok(c) => MethodEstimate {
+                parameters: names.iter().cloned().zip(c.theta().iter().copied()).collect(),
+                interval95: match c {
+                    crate::calibrate::Calibrated::Bayesian(fit) => Some(
+                        names
+                            .iter()
+                            .cloned()
+                            .zip(fit.interval95.iter().map(|&(lo, hi)| [lo, hi]))
+                            .collect(),
+                    ),
+                    crate::calibrate::Calibrated::Point(_) => None,
+                },
+                error: None,
+            },
+            Err(e) => MethodEstimate {
+                parameters: IndexMap::new(),
+                interval95: None,
+                error: Some(e.to_string()),
+            },
+        }
+    }
+}
+
 /// The runs of the loop for one hypothesis, and how well their surrogates reproduce the check runs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LoopRuns {

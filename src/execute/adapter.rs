@@ -63,6 +63,12 @@ pub trait Adapter: Send + Sync {
     fn scratch(&self) -> Vec<PathBuf> {
         Vec::new()
     }
+
+    /// What the executor runs after the study's command, with which environment and scratch files
+    /// (OpenRadioss's engine after its starter; default: nothing).
+    fn chain(&self) -> super::Chain {
+        super::Chain::default()
+    }
 }
 
 /// The `command` adapter: the response is the first capture group of `regex` in `response_file`;

@@ -52,12 +52,10 @@
 //!   attempt is never judged by a previous attempt's files.
 
 pub mod adapter;
-pub mod calculix;
 pub mod executor;
 pub mod lock;
-pub mod lsdyna;
-pub mod openradioss;
 pub mod progress;
+pub mod quality;
 pub mod replay;
 pub mod slurm;
 pub mod store;
@@ -68,12 +66,11 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-pub use crate::extract::lsdyna::quality::Quality;
 pub use crate::study::settings::{Backoff, OutcomeClass, RetryPolicy};
 pub use adapter::{Adapter, CommandAdapter, Judged};
 pub use executor::{CancelReason, Canceller, Chain, Event, Executor, Summary, cancel_on_signals};
 pub use lock::{Holder, LockError, OutLock};
-pub use lsdyna::LsDynaAdapter;
+pub use quality::Quality;
 pub use store::RunStore;
 
 /// The run store of `out` as `lab run` opens it: the directories of runs journaled as handed to

@@ -41,19 +41,18 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use tokio::sync::mpsc;
 
-use super::openradioss::OpenRadiossAdapter;
+use super::quality::{Flag, Quality};
 use super::replay::{self, InputDigest, Manifest};
 use super::store::{RUNS_DIR, run_key, write_atomic};
 use super::{
-    Adapter, CancelReason, Canceller, Chain, CommandAdapter, Executor, LsDynaAdapter, Outcome, OutcomeClass, RunRecord,
-    RunSpec, RunStore, progress,
+    Adapter, CancelReason, Canceller, Executor, Outcome, OutcomeClass, RunRecord, RunSpec, RunStore, progress,
 };
 use crate::error::{Error, InputError};
-use crate::extract::lsdyna::quality::{Flag, Gates, Quality};
 use crate::plan::Plan;
 use crate::render::mesh::{self, TubeSpec};
 use crate::render::{self, Inputs, Renderer};
-use crate::study::{QualitySettings, Response, SolverSimulation, Study};
+use crate::study::settings::Gates;
+use crate::study::{QualitySettings, SolverSimulation, Study};
 
 /// Directory (under `--out`) of the generated meshes, one file per design, named by content.
 pub const MESHES_DIR: &str = "meshes";
@@ -72,65 +71,12 @@ pub struct Prepared {
     pub design_mesh: BTreeMap<String, PathBuf>,
 }
 
-/// The study's adapter: `command` (response file + regex), `lsdyna` or `openradioss` (crush
-/// force) or `calculix`.
-pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
-    if let Some(a) = openradioss(sim) {
-        return Ok(Arc::new(a));
-    }
-    Ok(match &sim.response {
-        Response::Regex { file, regex } => {
-            Arc::new(CommandAdapter::new(file, regex, &[]).map_err(|e| Error::Failed(format!("response regex: {e}")))?)
-        }
-        Response::CrushForce { window, source } => Arc::new(LsDynaAdapter {
-            window: *window,
-            source: source.clone(),
-            deck: sim.templates.first().map(|t| t.output.clone()).unwrap_or_default(),
-        }),
-        Response::Dat(ccx) => Arc::new(ccx.clone()),
-    })
-}
-
-/// The `openradioss` adapter of a study with `adapter: openradioss` and a crush-force response.
-pub fn openradioss(sim: &SolverSimulation) -> Option<OpenRadiossAdapter> {
-    let (Some(settings), Response::CrushForce { window, source }) = (&sim.openradioss, &sim.response) else {
-        return None;
-    };
-    Some(OpenRadiossAdapter {
-        window: *window,
-        source: source.clone(),
-        deck: sim.templates.first().map(|t| t.output.clone()).unwrap_or_default(),
-        settings: settings.clone(),
-    })
-}
-
-/// What every run of the study runs after `command`, with which environment and scratch files
-/// (OpenRadioss's engine after its starter; nothing for the other adapters).
-pub fn chain(sim: &SolverSimulation) -> Chain {
-    openradioss(sim).map(|a| a.chain()).unwrap_or_default()
-}
-
-/// A run's force–displacement curve, read from the first of `dirs` holding `<dir>/<key>/` with
-/// the adapter's histories (rcforc and nodout, or OpenRadioss's T01); `None` when none does or
-/// they do not read.
-pub fn run_curve(
-    sim: &SolverSimulation,
-    dirs: &[PathBuf],
-    key: &str,
-) -> Option<crate::extract::crush::ForceDisplacement> {
-    let Response::CrushForce { source, .. } = &sim.response else {
-        return None;
-    };
-    match openradioss(sim) {
-        Some(a) => {
-            let dir = dirs
-                .iter()
-                .map(|d| d.join(key))
-                .find(|d| d.join(a.time_history()).is_file())?;
-            super::openradioss::read_curve(&dir, &a)
-        }
-        None => crate::extract::crush::read_run(dirs, key, source),
-    }
+/// A study's solver as the run engine drives it: its settings and the adapter that judges its runs
+/// (made by the extract stage, which knows every adapter: `crate::extract::adapters::solver`).
+#[derive(Clone)]
+pub struct Solver<'s> {
+    pub sim: &'s SolverSimulation,
+    pub adapter: Arc<dyn Adapter>,
 }
 
 /// Renders every planned run and computes its key. Template errors name the template and line.
@@ -139,20 +85,21 @@ pub fn run_curve(
 /// (`meshes/<design>-<hash>.k` under `--out`) and given to the templates as `mesh_file`, the path
 /// from the run directory (`../../meshes/...`): the deck's text, hence the run key, changes
 /// exactly when the mesh's bytes do.
-pub fn prepare(study: &Study, sim: &SolverSimulation, plan: &Plan) -> Result<Prepared, Error> {
-    prepare_after(study, sim, plan, None)
+pub fn prepare(study: &Study, solver: &Solver, plan: &Plan) -> Result<Prepared, Error> {
+    prepare_after(study, solver, plan, None)
 }
 
 /// [`prepare`], taking the meshes an `earlier` preparation of the same study generated (the loop's
 /// runs after the screening's: a design's mesh depends on the design alone).
 pub fn prepare_after(
     study: &Study,
-    sim: &SolverSimulation,
+    solver: &Solver,
     plan: &Plan,
     earlier: Option<&Prepared>,
 ) -> Result<Prepared, Error> {
+    let sim = solver.sim;
     let renderer = Renderer::new(&sim.templates)?;
-    let identity = adapter(sim)?.identity();
+    let identity = solver.adapter.identity();
     let mut prepared = Prepared {
         keys: Vec::with_capacity(plan.runs.len()),
         inputs: BTreeMap::new(),
@@ -253,16 +200,10 @@ pub fn write_meshes(out: &std::path::Path, prepared: &Prepared) -> Result<(), Er
 }
 
 /// The manifest of planned run `i`: what a recording of it holds and what a miss compares.
-pub fn manifest(
-    study: &Study,
-    sim: &SolverSimulation,
-    plan: &Plan,
-    prepared: &Prepared,
-    i: usize,
-) -> Result<Manifest, Error> {
+pub fn manifest(study: &Study, solver: &Solver, plan: &Plan, prepared: &Prepared, i: usize) -> Result<Manifest, Error> {
     let run = &plan.runs[i];
     let key = &prepared.keys[i];
-    let adapter = adapter(sim)?;
+    let (sim, adapter) = (solver.sim, &solver.adapter);
     let inputs = prepared.inputs[key]
         .iter()
         .map(|(path, bytes)| (path.display().to_string(), InputDigest::of(bytes)))
@@ -290,7 +231,7 @@ pub fn manifest(
 /// Copies every finished planned run that `dir` does not hold yet into `dir`; returns how many.
 pub fn record(
     study: &Study,
-    sim: &SolverSimulation,
+    solver: &Solver,
     plan: &Plan,
     prepared: &Prepared,
     store: &RunStore,
@@ -301,7 +242,7 @@ pub fn record(
         if !store.is_finished(key) || replay::find(dir, key).is_some() || !done.insert(key.clone()) {
             continue;
         }
-        let m = manifest(study, sim, plan, prepared, i)?;
+        let m = manifest(study, solver, plan, prepared, i)?;
         replay::record(dir, &store.run_dir(key), &m)
             .map_err(|e| Error::Failed(format!("recording run {key} into {}: {e}", dir.display())))?;
     }
@@ -313,13 +254,13 @@ pub fn record(
 /// Runs without a recording are returned as explanations (see [`replay::explain_miss`]).
 pub fn replay_runs(
     study: &Study,
-    sim: &SolverSimulation,
+    solver: &Solver,
     plan: &Plan,
     prepared: &Prepared,
     store: &mut RunStore,
     dir: &std::path::Path,
 ) -> Result<(SweepResult, Vec<String>), Error> {
-    let adapter = adapter(sim)?;
+    let adapter = &solver.adapter;
     let reused = prepared.keys.iter().filter(|k| store.is_finished(k)).count();
     let mut misses = Vec::new();
     let mut recorded: Option<Vec<Manifest>> = None;
@@ -335,7 +276,7 @@ pub fn replay_runs(
                 let all = recorded.get_or_insert_with(|| replay::manifests(dir));
                 misses.push(replay::explain_miss(
                     dir,
-                    &manifest(study, sim, plan, prepared, i)?,
+                    &manifest(study, solver, plan, prepared, i)?,
                     all,
                 ));
             }
@@ -580,7 +521,7 @@ impl SweepResult {
 pub fn run(
     runtime: &tokio::runtime::Runtime,
     store: &mut RunStore,
-    sim: &SolverSimulation,
+    solver: &Solver,
     prepared: &Prepared,
     jobs: usize,
     canceller: &Canceller,
@@ -604,11 +545,11 @@ pub fn run(
             continue;
         }
         let dir = store.prepare(key, &prepared.inputs[key])?;
-        specs.push(spec(sim, key, dir)?);
+        specs.push(spec(solver, key, dir));
     }
     let (tx, rx) = mpsc::unbounded_channel();
-    let mut executor = Executor::new(jobs, adapter(sim)?, store.committer());
-    executor.chain = chain(sim);
+    let mut executor = Executor::new(jobs, solver.adapter.clone(), store.committer());
+    executor.chain = solver.adapter.chain();
     executor.canceller = canceller.clone();
     executor.events = Some(tx);
     let bar = display(specs.len() as u64);
@@ -625,15 +566,16 @@ pub fn run(
     Ok(SweepResult::from_store(store, prepared, reused, summary.errors))
 }
 
-pub fn spec(sim: &SolverSimulation, key: &str, dir: PathBuf) -> Result<RunSpec, Error> {
-    Ok(RunSpec {
+/// What the executor runs for the run `key` in `dir`.
+pub fn spec(solver: &Solver, key: &str, dir: PathBuf) -> RunSpec {
+    RunSpec {
         key: key.to_string(),
         dir,
-        argv: sim.command.clone(),
-        timeout: sim.timeout,
-        outputs: adapter(sim)?.cleared(),
-        retry: sim.retry.clone(),
-    })
+        argv: solver.sim.command.clone(),
+        timeout: solver.sim.timeout,
+        outputs: solver.adapter.cleared(),
+        retry: solver.sim.retry.clone(),
+    }
 }
 
 /// `lab run --executor slurm`: the sweep submitted to Slurm (see [`super::slurm`]).
@@ -720,7 +662,7 @@ fn store_prepare(out: &std::path::Path, key: &str, inputs: &Inputs) -> Result<()
 /// executor (`jobs` at once) and commits their records; the submitting lab collects them.
 pub fn worker(
     _study: &Study,
-    sim: &SolverSimulation,
+    solver: &Solver,
     out: &std::path::Path,
     jobs: usize,
     keys: &[String],
@@ -729,10 +671,10 @@ pub fn worker(
     let committer = super::store::Committer::new(out.join(super::store::RESULTS_DIR));
     let specs = keys
         .iter()
-        .map(|k| spec(sim, k, out.join(super::store::RUNS_DIR).join(k)))
-        .collect::<Result<Vec<RunSpec>, Error>>()?;
-    let mut executor = Executor::new(jobs, adapter(sim)?, committer);
-    executor.chain = chain(sim);
+        .map(|k| spec(solver, k, out.join(super::store::RUNS_DIR).join(k)))
+        .collect::<Vec<RunSpec>>();
+    let mut executor = Executor::new(jobs, solver.adapter.clone(), committer);
+    executor.chain = solver.adapter.chain();
     let summary = runtime.block_on(executor.run(specs));
     for r in &summary.records {
         println!("{} {}", r.key, r.outcome);

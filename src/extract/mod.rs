@@ -8,6 +8,7 @@
 //!   [`metrics`]: curve metrics (LS-OPT MSE, partial curve mapping, Fréchet, DTW, area), `lab compare`;
 //!   [`features`]: the measured features of a crush curve (initial peak, plateau, slope, fold period).
 
+pub mod adapters;
 pub mod calculix;
 pub mod cfc;
 pub mod crush;

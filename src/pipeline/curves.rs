@@ -79,7 +79,7 @@ pub fn on_grid(
         .zip(usable)
         .map(|(key, y)| {
             y.as_ref()?;
-            let curve = crate::execute::sweep::run_curve(sim, dirs, key)?;
+            let curve = crate::extract::adapters::run_curve(sim, dirs, key)?;
             setting.prepare(study, &curve)
         })
         .collect()
@@ -476,7 +476,7 @@ pub fn residual_curves(
     stage: &CurveStage,
     loops: &[(usize, CurveModel)],
     d: &crate::diagnose::Diagnosis,
-) -> Vec<crate::report::data::ResidualCurves> {
+) -> Vec<super::values::ResidualCurves> {
     let (uncorrected, extended) = model_curves(study, stage, loops, d);
     let stroke = stage.setting.grid.stroke();
     let vec = |c: DVector<f64>| c.as_slice().to_vec();
@@ -487,7 +487,7 @@ pub fn residual_curves(
         .map(|design| {
             let specimens: Vec<Vec<f64>> = design.specimens.iter().map(|c| c.as_slice().to_vec()).collect();
             let validation = design.role == Role::Validation;
-            let mut r = crate::report::data::ResidualCurves::band(&design.name, validation, stroke.clone(), &specimens);
+            let mut r = super::values::ResidualCurves::band(&design.name, validation, stroke.clone(), &specimens);
             r.before = uncorrected(&design.values).map(vec);
             r.after = extended.as_ref().and_then(|f| f(&design.values)).map(vec);
             r.after_label = r.after.as_ref().and(d.extended_model().map(|e| e.cause.clone()));
@@ -503,12 +503,12 @@ fn curve_methods(
     problem: &crate::calibrate::curves::CurveProblem,
     names: &[String],
 ) -> (
-    indexmap::IndexMap<String, crate::report::results::CurveMethodResult>,
+    indexmap::IndexMap<String, super::values::CurveMethodResult>,
     Option<DVector<f64>>,
 ) {
+    use super::values::CurveMethodResult;
     use crate::calibrate::curves as cc;
     use crate::calibrate::outcome::Method;
-    use crate::report::results::CurveMethodResult;
     let named = |t: &DVector<f64>| names.iter().cloned().zip(t.iter().copied()).collect();
     let finite = |v: f64| v.is_finite().then_some(v);
     let mut methods = indexmap::IndexMap::new();
@@ -552,9 +552,9 @@ fn curve_methods(
 
 /// `curve_calibration`: the study's methods on the curves through the baseline's curve emulator,
 /// the metric at the training and validation designs, and what the curves pin down.
-pub fn calibrate(study: &Study, stage: &CurveStage) -> crate::report::results::CurveCalibrationResult {
+pub fn calibrate(study: &Study, stage: &CurveStage) -> super::values::CurveCalibrationResult {
+    use super::values::{CurveCalibrationResult, CurveEmulatorResult, CurveFilterResult, CurvePinned};
     use crate::calibrate::curves::{self as cc, CurveProblem, CurveTarget};
-    use crate::report::results::{CurveCalibrationResult, CurveEmulatorResult, CurveFilterResult, CurvePinned};
     let designs: Vec<&CurveDesign> = stage.designs.iter().filter(|d| !d.specimens.is_empty()).collect();
     let model = &stage.baseline;
     let predict = |i: usize, theta: &[f64]| model.curve(&designs[i].values, theta);

@@ -25,7 +25,6 @@ use crate::error::Error;
 use crate::execute::RunStore;
 use crate::execute::sweep::{self, Prepared, SweepResult};
 use crate::plan::{Plan, PlannedRun, RunRole, sweep::joint_bounds};
-use crate::report::Results;
 use crate::study::{HypothesisKind, SolverSimulation, Study};
 
 /// The hypotheses to extend with the solver (indices into `study.diagnosis.hypotheses`): the
@@ -159,7 +158,7 @@ pub fn execute(
         names.join(" and "),
         plan.runs.len()
     )));
-    let rendered = sweep::prepare_after(study, sim, &plan, Some(screening))?;
+    let rendered = sweep::prepare_after(study, &crate::extract::adapters::solver(sim)?, &plan, Some(screening))?;
     write_plan(study, hypotheses, &options.out)?;
     let (swept, outcomes) = runs::sweep_plan(study, sim, &plan, &rendered, source, options, engine, store, reporter)?;
     let usable = swept.usable(&sim.quality);
@@ -347,12 +346,6 @@ pub fn assess(
     let model = &m.surrogates as &dyn Model;
     let calibration = calibrate(s, &problem(s, model), Some(&m.data));
     let diagnosis = own;
-    let results = Results::build(
-        s,
-        model,
-        &calibration,
-        Err(crate::base::CalibrationError::Numerics("diagnosed separately".into())),
-    );
     let hypothesis = &study.diagnosis.hypotheses[m.hypothesis];
     let extension = hypothesis.extension_spec().expect("chosen: an extension");
     let variables = extension
@@ -373,21 +366,15 @@ pub fn assess(
         .filter(|(n, _)| !extension.ranges.iter().any(|r| &r.name == n))
         .cloned()
         .collect();
+    let names: Vec<String> = s.parameters.iter().map(|p| p.name.clone()).collect();
     let calibrated = Calibrated {
-        methods: results
-            .calibration
+        methods: calibration
+            .methods
             .iter()
-            .map(|(method, r)| {
-                let estimate = MethodEstimate {
-                    parameters: r.parameters.clone(),
-                    interval95: r.interval95.clone(),
-                    error: r.error.clone(),
-                };
-                (method.clone(), estimate)
-            })
+            .map(|(method, outcome)| (method.key().to_string(), MethodEstimate::of(&names, outcome)))
             .collect(),
-        identifiable: results.identifiability.identifiable,
-        identifiability: results.identifiability.note.clone(),
+        identifiable: calibration.identifiability.identifiable,
+        identifiability: calibration.identifiability.note.clone(),
     };
     Ok(SolverExtension::assess(
         &hypothesis.name,
@@ -398,19 +385,4 @@ pub fn assess(
         baseline,
         diagnosis,
     ))
-}
-
-/// The extended model's response over its first ranged variable, the other parameters at `at`.
-pub fn surface(study: &Study, m: &ExtendedModel, at: &[f64]) -> crate::report::data::ExtensionSurface {
-    let hypothesis = &study.diagnosis.hypotheses[m.hypothesis];
-    let variable = &hypothesis.ranges()[0];
-    let j = study.parameters.len();
-    crate::report::data::ExtensionSurface::sweep(
-        &m.study,
-        &hypothesis.name,
-        &m.surrogates,
-        at,
-        (j, variable.min, variable.max),
-        variable,
-    )
 }

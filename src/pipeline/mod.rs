@@ -25,6 +25,7 @@ pub mod extend;
 pub mod runs;
 pub mod sequence;
 pub mod stages;
+pub mod values;
 pub mod verbs;
 
 use std::path::{Path, PathBuf};
@@ -43,9 +44,6 @@ use crate::error::{Error, InputError};
 use crate::execute::sweep::{self, Prepared, Signals};
 use crate::extract::lsdyna::quality::Flag;
 use crate::plan::Plan;
-use crate::report::data::ReportData;
-use crate::report::results::{RunsResult, SplitResult};
-use crate::report::{self, Results};
 use crate::study::{self, Simulation, SolverSimulation, Study};
 
 /// How `lab run` was asked to run a study.
@@ -96,32 +94,38 @@ pub trait Reporter {
     }
 }
 
-/// Everything `lab run` produced, as written to `OUT/results.json` and `OUT/report-data.json`.
-pub struct RunOutcome {
-    pub results: Results,
-    pub report: ReportData,
-    /// A solver study's runs: how they ended (`None` for a closed-form study).
-    pub runs: Option<RunOutcomes>,
+/// Everything `lab run` produced, as domain values: the simulation (a closed form, or the solver's
+/// runs and their emulators), the calibration, on whole curves too, the diagnosis and the extra
+/// splits. The report builds `results.json`, `report-data.json`, the HTML and the terminal's words
+/// from it (`crate::report::run`).
+pub struct Outcome<'s> {
+    pub simulated: Simulated<'s>,
+    pub calibration: Calibration,
+    pub curve_calibration: Option<values::CurveCalibrationResult>,
+    pub diagnosis: Result<Diagnosis, CalibrationError>,
+    /// The study's extra train/validate splits, each calibrated again from the same runs.
+    pub splits: Option<Vec<SplitCalibration>>,
+    /// When `lab run` started (the report gives its wall time).
+    pub started: Instant,
 }
 
-impl RunOutcome {
-    /// The contract's exit code of a finished `lab run`: 1 when a run or a method failed, else 0.
-    pub fn exit_code(&self) -> i32 {
-        let failed_runs = self.runs.as_ref().is_some_and(|r| !r.failed.is_empty());
-        if failed_runs || self.results.any_failed() { 1 } else { 0 }
-    }
+/// One extra train/validate split (`splits:`): the study with the split's training and validation
+/// designs, calibrated again.
+pub struct SplitCalibration {
+    pub study: Study,
+    pub calibration: Calibration,
 }
 
 /// `lab run`: the study's simulation as a model (from its expression, or from solver runs that are
 /// planned, rendered, executed and fitted), then calibration beside the curve stage, diagnosis
 /// beside the extra train/validate splits (each pair independent, computed side by side), and the
 /// results and report data, written into `options.out`.
-pub fn run(
-    study: &Study,
+pub fn run<'s>(
+    study: &'s Study,
     options: &RunOptions,
     engine: &Engine,
     reporter: &mut dyn Reporter,
-) -> Result<RunOutcome, Error> {
+) -> Result<Outcome<'s>, Error> {
     let started = Instant::now();
     let (simulated, source) = match &study.simulation {
         Simulation::Expression(_) => (closed_form(study, options, engine, reporter)?, None),
@@ -161,14 +165,13 @@ pub fn run(
     });
     let diagnosis = diagnosis?;
     engine.signals.sweep_done();
-    let mut results = results(study, &simulated, &calibration, diagnosis, splits);
-    results.curve_calibration = curve_calibration;
-    let report = report_data(study, &simulated, &calibration, started);
-    write(&options.out, &results, &report)?;
-    Ok(RunOutcome {
-        results,
-        report,
-        runs: simulated.into_outcomes(),
+    Ok(Outcome {
+        simulated,
+        calibration,
+        curve_calibration,
+        diagnosis,
+        splits,
+        started,
     })
 }
 
@@ -186,7 +189,7 @@ fn solver_runs<'s>(
         (s.plan, s.rendered, s.executed, Some(s.sequence))
     } else {
         let plan = Plan::new(study, sim);
-        let rendered = sweep::prepare(study, sim, &plan)?;
+        let rendered = sweep::prepare(study, &crate::extract::adapters::solver(sim)?, &plan)?;
         let executed = runs::execute(study, sim, &plan, &rendered, source, options, engine, reporter)?;
         (plan, rendered, executed, None)
     };
@@ -556,7 +559,7 @@ fn with_features(
     problem: Option<&crate::diagnose::features::FeatureProblem>,
     d: Diagnosis,
     loops: &[(usize, crate::emulate::functional::CurveModel)],
-) -> (Diagnosis, Vec<crate::report::data::ResidualCurves>) {
+) -> (Diagnosis, Vec<values::ResidualCurves>) {
     match (stage, problem) {
         (Some(stage), Some(problem)) => {
             let residuals = curves::residual_curves(study, stage, loops, &d);
@@ -568,7 +571,7 @@ fn with_features(
 }
 
 /// The simulation as the numerics see it, with what it was built from.
-enum Simulated<'s> {
+pub enum Simulated<'s> {
     /// The study's expression.
     ClosedForm(Box<dyn Model>),
     /// Surrogates fitted to solver runs.
@@ -577,30 +580,30 @@ enum Simulated<'s> {
 
 /// A solver study's runs and the surrogates fitted to them. The run store in `executed` stays
 /// open (and its lock held) until the report is written.
-struct SolverRuns<'s> {
-    sim: &'s SolverSimulation,
-    plan: Plan,
-    rendered: Prepared,
-    executed: Executed,
+pub struct SolverRuns<'s> {
+    pub sim: &'s SolverSimulation,
+    pub plan: Plan,
+    pub rendered: Prepared,
+    pub executed: Executed,
     /// The quality gates each run breaks (empty: sound).
-    flags: Vec<Vec<Flag>>,
+    pub flags: Vec<Vec<Flag>>,
     /// The responses the models may use (suspect runs left out unless the study says otherwise).
-    usable: Vec<Option<f64>>,
-    surrogates: SurrogateModel,
+    pub usable: Vec<Option<f64>>,
+    pub surrogates: SurrogateModel,
     /// The sample runs as the Bayesian method's emulator data.
-    data: SimulationData,
+    pub data: SimulationData,
     /// The solver-in-the-loop runs, when the screening chose a hypothesis to extend.
-    joint: Option<extend::JointRuns>,
+    pub joint: Option<extend::JointRuns>,
     /// The extended models they made, with their calibrated parameters (θ, then the extension's).
-    extended: Vec<(extend::ExtendedModel, Vec<f64>)>,
+    pub extended: Vec<(extend::ExtendedModel, Vec<f64>)>,
     /// Calibration against curves: where along the stroke the model errs, per tested design.
-    residual_curves: Vec<crate::report::data::ResidualCurves>,
+    pub residual_curves: Vec<values::ResidualCurves>,
     /// A sequential study's batches (`None` for a fixed plan).
-    sequence: Option<sequence::Sequence>,
+    pub sequence: Option<sequence::Sequence>,
 }
 
 impl Simulated<'_> {
-    fn model(&self) -> &dyn Model {
+    pub fn model(&self) -> &dyn Model {
         match self {
             Simulated::ClosedForm(model) => model.as_ref(),
             Simulated::Solver(runs) => &runs.surrogates,
@@ -608,7 +611,7 @@ impl Simulated<'_> {
     }
 
     /// Simulation runs for the Bayesian emulator; without them it samples the model.
-    fn data(&self) -> Option<&SimulationData> {
+    pub fn data(&self) -> Option<&SimulationData> {
         match self {
             Simulated::ClosedForm(_) => None,
             Simulated::Solver(runs) => Some(&runs.data),
@@ -624,7 +627,7 @@ impl Simulated<'_> {
         }
     }
 
-    fn into_outcomes(self) -> Option<RunOutcomes> {
+    pub fn into_outcomes(self) -> Option<RunOutcomes> {
         match self {
             Simulated::ClosedForm(_) => None,
             Simulated::Solver(runs) => {
@@ -667,7 +670,11 @@ fn closed_form<'s>(
 
 /// The study's extra train/validate splits (`splits:`), each calibrated again from the same runs;
 /// `None` when it names none or has no runs.
-fn calibrate_splits(study: &Study, surrogates: &SurrogateModel, data: &SimulationData) -> Option<Vec<SplitResult>> {
+fn calibrate_splits(
+    study: &Study,
+    surrogates: &SurrogateModel,
+    data: &SimulationData,
+) -> Option<Vec<SplitCalibration>> {
     if study.splits.is_empty() {
         return None;
     }
@@ -688,119 +695,11 @@ fn calibrate_split(
     split: &study::Split,
     surrogates: &SurrogateModel,
     runs: &SimulationData,
-) -> SplitResult {
+) -> SplitCalibration {
     let mut s = study.clone();
     s.training = split.training.clone();
     s.validation = split.validation.clone();
     let problem = problem(&s, surrogates as &dyn Model);
     let calibration = calibrate(&s, &problem, Some(runs));
-    let not_diagnosed = Err(CalibrationError::Numerics("not diagnosed per split".into()));
-    let results = Results::build(&s, surrogates, &calibration, not_diagnosed);
-    SplitResult::from_results(&s, &results)
-}
-
-/// `results.json`: the calibration and diagnosis, plus a solver study's surrogates, splits and run counts.
-fn results(
-    study: &Study,
-    simulated: &Simulated,
-    calibration: &Calibration,
-    diagnosis: Result<Diagnosis, CalibrationError>,
-    splits: Option<Vec<SplitResult>>,
-) -> Results {
-    let results = Results::build(study, simulated.model(), calibration, diagnosis);
-    let Simulated::Solver(runs) = simulated else {
-        return results;
-    };
-    let mut results = results.with_surrogates(&runs.surrogates);
-    results.splits = splits;
-    results.sampling = runs.sequence.as_ref().map(|s| sequence::Sequence {
-        replaces: sequence::record::Replaced::of(study, runs.sim, runs.joint.as_ref().map(|j| &j.plan)),
-        ..s.for_results()
-    });
-    let gates = runs.sim.quality.gates;
-    let use_suspect = runs.sim.quality.use_suspect;
-    // The screening's runs, then the loop's.
-    let mut sweeps = vec![(&runs.plan, &runs.rendered.keys, &runs.executed.swept, &runs.flags)];
-    if let Some(j) = &runs.joint {
-        sweeps.push((&j.plan, &j.rendered.keys, &j.swept, &j.flags));
-    }
-    let mut all = RunsResult {
-        planned: 0,
-        succeeded: 0,
-        failed: 0,
-        in_the_loop: runs.joint.as_ref().map_or(0, |j| j.plan.runs.len()),
-        replayed_from: runs.executed.replay.as_ref().map(|d| d.display().to_string()),
-        suspect: 0,
-        gates: sweeps
-            .iter()
-            .any(|(_, _, swept, _)| swept.quality.iter().any(Option::is_some))
-            .then_some(gates),
-        suspect_runs: Vec::new(),
-    };
-    for (plan, keys, swept, flags) in sweeps {
-        let succeeded = swept.responses.iter().filter(|r| r.is_some()).count();
-        all.planned += plan.runs.len();
-        all.succeeded += succeeded;
-        all.failed += plan.runs.len() - succeeded;
-        all.suspect += flags.iter().filter(|f| !f.is_empty()).count();
-        all.suspect_runs.extend(runs::suspect_runs(
-            study,
-            plan,
-            keys,
-            &swept.responses,
-            flags,
-            use_suspect,
-        ));
-    }
-    results.runs = Some(all);
-    results
-}
-
-/// `report-data.json`: what the page draws beyond `results.json` (posterior samples, prediction
-/// curves, the runs and their surrogates, force–displacement curves, the wall time).
-fn report_data(study: &Study, simulated: &Simulated, calibration: &Calibration, started: Instant) -> ReportData {
-    let mut data = ReportData::build(study, simulated.model(), calibration);
-    data.force_displacement = match simulated {
-        Simulated::ClosedForm(_) => report::curves::design_curves(study, None, None),
-        Simulated::Solver(r) => {
-            let responses = &r.executed.swept.responses;
-            data = data.with_runs(
-                study,
-                &r.plan,
-                &r.rendered.keys,
-                responses,
-                &r.surrogates,
-                &r.executed.store,
-            );
-            for (row, f) in data.runs.iter_mut().zip(&r.flags) {
-                row.flags = f.iter().map(|f| f.text.clone()).collect();
-            }
-            let outputs = report::curves::RunOutputs {
-                plan: &r.plan,
-                keys: &r.rendered.keys,
-                responses,
-                dirs: r.executed.output_dirs(r.sim),
-            };
-            let reference = report::data::reference(calibration);
-            data.extension_surfaces = r.extended.iter().map(|(m, at)| extend::surface(study, m, at)).collect();
-            data.residual_curves = r.residual_curves.clone();
-            data.solver_comparison = report::solvers::compare(r.sim, &outputs);
-            report::curves::design_curves(study, Some(&outputs), reference.as_ref())
-        }
-    };
-    data.wall_time_s = Some(started.elapsed().as_secs_f64());
-    data
-}
-
-/// Writes results.json, report-data.json and report.html into `out`.
-fn write(out: &Path, results: &Results, data: &ReportData) -> Result<(), Error> {
-    results.write(&out.join("results.json"))?;
-    data.write(&out.join(ReportData::FILE_NAME))?;
-    write_report(out, results, Some(data))
-}
-
-/// Writes `dir/report.html` (atomically) from the results and, when there, the report data.
-pub fn write_report(dir: &Path, results: &Results, data: Option<&ReportData>) -> Result<(), Error> {
-    report::write_atomic(&dir.join("report.html"), report::html::render(results, data).as_bytes())?;
-    Ok(())
+    SplitCalibration { study: s, calibration }
 }

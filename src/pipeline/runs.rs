@@ -14,7 +14,6 @@ use crate::execute::sweep::{self, Prepared, SweepResult};
 use crate::execute::{self, OutcomeClass, RunStore};
 use crate::extract::lsdyna::quality::Flag;
 use crate::plan::Plan;
-use crate::report::results::SuspectRun;
 use crate::study::{SolverSimulation, Study};
 
 /// `--executor`: where live runs are executed.
@@ -178,9 +177,10 @@ pub fn sweep_plan(
     reporter: &mut dyn Reporter,
 ) -> Result<(SweepResult, RunOutcomes), Error> {
     sweep::write_meshes(&options.out, rendered)?;
-    let swept = sweep_runs(study, sim, plan, rendered, source, options, engine, store, reporter)?;
+    let solver = crate::extract::adapters::solver(sim)?;
+    let swept = sweep_runs(study, &solver, plan, rendered, source, options, engine, store, reporter)?;
     if let Some(dir) = &options.record {
-        let runs = sweep::record(study, sim, plan, rendered, store, dir)?;
+        let runs = sweep::record(study, &solver, plan, rendered, store, dir)?;
         reporter.report(Event::Recorded { runs, dir });
     }
     let outcomes = outcomes(plan, &rendered.keys, &swept, store);
@@ -199,7 +199,7 @@ pub fn sweep_plan(
 #[allow(clippy::too_many_arguments)]
 fn sweep_runs(
     study: &Study,
-    sim: &SolverSimulation,
+    solver: &sweep::Solver,
     plan: &Plan,
     rendered: &Prepared,
     source: &Source,
@@ -209,12 +209,12 @@ fn sweep_runs(
     reporter: &mut dyn Reporter,
 ) -> Result<SweepResult, Error> {
     match source {
-        Source::Replay(dir) => replay(study, sim, plan, rendered, store, dir),
-        Source::Slurm => sweep::run_slurm(store, study, sim, rendered, engine.signals),
+        Source::Replay(dir) => replay(study, solver, plan, rendered, store, dir),
+        Source::Slurm => sweep::run_slurm(store, study, solver.sim, rendered, engine.signals),
         Source::Local => sweep::run(
             engine.runtime,
             store,
-            sim,
+            solver,
             rendered,
             options.jobs,
             &engine.signals.canceller,
@@ -226,7 +226,7 @@ fn sweep_runs(
 /// Serves the runs from recordings; a planned run without one is an error naming it.
 fn replay(
     study: &Study,
-    sim: &SolverSimulation,
+    solver: &sweep::Solver,
     plan: &Plan,
     rendered: &Prepared,
     store: &mut RunStore,
@@ -238,7 +238,7 @@ fn replay(
             dir.display()
         )));
     }
-    let (swept, misses) = sweep::replay_runs(study, sim, plan, rendered, store, dir)?;
+    let (swept, misses) = sweep::replay_runs(study, solver, plan, rendered, store, dir)?;
     if misses.is_empty() {
         return Ok(swept);
     }
@@ -331,31 +331,4 @@ pub fn report_warnings(keys: &[String], store: &RunStore, reporter: &mut dyn Rep
             runs.len()
         )));
     }
-}
-
-/// The suspect runs for `results.json`, in plan order (each key once).
-pub fn suspect_runs(
-    study: &Study,
-    plan: &Plan,
-    keys: &[String],
-    responses: &[Option<f64>],
-    flags: &[Vec<Flag>],
-    used: bool,
-) -> Vec<SuspectRun> {
-    let mut seen = std::collections::BTreeSet::new();
-    (0..plan.runs.len())
-        .filter(|&i| !flags[i].is_empty() && seen.insert(&keys[i]))
-        .filter_map(|i| {
-            let run = &plan.runs[i];
-            Some(SuspectRun {
-                key: keys[i].clone(),
-                design: run.design.clone(),
-                role: run.role.key().to_string(),
-                parameters: study.parameter_values(&run.theta),
-                response: responses[i]?,
-                flags: flags[i].clone(),
-                used,
-            })
-        })
-        .collect()
 }

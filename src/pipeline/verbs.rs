@@ -2,6 +2,7 @@
 //! the command line prints: `lab check`, `lab status`, `lab report`, `lab extract`, `lab compare`
 //! and the internal `lab slurm-worker`.
 
+use crate::extract::adapters::solver;
 use std::path::Path;
 
 use super::sequence::record::Replaced;
@@ -11,8 +12,6 @@ use crate::execute::{lock, sweep};
 use crate::extract::crush;
 use crate::extract::grid::{self, StrokeGrid};
 use crate::plan::Plan;
-use crate::report::Results;
-use crate::report::data::ReportData;
 use crate::study::{Simulation, Study};
 
 /// `lab check`: what was validated beyond loading the study.
@@ -38,10 +37,10 @@ pub fn check(study: &Study) -> Result<Checked, Error> {
     let (rendered_runs, loop_runs) = match &study.simulation {
         Simulation::Solver(sim) => {
             let plan = Plan::new(study, sim);
-            sweep::prepare(study, sim, &plan)?;
+            sweep::prepare(study, &solver(sim)?, &plan)?;
             let ranged: Vec<usize> = study.extension_hypotheses().map(|(k, _)| k).collect();
             let joint = Plan::joint(study, sim, &ranged);
-            sweep::prepare(study, sim, &joint)?;
+            sweep::prepare(study, &solver(sim)?, &joint)?;
             (Some(plan.runs.len()), joint.runs.len())
         }
         Simulation::Expression(_) => (None, 0),
@@ -119,7 +118,7 @@ pub fn status(study: &Study, out: &Path) -> Result<Option<Status>, Error> {
             plan
         }
     };
-    let prepared = sweep::prepare(study, sim, &plan)?;
+    let prepared = sweep::prepare(study, &solver(sim)?, &plan)?;
     let snapshot = Snapshot::read(out)?;
     let holder = lock::probe(out).map_err(|e| Error::Failed(e.to_string()))?;
     let mut status = Status {
@@ -163,31 +162,6 @@ fn batches(s: &super::sequence::Sequence) -> Batches {
     }
 }
 
-/// `lab report`: rewrites `dir/report.html` from `results.json` and, when readable,
-/// `report-data.json`; returns a warning when the latter is there but unreadable.
-pub fn rewrite_report(dir: &Path) -> Result<Option<String>, Error> {
-    let results = Results::read(&dir.join("results.json")).map_err(|e| {
-        Error::Failed(format!(
-            "{}: {e} (run `lab run` first)",
-            dir.join("results.json").display()
-        ))
-    })?;
-    let data_file = dir.join(ReportData::FILE_NAME);
-    let (data, warning) = match ReportData::read(&data_file) {
-        Ok(d) => (Some(d), None),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => (None, None),
-        Err(e) => (
-            None,
-            Some(format!(
-                "{}: {e}; the report leaves out what it holds",
-                data_file.display()
-            )),
-        ),
-    };
-    super::write_report(dir, &results, data.as_ref())?;
-    Ok(warning)
-}
-
 /// `lab extract`: the mean crush force of a test machine's force–displacement CSV over a window.
 pub fn extract(curve: &Path, window: crush::Window) -> Result<crush::CrushResult, Error> {
     let data = crush::read_test_csv(curve, crush::CsvOptions::default())?;
@@ -199,7 +173,7 @@ pub fn slurm_worker(study: &Study, out: &Path, jobs: usize, keys: &[String]) -> 
     let Simulation::Solver(sim) = &study.simulation else {
         return Err(Error::Failed("slurm-worker: not a solver study".into()));
     };
-    sweep::worker(study, sim, out, jobs, keys)
+    sweep::worker(study, &solver(sim)?, out, jobs, keys)
 }
 
 // --- issue 24: `lab compare` (curve metrics) ---

@@ -108,7 +108,7 @@ fn simulated(
         picked
             .par_iter()
             .map(|&j| match &study.simulation {
-                Simulation::Solver(sim) => crate::execute::sweep::run_curve(sim, &runs.dirs, &runs.keys[ok[j].0]),
+                Simulation::Solver(sim) => crate::extract::adapters::run_curve(sim, &runs.dirs, &runs.keys[ok[j].0]),
                 Simulation::Expression(_) => crush::read_run(&runs.dirs, &runs.keys[ok[j].0], source),
             })
             .collect()

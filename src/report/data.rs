@@ -22,6 +22,7 @@ use crate::calibrate::{Calibrated, Calibration};
 use crate::emulate::Model;
 use crate::emulate::SurrogateModel;
 use crate::execute::store::RunStore;
+pub use crate::pipeline::values::ResidualCurves;
 use crate::plan::{Plan, RunRole};
 use crate::study::{Simulation, SolverSimulation, Study};
 
@@ -64,52 +65,6 @@ pub struct ReportData {
     /// `openradioss` studies naming the stand-in's recordings: both solvers' curves compared.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solver_comparison: Option<super::solvers::SolverComparison>,
-}
-
-/// One tested design on the stroke grid of the curve calibration: the specimens' mean and
-/// standard deviation at each stroke, the uncorrected simulation's curve at its calibrated
-/// parameters (`before`) and the named cause's model (`after`).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct ResidualCurves {
-    pub design: String,
-    pub validation: bool,
-    pub stroke: Vec<f64>,
-    pub test_mean: Vec<f64>,
-    /// The specimens' sample standard deviation (0 with one specimen).
-    pub test_sd: Vec<f64>,
-    pub specimens: usize,
-    pub before: Option<Vec<f64>>,
-    pub after: Option<Vec<f64>>,
-    /// The cause whose model `after` is.
-    pub after_label: Option<String>,
-}
-
-impl ResidualCurves {
-    /// The band of one design: the specimens' pointwise mean and sample standard deviation.
-    pub fn band(design: &str, validation: bool, stroke: Vec<f64>, specimens: &[Vec<f64>]) -> ResidualCurves {
-        let n = specimens.len();
-        let at = |i: usize| specimens.iter().map(move |c| c[i]);
-        let mean: Vec<f64> = (0..stroke.len()).map(|i| at(i).sum::<f64>() / n as f64).collect();
-        let sd = (0..stroke.len())
-            .map(|i| {
-                if n < 2 {
-                    return 0.0;
-                }
-                (at(i).map(|v| (v - mean[i]).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
-            })
-            .collect();
-        ResidualCurves {
-            design: design.to_string(),
-            validation,
-            stroke,
-            test_mean: mean,
-            test_sd: sd,
-            specimens: n,
-            before: None,
-            after: None,
-            after_label: None,
-        }
-    }
 }
 
 /// An extended model's predictions over one extension variable, the other parameters at their

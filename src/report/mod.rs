@@ -7,6 +7,7 @@ pub mod html;
 pub mod markup;
 pub mod plots;
 pub mod results;
+pub mod run;
 pub mod solvers;
 pub mod summary;
 

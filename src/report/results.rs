@@ -12,6 +12,9 @@ use crate::calibrate::{Calibrated, Calibration};
 use crate::calibrate::{CalibrationError, Discrepancy, Model};
 use crate::diagnose::Diagnosis;
 use crate::extract::lsdyna::quality::{Flag, Gates};
+pub use crate::pipeline::values::{
+    CurveCalibrationResult, CurveEmulatorResult, CurveFilterResult, CurveMethodResult, CurvePinned,
+};
 use crate::study::Study;
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -46,70 +49,6 @@ pub struct Results {
     /// A sequentially sampled study: what each batch of runs bought and why the sequence stopped.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub sampling: Option<crate::pipeline::sequence::Sequence>,
-}
-
-/// `curve_calibration`: the grid, the functional emulator, and each method on curves.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct CurveCalibrationResult {
-    /// The metric calibration minimises and the values below measure.
-    pub metric: String,
-    pub points: usize,
-    /// Stroke window of the grid, mm.
-    pub window: [f64; 2],
-    /// `{cfc, speed}` when the curves are filtered; `null` otherwise.
-    pub filter: Option<CurveFilterResult>,
-    pub emulator: CurveEmulatorResult,
-    /// Keyed by method name, in the study's order.
-    #[serde(flatten)]
-    pub methods: IndexMap<String, CurveMethodResult>,
-    /// Per parameter: its standard error from the whole curves and from the mean forces alone
-    /// (`null`: infinite, the mean forces cannot tell it from the others).
-    pub identifiability: Vec<CurvePinned>,
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct CurveFilterResult {
-    pub cfc: f64,
-    /// Crush speed, m/s.
-    pub speed: f64,
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct CurveEmulatorResult {
-    /// Principal components kept, per design.
-    pub components: IndexMap<String, usize>,
-    /// Largest relative reconstruction error ‖Y − Ŷ‖/‖Y‖ of the runs' curves over the designs.
-    pub reconstruction_error: f64,
-    /// Largest relative error ‖η − y‖/‖y‖ of the predicted whole curves at the check runs; `null`
-    /// without check runs.
-    pub check_error: Option<f64>,
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct CurveMethodResult {
-    pub parameters: IndexMap<String, f64>,
-    /// Bayesian: 95 % posterior intervals.
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub intervals: Option<IndexMap<String, [f64; 2]>>,
-    /// The metric's mean over the training designs' specimens.
-    pub train: Option<f64>,
-    /// ... and over the validation designs' specimens (`null` without validation designs).
-    pub validation: Option<f64>,
-    /// Sensitivity: the offset curve's mean over the stroke (kN).
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub offset_mean: Option<f64>,
-    /// Bayesian: posterior median of the discrepancy's scale σ_δ (kN).
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub discrepancy_sd: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub error: Option<String>,
-}
-
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct CurvePinned {
-    pub parameter: String,
-    pub curves_se: Option<f64>,
-    pub mean_force_se: Option<f64>,
 }
 
 /// Units as the study states them (absent when it states none).

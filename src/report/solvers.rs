@@ -76,7 +76,7 @@ pub fn compare(sim: &SolverSimulation, runs: &RunOutputs) -> Option<SolverCompar
         }
         let key = &runs.keys[i];
         let (Some(real), Some(standin)) = (
-            crate::execute::sweep::run_curve(sim, &runs.dirs, key),
+            crate::extract::adapters::run_curve(sim, &runs.dirs, key),
             crush::read_run(std::slice::from_ref(&dir), key, &source),
         ) else {
             continue;

@@ -255,7 +255,12 @@ impl<'a> Runner<'a> {
         self.sequence.sequence.push(self.in_flight(space, &batch, b));
         self.planning = 0.0;
         self.sequence.write(&self.options.out)?;
-        let rendered = sweep::prepare_after(self.study, self.sim, &batch, self.rendered.as_ref())?;
+        let rendered = sweep::prepare_after(
+            self.study,
+            &crate::extract::adapters::solver(self.sim)?,
+            &batch,
+            self.rendered.as_ref(),
+        )?;
         let (swept, outcomes) = runs::sweep_plan(
             self.study,
             self.sim,
@@ -980,7 +985,12 @@ impl<'a> Runner<'a> {
         reporter: &mut dyn Reporter,
     ) -> Result<(Plan, Prepared, sweep::SweepResult, RunOutcomes), Error> {
         let plan = std::mem::replace(&mut self.plan, Plan { runs: Vec::new() });
-        let rendered = sweep::prepare_after(self.study, self.sim, &plan, self.rendered.as_ref())?;
+        let rendered = sweep::prepare_after(
+            self.study,
+            &crate::extract::adapters::solver(self.sim)?,
+            &plan,
+            self.rendered.as_ref(),
+        )?;
         let (swept, _) = runs::sweep_plan(
             self.study,
             self.sim,

@@ -30,7 +30,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{Adapter, Judged, Outcome, ResponseProblem, STDOUT_FILE};
+use crate::execute::{Adapter, Judged, Outcome, ResponseProblem, STDOUT_FILE};
 use crate::extract::crush::{self, SimSource, Window};
 use crate::extract::lsdyna::binout::{self, Binout, histories};
 use crate::extract::lsdyna::complete::{self, Expected, Incomplete};

@@ -27,7 +27,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::{Adapter, Judged, Outcome, ResponseProblem};
+use crate::execute::{Adapter, Judged, Outcome, ResponseProblem};
 use crate::extract::crush::{self, SimSource, Window};
 use crate::extract::lsdyna::complete::{Expected, Incomplete};
 use crate::extract::lsdyna::controls;
@@ -105,25 +105,6 @@ impl OpenRadiossAdapter {
         ]
     }
 
-    /// What the executor runs after the starter, and the environment of both programs: lab's own,
-    /// then the study's `openradioss.environment`, plus `OMP_NUM_THREADS` (the threads) unless the
-    /// study sets it and `OMP_STACKSIZE=400m` (OpenRadioss's advice) unless either sets it.
-    pub fn chain(&self) -> super::Chain {
-        let mut env = self.settings.environment.clone();
-        let set = |env: &[(String, String)], name: &str| env.iter().any(|(n, _)| n == name);
-        if !set(&env, "OMP_NUM_THREADS") {
-            env.push(("OMP_NUM_THREADS".into(), self.settings.threads.to_string()));
-        }
-        if !set(&env, "OMP_STACKSIZE") && std::env::var_os("OMP_STACKSIZE").is_none() {
-            env.push(("OMP_STACKSIZE".into(), "400m".into()));
-        }
-        super::Chain {
-            then: vec![self.engine_argv()],
-            env,
-            scratch: self.scratch(),
-        }
-    }
-
     /// A listing's text and what it says; `None` when the file is not there.
     fn listing(&self, dir: &Path, name: &str) -> Result<Option<listing::Listing>, Outcome> {
         match std::fs::read(dir.join(name)) {
@@ -160,6 +141,25 @@ impl OpenRadiossAdapter {
 }
 
 impl Adapter for OpenRadiossAdapter {
+    /// What the executor runs after the starter, and the environment of both programs: lab's own,
+    /// then the study's `openradioss.environment`, plus `OMP_NUM_THREADS` (the threads) unless the
+    /// study sets it and `OMP_STACKSIZE=400m` (OpenRadioss's advice) unless either sets it.
+    fn chain(&self) -> crate::execute::Chain {
+        let mut env = self.settings.environment.clone();
+        let set = |env: &[(String, String)], name: &str| env.iter().any(|(n, _)| n == name);
+        if !set(&env, "OMP_NUM_THREADS") {
+            env.push(("OMP_NUM_THREADS".into(), self.settings.threads.to_string()));
+        }
+        if !set(&env, "OMP_STACKSIZE") && std::env::var_os("OMP_STACKSIZE").is_none() {
+            env.push(("OMP_STACKSIZE".into(), "400m".into()));
+        }
+        crate::execute::Chain {
+            then: vec![self.engine_argv()],
+            env,
+            scratch: self.scratch(),
+        }
+    }
+
     fn identity(&self) -> String {
         let s = &self.source;
         let parts = (

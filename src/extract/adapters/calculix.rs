@@ -20,7 +20,7 @@
 
 use std::path::Path;
 
-use super::{Adapter, Outcome, ResponseProblem, STDERR_FILE, STDOUT_FILE};
+use crate::execute::{Adapter, Outcome, ResponseProblem, STDERR_FILE, STDOUT_FILE};
 use crate::extract::calculix::{Missing, WindowMissing, find, parse_dat, window_mean};
 pub use crate::study::settings::{CalculixAdapter, DatResponse, ERROR_TEXT};
 

@@ -1,0 +1,82 @@
+//! The solver adapters: how each solver's finished run is judged (its failure text, whether its
+//! outputs are complete, the response and the run's sanity figures), behind the run engine's
+//! [`Adapter`] trait: LS-DYNA ([`lsdyna`]), OpenRadioss ([`openradioss`]) and CalculiX
+//! ([`calculix`]); the `command` adapter is the run engine's own ([`crate::execute::CommandAdapter`]).
+//! [`solver`] makes a study's.
+
+pub mod calculix;
+pub mod lsdyna;
+pub mod openradioss;
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use crate::error::Error;
+use crate::execute::sweep::Solver;
+use crate::execute::{Adapter, CommandAdapter};
+use crate::study::{Response, SolverSimulation};
+pub use lsdyna::LsDynaAdapter;
+use openradioss::OpenRadiossAdapter;
+
+/// A study's solver with its adapter, as the run engine takes it.
+pub fn solver(sim: &SolverSimulation) -> Result<Solver<'_>, Error> {
+    Ok(Solver {
+        sim,
+        adapter: adapter(sim)?,
+    })
+}
+
+/// The study's adapter: `command` (response file + regex), `lsdyna` or `openradioss` (crush
+/// force) or `calculix`.
+pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
+    if let Some(a) = openradioss(sim) {
+        return Ok(Arc::new(a));
+    }
+    Ok(match &sim.response {
+        Response::Regex { file, regex } => {
+            Arc::new(CommandAdapter::new(file, regex, &[]).map_err(|e| Error::Failed(format!("response regex: {e}")))?)
+        }
+        Response::CrushForce { window, source } => Arc::new(LsDynaAdapter {
+            window: *window,
+            source: source.clone(),
+            deck: sim.templates.first().map(|t| t.output.clone()).unwrap_or_default(),
+        }),
+        Response::Dat(ccx) => Arc::new(ccx.clone()),
+    })
+}
+
+/// The `openradioss` adapter of a study with `adapter: openradioss` and a crush-force response.
+pub fn openradioss(sim: &SolverSimulation) -> Option<OpenRadiossAdapter> {
+    let (Some(settings), Response::CrushForce { window, source }) = (&sim.openradioss, &sim.response) else {
+        return None;
+    };
+    Some(OpenRadiossAdapter {
+        window: *window,
+        source: source.clone(),
+        deck: sim.templates.first().map(|t| t.output.clone()).unwrap_or_default(),
+        settings: settings.clone(),
+    })
+}
+
+/// A run's force–displacement curve, read from the first of `dirs` holding `<dir>/<key>/` with
+/// the adapter's histories (rcforc and nodout, or OpenRadioss's T01); `None` when none does or
+/// they do not read.
+pub fn run_curve(
+    sim: &SolverSimulation,
+    dirs: &[PathBuf],
+    key: &str,
+) -> Option<crate::extract::crush::ForceDisplacement> {
+    let Response::CrushForce { source, .. } = &sim.response else {
+        return None;
+    };
+    match openradioss(sim) {
+        Some(a) => {
+            let dir = dirs
+                .iter()
+                .map(|d| d.join(key))
+                .find(|d| d.join(a.time_history()).is_file())?;
+            openradioss::read_curve(&dir, &a)
+        }
+        None => crate::extract::crush::read_run(dirs, key, source),
+    }
+}

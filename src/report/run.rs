@@ -1,0 +1,234 @@
+//! `lab run`'s outcome written: `results.json`, `report-data.json` and `report.html` built from the
+//! pipeline's domain values ([`crate::pipeline::Outcome`]), and the contract's exit code.
+
+use std::path::Path;
+use std::time::Instant;
+
+use super::Results;
+use super::data::{ExtensionSurface, ReportData};
+use super::results::{RunsResult, SplitResult, SuspectRun};
+use crate::calibrate::{Calibration, CalibrationError};
+use crate::diagnose::Diagnosis;
+use crate::error::Error;
+use crate::execute::quality::Flag;
+use crate::pipeline::{Outcome, RunOutcomes, Simulated, SplitCalibration, extend, sequence};
+use crate::plan::Plan;
+use crate::study::Study;
+
+/// What `lab run` wrote: `results.json` and `report-data.json`, and how a solver study's runs ended
+/// (`None` for a closed-form study).
+pub struct Written {
+    pub results: Results,
+    pub report: ReportData,
+    pub runs: Option<RunOutcomes>,
+}
+
+impl Written {
+    /// The contract's exit code of a finished `lab run`: 1 when a run or a method failed, else 0.
+    pub fn exit_code(&self) -> i32 {
+        let failed_runs = self.runs.as_ref().is_some_and(|r| !r.failed.is_empty());
+        if failed_runs || self.results.any_failed() { 1 } else { 0 }
+    }
+}
+
+/// Builds `results.json` and `report-data.json` from `lab run`'s outcome and writes them with the
+/// HTML report into `out`.
+pub fn write_run(study: &Study, outcome: Outcome, out: &Path) -> Result<Written, Error> {
+    let Outcome {
+        simulated,
+        calibration,
+        curve_calibration,
+        diagnosis,
+        splits,
+        started,
+    } = outcome;
+    let splits = splits.map(|s| split_results(&simulated, &s));
+    let mut results = results(study, &simulated, &calibration, diagnosis, splits);
+    results.curve_calibration = curve_calibration;
+    let report = report_data(study, &simulated, &calibration, started);
+    write(out, &results, &report)?;
+    Ok(Written {
+        results,
+        report,
+        runs: simulated.into_outcomes(),
+    })
+}
+
+/// Each split's results, from its calibration with the study's emulators.
+fn split_results(simulated: &Simulated, splits: &[SplitCalibration]) -> Vec<SplitResult> {
+    splits
+        .iter()
+        .map(|split| {
+            let not_diagnosed = Err(CalibrationError::Numerics("not diagnosed per split".into()));
+            let results = Results::build(&split.study, simulated.model(), &split.calibration, not_diagnosed);
+            SplitResult::from_results(&split.study, &results)
+        })
+        .collect()
+}
+
+/// `results.json`: the calibration and diagnosis, plus a solver study's surrogates, splits and run counts.
+fn results(
+    study: &Study,
+    simulated: &Simulated,
+    calibration: &Calibration,
+    diagnosis: Result<Diagnosis, CalibrationError>,
+    splits: Option<Vec<SplitResult>>,
+) -> Results {
+    let results = Results::build(study, simulated.model(), calibration, diagnosis);
+    let Simulated::Solver(runs) = simulated else {
+        return results;
+    };
+    let mut results = results.with_surrogates(&runs.surrogates);
+    results.splits = splits;
+    results.sampling = runs.sequence.as_ref().map(|s| sequence::Sequence {
+        replaces: sequence::record::Replaced::of(study, runs.sim, runs.joint.as_ref().map(|j| &j.plan)),
+        ..s.for_results()
+    });
+    let gates = runs.sim.quality.gates;
+    let use_suspect = runs.sim.quality.use_suspect;
+    // The screening's runs, then the loop's.
+    let mut sweeps = vec![(&runs.plan, &runs.rendered.keys, &runs.executed.swept, &runs.flags)];
+    if let Some(j) = &runs.joint {
+        sweeps.push((&j.plan, &j.rendered.keys, &j.swept, &j.flags));
+    }
+    let mut all = RunsResult {
+        planned: 0,
+        succeeded: 0,
+        failed: 0,
+        in_the_loop: runs.joint.as_ref().map_or(0, |j| j.plan.runs.len()),
+        replayed_from: runs.executed.replay.as_ref().map(|d| d.display().to_string()),
+        suspect: 0,
+        gates: sweeps
+            .iter()
+            .any(|(_, _, swept, _)| swept.quality.iter().any(Option::is_some))
+            .then_some(gates),
+        suspect_runs: Vec::new(),
+    };
+    for (plan, keys, swept, flags) in sweeps {
+        let succeeded = swept.responses.iter().filter(|r| r.is_some()).count();
+        all.planned += plan.runs.len();
+        all.succeeded += succeeded;
+        all.failed += plan.runs.len() - succeeded;
+        all.suspect += flags.iter().filter(|f| !f.is_empty()).count();
+        all.suspect_runs
+            .extend(suspect_runs(study, plan, keys, &swept.responses, flags, use_suspect));
+    }
+    results.runs = Some(all);
+    results
+}
+
+/// `report-data.json`: what the page draws beyond `results.json` (posterior samples, prediction
+/// curves, the runs and their surrogates, force–displacement curves, the wall time).
+fn report_data(study: &Study, simulated: &Simulated, calibration: &Calibration, started: Instant) -> ReportData {
+    let mut data = ReportData::build(study, simulated.model(), calibration);
+    data.force_displacement = match simulated {
+        Simulated::ClosedForm(_) => super::curves::design_curves(study, None, None),
+        Simulated::Solver(r) => {
+            let responses = &r.executed.swept.responses;
+            data = data.with_runs(
+                study,
+                &r.plan,
+                &r.rendered.keys,
+                responses,
+                &r.surrogates,
+                &r.executed.store,
+            );
+            for (row, f) in data.runs.iter_mut().zip(&r.flags) {
+                row.flags = f.iter().map(|f| f.text.clone()).collect();
+            }
+            let outputs = super::curves::RunOutputs {
+                plan: &r.plan,
+                keys: &r.rendered.keys,
+                responses,
+                dirs: r.executed.output_dirs(r.sim),
+            };
+            let reference = super::data::reference(calibration);
+            data.extension_surfaces = r.extended.iter().map(|(m, at)| surface(study, m, at)).collect();
+            data.residual_curves = r.residual_curves.clone();
+            data.solver_comparison = super::solvers::compare(r.sim, &outputs);
+            super::curves::design_curves(study, Some(&outputs), reference.as_ref())
+        }
+    };
+    data.wall_time_s = Some(started.elapsed().as_secs_f64());
+    data
+}
+
+/// Writes results.json, report-data.json and report.html into `out`.
+fn write(out: &Path, results: &Results, data: &ReportData) -> Result<(), Error> {
+    results.write(&out.join("results.json"))?;
+    data.write(&out.join(ReportData::FILE_NAME))?;
+    write_report(out, results, Some(data))
+}
+
+/// Writes `dir/report.html` (atomically) from the results and, when there, the report data.
+pub fn write_report(dir: &Path, results: &Results, data: Option<&ReportData>) -> Result<(), Error> {
+    super::write_atomic(&dir.join("report.html"), super::html::render(results, data).as_bytes())?;
+    Ok(())
+}
+
+/// The suspect runs for `results.json`, in plan order (each key once).
+pub fn suspect_runs(
+    study: &Study,
+    plan: &Plan,
+    keys: &[String],
+    responses: &[Option<f64>],
+    flags: &[Vec<Flag>],
+    used: bool,
+) -> Vec<SuspectRun> {
+    let mut seen = std::collections::BTreeSet::new();
+    (0..plan.runs.len())
+        .filter(|&i| !flags[i].is_empty() && seen.insert(&keys[i]))
+        .filter_map(|i| {
+            let run = &plan.runs[i];
+            Some(SuspectRun {
+                key: keys[i].clone(),
+                design: run.design.clone(),
+                role: run.role.key().to_string(),
+                parameters: study.parameter_values(&run.theta),
+                response: responses[i]?,
+                flags: flags[i].clone(),
+                used,
+            })
+        })
+        .collect()
+}
+
+/// The extended model's response over its first ranged variable, the other parameters at `at`.
+pub fn surface(study: &Study, m: &extend::ExtendedModel, at: &[f64]) -> ExtensionSurface {
+    let hypothesis = &study.diagnosis.hypotheses[m.hypothesis];
+    let variable = &hypothesis.ranges()[0];
+    let j = study.parameters.len();
+    ExtensionSurface::sweep(
+        &m.study,
+        &hypothesis.name,
+        &m.surrogates,
+        at,
+        (j, variable.min, variable.max),
+        variable,
+    )
+}
+
+/// `lab report`: rewrites `dir/report.html` from `results.json` and, when readable,
+/// `report-data.json`; returns a warning when the latter is there but unreadable.
+pub fn rewrite_report(dir: &Path) -> Result<Option<String>, Error> {
+    let results = Results::read(&dir.join("results.json")).map_err(|e| {
+        Error::Failed(format!(
+            "{}: {e} (run `lab run` first)",
+            dir.join("results.json").display()
+        ))
+    })?;
+    let data_file = dir.join(ReportData::FILE_NAME);
+    let (data, warning) = match ReportData::read(&data_file) {
+        Ok(d) => (Some(d), None),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => (None, None),
+        Err(e) => (
+            None,
+            Some(format!(
+                "{}: {e}; the report leaves out what it holds",
+                data_file.display()
+            )),
+        ),
+    };
+    write_report(dir, &results, data.as_ref())?;
+    Ok(warning)
+}
