@@ -107,6 +107,23 @@ impl SiteEmulators {
     }
 }
 
+impl Site {
+    /// The site's runs as output `k`'s emulator takes them, at the design's coordinates `at`
+    /// (empty for the site's own emulator).
+    pub fn runs<'a>(&'a self, k: usize, at: &'a [f64]) -> Vec<super::Run<'a, f64>> {
+        self.x
+            .iter()
+            .zip(&self.y)
+            .map(|(x, y)| super::Run {
+                design: &self.name,
+                values: at,
+                x,
+                y: Some(&y[k]),
+            })
+            .collect()
+    }
+}
+
 /// The posterior of x as weighted points.
 #[derive(Debug, Clone)]
 pub struct Posterior {
@@ -127,12 +144,7 @@ pub fn emulators(bounds: &Bounds, sites: &[Site]) -> Vec<SiteEmulators> {
         .par_iter()
         .map(|s| {
             let outputs = (0..s.observed.len())
-                .map(|k| {
-                    let rows: Vec<usize> = (0..s.x.len()).filter(|&i| s.y[i][k].is_finite()).collect();
-                    let x = DMatrix::from_fn(rows.len(), bounds.dim(), |r, j| s.x[rows[r]][j]);
-                    let y = DVector::from_iterator(rows.len(), rows.iter().map(|&i| s.y[i][k]));
-                    Emulator::fit(&x, &y, bounds).ok()
-                })
+                .map(|k| <Emulator as super::Emulator>::fit(bounds, &s.runs(k, &[])).ok())
                 .collect();
             SiteEmulators {
                 outputs,

@@ -17,7 +17,9 @@ use nalgebra::DVector;
 
 use crate::diagnose::Role;
 use crate::diagnose::features::{CurveDesign, CurveFn, CurveHypothesis, CurveInputs, EmulatorCheck};
-use crate::emulate::functional::{AcrossRun, CurveModel, CurvesAcross, DesignCurves, FunctionalSurrogate, check_error};
+use crate::emulate::fits::{AcrossCurves, CurvesAcrossFit, Kind};
+use crate::emulate::functional::{CurveCheck, CurveModel, DesignCurves, FunctionalSurrogate, check_error};
+use crate::emulate::{self, DesignFit, Run};
 use crate::error::Error;
 use crate::extract::crush::ForceDisplacement;
 use crate::extract::features::FeatureSpec;
@@ -124,9 +126,12 @@ pub fn kind(study: &Study, sim: &SolverSimulation) -> SurrogateKind {
     study.calibration.curve.surrogate.unwrap_or(sim.surrogate)
 }
 
-/// One curve emulator per tested design over `bounds`, fitted to its runs among `runs` and checked
-/// at its check runs; `across` (with `sampling.across_designs`), the designs' slices of one
-/// ([`emulators_across`]).
+/// One curve emulator per tested design over `bounds`, fitted to its sample runs among `runs` and
+/// checked at its check runs; `across` (with `sampling.across_designs`), the designs' slices of one
+/// emulator fitted to every run with a curve, the check runs too, each design's check runs (its
+/// latest batch) predicted by the emulator fitted to every other run, as the response's are
+/// ([`super::stages::fit_surrogates`]); each design's curves are then emulated in units of its
+/// tests' mean force.
 pub fn emulators(
     study: &Study,
     kind: SurrogateKind,
@@ -134,50 +139,47 @@ pub fn emulators(
     runs: &[CurveRun],
     across: bool,
 ) -> Result<CurveModel, Error> {
-    if across {
-        return emulators_across(study, bounds, runs);
-    }
-    let designs = study
-        .training
+    let names: Vec<&String> = study.training.iter().chain(&study.validation).collect();
+    let all: Vec<Run<DVector<f64>>> = runs
         .iter()
-        .chain(&study.validation)
-        .filter_map(|name| {
-            let mine: Vec<&CurveRun> = runs.iter().filter(|r| &r.run.design == name).collect();
-            let values = mine.first()?.run.design_values.clone();
-            let of = |check: bool| -> Vec<(Vec<f64>, DVector<f64>)> {
-                mine.iter()
-                    .filter(|r| r.check == check)
-                    .filter_map(|r| r.curve.clone().map(|c| (r.point.clone(), c)))
-                    .collect()
-            };
-            let samples = of(false);
-            Some(
-                FunctionalSurrogate::fit(kind, &samples, bounds)
-                    .map(|surrogate| {
-                        let checks = surrogate.checks(of(true));
-                        DesignCurves {
-                            design: name.clone(),
-                            values,
-                            check: check_error(&checks),
-                            surrogate,
-                            samples: samples.len(),
-                            checks,
-                        }
-                    })
-                    .map_err(|e| Error::Failed(format!("design `{name}`: cannot fit its curve emulator: {e}"))),
-            )
+        .map(|r| Run {
+            design: &r.run.design,
+            values: &r.run.design_values,
+            x: &r.point,
+            y: r.curve.as_ref(),
+        })
+        .collect();
+    let check = |r: &Run<DVector<f64>>| runs[all.iter().position(|a| std::ptr::eq(a.x, r.x)).expect("a run")].check;
+    let fitted: Vec<Result<DesignFit<FunctionalSurrogate, DVector<f64>>, _>> = if across {
+        let spec = across_spec(study, bounds, &names, &all);
+        let fitted = emulate::across::<CurvesAcrossFit>(&spec, &names, &all, &check);
+        if let Some(Err((_, e))) = fitted.iter().find(|f| f.is_err()) {
+            return Err(Error::Failed(format!(
+                "cannot fit the curve emulator across the designs: {e}"
+            )));
+        }
+        fitted
+    } else {
+        emulate::by_design::<FunctionalSurrogate>(&Kind::new(kind, bounds.clone()), &names, &all, &check)
+    };
+    let designs = fitted
+        .into_iter()
+        .map(|f| {
+            f.map(|f| design_curves(f, &all))
+                .map_err(|(name, e)| Error::Failed(format!("design `{name}`: cannot fit its curve emulator: {e}")))
         })
         .collect::<Result<Vec<_>, _>>()?;
     Ok(CurveModel { designs })
 }
 
-/// One curve emulator across the tested designs ([`CurvesAcross`]), fitted to every run with a
-/// curve, the check runs too; each design's check runs (its latest batch) are predicted by the
-/// emulator fitted to every other run, as the response's are
-/// ([`super::stages::fit_across`]). Each design's curves are emulated in units of its tests' mean
-/// force.
-fn emulators_across(study: &Study, bounds: &crate::base::Bounds, runs: &[CurveRun]) -> Result<CurveModel, Error> {
-    use rayon::prelude::*;
+/// The curve emulator across the designs: their values' range and θ's box, each design's curves in
+/// units of its tests' mean force.
+fn across_spec(
+    study: &Study,
+    bounds: &crate::base::Bounds,
+    names: &[&String],
+    all: &[Run<DVector<f64>>],
+) -> AcrossCurves {
     let scale = |name: &str| {
         let r = study
             .experiments
@@ -186,62 +188,43 @@ fn emulators_across(study: &Study, bounds: &crate::base::Bounds, runs: &[CurveRu
             .unwrap_or_default();
         crate::emulate::functional::unit(r.iter().sum::<f64>() / r.len().max(1) as f64)
     };
-    let usable: Vec<(&CurveRun, &DVector<f64>, f64)> = runs
-        .iter()
-        .filter_map(|r| Some((r, r.curve.as_ref()?, scale(&r.run.design))))
-        .collect();
-    let names: Vec<&String> = study.training.iter().chain(&study.validation).collect();
-    let values: Vec<Vec<f64>> = names
+    let tested: Vec<(&String, Vec<f64>)> = names
         .iter()
         .filter_map(|n| {
-            usable
-                .iter()
-                .find(|r| &&r.0.run.design == n)
-                .map(|r| r.0.run.design_values.clone())
+            all.iter()
+                .find(|r| r.y.is_some() && r.design == n.as_str())
+                .map(|r| (*n, r.values.to_vec()))
         })
         .collect();
-    let joint = crate::emulate::sequential::shared::joint_bounds(&values, bounds);
-    let fit = |keep: &dyn Fn(&CurveRun) -> bool| {
-        let kept: Vec<AcrossRun> = usable
-            .iter()
-            .filter(|r| keep(r.0))
-            .map(|(r, c, s)| AcrossRun {
-                design: &r.run.design_values,
-                theta: &r.point,
-                curve: c,
-                scale: *s,
-            })
-            .collect();
-        CurvesAcross::fit(&kept, &joint)
-    };
-    let whole =
-        fit(&|_| true).map_err(|e| Error::Failed(format!("cannot fit the curve emulator across the designs: {e}")))?;
-    let designs = names
-        .into_par_iter()
-        .filter_map(|name| {
-            let mine: Vec<&(&CurveRun, &DVector<f64>, f64)> =
-                usable.iter().filter(|r| &r.0.run.design == name).collect();
-            let values = mine.first()?.0.run.design_values.clone();
-            let held: Vec<(Vec<f64>, DVector<f64>)> = mine
-                .iter()
-                .filter(|r| r.0.check)
-                .map(|r| (r.0.point.clone(), r.1.clone()))
-                .collect();
-            let checks = match fit(&|r| !(r.check && &r.run.design == name)) {
-                Ok(others) if !held.is_empty() => others.at(&values, scale(name)).checks(held),
-                _ => Vec::new(),
-            };
-            Some(DesignCurves {
-                design: name.clone(),
-                surrogate: whole.at(&values, scale(name)),
-                values,
-                check: check_error(&checks),
-                samples: mine.len(),
-                checks,
-            })
+    let values: Vec<Vec<f64>> = tested.iter().map(|t| t.1.clone()).collect();
+    AcrossCurves {
+        joint: crate::emulate::sequential::shared::joint_bounds(&values, bounds),
+        units: tested.into_iter().map(|(n, v)| (v, scale(n))).collect(),
+    }
+}
+
+/// A design's curve emulator with its check runs: each held-out run's curve and the curve the
+/// emulator fitted without it predicted.
+fn design_curves(f: DesignFit<FunctionalSurrogate, DVector<f64>>, all: &[Run<DVector<f64>>]) -> DesignCurves {
+    let checks: Vec<CurveCheck> = f
+        .held
+        .runs
+        .iter()
+        .zip(f.held.predicted)
+        .map(|(&i, emulated)| CurveCheck {
+            theta: all[i].x.to_vec(),
+            curve: all[i].y.expect("held out with a curve").clone(),
+            emulated,
         })
         .collect();
-    Ok(CurveModel { designs })
+    DesignCurves {
+        design: f.design,
+        values: f.values,
+        check: check_error(&checks),
+        surrogate: f.emulator,
+        samples: f.fitted,
+        checks,
+    }
 }
 
 /// A curve model as the diagnosis's curve function.
@@ -367,7 +350,7 @@ impl CurveStage {
                 // A sequential study probes each design at p + 1 points of the posterior: enough for
                 // a linear emulator of the extension's curves over θ there.
                 let per_design = runs.len() / crate::plan::sweep::tested_designs(study).count().max(1);
-                let kind = super::sequence::sites::kind_for(kind, per_design, bounds.dim());
+                let kind = crate::emulate::fits::kind_for(kind, per_design, bounds.dim());
                 let model = emulators(study, kind, &bounds, &runs, probes_across).ok()?;
                 Some((k, model))
             })

@@ -13,7 +13,8 @@ use crate::calibrate::{
 };
 use crate::diagnose::{self, Diagnosis};
 use crate::emulate::ExpressionModel;
-use crate::emulate::{DesignSurrogate, Surrogate, SurrogateModel};
+use crate::emulate::fits::{AcrossGp, Kind};
+use crate::emulate::{self, DesignSurrogate, Run, Surrogate, SurrogateModel};
 use crate::error::Error;
 use crate::plan::{Plan, PlannedRun, RunRole};
 use crate::study::solver::SurrogateKind;
@@ -34,115 +35,92 @@ pub struct FitRun<'a> {
     pub check: bool,
 }
 
-/// One surrogate per tested design (training, then validation) over `bounds`, fitted to the
-/// design's successful sample runs among `runs` and checked at its successful check runs. A design
-/// with no runs is left out; one whose fit fails is `Err((design, why))`.
-pub fn fit_designs(
-    study: &Study,
-    kind: SurrogateKind,
-    bounds: &Bounds,
-    runs: &[FitRun],
-) -> Vec<Result<DesignSurrogate, (String, String)>> {
-    study
-        .training
-        .iter()
-        .chain(&study.validation)
-        .filter_map(|name| {
-            let mine: Vec<&FitRun> = runs.iter().filter(|r| &r.run.design == name).collect();
-            let values = mine.first()?.run.design_values.clone();
-            let of = |check: bool| -> Vec<(Vec<f64>, f64)> {
-                mine.iter()
-                    .filter(|r| r.check == check)
-                    .filter_map(|r| r.y.map(|y| (r.point.clone(), y)))
-                    .collect()
-            };
-            let samples = of(false);
-            Some(match Surrogate::fit(kind, &samples, bounds) {
-                Ok(surrogate) => Ok(DesignSurrogate {
-                    design: name.clone(),
-                    values,
-                    check: surrogate.check(&of(true)),
-                    surrogate,
-                    samples: samples.len(),
-                }),
-                Err(e) => Err((name.clone(), e.to_string())),
-            })
+/// The runs as the emulator layer takes them (their check runs held out).
+fn as_runs<'a>(runs: &'a [FitRun]) -> Vec<Run<'a, f64>> {
+    runs.iter()
+        .map(|r| Run {
+            design: &r.run.design,
+            values: &r.run.design_values,
+            x: &r.point,
+            y: r.y.as_ref(),
         })
         .collect()
 }
 
-/// The study's surrogates over `bounds`, one per tested design: its own ([`fit_designs`]), or with
-/// `sampling.across_designs` the designs' slices of one emulator ([`fit_across`]).
+/// The study's surrogates over `bounds`, one per tested design (training, then validation), each
+/// checked at its check runs by an emulator fitted without them: its own, fitted to the design's
+/// sample runs, or with `sampling.across_designs` its slice of one Gaussian process across the
+/// designs fitted to every run, checked by a refit without the design's check runs (its latest
+/// batch: the error the sequence measured when it stopped). A design with no runs is left out; one
+/// whose fit fails is `Err((design, why))`.
 pub fn fit_surrogates(
     study: &Study,
     sim: &SolverSimulation,
     bounds: &Bounds,
     runs: &[FitRun],
 ) -> Vec<Result<DesignSurrogate, (String, String)>> {
-    if sim.across_designs() {
-        fit_across(study, bounds, runs)
+    let kind = if sim.across_designs() {
+        None
     } else {
-        fit_designs(study, sim.surrogate, bounds, runs)
-    }
+        Some(sim.surrogate)
+    };
+    fit_kind(study, kind, bounds, runs)
 }
 
-/// One Gaussian process across the tested designs, over their values and `bounds`, fitted to every
-/// successful run, the check runs too; each design gets its slice, checked at its check runs (its
-/// latest batch) by the emulator fitted to every other run: the error the sequence measured when it
-/// stopped ([`crate::pipeline::sequence::sites::measured_errors_across`]).
-pub fn fit_across(study: &Study, bounds: &Bounds, runs: &[FitRun]) -> Vec<Result<DesignSurrogate, (String, String)>> {
-    use rayon::prelude::*;
-    let rows: Vec<(&FitRun, Vec<f64>, f64)> = runs
-        .iter()
-        .filter_map(|r| Some((r, r.run.design_values.iter().chain(&r.point).copied().collect(), r.y?)))
-        .collect();
+/// [`fit_surrogates`] with the kind of each design's own surrogate, or `None`: one across them.
+fn fit_kind(
+    study: &Study,
+    kind: Option<SurrogateKind>,
+    bounds: &Bounds,
+    runs: &[FitRun],
+) -> Vec<Result<DesignSurrogate, (String, String)>> {
     let names: Vec<&String> = study.training.iter().chain(&study.validation).collect();
-    let values: Vec<Vec<f64>> = names
+    let all = as_runs(runs);
+    let check = |r: &Run<f64>| runs[index_of(&all, r)].check;
+    let fitted = match kind {
+        Some(kind) => emulate::by_design::<Surrogate>(&Kind::new(kind, bounds.clone()), &names, &all, &check),
+        None => {
+            let values: Vec<Vec<f64>> = names
+                .iter()
+                .filter_map(|n| runs.iter().find(|r| r.y.is_some() && &&r.run.design == n))
+                .map(|r| r.run.design_values.clone())
+                .collect();
+            let joint = crate::emulate::sequential::shared::joint_bounds(&values, bounds);
+            emulate::across::<AcrossGp>(&joint, &names, &all, &check)
+        }
+    };
+    fitted
+        .into_iter()
+        .map(|f| f.map(|f| design_surrogate(f, &all)))
+        .collect()
+}
+
+/// A run's index among `all` (the runs are borrowed from one slice: found by address).
+fn index_of<Y>(all: &[Run<'_, Y>], r: &Run<'_, Y>) -> usize {
+    all.iter()
+        .position(|a| std::ptr::eq(a.x, r.x))
+        .expect("a run of the slice")
+}
+
+/// A design's fitted surrogate with its check: the relative errors at its held-out runs.
+fn design_surrogate(f: emulate::DesignFit<Surrogate, f64>, all: &[Run<'_, f64>]) -> DesignSurrogate {
+    let errors: Vec<f64> = f
+        .held
+        .runs
         .iter()
-        .filter_map(|n| {
-            rows.iter()
-                .find(|r| &&r.0.run.design == n)
-                .map(|r| r.0.run.design_values.clone())
+        .zip(&f.held.predicted)
+        .map(|(&i, m)| {
+            let y = *all[i].y.expect("held out with an output");
+            ((m - y) / y).abs()
         })
         .collect();
-    let joint = crate::emulate::sequential::shared::joint_bounds(&values, bounds);
-    let fit = |keep: &dyn Fn(usize) -> bool| {
-        let kept: Vec<usize> = (0..rows.len()).filter(|&i| keep(i)).collect();
-        let x = DMatrix::from_fn(kept.len(), joint.dim(), |i, k| rows[kept[i]].1[k]);
-        let y = DVector::from_iterator(kept.len(), kept.iter().map(|&i| rows[i].2));
-        crate::emulate::gp::Emulator::fit(&x, &y, &joint)
-    };
-    let whole = fit(&|_| true).map(std::sync::Arc::new);
-    names
-        .into_par_iter()
-        .filter_map(|name| {
-            let mine: Vec<usize> = (0..rows.len()).filter(|&i| &rows[i].0.run.design == name).collect();
-            let values = rows.get(*mine.first()?)?.0.run.design_values.clone();
-            let emulator = match &whole {
-                Ok(e) => e.clone(),
-                Err(e) => return Some(Err((name.clone(), e.to_string()))),
-            };
-            let held: Vec<usize> = mine.iter().copied().filter(|&i| rows[i].0.check).collect();
-            let errors: Vec<f64> = match fit(&|j| !held.contains(&j)) {
-                Ok(others) if !held.is_empty() => {
-                    let x = DMatrix::from_fn(held.len(), joint.dim(), |r, k| rows[held[r]].1[k]);
-                    let m = others.mean(&x);
-                    held.iter()
-                        .zip(m.iter())
-                        .map(|(&i, m)| ((m - rows[i].2) / rows[i].2).abs())
-                        .collect()
-                }
-                _ => Vec::new(),
-            };
-            Some(Ok(DesignSurrogate {
-                design: name.clone(),
-                values: values.clone(),
-                check: crate::emulate::CheckError::of(&errors),
-                surrogate: Surrogate::across(emulator, values),
-                samples: mine.len(),
-            }))
-        })
-        .collect()
+    DesignSurrogate {
+        design: f.design,
+        values: f.values,
+        check: crate::emulate::CheckError::of(&errors),
+        surrogate: f.emulator,
+        samples: f.fitted,
+    }
 }
 
 /// The sample runs among `runs` that succeeded, as emulator data for the Bayesian method: design
@@ -305,11 +283,8 @@ pub fn extension_surrogates(
             // linear surrogate of the extension there.
             let per_design = runs.len() / crate::plan::sweep::tested_designs(study).count().max(1);
             let kind = super::sequence::sites::kind_for(sim.surrogate, per_design, bounds.dim());
-            let fitted = if crate::plan::sweep::probes_across(study, sim) {
-                fit_across(study, &bounds, &runs)
-            } else {
-                fit_designs(study, kind, &bounds, &runs)
-            };
+            let across = crate::plan::sweep::probes_across(study, sim);
+            let fitted = fit_kind(study, (!across).then_some(kind), &bounds, &runs);
             let designs = fitted.into_iter().filter_map(Result::ok).collect();
             (k, SurrogateModel { designs })
         })

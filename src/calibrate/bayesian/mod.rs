@@ -58,7 +58,23 @@ impl SimulationData {
         {
             return Ok(e.clone());
         }
-        let emulator = Emulator::fit(&self.inputs, &self.outputs, bounds)?;
+        if self.outputs.iter().any(|v| !v.is_finite()) {
+            return Err(CalibrationError::NonFinite("emulator samples".into()));
+        }
+        // Each run a point of the emulator's inputs (the design's values, then θ).
+        let rows: Vec<Vec<f64>> = self.inputs.row_iter().map(|r| r.iter().copied().collect()).collect();
+        let runs: Vec<crate::emulate::Run<f64>> = rows
+            .iter()
+            .zip(self.outputs.iter())
+            .map(|(x, y)| crate::emulate::Run {
+                design: "",
+                values: &[],
+                x,
+                y: Some(y),
+            })
+            .collect();
+        let emulator = <Emulator as crate::emulate::Emulator>::fit(bounds, &runs)
+            .map_err(|e| CalibrationError::Numerics(e.to_string()))?;
         let _ = self.fitted.set((bounds.clone(), emulator.clone()));
         Ok(emulator)
     }

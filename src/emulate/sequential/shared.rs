@@ -31,19 +31,9 @@ pub fn emulators(designs: &[Vec<f64>], bounds: &Bounds, sites: &[Site]) -> Vec<S
     let outputs = sites.first().map_or(0, |s| s.observed.len());
     let shared: Vec<Option<Emulator>> = (0..outputs)
         .map(|k| {
-            let rows: Vec<(Vec<f64>, f64)> = sites
-                .iter()
-                .zip(designs)
-                .flat_map(|(s, d)| {
-                    s.x.iter()
-                        .zip(&s.y)
-                        .filter(|(_, y)| y[k].is_finite())
-                        .map(|(x, y)| (d.iter().chain(x).copied().collect(), y[k]))
-                })
-                .collect();
-            let x = DMatrix::from_fn(rows.len(), joint.dim(), |r, j| rows[r].0[j]);
-            let y = DVector::from_iterator(rows.len(), rows.iter().map(|r| r.1));
-            Emulator::fit(&x, &y, &joint).ok()
+            let runs: Vec<crate::emulate::Run<f64>> =
+                sites.iter().zip(designs).flat_map(|(s, d)| s.runs(k, d)).collect();
+            <Emulator as crate::emulate::Emulator>::fit(&joint, &runs).ok()
         })
         .collect();
     designs

@@ -9,9 +9,10 @@ use nalgebra::DVector;
 use crate::base::Bounds;
 use crate::diagnose::features::{CurveDesign, Whitening};
 use crate::diagnose::{NoiseModel, Observation, Role};
-use crate::emulate::Surrogate;
-use crate::emulate::functional::{AcrossRun, CurvesAcross, FunctionalSurrogate};
+use crate::emulate::fits::{AcrossCurves, CurvesAcrossFit, Kind};
+use crate::emulate::functional::FunctionalSurrogate;
 use crate::emulate::sequential::Site;
+use crate::emulate::{HeldOut, Run, Surrogate, gp, held_out};
 use crate::extract::features::FeatureSpec;
 use crate::study::{SolverSimulation, Study, SurrogateKind};
 
@@ -102,6 +103,14 @@ impl Tests {
         Tests { designs, whitening }
     }
 
+    /// The values of the tested design `name` (empty for a design it does not test).
+    pub fn values_of(&self, name: &str) -> &[f64] {
+        self.designs
+            .iter()
+            .find(|t| t.name == name)
+            .map_or(&[], |t| t.values.as_slice())
+    }
+
     /// The outputs of one run: its response, then its curve's whitened features (NaN where missing).
     pub fn outputs(&self, design: &[f64], response: Option<f64>, curve: Option<&DVector<f64>>) -> Vec<f64> {
         let mut y = vec![response.unwrap_or(f64::NAN)];
@@ -120,15 +129,6 @@ pub struct RunData<'a> {
     pub batch: usize,
     pub response: Option<f64>,
     pub curve: Option<&'a DVector<f64>>,
-}
-
-impl<'a> RunData<'a> {
-    fn copy(&self) -> RunData<'a> {
-        RunData {
-            point: self.point.clone(),
-            ..*self
-        }
-    }
 }
 
 /// The planner's sites: every tested design with its runs' points and outputs.
@@ -165,107 +165,180 @@ pub fn measured_errors(
     bounds: &Bounds,
 ) -> Vec<Option<f64>> {
     use rayon::prelude::*;
+    let response = Kind::new(kinds.0, bounds.clone());
+    let curves = kinds.1.map(|kind| Kind {
+        fallback: true,
+        ..Kind::new(kind, bounds.clone())
+    });
     tests
         .designs
         .par_iter()
         .map(|t| {
             let mine: Vec<&RunData> = runs.iter().filter(|r| r.design == t.name).collect();
             let last = mine.iter().map(|r| r.batch).max()?;
-            let (fit, held): (Vec<&RunData>, Vec<&RunData>) = mine.into_iter().partition(|r| r.batch < last);
-            if fit.is_empty() {
+            if mine.iter().all(|r| r.batch == last) {
                 return None;
             }
-            Some(held_out_error(tests, t, &fit, &held, kinds, bounds))
+            Some(held_out_error(tests, t, &mine, last, (&response, curves.as_ref())))
         })
         .collect()
 }
 
-/// With one emulator across the designs ([`crate::emulate::sequential::shared`]): per tested design,
-/// the emulators fitted to every run but the design's latest batch — the response's, and with
-/// curves the study's curve emulator across the designs ([`CurvesAcross`]) — their RMS error there
-/// in units of the tests' noise of the mean, the largest over the outputs (`None`: the design has
-/// no run yet; infinite: the emulators could not be fitted without them).
+/// The study's own emulators of a design (the response's surrogate, the curve emulator) fitted to
+/// its runs before batch `last`, at that batch: RMS error per output over the held-out runs, in
+/// units of √τ², the largest.
+fn held_out_error(
+    tests: &Tests,
+    t: &TestedDesign,
+    mine: &[&RunData],
+    last: usize,
+    kinds: (&Kind, Option<&Kind>),
+) -> f64 {
+    let held = |i: usize| mine[i].batch == last;
+    let response_runs: Vec<Run<f64>> = mine.iter().map(|r| r.response_run(tests)).collect();
+    let Ok(response) = held_out::<Surrogate>(kinds.0, &response_runs, &|r| held(index(&response_runs, r))) else {
+        return f64::INFINITY;
+    };
+    let curves = match kinds.1 {
+        Some(kind) => {
+            let curve_runs: Vec<Run<DVector<f64>>> = mine.iter().map(|r| r.curve_run(tests)).collect();
+            match held_out::<FunctionalSurrogate>(kind, &curve_runs, &|r| held(index(&curve_runs, r))) {
+                Ok(c) => Some(c),
+                Err(_) => return f64::INFINITY,
+            }
+        }
+        None => None,
+    };
+    let latest: Vec<usize> = (0..mine.len()).filter(|&i| held(i)).collect();
+    let emulated: Vec<Emulated> = latest
+        .iter()
+        .map(|&i| Emulated::at(i, &response, curves.as_ref()))
+        .collect();
+    let held_runs: Vec<&RunData> = latest.iter().map(|&i| mine[i]).collect();
+    rms_in_noise(tests, t, &held_runs, &emulated)
+}
+
+/// With one emulator across the designs ([`crate::emulate::sequential::shared`]): per tested
+/// design, the emulators fitted to every run but the design's latest batch — the planner's
+/// Gaussian process of the response over the designs, and with curves the study's curve emulator
+/// across the designs ([`CurvesAcrossFit`]) — their RMS error there in units of the tests' noise of
+/// the mean, the largest over the outputs (`None`: the design has no run yet; infinite: the
+/// emulators could not be fitted without them).
 pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) -> Vec<Option<f64>> {
     use rayon::prelude::*;
     let values: Vec<Vec<f64>> = tests.designs.iter().map(|t| t.values.clone()).collect();
     let joint = crate::emulate::sequential::shared::joint_bounds(&values, bounds);
+    let curves = AcrossCurves {
+        joint: joint.clone(),
+        units: tests.designs.iter().map(|t| (t.values.clone(), t.scale())).collect(),
+    };
+    // The planner's Gaussian process learns from the runs site by site, in the tested designs'
+    // order; the curve emulator from the runs in their own order.
+    let ordered: Vec<usize> = tests
+        .designs
+        .iter()
+        .flat_map(|t| (0..runs.len()).filter(move |&i| runs[i].design == t.name))
+        .collect();
+    let response_runs: Vec<Run<f64>> = ordered.iter().map(|&i| runs[i].response_run(tests)).collect();
+    let curve_runs: Vec<Run<DVector<f64>>> = runs.iter().map(|r| r.curve_run(tests)).collect();
     (0..tests.designs.len())
         .into_par_iter()
         .map(|s| {
-            let name = &tests.designs[s].name;
-            let last = runs
-                .iter()
-                .filter(|r| r.design == name.as_str())
-                .map(|r| r.batch)
-                .max()?;
-            let held = |r: &RunData| r.design == name.as_str() && r.batch == last;
-            let kept: Vec<RunData> = runs.iter().filter(|r| !held(r)).map(RunData::copy).collect();
-            // With curves their features come from the curve emulator below: the planner's
-            // emulators are fitted for the response alone.
-            let mut kept_sites = sites(tests, &kept);
-            if tests.whitening.is_some() {
-                kept_sites.iter_mut().for_each(response_only);
-            }
-            let emus = crate::emulate::sequential::shared::emulators(&values, bounds, &kept_sites);
+            let t = &tests.designs[s];
+            let last = runs.iter().filter(|r| r.design == t.name).map(|r| r.batch).max()?;
+            let held = |i: usize| runs[i].design == t.name && runs[i].batch == last;
+            let fitted = held_out::<gp::Emulator>(&joint, &response_runs, &|r| held(ordered[index(&response_runs, r)]));
+            let Ok(mut response) = fitted else {
+                return Some(f64::INFINITY);
+            };
+            response.runs = response.runs.iter().map(|&k| ordered[k]).collect();
             let curves = match tests.whitening {
-                Some(_) => match curves_across(tests, &kept, &joint) {
-                    Ok(c) => Some(c.at(&values[s], tests.designs[s].scale())),
+                Some(_) => match held_out::<CurvesAcrossFit>(&curves, &curve_runs, &|r| held(index(&curve_runs, r))) {
+                    Ok(c) => Some(c),
                     Err(_) => return Some(f64::INFINITY),
                 },
                 None => None,
             };
-            let t = &tests.designs[s];
-            let held: Vec<&RunData> = runs.iter().filter(|r| held(r)).collect();
-            let emulated = |r: &RunData| {
-                let y = emus[s].predict(&r.point)?;
-                let curve = curves.as_ref().map(|c| c.predict(&r.point));
-                Some(tests.outputs(&t.values, Some(y[0]), curve.as_ref()))
-            };
-            Some(rms_in_noise(tests, t, &held, &emulated))
+            let latest: Vec<usize> = (0..runs.len()).filter(|&i| held(i)).collect();
+            let emulated: Vec<Emulated> = latest
+                .iter()
+                .map(|&i| Emulated::at(i, &response, curves.as_ref()))
+                .collect();
+            let held_runs: Vec<&RunData> = latest.iter().map(|&i| &runs[i]).collect();
+            Some(rms_in_noise(tests, t, &held_runs, &emulated))
         })
         .collect()
 }
 
-/// A site's first output, the response, alone.
-fn response_only(site: &mut Site) {
-    site.y.iter_mut().for_each(|y| y.truncate(1));
-    site.observed.truncate(1);
-    site.noise.truncate(1);
+/// A run's index among `all` (the runs are borrowed from one slice: found by their point's address).
+fn index<Y>(all: &[Run<'_, Y>], r: &Run<'_, Y>) -> usize {
+    all.iter()
+        .position(|a| std::ptr::eq(a.x, r.x))
+        .expect("a run of the slice")
 }
 
-/// The study's curve emulator across the designs fitted to `runs` ([`CurvesAcross`]), each design's
-/// curves in units of its tests' mean force.
-fn curves_across(tests: &Tests, runs: &[RunData], joint: &Bounds) -> Result<CurvesAcross, crate::emulate::FitError> {
-    let rows: Vec<AcrossRun> = runs
-        .iter()
-        .filter_map(|r| {
-            let t = tests.designs.iter().find(|t| t.name == r.design)?;
-            Some(AcrossRun {
-                design: &t.values,
-                theta: &r.point,
-                curve: r.curve?,
-                scale: t.scale(),
-            })
-        })
-        .collect();
-    CurvesAcross::fit(&rows, joint)
+/// What the emulators predicted at a held-out run: its response (`None`: the run has none to
+/// compare), and with curves its curve (`Some(None)`: the run has no curve).
+struct Emulated {
+    response: Option<f64>,
+    curve: Option<Option<DVector<f64>>>,
+}
+
+impl Emulated {
+    /// The predictions at run `i` (an index of the runs the checks were made on).
+    fn at(i: usize, response: &HeldOut<f64>, curves: Option<&HeldOut<DVector<f64>>>) -> Emulated {
+        let of = |h: &HeldOut<DVector<f64>>| h.runs.iter().position(|&j| j == i).map(|k| h.predicted[k].clone());
+        Emulated {
+            response: response
+                .runs
+                .iter()
+                .position(|&j| j == i)
+                .map(|k| response.predicted[k]),
+            curve: curves.map(of),
+        }
+    }
+}
+
+impl RunData<'_> {
+    /// The run as the response's emulators take it.
+    fn response_run<'t>(&'t self, tests: &'t Tests) -> Run<'t, f64> {
+        Run {
+            design: self.design,
+            values: tests.values_of(self.design),
+            x: &self.point,
+            y: self.response.as_ref(),
+        }
+    }
+
+    /// The run as the curves' emulators take it.
+    fn curve_run<'t>(&'t self, tests: &'t Tests) -> Run<'t, DVector<f64>> {
+        Run {
+            design: self.design,
+            values: tests.values_of(self.design),
+            x: &self.point,
+            y: self.curve,
+        }
+    }
 }
 
 /// The RMS error over `held` of the emulated outputs per output, in units of the tests' noise of
-/// the mean, the largest over the outputs (infinite where nothing could be emulated).
-fn rms_in_noise(
-    tests: &Tests,
-    t: &TestedDesign,
-    held: &[&RunData],
-    emulated: &dyn Fn(&RunData) -> Option<Vec<f64>>,
-) -> f64 {
+/// the mean, the largest over the outputs (infinite where nothing could be compared, or an
+/// emulator could not predict). A run without an output is skipped: its truth is not there.
+fn rms_in_noise(tests: &Tests, t: &TestedDesign, held: &[&RunData], emulated: &[Emulated]) -> f64 {
     let mut sq = vec![0.0; t.observed.len()];
     let mut n = 0usize;
-    for r in held {
-        let truth = tests.outputs(&t.values, r.response, r.curve);
-        let Some(emulated) = emulated(r) else {
+    for (r, e) in held.iter().zip(emulated) {
+        let Some(y) = e.response else { continue };
+        if y.is_nan() {
             return f64::INFINITY;
+        }
+        let curve = match &e.curve {
+            Some(None) => continue,
+            Some(Some(c)) => Some(c),
+            None => None,
         };
+        let truth = tests.outputs(&t.values, r.response, r.curve);
+        let emulated = tests.outputs(&t.values, Some(y), curve);
         if truth.iter().chain(&emulated).any(|v| !v.is_finite()) {
             continue;
         }
@@ -280,53 +353,7 @@ fn rms_in_noise(
     sq.iter().map(|s| (s / n as f64).sqrt()).fold(0.0, f64::max)
 }
 
-/// The study's own emulators (the response's surrogate, the curve emulator) fitted to `fit`, at
-/// `held`: RMS error per output over the held-out runs, in units of √τ², the largest.
-fn held_out_error(
-    tests: &Tests,
-    t: &TestedDesign,
-    fit: &[&RunData],
-    held: &[&RunData],
-    (response_kind, curve_kind): (SurrogateKind, Option<SurrogateKind>),
-    bounds: &Bounds,
-) -> f64 {
-    let samples: Vec<(Vec<f64>, f64)> = fit
-        .iter()
-        .filter_map(|r| r.response.map(|y| (r.point.clone(), y)))
-        .collect();
-    let surrogate = match Surrogate::fit(response_kind, &samples, bounds) {
-        Ok(s) => s,
-        Err(_) => return f64::INFINITY,
-    };
-    let curves = match curve_kind {
-        Some(kind) => {
-            let runs: Vec<(Vec<f64>, DVector<f64>)> = fit
-                .iter()
-                .filter_map(|r| r.curve.map(|c| (r.point.clone(), c.clone())))
-                .collect();
-            match FunctionalSurrogate::fit(kind_for(kind, runs.len(), bounds.dim()), &runs, bounds) {
-                Ok(f) => Some(f),
-                Err(_) => return f64::INFINITY,
-            }
-        }
-        None => None,
-    };
-    let emulated = |r: &RunData| {
-        let curve = curves.as_ref().map(|f| f.predict(&r.point));
-        Some(tests.outputs(&t.values, Some(surrogate.predict(&r.point)), curve.as_ref()))
-    };
-    rms_in_noise(tests, t, held, &emulated)
-}
-
-/// The surrogate kind a design's few runs can carry: `kind`, or linear where `n` runs are too few
-/// for it (probe runs, a joint space's first runs).
-pub fn kind_for(kind: SurrogateKind, n: usize, d: usize) -> SurrogateKind {
-    if n >= kind.min_samples(d) {
-        kind
-    } else {
-        SurrogateKind::Linear
-    }
-}
+pub use crate::emulate::fits::kind_for;
 
 /// The response's and the curves' surrogate kinds of a study.
 pub fn kinds(study: &Study, sim: &SolverSimulation) -> (SurrogateKind, Option<SurrogateKind>) {
