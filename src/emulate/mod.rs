@@ -156,6 +156,9 @@ pub struct DesignFit<S, Y> {
 /// Why a design's emulator could not be fitted: (design, why).
 pub type DesignError = (String, String);
 
+/// Each tested design's emulator, or why it could not be fitted.
+pub type Fits<S, Y> = Vec<Result<DesignFit<S, Y>, DesignError>>;
+
 /// One emulator per tested design (`designs`, in order; a design without runs is left out), each
 /// fitted to its runs that `held` does not pick and checked at those it picks.
 pub fn by_design<E: Emulator>(
@@ -163,7 +166,7 @@ pub fn by_design<E: Emulator>(
     designs: &[&String],
     runs: &[Run<'_, E::Y>],
     held: &(dyn Fn(&Run<'_, E::Y>) -> bool + Sync),
-) -> Vec<Result<DesignFit<E, E::Y>, DesignError>> {
+) -> Fits<E, E::Y> {
     designs
         .iter()
         .filter_map(|name| {
@@ -198,7 +201,7 @@ pub fn across<E: Sliced>(
     designs: &[&String],
     runs: &[Run<'_, E::Y>],
     held: &(dyn Fn(&Run<'_, E::Y>) -> bool + Sync),
-) -> Vec<Result<DesignFit<E::Slice, E::Y>, DesignError>>
+) -> Fits<E::Slice, E::Y>
 where
     E::Slice: Send,
 {

@@ -465,6 +465,12 @@ pub struct SweepResult {
 }
 
 impl SweepResult {
+    /// Every planned run's record as the store holds it, nothing run (`reused`: the finished ones).
+    pub fn recorded(store: &RunStore, prepared: &Prepared) -> SweepResult {
+        let reused = prepared.keys.iter().filter(|k| store.is_finished(k)).count();
+        SweepResult::from_store(store, prepared, reused, Vec::new())
+    }
+
     /// Every planned run's response and outcome class as the store now holds them, in plan order.
     fn from_store(store: &RunStore, prepared: &Prepared, reused: usize, errors: Vec<String>) -> SweepResult {
         let responses = prepared

@@ -303,7 +303,9 @@ mod tests {
     const SAMPLE: &str = "
                         S T E P       1
 
+
                                 INCREMENT     1
+
 
  displacements (vx,vy,vz) for set NTIP and time  0.1000000E+01
 

@@ -13,9 +13,9 @@
 //! over the joint space (the joint runs, plus the screening runs at the probe values), and the
 //! study's own calibration methods and diagnosis run on it.
 
-use super::runs::{self, RunOutcomes, Source};
+use super::runs::{self, RunContext, RunOutcomes};
 use super::stages::{FitRun, calibrate, emulator_data, fit_surrogates, problem};
-use super::{Engine, Event, Reporter, RunOptions};
+use super::{Event, Reporter};
 use crate::calibrate::bayesian::SimulationData;
 use crate::diagnose::joint::{Calibrated, LoopRuns, MethodEstimate, SolverExtension, VariableRange};
 use crate::diagnose::{self, Diagnosis};
@@ -136,18 +136,14 @@ impl JointRuns {
 }
 
 /// Plans, renders and runs (or replays) the joint runs of `hypotheses` on `store`.
-#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
 pub fn execute(
-    study: &Study,
-    sim: &SolverSimulation,
+    cx: RunContext,
     hypotheses: &[usize],
     screening: &sweep::Prepared,
-    source: &Source,
-    options: &RunOptions,
-    engine: &Engine,
     store: &mut RunStore,
     reporter: &mut dyn Reporter,
 ) -> Result<JointRuns, Error> {
+    let (study, sim, options) = (cx.study, cx.sim, cx.options);
     let plan = Plan::joint(study, sim, hypotheses);
     let names: Vec<String> = hypotheses
         .iter()
@@ -160,7 +156,7 @@ pub fn execute(
     )));
     let rendered = sweep::prepare_after(study, &crate::extract::adapters::solver(sim)?, &plan, Some(screening))?;
     write_plan(study, hypotheses, &options.out)?;
-    let (swept, outcomes) = runs::sweep_plan(study, sim, &plan, &rendered, source, options, engine, store, reporter)?;
+    let (swept, outcomes) = runs::sweep_plan(cx, &plan, &rendered, store, reporter)?;
     let usable = swept.usable(&sim.quality);
     let flags = swept.flags(&sim.quality.gates);
     Ok(JointRuns {

@@ -31,7 +31,7 @@ pub mod verbs;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-pub use runs::{Executed, ExecutorKind, FailedRun, RunOutcomes};
+pub use runs::{Executed, ExecutorKind, FailedRun, RunContext, RunOutcomes};
 pub use stages::{
     calibrate, diagnose, extension_models, extension_surrogates, model, problem, simulation_data, surrogates,
 };
@@ -131,7 +131,14 @@ pub fn run<'s>(
         Simulation::Expression(_) => (closed_form(study, options, engine, reporter)?, None),
         Simulation::Solver(sim) => {
             let source = runs::source(sim, options, reporter);
-            let runs = solver_runs(study, sim, &source, options, engine, reporter)?;
+            let cx = RunContext {
+                study,
+                sim,
+                source: &source,
+                options,
+                engine,
+            };
+            let runs = solver_runs(cx, sim, reporter)?;
             (Simulated::Solver(Box::new(runs)), Some(source))
         }
     };
@@ -156,7 +163,14 @@ pub fn run<'s>(
         });
         let diagnosis = match (&mut simulated, source) {
             (Simulated::Solver(runs), Some(source)) => {
-                diagnose_with_solver(study, runs, stage.as_ref(), &source, options, engine, reporter)
+                let cx = RunContext {
+                    study,
+                    sim: runs.sim,
+                    source: &source,
+                    options,
+                    engine,
+                };
+                diagnose_with_solver(cx, runs, stage.as_ref(), reporter)
             }
             (simulated, _) => Ok(diagnose(study, simulated.model())),
         };
@@ -177,20 +191,18 @@ pub fn run<'s>(
 
 /// A solver study's screening runs: planned, rendered, executed (or replayed), and fitted.
 fn solver_runs<'s>(
-    study: &Study,
+    cx: RunContext<'_>,
     sim: &'s SolverSimulation,
-    source: &runs::Source,
-    options: &RunOptions,
-    engine: &Engine,
     reporter: &mut dyn Reporter,
 ) -> Result<SolverRuns<'s>, Error> {
+    let study = cx.study;
     let (plan, rendered, executed, sequence) = if sim.sampling.sequential.is_some() {
-        let s = sequence::screening(study, sim, source, options, engine, reporter)?;
+        let s = sequence::screening(cx, reporter)?;
         (s.plan, s.rendered, s.executed, Some(s.sequence))
     } else {
         let plan = Plan::new(study, sim);
         let rendered = sweep::prepare(study, &crate::extract::adapters::solver(sim)?, &plan)?;
-        let executed = runs::execute(study, sim, &plan, &rendered, source, options, engine, reporter)?;
+        let executed = runs::execute(cx, &plan, &rendered, reporter)?;
         (plan, rendered, executed, None)
     };
     // Suspect runs (a quality gate broken) are kept and shown, but feed the models only
@@ -217,9 +229,6 @@ fn solver_runs<'s>(
     })
 }
 
-/// A solver study's diagnosis: the screening (the extension hypotheses judged from their runs at
-/// their probe values), then the solver in the loop ([`extend`]) for the hypotheses it leaves
-/// open, then one decision from all of it ([`crate::diagnose::conclude`]).
 /// A solver study's curves (`None` unless it is calibrated against curves): the specimens, every
 /// screening run's curve and the curve emulators.
 fn curve_stage(study: &Study, simulated: &Simulated) -> Result<Option<curves::CurveStage>, Error> {
@@ -239,15 +248,16 @@ fn curve_stage(study: &Study, simulated: &Simulated) -> Result<Option<curves::Cu
     Ok(Some(stage))
 }
 
+/// A solver study's diagnosis: the screening (the extension hypotheses judged from their runs at
+/// their probe values), then the solver in the loop ([`extend`]) for the hypotheses it leaves
+/// open, then one decision from all of it ([`crate::diagnose::conclude`]).
 fn diagnose_with_solver(
-    study: &Study,
+    cx: RunContext,
     runs: &mut SolverRuns,
     stage: Option<&curves::CurveStage>,
-    source: &runs::Source,
-    options: &RunOptions,
-    engine: &Engine,
     reporter: &mut dyn Reporter,
 ) -> Result<Result<Diagnosis, CalibrationError>, Error> {
+    let study = cx.study;
     let extensions = extension_models(study, runs.sim, &runs.plan, &runs.usable);
     // With curves, the diagnosis reads their features; else the response.
     let curve_inputs = stage.map(|s| {
@@ -270,8 +280,8 @@ fn diagnose_with_solver(
         Ok(d) => d,
         Err(e) => return Ok(Err(e)),
     };
-    if engine.signals.interrupted() {
-        reporter.report(Event::Interrupted { out: &options.out });
+    if cx.engine.signals.interrupted() {
+        reporter.report(Event::Interrupted { out: &cx.options.out });
         return Err(Error::Interrupted);
     }
     let chosen = extend::chosen(study, &screening);
@@ -281,12 +291,6 @@ fn diagnose_with_solver(
         return Ok(Ok(d));
     }
     let dirs = runs.executed.output_dirs(runs.sim);
-    let screened = Screened {
-        sim: runs.sim,
-        plan: &runs.plan,
-        usable: &runs.usable,
-        rendered: &runs.rendered,
-    };
     let after = AfterLoop {
         study,
         sim: runs.sim,
@@ -298,29 +302,17 @@ fn diagnose_with_solver(
         inputs: &inputs,
         extensions: &extensions,
     };
-    // A sequential loop asks for the decision from its runs so far (see sequence::looped).
-    let mut decide = |joint: &extend::JointRuns, floor: f64| -> Option<sequence::Provisional> {
-        let models = after.models(&chosen, joint).ok()?;
-        let (d, own, _) = after.conclude(&models, joint, floor).ok()?.ok()?;
-        Some(provisional(&chosen, &d, &own))
+    let screened = Screened {
+        plan: &runs.plan,
+        usable: &runs.usable,
+        rendered: &runs.rendered,
     };
     let store = (&mut runs.executed.store, &mut runs.sequence);
-    let looped = loop_runs(
-        study,
-        screened,
-        store,
-        stage,
-        &chosen,
-        (source, options, engine),
-        reporter,
-        &mut decide,
-    );
-    let joint = looped?;
-    let models = after.models(&chosen, &joint)?;
-    let (diagnosis, own, loop_curves) = match after.conclude(&models, &joint, 0.0)? {
-        Ok(c) => c,
+    let looped = match in_the_loop(cx, &after, &chosen, (screened, store), reporter)? {
+        Ok(l) => l,
         Err(e) => return Ok(Err(e)),
     };
+    let (joint, models, diagnosis, own, loop_curves) = looped;
     let records = models
         .iter()
         .zip(&own)
@@ -333,6 +325,40 @@ fn diagnose_with_solver(
     let (diagnosis, residuals) = with_features(study, stage, problem.as_ref(), diagnosis, &loop_curves);
     runs.residual_curves = residuals;
     Ok(Ok(diagnosis.with_extensions(records)))
+}
+
+/// What the loop made and decided: its runs, the extended models, the decision after it, each loop
+/// model's own diagnosis, and their curve models.
+type Looped = (
+    extend::JointRuns,
+    Vec<extend::ExtendedModel>,
+    Diagnosis,
+    Vec<Diagnosis>,
+    Vec<(usize, crate::emulate::functional::CurveModel)>,
+);
+
+/// The solver in the loop for the `chosen` hypotheses, a sequential loop asking for the decision
+/// from its runs so far ([`sequence::looped`]), then the decision from all its runs.
+fn in_the_loop(
+    cx: RunContext,
+    after: &AfterLoop,
+    chosen: &[usize],
+    (screened, store): (
+        Screened,
+        (&mut crate::execute::RunStore, &mut Option<sequence::Sequence>),
+    ),
+    reporter: &mut dyn Reporter,
+) -> Result<Result<Looped, CalibrationError>, Error> {
+    let mut decide = |joint: &extend::JointRuns, floor: f64| -> Option<sequence::Provisional> {
+        let models = after.models(chosen, joint).ok()?;
+        let (d, own, _) = after.conclude(&models, joint, floor).ok()?.ok()?;
+        Some(provisional(chosen, &d, &own))
+    };
+    let joint = loop_runs(cx, screened, store, after.stage, chosen, reporter, &mut decide)?;
+    let models = after.models(chosen, &joint)?;
+    Ok(after
+        .conclude(&models, &joint, 0.0)?
+        .map(|(diagnosis, own, curves)| (joint, models, diagnosis, own, curves)))
 }
 
 /// The curves' feature problem, where the study reads curves.
@@ -402,12 +428,11 @@ impl AfterLoop<'_> {
 /// The loop's decision so far as the sequence compares it from batch to batch.
 fn provisional(chosen: &[usize], d: &Diagnosis, own: &[Diagnosis]) -> sequence::Provisional {
     sequence::Provisional {
-        key: format!(
-            "{:?}, cause {:?}, partial {:?}",
-            d.verdict,
-            d.cause,
-            d.partial.as_ref().map(|p| &p.name)
-        ),
+        decided: sequence::Decided {
+            verdict: d.verdict,
+            cause: d.cause.clone(),
+            partial: d.partial.as_ref().map(|p| p.name.clone()),
+        },
         points: fitted_points(chosen, own),
         settled: d.after_loop.as_ref().is_some_and(|a| a.settled),
     }
@@ -431,7 +456,6 @@ fn fitted_points(chosen: &[usize], own: &[Diagnosis]) -> Vec<(usize, sequence::F
 
 /// The screening's runs as the loop reads them.
 struct Screened<'a> {
-    sim: &'a SolverSimulation,
     plan: &'a Plan,
     usable: &'a [Option<f64>],
     rendered: &'a Prepared,
@@ -440,21 +464,17 @@ struct Screened<'a> {
 /// The solver-in-the-loop's runs of the `chosen` hypotheses: a fixed joint plan, or a sequential
 /// study's batches ([`sequence::looped`], its record carried on in `sequence`), on the screening's
 /// store.
-#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
 fn loop_runs(
-    study: &Study,
+    cx: RunContext,
     s: Screened,
     (store, sequence): (&mut crate::execute::RunStore, &mut Option<sequence::Sequence>),
     stage: Option<&curves::CurveStage>,
     chosen: &[usize],
-    (source, options, engine): (&runs::Source, &RunOptions, &Engine),
     reporter: &mut dyn Reporter,
     decide: &mut sequence::Decide,
 ) -> Result<extend::JointRuns, Error> {
     let Some(record) = sequence.take() else {
-        return extend::execute(
-            study, s.sim, chosen, s.rendered, source, options, engine, store, reporter,
-        );
+        return extend::execute(cx, chosen, s.rendered, store, reporter);
     };
     let none = vec![None; s.plan.runs.len()];
     let screening = sequence::ScreeningRuns {
@@ -463,9 +483,7 @@ fn loop_runs(
         curves: stage.map_or(&none, |c| &c.runs),
         rendered: s.rendered,
     };
-    let (joint, record) = sequence::looped(
-        study, s.sim, chosen, &screening, source, options, engine, store, reporter, record, decide,
-    )?;
+    let (joint, record) = sequence::looped(cx, chosen, &screening, (store, record), reporter, decide)?;
     *sequence = Some(record);
     Ok(joint)
 }
@@ -501,7 +519,6 @@ fn conclude_on_response(
 
 /// The decision after the loop on the curves: each extended model's curve emulator over the joint
 /// runs, its features with the other hypotheses' shapes as candidates.
-#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
 fn conclude_on_curves(
     study: &Study,
     (sim, plan, dirs): (&SolverSimulation, &Plan, &[PathBuf]),

@@ -131,24 +131,28 @@ pub struct FailedRun {
     pub dir: PathBuf,
 }
 
+/// What making a study's runs reads: the study and its solver, where the runs come from, how `lab
+/// run` was asked to run them, and the engine that runs them.
+#[derive(Clone, Copy)]
+pub struct RunContext<'a> {
+    pub study: &'a Study,
+    pub sim: &'a SolverSimulation,
+    pub source: &'a Source,
+    pub options: &'a RunOptions,
+    pub engine: &'a Engine<'a>,
+}
+
 /// Opens the run store in `options.out` and executes (or replays) every planned run it does not
 /// hold finished ([`sweep_plan`]).
-#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
 pub fn execute(
-    study: &Study,
-    sim: &SolverSimulation,
+    cx: RunContext,
     plan: &Plan,
     rendered: &Prepared,
-    source: &Source,
-    options: &RunOptions,
-    engine: &Engine,
     reporter: &mut dyn Reporter,
 ) -> Result<Executed, Error> {
-    let mut store = execute::open_store(&options.out)?;
-    let (swept, outcomes) = sweep_plan(
-        study, sim, plan, rendered, source, options, engine, &mut store, reporter,
-    )?;
-    let replay = match source {
+    let mut store = execute::open_store(&cx.options.out)?;
+    let (swept, outcomes) = sweep_plan(cx, plan, rendered, &mut store, reporter)?;
+    let replay = match cx.source {
         Source::Replay(dir) => Some(dir.clone()),
         _ => None,
     };
@@ -164,23 +168,19 @@ pub fn execute(
 /// them (`--record`) and reports how they ended. An interrupt is [`Error::Interrupted`], a record
 /// that could not be committed [`Error::Failed`]; failed runs are not errors (the outcome says so).
 /// The screening's runs and the loop's more runs ([`super::extend`]) both come through here.
-#[allow(clippy::too_many_arguments)] // the stage's inputs, each used once
 pub fn sweep_plan(
-    study: &Study,
-    sim: &SolverSimulation,
+    cx: RunContext,
     plan: &Plan,
     rendered: &Prepared,
-    source: &Source,
-    options: &RunOptions,
-    engine: &Engine,
     store: &mut RunStore,
     reporter: &mut dyn Reporter,
 ) -> Result<(SweepResult, RunOutcomes), Error> {
+    let (options, engine) = (cx.options, cx.engine);
     sweep::write_meshes(&options.out, rendered)?;
-    let solver = crate::extract::adapters::solver(sim)?;
-    let swept = sweep_runs(study, &solver, plan, rendered, source, options, engine, store, reporter)?;
+    let solver = crate::extract::adapters::solver(cx.sim)?;
+    let swept = sweep_runs(cx, &solver, (plan, rendered), store, reporter)?;
     if let Some(dir) = &options.record {
-        let runs = sweep::record(study, &solver, plan, rendered, store, dir)?;
+        let runs = sweep::record(cx.study, &solver, plan, rendered, store, dir)?;
         reporter.report(Event::Recorded { runs, dir });
     }
     let outcomes = outcomes(plan, &rendered.keys, &swept, store);
@@ -196,27 +196,23 @@ pub fn sweep_plan(
 }
 
 /// The sweep itself, by source.
-#[allow(clippy::too_many_arguments)]
 fn sweep_runs(
-    study: &Study,
+    cx: RunContext,
     solver: &sweep::Solver,
-    plan: &Plan,
-    rendered: &Prepared,
-    source: &Source,
-    options: &RunOptions,
-    engine: &Engine,
+    (plan, rendered): (&Plan, &Prepared),
     store: &mut RunStore,
     reporter: &mut dyn Reporter,
 ) -> Result<SweepResult, Error> {
-    match source {
-        Source::Replay(dir) => replay(study, solver, plan, rendered, store, dir),
-        Source::Slurm => sweep::run_slurm(store, study, solver.sim, rendered, engine.signals),
+    let engine = cx.engine;
+    match cx.source {
+        Source::Replay(dir) => replay(cx.study, solver, plan, rendered, store, dir),
+        Source::Slurm => sweep::run_slurm(store, cx.study, solver.sim, rendered, engine.signals),
         Source::Local => sweep::run(
             engine.runtime,
             store,
             solver,
             rendered,
-            options.jobs,
+            cx.options.jobs,
             &engine.signals.canceller,
             &mut |runs| reporter.progress(runs),
         ),

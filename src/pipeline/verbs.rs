@@ -146,7 +146,7 @@ fn batches(s: &super::sequence::Sequence) -> Batches {
     let mut done: Vec<(String, usize)> = Vec::new();
     let mut in_flight = None;
     for b in &s.sequence {
-        if b.state != "done" {
+        if b.state != super::sequence::BatchState::Done {
             in_flight = Some((b.stage.clone(), b.batch, b.runs));
             continue;
         }
@@ -158,7 +158,11 @@ fn batches(s: &super::sequence::Sequence) -> Batches {
     Batches {
         done,
         in_flight,
-        stopped: s.stopped.iter().map(|x| (x.stage.clone(), x.reason.clone())).collect(),
+        stopped: s
+            .stopped
+            .iter()
+            .map(|x| (x.stage.clone(), x.reason.key().to_string()))
+            .collect(),
     }
 }
 

@@ -45,7 +45,7 @@ fn replaced(s: &Sequence) -> String {
 fn stops(s: &Sequence) -> String {
     s.stopped
         .iter()
-        .map(|x| format!("{}: {} after {} run(s)", x.stage, x.reason, x.runs))
+        .map(|x| format!("{}: {} after {} run(s)", x.stage, x.reason.key(), x.runs))
         .collect::<Vec<_>>()
         .join("; ")
 }

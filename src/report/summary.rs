@@ -29,7 +29,7 @@ fn sampling_line(results: &Results) -> String {
     let stages: Vec<String> = s
         .stopped
         .iter()
-        .map(|x| format!("{} {} ({})", x.stage, x.runs, x.reason))
+        .map(|x| format!("{} {} ({})", x.stage, x.runs, x.reason.key()))
         .collect();
     let total = match &s.replaces {
         Some(r) => format!(

@@ -7,6 +7,7 @@ use std::path::Path;
 use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
+use super::stage::StopReason;
 use crate::error::Error;
 use crate::plan::sweep::fixed_runs;
 use crate::plan::{Plan, PlannedRun, RunRole};
@@ -46,7 +47,7 @@ pub struct Batch {
     /// 0 for a stage's initial design.
     pub batch: usize,
     /// `done`, or `in flight` (written before the batch's runs start).
-    pub state: String,
+    pub state: BatchState,
     pub runs: usize,
     /// Runs so far, every stage.
     pub total: usize,
@@ -66,12 +67,38 @@ pub struct Batch {
     pub planning_seconds: f64,
     /// Why the stage's sequence stopped after this batch (as `stopped`); absent while it goes on.
     #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub stopped: Option<String>,
+    pub stopped: Option<StopReason>,
     /// Where the batch was placed when not by the planner: `the decision's fitted point` for a
     /// loop's runs at its provisional decision's fitted values, one per tested design, that check
     /// its emulators where the decision reads them.
     #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub placed: Option<String>,
+    pub placed: Option<Placed>,
+}
+
+/// Where a batch stands: `in flight` (written before its runs start) or `done`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BatchState {
+    #[serde(rename = "in flight")]
+    InFlight,
+    #[serde(rename = "done")]
+    Done,
+}
+
+/// Where a batch was placed when not by the planner.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Placed {
+    /// A loop's runs at its provisional decision's fitted values, one per tested design, that check
+    /// its emulators where the decision reads them.
+    #[serde(rename = "the decision's fitted point")]
+    FittedPoint,
+}
+
+impl Placed {
+    pub fn words(self) -> &'static str {
+        match self {
+            Placed::FittedPoint => "the decision's fitted point",
+        }
+    }
 }
 
 /// The fixed design a sequence replaces: what it is, and the solver runs it would have made
@@ -134,8 +161,9 @@ impl Replaced {
 pub struct Stop {
     pub stage: String,
     /// `converged` (the emulators' error at the posterior within the tolerance at every tested
-    /// design), `budget` (the runs allowed are spent), or `planned` (a stage of fixed size).
-    pub reason: String,
+    /// design), `settled`, `budget` (the runs allowed are spent), `nowhere to run`, or `planned` (a
+    /// stage of fixed size).
+    pub reason: StopReason,
     pub runs: usize,
 }
 
@@ -187,23 +215,25 @@ impl Planned {
 
 impl Sequence {
     /// Records that `stage` stopped for `reason` after `runs` runs, on the stage's last batch too.
-    pub fn stop(&mut self, stage: &str, reason: &str, runs: usize) {
+    pub fn stop(&mut self, stage: &str, reason: StopReason, runs: usize) {
         if let Some(last) = self.sequence.iter_mut().rev().find(|b| b.stage == stage) {
-            last.stopped = Some(reason.to_string());
+            last.stopped = Some(reason);
         }
         // A stage stopped again (the loop's tolerance tightened, or its emulators checked at the
         // decision's fitted point) has one stop: its last.
         self.stopped.retain(|s| s.stage != stage);
         self.stopped.push(Stop {
             stage: stage.to_string(),
-            reason: reason.to_string(),
+            reason,
             runs,
         });
     }
 
     /// Whether `stage` last stopped with its emulators within the tolerance.
     pub fn converged(&self, stage: &str) -> bool {
-        self.stopped.iter().any(|s| s.stage == stage && s.reason == "converged")
+        self.stopped
+            .iter()
+            .any(|s| s.stage == stage && s.reason == StopReason::Converged)
     }
 
     /// Writes `OUT/sequence.json` (atomically).
@@ -228,6 +258,50 @@ impl Sequence {
 }
 
 impl Batch {
+    /// The record of batch `b` of stage `stage` before its runs start (`total`: runs so far, every
+    /// stage; `planning`: what choosing it took).
+    pub fn in_flight(stage: &str, batch: &Plan, b: usize, total: usize, planning: f64) -> Batch {
+        let mut designs = IndexMap::new();
+        for r in &batch.runs {
+            *designs.entry(r.design.clone()).or_insert(0) += 1;
+        }
+        Batch {
+            stage: stage.to_string(),
+            batch: b,
+            state: BatchState::InFlight,
+            runs: batch.runs.len(),
+            total,
+            designs,
+            emulator_error: Default::default(),
+            predicted_error: Default::default(),
+            estimates: Default::default(),
+            interval95: Default::default(),
+            stopped: None,
+            planning_seconds: planning,
+            placed: None,
+        }
+    }
+
+    /// The batch done: per tested design (`designs`) the emulators' measured and predicted errors,
+    /// and the posterior's mean and interval of each variable (`names`).
+    pub fn done(
+        &mut self,
+        designs: &[String],
+        (measured, predicted): (&[Option<f64>], &[f64]),
+        names: &[String],
+        posterior: &crate::emulate::sequential::Posterior,
+    ) {
+        self.state = BatchState::Done;
+        for (d, (m, p)) in designs.iter().zip(measured.iter().zip(predicted)) {
+            self.emulator_error.insert(d.clone(), *m);
+            self.predicted_error.insert(d.clone(), *p);
+        }
+        for (j, n) in names.iter().enumerate() {
+            self.estimates.insert(n.clone(), posterior.mean[j]);
+            self.interval95.insert(n.clone(), posterior.interval[j]);
+        }
+    }
+
     /// The tested design whose emulators are furthest from the tests' noise after this batch (by
     /// the larger of measured and predicted error; nothing held out counts as furthest), with its
     /// measured error (`None`: nothing held out yet) and its predicted one.
@@ -271,7 +345,7 @@ impl Batch {
                 )
             })
             .collect();
-        let placed = self.placed.as_ref().map_or_else(String::new, |p| format!(" at {p}"));
+        let placed = self.placed.map_or_else(String::new, |p| format!(" at {}", p.words()));
         let mut line = format!(
             "{} batch {}: {} run(s){placed}, {} in all; {error}",
             self.stage, self.batch, self.runs, self.total
@@ -279,8 +353,8 @@ impl Batch {
         if !estimates.is_empty() {
             line += &format!("; {}", estimates.join(", "));
         }
-        if let Some(reason) = &self.stopped {
-            line += &format!("; stopped: {reason}");
+        if let Some(reason) = self.stopped {
+            line += &format!("; stopped: {}", reason.key());
         }
         line
     }
