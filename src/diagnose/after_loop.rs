@@ -479,7 +479,7 @@ impl Readings for FromEvidence<'_, '_> {
             Who::Extended(j) => self.looped[j].ranked.leader.is_some(),
             Who::Candidate(k) => {
                 let rivals = ranking::rival_tests(&s.cx, &s.ranked.entries, k);
-                let bound = s.cx.alpha() / rivals.len().max(1) as f64;
+                let bound = s.cx.levels().rival(rivals.len());
                 rivals.iter().any(|r| r.p_rival_given_leader.is_some_and(|p| p < bound))
             }
             Who::Uncorrected => false,

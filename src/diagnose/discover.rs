@@ -520,7 +520,7 @@ fn size(cx: &Context, base_shapes: usize, l: usize) -> Size {
         singles,
         pairs,
         models,
-        threshold: cx.alpha() / models.max(1) as f64,
+        threshold: cx.levels().searched(models),
     }
 }
 
@@ -571,7 +571,7 @@ fn shortlist(s: &Searcher, vectors: &[Vec<f64>], pairs_ok: bool) -> Vec<Tried> {
 
 /// α over the rivals of a model with `w` terms.
 fn rivals_alpha(s: &Searcher, w: usize) -> f64 {
-    s.cx.alpha() / s.shapes.len().saturating_sub(w).max(1) as f64
+    s.cx.levels().rival(s.shapes.len().saturating_sub(w))
 }
 
 /// A model may be judged: its F test against the base passes α/M, and a pair's terms each still
@@ -1141,41 +1141,10 @@ fn reading(cx: &Context, theta: &DVector<f64>, shape: &Shape) -> Option<String> 
                 .into(),
         );
     }
-    let zero_except = |keep: &[usize]| er.iter().enumerate().all(|(j, &e)| keep.contains(&j) || near(e, 0.0));
-    // A beam: the response ∝ depth^-3 (bending).
-    if let Some(h) = (0..names.len()).find(|&j| near(ey[j], -3.0)) {
-        let length = (0..names.len()).find(|&j| j != h && near(ey[j], 3.0));
-        let keep: Vec<usize> = std::iter::once(h).chain(length).collect();
-        let lengthwise = length.is_none_or(|k| near(er[k], -er[h]));
-        if near(er[h], 2.0) && lengthwise && zero_except(&keep) {
-            return Some(format!(
-                "shear-like: ∝ y·{0}² beside a response ∝ {0}^-3, the form of shear deformation beside bending in a \
-                 beam of depth {0} (Timoshenko: the shear share grows as the square of depth over length)",
-                names[h]
-            ));
-        }
-        if near(er[h], 1.0) && lengthwise && zero_except(&keep) {
-            return Some(format!(
-                "root-rotation-like: ∝ y·{0} (∝ {0}^-2) beside a response ∝ {0}^-3, the form of a compliant clamp's \
-                 rotation at the root of a beam of depth {0}",
-                names[h]
-            ));
-        }
-    }
-    // A crushed honeycomb: hardening's share of the fold-hinge flow stress ∝ (t/c)^(2/3).
-    for i in 0..names.len() {
-        for j in 0..names.len() {
-            if i != j && near(er[i], 2.0 / 3.0) && near(er[j], -2.0 / 3.0) && zero_except(&[i, j]) {
-                return Some(format!(
-                    "hardening-like: ∝ y·({0}/{1})^(2/3), the form of strain hardening's share of the flow stress in \
-                     the fold hinges of a crushed honeycomb (foil thickness {0}, cell size {1}; Wierzbicki's \
-                     super-folding element)",
-                    names[i], names[j]
-                ));
-            }
-        }
-    }
-    None
+    // The study's field's known forms: data of the library ([`super::readings::FORMS`]).
+    super::readings::FORMS
+        .iter()
+        .find_map(|form| form.read(names, &ey, &er))
 }
 
 /// The search in words: the first line leads the diagnosis's evidence.

@@ -157,7 +157,7 @@ fn lack_of_fit(cx: &Context, m: &Model, validation: Option<&Check>) -> Option<La
     // The base model's fit detects model error (its share of α split over the two tests); any
     // other model's fit is a claim about a cause: each test at α, the stricter side.
     let base = m.shape.is_none() && m.more.is_empty();
-    let level = if base { cx.base_fit_level() } else { cx.alpha() };
+    let level = if base { cx.levels().base_fit() } else { cx.alpha() };
     (dof > 0).then(|| LackOfFit::new(chi2, dof, cx.nu, &z, level))
 }
 

@@ -865,17 +865,8 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
 }
 
 impl super::Diagnosis {
-    /// The diagnosis with its curve features, and, when a cause was named from them, which part of
-    /// the stroke decided it added to the headline.
+    /// The diagnosis with the curve features it read (worded by [`super::Diagnosis::worded`]).
     pub fn with_features(mut self, report: FeaturesReport) -> super::Diagnosis {
-        if let (Some(name), Some(share), Some(_)) = (&report.decided_by, report.decided_share, &self.cause) {
-            let headline = self.headline.trim_end_matches('.').to_string();
-            self.headline = format!(
-                "{headline}; decided by the {name} ({:.0} % of the misfit the extended model removes).",
-                100.0 * share
-            );
-            self.resummarise();
-        }
         self.features = Some(report);
         self
     }

@@ -267,15 +267,11 @@ impl SolverExtension {
 }
 
 impl Diagnosis {
-    /// The diagnosis with the loop's records (its runs, calibration methods and figures) listed
-    /// under `extensions`, one line of evidence each. The verdict already rests on the loop's
+    /// The diagnosis with the loop's records (its runs, calibration methods and figures) under
+    /// `extensions` (worded by [`Diagnosis::worded`]). The verdict already rests on the loop's
     /// models ([`super::conclude`]); this adds what only the run engine knows.
     pub fn with_extensions(mut self, extensions: Vec<SolverExtension>) -> Diagnosis {
-        for x in &extensions {
-            self.evidence.push(x.evidence_line());
-        }
         self.extensions = extensions;
-        self.resummarise();
         self
     }
 }

@@ -35,11 +35,13 @@ pub mod extension;
 pub mod features;
 pub mod joint;
 pub mod lack_of_fit;
+pub mod levels;
 pub mod library;
 pub mod limits;
 pub mod next_test;
 pub mod noise;
 pub mod ranking;
+pub mod readings;
 pub mod residuals;
 pub mod shapes;
 pub mod stats;
@@ -53,6 +55,7 @@ use nalgebra::DVector;
 use serde::{Deserialize, Serialize};
 
 pub use lack_of_fit::LackOfFit;
+pub use levels::Levels;
 pub use noise::{NoiseKind, NoiseModel};
 pub use shapes::{Origin, Shape};
 
@@ -360,7 +363,7 @@ pub struct Diagnosis {
     /// One sentence per candidate the data cannot tell from a change of θ.
     pub confounded: Vec<String>,
     /// The levels the decision's tests were held to.
-    pub levels: Levels,
+    pub levels: LevelsRecord,
     /// The decision rule, in words.
     pub rule: String,
     /// Anything skipped or degenerate.
@@ -499,9 +502,9 @@ pub struct Extended {
     pub solver_in_the_loop: bool,
 }
 
-/// The levels of the tests a diagnosis rests on (`diagnosis.levels`).
+/// The levels of the tests a diagnosis rests on (`diagnosis.levels`), as [`Levels`] derives them.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Levels {
+pub struct LevelsRecord {
     /// The one α: model error is claimed at this level in all.
     pub alpha: f64,
     /// Each of the uncorrected model's two lack-of-fit tests (its share of α, halved).
@@ -780,32 +783,9 @@ impl<'a> Context<'a> {
         self.inputs.settings.alpha
     }
 
-    /// The level of the K candidates' amplitude tests together: detecting model error, the
-    /// candidates and the uncorrected model's lack of fit share α (half each, Bonferroni), so that
-    /// model error is claimed at level α; judging a loop model, α.
-    pub fn candidates_level(&self) -> f64 {
-        if self.detection {
-            self.alpha() / 2.0
-        } else {
-            self.alpha()
-        }
-    }
-
-    /// The level of one of `k` candidates' amplitude tests (Bonferroni over them): what "explains the
-    /// misfit" needs, and what a test telling a candidate from no correction must reach.
-    pub fn amplitude_level(&self, k: usize) -> f64 {
-        self.candidates_level() / k.max(1) as f64
-    }
-
-    /// The level of each of the two lack-of-fit tests of the base model: detecting model error,
-    /// the base shares its half of α between them (α/4 each); any other model's fit is a claim
-    /// about a cause, each test at α ([`lack_of_fit`]).
-    pub fn base_fit_level(&self) -> f64 {
-        if self.detection {
-            self.alpha() / 4.0
-        } else {
-            self.alpha()
-        }
+    /// The levels of this diagnosis's tests ([`Levels`]).
+    pub fn levels(&self) -> Levels {
+        Levels::new(self.inputs.settings.alpha, self.detection)
     }
 
     pub fn param_map(&self, theta: &DVector<f64>) -> IndexMap<String, f64> {
@@ -928,7 +908,7 @@ fn candidate_explains(cx: &Context, base: &candidates::Model) -> bool {
     fitted.iter().any(|m| {
         evidence::assess_one(cx, m, Some(base))
             .p_value
-            .is_some_and(|p| p * k < cx.candidates_level())
+            .is_some_and(|p| p * k < cx.levels().candidates())
     })
 }
 
@@ -1035,7 +1015,7 @@ impl<'a> Evidence<'a> {
             confounded: &confounded,
         };
         let after = after.map(|mut a| {
-            a.screening_headline = text::describe(&self.facts(&self.decision, &found, None, None, &[], &[])).headline;
+            a.screening_headline = text::headline(&self.facts(&self.decision, &found, None, None, &[], &[]));
             a
         });
         let mut facts = self.facts(
@@ -1047,12 +1027,8 @@ impl<'a> Evidence<'a> {
             &parameter_limits,
         );
         facts.after_loop = after.as_ref();
-        let mut words = text::describe(&facts);
-        if let Some(s) = &search {
-            // After the verdict and the action: what the search found, marked as found, not listed.
-            words.evidence.splice(0..0, s.discovered.evidence.iter().cloned());
-            words.summary = text::summary(&words.headline, &words.action, &words.evidence, &words.limits);
-        }
+        let discovered = search.as_ref().map_or(&[][..], |s| s.discovered.evidence.as_slice());
+        let words = text::describe(&facts, discovered);
         let name = |who| verdict::name_of(who, &candidates, loop_names);
         // `cause` is the decided cause only; a partial explanation goes to `partial`.
         let (cause, extended, partial) = match (decision.verdict, decision.cause) {
@@ -1089,12 +1065,7 @@ impl<'a> Evidence<'a> {
             residuals,
             structure,
             confounded,
-            levels: Levels {
-                alpha: self.cx.alpha(),
-                uncorrected_fit: self.cx.base_fit_level(),
-                candidates: self.cx.candidates_level(),
-                cause_fit: self.cx.alpha(),
-            },
+            levels: self.cx.levels().record(),
             rule: RULE.to_string(),
             notes,
         }
@@ -1175,7 +1146,7 @@ impl<'a> Evidence<'a> {
         // detection gives each candidate, α/(2K), and the programme must have its power there.
         let detects = decision.compare.contains(&verdict::Who::Uncorrected) && cx.detection;
         let level = if detects {
-            cx.amplitude_level(ranked.entries.len())
+            cx.levels().amplitude(ranked.entries.len())
         } else {
             cx.alpha()
         };

@@ -16,7 +16,7 @@
 //! tell a constant σ from a constant CV, and picking the likelier edge decides by luck (about one
 //! clean draw in sixty then calls a proportional scatter constant, and the high-level designs look
 //! like misfit). So the replicates give a set of mixings, not one: every λ whose likelihood ratio
-//! to the best is within χ²₁(1 − β)/2, β = α/10 (`MIXING_SET_LEVEL`). A model is called wrong only
+//! to the best is within χ²₁(1 − β)/2, β = α/10 ([`super::Levels::mixing_set`]). A model is called wrong only
 //! when it misses the tests under every noise model of that set (the p-value maximised over a
 //! confidence set of the nuisance, Berger & Boos 1994, JASA 89:1012, which adds at most β to the
 //! test's level): the diagnosis runs with the chosen mixing (the likelier edge, or the combined
@@ -41,9 +41,6 @@ pub enum NoiseKind {
     /// No replicates: σ (absolute) estimated from the residuals of the best-ranked model.
     FromResiduals,
 }
-
-/// The confidence level of the set of mixings λ the replicates allow is 1 − β, with β = α · this.
-pub const MIXING_SET_LEVEL: f64 = 0.1;
 
 /// The noise model and the evidence for it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -200,7 +197,7 @@ impl Scatter {
     /// Mixings to try when the maximum-likelihood one says the uncorrected model misses: five
     /// evenly over the set, its ends included.
     pub fn set_points(&self, alpha: f64) -> Vec<f64> {
-        let [lo, hi] = self.mixing_set(alpha * MIXING_SET_LEVEL);
+        let [lo, hi] = self.mixing_set(super::Levels::new(alpha, false).mixing_set());
         (0..5).map(|k| lo + (hi - lo) * k as f64 / 4.0).collect()
     }
 
@@ -209,7 +206,7 @@ impl Scatter {
         let (s2, _) = self.profile(lambda);
         let (a, b) = ((s2 * (1.0 - lambda)).sqrt(), (s2 * lambda).sqrt() / self.m);
         let ml = self.ml_mixing();
-        let set = self.mixing_set(alpha * MIXING_SET_LEVEL);
+        let set = self.mixing_set(super::Levels::new(alpha, false).mixing_set());
         let ll_abs = self.profile(0.0).1;
         let ll_rel = (self.max_mixing() == 1.0).then(|| self.profile(1.0).1);
         let kind = if lambda <= 0.0 {

@@ -61,7 +61,7 @@ pub(crate) fn rank(cx: &Context, base: Model, fitted: Vec<Model>, assessed: (Ass
     let entry = |model: Model, assessed: Assessed| {
         let score = (cx.mode != Mode::TooFew)
             .then(|| candidates::score(cx, &model, assessed.validation.as_ref().map(|v| v.deviance)));
-        let explains = assessed.p_value.is_some_and(|p| p * k < cx.candidates_level());
+        let explains = assessed.p_value.is_some_and(|p| p * k < cx.levels().candidates());
         Entry {
             model,
             assessed,

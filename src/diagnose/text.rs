@@ -62,10 +62,14 @@ fn quoted(names: &[String]) -> String {
     names.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(" and ")
 }
 
-pub(crate) fn describe(f: &Facts) -> Words {
+/// The words of a decision: its headline, the action, the evidence (after the verdict and the
+/// action, what a library search `discovered`, marked as found, not listed), the limits, and the
+/// summary of them all.
+pub(crate) fn describe(f: &Facts, discovered: &[String]) -> Words {
     let headline = headline(f);
     let action = action(f);
-    let evidence = evidence(f);
+    let mut evidence = discovered.to_vec();
+    evidence.extend(evidence_lines(f));
     let limits = limits(f);
     let summary = summary(&headline, &action, &evidence, &limits);
     Words {
@@ -82,6 +86,27 @@ impl super::Diagnosis {
     /// added to them).
     pub(crate) fn resummarise(&mut self) {
         self.summary = summary(&self.headline, &self.action, &self.evidence, &self.limits);
+    }
+
+    /// The words of what only the pipeline's later steps know, added once the decision is final:
+    /// which part of the stroke decided a cause named from the curves' features (in the headline),
+    /// and one line of evidence per model the solver in the loop calibrated.
+    pub fn worded(mut self) -> super::Diagnosis {
+        let decided = self
+            .features
+            .as_ref()
+            .and_then(|r| Some((r.decided_by.clone()?, r.decided_share?)));
+        if let (Some((name, share)), Some(_)) = (decided, &self.cause) {
+            let headline = self.headline.trim_end_matches('.').to_string();
+            self.headline = format!(
+                "{headline}; decided by the {name} ({:.0} % of the misfit the extended model removes).",
+                100.0 * share
+            );
+        }
+        let lines: Vec<String> = self.extensions.iter().map(|x| x.evidence_line()).collect();
+        self.evidence.extend(lines);
+        self.resummarise();
+        self
     }
 }
 
@@ -102,7 +127,7 @@ fn lof_text(l: &LackOfFit) -> String {
     lack_of_fit(l)
 }
 
-fn headline(f: &Facts) -> String {
+pub(crate) fn headline(f: &Facts) -> String {
     let d = f.decision;
     let words = d.verdict.words();
     let first_up = |s: &str| {
@@ -162,7 +187,7 @@ fn unexplained(f: &Facts) -> String {
         .first()
         .and_then(|&who| f.candidate(who))
         .and_then(|c| {
-            let level = f.cx.amplitude_level(f.candidates.len());
+            let level = f.cx.levels().amplitude(f.candidates.len());
             c.p_value.map(|p| {
                 format!(
                     "; the nearest, '{}', has {} where p < {} was needed",
@@ -236,7 +261,6 @@ fn cannot_tell_apart(f: &Facts) -> String {
 fn partly_explained(f: &Facts) -> String {
     let d = f.decision;
     let k = f.candidate(d.cause.expect("a cause")).expect("a candidate");
-    let alpha = f.cx.alpha();
     let share = f
         .extended
         .and_then(|e| e.lack_of_fit.as_ref())
@@ -253,7 +277,7 @@ fn partly_explained(f: &Facts) -> String {
         .and_then(|e| e.lack_of_fit.as_ref())
         .filter(|l| l.rejects())
         .map(|l| format!("its model still misses the tests beyond the noise ({})", lof_text(l)));
-    let bound = alpha / f.rivals.len().max(1) as f64;
+    let bound = f.cx.levels().rival(f.rivals.len());
     // Before the loop the rivals' encompassing tests say what still adds; after it, the decision's
     // own second explanation.
     let rival = f
@@ -359,7 +383,7 @@ fn action(f: &Facts) -> String {
     }
 }
 
-fn evidence(f: &Facts) -> Vec<String> {
+fn evidence_lines(f: &Facts) -> Vec<String> {
     let mut out = Vec::new();
     if let Some(l) = &f.base.assessed.lack_of_fit {
         out.push(format!(

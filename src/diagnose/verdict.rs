@@ -126,7 +126,6 @@ fn without_leader(cx: &Context, ranked: &Ranked, base_rejects: bool) -> Decision
 }
 
 pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
-    let alpha = cx.alpha();
     let rejects = |l: Option<&super::LackOfFit>| l.is_some_and(super::LackOfFit::rejects);
     let base_rejects = rejects(ranked.base.assessed.lack_of_fit.as_ref());
     let Some(l) = ranked.leader else {
@@ -149,7 +148,7 @@ pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
         .and_then(|r| ranked.entries.iter().position(|e| e.model.name() == r.rival));
     // A rival whose shape still counts with the leader in: the leader alone does not suffice (tested
     // at α over the rivals, Bonferroni).
-    let bound = alpha / ranked.rivals.len().max(1) as f64;
+    let bound = cx.levels().rival(ranked.rivals.len());
     let adds = ranked
         .rivals
         .iter()

@@ -288,7 +288,7 @@ fn diagnose_with_solver(
     if chosen.is_empty() {
         let (d, residuals) = with_features(study, stage, problem.as_ref(), screening, &[]);
         runs.residual_curves = residuals;
-        return Ok(Ok(d));
+        return Ok(Ok(d.worded()));
     }
     let dirs = runs.executed.output_dirs(runs.sim);
     let after = AfterLoop {
@@ -324,7 +324,7 @@ fn diagnose_with_solver(
     runs.joint = Some(joint);
     let (diagnosis, residuals) = with_features(study, stage, problem.as_ref(), diagnosis, &loop_curves);
     runs.residual_curves = residuals;
-    Ok(Ok(diagnosis.with_extensions(records)))
+    Ok(Ok(diagnosis.with_extensions(records).worded()))
 }
 
 /// What the loop made and decided: its runs, the extended models, the decision after it, each loop
