@@ -419,101 +419,24 @@ impl FeatureProblem {
     /// The whitened features of every specimen, the feature model, and the hypotheses' and
     /// built-ins' shapes on them; `Err` when the specimens cannot give a covariance.
     pub fn new(ci: &CurveInputs) -> Result<FeatureProblem, String> {
-        let whitening = whitening(&ci.designs, &ci.spec, ci.settings.alpha)?;
-        let floor = ci.settings.emulator_floor;
-        let whitening = match emulator_error(&whitening, &ci.spec, &ci.checks) {
-            Some(e) => whitening.with_emulator(&ci.designs, e, floor),
-            None if floor > 0.0 => {
-                let none = EmulatorError {
-                    runs: 0,
-                    variance: vec![0.0; whitening.read.len()],
-                };
-                whitening.with_emulator(&ci.designs, none, floor)
-            }
-            None => whitening,
-        };
-        let k = whitening.read.len();
+        let whitening = with_emulator_error(whitening(&ci.designs, &ci.spec, ci.settings.alpha)?, ci);
         let model = FeatureModel {
             curve: ci.curve.clone(),
             spec: ci.spec,
             whitening: whitening.clone(),
             cache: Default::default(),
         };
-        let mut observations = Vec::new();
-        for d in &ci.designs {
-            let z: Vec<DVector<f64>> = d
-                .specimens
-                .iter()
-                .filter_map(|c| whitening.whiten(&ci.spec, &d.values, c.as_slice()))
-                .collect();
-            for j in 0..k {
-                let reps: Vec<f64> = z.iter().map(|v| v[j]).collect();
-                observations.push(
-                    Observation::from_replicates(d.name.clone(), d.values.clone(), d.role, &reps)
-                        .of_output(j, &whitening.names()[j]),
-                );
-            }
-        }
         let shape_of = |h: &CurveHypothesis| feature_shape(h, &model);
         let shapes = ci.hypotheses.iter().map(shape_of).collect();
         let built_ins = Shape::built_ins(&ci.design_names)
             .into_iter()
             .map(|s| feature_shape(&CurveHypothesis::Term(s), &model))
             .collect();
-        let names = whitening
-            .read
-            .iter()
-            .map(|&i| features::NAMES[i])
-            .collect::<Vec<_>>()
-            .join(", ");
-        let specimens: usize = ci.designs.iter().map(|d| d.specimens.len()).sum();
-        let how = match (whitening.kind, whitening.check) {
-            (CovarianceKind::Structured, Some((t, f, p))) => format!(
-                "whitened by a scale factor per specimen plus independent noise along the stroke, which the features' \
-                 own scatter does not reject (χ² = {} on {f} degrees of freedom, p = {}); the tests take the \
-                 specimens' {} degrees of freedom",
-                crate::base::format::num(t),
-                crate::base::format::num(p),
-                whitening.dof
-            ),
-            (_, check) => format!(
-                "whitened by their pooled covariance ({} degrees of freedom; {} left for the tests once the {k} × {k} \
-                 covariance is estimated{})",
-                whitening.specimens_dof,
-                whitening.dof,
-                check.map_or(String::new(), |(t, f, p)| format!(
-                    "; a scale factor plus independent noise along the stroke was rejected: χ² = {} on {f} degrees of \
-                     freedom, p = {}",
-                    crate::base::format::num(t),
-                    crate::base::format::num(p)
-                ))
-            ),
-        };
-        let how = match &whitening.emulator {
-            Some(e) => format!(
-                "{how}; plus the emulator's own error, measured at {} check run(s) (mean square {} of one \
-                 specimen's noise variance, per whitened feature), which more specimens do not reduce",
-                e.runs,
-                e.variance
-                    .iter()
-                    .map(|v| crate::base::format::num(*v))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            None => how,
-        };
         Ok(FeatureProblem {
             rows: rows(&ci.designs, &ci.spec),
-            noise: NoiseModel::constant(
-                whitening.variance.sqrt(),
-                whitening.dof,
-                format!(
-                    "curve features ({names}) of {specimens} specimens at {} designs, {how}",
-                    ci.designs.len()
-                ),
-            ),
+            noise: NoiseModel::constant(whitening.variance.sqrt(), whitening.dof, noise_source(ci, &whitening)),
+            observations: observations(ci, &whitening),
             model,
-            observations,
             shapes,
             built_ins,
         })
@@ -862,6 +785,96 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
             s
         }
     }
+}
+
+/// The specimens' whitening with the curve emulator's own error counted (its check runs), at least
+/// at the settings' floor.
+fn with_emulator_error(whitening: Whitening, ci: &CurveInputs) -> Whitening {
+    let floor = ci.settings.emulator_floor;
+    match emulator_error(&whitening, &ci.spec, &ci.checks) {
+        Some(e) => whitening.with_emulator(&ci.designs, e, floor),
+        None if floor > 0.0 => {
+            let none = EmulatorError {
+                runs: 0,
+                variance: vec![0.0; whitening.read.len()],
+            };
+            whitening.with_emulator(&ci.designs, none, floor)
+        }
+        None => whitening,
+    }
+}
+
+/// Each design's specimens' whitened features, one observation per design and feature.
+fn observations(ci: &CurveInputs, whitening: &Whitening) -> Vec<Observation> {
+    let k = whitening.read.len();
+    let mut observations = Vec::new();
+    for d in &ci.designs {
+        let z: Vec<DVector<f64>> = d
+            .specimens
+            .iter()
+            .filter_map(|c| whitening.whiten(&ci.spec, &d.values, c.as_slice()))
+            .collect();
+        for j in 0..k {
+            let reps: Vec<f64> = z.iter().map(|v| v[j]).collect();
+            observations.push(
+                Observation::from_replicates(d.name.clone(), d.values.clone(), d.role, &reps)
+                    .of_output(j, &whitening.names()[j]),
+            );
+        }
+    }
+    observations
+}
+
+/// Where the features' noise comes from, in words: the features read, the specimens, how they
+/// were whitened, and the emulator's error counted in it.
+fn noise_source(ci: &CurveInputs, whitening: &Whitening) -> String {
+    let k = whitening.read.len();
+    let names = whitening
+        .read
+        .iter()
+        .map(|&i| features::NAMES[i])
+        .collect::<Vec<_>>()
+        .join(", ");
+    let specimens: usize = ci.designs.iter().map(|d| d.specimens.len()).sum();
+    let how = match (whitening.kind, whitening.check) {
+        (CovarianceKind::Structured, Some((t, f, p))) => format!(
+            "whitened by a scale factor per specimen plus independent noise along the stroke, which the features' \
+             own scatter does not reject (χ² = {} on {f} degrees of freedom, p = {}); the tests take the \
+             specimens' {} degrees of freedom",
+            crate::base::format::num(t),
+            crate::base::format::num(p),
+            whitening.dof
+        ),
+        (_, check) => format!(
+            "whitened by their pooled covariance ({} degrees of freedom; {} left for the tests once the {k} × {k} \
+             covariance is estimated{})",
+            whitening.specimens_dof,
+            whitening.dof,
+            check.map_or(String::new(), |(t, f, p)| format!(
+                "; a scale factor plus independent noise along the stroke was rejected: χ² = {} on {f} degrees of \
+                 freedom, p = {}",
+                crate::base::format::num(t),
+                crate::base::format::num(p)
+            ))
+        ),
+    };
+    let how = match &whitening.emulator {
+        Some(e) => format!(
+            "{how}; plus the emulator's own error, measured at {} check run(s) (mean square {} of one \
+             specimen's noise variance, per whitened feature), which more specimens do not reduce",
+            e.runs,
+            e.variance
+                .iter()
+                .map(|v| crate::base::format::num(*v))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        None => how,
+    };
+    format!(
+        "curve features ({names}) of {specimens} specimens at {} designs, {how}",
+        ci.designs.len()
+    )
 }
 
 impl super::Diagnosis {

@@ -144,8 +144,6 @@ fn search_shape(term: String, f: impl Fn(&[f64], &[f64], f64) -> f64 + Send + Sy
 /// The library for `design_names` as `spec` declares them (see the module notes for the order).
 pub fn build(design_names: &[String], spec: &LibrarySpec) -> Library {
     let exps = exponents(&spec.exponents);
-    let unit = |j: usize| spec.units.get(j).cloned().flatten().filter(|u| !u.trim().is_empty());
-    let scale = |j: usize| spec.scales.get(j).copied().flatten();
     let mut shapes = vec![
         search_shape("1".into(), |_, _, _| 1.0),
         search_shape("y".into(), |_, _, y| y),
@@ -165,74 +163,96 @@ pub fn build(design_names: &[String], spec: &LibrarySpec) -> Library {
     }
     for i in 0..names.len() {
         for j in i + 1..names.len() {
-            let (a, b) = (names[i], names[j]);
-            shapes.push(search_shape(monomial(&[(a, 1.0), (b, 1.0)], false), move |d, _, _| {
-                d[i] * d[j]
-            }));
-            shapes.push(search_shape(monomial(&[(a, 1.0), (b, -1.0)], false), move |d, _, _| {
-                d[i] / d[j]
-            }));
-            shapes.push(search_shape(monomial(&[(a, -1.0), (b, 1.0)], false), move |d, _, _| {
-                d[j] / d[i]
-            }));
-            match (unit(i), unit(j)) {
-                (Some(u), Some(v)) if u == v => {
-                    for with_y in [false, true] {
-                        for &e in &exps {
-                            if !with_y && (e.abs() - 1.0).abs() < 1e-12 {
-                                continue; // the ratios above
-                            }
-                            shapes.push(search_shape(ratio_term(a, b, e, with_y), move |d, _, y| {
-                                let g = pow(d[i] / d[j], e);
-                                if with_y { y * g } else { g }
-                            }));
-                        }
-                    }
-                }
-                (u, v) => dropped.push(Dropped {
-                    term: format!("({a}/{b})^a, y*({a}/{b})^a"),
-                    reason: format!(
-                        "{a} and {b} do not declare the same unit ({} and {}): their ratio is no dimensionless group, \
-                         so only {a}*{b}, {a}/{b} and {b}/{a} are searched",
-                        u.as_deref().unwrap_or("none"),
-                        v.as_deref().unwrap_or("none")
-                    ),
-                }),
-            }
+            pair_shapes((&names, i, j), spec, &exps, (&mut shapes, &mut dropped));
         }
     }
     for (j, name) in names.iter().enumerate() {
-        let terms = |l: &str| [format!("exp(-{name}/{l})"), format!("ln({name}/{l})")];
-        match scale(j) {
-            Some(l) => {
-                let [e, g] = terms(&l.to_string());
-                shapes.push(search_shape(e, move |d, _, _| (-d[j] / l).exp()));
-                shapes.push(search_shape(g, move |d, _, _| (d[j] / l).ln()));
-            }
-            None => {
-                let why = match unit(j) {
-                    Some(u) => format!(
-                        "{name} is in {u} and no scale is declared: exp and ln need {name}/L dimensionless; declare \
-                         `scale:` (a length in {u}) under design.{name} to search them"
-                    ),
-                    None => format!(
-                        "no scale is declared for {name}: exp and ln need {name}/L dimensionless; declare `unit:` and \
-                         `scale:` under design.{name} to search them"
-                    ),
-                };
-                for t in terms("L") {
-                    dropped.push(Dropped {
-                        term: t,
-                        reason: why.clone(),
-                    });
-                }
-            }
-        }
+        scale_shapes((name, j), spec, (&mut shapes, &mut dropped));
     }
     Library {
         shapes,
         dropped,
         exponents: exps,
+    }
+}
+
+/// Design variable `j`'s declared unit (none when blank).
+fn unit_of(spec: &LibrarySpec, j: usize) -> Option<String> {
+    spec.units.get(j).cloned().flatten().filter(|u| !u.trim().is_empty())
+}
+
+/// The shapes of the pair of design variables `i`, `j`: their product and ratios, and where both
+/// declare the same unit the powers of their ratio (else those are dropped, with why).
+fn pair_shapes(
+    (names, i, j): (&[&str], usize, usize),
+    spec: &LibrarySpec,
+    exps: &[f64],
+    (shapes, dropped): (&mut Vec<Shape>, &mut Vec<Dropped>),
+) {
+    let (a, b) = (names[i], names[j]);
+    shapes.push(search_shape(monomial(&[(a, 1.0), (b, 1.0)], false), move |d, _, _| {
+        d[i] * d[j]
+    }));
+    shapes.push(search_shape(monomial(&[(a, 1.0), (b, -1.0)], false), move |d, _, _| {
+        d[i] / d[j]
+    }));
+    shapes.push(search_shape(monomial(&[(a, -1.0), (b, 1.0)], false), move |d, _, _| {
+        d[j] / d[i]
+    }));
+    match (unit_of(spec, i), unit_of(spec, j)) {
+        (Some(u), Some(v)) if u == v => {
+            for with_y in [false, true] {
+                for &e in exps {
+                    if !with_y && (e.abs() - 1.0).abs() < 1e-12 {
+                        continue; // the ratios above
+                    }
+                    shapes.push(search_shape(ratio_term(a, b, e, with_y), move |d, _, y| {
+                        let g = pow(d[i] / d[j], e);
+                        if with_y { y * g } else { g }
+                    }));
+                }
+            }
+        }
+        (u, v) => dropped.push(Dropped {
+            term: format!("({a}/{b})^a, y*({a}/{b})^a"),
+            reason: format!(
+                "{a} and {b} do not declare the same unit ({} and {}): their ratio is no dimensionless group, \
+                 so only {a}*{b}, {a}/{b} and {b}/{a} are searched",
+                u.as_deref().unwrap_or("none"),
+                v.as_deref().unwrap_or("none")
+            ),
+        }),
+    }
+}
+
+/// `exp(-x/L)` and `ln(x/L)` of design variable `j` where it declares its scale L; else dropped,
+/// with why.
+fn scale_shapes((name, j): (&str, usize), spec: &LibrarySpec, (shapes, dropped): (&mut Vec<Shape>, &mut Vec<Dropped>)) {
+    let terms = |l: &str| [format!("exp(-{name}/{l})"), format!("ln({name}/{l})")];
+    match spec.scales.get(j).copied().flatten() {
+        Some(l) => {
+            let [e, g] = terms(&l.to_string());
+            shapes.push(search_shape(e, move |d, _, _| (-d[j] / l).exp()));
+            shapes.push(search_shape(g, move |d, _, _| (d[j] / l).ln()));
+        }
+        None => {
+            let why = match unit_of(spec, j) {
+                Some(u) => format!(
+                    "{name} is in {u} and no scale is declared: exp and ln need {name}/L dimensionless; declare \
+                     `scale:` (a length in {u}) under design.{name} to search them"
+                ),
+                None => format!(
+                    "no scale is declared for {name}: exp and ln need {name}/L dimensionless; declare `unit:` and \
+                     `scale:` under design.{name} to search them"
+                ),
+            };
+            for t in terms("L") {
+                dropped.push(Dropped {
+                    term: t,
+                    reason: why.clone(),
+                });
+            }
+        }
     }
 }
 

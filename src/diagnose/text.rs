@@ -395,31 +395,7 @@ fn evidence_lines(f: &Facts) -> Vec<String> {
         ));
     }
     out.extend(where_it_errs(f));
-    let ranked: Vec<String> = f
-        .candidates
-        .iter()
-        .take(3)
-        .map(|c| {
-            format!(
-                "'{}' {:.2}{}",
-                c.name,
-                c.weight,
-                c.p_value.map_or(String::new(), |p| format!(" ({})", p_text(p)))
-            )
-        })
-        .collect();
-    if !ranked.is_empty() {
-        let base_w = f
-            .base
-            .score
-            .as_ref()
-            .map(|_| format!("; uncorrected {:.2}", f.base.weight));
-        out.push(format!(
-            "Leading candidates (weight): {}{}.",
-            ranked.join(", "),
-            base_w.unwrap_or_default()
-        ));
-    }
+    out.extend(leading_line(f));
     if let Some(a) = f.after_loop {
         out.extend(after_loop_lines(f, a));
     }
@@ -444,31 +420,68 @@ fn evidence_lines(f: &Facts) -> Vec<String> {
         });
     }
     if let Some(e) = f.extended {
-        out.push(format!(
-            "Extended model: {}; {} error {} → {}{}.",
-            params(&e.parameters),
-            e.measured_on,
-            pct(e.validation_error_before),
-            pct(e.validation_error_after),
-            match (e.loo_error_before, e.loo_error_after) {
-                (Some(b), Some(a)) if e.measured_on != "leave-one-out" =>
-                    format!("; leave-one-design-out {} → {}", pct(b), pct(a)),
-                _ => String::new(),
-            }
-        ));
-        if !e.remaining.is_empty() {
-            let at = e
-                .remaining
-                .iter()
-                .map(|(n, z)| format!("{n} ({z:+.1} σ)"))
-                .collect::<Vec<_>>()
-                .join(", ");
-            out.push(format!(
-                "What remains unexplained: the extended model still misses {at}."
-            ));
-        }
+        out.extend(extended_lines(e));
     }
     out.extend(f.confounded.iter().map(|c| format!("{c}.")));
+    out
+}
+
+/// The leading candidates with their weights (and the uncorrected model's, where it is scored).
+fn leading_line(f: &Facts) -> Option<String> {
+    let ranked: Vec<String> = f
+        .candidates
+        .iter()
+        .take(3)
+        .map(|c| {
+            format!(
+                "'{}' {:.2}{}",
+                c.name,
+                c.weight,
+                c.p_value.map_or(String::new(), |p| format!(" ({})", p_text(p)))
+            )
+        })
+        .collect();
+    if ranked.is_empty() {
+        return None;
+    }
+    let base_w = f
+        .base
+        .score
+        .as_ref()
+        .map(|_| format!("; uncorrected {:.2}", f.base.weight));
+    Some(format!(
+        "Leading candidates (weight): {}{}.",
+        ranked.join(", "),
+        base_w.unwrap_or_default()
+    ))
+}
+
+/// The extended model's parameters and errors, and what it still misses.
+fn extended_lines(e: &Extended) -> Vec<String> {
+    let mut out = Vec::new();
+    out.push(format!(
+        "Extended model: {}; {} error {} → {}{}.",
+        params(&e.parameters),
+        e.measured_on,
+        pct(e.validation_error_before),
+        pct(e.validation_error_after),
+        match (e.loo_error_before, e.loo_error_after) {
+            (Some(b), Some(a)) if e.measured_on != "leave-one-out" =>
+                format!("; leave-one-design-out {} → {}", pct(b), pct(a)),
+            _ => String::new(),
+        }
+    ));
+    if !e.remaining.is_empty() {
+        let at = e
+            .remaining
+            .iter()
+            .map(|(n, z)| format!("{n} ({z:+.1} σ)"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        out.push(format!(
+            "What remains unexplained: the extended model still misses {at}."
+        ));
+    }
     out
 }
 
