@@ -276,116 +276,45 @@ fn against_each_other(
     }
 }
 
-/// Step 6: whether the decision is the same whatever the running loops' final models show. Each
-/// running loop model may miss the tests or fit them, be checked or not, be beaten or not by each
-/// other open explanation's shape, score anywhere among them, and leave something explained or
-/// not; every combination is decided by steps 2–5 and compared by verdict and cause. More
-/// combinations than [`MOST_OUTCOMES`]: not settled (the loops go on).
+/// Step 6: whether the decision is the same whatever the running loops' final models show (each
+/// may miss the tests or fit them, be checked or not, be beaten or not by each other open
+/// explanation's shape, score anywhere among them, leave something explained or not).
+///
+/// Nothing running: it is. One explanation open and running: its outcome decides (a fit is named, a
+/// miss only partly explains): it is not. Two or more open: every outcome that names no cause is
+/// "cannot tell apart" (step 5, every model out, or none beating the rest), so the decision is
+/// settled exactly when no outcome names a cause. And where some outcome names a cause e, so does
+/// the outcome `C_e` ([`naming`]) in which every other running loop misses and is checked (out of
+/// the survivors and of step 5's standing explanations) and e, if running, fits and is checked:
+/// `C_e`'s standing explanations and survivors are subsets of that outcome's, e among them, and e
+/// beats each survivor by the same tests (a non-running model's tests do not depend on what the
+/// loops show). So the n outcomes `C_e` decide it: n judgements, where enumerating every outcome
+/// grows as (8 · 2^(n−1) · n) to the power of the running loops.
 fn settled(r: &mut dyn Readings, open: &[Open]) -> bool {
-    let running: Vec<usize> = (0..open.len()).filter(|&i| open[i].running).collect();
-    if running.is_empty() {
+    if !open.iter().any(|o| o.running) {
         return true;
     }
-    let choices: Vec<Vec<Outcome>> = running.iter().map(|&i| outcomes(open, i)).collect();
-    if choices
-        .iter()
-        .map(Vec::len)
-        .try_fold(1usize, |n, c| n.checked_mul(c))
-        .is_none_or(|n| n > MOST_OUTCOMES)
-    {
+    if open.len() < 2 {
         return false;
     }
-    let mut first: Option<(Verdict, Option<Who>)> = None;
-    let mut at = vec![0usize; running.len()];
-    loop {
-        let mut case: Vec<Open> = open.to_vec();
-        for (c, &i) in running.iter().enumerate() {
-            choices[c][at[c]].apply(&mut case[i]);
-        }
-        let d = judge(r, &case).decision;
-        let this = (d.verdict, d.cause);
-        match &first {
-            None => first = Some(this),
-            Some(f) if *f != this => return false,
-            Some(_) => {}
-        }
-        // The next combination (an odometer over the running loops' outcomes).
-        let mut c = 0;
-        loop {
-            if c == at.len() {
-                return true;
-            }
-            at[c] += 1;
-            if at[c] < choices[c].len() {
-                break;
-            }
-            at[c] = 0;
-            c += 1;
-        }
-    }
+    (0..open.len()).all(|e| judge(r, &naming(open, e)).decision.cause.is_none())
 }
 
-/// The most combinations of outcomes [`settled`] decides (a few milliseconds).
-const MOST_OUTCOMES: usize = 1 << 16;
-
-/// One outcome of a running loop model: its facts, its check and its score.
-#[derive(Debug, Clone)]
-struct Outcome {
-    assumed: Assumed,
-    checked: bool,
-    score: f64,
-}
-
-impl Outcome {
-    fn apply(&self, o: &mut Open) {
-        o.assumed = Some(self.assumed.clone());
-        o.checked = self.checked;
-        o.score = Some(self.score);
+/// The outcome of the running loops most favourable to naming explanation `e` ([`settled`]):
+/// every other running loop misses and is checked; `e`, if running, fits, is checked and is beaten
+/// by none.
+fn naming(open: &[Open], e: usize) -> Vec<Open> {
+    let mut case = open.to_vec();
+    for (i, o) in case.iter_mut().enumerate().filter(|(_, o)| o.running) {
+        let named = i == e;
+        o.assumed = Some(Assumed {
+            misses: !named,
+            remains: false,
+            beaten_by: Vec::new(),
+        });
+        o.checked = true;
     }
-}
-
-/// Every outcome open explanation `i` (a running loop model) may have beside the others.
-fn outcomes(open: &[Open], i: usize) -> Vec<Outcome> {
-    let others: Vec<&Open> = open
-        .iter()
-        .enumerate()
-        .filter(|(j, _)| *j != i)
-        .map(|(_, o)| o)
-        .collect();
-    // A score just better than each other's, and one worse than all: every place in the ranking.
-    let finite: Vec<f64> = others
-        .iter()
-        .filter_map(|o| o.score)
-        .filter(|s| s.is_finite())
-        .collect();
-    let worst = finite.iter().copied().fold(0.0, f64::max);
-    let mut scores: Vec<f64> = finite.iter().map(|s| s - 1e-9 * (1.0 + s.abs())).collect();
-    scores.push(worst + 1.0);
-    let mut all = Vec::new();
-    for misses in [false, true] {
-        for checked in [true, false] {
-            for remains in [false, true] {
-                for mask in 0..(1usize << others.len()) {
-                    let beaten_by: Vec<String> = (0..others.len())
-                        .filter(|b| mask >> b & 1 == 1)
-                        .map(|b| others[b].name.clone())
-                        .collect();
-                    for &score in &scores {
-                        all.push(Outcome {
-                            assumed: Assumed {
-                                misses,
-                                remains,
-                                beaten_by: beaten_by.clone(),
-                            },
-                            checked,
-                            score,
-                        });
-                    }
-                }
-            }
-        }
-    }
-    all
+    case
 }
 
 fn key(score: Option<f64>) -> f64 {
@@ -589,6 +518,76 @@ fn weights(open: &[Open]) -> Vec<f64> {
 mod tests {
     use super::*;
 
+    /// The enumeration [`settled`] replaced: every combination of the running loops' outcomes
+    /// judged and compared (`None` above 2^16 combinations), the oracle of its tests.
+    fn settled_by_enumeration(r: &mut dyn Readings, open: &[Open]) -> Option<bool> {
+        let running: Vec<usize> = (0..open.len()).filter(|&i| open[i].running).collect();
+        let choices: Vec<Vec<(Assumed, bool, f64)>> = running.iter().map(|&i| outcomes(open, i)).collect();
+        let n = choices.iter().map(Vec::len).try_fold(1usize, |n, c| n.checked_mul(c))?;
+        if n > 1 << 16 {
+            return None;
+        }
+        let mut first = None;
+        for index in 0..n {
+            let mut case = open.to_vec();
+            let mut at = index;
+            for (c, &i) in running.iter().enumerate() {
+                let (assumed, checked, score) = choices[c][at % choices[c].len()].clone();
+                at /= choices[c].len();
+                case[i].assumed = Some(assumed);
+                case[i].checked = checked;
+                case[i].score = Some(score);
+            }
+            let d = judge(r, &case).decision;
+            match &first {
+                None => first = Some((d.verdict, d.cause)),
+                Some(f) if *f != (d.verdict, d.cause) => return Some(false),
+                Some(_) => {}
+            }
+        }
+        Some(true)
+    }
+
+    /// Every outcome open explanation `i` (a running loop model) may have beside the others.
+    fn outcomes(open: &[Open], i: usize) -> Vec<(Assumed, bool, f64)> {
+        let others: Vec<&Open> = open
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, o)| o)
+            .collect();
+        let finite: Vec<f64> = others
+            .iter()
+            .filter_map(|o| o.score)
+            .filter(|s| s.is_finite())
+            .collect();
+        let worst = finite.iter().copied().fold(0.0, f64::max);
+        let mut scores: Vec<f64> = finite.iter().map(|s| s - 1e-9 * (1.0 + s.abs())).collect();
+        scores.push(worst + 1.0);
+        let mut all = Vec::new();
+        for misses in [false, true] {
+            for checked in [true, false] {
+                for remains in [false, true] {
+                    for mask in 0..(1usize << others.len()) {
+                        let beaten_by: Vec<String> = (0..others.len())
+                            .filter(|b| mask >> b & 1 == 1)
+                            .map(|b| others[b].name.clone())
+                            .collect();
+                        for &score in &scores {
+                            let assumed = Assumed {
+                                misses,
+                                remains,
+                                beaten_by: beaten_by.clone(),
+                            };
+                            all.push((assumed, checked, score));
+                        }
+                    }
+                }
+            }
+        }
+        all
+    }
+
     fn open(k: usize, score: f64, fits: bool, checked: bool) -> Open {
         Open {
             who: Who::Extended(k),
@@ -739,5 +738,96 @@ mod tests {
         let mut one = open(0, 10.0, true, true);
         one.running = true;
         assert!(!settled(&mut r, &[one]));
+    }
+
+    /// Readings drawn at random: each pair's p, and whether something remains after each model.
+    struct Drawn {
+        p: Vec<(String, String, Option<f64>)>,
+        remains: Vec<String>,
+    }
+
+    impl Readings for Drawn {
+        fn alpha(&self) -> f64 {
+            0.05
+        }
+        fn added_to(&mut self, e: &Open, f: &Open) -> Option<f64> {
+            self.p
+                .iter()
+                .find(|(a, b, _)| *a == e.name && *b == f.name)
+                .and_then(|x| x.2)
+        }
+        fn remains(&mut self, one: &Open) -> bool {
+            self.remains.contains(&one.name)
+        }
+        fn rival(&self, _: &Open) -> Option<Who> {
+            None
+        }
+        fn screening(&self) -> Decision {
+            Table { p: Vec::new() }.screening()
+        }
+    }
+
+    /// The n judgements of [`settled`] decide as every outcome enumerated does, on 3,000 drawn
+    /// sets of open explanations (one to four, up to two of them running, screening candidates and
+    /// loop models, fitting or missing, checked or not) and drawn readings; both classes occur.
+    #[test]
+    fn the_bounded_check_decides_as_the_enumeration() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(20261128);
+        let (mut agree, mut settled_seen, mut open_seen) = (0, 0, 0);
+        for _ in 0..3000 {
+            let n = rng.random_range(1..=4usize);
+            let mut open: Vec<Open> = (0..n)
+                .map(|k| {
+                    let mut o = open(
+                        k,
+                        rng.random_range(5.0..30.0),
+                        rng.random_bool(0.6),
+                        rng.random_bool(0.7),
+                    );
+                    if rng.random_bool(0.3) {
+                        o.who = Who::Candidate(k);
+                    }
+                    o
+                })
+                .collect();
+            let running = rng.random_range(0..=n.min(2));
+            for o in open.iter_mut().take(running) {
+                o.running = true;
+            }
+            let names: Vec<String> = open.iter().map(|o| o.name.clone()).collect();
+            let mut p = Vec::new();
+            for a in &names {
+                for b in names.iter().filter(|b| *b != a) {
+                    let v = [Some(0.001), Some(0.3), None][rng.random_range(0..3usize)];
+                    p.push((a.clone(), b.clone(), v));
+                }
+            }
+            let remains = names.iter().filter(|_| rng.random_bool(0.3)).cloned().collect();
+            let mut r = Drawn { p, remains };
+            let Some(expected) = settled_by_enumeration(&mut r, &open) else {
+                continue;
+            };
+            let got = settled(&mut r, &open);
+            assert_eq!(
+                got,
+                expected,
+                "open: {:?}",
+                open.iter()
+                    .map(|o| (&o.name, o.running, o.checked, o.misses()))
+                    .collect::<Vec<_>>()
+            );
+            agree += 1;
+            if got && running > 0 {
+                settled_seen += 1;
+            } else if !got {
+                open_seen += 1;
+            }
+        }
+        assert!(agree > 2500, "{agree} cases compared");
+        assert!(
+            settled_seen > 20 && open_seen > 200,
+            "settled {settled_seen}, not settled {open_seen}"
+        );
     }
 }

@@ -6,7 +6,8 @@
 //! `JOB.dat` holds the expected block with rows; the response is one column of that block, reduced.
 //!
 //! ```
-//! use lab::execute::{Adapter, calculix::{CalculixAdapter, DatResponse}};
+//! use lab::execute::Adapter;
+//! use lab::extract::adapters::calculix::{CalculixAdapter, DatResponse};
 //! use lab::extract::calculix::Reduce;
 //! let a = CalculixAdapter::new("beam", DatResponse {
 //!     block: "displacements".into(), set: "NTIP".into(), component: "vy".into(), reduce: Reduce::Mean,
