@@ -465,27 +465,8 @@ pub fn choose(
         return shared::choose(bounds, sites, emus, posterior, open, q, seed);
     }
     let (scaled, candidates) = candidates(bounds, posterior, seed);
-    // Each open site's candidate covariances, the sites in parallel (independent of one another).
-    let mut gains: Vec<Option<Gain>> = {
-        use rayon::prelude::*;
-        sites
-            .par_iter()
-            .zip(emus)
-            .zip(open)
-            .map(|((s, e), &o)| {
-                o.then(|| Gain::of_site(s, e, &posterior.weights, &candidates))
-                    .flatten()
-            })
-            .collect()
-    };
-    let mut picks: Vec<(usize, Vec<f64>)> = Vec::new();
-    // An open site without emulators (too few runs to fit them) gets a space-filling run first: the
-    // candidate of the box farthest from its runs.
-    for (i, s) in sites.iter().enumerate() {
-        if open[i] && gains[i].is_none() && picks.len() < q {
-            picks.push((i, snap(bounds, &farthest(&scaled, &s.x, bounds))));
-        }
-    }
+    let mut gains = site_gains(sites, emus, posterior, open, &candidates);
+    let mut picks = space_filling_picks(bounds, sites, open, &gains, &scaled, q);
     let mut given = vec![0usize; sites.len()];
     for (i, _) in &picks {
         given[*i] += 1;
@@ -495,35 +476,11 @@ pub fn choose(
         .row_iter()
         .map(|r| snap(bounds, r.transpose().as_slice()))
         .collect();
-    for (i, g) in gains.iter_mut().enumerate() {
-        if let Some(g) = g.as_mut() {
-            for x in sites[i]
-                .x
-                .iter()
-                .chain(picks.iter().filter(|(s, _)| *s == i).map(|(_, x)| x))
-            {
-                g.take(&snapped, &snap(bounds, x));
-            }
-        }
-    }
+    take_repeats(bounds, sites, &picks, &snapped, &mut gains);
     while picks.len() < q {
-        let round = given
-            .iter()
-            .zip(&gains)
-            .filter(|(_, g)| g.is_some())
-            .map(|(n, _)| *n)
-            .min();
-        let Some(round) = round else { break };
-        let best = gains
-            .iter()
-            .enumerate()
-            .filter(|(i, g)| g.is_some() && given[*i] == round)
-            .filter_map(|(i, g)| g.as_ref().map(|g| (i, g.best())))
-            .fold(None, |acc: Option<(usize, (usize, f64))>, (i, b)| match acc {
-                Some((_, (_, v))) if v >= b.1 => acc,
-                _ => Some((i, b)),
-            });
-        let Some((site, (c, v))) = best else { break };
+        let Some((site, (c, v))) = next_best(&gains, &given) else {
+            break;
+        };
         if v == f64::NEG_INFINITY {
             // Every candidate of the site repeats a run: it gets no more in this batch.
             gains[site] = None;
@@ -537,6 +494,86 @@ pub fn choose(
         }
     }
     picks
+}
+
+/// Each open site's gain over the `candidates` (`None` for a closed site, or one without
+/// emulators), the sites in parallel (independent of one another).
+fn site_gains(
+    sites: &[Site],
+    emus: &[SiteEmulators],
+    posterior: &Posterior,
+    open: &[bool],
+    candidates: &DMatrix<f64>,
+) -> Vec<Option<Gain>> {
+    use rayon::prelude::*;
+    sites
+        .par_iter()
+        .zip(emus)
+        .zip(open)
+        .map(|((s, e), &o)| o.then(|| Gain::of_site(s, e, &posterior.weights, candidates)).flatten())
+        .collect()
+}
+
+/// The first picks of a batch (at most `q`): an open site without emulators (too few runs to fit
+/// them) gets a space-filling run first, the candidate of the box (`scaled`) farthest from its runs.
+fn space_filling_picks(
+    bounds: &Bounds,
+    sites: &[Site],
+    open: &[bool],
+    gains: &[Option<Gain>],
+    scaled: &DMatrix<f64>,
+    q: usize,
+) -> Vec<(usize, Vec<f64>)> {
+    let mut picks: Vec<(usize, Vec<f64>)> = Vec::new();
+    for (i, s) in sites.iter().enumerate() {
+        if open[i] && gains[i].is_none() && picks.len() < q {
+            picks.push((i, snap(bounds, &farthest(scaled, &s.x, bounds))));
+        }
+    }
+    picks
+}
+
+/// Marks, in each site's gain, the candidates whose `snapped` point is one of the site's runs or
+/// one of its `picks` in this batch: they would only repeat it.
+fn take_repeats(
+    bounds: &Bounds,
+    sites: &[Site],
+    picks: &[(usize, Vec<f64>)],
+    snapped: &[Vec<f64>],
+    gains: &mut [Option<Gain>],
+) {
+    for (i, g) in gains.iter_mut().enumerate() {
+        if let Some(g) = g.as_mut() {
+            for x in sites[i]
+                .x
+                .iter()
+                .chain(picks.iter().filter(|(s, _)| *s == i).map(|(_, x)| x))
+            {
+                g.take(snapped, &snap(bounds, x));
+            }
+        }
+    }
+}
+
+/// The next pick's site and its best candidate with that candidate's value, among the sites with
+/// a gain that have been `given` the fewest runs so far (each site one run before any gets a
+/// second; ties to the first site); `None` when no site has a gain left.
+fn next_best(gains: &[Option<Gain>], given: &[usize]) -> Option<(usize, (usize, f64))> {
+    let round = given
+        .iter()
+        .zip(gains)
+        .filter(|(_, g)| g.is_some())
+        .map(|(n, _)| *n)
+        .min()?;
+    gains
+        .iter()
+        .enumerate()
+        .filter(|(i, g)| g.is_some() && given[*i] == round)
+        .filter_map(|(i, g)| g.as_ref().map(|g| (i, g.best())))
+        .fold(None, |acc: Option<(usize, (usize, f64))>, (i, b)| match acc {
+            Some((_, (_, v))) if v >= b.1 => acc,
+            _ => Some((i, b)),
+        })
 }
 
 /// A batch's candidates (module notes): the seeded space-filling points of the box, and every

@@ -12,7 +12,7 @@ use std::fmt::Write;
 
 use indexmap::IndexMap;
 
-use super::data::{ReportData, StudyInfo, SurrogateData, Variable};
+use super::data::{ReportData, RunRow, StudyInfo, SurrogateData, Variable};
 use super::plots::{self, Band, BarPlot, Series, Style, VLine, XyPlot, short};
 use super::results::{MethodResult, Results, Role, SurrogateResult};
 use super::summary::significant;
@@ -931,14 +931,27 @@ impl Page<'_> {
             .study_info()
             .map(|i| i.parameters.iter().map(|p| p.label()).collect())
             .unwrap_or_default();
-        let mut order: Vec<usize> = (0..rows.len()).collect();
-        // Failures first, then runs without a record, then suspect runs, each group in plan order.
-        order.sort_by_key(|&i| match rows[i].class.as_deref() {
-            Some("success") if rows[i].flags.is_empty() => 3,
-            Some("success") => 2,
-            Some(_) => 0,
-            None => 1,
-        });
+        let order = run_order(rows);
+        let mut s = self.runs_sentence(rows);
+        s.push_str("<table><tr><th class=l>key</th><th class=l>design</th><th class=l>role</th>");
+        for p in &params {
+            let _ = write!(s, "<th>{}</th>", escape(p));
+        }
+        let _ = write!(
+            s,
+            "<th class=l>status</th><th>attempts</th><th>time</th><th>{}</th><th class=l>outcome</th></tr>",
+            escape(&self.response_label())
+        );
+        for &i in &order {
+            write_run_row(&mut s, &rows[i]);
+        }
+        s + "</table>"
+    }
+
+    /// The paragraph above the run table: how many runs, how many failed and how many are
+    /// suspect (and whether the surrogates used them), and the solver time in all or where the
+    /// runs were replayed from.
+    fn runs_sentence(&self, rows: &[RunRow]) -> String {
         let failed = rows
             .iter()
             .filter(|r| r.class.as_deref().is_some_and(|c| c != "success"))
@@ -959,59 +972,62 @@ impl Page<'_> {
             }
             (n, _) => format!(", {n} suspect (breaking a quality gate; left out of the surrogates)"),
         };
-        let mut s = format!(
-            "<p>{} runs, {failed} failed{suspects}; {time}.</p><table><tr><th class=l>key</th><th class=l>design</th><th class=l>role</th>",
-            rows.len()
-        );
-        for p in &params {
-            let _ = write!(s, "<th>{}</th>", escape(p));
-        }
-        let _ = write!(
-            s,
-            "<th class=l>status</th><th>attempts</th><th>time</th><th>{}</th><th class=l>outcome</th></tr>",
-            escape(&self.response_label())
-        );
-        for &i in &order {
-            let r = &rows[i];
-            let ok = r.class.as_deref() == Some("success");
-            let _ = write!(
-                s,
-                "<tr{}><td class=l><code title=\"{}\">{}</code></td><td class=l>{}</td><td class=l>{}</td>",
-                if ok { "" } else { " class=failed" },
-                escape(&r.key),
-                escape(&r.key[..r.key.len().min(12)]),
-                escape(&r.design),
-                escape(&r.role)
-            );
-            for v in &r.theta {
-                let _ = write!(s, "<td>{}</td>", significant(*v, 5));
-            }
-            let _ = write!(
-                s,
-                "<td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
-                escape(match r.class.as_deref() {
-                    Some("success") if !r.flags.is_empty() => "suspect",
-                    other => other.unwrap_or("no record"),
-                }),
-                r.attempts,
-                r.seconds.map_or("–".into(), seconds),
-                r.response.map_or("–".into(), |v| significant(v, 5)),
-                if ok {
-                    escape(
-                        &r.flags
-                            .iter()
-                            .chain(&r.warnings)
-                            .cloned()
-                            .collect::<Vec<_>>()
-                            .join("; "),
-                    )
-                } else {
-                    escape(&r.outcome)
-                }
-            );
-        }
-        s + "</table>"
+        format!("<p>{} runs, {failed} failed{suspects}; {time}.</p>", rows.len())
     }
+}
+
+/// The order the run table lists `rows` in, as indices: failures first, then runs without a
+/// record, then suspect runs, then sound ones, each group in plan order.
+fn run_order(rows: &[RunRow]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..rows.len()).collect();
+    order.sort_by_key(|&i| match rows[i].class.as_deref() {
+        Some("success") if rows[i].flags.is_empty() => 3,
+        Some("success") => 2,
+        Some(_) => 0,
+        None => 1,
+    });
+    order
+}
+
+/// Appends the run table's row for `r`: key, design, role, parameters, status, attempts, time,
+/// response and outcome (a successful run's quality flags and warnings, a failure's details).
+fn write_run_row(s: &mut String, r: &RunRow) {
+    let ok = r.class.as_deref() == Some("success");
+    let _ = write!(
+        s,
+        "<tr{}><td class=l><code title=\"{}\">{}</code></td><td class=l>{}</td><td class=l>{}</td>",
+        if ok { "" } else { " class=failed" },
+        escape(&r.key),
+        escape(&r.key[..r.key.len().min(12)]),
+        escape(&r.design),
+        escape(&r.role)
+    );
+    for v in &r.theta {
+        let _ = write!(s, "<td>{}</td>", significant(*v, 5));
+    }
+    let _ = write!(
+        s,
+        "<td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
+        escape(match r.class.as_deref() {
+            Some("success") if !r.flags.is_empty() => "suspect",
+            other => other.unwrap_or("no record"),
+        }),
+        r.attempts,
+        r.seconds.map_or("–".into(), seconds),
+        r.response.map_or("–".into(), |v| significant(v, 5)),
+        if ok {
+            escape(
+                &r.flags
+                    .iter()
+                    .chain(&r.warnings)
+                    .cloned()
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            )
+        } else {
+            escape(&r.outcome)
+        }
+    );
 }
 
 fn noise_kind(kind: &crate::diagnose::NoiseKind) -> &'static str {

@@ -570,21 +570,52 @@ impl BarPlot {
 
     fn draw(&self, root: &DrawingArea<SVGBackend, Shift>) -> Result<()> {
         let n = self.categories.len().max(1);
-        let heading = |i: usize| self.headings.contains(&i);
-        let values = self.groups.iter().flat_map(|g| g.2.iter().flatten().copied());
-        let max = values.fold(0.0_f64, |m, v| m.max(v));
-        let max = if max > 0.0 { max * 1.2 } else { 1.0 };
-        let longest = (self.categories.iter().enumerate())
-            .filter(|(i, _)| !heading(*i))
-            .map(|(_, c)| c.chars().count())
-            .max()
-            .unwrap_or(4) as u32;
+        let max = self.value_end();
         let mut chart = ChartBuilder::on(root)
             .caption(&self.title, ("sans-serif", TITLE_SIZE))
             .margin(12)
             .x_label_area_size(44)
-            .y_label_area_size((longest * 8 + 16).clamp(40, 280))
+            .y_label_area_size((self.longest_label() * 8 + 16).clamp(40, 280))
             .build_cartesian_2d(0.0..max, -0.5..(n as f64 - 0.5))?;
+        self.draw_axes(&mut chart, n, max)?;
+        self.draw_headings(&mut chart, n)?;
+        let g = self.groups.len().max(1) as f64;
+        let thick = 0.8 / g;
+        for k in 0..self.groups.len() {
+            self.draw_group(&mut chart, k, n, thick, max)?;
+        }
+        if self.groups.iter().any(|g| !g.0.is_empty()) {
+            draw_legend(&mut chart, self.legend_corner())?;
+        }
+        Ok(())
+    }
+
+    /// Whether category `i` is a heading row.
+    fn heading(&self, i: usize) -> bool {
+        self.headings.contains(&i)
+    }
+
+    /// The value axis's end: the largest value plus a fifth (room for the bars' labels), or 1
+    /// when there is no positive value.
+    fn value_end(&self) -> f64 {
+        let values = self.groups.iter().flat_map(|g| g.2.iter().flatten().copied());
+        let max = values.fold(0.0_f64, |m, v| m.max(v));
+        if max > 0.0 { max * 1.2 } else { 1.0 }
+    }
+
+    /// The longest category name that labels the axis (headings do not), in characters; 4 when
+    /// there is none.
+    fn longest_label(&self) -> u32 {
+        (self.categories.iter().enumerate())
+            .filter(|(i, _)| !self.heading(*i))
+            .map(|(_, c)| c.chars().count())
+            .max()
+            .unwrap_or(4) as u32
+    }
+
+    /// The value axis (percent or plain ticks up to `max`) and the category axis, category 0 at
+    /// the top of the `n` rows and heading rows left blank.
+    fn draw_axes(&self, chart: &mut XyChart<'_>, n: usize, max: f64) -> Result<()> {
         let percent = self.percent;
         let xfmt = move |v: &f64| {
             if percent {
@@ -601,7 +632,7 @@ impl BarPlot {
                 return String::new();
             }
             let k = n - 1 - i as usize;
-            if heading(k) {
+            if self.heading(k) {
                 return String::new();
             }
             cats.get(k).cloned().unwrap_or_default()
@@ -617,6 +648,11 @@ impl BarPlot {
             .label_style(("sans-serif", 14))
             .axis_desc_style(("sans-serif", LABEL_SIZE))
             .draw()?;
+        Ok(())
+    }
+
+    /// The heading rows' names, bold, from the left end of their rows (of `n`).
+    fn draw_headings(&self, chart: &mut XyChart<'_>, n: usize) -> Result<()> {
         let titles = self.headings.iter().filter_map(|&k| {
             let text = self.categories.get(k)?;
             let row = (n - 1 - k) as f64;
@@ -628,42 +664,43 @@ impl BarPlot {
             Some(Text::new(text.clone(), (0.0, row), font))
         });
         chart.draw_series(titles.collect::<Vec<_>>())?;
-        let g = self.groups.len().max(1) as f64;
-        let thick = 0.8 / g;
-        for (k, (label, ci, vals)) in self.groups.iter().enumerate() {
-            let c = color(*ci);
-            let rects = vals.iter().enumerate().filter_map(|(i, v)| {
-                let v = (*v)?;
-                let row = (n - 1 - i) as f64;
-                let top = row + 0.4 - k as f64 * thick;
-                Some(Rectangle::new([(0.0, top), (v, top - thick * 0.9)], c.filled()))
-            });
-            let a = chart.draw_series(rects.collect::<Vec<_>>())?;
-            if !label.is_empty() {
-                a.label(label)
-                    .legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], c.filled()));
-            }
-            // Value at the bar's end.
-            let texts = vals.iter().enumerate().filter_map(|(i, v)| {
-                let v = (*v)?;
-                let row = (n - 1 - i) as f64;
-                let mid = row + 0.4 - (k as f64 + 0.45) * thick;
-                let text = bar_text(v, percent, max);
-                let v = if v.abs() < 1e-9 * max { 0.0 } else { v };
-                Some(Text::new(
-                    text,
-                    (v, mid),
-                    ("sans-serif", 13)
-                        .into_font()
-                        .color(&BLACK)
-                        .pos(Pos::new(HPos::Left, VPos::Center)),
-                ))
-            });
-            chart.draw_series(texts.collect::<Vec<_>>())?;
+        Ok(())
+    }
+
+    /// Group `k`'s bars (each `thick` high, in its place within the rows of `n`), its legend entry
+    /// when it has a label, and each bar's value at its end (on an axis up to `max`).
+    fn draw_group(&self, chart: &mut XyChart<'_>, k: usize, n: usize, thick: f64, max: f64) -> Result<()> {
+        let (label, ci, vals) = &self.groups[k];
+        let percent = self.percent;
+        let c = color(*ci);
+        let rects = vals.iter().enumerate().filter_map(|(i, v)| {
+            let v = (*v)?;
+            let row = (n - 1 - i) as f64;
+            let top = row + 0.4 - k as f64 * thick;
+            Some(Rectangle::new([(0.0, top), (v, top - thick * 0.9)], c.filled()))
+        });
+        let a = chart.draw_series(rects.collect::<Vec<_>>())?;
+        if !label.is_empty() {
+            a.label(label)
+                .legend(move |(px, py)| Rectangle::new([(px, py - 5), (px + 16, py + 5)], c.filled()));
         }
-        if self.groups.iter().any(|g| !g.0.is_empty()) {
-            draw_legend(&mut chart, self.legend_corner())?;
-        }
+        // Value at the bar's end.
+        let texts = vals.iter().enumerate().filter_map(|(i, v)| {
+            let v = (*v)?;
+            let row = (n - 1 - i) as f64;
+            let mid = row + 0.4 - (k as f64 + 0.45) * thick;
+            let text = bar_text(v, percent, max);
+            let v = if v.abs() < 1e-9 * max { 0.0 } else { v };
+            Some(Text::new(
+                text,
+                (v, mid),
+                ("sans-serif", 13)
+                    .into_font()
+                    .color(&BLACK)
+                    .pos(Pos::new(HPos::Left, VPos::Center)),
+            ))
+        });
+        chart.draw_series(texts.collect::<Vec<_>>())?;
         Ok(())
     }
 }

@@ -29,6 +29,9 @@ const RETRY_CLASSES: [(&str, OutcomeClass); 6] = [
 /// The paper checks each response surface at 5 random points.
 const DEFAULT_CHECK_RUNS: usize = 5;
 
+/// A solver's templates, its copied files, and the names they all get in the run directory.
+type Inputs = (Vec<Template>, Vec<CopiedFile>, Vec<PathBuf>);
+
 impl Checker<'_> {
     /// `response`, `sampling` and `surrogate` without `solver` are a mistake, not silently ignored.
     pub(super) fn no_solver_keys(&self, sim: &SimulationFile) -> Result<(), InputError> {
@@ -82,17 +85,7 @@ impl Checker<'_> {
         // `lsdyna` and `openradioss` both run an LS-DYNA deck and read a crush force.
         let lsdyna = adapter == "lsdyna" || adapter == "openradioss";
         let openradioss = self.openradioss(&adapter, solver)?;
-        let mut outputs: Vec<PathBuf> = Vec::new();
-        let templates = spec
-            .templates
-            .iter()
-            .map(|t| self.template(t, &mut outputs))
-            .collect::<Result<Vec<_>, _>>()?;
-        let files = spec
-            .files
-            .iter()
-            .map(|f| self.copied(f, &mut outputs))
-            .collect::<Result<Vec<_>, _>>()?;
+        let (templates, files, outputs) = self.inputs(spec)?;
         let command = match &openradioss {
             Some(settings) => {
                 let deck = self.main_deck(solver, &templates)?;
@@ -102,14 +95,7 @@ impl Checker<'_> {
         };
         let (timeout, retry) = self.limits(spec)?;
         let Some(response) = &sim.response else {
-            let want = if lsdyna {
-                format!(
-                    "an `{adapter}` solver needs `simulation.response: {{kind: crush_force, window: [5, 60], node: ...}}`"
-                )
-            } else {
-                "a solver simulation needs `simulation.response: {file, regex}`".to_string()
-            };
-            return Err(self.at_key("solver", solver, want));
+            return Err(self.missing_response(solver, &adapter, lsdyna));
         };
         // `calculix`, `job`, `response.dat`, `slurm`: see load_cluster.rs.
         let cluster = self.cluster_keys(&adapter, solver, response, &outputs)?;
@@ -155,6 +141,36 @@ impl Checker<'_> {
                 .unwrap_or_default(),
             openradioss,
         })
+    }
+
+    /// The solver's templates and copied files, read and checked in that order, with the names
+    /// they get in the run directory (each name once).
+    fn inputs(&self, spec: &SolverFile) -> Result<Inputs, InputError> {
+        let mut outputs: Vec<PathBuf> = Vec::new();
+        let templates = spec
+            .templates
+            .iter()
+            .map(|t| self.template(t, &mut outputs))
+            .collect::<Result<Vec<_>, _>>()?;
+        let files = spec
+            .files
+            .iter()
+            .map(|f| self.copied(f, &mut outputs))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((templates, files, outputs))
+    }
+
+    /// The error at `solver` when `simulation.response` is missing: what an LS-DYNA deck's crush
+    /// force (`lsdyna`, `openradioss`) or any other solver's response file needs.
+    fn missing_response(&self, solver: &Spanned<SolverFile>, adapter: &str, lsdyna: bool) -> InputError {
+        let want = if lsdyna {
+            format!(
+                "an `{adapter}` solver needs `simulation.response: {{kind: crush_force, window: [5, 60], node: ...}}`"
+            )
+        } else {
+            "a solver simulation needs `simulation.response: {file, regex}`".to_string()
+        };
+        self.at_key("solver", solver, want)
     }
 
     /// The first template's output: the main deck of an `openradioss` run.
@@ -698,61 +714,100 @@ impl Checker<'_> {
                 "`method: sequential` needs no `check_runs`: each design's latest runs check its emulator",
             ));
         }
-        let initial = match &spec.initial {
-            Some(n) if n.value < surrogate.min_samples(p) => {
-                return Err(self.at(
-                    n,
-                    format!(
-                        "{} initial samples per design are too few for a {} surrogate over {p} parameter(s): it needs \
-                         at least {}",
-                        n.value,
-                        surrogate.key(),
-                        surrogate.min_samples(p)
-                    ),
-                ));
-            }
-            Some(n) => n.value,
-            None => 0,
-        };
+        let initial = self.sequential_initial(spec, surrogate, p)?;
         if let Some(b) = spec.batch.as_ref().filter(|b| b.value == 0) {
             return Err(self.at(b, "`sampling.batch` must be at least 1"));
         }
         if let Some(b) = spec.budget.as_ref().filter(|b| b.value == 0) {
             return Err(self.at(b, "`sampling.budget` must be at least 1"));
         }
-        let tolerance = match &spec.tolerance {
-            Some(t) if !(t.value.is_finite() && t.value > 0.0) => {
-                return Err(self.at(
-                    t,
-                    "`sampling.tolerance` is a positive fraction of the tests' noise, e.g. 0.5",
-                ));
-            }
-            Some(t) => t.value,
-            None => crate::study::solver::DEFAULT_TOLERANCE,
+        let tolerance = self.sequential_tolerance(spec)?;
+        let replaces = spec
+            .replaces
+            .as_ref()
+            .map(|node| self.replaced_design(node, surrogate, p))
+            .transpose()?;
+        let across_designs = self.one_emulator_across(spec, surrogate)?;
+        Ok(Sampling {
+            method: SamplingMethod::Sequential,
+            count: initial,
+            seed: spec.seed,
+            check_runs: 0,
+            sequential: Some(crate::study::solver::Sequential {
+                batch: spec.batch.as_ref().map(|b| b.value),
+                budget: spec.budget.as_ref().map_or(0, |b| b.value),
+                tolerance,
+                replaces,
+                across_designs,
+            }),
+            surrogate: None,
+        })
+    }
+
+    /// `sampling.initial`: the first samples per design, at least the surrogate's fewest; 0 when not
+    /// given (the plan sets the default).
+    fn sequential_initial(&self, spec: &SamplingFile, surrogate: SurrogateKind, p: usize) -> Result<usize, InputError> {
+        match &spec.initial {
+            Some(n) if n.value < surrogate.min_samples(p) => Err(self.at(
+                n,
+                format!(
+                    "{} initial samples per design are too few for a {} surrogate over {p} parameter(s): it needs \
+                     at least {}",
+                    n.value,
+                    surrogate.key(),
+                    surrogate.min_samples(p)
+                ),
+            )),
+            Some(n) => Ok(n.value),
+            None => Ok(0),
+        }
+    }
+
+    /// `sampling.tolerance`: a positive fraction of the tests' noise (default
+    /// [`crate::study::solver::DEFAULT_TOLERANCE`]).
+    fn sequential_tolerance(&self, spec: &SamplingFile) -> Result<f64, InputError> {
+        match &spec.tolerance {
+            Some(t) if !(t.value.is_finite() && t.value > 0.0) => Err(self.at(
+                t,
+                "`sampling.tolerance` is a positive fraction of the tests' noise, e.g. 0.5",
+            )),
+            Some(t) => Ok(t.value),
+            None => Ok(crate::study::solver::DEFAULT_TOLERANCE),
+        }
+    }
+
+    /// `sampling.replaces`: the fixed design (`lhs` or `grid`) the sequence replaces, checked as a
+    /// sampling of its own with its own `surrogate` (the study's when not given); the returned
+    /// sampling keeps that surrogate only when it was given.
+    fn replaced_design(
+        &self,
+        node: &Spanned<Box<SamplingFile>>,
+        surrogate: SurrogateKind,
+        p: usize,
+    ) -> Result<Box<Sampling>, InputError> {
+        if node.value.method.value == "sequential" {
+            return Err(self.at(
+                node,
+                "`sampling.replaces` names a fixed design: `method: lhs` or `grid`, not `sequential`",
+            ));
+        }
+        let own = match &node.value.surrogate {
+            Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
+                self.at(
+                    s,
+                    format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value),
+                )
+            })?,
+            None => surrogate,
         };
-        let replaces = match &spec.replaces {
-            Some(node) if node.value.method.value == "sequential" => {
-                return Err(self.at(
-                    node,
-                    "`sampling.replaces` names a fixed design: `method: lhs` or `grid`, not `sequential`",
-                ));
-            }
-            Some(node) => {
-                let own = match &node.value.surrogate {
-                    Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
-                        self.at(
-                            s,
-                            format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value),
-                        )
-                    })?,
-                    None => surrogate,
-                };
-                let mut fixed = self.sampling_with(&node.value, own, p)?;
-                fixed.surrogate = node.value.surrogate.is_some().then_some(own);
-                Some(Box::new(fixed))
-            }
-            None => None,
-        };
+        let mut fixed = self.sampling_with(&node.value, own, p)?;
+        fixed.surrogate = node.value.surrogate.is_some().then_some(own);
+        Ok(Box::new(fixed))
+    }
+
+    /// `sampling.across_designs` (default false); true needs `surrogate: gp`, the one emulator that
+    /// is fitted across the designs.
+    fn one_emulator_across(&self, spec: &SamplingFile, surrogate: SurrogateKind) -> Result<bool, InputError> {
         let across_designs = spec.across_designs.as_ref().is_some_and(|a| a.value);
         if let Some(a) = spec
             .across_designs
@@ -768,19 +823,6 @@ impl Checker<'_> {
                 ),
             ));
         }
-        Ok(Sampling {
-            method: SamplingMethod::Sequential,
-            count: initial,
-            seed: spec.seed,
-            check_runs: 0,
-            sequential: Some(crate::study::solver::Sequential {
-                batch: spec.batch.as_ref().map(|b| b.value),
-                budget: spec.budget.as_ref().map_or(0, |b| b.value),
-                tolerance,
-                replaces,
-                across_designs,
-            }),
-            surrogate: None,
-        })
+        Ok(across_designs)
     }
 }
