@@ -265,6 +265,7 @@ fn decided(w: &Whitening, d: &super::Diagnosis) -> Option<(String, f64)> {
 }
 
 /// Everything the diagnosis on curves needs.
+#[derive(Clone)]
 pub struct CurveInputs<'a> {
     pub designs: Vec<CurveDesign>,
     pub spec: FeatureSpec,
@@ -790,6 +791,9 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
 /// The specimens' whitening with the curve emulator's own error counted (its check runs), at least
 /// at the settings' floor.
 fn with_emulator_error(whitening: Whitening, ci: &CurveInputs) -> Whitening {
+    if !ci.settings.emulator_counted {
+        return whitening;
+    }
     let floor = ci.settings.emulator_floor;
     match emulator_error(&whitening, &ci.spec, &ci.checks) {
         Some(e) => whitening.with_emulator(&ci.designs, e, floor),

@@ -35,6 +35,7 @@ pub mod extension;
 pub mod features;
 pub mod joint;
 pub mod lack_of_fit;
+pub mod confirm;
 pub mod levels;
 pub mod library;
 pub mod limits;
@@ -146,6 +147,10 @@ pub struct Settings {
     /// this share of that noise's variance (0: only what was measured). A sequential study's loop
     /// judges its decision with the error at its tolerance's worst case.
     pub emulator_floor: f64,
+    /// Count the simulation's own error (the emulators' error: `Inputs::emulator_variance`, a curve
+    /// emulator's check runs, the floor) in the noise. Off: the tests' noise alone, the decision a
+    /// solver study compares with the counted one to see whether the emulators decide it.
+    pub emulator_counted: bool,
 }
 
 impl Default for Settings {
@@ -159,11 +164,13 @@ impl Default for Settings {
             search_points: 4000,
             search_without_detection: false,
             emulator_floor: 0.0,
+            emulator_counted: true,
         }
     }
 }
 
 /// Everything the diagnosis needs.
+#[derive(Clone)]
 pub struct Inputs<'a> {
     /// Every tested design with its role (training and validation).
     pub observations: Vec<Observation>,
@@ -345,6 +352,14 @@ pub struct Diagnosis {
     /// With curves: the features read and where along the stroke the model errs.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub features: Option<features::FeaturesReport>,
+    /// The verdict's models run by the solver at their fitted parameters ([`confirm`]); empty for a
+    /// closed form, which has no emulator to confirm.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub confirmation: Vec<confirm::Confirmation>,
+    /// The decision with the tests' noise alone and with the emulators' error counted, and which
+    /// the solver confirmed (absent for a closed form).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub emulator: Option<confirm::EmulatorReading>,
     /// How the models the loop calibrated changed the screening's verdict (absent without a loop).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub after_loop: Option<after_loop::AfterLoop>,
@@ -692,7 +707,8 @@ impl<'a> Context<'a> {
         }
         // The emulator's error floor, where the noise is the replicates' (a caller's noise, the curve
         // features', carries it already): the variance of each mean grows by that share.
-        let floor = if inputs.noise.is_none() {
+        let counted = inputs.settings.emulator_counted;
+        let floor = if inputs.noise.is_none() && counted {
             inputs.settings.emulator_floor
         } else {
             0.0
@@ -706,7 +722,10 @@ impl<'a> Context<'a> {
                     return (n / (1.0 + floor)).sqrt();
                 };
                 let test = nm.sigma_at(o.mean).powi(2) / n;
-                let emulator = inputs.emulator_variance.get(i).copied().unwrap_or(0.0);
+                let emulator = match counted {
+                    true => inputs.emulator_variance.get(i).copied().unwrap_or(0.0),
+                    false => 0.0,
+                };
                 1.0 / (test * (1.0 + floor) + emulator).sqrt().max(f64::MIN_POSITIVE)
             })
             .collect();
@@ -1058,6 +1077,8 @@ impl<'a> Evidence<'a> {
             extensions: Vec::new(),
             next_test,
             features: None,
+            confirmation: Vec::new(),
+            emulator: None,
             after_loop: after,
             discovered: search.map(|s| s.discovered),
             summary: words.summary,

@@ -81,7 +81,10 @@ impl<'e> Explanation<'e> {
         names.extend((0..model.fit.gamma.len()).map(|k| format!("γ{k}")));
         let code = (0..cx.data.designs.len())
             .map(|i| {
-                let v = cx.inputs.emulator_variance.get(i).copied().unwrap_or(0.0);
+                let v = match cx.inputs.settings.emulator_counted {
+                    true => cx.inputs.emulator_variance.get(i).copied().unwrap_or(0.0),
+                    false => 0.0,
+                };
                 let y = cx.data.means[i];
                 let rel = if y != 0.0 && v > 0.0 { v / (y * y) } else { 0.0 };
                 (cx.data.designs[i].clone(), rel)

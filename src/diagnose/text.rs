@@ -110,6 +110,88 @@ impl super::Diagnosis {
     }
 }
 
+impl super::Diagnosis {
+    /// One line of evidence per model the solver confirmed at its fitted parameters, after the
+    /// verdict's own evidence.
+    pub(crate) fn worded_confirmation(mut self) -> super::Diagnosis {
+        let lines: Vec<String> = self.confirmation.iter().map(confirmation_line).collect();
+        self.evidence.extend(lines);
+        self.resummarise();
+        self
+    }
+}
+
+/// What the solver showed of one model at its fitted parameters.
+fn confirmation_line(c: &super::confirm::Confirmation) -> String {
+    let model = match c.model.as_str() {
+        super::confirm::UNCORRECTED => "the uncorrected simulation".to_string(),
+        name => format!("the model with '{name}'"),
+    };
+    let shown = match &c.lack_of_fit {
+        Some(l) if l.fits => format!("fits the tests within their scatter alone ({})", lack_of_fit(l)),
+        Some(l) => format!("misses the tests beyond their scatter alone ({})", lack_of_fit(l)),
+        None if c.runs.iter().any(|r| r.solver.is_none()) => "cannot be judged: a run failed".to_string(),
+        None => "cannot be judged: the tests give no noise to judge against".to_string(),
+    };
+    let miss = c.emulator_miss.map_or(String::new(), |m| {
+        format!("; the emulators were off by up to {} of the tests' noise of the mean there", num(m))
+    });
+    format!(
+        "Solver runs at the fitted parameters of {model} ({}): it {shown}{miss}.",
+        params(&c.at)
+    )
+}
+
+/// The verdict when the emulators' error decides it: the noise-alone diagnosis as the record,
+/// worded from both decisions and from what the solver showed at the fitted parameters, with the
+/// runs that would decide.
+pub(crate) fn emulator_limited(
+    noise_alone: &super::Diagnosis,
+    counted: &super::Diagnosis,
+    confirmations: &[super::confirm::Confirmation],
+) -> super::Diagnosis {
+    let mut d = noise_alone.clone();
+    let short = |x: &super::Diagnosis| match &x.cause {
+        Some(c) => format!("{} ('{c}')", x.verdict.words()),
+        None => x.verdict.words().to_string(),
+    };
+    let shown: Vec<String> = confirmations
+        .iter()
+        .filter_map(|c| {
+            let l = c.lack_of_fit.as_ref()?;
+            let what = if c.model == super::confirm::UNCORRECTED { "the uncorrected simulation".to_string() } else { format!("the model with '{}'", c.model) };
+            Some(format!("{what} {} the tests", if l.fits { "fits" } else { "misses" }))
+        })
+        .collect();
+    let solver = match shown.is_empty() {
+        true => "no solver run at the fitted parameters could be judged".to_string(),
+        false => format!("the solver at the fitted parameters says {}", shown.join(" and ")),
+    };
+    d.headline = format!(
+        "Undecided: the emulators' error, not the tests, decides: with the tests' scatter alone, {}; with the \
+         emulators' error counted, {}; {solver}, which confirms neither.",
+        short(noise_alone),
+        short(counted)
+    );
+    let at = confirmations
+        .iter()
+        .find(|c| c.model == super::confirm::UNCORRECTED)
+        .map_or(String::new(), |c| format!(" around {}", params(&c.at)));
+    d.action = format!(
+        "Do not take either model's parameters as the answer yet: more solver runs{at} at the tested designs \
+         (with `sampling: sequential`, a larger `sampling.budget`; with a fixed design, more samples) make the \
+         emulators good enough to decide."
+    );
+    d.verdict = super::verdict::Verdict::EmulatorLimited;
+    let mut leading = noise_alone.leading.clone();
+    leading.extend(counted.leading.iter().filter(|l| !noise_alone.leading.contains(l)).cloned());
+    d.leading = leading;
+    d.cause = None;
+    d.partial = None;
+    d.extended = None;
+    d
+}
+
 /// The verdict, the action, the evidence one per line, then the limits: the terminal's and the
 /// report's text.
 pub(crate) fn summary(headline: &str, action: &str, evidence: &[String], limits: &[String]) -> String {
@@ -168,6 +250,8 @@ pub(crate) fn headline(f: &Facts) -> String {
         Verdict::PartlyExplained => partly_explained(f),
         Verdict::Unexplained => unexplained(f),
         Verdict::TooFewTests => too_few_reason(f),
+        // Decided from two diagnoses and the solver's runs, not from one's facts: [`emulator_limited`].
+        Verdict::EmulatorLimited => "the emulators' error decides".to_string(),
     };
     format!("{}: {detail}.", first_up(words))
 }

@@ -27,6 +27,10 @@ pub enum Verdict {
     PartlyExplained,
     Unexplained,
     TooFewTests,
+    /// The emulators' error, not the tests, decides: the decision with the tests' noise alone and
+    /// the one with the emulators' error counted differ, or the solver's runs at the fitted
+    /// parameters confirm neither ([`super::confirm::settle`]).
+    EmulatorLimited,
 }
 
 impl Verdict {
@@ -39,6 +43,7 @@ impl Verdict {
             Verdict::PartlyExplained => "model error: partly explained",
             Verdict::Unexplained => "model error: no listed cause explains it",
             Verdict::TooFewTests => "too few tests to tell",
+            Verdict::EmulatorLimited => "undecided: the emulators' error, not the tests, decides",
         }
     }
 }

@@ -39,7 +39,7 @@ pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
     let names: Vec<&String> = match diagnosis.verdict {
         Verdict::CauseNamed => diagnosis.cause.iter().collect(),
         Verdict::PartlyExplained | Verdict::CannotTellApart => diagnosis.leading.iter().collect(),
-        Verdict::NoModelError | Verdict::Unexplained | Verdict::TooFewTests => Vec::new(),
+        Verdict::NoModelError | Verdict::Unexplained | Verdict::TooFewTests | Verdict::EmulatorLimited => Vec::new(),
     };
     let hypotheses = &study.diagnosis.hypotheses;
     names

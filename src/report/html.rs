@@ -1258,6 +1258,13 @@ fn deciding_figure(dg: &crate::diagnose::Diagnosis) -> Option<String> {
             Some(format!("the open explanations' weights: {}", weights.join(", ")))
         }
         Verdict::TooFewTests => None,
+        Verdict::EmulatorLimited => dg.emulator.as_ref().map(|e| {
+            format!(
+                "with the tests' scatter alone: {}; with the emulators' error counted: {}",
+                e.noise_alone.verdict.words(),
+                e.counted.verdict.words()
+            )
+        }),
     }
 }
 

@@ -1,0 +1,387 @@
+//! Confirmation: a verdict's models judged on solver runs at their fitted parameters, not on their
+//! emulators.
+//!
+//! A decision reads the simulation through emulators; where their error is as large as the tests'
+//! noise, a misfit can be hidden by it (counted as noise) or made up by it (not counted). So each
+//! model a verdict rests on is run by the solver at its fitted point, one run per tested design,
+//! and its lack of fit is judged on those runs' outputs against the tests' noise alone:
+//!
+//! 1. The solver's value at each observation, plus the model's own correction where the model is
+//!    more than the simulation at that point (a term hypothesis adds γ·g(d) to it).
+//! 2. **The bridge.** The fitted point came from the emulators; the solver's own best fit lies a
+//!    small step away. The parameters are refitted locally, the solver's values moved along the
+//!    emulator's slope J = ∂y/∂θ at the point: δ = (J_tᵀ W J_t)⁻¹ J_tᵀ W r_t over the training
+//!    observations (W: the tests' weights, count/σ²). The emulators' error enters only through the
+//!    slope, a second-order effect beside their error in the value.
+//! 3. The lack of fit both ways ([`LackOfFit`]): the training residuals after the step, divided by
+//!    √(1 − h_ii); the validation observations by their predictive z, whose variance adds the
+//!    step's, J_v (J_tᵀ W J_t)⁻¹ J_vᵀ.
+
+use indexmap::IndexMap;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use super::{Inputs, LackOfFit, NoiseModel, Role};
+
+/// One model of a verdict, run by the solver at its fitted point (`diagnosis.confirmation[]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Confirmation {
+    /// `uncorrected`, or the hypothesis whose model it is.
+    pub model: String,
+    /// The point the solver ran at: the parameters (and an extension's variables), by name.
+    pub at: IndexMap<String, f64>,
+    /// Per observation: the solver's value, the emulator's at the same point, the tests' mean.
+    pub runs: Vec<ConfirmedRun>,
+    /// The model's lack of fit on the solver's values (after the bridge), the tests' noise alone
+    /// (`None`: a run failed, or the tests have no noise to judge against).
+    pub lack_of_fit: Option<LackOfFit>,
+    /// How far the bridge moved each variable, as a fraction of its range.
+    pub step: IndexMap<String, f64>,
+    /// The largest |solver − emulator| at the runs, in units of the tests' noise of the mean:
+    /// what the decision's emulators got wrong where it read them.
+    pub emulator_miss: Option<f64>,
+}
+
+/// One observation of a confirmation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ConfirmedRun {
+    pub observation: String,
+    /// The solver's value (with the model's own correction); `None`: the run failed.
+    pub solver: Option<f64>,
+    pub emulated: f64,
+    pub measured: f64,
+}
+
+/// What a model is, for its confirmation: its name, its fitted point (`inputs.parameter_names`),
+/// and per observation the correction the model adds to the simulation at that point.
+pub struct Confirming<'a> {
+    pub name: String,
+    pub inputs: &'a Inputs<'a>,
+    pub point: Vec<f64>,
+    pub correction: Vec<f64>,
+}
+
+/// Judges model `m` on the solver's values at its fitted point (`solver`, one per observation of
+/// its inputs), against the tests' `noise` alone, both tests at `level`.
+pub fn confirm(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, level: f64) -> Confirmation {
+    let inputs = m.inputs;
+    let obs = &inputs.observations;
+    let theta = &m.point;
+    let emulated: Vec<f64> = obs.iter().map(|o| inputs.model.predict(&inputs.point(o), theta)).collect();
+    let values: Vec<Option<f64>> = solver
+        .iter()
+        .zip(&m.correction)
+        .map(|(s, c)| s.map(|s| s + c).filter(|v| v.is_finite()))
+        .collect();
+    let runs = obs
+        .iter()
+        .zip(&values)
+        .zip(&emulated)
+        .map(|((o, v), e)| ConfirmedRun {
+            observation: o.name.clone(),
+            solver: *v,
+            emulated: *e,
+            measured: o.mean,
+        })
+        .collect();
+    let sd: Vec<f64> = obs
+        .iter()
+        .map(|o| noise.sigma_at(o.mean) / (o.count.max(1) as f64).sqrt())
+        .collect();
+    let miss = values
+        .iter()
+        .zip(&emulated)
+        .zip(&sd)
+        .filter_map(|((v, e), s)| Some((v.as_ref()? - e).abs() / s))
+        .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
+    let bridged = values
+        .iter()
+        .all(Option::is_some)
+        .then(|| bridge(m, &values.iter().map(|v| v.unwrap_or(f64::NAN)).collect::<Vec<_>>(), &sd))
+        .flatten();
+    let names = &inputs.parameter_names;
+    let width = inputs.parameter_bounds.width();
+    Confirmation {
+        model: m.name.clone(),
+        at: names.iter().cloned().zip(theta.iter().copied()).collect(),
+        runs,
+        lack_of_fit: bridged.as_ref().and_then(|b| lack_of_fit(obs, b, noise, level)),
+        step: bridged
+            .as_ref()
+            .map(|b| names.iter().cloned().zip(b.step.iter().zip(width.iter()).map(|(d, w)| d / w)).collect())
+            .unwrap_or_default(),
+        emulator_miss: miss,
+    }
+}
+
+/// The solver's values after the local refit: residual and standard error per observation, the
+/// training leverages, and the step.
+struct Bridged {
+    residual: Vec<f64>,
+    /// The standard error of each residual: √(σ²/n (1 − h)) in training, √(σ²/n + J Σ Jᵀ) in
+    /// validation.
+    se: Vec<f64>,
+    step: Vec<f64>,
+}
+
+/// Step 2 of the module notes.
+fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridged> {
+    let obs = &m.inputs.observations;
+    let j = slope(m);
+    let r = DVector::from_iterator(obs.len(), obs.iter().zip(values).map(|(o, v)| o.mean - v));
+    let train: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Training).collect();
+    let p = m.point.len();
+    let w = |i: usize| 1.0 / (sd[i] * sd[i]);
+    let jt = DMatrix::from_fn(train.len(), p, |a, b| j[(train[a], b)] * w(train[a]).sqrt());
+    let rt = DVector::from_fn(train.len(), |a, _| r[train[a]] * w(train[a]).sqrt());
+    let info = jt.transpose() * &jt;
+    // Parameters the training tests cannot move (a flat slope) are held.
+    let cov = info.clone().pseudo_inverse(1e-12 * info.norm().max(f64::MIN_POSITIVE)).ok()?;
+    let step = &cov * jt.transpose() * &rt;
+    let residual: Vec<f64> = (0..obs.len())
+        .map(|i| r[i] - (j.row(i) * &step)[0])
+        .collect();
+    let se = (0..obs.len())
+        .map(|i| {
+            let ji = j.row(i);
+            let spread = (&ji * &cov * ji.transpose())[0];
+            match obs[i].role {
+                Role::Training => (sd[i] * sd[i] * (1.0 - spread * w(i)).max(0.0)).sqrt(),
+                Role::Validation => (sd[i] * sd[i] + spread).sqrt(),
+            }
+        })
+        .collect();
+    Some(Bridged {
+        residual,
+        se,
+        step: step.iter().copied().collect(),
+    })
+}
+
+/// The emulator's slope ∂y/∂θ at every observation, by central differences of 1e-4 of each
+/// variable's range (one row per observation).
+fn slope(m: &Confirming) -> DMatrix<f64> {
+    let inputs = m.inputs;
+    let obs = &inputs.observations;
+    let width = inputs.parameter_bounds.width();
+    let p = m.point.len();
+    DMatrix::from_fn(obs.len(), p, |i, k| {
+        let h = 1e-4 * width[k];
+        let (mut up, mut dn) = (m.point.clone(), m.point.clone());
+        up[k] += h;
+        dn[k] -= h;
+        let at = inputs.point(&obs[i]);
+        (inputs.model.predict(&at, &up) - inputs.model.predict(&at, &dn)) / (2.0 * h)
+    })
+}
+
+/// Step 3: both lack-of-fit tests on the bridged residuals (`None` without a noise to judge
+/// against, or no degrees of freedom left).
+fn lack_of_fit(obs: &[super::Observation], b: &Bridged, noise: &NoiseModel, level: f64) -> Option<LackOfFit> {
+    if noise.dof == 0 {
+        return None;
+    }
+    let p = b.step.len();
+    let dof = obs.len().checked_sub(p).filter(|&d| d > 0)?;
+    let z: Vec<(String, f64)> = obs
+        .iter()
+        .zip(b.residual.iter().zip(&b.se))
+        .map(|(o, (r, se))| (o.name.clone(), if *se > 0.0 { r / se } else { f64::NAN }))
+        .collect();
+    let chi2: f64 = z.iter().map(|(_, v)| v).filter(|v| v.is_finite()).map(|v| v * v).sum();
+    Some(LackOfFit::new(chi2, dof, noise.dof, &z, level))
+}
+
+/// What a verdict claims of a model, for the solver to confirm: that it fits the tests, or that
+/// it misses them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Claim {
+    Fits,
+    Misses,
+}
+
+/// The claims a diagnosis makes ((model, claim), the model `uncorrected` or a hypothesis's name):
+/// no model error claims the uncorrected simulation fits; a named cause, that its model fits;
+/// model error found by the uncorrected model's lack of fit (a cause only partly explaining,
+/// explanations it cannot tell apart, none), that the simulation misses.
+pub fn claims(d: &super::Diagnosis) -> Vec<(String, Claim)> {
+    use super::verdict::Verdict;
+    let by_lack_of_fit = d.lack_of_fit.as_ref().is_some_and(LackOfFit::rejects);
+    match (d.verdict, &d.cause) {
+        (Verdict::NoModelError, _) => vec![(UNCORRECTED.into(), Claim::Fits)],
+        (Verdict::CauseNamed, Some(c)) => vec![(c.clone(), Claim::Fits)],
+        (Verdict::PartlyExplained | Verdict::CannotTellApart | Verdict::Unexplained, _) if by_lack_of_fit => {
+            vec![(UNCORRECTED.into(), Claim::Misses)]
+        }
+        _ => Vec::new(),
+    }
+}
+
+/// The name of the uncorrected simulation's confirmation.
+pub const UNCORRECTED: &str = "uncorrected";
+
+/// Whether the solver confirms `claim` of `model` (`None`: no confirmation of it could be judged).
+fn holds(confirmations: &[Confirmation], model: &str, claim: Claim) -> Option<bool> {
+    let l = confirmations.iter().find(|c| c.model == model)?.lack_of_fit.as_ref()?;
+    Some(match claim {
+        Claim::Fits => l.fits,
+        Claim::Misses => l.rejects(),
+    })
+}
+
+/// How the emulators' error bears on a decision (`diagnosis.emulator`): the decision with the
+/// tests' noise alone and with the emulators' error counted, and which one the solver confirmed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EmulatorReading {
+    pub noise_alone: Decided,
+    pub counted: Decided,
+    /// The two decisions differ: the emulators' error decides between them unless solver runs do.
+    pub differ: bool,
+    /// Which the solver's runs at the fitted parameters confirmed: `noise_alone`, `counted`, or
+    /// none (the verdict is then `emulator_limited`).
+    pub confirmed: Option<String>,
+}
+
+/// A decision as the reading records it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Decided {
+    pub verdict: super::verdict::Verdict,
+    pub cause: Option<String>,
+    pub headline: String,
+    /// The uncorrected simulation's lack of fit in that decision.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub lack_of_fit: Option<LackOfFit>,
+}
+
+impl Decided {
+    fn of(d: &super::Diagnosis) -> Decided {
+        Decided {
+            verdict: d.verdict,
+            cause: d.cause.clone(),
+            headline: d.headline.clone(),
+            lack_of_fit: d.lack_of_fit.clone(),
+        }
+    }
+}
+
+/// The verdict, confirmed by the solver: the decision with the tests' noise alone when its claims
+/// hold on the solver's runs at the fitted parameters, else the decision with the emulators'
+/// error counted when its claims hold, else neither: `emulator_limited`, worded from both.
+pub fn settle(noise_alone: super::Diagnosis, counted: super::Diagnosis, confirmations: Vec<Confirmation>) -> super::Diagnosis {
+    let reading = |confirmed: Option<&str>| EmulatorReading {
+        noise_alone: Decided::of(&noise_alone),
+        counted: Decided::of(&counted),
+        differ: (noise_alone.verdict, &noise_alone.cause) != (counted.verdict, &counted.cause),
+        confirmed: confirmed.map(str::to_string),
+    };
+    let confirmed = |d: &super::Diagnosis| {
+        claims(d)
+            .iter()
+            .all(|(model, claim)| holds(&confirmations, model, *claim) == Some(true))
+    };
+    let (pick, which) = if confirmed(&noise_alone) {
+        (Some(&noise_alone), Some("noise_alone"))
+    } else if confirmed(&counted) {
+        (Some(&counted), Some("counted"))
+    } else {
+        (None, None)
+    };
+    let reading = reading(which);
+    let mut d = match pick {
+        Some(d) => d.clone(),
+        None => super::text::emulator_limited(&noise_alone, &counted, &confirmations),
+    };
+    d.confirmation = confirmations;
+    d.emulator = Some(reading);
+    d.worded_confirmation()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::base::Bounds;
+    use crate::diagnose::Observation;
+
+    /// Tests of y = a/h³ at five depths (three replicates each, 0.3 % noise); a model of that form.
+    fn beam(kr: f64) -> (Vec<Observation>, NoiseModel) {
+        let truth = |h: f64| 600.0 / h.powi(3) * (1.0 + kr * 3.0 / h);
+        let obs: Vec<Observation> = [7.0, 8.0, 9.0, 11.0, 13.0]
+            .iter()
+            .enumerate()
+            .map(|(i, &h)| {
+                let y = truth(h);
+                let reps = [y * (1.0 - 0.003), y, y * (1.0 + 0.003)];
+                let role = if i < 4 { Role::Training } else { Role::Validation };
+                Observation::from_replicates(format!("h{h}"), vec![h], role, &reps)
+            })
+            .collect();
+        let noise = crate::diagnose::noise::from_replicates(&obs, 0.01).expect("replicates");
+        (obs, noise)
+    }
+
+    fn inputs<'a>(observations: Vec<Observation>, model: &'a dyn crate::emulate::Model) -> Inputs<'a> {
+        Inputs {
+            observations,
+            model,
+            parameter_names: vec!["a".into()],
+            parameter_bounds: Bounds::new(vec![300.0], vec![900.0]),
+            design_names: vec!["h".into()],
+            design_bounds: Bounds::new(vec![7.0], vec![13.0]),
+            hypotheses: Vec::new(),
+            settings: Default::default(),
+            discover: false,
+            library: Default::default(),
+            outputs: Vec::new(),
+            built_ins: Some(Vec::new()),
+            noise: None,
+            emulator_variance: Vec::new(),
+            relative_error: None,
+        }
+    }
+
+    /// The solver that is the model fits, even from a point the emulators got a little wrong; the
+    /// solver that misses by a trend in h does not, whatever the emulator said.
+    #[test]
+    fn a_model_fits_on_its_solver_runs_exactly_when_the_solver_fits() {
+        let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
+        let (obs, noise) = beam(0.0);
+        let i = inputs(obs.clone(), &model);
+        // Fitted a little off (an emulator's error of 0.2 %).
+        let m = Confirming {
+            name: "uncorrected".into(),
+            inputs: &i,
+            point: vec![601.2],
+            correction: vec![0.0; obs.len()],
+        };
+        let solver: Vec<Option<f64>> = obs.iter().map(|o| Some(model(&o.design, &[601.2]))).collect();
+        let c = confirm(&m, &solver, &noise, 0.01);
+        let l = c.lack_of_fit.expect("a test");
+        assert!(l.fits, "{l:?}");
+        assert!((c.step["a"] * 600.0 + 1.2).abs() < 1e-3, "the bridge steps back to 600: {:?}", c.step);
+
+        let (obs, noise) = beam(0.3);
+        let i = inputs(obs.clone(), &model);
+        let m = Confirming { inputs: &i, ..m };
+        let solver: Vec<Option<f64>> = obs.iter().map(|o| Some(model(&o.design, &[601.2]))).collect();
+        let c = confirm(&m, &solver, &noise, 0.01);
+        assert!(c.lack_of_fit.expect("a test").rejects());
+    }
+
+    #[test]
+    fn a_failed_run_leaves_the_model_unconfirmed() {
+        let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
+        let (obs, noise) = beam(0.0);
+        let i = inputs(obs.clone(), &model);
+        let m = Confirming {
+            name: "uncorrected".into(),
+            inputs: &i,
+            point: vec![600.0],
+            correction: vec![0.0; obs.len()],
+        };
+        let mut solver: Vec<Option<f64>> = obs.iter().map(|o| Some(model(&o.design, &[600.0]))).collect();
+        solver[2] = None;
+        let c = confirm(&m, &solver, &noise, 0.01);
+        assert!(c.lack_of_fit.is_none());
+        assert_eq!(c.runs[2].solver, None);
+    }
+}
