@@ -67,7 +67,12 @@ pub fn confirm(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, level
     let inputs = m.inputs;
     let obs = &inputs.observations;
     let theta = &m.point;
-    let emulated: Vec<f64> = obs.iter().map(|o| inputs.model.predict(&inputs.point(o), theta)).collect();
+    // The model's own prediction: the emulator at the point, with the model's correction.
+    let emulated: Vec<f64> = obs
+        .iter()
+        .zip(&m.correction)
+        .map(|(o, c)| inputs.model.predict(&inputs.point(o), theta) + c)
+        .collect();
     let values: Vec<Option<f64>> = solver
         .iter()
         .zip(&m.correction)

@@ -360,6 +360,13 @@ pub struct FeatureModel {
     cache: Memo,
 }
 
+impl FeatureModel {
+    /// A curve's features at a design, whitened as the tests' (`None`: a feature cannot be read).
+    pub fn whiten_curve(&self, design: &[f64], curve: &[f64]) -> Option<DVector<f64>> {
+        self.whitening.whiten(&self.spec, design, curve)
+    }
+}
+
 const CACHE: usize = 200_000;
 
 /// Whitened feature vectors per (design, θ): every output k of a design asks for the same vector,

@@ -37,6 +37,7 @@ pub mod joint;
 pub mod lack_of_fit;
 pub mod confirm;
 pub mod levels;
+pub mod open;
 pub mod library;
 pub mod limits;
 pub mod next_test;
@@ -352,6 +353,9 @@ pub struct Diagnosis {
     /// With curves: the features read and where along the stroke the model errs.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub features: Option<features::FeaturesReport>,
+    /// With no model error: what the tests leave open of each listed hypothesis ([`open`]).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub not_excluded: Vec<open::NotExcluded>,
     /// The verdict's models run by the solver at their fitted parameters ([`confirm`]); empty for a
     /// closed form, which has no emulator to confirm.
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
@@ -1047,7 +1051,16 @@ impl<'a> Evidence<'a> {
         );
         facts.after_loop = after.as_ref();
         let discovered = search.as_ref().map_or(&[][..], |s| s.discovered.evidence.as_slice());
-        let words = text::describe(&facts, discovered);
+        let mut words = text::describe(&facts, discovered);
+        let not_excluded = match decision.verdict {
+            Verdict::NoModelError => {
+                let power = self.cx.inputs.settings.power;
+                open::not_excluded(&candidates, self.noise.dof, &self.cx.levels(), power)
+            }
+            _ => Vec::new(),
+        };
+        words.limits.extend(not_excluded.iter().map(text::not_excluded_line));
+        words.summary = text::summary(&words.headline, &words.action, &words.evidence, &words.limits);
         let name = |who| verdict::name_of(who, &candidates, loop_names);
         // `cause` is the decided cause only; a partial explanation goes to `partial`.
         let (cause, extended, partial) = match (decision.verdict, decision.cause) {
@@ -1077,6 +1090,7 @@ impl<'a> Evidence<'a> {
             extensions: Vec::new(),
             next_test,
             features: None,
+            not_excluded,
             confirmation: Vec::new(),
             emulator: None,
             after_loop: after,

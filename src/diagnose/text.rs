@@ -121,6 +121,30 @@ impl super::Diagnosis {
     }
 }
 
+/// What no model error leaves open of one listed hypothesis, in words.
+pub(crate) fn not_excluded_line(n: &super::open::NotExcluded) -> String {
+    let range = |m: &indexmap::IndexMap<String, [f64; 2]>| {
+        m.iter()
+            .map(|(k, [lo, hi])| format!("{k} in [{}, {}]", num(*lo), num(*hi)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let detect = n
+        .detectable
+        .iter()
+        .map(|(k, v)| format!("{k} = {}", num(*v)))
+        .collect::<Vec<_>>()
+        .join(", ");
+    format!(
+        "'{}' is not excluded by these tests ({}); over that range {}; an effect smaller than {detect} could not \
+         have been detected. A test where it changes the response most, or an independent measurement of the \
+         parameters, would tell.",
+        n.hypothesis,
+        range(&n.amplitude),
+        range(&n.parameters)
+    )
+}
+
 /// What the solver showed of one model at its fitted parameters.
 fn confirmation_line(c: &super::confirm::Confirmation) -> String {
     let model = match c.model.as_str() {

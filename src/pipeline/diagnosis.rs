@@ -16,7 +16,9 @@ use crate::study::{SolverSimulation, Study};
 
 /// A solver study's diagnosis: the screening (the extension hypotheses judged from their runs at
 /// their probe values), then the solver in the loop ([`extend`]) for the hypotheses it leaves
-/// open, then one decision from all of it ([`crate::diagnose::conclude`]).
+/// open, then one decision from all of it ([`crate::diagnose::conclude`]) — made twice, with the
+/// emulators' error counted in the noise and with the tests' noise alone — then confirmed by the
+/// solver at the fitted parameters of the models it rests on ([`super::confirm`]).
 pub(super) fn diagnose_with_solver(
     cx: RunContext,
     runs: &mut SolverRuns,
@@ -25,24 +27,12 @@ pub(super) fn diagnose_with_solver(
 ) -> Result<Result<Diagnosis, CalibrationError>, Error> {
     let study = cx.study;
     let extensions = extension_models(study, runs.sim, &runs.plan, &runs.usable);
-    // With curves, the diagnosis reads their features; else the response.
-    let curve_inputs = stage.map(|s| {
-        let hypotheses = curves::extension_hypotheses(study, &s.extension_fns(), None, None);
-        curves::inputs(study, &s.setting, s.designs.clone(), &s.baseline, hypotheses)
-    });
-    let problem = match feature_problem(curve_inputs.as_ref()) {
-        Ok(p) => p,
+    let read = match Reading::of(study, stage) {
+        Ok(r) => r,
         Err(e) => return Ok(Err(e)),
     };
-    let inputs = match (&problem, &curve_inputs) {
-        (Some(p), Some(ci)) => p.inputs(ci),
-        _ => {
-            let mut inputs = crate::diagnose::inputs_with_extensions(study, &runs.surrogates, &extensions);
-            inputs.emulator_variance = crate::diagnose::emulator_variance(&runs.surrogates, &inputs.observations);
-            inputs
-        }
-    };
-    let screening = match crate::diagnose::diagnose(&inputs) {
+    let inputs = [true, false].map(|counted| read.inputs(counted, study, &runs.surrogates, &extensions));
+    let screening = match crate::diagnose::diagnose(&inputs[0]) {
         Ok(d) => d,
         Err(e) => return Ok(Err(e)),
     };
@@ -52,9 +42,17 @@ pub(super) fn diagnose_with_solver(
     }
     let chosen = extend::chosen(study, &screening);
     if chosen.is_empty() {
-        let (d, residuals) = with_features(study, stage, problem.as_ref(), screening, &[]);
-        runs.residual_curves = residuals;
-        return Ok(Ok(d.worded()));
+        let noise_alone = match crate::diagnose::diagnose(&inputs[1]) {
+            Ok(d) => d,
+            Err(e) => return Ok(Err(e)),
+        };
+        let decided = [(screening, true), (noise_alone, false)].map(|(d, c)| Finished::of(study, stage, read.problem(c), d, &[]));
+        let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&[], &[]));
+        let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
+        let (d, confirmation, residuals) = confirmed(cx, made, decided, subjects, &read, reporter)?;
+        runs.diagnosed.confirmation = confirmation;
+        runs.diagnosed.residual_curves = residuals;
+        return Ok(Ok(d));
     }
     let dirs = runs.executed.output_dirs(runs.sim);
     let after = AfterLoop {
@@ -65,7 +63,6 @@ pub(super) fn diagnose_with_solver(
         dirs: &dirs,
         surrogates: &runs.surrogates,
         stage,
-        inputs: &inputs,
         extensions: &extensions,
     };
     let screened = Screened {
@@ -74,23 +71,131 @@ pub(super) fn diagnose_with_solver(
         rendered: &runs.rendered,
     };
     let store = (&mut runs.executed.store, &mut runs.sequence);
-    let looped = match in_the_loop(cx, &after, &chosen, (screened, store), reporter)? {
+    let looped = match in_the_loop(cx, &after, &inputs, &chosen, (screened, store), reporter)? {
         Ok(l) => l,
         Err(e) => return Ok(Err(e)),
     };
-    let (joint, models, diagnosis, own, loop_curves) = looped;
+    let (joint, models, [counted, noise_alone], [own, own_alone], loop_curves) = looped;
     let records = models
         .iter()
         .zip(&own)
-        .map(|(m, own)| extend::assess(study, m, &diagnosis, own))
+        .map(|(m, own)| extend::assess(study, m, &counted, own))
         .collect::<Result<Vec<_>, _>>()?;
-    for (m, x) in models.into_iter().zip(&records) {
-        runs.extended.push((m, x.parameters.values().copied().collect()));
+    let extended: Vec<(usize, Vec<f64>)> = models
+        .iter()
+        .zip(&records)
+        .map(|(m, x)| (m.hypothesis, x.parameters.values().copied().collect()))
+        .collect();
+    let decided = [(counted, true), (noise_alone, false)]
+        .map(|(d, c)| Finished::of(study, stage, read.problem(c), d.with_extensions(records.clone()), &loop_curves));
+    let readings = super::confirm::loop_readings(study, stage, &models, &loop_curves, [&own, &own_alone])?;
+    let loop_inputs: Vec<crate::diagnose::Inputs> = readings.iter().map(|l| l.inputs()).collect();
+    let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&readings, &loop_inputs));
+    let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
+    let (d, confirmation, residuals) = confirmed(cx, made, decided, subjects, &read, reporter)?;
+    runs.diagnosed.confirmation = confirmation;
+    runs.diagnosed.residual_curves = residuals;
+    for (m, (_, at)) in models.into_iter().zip(extended) {
+        runs.diagnosed.extended.push((m, at));
     }
-    runs.joint = Some(joint);
-    let (diagnosis, residuals) = with_features(study, stage, problem.as_ref(), diagnosis, &loop_curves);
-    runs.residual_curves = residuals;
-    Ok(Ok(diagnosis.with_extensions(records).worded()))
+    runs.diagnosed.joint = Some(joint);
+    Ok(Ok(d))
+}
+
+/// A decision with its words and, with curves, its features and residual curves.
+pub(super) struct Finished {
+    pub diagnosis: Diagnosis,
+    pub residuals: Vec<values::ResidualCurves>,
+}
+
+impl Finished {
+    fn of(
+        study: &Study,
+        stage: Option<&curves::CurveStage>,
+        problem: Option<&crate::diagnose::features::FeatureProblem>,
+        d: Diagnosis,
+        loops: &[(usize, crate::emulate::functional::CurveModel)],
+    ) -> Finished {
+        let (diagnosis, residuals) = with_features(study, stage, problem, d, loops);
+        Finished {
+            diagnosis: diagnosis.worded(),
+            residuals,
+        }
+    }
+}
+
+/// The decisions confirmed by the solver at the fitted parameters of `subjects` ([`super::confirm`],
+/// on the screening's store and record `made`): the diagnosis kept, the confirmation runs, and the
+/// kept decision's residual curves.
+fn confirmed(
+    cx: RunContext,
+    made: super::confirm::Made,
+    [counted, noise_alone]: [Finished; 2],
+    subjects: Vec<super::confirm::Subject>,
+    read: &Reading,
+    reporter: &mut dyn Reporter,
+) -> Result<Confirmed, Error> {
+    let noise = noise_alone.diagnosis.noise.clone();
+    let (confirmations, runs) = super::confirm::run(cx, made, &subjects, (read, &noise), reporter)?;
+    let d = crate::diagnose::confirm::settle(noise_alone.diagnosis, counted.diagnosis, confirmations);
+    let kept = d.emulator.as_ref().and_then(|e| e.confirmed.as_deref());
+    let residuals = match kept {
+        Some("counted") => counted.residuals,
+        _ => noise_alone.residuals,
+    };
+    Ok((d, runs, residuals))
+}
+
+/// A confirmed diagnosis, its confirmation runs, and its residual curves.
+type Confirmed = (Diagnosis, Option<super::confirm::ConfirmRuns>, Vec<values::ResidualCurves>);
+
+/// What the diagnosis reads: with curves, their inputs and feature problems with the emulators'
+/// error counted and with the tests' noise alone; else the response.
+pub(super) struct Reading<'s> {
+    curves: Option<[(crate::diagnose::features::CurveInputs<'s>, crate::diagnose::features::FeatureProblem); 2]>,
+}
+
+impl<'s> Reading<'s> {
+    fn of(study: &'s Study, stage: Option<&curves::CurveStage>) -> Result<Reading<'s>, CalibrationError> {
+        let Some(s) = stage else {
+            return Ok(Reading { curves: None });
+        };
+        let hypotheses = curves::extension_hypotheses(study, &s.extension_fns(), None, None);
+        let counted = curves::inputs(study, &s.setting, s.designs.clone(), &s.baseline, hypotheses);
+        let mut alone = counted.clone();
+        alone.settings.emulator_counted = false;
+        let problem = |ci: &crate::diagnose::features::CurveInputs| {
+            crate::diagnose::features::FeatureProblem::new(ci)
+                .map_err(|e| CalibrationError::Numerics(format!("the curves cannot be diagnosed: {e}")))
+        };
+        let (p, q) = (problem(&counted)?, problem(&alone)?);
+        Ok(Reading {
+            curves: Some([(counted, p), (alone, q)]),
+        })
+    }
+
+    /// The screening's inputs, the emulators' error `counted` or not.
+    fn inputs<'r>(
+        &'r self,
+        counted: bool,
+        study: &'r Study,
+        surrogates: &'r SurrogateModel,
+        extensions: &'r [(usize, std::sync::Arc<dyn Model + Send>)],
+    ) -> crate::diagnose::Inputs<'r> {
+        if let Some(c) = &self.curves {
+            let (ci, problem) = &c[usize::from(!counted)];
+            return problem.inputs(ci);
+        }
+        let mut inputs = crate::diagnose::inputs_with_extensions(study, surrogates, extensions);
+        inputs.emulator_variance = crate::diagnose::emulator_variance(surrogates, &inputs.observations);
+        inputs.settings.emulator_counted = counted;
+        inputs
+    }
+
+    /// The feature problem, the emulators' error `counted` or not (`None` without curves).
+    pub(super) fn problem(&self, counted: bool) -> Option<&crate::diagnose::features::FeatureProblem> {
+        self.curves.as_ref().map(|c| &c[usize::from(!counted)].1)
+    }
 }
 
 /// What the loop made and decided: its runs, the extended models, the decision after it, each loop
@@ -98,8 +203,8 @@ pub(super) fn diagnose_with_solver(
 type Looped = (
     extend::JointRuns,
     Vec<extend::ExtendedModel>,
-    Diagnosis,
-    Vec<Diagnosis>,
+    [Diagnosis; 2],
+    [Vec<Diagnosis>; 2],
     Vec<(usize, crate::emulate::functional::CurveModel)>,
 );
 
@@ -108,6 +213,7 @@ type Looped = (
 fn in_the_loop(
     cx: RunContext,
     after: &AfterLoop,
+    inputs: &[crate::diagnose::Inputs; 2],
     chosen: &[usize],
     (screened, store): (
         Screened,
@@ -117,24 +223,23 @@ fn in_the_loop(
 ) -> Result<Result<Looped, CalibrationError>, Error> {
     let mut decide = |joint: &extend::JointRuns, floor: f64| -> Option<sequence::Provisional> {
         let models = after.models(chosen, joint).ok()?;
-        let (d, own, _) = after.conclude(&models, joint, floor).ok()?.ok()?;
+        let counting = Counting { floor, emulator: true };
+        let (d, own, _) = after.conclude(&inputs[0], &models, joint, counting).ok()?.ok()?;
         Some(provisional(chosen, &d, &own))
     };
     let joint = loop_runs(cx, screened, store, after.stage, chosen, reporter, &mut decide)?;
     let models = after.models(chosen, &joint)?;
-    Ok(after
-        .conclude(&models, &joint, 0.0)?
-        .map(|(diagnosis, own, curves)| (joint, models, diagnosis, own, curves)))
-}
-
-/// The curves' feature problem, where the study reads curves.
-fn feature_problem(
-    curve_inputs: Option<&crate::diagnose::features::CurveInputs>,
-) -> Result<Option<crate::diagnose::features::FeatureProblem>, CalibrationError> {
-    curve_inputs
-        .map(crate::diagnose::features::FeatureProblem::new)
-        .transpose()
-        .map_err(|e| CalibrationError::Numerics(format!("the curves cannot be diagnosed: {e}")))
+    let counted = Counting { floor: 0.0, emulator: true };
+    let (d, own, curves) = match after.conclude(&inputs[0], &models, &joint, counted)? {
+        Ok(c) => c,
+        Err(e) => return Ok(Err(e)),
+    };
+    let alone = Counting { floor: 0.0, emulator: false };
+    let (d_alone, own_alone, _) = match after.conclude(&inputs[1], &models, &joint, alone)? {
+        Ok(c) => c,
+        Err(e) => return Ok(Err(e)),
+    };
+    Ok(Ok((joint, models, [d, d_alone], [own, own_alone], curves)))
 }
 
 /// What the decision after the loop reads besides the loop's runs: the screening's runs, its
@@ -147,8 +252,15 @@ struct AfterLoop<'a> {
     dirs: &'a [PathBuf],
     surrogates: &'a SurrogateModel,
     stage: Option<&'a curves::CurveStage>,
-    inputs: &'a crate::diagnose::Inputs<'a>,
     extensions: &'a [(usize, std::sync::Arc<dyn Model + Send>)],
+}
+
+/// How the emulators' own error is counted in a decision: at least `floor` (a share of the tests'
+/// noise variance), or, without `emulator`, not at all (the tests' noise alone).
+#[derive(Debug, Clone, Copy)]
+struct Counting {
+    floor: f64,
+    emulator: bool,
 }
 
 impl AfterLoop<'_> {
@@ -160,15 +272,16 @@ impl AfterLoop<'_> {
             .collect()
     }
 
-    /// The decision with the extended models, on the mean force or on the curves; `floor` is the
-    /// emulators' error a provisional decision allows for (0 for the final one).
+    /// The decision with the extended models from the screening's `inputs`, on the mean force or
+    /// on the curves, the emulators' error counted as `counting` says.
     fn conclude(
         &self,
+        inputs: &crate::diagnose::Inputs,
         models: &[extend::ExtendedModel],
         joint: &extend::JointRuns,
-        floor: f64,
+        floor: Counting,
     ) -> Result<Result<Concluded, CalibrationError>, Error> {
-        let (study, inputs) = (self.study, self.inputs);
+        let study = self.study;
         match self.stage {
             None => Ok(conclude_on_response(
                 study,
@@ -268,14 +381,15 @@ fn conclude_on_response(
     inputs: &crate::diagnose::Inputs,
     models: &[extend::ExtendedModel],
     extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
-    floor: f64,
+    floor: Counting,
 ) -> Result<Concluded, CalibrationError> {
     let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(surrogates.clone());
     let looped: Vec<_> = models
         .iter()
         .map(|m| {
             let mut l = extend::loop_model(study, m, &baseline, extensions);
-            l.inputs.settings.emulator_floor = floor;
+            l.inputs.settings.emulator_floor = floor.floor;
+            l.inputs.settings.emulator_counted = floor.emulator;
             l
         })
         .collect();
@@ -292,7 +406,7 @@ fn conclude_on_curves(
     inputs: &crate::diagnose::Inputs,
     models: &[extend::ExtendedModel],
     joint: &extend::JointRuns,
-    floor: f64,
+    floor: Counting,
 ) -> Result<Result<Concluded, CalibrationError>, Error> {
     let joint_curves = curves::on_grid(study, sim, &stage.setting, &joint.rendered.keys, &joint.usable, dirs);
     let baseline = curves::curve_fn(stage.baseline.clone());
@@ -313,7 +427,8 @@ fn conclude_on_curves(
                 Some(m.hypothesis),
             );
             let mut ci = curves::inputs(&m.study, &stage.setting, stage.designs.clone(), model, others);
-            ci.settings.emulator_floor = floor;
+            ci.settings.emulator_floor = floor.floor;
+            ci.settings.emulator_counted = floor.emulator;
             ci
         })
         .collect();

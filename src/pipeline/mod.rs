@@ -21,6 +21,7 @@
 //! - [`verbs`]: the other commands (`check`, `status`, `report`, `extract`, the Slurm worker).
 
 pub mod curves;
+pub mod confirm;
 mod diagnosis;
 pub mod extend;
 pub mod runs;
@@ -223,9 +224,7 @@ fn solver_runs<'s>(
         usable,
         surrogates,
         data,
-        joint: None,
-        extended: Vec::new(),
-        residual_curves: Vec::new(),
+        diagnosed: Diagnosed::default(),
         sequence,
     })
 }
@@ -271,14 +270,24 @@ pub struct SolverRuns<'s> {
     pub surrogates: SurrogateModel,
     /// The sample runs as the Bayesian method's emulator data.
     pub data: SimulationData,
+    /// What the diagnosis ran and made beyond the screening.
+    pub diagnosed: Diagnosed,
+    /// A sequential study's batches (`None` for a fixed plan).
+    pub sequence: Option<sequence::Sequence>,
+}
+
+/// What a solver study's diagnosis ran and made beyond the screening: the loop's runs and models,
+/// the confirmation runs, and the residual curves the report draws.
+#[derive(Default)]
+pub struct Diagnosed {
     /// The solver-in-the-loop runs, when the screening chose a hypothesis to extend.
     pub joint: Option<extend::JointRuns>,
     /// The extended models they made, with their calibrated parameters (θ, then the extension's).
     pub extended: Vec<(extend::ExtendedModel, Vec<f64>)>,
     /// Calibration against curves: where along the stroke the model errs, per tested design.
     pub residual_curves: Vec<values::ResidualCurves>,
-    /// A sequential study's batches (`None` for a fixed plan).
-    pub sequence: Option<sequence::Sequence>,
+    /// The solver at the fitted parameters of the models the verdict rests on ([`confirm`]).
+    pub confirmation: Option<confirm::ConfirmRuns>,
 }
 
 impl Simulated<'_> {
@@ -311,9 +320,14 @@ impl Simulated<'_> {
             Simulated::ClosedForm(_) => None,
             Simulated::Solver(runs) => {
                 let screening = runs.executed.outcomes;
-                Some(match runs.joint {
+                let d = runs.diagnosed;
+                let looped = match d.joint {
                     Some(joint) => screening.merge(joint.outcomes),
                     None => screening,
+                };
+                Some(match d.confirmation {
+                    Some(c) => looped.merge(c.outcomes),
+                    None => looped,
                 })
             }
         }

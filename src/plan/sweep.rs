@@ -41,6 +41,9 @@ pub enum RunRole {
     Joint(usize),
     /// A check point of hypothesis `k`'s joint surrogate.
     JointCheck(usize),
+    /// A run at the fitted parameters of a model a verdict rests on, checking the verdict by the
+    /// solver itself (not fitted to).
+    Confirm,
 }
 
 impl RunRole {
@@ -51,6 +54,7 @@ impl RunRole {
             RunRole::Extension(_) => "extension",
             RunRole::Joint(_) => "joint",
             RunRole::JointCheck(_) => "joint_check",
+            RunRole::Confirm => "confirmation",
         }
     }
 }

@@ -81,21 +81,24 @@ fn results(
     let mut results = results.with_surrogates(&runs.surrogates);
     results.splits = splits;
     results.sampling = runs.sequence.as_ref().map(|s| sequence::Sequence {
-        replaces: sequence::record::Replaced::of(study, runs.sim, runs.joint.as_ref().map(|j| &j.plan)),
+        replaces: sequence::record::Replaced::of(study, runs.sim, runs.diagnosed.joint.as_ref().map(|j| &j.plan)),
         ..s.for_results()
     });
     let gates = runs.sim.quality.gates;
     let use_suspect = runs.sim.quality.use_suspect;
     // The screening's runs, then the loop's.
     let mut sweeps = vec![(&runs.plan, &runs.rendered.keys, &runs.executed.swept, &runs.flags)];
-    if let Some(j) = &runs.joint {
+    if let Some(j) = &runs.diagnosed.joint {
         sweeps.push((&j.plan, &j.rendered.keys, &j.swept, &j.flags));
+    }
+    if let Some(c) = &runs.diagnosed.confirmation {
+        sweeps.push((&c.plan, &c.rendered.keys, &c.swept, &c.flags));
     }
     let mut all = RunsResult {
         planned: 0,
         succeeded: 0,
         failed: 0,
-        in_the_loop: runs.joint.as_ref().map_or(0, |j| j.plan.runs.len()),
+        in_the_loop: runs.diagnosed.joint.as_ref().map_or(0, |j| j.plan.runs.len()),
         replayed_from: runs.executed.replay.as_ref().map(|d| d.display().to_string()),
         suspect: 0,
         gates: sweeps
@@ -143,8 +146,8 @@ fn report_data(study: &Study, simulated: &Simulated, calibration: &Calibration, 
                 dirs: r.executed.output_dirs(r.sim),
             };
             let reference = super::data::reference(calibration);
-            data.extension_surfaces = r.extended.iter().map(|(m, at)| surface(study, m, at)).collect();
-            data.residual_curves = r.residual_curves.clone();
+            data.extension_surfaces = r.diagnosed.extended.iter().map(|(m, at)| surface(study, m, at)).collect();
+            data.residual_curves = r.diagnosed.residual_curves.clone();
             data.solver_comparison = super::solvers::compare(r.sim, &outputs);
             super::curves::design_curves(study, Some(&outputs), reference.as_ref())
         }

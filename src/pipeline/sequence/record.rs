@@ -201,6 +201,7 @@ impl Planned {
             "extension" => RunRole::Extension(k),
             "joint" => RunRole::Joint(k),
             "joint_check" => RunRole::JointCheck(k),
+            "confirmation" => RunRole::Confirm,
             _ => RunRole::Sample,
         };
         PlannedRun {
@@ -254,6 +255,27 @@ impl Sequence {
             planned: Vec::new(),
             ..self.clone()
         }
+    }
+}
+
+impl Sequence {
+    /// Records a batch of fixed size (no planner chose it) of `stage` before its runs start.
+    pub fn planned_batch(&mut self, stage: &str, plan: &Plan, out: &Path) -> Result<(), Error> {
+        let b = self.sequence.last().map_or(0, |l| l.batch + 1);
+        self.planned.extend(plan.runs.iter().map(Planned::of));
+        self.runs += plan.runs.len();
+        self.sequence.push(Batch::in_flight(stage, plan, b, self.runs, 0.0));
+        self.write(out)
+    }
+
+    /// `stage`'s batch of fixed size done with its `runs` runs: stopped as planned; the batch.
+    pub fn finish_planned(&mut self, stage: &str, runs: usize, out: &Path) -> Result<Option<&Batch>, Error> {
+        self.stop(stage, StopReason::Planned, runs);
+        if let Some(last) = self.sequence.last_mut() {
+            last.state = BatchState::Done;
+        }
+        self.write(out)?;
+        Ok(self.sequence.last())
     }
 }
 
