@@ -13,9 +13,11 @@
 //!    emulator's slope J = ∂y/∂θ at the point: δ = (J_tᵀ W J_t)⁻¹ J_tᵀ W r_t over the training
 //!    observations (W: the tests' weights, count/σ²). The emulators' error enters only through the
 //!    slope, a second-order effect beside their error in the value.
-//! 3. The lack of fit both ways ([`LackOfFit`]): the training residuals after the step, divided by
-//!    √(1 − h_ii); the validation observations by their predictive z, whose variance adds the
-//!    step's, J_v (J_tᵀ W J_t)⁻¹ J_vᵀ.
+//! 3. The lack of fit both ways ([`LackOfFit`]), as the diagnosis judges a fit: the omnibus χ² is
+//!    the training residuals' weighted sum of squares after the step (expectation n_t − rank) plus
+//!    the validation observations' squared predictive z (expectation 1 each: their variance adds
+//!    the step's, J_v (J_tᵀ W J_t)⁻¹ J_vᵀ), on n − rank degrees of freedom; the largest residual is
+//!    read standardised, a training residual divided by √(1 − h_ii).
 
 use indexmap::IndexMap;
 use nalgebra::{DMatrix, DVector};
@@ -126,6 +128,10 @@ struct Bridged {
     /// The standard error of each residual: √(σ²/n (1 − h)) in training, √(σ²/n + J Σ Jᵀ) in
     /// validation.
     se: Vec<f64>,
+    /// Each residual's share of the omnibus χ²: (r/σ)² in training, z² in validation.
+    chi2: Vec<f64>,
+    /// The parameters the training tests move (the hat matrix's trace, Σ h_ii).
+    rank: usize,
     step: Vec<f64>,
 }
 
@@ -146,19 +152,31 @@ fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridged> {
     let residual: Vec<f64> = (0..obs.len())
         .map(|i| r[i] - (j.row(i) * &step)[0])
         .collect();
-    let se = (0..obs.len())
-        .map(|i| {
-            let ji = j.row(i);
-            let spread = (&ji * &cov * ji.transpose())[0];
-            match obs[i].role {
-                Role::Training => (sd[i] * sd[i] * (1.0 - spread * w(i)).max(0.0)).sqrt(),
-                Role::Validation => (sd[i] * sd[i] + spread).sqrt(),
-            }
+    let spread = |i: usize| {
+        let ji = j.row(i);
+        (&ji * &cov * ji.transpose())[0]
+    };
+    let se: Vec<f64> = (0..obs.len())
+        .map(|i| match obs[i].role {
+            // A design the fit passes through exactly carries no residual to read (as the
+            // diagnosis's standardised residuals leave it out).
+            Role::Training if 1.0 - spread(i) * w(i) <= 1e-9 => f64::NAN,
+            Role::Training => (sd[i] * sd[i] * (1.0 - spread(i) * w(i))).sqrt(),
+            Role::Validation => (sd[i] * sd[i] + spread(i)).sqrt(),
         })
         .collect();
+    let chi2 = (0..obs.len())
+        .map(|i| match obs[i].role {
+            Role::Training => residual[i] * residual[i] * w(i),
+            Role::Validation => residual[i] * residual[i] / (se[i] * se[i]),
+        })
+        .collect();
+    let leverage: f64 = train.iter().map(|&i| spread(i) * w(i)).sum();
     Some(Bridged {
         residual,
         se,
+        chi2,
+        rank: leverage.round() as usize,
         step: step.iter().copied().collect(),
     })
 }
@@ -186,14 +204,14 @@ fn lack_of_fit(obs: &[super::Observation], b: &Bridged, noise: &NoiseModel, leve
     if noise.dof == 0 {
         return None;
     }
-    let p = b.step.len();
-    let dof = obs.len().checked_sub(p).filter(|&d| d > 0)?;
+    let dof = obs.len().checked_sub(b.rank).filter(|&d| d > 0)?;
     let z: Vec<(String, f64)> = obs
         .iter()
         .zip(b.residual.iter().zip(&b.se))
-        .map(|(o, (r, se))| (o.name.clone(), if *se > 0.0 { r / se } else { f64::NAN }))
+        .filter(|(_, (_, se))| se.is_finite() && **se > 0.0)
+        .map(|(o, (r, se))| (o.name.clone(), r / se))
         .collect();
-    let chi2: f64 = z.iter().map(|(_, v)| v).filter(|v| v.is_finite()).map(|v| v * v).sum();
+    let chi2: f64 = b.chi2.iter().filter(|v| v.is_finite()).sum();
     Some(LackOfFit::new(chi2, dof, noise.dof, &z, level))
 }
 
@@ -269,9 +287,9 @@ impl Decided {
     }
 }
 
-/// The verdict, confirmed by the solver: the decision with the tests' noise alone when its claims
-/// hold on the solver's runs at the fitted parameters, else the decision with the emulators'
-/// error counted when its claims hold, else neither: `emulator_limited`, worded from both.
+/// The verdict, confirmed by the solver: of the decision with the tests' noise alone and the one
+/// with the emulators' error counted, the first whose claims hold on the solver's runs at the
+/// fitted parameters; neither: `emulator_limited`, worded from both.
 pub fn settle(noise_alone: super::Diagnosis, counted: super::Diagnosis, confirmations: Vec<Confirmation>) -> super::Diagnosis {
     let reading = |confirmed: Option<&str>| EmulatorReading {
         noise_alone: Decided::of(&noise_alone),
@@ -284,12 +302,17 @@ pub fn settle(noise_alone: super::Diagnosis, counted: super::Diagnosis, confirma
             .iter()
             .all(|(model, claim)| holds(&confirmations, model, *claim) == Some(true))
     };
-    let (pick, which) = if confirmed(&noise_alone) {
-        (Some(&noise_alone), Some("noise_alone"))
-    } else if confirmed(&counted) {
-        (Some(&counted), Some("counted"))
-    } else {
-        (None, None)
+    // Where the two decisions agree, the counted one is kept (its intervals and next test count
+    // the emulators' error); where they differ, the noise alone's first: the solver's runs, not the
+    // emulators, then say whether its claims hold.
+    let differ = (noise_alone.verdict, &noise_alone.cause) != (counted.verdict, &counted.cause);
+    let order: [(&super::Diagnosis, &str); 2] = match differ {
+        true => [(&noise_alone, "noise_alone"), (&counted, "counted")],
+        false => [(&counted, "counted"), (&noise_alone, "noise_alone")],
+    };
+    let (pick, which) = match order.iter().find(|(d, _)| confirmed(d)) {
+        Some((d, w)) => (Some(*d), Some(*w)),
+        None => (None, None),
     };
     let reading = reading(which);
     let mut d = match pick {

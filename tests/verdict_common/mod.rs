@@ -169,6 +169,7 @@ fn assert_after_loop(d: &Value, after: &Value, verdict: &str) {
             let partial = d["partial"]["name"].as_str().expect("a partial explanation");
             assert!(explanations.iter().any(|e| e["name"] == partial));
         }
+        "emulator_limited" => assert_emulators_decide(d),
         other => panic!("the loop ran, yet the verdict is {other}"),
     }
 }
@@ -370,4 +371,35 @@ pub fn significance_is_backed(what: &str, text: &str) {
             "{what}: {sentence:?} calls a p-value of {smallest} significant"
         );
     }
+}
+
+/// An emulator-limited verdict rests on a reading that says why: the two decisions (the tests'
+/// noise alone, the emulators' error counted) differ, or the solver's runs at the fitted
+/// parameters confirmed neither; and it names no cause.
+pub fn assert_emulators_decide(d: &Value) {
+    let e = &d["emulator"];
+    assert!(d["cause"].is_null(), "an undecided verdict names no cause: {}", d["cause"]);
+    assert!(e.is_object(), "no emulator reading: {}", d["summary"]);
+    assert!(e["confirmed"].is_null(), "a confirmed decision, yet undecided: {e}");
+    let confirmations = d["confirmation"].as_array().expect("confirmation runs");
+    for c in confirmations {
+        eprintln!("confirmation {}: runs {}", c["model"], c["runs"]);
+    }
+    eprintln!("after loop: {}", d["after_loop"]["explanations"]);
+    eprintln!(
+        "emulator-limited: noise alone {} ({}), counted {} ({}); confirmations {}",
+        e["noise_alone"]["verdict"],
+        e["noise_alone"]["cause"],
+        e["counted"]["verdict"],
+        e["counted"]["cause"],
+        confirmations
+            .iter()
+            .map(|c| format!(
+                "{}: fits {} chi2 {} dof {} miss {} step {} largest {}",
+                c["model"], c["lack_of_fit"]["fits"], c["lack_of_fit"]["chi2"], c["lack_of_fit"]["dof"],
+                c["emulator_miss"], c["step"], c["lack_of_fit"]["largest"]
+            ))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
 }
