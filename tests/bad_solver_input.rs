@@ -460,12 +460,13 @@ fn a_budget_below_what_the_sequence_must_run_is_refused() {
         15,
         Some("budget"),
         "`sampling.budget` is 9 solver run(s), fewer than the sequence makes whatever its runs show: its first \
-         batch of 8 at the 2 tested design(s), one held-out run per design (2); a budget of at least 10",
+         batch of 8 at the 2 tested design(s), one held-out run per design (2), the confirmation runs at the \
+         fitted parameters of the uncorrected simulation and of a named cause (4); a budget of at least 14",
     );
-    let c = case(&budget(10), TEMPLATE);
+    let c = case(&budget(14), TEMPLATE);
     let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
     let Simulation::Solver(sim) = &s.simulation else {
         panic!("not a solver study")
     };
-    assert_eq!(lab::plan::sweep::sequential_budget(&s, sim), Some(10));
+    assert_eq!(lab::plan::sweep::sequential_budget(&s, sim), Some(14));
 }

@@ -21,7 +21,7 @@
 mod crushsim_bin;
 mod fixed_design;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::OnceLock;
@@ -214,10 +214,14 @@ fn the_main_job_through_binout_gives_the_same_results() {
 }
 
 /// The recordings of `rec` by their run (design and rendered deck, its BINARY fields read as 1):
-/// their run keys.
+/// their run keys. The confirmation runs are left out: they run at each study's own fitted
+/// parameters, which two readings of the same outputs give alike only to their rounding.
 fn by_run(rec: &Path) -> BTreeMap<String, String> {
     let mut out = BTreeMap::new();
-    for m in lab::execute::replay::manifests(rec) {
+    for m in lab::execute::replay::manifests(rec)
+        .into_iter()
+        .filter(|m| m.role != "confirmation")
+    {
         let deck = m.inputs["main.k"].text.clone().expect("the deck's text is kept");
         let deck = deck
             .replace("&DTOUT         2", "&DTOUT         1")
@@ -343,7 +347,15 @@ fn mutate(rng: &mut ChaCha8Rng, dir: &Path) -> Mutation {
     Mutation { kind, what }
 }
 
+/// Copies every recording; returns the keys of those a damage may hit: the sampled runs, not the
+/// confirmation runs (those run at the fitted parameters, which a damaged sample moves: the replay
+/// then plans others, and the damaged one is not asked for).
 fn copy_recordings(from: &Path, to: &Path) -> Vec<String> {
+    let confirmation: BTreeSet<String> = lab::execute::replay::manifests(from)
+        .into_iter()
+        .filter(|m| m.role == "confirmation")
+        .map(|m| m.key)
+        .collect();
     let mut keys = Vec::new();
     for e in std::fs::read_dir(from).unwrap().filter_map(|e| e.ok()) {
         let key = e.file_name().to_string_lossy().into_owned();
@@ -351,7 +363,9 @@ fn copy_recordings(from: &Path, to: &Path) -> Vec<String> {
         for f in std::fs::read_dir(e.path()).unwrap().filter_map(|e| e.ok()) {
             std::fs::copy(f.path(), to.join(&key).join(f.file_name())).unwrap();
         }
-        keys.push(key);
+        if !confirmation.contains(&key) {
+            keys.push(key);
+        }
     }
     keys.sort();
     keys

@@ -83,9 +83,23 @@ fn live_quarter_cell_crush_peaks_plateaus_and_calibrates_sigma_y() {
     let results: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap();
     let runs = &results["runs"];
-    assert_eq!(runs["planned"].as_u64(), Some(15), "{runs}");
+    // 15 sampled, then one confirmation run per tested design for each model the verdict rests on.
+    let confirmed = results["diagnosis"]["confirmation"].as_array().map_or(0, Vec::len) as u64;
+    assert!(
+        confirmed >= 1,
+        "the verdict is confirmed by the solver: {}",
+        results["diagnosis"]
+    );
+    assert_eq!(runs["confirmation"].as_u64(), Some(3 * confirmed), "{runs}");
+    assert_eq!(runs["planned"].as_u64(), Some(15 + 3 * confirmed), "{runs}");
     assert_eq!(runs["succeeded"], runs["planned"], "every run converged: {runs}");
 
+    let confirmation_at: Vec<f64> = results["diagnosis"]["confirmation"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["at"]["sigma_y"].as_f64().unwrap())
+        .collect();
     let mut by_design: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
     for entry in std::fs::read_dir(out.path().join("runs")).unwrap() {
         let run = read_run(&entry.unwrap().path());
@@ -122,7 +136,13 @@ fn live_quarter_cell_crush_peaks_plateaus_and_calibrates_sigma_y() {
                 "{at}: top {ft} and bottom {fb} at t = {t}"
             );
         }
-        by_design.entry(run.design).or_default().push((run.sigma_y, mean));
+        // The confirmation runs (at the fitted sigma_y, between the samples) are checked above as
+        // runs, but left out of the trends below: the samples are shared by the designs, and
+        // between two samples 20 MPa apart this coarse model's buckling may reverse the mean force
+        // by a few percent (the solver's own scatter, which the trends are not about).
+        if !confirmation_at.iter().any(|s| (s - run.sigma_y).abs() < 1e-3 * s) {
+            by_design.entry(run.design).or_default().push((run.sigma_y, mean));
+        }
     }
 
     // The mean force grows with sigma_y in every design (samples and check runs alike)...

@@ -223,7 +223,19 @@ fn live_cantilever_study_recovers_e_within_one_percent() {
         .as_f64()
         .unwrap();
     assert!(((e - 68000.0) / 68000.0).abs() < 0.01, "E = {e}");
-    assert_eq!(results["runs"]["succeeded"].as_u64(), Some(36), "{results}");
+    // 36 sampled, then one confirmation run per tested design (3) for each model confirmed.
+    let confirmed = results["diagnosis"]["confirmation"].as_array().map_or(0, Vec::len) as u64;
+    assert_eq!(
+        results["runs"]["confirmation"].as_u64(),
+        Some(3 * confirmed),
+        "{}",
+        results["runs"]
+    );
+    assert_eq!(
+        results["runs"]["succeeded"].as_u64(),
+        Some(36 + 3 * confirmed),
+        "{results}"
+    );
 }
 
 /// The solid model against tests with a compliant clamp (studies/cantilever-ccx-root.yaml): over

@@ -18,6 +18,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde_json::Value;
 
+#[allow(dead_code)] // the runs family helpers; this file does not compare with a fixed design
 mod family_runs;
 
 const F: f64 = 600.0;
@@ -30,7 +31,11 @@ fn solver() -> PathBuf {
     let path = PathBuf::from(env!("CARGO_BIN_EXE_lab"))
         .with_file_name("examples")
         .join("clamped_beam");
-    assert!(path.is_file(), "{} is not built: run `cargo test --release`", path.display());
+    assert!(
+        path.is_file(),
+        "{} is not built: run `cargo test --release`",
+        path.display()
+    );
     path
 }
 
@@ -70,7 +75,11 @@ impl Case {
         let z = Normal::new(0.0, 1.0).unwrap();
         self.hs
             .iter()
-            .map(|&h| (0..self.specimens).map(|_| self.truth(h) * (1.0 + self.cv * z.sample(&mut rng))).collect())
+            .map(|&h| {
+                (0..self.specimens)
+                    .map(|_| self.truth(h) * (1.0 + self.cv * z.sample(&mut rng)))
+                    .collect()
+            })
             .collect()
     }
 }
@@ -139,7 +148,14 @@ fn run(case: &Case) -> Value {
     let study = write_study(case, dir.path());
     let out = dir.path().join("out");
     let o = Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args(["run", study.to_str().unwrap(), "--out", out.to_str().unwrap(), "--jobs", "2"])
+        .args([
+            "run",
+            study.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--jobs",
+            "2",
+        ])
         .output()
         .unwrap();
     assert!(
@@ -168,42 +184,23 @@ fn exact_chi2(case: &Case) -> (f64, usize) {
         dof += t.len() - 1;
     }
     let cv = (ss / dof as f64).sqrt();
-    let w: Vec<f64> = means.iter().zip(&tests).map(|(m, t)| t.len() as f64 / (cv * m).powi(2)).collect();
+    let w: Vec<f64> = means
+        .iter()
+        .zip(&tests)
+        .map(|(m, t)| t.len() as f64 / (cv * m).powi(2))
+        .collect();
     let a: Vec<f64> = case.hs.iter().map(|&h| bending(h)).collect();
     // y = a·u: u = Σ w a y / Σ w a².
-    let u = (0..a.len()).map(|i| w[i] * a[i] * means[i]).sum::<f64>() / (0..a.len()).map(|i| w[i] * a[i] * a[i]).sum::<f64>();
+    let u = (0..a.len()).map(|i| w[i] * a[i] * means[i]).sum::<f64>()
+        / (0..a.len()).map(|i| w[i] * a[i] * a[i]).sum::<f64>();
     let chi2 = (0..a.len()).map(|i| w[i] * (means[i] - a[i] * u).powi(2)).sum();
     (chi2, a.len() - 1)
 }
 
-/// The upper `q` quantile of χ² on `k` degrees of freedom (Wilson–Hilferty; within a few per cent
-/// of the exact quantile for k ≥ 3, ample for a threshold).
+/// The upper `q` quantile of χ² on `k` degrees of freedom (statrs, independent of lab's own).
 fn chi2_quantile(q: f64, k: usize) -> f64 {
-    let z = normal_quantile(q);
-    let k = k as f64;
-    k * (1.0 - 2.0 / (9.0 * k) + z * (2.0 / (9.0 * k)).sqrt()).powi(3)
-}
-
-/// The standard normal quantile (Acklam's rational approximation, |error| < 1.2e-9).
-fn normal_quantile(p: f64) -> f64 {
-    let a = [-3.969683028665376e1, 2.209460984245205e2, -2.759285104469687e2, 1.383577518672690e2, -3.066479806614716e1, 2.506628277459239];
-    let b = [-5.447609879822406e1, 1.615858368580409e2, -1.556989798598866e2, 6.680131188771972e1, -1.328068155288572e1];
-    let c = [-7.784894002430293e-3, -3.223964580411365e-1, -2.400758277161838, -2.549732539343734, 4.374664141464968, 2.938163982698783];
-    let d = [7.784695709041462e-3, 3.224671290700398e-1, 2.445134137142996, 3.754408661907416];
-    let tail = |q: f64| {
-        let q = (-2.0 * q.ln()).sqrt();
-        (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) / ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0)
-    };
-    if p < 0.02425 {
-        tail(p)
-    } else if p > 1.0 - 0.02425 {
-        -tail(1.0 - p)
-    } else {
-        let q = p - 0.5;
-        let r = q * q;
-        (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q
-            / (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1.0)
-    }
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    ChiSquared::new(k as f64).expect("k > 0").inverse_cdf(q)
 }
 
 /// The issue's beam with its fixed design (8 Latin-hypercube samples and 3 check runs per design,
@@ -214,25 +211,48 @@ fn normal_quantile(p: f64) -> f64 {
 fn the_issues_beam_with_a_fixed_design_is_never_called_a_fit() {
     let case = issue_beam("{method: lhs, count: 8, seed: 1, check_runs: 3}");
     let (chi2, dof) = exact_chi2(&case);
-    assert!(chi2 > chi2_quantile(0.999, dof), "the exact model must miss: χ² {chi2} on {dof}");
+    assert!(
+        chi2 > chi2_quantile(0.999, dof),
+        "the exact model must miss: χ² {chi2} on {dof}"
+    );
     let r = run(&case);
     let d = &r["diagnosis"];
     eprintln!("{}", d["summary"].as_str().unwrap_or(""));
     assert_ne!(d["verdict"], "no_model_error", "{}", d["summary"]);
     let confirmed = d["confirmation"].as_array().expect("confirmation runs");
-    let uncorrected = confirmed.iter().find(|c| c["model"] == "uncorrected").expect("the uncorrected model");
-    assert_eq!(uncorrected["lack_of_fit"]["fits"], false, "the solver at the fitted E misses: {uncorrected}");
+    let uncorrected = confirmed
+        .iter()
+        .find(|c| c["model"] == "uncorrected")
+        .expect("the uncorrected model");
+    assert_eq!(
+        uncorrected["lack_of_fit"]["fits"], false,
+        "the solver at the fitted E misses: {uncorrected}"
+    );
     match d["verdict"].as_str().unwrap() {
         "cause_named" => {
             assert_eq!(d["cause"], "clamp compliance");
-            let clamp = confirmed.iter().find(|c| c["model"] == "clamp compliance").expect("its confirmation");
+            let clamp = confirmed
+                .iter()
+                .find(|c| c["model"] == "clamp compliance")
+                .expect("its confirmation");
             assert_eq!(clamp["lack_of_fit"]["fits"], true, "{clamp}");
         }
         "emulator_limited" => {
-            assert!(d["headline"].as_str().unwrap().contains("the emulators' error"), "{}", d["headline"]);
-            assert!(d["action"].as_str().unwrap().contains("more solver runs"), "{}", d["action"]);
+            assert!(
+                d["headline"].as_str().unwrap().contains("the emulators' error"),
+                "{}",
+                d["headline"]
+            );
+            assert!(
+                d["action"].as_str().unwrap().contains("more solver runs"),
+                "{}",
+                d["action"]
+            );
         }
-        other => panic!("neither the clamp named nor undecided by the emulators: {other}: {}", d["summary"]),
+        other => panic!(
+            "neither the clamp named nor undecided by the emulators: {other}: {}",
+            d["summary"]
+        ),
     }
     assert!(r["runs"]["planned"].as_u64().unwrap() > 0);
 }
@@ -241,7 +261,7 @@ fn the_issues_beam_with_a_fixed_design_is_never_called_a_fit() {
 /// issue asks for at most 100 solver runs; the sequence spends 133 here, the confirmation's 14
 /// included: printed, not yet asserted.)
 #[test]
-fn the_issues_beam_sampled_sequentially_names_the_clamp_within_100_runs() {
+fn the_issues_beam_sampled_sequentially_names_the_clamp() {
     let case = issue_beam("{method: sequential, seed: 1}");
     let r = run(&case);
     let d = &r["diagnosis"];
@@ -264,7 +284,10 @@ fn the_issues_beam_sampled_sequentially_names_the_clamp_within_100_runs() {
 /// but the clamp named; an undecided case keeps the clamp among its leading explanations.
 #[test]
 fn small_fixed_designs_are_confirmed_by_the_solver() {
-    let base: u64 = std::env::var("LAB_CONFIRM_SEED_BASE").ok().and_then(|s| s.parse().ok()).unwrap_or(0);
+    let base: u64 = std::env::var("LAB_CONFIRM_SEED_BASE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
     let cases: Vec<Case> = (0..16u64)
         .map(|i| {
             let mut rng = ChaCha8Rng::seed_from_u64(base + i);
@@ -276,7 +299,10 @@ fn small_fixed_designs_are_confirmed_by_the_solver() {
                 specimens: 3,
                 cv: rng.random_range(0.002..0.005),
                 seed: base + 1000 + i,
-                sampling: format!("{{method: lhs, count: {}, seed: 1, check_runs: 2}}", [6, 8][rng.random_range(0..2usize)]),
+                sampling: format!(
+                    "{{method: lhs, count: {}, seed: 1, check_runs: 2}}",
+                    [6, 8][rng.random_range(0..2usize)]
+                ),
                 surrogate: ["linear", "quadratic"][rng.random_range(0..2usize)],
             }
         })
@@ -292,7 +318,11 @@ fn small_fixed_designs_are_confirmed_by_the_solver() {
             case.kr, case.e, case.cv, case.surrogate, case.sampling, d["cause"]
         );
         if chi2 > chi2_quantile(0.999, dof) {
-            assert_ne!(verdict, "no_model_error", "the exact model misses (χ² {chi2} on {dof}): {}", d["summary"]);
+            assert_ne!(
+                verdict, "no_model_error",
+                "the exact model misses (χ² {chi2} on {dof}): {}",
+                d["summary"]
+            );
         }
         if case.kr == 0.0 && d["discrepancy_detected"] == true && verdict != "emulator_limited" {
             false_claims += 1;
@@ -306,7 +336,13 @@ fn small_fixed_designs_are_confirmed_by_the_solver() {
             undecided_without.push(d["leading"].clone());
         }
     }
-    assert!(false_claims <= 1, "{false_claims} false claims of model error on 8 clean draws");
+    assert!(
+        false_claims <= 1,
+        "{false_claims} false claims of model error on 8 clean draws"
+    );
     assert!(wrong_causes.is_empty(), "wrong causes named: {wrong_causes:?}");
-    assert!(undecided_without.is_empty(), "undecided without the clamp: {undecided_without:?}");
+    assert!(
+        undecided_without.is_empty(),
+        "undecided without the clamp: {undecided_without:?}"
+    );
 }

@@ -2,7 +2,7 @@
 //! recordings, four recordings corrupted in each by a seeded mutation. The main job samples
 //! sequentially, so a failed run changes the runs it asks for next; the experiment therefore uses
 //! the main job with its former fixed design (`fixed_design`: LHS, 24 samples and 5 check runs per
-//! design, 246 runs), recorded live with crushsim at the start of the test, so that every replay
+//! design, 252 runs with its confirmation runs), recorded live with crushsim at the start of the test, so that every replay
 //! asks for the same runs:
 //!
 //! - **delete**: 1–30 whole lines deleted from the middle of rcforc or nodout (the first deleted
@@ -169,9 +169,19 @@ fn every_corrupted_recording_is_reported_and_no_other() {
     let study = fixed_design::study(work.path(), "");
     let recorded = fixed_design::recordings();
     let keys = fixed_design::keys(recorded);
-    // 159 screening runs (24 samples + 5 checks + 24 probes of the hardening extension at 3 designs)
-    // and the loop's 87 (3 designs x (24 + 5)).
-    assert_eq!(keys.len(), 246);
+    // 159 screening runs (24 samples + 5 checks + 24 probes of the hardening extension at 3 designs),
+    // the loop's 87 (3 designs x (24 + 5)) and 6 confirmation runs (the uncorrected simulation and
+    // the hardening model at their fitted parameters, at 3 designs).
+    assert_eq!(keys.len(), 252);
+    // A damage hits a sampled run, not a confirmation run: those run at the fitted parameters,
+    // which a damaged sample moves, so the replay plans others and never asks for the damaged one.
+    let confirmation: Vec<String> = lab::execute::replay::manifests(recorded)
+        .into_iter()
+        .filter(|m| m.role == "confirmation")
+        .map(|m| m.key)
+        .collect();
+    assert_eq!(confirmation.len(), 6);
+    let damageable: Vec<String> = keys.iter().filter(|k| !confirmation.contains(k)).cloned().collect();
     let mut rng = ChaCha8Rng::seed_from_u64(SEED);
     let (mut accepted, mut panics, mut hangs, mut false_alarms, mut unnamed) = (0, 0, 0, 0, 0);
     let mut tally: BTreeMap<(String, String), usize> = BTreeMap::new();
@@ -180,14 +190,19 @@ fn every_corrupted_recording_is_reported_and_no_other() {
         copy_recordings(recorded, &keys, copy.path());
         let mut chosen: Vec<usize> = Vec::new();
         while chosen.len() < PER_REPLAY {
-            let k = rng.random_range(0..keys.len());
+            let k = rng.random_range(0..damageable.len());
             if !chosen.contains(&k) {
                 chosen.push(k);
             }
         }
         let mutations: Vec<(String, Mutation)> = chosen
             .iter()
-            .map(|&k| (keys[k].clone(), mutate(&mut rng, &copy.path().join(&keys[k]))))
+            .map(|&k| {
+                (
+                    damageable[k].clone(),
+                    mutate(&mut rng, &copy.path().join(&damageable[k])),
+                )
+            })
             .collect();
         let out = tempfile::tempdir().unwrap();
         let Some((code, stderr)) = run_lab(&study, copy.path(), out.path()) else {
@@ -216,7 +231,9 @@ fn every_corrupted_recording_is_reported_and_no_other() {
             }
             *tally.entry((format!("{} {}", m.kind, m.file), class)).or_default() += 1;
         }
-        for key in keys.iter().filter(|k| !mutations.iter().any(|(c, _)| c == *k)) {
+        // Every untouched sampled run replays as a success (the confirmation runs are asked for
+        // at the parameters the replay fitted, which the damage moved: not these recordings).
+        for key in damageable.iter().filter(|k| !mutations.iter().any(|(c, _)| c == *k)) {
             match outcome(out.path(), key) {
                 Some((class, _)) if class == "success" => {}
                 other => {

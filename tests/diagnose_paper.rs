@@ -11,10 +11,16 @@ use lab::diagnose::{self, Diagnosis, NoiseKind};
 use lab::pipeline;
 
 fn run(study: &str) -> Diagnosis {
+    run_with(study, |_| {})
+}
+
+/// `run` with the study's diagnosis inputs changed by `change` first.
+fn run_with(study: &str, change: impl FnOnce(&mut diagnose::Inputs)) -> Diagnosis {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("studies").join(study);
     let study = lab::study::load(&path).expect("study loads");
     let model = pipeline::model(&study).expect("a closed-form study");
-    let inputs = diagnose::inputs_from_study(&study, model.as_ref());
+    let mut inputs = diagnose::inputs_from_study(&study, model.as_ref());
+    change(&mut inputs);
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
     eprintln!("{}", serde_json::to_string_pretty(&d).unwrap());
     d
@@ -36,9 +42,14 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
     assert!(ext.validation_error_before > 0.05, "{}", ext.validation_error_before);
     assert!(ext.validation_error_after < 1e-6, "{}", ext.validation_error_after);
     assert!(ext.gain.unwrap() > 0.99);
-    // No replicates: the noise comes from the residuals, and the output says so.
-    assert_eq!(d.noise.kind, NoiseKind::FromResiduals);
-    assert!(d.noise.note.contains("no replicates"), "{}", d.noise.note);
+    // No replicates: the noise is the measurement's uncertainty the study states (0.3 %), and the
+    // output says so.
+    assert_eq!(d.noise.kind, NoiseKind::Stated);
+    assert!(
+        d.noise.note.contains("no replicates") && d.noise.note.contains("states"),
+        "{}",
+        d.noise.note
+    );
     // "offset" is the study's name for the built-in constant offset: it replaces it.
     let offset = d.candidates.iter().find(|c| c.name == "offset").expect("offset ranked");
     assert_eq!(offset.replaces.as_deref(), Some("constant offset"));
@@ -54,6 +65,23 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
         d.confounded
             .iter()
             .any(|s| s.contains("scale error") && s.contains("E"))
+    );
+    // Without it, the noise comes from the residuals of the models being judged: shear leads the
+    // ranking and model error is detected (an F test of nested models needs no measured noise),
+    // but no cause is decisive, and the words say why.
+    let unmeasured = run_with("cantilever-diagnosis.yaml", |i| i.settings.measurement = None);
+    assert_eq!(unmeasured.noise.kind, NoiseKind::FromResiduals);
+    assert_eq!(unmeasured.verdict, Verdict::TooFewTests, "{}", unmeasured.headline);
+    assert_eq!(unmeasured.cause, None);
+    assert!(unmeasured.discrepancy_detected);
+    assert_eq!(
+        unmeasured.leading.first().map(String::as_str),
+        Some("shear deformation")
+    );
+    assert!(
+        unmeasured.headline.contains("noise is not measured"),
+        "{}",
+        unmeasured.headline
     );
     // The next test lies inside the design bounds [7, 13].
     let next = d.next_test.as_ref().expect("a next test");

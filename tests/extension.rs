@@ -52,8 +52,10 @@ fn starts(log: &Path) -> usize {
         .count()
 }
 
-/// 7 designs × (8 samples + 2 checks) baseline runs, plus 7 × 8 runs with shear = 1.
-const PLANNED: usize = 7 * 10 + 7 * 8;
+/// 7 designs × (8 samples + 2 checks) baseline runs, plus 7 × 8 runs with shear = 1, then the
+/// confirmation runs: the uncorrected simulation and the shear model at their fitted parameters at
+/// the 7 designs.
+const PLANNED: usize = 7 * 10 + 7 * 8 + 7 * 2;
 
 #[test]
 fn cantilever_shear_extension_is_named_with_gamma_one_and_e0() {
@@ -467,6 +469,8 @@ fn the_baseline_is_the_edge_when_it_renders_like_the_lower_bounds() {
         let floor = lab::plan::sweep::SequenceFloor::of(&s, sim).unwrap();
         assert_eq!((floor.initial, floor.probes), (6, 4), "{extension}");
         assert_eq!(floor.looped, if edge { 2 } else { 2 * (4 - 2 + 1) }, "{extension}");
-        assert_eq!(floor.runs(), 6 + 2 + 4 + floor.looped, "{extension}");
+        // And the confirmation runs: two models at the 2 designs.
+        assert_eq!(floor.confirmation, 2 * 2, "{extension}");
+        assert_eq!(floor.runs(), 6 + 2 + 4 + floor.looped + 4, "{extension}");
     }
 }

@@ -270,8 +270,9 @@ fn shear_misfit(case: &Case, at: &[(f64, f64)]) -> f64 {
 
 /// The weighted misfit of the explanation `name` refitted to `truth` over `m` specimens at each
 /// design `h`: y = u·(bend + s·shear), s in [0, S_MAX]; y = u·(bend + kr·clamp), kr in [0, 1];
-/// y = u·bend + γ (the offset); y = u·bend (the uncorrected model, a scale error). `None` for a
-/// name the oracle does not model.
+/// y = u·bend + γ (the offset, listed or built in); y = u·bend + γ·h (the built-in linear term);
+/// y = u·bend (the uncorrected model, a scale error). Every explanation the study lists and every
+/// built-in shape is modelled; `None` (a failure of the test) for any other name.
 fn rival_misfit(case: &Case, name: &str, truth: &dyn Fn(f64) -> f64, at: &[(f64, f64)]) -> Option<f64> {
     let y: Vec<f64> = at.iter().map(|&(h, _)| truth(h)).collect();
     let w = weights(case, at);
@@ -280,7 +281,11 @@ fn rival_misfit(case: &Case, name: &str, truth: &dyn Fn(f64) -> f64, at: &[(f64,
     Some(match name {
         "shear correction" => bounded_misfit(&y, &w, &bend, &column(Case::shear), S_MAX),
         "clamp compliance" => bounded_misfit(&y, &w, &bend, &column(Case::clamp), 1.0),
-        "fixture offset" => misfit(&y, &w, &[bend, vec![1.0; y.len()]]).0,
+        // The study's term "1" and the built-in of the same shape.
+        "fixture offset" | "constant offset" => misfit(&y, &w, &[bend, vec![1.0; y.len()]]).0,
+        // The built-in term proportional to the design variable.
+        "linear in h" => misfit(&y, &w, &[bend, column(|h| h)]).0,
+        // y·(1 + γ) is E refitted: the same misfit as the simulation's.
         "uncorrected" | "scale error" => misfit(&y, &w, &[bend]).0,
         _ => return None,
     })

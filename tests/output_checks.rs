@@ -456,12 +456,28 @@ fn recorded_gate_breaks_are_flagged_shown_and_left_out_unless_the_study_says_use
     let out = tmp.path().join("out");
     let (r, stderr) = lab_replay(&study, fixtures.path(), &out);
     let runs = &r["runs"];
-    // Every recorded run replays; the three gate-breaking samples are screening runs.
+    // Every recorded sampled run replays; the three gate-breaking samples are screening runs. Left
+    // out, they move the fitted parameters, so the confirmation runs are asked for where nothing
+    // was recorded: they fail, named, and the verdict says it is not confirmed there.
     let recorded = fixed_design::keys(fixtures.path()).len() as u64;
+    let confirmation = runs["confirmation"].as_u64().unwrap();
+    assert_eq!(confirmation, 6, "{runs}");
     assert_eq!(
-        (runs["succeeded"].as_u64(), runs["suspect"].as_u64()),
-        (Some(recorded), Some(3)),
+        (
+            runs["succeeded"].as_u64(),
+            runs["failed"].as_u64(),
+            runs["suspect"].as_u64()
+        ),
+        (Some(recorded - confirmation), Some(confirmation), Some(3)),
         "{runs}"
+    );
+    assert!(stderr.contains("6 confirmation run(s) have no recording"), "{stderr}");
+    assert!(
+        r["diagnosis"]["limits"]
+            .to_string()
+            .contains("Not confirmed by the solver"),
+        "{}",
+        r["diagnosis"]["limits"]
     );
     assert_eq!(runs["gates"]["hourglass"], 0.1);
     let suspect = runs["suspect_runs"].as_array().unwrap();

@@ -19,7 +19,10 @@ use serde_json::Value;
 
 const STUDY: &str = "cantilever-compliance.yaml";
 /// 3 designs × (4 samples + 2 check runs).
-const PLANNED: usize = 18;
+const SAMPLED: usize = 18;
+/// Then 3 confirmation runs: the uncorrected simulation at its fitted parameters at each design
+/// (no model error: the one model the verdict rests on).
+const PLANNED: usize = SAMPLED + 3;
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -264,8 +267,8 @@ fn editing_a_template_reruns_exactly_the_affected_runs() {
     let new: BTreeSet<String> = after.keys().filter(|k| !before.contains_key(*k)).cloned().collect();
     assert_eq!(
         rerun.len(),
-        6,
-        "exactly h13's 4 samples and 2 check runs rerun: {rerun:?}"
+        7,
+        "exactly h13's 4 samples, 2 check runs and its confirmation run rerun: {rerun:?}"
     );
     assert_eq!(rerun, new, "the rerun runs are exactly the runs with new keys");
     for rec in new.iter().map(|k| dir.path().join("out/runs").join(k).join("beam.txt")) {
@@ -338,7 +341,8 @@ fn ctrl_c_exits_130_keeps_finished_runs_and_status_counts_them() {
         .unwrap();
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert_eq!(o.status.code(), Some(0));
-    let pending = PLANNED - kept.len();
+    // Interrupted in the sampling: the confirmation runs are not planned yet.
+    let pending = SAMPLED - kept.len();
     let expected = format!("done {}, failed 0, running 0, pending {pending}", kept.len());
     assert!(text.contains(&expected), "`{expected}` not in: {text}");
 
@@ -444,6 +448,10 @@ fn setup_ranged() -> tempfile::TempDir {
 /// 7 designs × (8 samples + 2 checks) + 7 × 8 screening runs, then the loop's 7 × (20 + 2).
 const RANGED_SCREENING: usize = 7 * 10 + 7 * 8;
 const RANGED_LOOP: usize = 7 * 22;
+/// The confirmation runs: the uncorrected simulation and the shear model at their fitted
+/// parameters, at the 7 designs.
+const RANGED_CONFIRM: usize = 7 * 2;
+const RANGED_ALL: usize = RANGED_SCREENING + RANGED_LOOP + RANGED_CONFIRM;
 
 fn ranged_lab(dir: &Path, out: &str, log: &Path, sleep: f64) -> Command {
     lab(
@@ -460,7 +468,7 @@ fn killed_in_the_loop_resumes_without_rerunning_and_recovers_the_shear_term() {
     let straight_log = dir.path().join("straight.log");
     let o = ranged_lab(dir.path(), "straight", &straight_log, 0.0).output().unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert_eq!(log_keys(&straight_log).len(), RANGED_SCREENING + RANGED_LOOP);
+    assert_eq!(log_keys(&straight_log).len(), RANGED_ALL);
     let r: Value = serde_json::from_slice(&std::fs::read(dir.path().join("straight/results.json")).unwrap()).unwrap();
     let d = &r["diagnosis"];
     assert_eq!(d["cause"], "shear deformation", "{}", d["summary"]);
@@ -498,7 +506,7 @@ fn killed_in_the_loop_resumes_without_rerunning_and_recovers_the_shear_term() {
     let rerun: BTreeSet<&String> = keys[seen..].iter().filter(|k| finished.contains_key(*k)).collect();
     assert!(rerun.is_empty(), "finished runs were run again: {rerun:?}");
     let distinct: BTreeSet<&String> = keys.iter().collect();
-    assert_eq!(distinct.len(), RANGED_SCREENING + RANGED_LOOP);
+    assert_eq!(distinct.len(), RANGED_ALL);
     // Started twice: only runs started before the kill without a committed record then — in flight
     // (--jobs 2), or exited and being judged (the executor gives a slot back before it judges and
     // commits, so under load more than two) — and each of those once.
@@ -518,7 +526,7 @@ fn killed_in_the_loop_resumes_without_rerunning_and_recovers_the_shear_term() {
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&status.stdout);
-    let all = RANGED_SCREENING + RANGED_LOOP;
+    let all = RANGED_ALL;
     assert!(text.contains(&format!("{all} planned run(s): done {all}")), "{text}");
     let straight = std::fs::read(dir.path().join("straight/results.json")).unwrap();
     let resumed = std::fs::read(out.join("results.json")).unwrap();

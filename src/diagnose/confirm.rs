@@ -104,7 +104,13 @@ pub fn confirm(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, level
     let bridged = values
         .iter()
         .all(Option::is_some)
-        .then(|| bridge(m, &values.iter().map(|v| v.unwrap_or(f64::NAN)).collect::<Vec<_>>(), &sd))
+        .then(|| {
+            bridge(
+                m,
+                &values.iter().map(|v| v.unwrap_or(f64::NAN)).collect::<Vec<_>>(),
+                &sd,
+            )
+        })
         .flatten();
     let names = &inputs.parameter_names;
     let width = inputs.parameter_bounds.width();
@@ -115,7 +121,13 @@ pub fn confirm(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, level
         lack_of_fit: bridged.as_ref().and_then(|b| lack_of_fit(obs, b, noise, level)),
         step: bridged
             .as_ref()
-            .map(|b| names.iter().cloned().zip(b.step.iter().zip(width.iter()).map(|(d, w)| d / w)).collect())
+            .map(|b| {
+                names
+                    .iter()
+                    .cloned()
+                    .zip(b.step.iter().zip(width.iter()).map(|(d, w)| d / w))
+                    .collect()
+            })
             .unwrap_or_default(),
         emulator_miss: miss,
     }
@@ -147,14 +159,15 @@ fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridged> {
     let rt = DVector::from_fn(train.len(), |a, _| r[train[a]] * w(train[a]).sqrt());
     let info = jt.transpose() * &jt;
     // Parameters the training tests cannot move (a flat slope) are held.
-    let cov = info.clone().pseudo_inverse(1e-12 * info.norm().max(f64::MIN_POSITIVE)).ok()?;
+    let cov = info
+        .clone()
+        .pseudo_inverse(1e-12 * info.norm().max(f64::MIN_POSITIVE))
+        .ok()?;
     let step = &cov * jt.transpose() * &rt;
-    let residual: Vec<f64> = (0..obs.len())
-        .map(|i| r[i] - (j.row(i) * &step)[0])
-        .collect();
+    let residual: Vec<f64> = (0..obs.len()).map(|i| r[i] - (j.row(i) * &step)[0]).collect();
     let spread = |i: usize| {
         let ji = j.row(i);
-        (&ji * &cov * ji.transpose())[0]
+        (ji * &cov * ji.transpose())[0]
     };
     let se: Vec<f64> = (0..obs.len())
         .map(|i| match obs[i].role {
@@ -261,8 +274,12 @@ pub struct EmulatorReading {
     /// The two decisions differ: the emulators' error decides between them unless solver runs do.
     pub differ: bool,
     /// Which the solver's runs at the fitted parameters confirmed: `noise_alone`, `counted`, or
-    /// none (the verdict is then `emulator_limited`).
+    /// none (the verdict is then `emulator_limited`, or the decision kept is `unjudged`).
     pub confirmed: Option<String>,
+    /// The decision kept without the solver's judgement (`noise_alone` or `counted`): its runs at
+    /// the fitted parameters failed or have no recording, and none refuted it.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub unjudged: Option<String>,
 }
 
 /// A decision as the reading records it.
@@ -287,20 +304,45 @@ impl Decided {
     }
 }
 
+/// What the solver's runs say of a decision's claims.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Judged {
+    /// Every claim holds.
+    Confirmed,
+    /// None is refuted, but some could not be judged (their runs failed).
+    Unjudged,
+    /// A claim is refuted.
+    Refuted,
+}
+
 /// The verdict, confirmed by the solver: of the decision with the tests' noise alone and the one
 /// with the emulators' error counted, the first whose claims hold on the solver's runs at the
-/// fitted parameters; neither: `emulator_limited`, worded from both.
-pub fn settle(noise_alone: super::Diagnosis, counted: super::Diagnosis, confirmations: Vec<Confirmation>) -> super::Diagnosis {
-    let reading = |confirmed: Option<&str>| EmulatorReading {
+/// fitted parameters; else the first none of whose claims is refuted (kept, said to be unjudged);
+/// else `emulator_limited`, worded from both.
+pub fn settle(
+    noise_alone: super::Diagnosis,
+    counted: super::Diagnosis,
+    confirmations: Vec<Confirmation>,
+) -> super::Diagnosis {
+    let reading = |confirmed: Option<&str>, unjudged: Option<&str>| EmulatorReading {
         noise_alone: Decided::of(&noise_alone),
         counted: Decided::of(&counted),
         differ: (noise_alone.verdict, &noise_alone.cause) != (counted.verdict, &counted.cause),
         confirmed: confirmed.map(str::to_string),
+        unjudged: unjudged.map(str::to_string),
     };
-    let confirmed = |d: &super::Diagnosis| {
-        claims(d)
+    let judged = |d: &super::Diagnosis| {
+        let held: Vec<Option<bool>> = claims(d)
             .iter()
-            .all(|(model, claim)| holds(&confirmations, model, *claim) == Some(true))
+            .map(|(model, claim)| holds(&confirmations, model, *claim))
+            .collect();
+        if held.contains(&Some(false)) {
+            Judged::Refuted
+        } else if held.contains(&None) {
+            Judged::Unjudged
+        } else {
+            Judged::Confirmed
+        }
     };
     // Where the two decisions agree, the counted one is kept (its intervals and next test count
     // the emulators' error); where they differ, the noise alone's first: the solver's runs, not the
@@ -310,15 +352,16 @@ pub fn settle(noise_alone: super::Diagnosis, counted: super::Diagnosis, confirma
         true => [(&noise_alone, "noise_alone"), (&counted, "counted")],
         false => [(&counted, "counted"), (&noise_alone, "noise_alone")],
     };
-    let (pick, which) = match order.iter().find(|(d, _)| confirmed(d)) {
-        Some((d, w)) => (Some(*d), Some(*w)),
-        None => (None, None),
+    let first = |j: Judged| order.iter().find(|(d, _)| judged(d) == j).map(|(d, w)| (*d, *w));
+    let (d, reading) = match (first(Judged::Confirmed), first(Judged::Unjudged)) {
+        (Some((d, w)), _) => (d.clone(), reading(Some(w), None)),
+        (None, Some((d, w))) => (d.clone(), reading(None, Some(w))),
+        (None, None) => (
+            super::text::emulator_limited(&noise_alone, &counted, &confirmations),
+            reading(None, None),
+        ),
     };
-    let reading = reading(which);
-    let mut d = match pick {
-        Some(d) => d.clone(),
-        None => super::text::emulator_limited(&noise_alone, &counted, &confirmations),
-    };
+    let mut d = d;
     d.confirmation = confirmations;
     d.emulator = Some(reading);
     d.worded_confirmation()
@@ -385,7 +428,11 @@ mod tests {
         let c = confirm(&m, &solver, &noise, 0.01);
         let l = c.lack_of_fit.expect("a test");
         assert!(l.fits, "{l:?}");
-        assert!((c.step["a"] * 600.0 + 1.2).abs() < 1e-3, "the bridge steps back to 600: {:?}", c.step);
+        assert!(
+            (c.step["a"] * 600.0 + 1.2).abs() < 1e-3,
+            "the bridge steps back to 600: {:?}",
+            c.step
+        );
 
         let (obs, noise) = beam(0.3);
         let i = inputs(obs.clone(), &model);

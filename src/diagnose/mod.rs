@@ -29,19 +29,19 @@
 
 pub mod after_loop;
 pub mod candidates;
+pub mod confirm;
 pub mod discover;
 pub mod evidence;
 pub mod extension;
 pub mod features;
 pub mod joint;
 pub mod lack_of_fit;
-pub mod confirm;
 pub mod levels;
-pub mod open;
 pub mod library;
 pub mod limits;
 pub mod next_test;
 pub mod noise;
+pub mod open;
 pub mod ranking;
 pub mod readings;
 pub mod residuals;
@@ -152,6 +152,9 @@ pub struct Settings {
     /// emulator's check runs, the floor) in the noise. Off: the tests' noise alone, the decision a
     /// solver study compares with the counted one to see whether the emulators decide it.
     pub emulator_counted: bool,
+    /// The measurement's uncertainty of one test the study states (`experiments.uncertainty`:
+    /// `[absolute, relative]`): the noise where the tests have no replicates.
+    pub measurement: Option<[f64; 2]>,
 }
 
 impl Default for Settings {
@@ -166,6 +169,7 @@ impl Default for Settings {
             search_without_detection: false,
             emulator_floor: 0.0,
             emulator_counted: true,
+            measurement: None,
         }
     }
 }
@@ -289,7 +293,10 @@ pub fn inputs_with_extensions<'a>(
                 },
             )
             .collect(),
-        settings: Settings::default(),
+        settings: Settings {
+            measurement: study.experiments.uncertainty,
+            ..Settings::default()
+        },
         discover: study.diagnosis.discover,
         library: library::LibrarySpec {
             units: study.design.iter().map(|d| d.unit.clone()).collect(),
@@ -890,7 +897,7 @@ fn noise_and_base<'a>(
         return fitted(inputs.noise.clone());
     }
     let Some(scatter) = noise::Scatter::of(&inputs.observations) else {
-        return fitted(None);
+        return fitted(inputs.settings.measurement.map(NoiseModel::stated));
     };
     let alpha = inputs.settings.alpha;
     let chosen = scatter.chosen_mixing(alpha);
@@ -1116,7 +1123,7 @@ impl<'a> Evidence<'a> {
             (self.decision.clone(), None)
         } else {
             let (d, a) = after_loop::decide(self, looped, loop_names);
-            (d, Some(a))
+            (verdict::unmeasured(&self.cx, d), Some(a))
         }
     }
 

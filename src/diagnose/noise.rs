@@ -40,7 +40,14 @@ pub enum NoiseKind {
     Combined,
     /// No replicates: σ (absolute) estimated from the residuals of the best-ranked model.
     FromResiduals,
+    /// No replicates: the measurement's uncertainty the study states (`experiments.uncertainty`),
+    /// σ² = a² + (b·y)², taken as known.
+    Stated,
 }
+
+/// The degrees of freedom a known noise is given (a stated measurement uncertainty): its tests are
+/// then χ² and normal, which F and t reach at this many.
+pub const KNOWN_DOF: usize = 1_000_000;
 
 /// The noise model and the evidence for it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -110,6 +117,29 @@ impl NoiseModel {
             mixing_set: None,
             note,
         }
+    }
+}
+
+impl NoiseModel {
+    /// The study's stated measurement uncertainty of one test: σ² = a² + (b·y)² (`[a, b]`), known.
+    pub fn stated([a, b]: [f64; 2]) -> NoiseModel {
+        let mut nm = NoiseModel::constant(
+            a,
+            KNOWN_DOF,
+            format!(
+                "no replicates: the measurement's uncertainty the study states, σ = {}{} (`experiments.uncertainty`), taken \
+                 as known",
+                crate::base::format::num(a),
+                if b > 0.0 {
+                    format!(" ⊕ {} of the level", crate::base::format::num(b))
+                } else {
+                    String::new()
+                }
+            ),
+        );
+        nm.kind = NoiseKind::Stated;
+        nm.relative = b;
+        nm
     }
 }
 

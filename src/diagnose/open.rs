@@ -52,7 +52,10 @@ fn one(c: &Candidate, nu: usize, (alpha, alpha_k): (f64, f64), power: f64) -> Op
     let range = [c.amplitude - half, c.amplitude + half];
     let detect = (stats::t_quantile(1.0 - alpha_k / 2.0, nu) + stats::t_quantile(power, nu)) * se;
     // The joint fit's slope of each parameter on γ (its shift over γ at the 95 % edge, per unit).
-    let edge = c.separability.amplitude_ci95.map(|[lo, hi]| if lo.abs() > hi.abs() { lo } else { hi });
+    let edge = c
+        .separability
+        .amplitude_ci95
+        .map(|[lo, hi]| if lo.abs() > hi.abs() { lo } else { hi });
     let parameters = c
         .parameters
         .iter()
@@ -73,7 +76,9 @@ fn one(c: &Candidate, nu: usize, (alpha, alpha_k): (f64, f64), power: f64) -> Op
     let ends = range.map(|g| g * scale);
     Some(NotExcluded {
         hypothesis: c.name.clone(),
-        amplitude: [(names.clone(), [ends[0].min(ends[1]), ends[0].max(ends[1])])].into_iter().collect(),
+        amplitude: [(names.clone(), [ends[0].min(ends[1]), ends[0].max(ends[1])])]
+            .into_iter()
+            .collect(),
         parameters,
         detectable: [(names, (detect * scale).abs())].into_iter().collect(),
     })

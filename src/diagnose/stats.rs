@@ -29,13 +29,16 @@ pub fn chi2_sf(x: f64, k: f64) -> f64 {
     gamma_q(k / 2.0, x / 2.0)
 }
 
-/// P(F_{d1,d2} > f).
+/// P(F_{d1,d2} > f); a known noise (d2 ≥ [`super::noise::KNOWN_DOF`]) gives χ²_{d1}/d1.
 pub fn f_sf(f: f64, d1: f64, d2: f64) -> f64 {
     if f.is_nan() || f <= 0.0 {
         return 1.0;
     }
     if f.is_infinite() {
         return 0.0;
+    }
+    if d2 >= super::noise::KNOWN_DOF as f64 {
+        return chi2_sf(f * d1, d1);
     }
     beta_i(d2 / 2.0, d1 / 2.0, d2 / (d2 + d1 * f))
 }

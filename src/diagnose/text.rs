@@ -116,6 +116,13 @@ impl super::Diagnosis {
     pub(crate) fn worded_confirmation(mut self) -> super::Diagnosis {
         let lines: Vec<String> = self.confirmation.iter().map(confirmation_line).collect();
         self.evidence.extend(lines);
+        if self.emulator.as_ref().is_some_and(|e| e.unjudged.is_some()) {
+            self.limits.push(
+                "Not confirmed by the solver: its runs at the fitted parameters could not be judged (see the \
+                 confirmation lines); the verdict rests on the emulators alone."
+                    .into(),
+            );
+        }
         self.resummarise();
         self
     }
@@ -158,7 +165,10 @@ fn confirmation_line(c: &super::confirm::Confirmation) -> String {
         None => "cannot be judged: the tests give no noise to judge against".to_string(),
     };
     let miss = c.emulator_miss.map_or(String::new(), |m| {
-        format!("; the emulators were off by up to {} of the tests' noise of the mean there", num(m))
+        format!(
+            "; the emulators were off by up to {} of the tests' noise of the mean there",
+            num(m)
+        )
     });
     format!(
         "Solver runs at the fitted parameters of {model} ({}): it {shown}{miss}.",
@@ -183,7 +193,11 @@ pub(crate) fn emulator_limited(
         .iter()
         .filter_map(|c| {
             let l = c.lack_of_fit.as_ref()?;
-            let what = if c.model == super::confirm::UNCORRECTED { "the uncorrected simulation".to_string() } else { format!("the model with '{}'", c.model) };
+            let what = if c.model == super::confirm::UNCORRECTED {
+                "the uncorrected simulation".to_string()
+            } else {
+                format!("the model with '{}'", c.model)
+            };
             Some(format!("{what} {} the tests", if l.fits { "fits" } else { "misses" }))
         })
         .collect();
@@ -208,7 +222,13 @@ pub(crate) fn emulator_limited(
     );
     d.verdict = super::verdict::Verdict::EmulatorLimited;
     let mut leading = noise_alone.leading.clone();
-    leading.extend(counted.leading.iter().filter(|l| !noise_alone.leading.contains(l)).cloned());
+    leading.extend(
+        counted
+            .leading
+            .iter()
+            .filter(|l| !noise_alone.leading.contains(l))
+            .cloned(),
+    );
     d.leading = leading;
     d.cause = None;
     d.partial = None;
@@ -429,12 +449,24 @@ fn too_few_reason(f: &Facts) -> String {
     let cx = f.cx;
     let n = cx.train.len();
     let p = cx.p();
-    if !cx.known() {
+    if !cx.known() && n < p + 4 {
         format!(
             "{n} training design(s) without replicate tests leave nothing to measure the misfit against (a test of \
              model error needs replicates, or at least {} training designs for {p} parameter(s))",
             p + 4
         )
+    } else if !cx.known() {
+        let unmeasured = "the tests have no replicates and the study states no measurement uncertainty \
+                          (`experiments.uncertainty`), so their noise is not measured, and on a noise estimated from \
+                          the residuals of the models being judged no model is said to fit and no cause is decisive";
+        match f.decision.leading.first().filter(|_| f.decision.detected) {
+            Some(&w) => format!(
+                "{unmeasured}; '{}' reduces the misfit beyond the residuals' scatter: model error is likely, its cause \
+                 a leading candidate",
+                f.name(w)
+            ),
+            None => format!("{unmeasured}; no candidate reduces the misfit beyond the residuals' scatter"),
+        }
     } else {
         format!(
             "with {n} training design(s) for {p} parameter(s), every candidate fits the training tests; the misfit is \

@@ -2,7 +2,7 @@
 //!
 //! | verdict | when |
 //! |---|---|
-//! | `too_few_tests` | no test of model error is possible (no replicates and no spare designs), or the training designs barely exceed the parameters and nothing was detected (the test had almost no power) |
+//! | `too_few_tests` | no test of model error is possible (no replicates and no spare designs), or the training designs barely exceed the parameters and nothing was detected (the test had almost no power), or the tests' noise is not measured (no replicates, no stated `experiments.uncertainty`) and the decision would otherwise say a model fits or a cause is decisive ([`unmeasured`]) |
 //! | `no_model_error` | no candidate's amplitude test is significant at α/(2K) and neither of the uncorrected model's two lack-of-fit tests (omnibus and largest residual) rejects at α/4 |
 //! | `unexplained` | the lack of fit rejects, but no candidate is significant |
 //! | `partly_explained` | the leader is significant and beats every rival, but its extended model's lack of fit (either test) still rejects at α, or a rival's shape still reduces the misfit with the leader's in (encompassing test at α / number of rivals): the cause helps, but it is not the whole story |
@@ -130,7 +130,36 @@ fn without_leader(cx: &Context, ranked: &Ranked, base_rejects: bool) -> Decision
     }
 }
 
+/// Noise that is not measured is not assumed. Without replicates or a stated measurement
+/// uncertainty the noise is estimated from the residuals of the models being judged, so a model
+/// "fits" by construction: the uncorrected model's lack of fit has nothing to be held against, and
+/// a cause's final model fits its own residuals. A candidate's amplitude test stays valid (an F
+/// test of nested models, the larger model's residuals the denominator), so model error may still
+/// be detected; but "no model error" becomes too few tests to tell, and a cause that would be named
+/// stays a leading candidate, ranked, beside the explanation the next test sets it against.
+pub(crate) fn unmeasured(cx: &Context, d: Decision) -> Decision {
+    if cx.known() || !matches!(d.verdict, Verdict::NoModelError | Verdict::CauseNamed) {
+        return d;
+    }
+    let mut leading = d.leading.clone();
+    for w in &d.compare {
+        if !leading.contains(w) {
+            leading.push(*w);
+        }
+    }
+    Decision {
+        verdict: Verdict::TooFewTests,
+        cause: None,
+        leading,
+        ..d
+    }
+}
+
 pub(crate) fn decide(cx: &Context, ranked: &Ranked) -> Decision {
+    unmeasured(cx, decide_on(cx, ranked))
+}
+
+fn decide_on(cx: &Context, ranked: &Ranked) -> Decision {
     let rejects = |l: Option<&super::LackOfFit>| l.is_some_and(super::LackOfFit::rejects);
     let base_rejects = rejects(ranked.base.assessed.lack_of_fit.as_ref());
     let Some(l) = ranked.leader else {

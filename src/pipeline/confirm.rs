@@ -60,14 +60,19 @@ pub(super) struct LoopReading<'m> {
 
 /// A looped model's inputs: the response's, or the curves' with their feature problem.
 pub(super) enum LoopModel<'m> {
-    Response(Inputs<'m>),
-    Curves(Box<(crate::diagnose::features::CurveInputs<'m>, crate::diagnose::features::FeatureProblem)>),
+    Response(Box<Inputs<'m>>),
+    Curves(
+        Box<(
+            crate::diagnose::features::CurveInputs<'m>,
+            crate::diagnose::features::FeatureProblem,
+        )>,
+    ),
 }
 
 impl LoopReading<'_> {
     pub(super) fn inputs(&self) -> Inputs<'_> {
         match &self.model {
-            LoopModel::Response(i) => i.clone(),
+            LoopModel::Response(i) => (**i).clone(),
             LoopModel::Curves(c) => c.1.inputs(&c.0),
         }
     }
@@ -76,7 +81,6 @@ impl LoopReading<'_> {
 /// Each looped hypothesis's model and fitted points (`own`: each decision's loop diagnoses, in
 /// the order of `models`).
 pub(super) fn loop_readings<'m>(
-    study: &'m Study,
     stage: Option<&curves::CurveStage>,
     models: &'m [extend::ExtendedModel],
     loop_curves: &[(usize, crate::emulate::functional::CurveModel)],
@@ -87,7 +91,7 @@ pub(super) fn loop_readings<'m>(
         .enumerate()
         .map(|(j, m)| {
             let model = match stage {
-                None => LoopModel::Response(crate::diagnose::inputs_from_study(&m.study, &m.surrogates)),
+                None => LoopModel::Response(Box::new(crate::diagnose::inputs_from_study(&m.study, &m.surrogates))),
                 Some(s) => {
                     let curve = loop_curves.iter().find(|(k, _)| *k == m.hypothesis).map(|(_, c)| c);
                     let curve = curve.ok_or_else(|| Error::Failed("internal: a loop model without curves".into()))?;
@@ -98,7 +102,6 @@ pub(super) fn loop_readings<'m>(
                 }
             };
             let fitted = own.map(|o| o.get(j).map(|d| d.uncorrected.parameters.clone()).unwrap_or_default());
-            let _ = study;
             Ok(LoopReading {
                 hypothesis: m.hypothesis,
                 model,
@@ -189,7 +192,10 @@ fn candidate_cause<'a>(screening: &'a Inputs<'a>, d: &Diagnosis, cause: &str) ->
     let correction = screening
         .observations
         .iter()
-        .map(|o| c.predictions.get(&o.name).copied().unwrap_or(f64::NAN) - screening.model.predict(&screening.point(o), &point))
+        .map(|o| {
+            c.predictions.get(&o.name).copied().unwrap_or(f64::NAN)
+                - screening.model.predict(&screening.point(o), &point)
+        })
         .collect();
     Some(Subject {
         confirming: Confirming {
@@ -206,7 +212,10 @@ fn candidate_cause<'a>(screening: &'a Inputs<'a>, d: &Diagnosis, cause: &str) ->
 
 /// `named` in the order of `names` (NaN for a name it lacks).
 fn values(names: &[String], named: &IndexMap<String, f64>) -> Vec<f64> {
-    names.iter().map(|n| named.get(n).copied().unwrap_or(f64::NAN)).collect()
+    names
+        .iter()
+        .map(|n| named.get(n).copied().unwrap_or(f64::NAN))
+        .collect()
 }
 
 /// Runs every subject at every tested design in one batch (recorded in a sequential study's
@@ -223,6 +232,7 @@ pub(super) fn run(
     }
     let (study, sim) = (cx.study, cx.sim);
     let designs: Vec<(&String, &Vec<f64>)> = crate::plan::sweep::tested_designs(study).collect();
+    let subjects = within_budget(cx, sequence.as_ref(), subjects, designs.len());
     let plan = Plan {
         runs: subjects
             .iter()
@@ -243,14 +253,16 @@ pub(super) fn run(
     };
     let solver = crate::extract::adapters::solver(sim)?;
     let rendered = sweep::prepare_after(study, &solver, &plan, Some(rendered_before))?;
-    if let Some(sequence) = sequence.as_mut() {
-        sequence.planned_batch("confirmation", &plan, &cx.options.out)?;
+    match sequence.as_mut() {
+        Some(sequence) => sequence.planned_batch("confirmation", &plan, &cx.options.out)?,
+        None => write_plan(&cx.options.out, &plan)?,
     }
     let (swept, outcomes) = runs::sweep_plan(cx, &plan, &rendered, &mut executed.store, reporter)?;
-    if let Some(sequence) = sequence.as_mut() {
-        if let Some(b) = sequence.finish_planned("confirmation", plan.runs.len(), &cx.options.out)? {
-            reporter.report(Event::Batch(b));
-        }
+    if let Some(b) = match sequence.as_mut() {
+        Some(sequence) => sequence.finish_planned("confirmation", plan.runs.len(), &cx.options.out)?,
+        None => None,
+    } {
+        reporter.report(Event::Batch(b));
     }
     let usable = swept.usable(&sim.quality);
     let whitened = whitened_features(cx, executed, read, (&plan, &rendered, &usable));
@@ -283,6 +295,42 @@ pub(super) fn run(
         flags,
     };
     Ok((confirmations, Some(made)))
+}
+
+/// `OUT/confirmation-plan.json`: a fixed design's confirmation runs, written before they start so
+/// that `lab status` counts them (a sequential study's are in its `sequence.json`).
+pub const PLAN_FILE: &str = "confirmation-plan.json";
+
+fn write_plan(out: &std::path::Path, plan: &Plan) -> Result<(), Error> {
+    let planned: Vec<_> = plan.runs.iter().map(super::sequence::record::Planned::of).collect();
+    let text = serde_json::to_vec_pretty(&planned).map_err(|e| Error::Failed(e.to_string()))?;
+    let path = out.join(PLAN_FILE);
+    crate::execute::store::write_atomic(&path, &text)
+        .map_err(|e| Error::Failed(format!("cannot write {}: {e}", path.display())))
+}
+
+/// The confirmation runs the last `lab run` on `out` planned (empty when none).
+pub fn recorded_plan(out: &std::path::Path) -> Vec<PlannedRun> {
+    std::fs::read(out.join(PLAN_FILE))
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<Vec<super::sequence::record::Planned>>(&bytes).ok())
+        .map(|p| p.iter().map(super::sequence::record::Planned::run).collect())
+        .unwrap_or_default()
+}
+
+/// The subjects a sequential study's budget has room for, in their order (the uncorrected
+/// simulation first); a fixed design runs them all.
+fn within_budget<'s, 'a>(
+    cx: RunContext,
+    sequence: Option<&super::sequence::Sequence>,
+    subjects: &'s [Subject<'a>],
+    designs: usize,
+) -> &'s [Subject<'a>] {
+    let (Some(sequence), Some(budget)) = (sequence, crate::plan::sweep::sequential_budget(cx.study, cx.sim)) else {
+        return subjects;
+    };
+    let room = budget.saturating_sub(sequence.runs) / designs.max(1);
+    &subjects[..subjects.len().min(room)]
 }
 
 /// With curves: each confirmation run's curve features, whitened by the tests' scatter alone (as

@@ -46,7 +46,8 @@ pub(super) fn diagnose_with_solver(
             Ok(d) => d,
             Err(e) => return Ok(Err(e)),
         };
-        let decided = [(screening, true), (noise_alone, false)].map(|(d, c)| Finished::of(study, stage, read.problem(c), d, &[]));
+        let decided =
+            [(screening, true), (noise_alone, false)].map(|(d, c)| Finished::of(study, stage, read.problem(c), d, &[]));
         let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&[], &[]));
         let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
         let (d, confirmation, residuals) = confirmed(cx, made, decided, subjects, &read, reporter)?;
@@ -86,9 +87,16 @@ pub(super) fn diagnose_with_solver(
         .zip(&records)
         .map(|(m, x)| (m.hypothesis, x.parameters.values().copied().collect()))
         .collect();
-    let decided = [(counted, true), (noise_alone, false)]
-        .map(|(d, c)| Finished::of(study, stage, read.problem(c), d.with_extensions(records.clone()), &loop_curves));
-    let readings = super::confirm::loop_readings(study, stage, &models, &loop_curves, [&own, &own_alone])?;
+    let decided = [(counted, true), (noise_alone, false)].map(|(d, c)| {
+        Finished::of(
+            study,
+            stage,
+            read.problem(c),
+            d.with_extensions(records.clone()),
+            &loop_curves,
+        )
+    });
+    let readings = super::confirm::loop_readings(stage, &models, &loop_curves, [&own, &own_alone])?;
     let loop_inputs: Vec<crate::diagnose::Inputs> = readings.iter().map(|l| l.inputs()).collect();
     let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&readings, &loop_inputs));
     let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
@@ -147,12 +155,21 @@ fn confirmed(
 }
 
 /// A confirmed diagnosis, its confirmation runs, and its residual curves.
-type Confirmed = (Diagnosis, Option<super::confirm::ConfirmRuns>, Vec<values::ResidualCurves>);
+type Confirmed = (
+    Diagnosis,
+    Option<super::confirm::ConfirmRuns>,
+    Vec<values::ResidualCurves>,
+);
 
 /// What the diagnosis reads: with curves, their inputs and feature problems with the emulators'
 /// error counted and with the tests' noise alone; else the response.
 pub(super) struct Reading<'s> {
-    curves: Option<[(crate::diagnose::features::CurveInputs<'s>, crate::diagnose::features::FeatureProblem); 2]>,
+    curves: Option<
+        [(
+            crate::diagnose::features::CurveInputs<'s>,
+            crate::diagnose::features::FeatureProblem,
+        ); 2],
+    >,
 }
 
 impl<'s> Reading<'s> {
@@ -229,12 +246,18 @@ fn in_the_loop(
     };
     let joint = loop_runs(cx, screened, store, after.stage, chosen, reporter, &mut decide)?;
     let models = after.models(chosen, &joint)?;
-    let counted = Counting { floor: 0.0, emulator: true };
+    let counted = Counting {
+        floor: 0.0,
+        emulator: true,
+    };
     let (d, own, curves) = match after.conclude(&inputs[0], &models, &joint, counted)? {
         Ok(c) => c,
         Err(e) => return Ok(Err(e)),
     };
-    let alone = Counting { floor: 0.0, emulator: false };
+    let alone = Counting {
+        floor: 0.0,
+        emulator: false,
+    };
     let (d_alone, own_alone, _) = match after.conclude(&inputs[1], &models, &joint, alone)? {
         Ok(c) => c,
         Err(e) => return Ok(Err(e)),
@@ -467,4 +490,3 @@ fn with_features(
         _ => (d, Vec::new()),
     }
 }
-

@@ -20,8 +20,8 @@
 //! - [`runs`]: the run-engine stage (where runs come from, the sweep, how the runs ended);
 //! - [`verbs`]: the other commands (`check`, `status`, `report`, `extract`, the Slurm worker).
 
-pub mod curves;
 pub mod confirm;
+pub mod curves;
 mod diagnosis;
 pub mod extend;
 pub mod runs;

@@ -97,7 +97,8 @@ pub struct Batches {
 
 /// `lab status`: the planned runs counted from the store, read without taking its lock; `None`
 /// for a closed-form study (no runs). The solver-in-the-loop runs count once a `lab run` has
-/// chosen them (`OUT/extension-plan.json`).
+/// chosen them (`OUT/extension-plan.json`), the confirmation runs once it has planned them
+/// (`OUT/confirmation-plan.json`).
 pub fn status(study: &Study, out: &Path) -> Result<Option<Status>, Error> {
     let Simulation::Solver(sim) = &study.simulation else {
         return Ok(None);
@@ -115,6 +116,7 @@ pub fn status(study: &Study, out: &Path) -> Result<Option<Status>, Error> {
         None => {
             let mut plan = Plan::new(study, sim);
             plan.runs.extend(super::extend::recorded_plan(study, sim, out).runs);
+            plan.runs.extend(super::confirm::recorded_plan(out));
             plan
         }
     };

@@ -1036,6 +1036,7 @@ fn noise_kind(kind: &crate::diagnose::NoiseKind) -> &'static str {
         crate::diagnose::NoiseKind::Relative => "relative",
         crate::diagnose::NoiseKind::Combined => "absolute and relative",
         crate::diagnose::NoiseKind::FromResiduals => "estimated from the residuals",
+        crate::diagnose::NoiseKind::Stated => "stated by the study",
     }
 }
 

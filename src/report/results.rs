@@ -150,13 +150,17 @@ pub struct SurrogateResult {
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct RunsResult {
-    /// Every run of the study: the screening's and the solver-in-the-loop's.
+    /// Every run of the study: the screening's, the solver-in-the-loop's and the confirmation's.
     pub planned: usize,
     pub succeeded: usize,
     pub failed: usize,
     /// Of `planned`, the runs of the solver in the loop (`diagnosis.extensions`).
     #[serde(default)]
     pub in_the_loop: usize,
+    /// Of `planned`, the confirmation runs: the solver at the fitted parameters of the models the
+    /// verdict rests on, one run per tested design each (`diagnosis.confirmation`).
+    #[serde(default)]
+    pub confirmation: usize,
     /// The recordings the runs were replayed from (`--replay` or the study's `simulation.replay`);
     /// absent when a solver ran. Run times of a replay are the replay's, not the solver's.
     #[serde(skip_serializing_if = "Option::is_none", default)]

@@ -81,7 +81,12 @@ fn results(
     let mut results = results.with_surrogates(&runs.surrogates);
     results.splits = splits;
     results.sampling = runs.sequence.as_ref().map(|s| sequence::Sequence {
-        replaces: sequence::record::Replaced::of(study, runs.sim, runs.diagnosed.joint.as_ref().map(|j| &j.plan)),
+        replaces: sequence::record::Replaced::of(
+            study,
+            runs.sim,
+            runs.diagnosed.joint.as_ref().map(|j| &j.plan),
+            runs.diagnosed.confirmation.as_ref().map_or(0, |c| c.plan.runs.len()),
+        ),
         ..s.for_results()
     });
     let gates = runs.sim.quality.gates;
@@ -99,6 +104,7 @@ fn results(
         succeeded: 0,
         failed: 0,
         in_the_loop: runs.diagnosed.joint.as_ref().map_or(0, |j| j.plan.runs.len()),
+        confirmation: runs.diagnosed.confirmation.as_ref().map_or(0, |c| c.plan.runs.len()),
         replayed_from: runs.executed.replay.as_ref().map(|d| d.display().to_string()),
         suspect: 0,
         gates: sweeps
@@ -146,7 +152,12 @@ fn report_data(study: &Study, simulated: &Simulated, calibration: &Calibration, 
                 dirs: r.executed.output_dirs(r.sim),
             };
             let reference = super::data::reference(calibration);
-            data.extension_surfaces = r.diagnosed.extended.iter().map(|(m, at)| surface(study, m, at)).collect();
+            data.extension_surfaces = r
+                .diagnosed
+                .extended
+                .iter()
+                .map(|(m, at)| surface(study, m, at))
+                .collect();
             data.residual_curves = r.diagnosed.residual_curves.clone();
             data.solver_comparison = super::solvers::compare(r.sim, &outputs);
             super::curves::design_curves(study, Some(&outputs), reference.as_ref())

@@ -20,6 +20,9 @@ pub struct Experiments {
     /// `experiments.curves`: the specimens' force–displacement curves, per tested design that has
     /// any, in the experiments' design order.
     pub curves: Vec<SpecimenCurves>,
+    /// `experiments.uncertainty`: the measurement's uncertainty of one test, `[absolute, relative]`
+    /// (σ² = a² + (b·y)²), the noise where the tests have no replicates.
+    pub uncertainty: Option<[f64; 2]>,
 }
 
 /// The test-machine curves of one tested design (mm, kN, compression positive).
@@ -98,6 +101,7 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
         unit: None,
         designs: designs.designs,
         curves: Vec::new(),
+        uncertainty: None,
     })
 }
 

@@ -252,6 +252,11 @@ impl Checker<'_> {
                 floor.looped
             ));
         }
+        parts.push(format!(
+            "the confirmation runs at the fitted parameters of the uncorrected simulation and of a named cause \
+             ({})",
+            floor.confirmation
+        ));
         Err(self.at_key(
             "budget",
             node,
@@ -387,6 +392,7 @@ impl Checker<'_> {
 
         let planned: Vec<String> = training.iter().chain(&validation).cloned().collect();
         experiments.curves = self.specimen_curves(file.experiments.curves.as_ref(), &experiments, &planned)?;
+        experiments.uncertainty = self.uncertainty(file.experiments.uncertainty.as_ref())?;
         Ok(Tested {
             experiments,
             training,
@@ -540,6 +546,39 @@ impl Checker<'_> {
             ));
         }
         Ok(Simulation::Expression(expression))
+    }
+
+    /// `experiments.uncertainty`: each part a finite number ≥ 0, at least one above 0.
+    fn uncertainty(
+        &self,
+        node: Option<&Spanned<super::schema::UncertaintyFile>>,
+    ) -> Result<Option<[f64; 2]>, InputError> {
+        let Some(node) = node else {
+            return Ok(None);
+        };
+        let part = |p: &Option<Spanned<f64>>, name: &str| match p {
+            Some(v) if !(v.value.is_finite() && v.value >= 0.0) => Err(self.at(
+                v,
+                format!(
+                    "`experiments.uncertainty.{name}` is {}: expected a finite number ≥ 0",
+                    v.value
+                ),
+            )),
+            Some(v) => Ok(v.value),
+            None => Ok(0.0),
+        };
+        let (a, b) = (
+            part(&node.value.absolute, "absolute")?,
+            part(&node.value.relative, "relative")?,
+        );
+        if a == 0.0 && b == 0.0 {
+            return Err(self.at(
+                node,
+                "`experiments.uncertainty` states no uncertainty: give `absolute` (in the response's unit) and/or \
+                 `relative` (a fraction of the level, 0.01 for 1 %) above 0",
+            ));
+        }
+        Ok(Some([a, b]))
     }
 
     fn experiments(&self, file: &StudyFile, design: &[DesignVariable]) -> Result<Experiments, InputError> {

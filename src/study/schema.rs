@@ -240,6 +240,19 @@ pub struct ExperimentsFile {
     /// Test-machine force–displacement CSVs per design: a path pattern relative to the study file,
     /// `{design}` for the design name and `*` in the file name (`tests/{design}-*.csv`).
     pub curves: Option<Spanned<String>>,
+    /// The measurement's uncertainty of one test (`{absolute: a, relative: b}`, σ² = a² + (b·y)²):
+    /// the noise where the tests have no replicates.
+    pub uncertainty: Option<Spanned<UncertaintyFile>>,
+}
+
+/// `experiments.uncertainty`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UncertaintyFile {
+    /// σ's absolute part, in the response's unit.
+    pub absolute: Option<Spanned<f64>>,
+    /// σ's part proportional to the level (a fraction: 0.01 is 1 %).
+    pub relative: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -51,7 +51,15 @@ pub struct SequenceFloor {
     /// start its joint space needs beyond the runs it already has there (the probes, and the
     /// screening's first batch where the baseline is the space's edge), and one held-out run.
     pub looped: usize,
+    /// The confirmation runs: the solver at the fitted parameters of the uncorrected simulation and
+    /// of a named cause, one run per design each ([`CONFIRMED_MODELS`]).
+    pub confirmation: usize,
 }
+
+/// The models a verdict's confirmation runs the solver for within a budget: the uncorrected
+/// simulation and the cause a decision names. (Where the two decisions name different causes a
+/// third is run if the budget has room, else that decision stays unconfirmed.)
+pub const CONFIRMED_MODELS: usize = 2;
 
 /// Whether the extension hypotheses' probes are one per design, the designs taking the probe points
 /// in turn for one emulator across the designs, rather than p + 1 at every design. Across the
@@ -85,6 +93,7 @@ impl SequenceFloor {
             initial: initial_runs(study, sim),
             probes: designs * (if probes_across(study, sim) { 1 } else { p + 1 }) * extensions,
             looped,
+            confirmation: designs * CONFIRMED_MODELS,
         })
     }
 
@@ -94,9 +103,10 @@ impl SequenceFloor {
         self.initial + self.designs + self.reserve()
     }
 
-    /// What the screening may not spend: the probes and the loop's first batches.
+    /// What the screening may not spend: the probes, the loop's first batches and the
+    /// confirmation runs.
     pub fn reserve(&self) -> usize {
-        self.probes + self.looped
+        self.probes + self.looped + self.confirmation
     }
 }
 

@@ -378,7 +378,11 @@ pub fn significance_is_backed(what: &str, text: &str) {
 /// parameters confirmed neither; and it names no cause.
 pub fn assert_emulators_decide(d: &Value) {
     let e = &d["emulator"];
-    assert!(d["cause"].is_null(), "an undecided verdict names no cause: {}", d["cause"]);
+    assert!(
+        d["cause"].is_null(),
+        "an undecided verdict names no cause: {}",
+        d["cause"]
+    );
     assert!(e.is_object(), "no emulator reading: {}", d["summary"]);
     assert!(e["confirmed"].is_null(), "a confirmed decision, yet undecided: {e}");
     let confirmations = d["confirmation"].as_array().expect("confirmation runs");
@@ -396,8 +400,13 @@ pub fn assert_emulators_decide(d: &Value) {
             .iter()
             .map(|c| format!(
                 "{}: fits {} chi2 {} dof {} miss {} step {} largest {}",
-                c["model"], c["lack_of_fit"]["fits"], c["lack_of_fit"]["chi2"], c["lack_of_fit"]["dof"],
-                c["emulator_miss"], c["step"], c["lack_of_fit"]["largest"]
+                c["model"],
+                c["lack_of_fit"]["fits"],
+                c["lack_of_fit"]["chi2"],
+                c["lack_of_fit"]["dof"],
+                c["emulator_miss"],
+                c["step"],
+                c["lack_of_fit"]["largest"]
             ))
             .collect::<Vec<_>>()
             .join(", ")

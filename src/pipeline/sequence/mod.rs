@@ -619,8 +619,10 @@ pub fn looped(
         }
         stages.push((k, stage, edge));
     }
-    // Room for a check of every stage at the decision's fitted point, kept from the batches.
-    let checks = r.set.tests.designs.len() * stages.len();
+    // Room for a check of every stage at the decision's fitted point, and for the confirmation
+    // runs after the loop, kept from the batches.
+    let confirmation = crate::plan::sweep::SequenceFloor::of(cx.study, cx.sim).map_or(0, |f| f.confirmation);
+    let checks = r.set.tests.designs.len() * stages.len() + confirmation;
     for (_, stage, _) in &mut stages {
         stage.reserve = checks;
     }

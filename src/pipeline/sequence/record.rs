@@ -118,8 +118,9 @@ pub struct Replaced {
 
 impl Replaced {
     /// The study's `sampling.replaces` (`None` when it names none), counted with the hypotheses the
-    /// sequence took into the loop: those with runs in `joint`.
-    pub fn of(study: &Study, sim: &SolverSimulation, joint: Option<&Plan>) -> Option<Replaced> {
+    /// sequence took into the loop (those with runs in `joint`) and the `confirmation` runs, which the
+    /// fixed design makes alike (the same models at their fitted parameters, one run per design).
+    pub fn of(study: &Study, sim: &SolverSimulation, joint: Option<&Plan>, confirmation: usize) -> Option<Replaced> {
         let fixed = sim.sampling.sequential.as_ref()?.replaces.as_deref()?;
         let mut looped: Vec<usize> = joint
             .map(|p| {
@@ -133,7 +134,9 @@ impl Replaced {
             .collect();
         looped.sort_unstable();
         looped.dedup();
-        Some(Replaced::counted(study, sim, fixed, &looped))
+        let mut replaced = Replaced::counted(study, sim, fixed, &looped);
+        replaced.runs += confirmation;
+        Some(replaced)
     }
 
     /// The fixed design `fixed`, its runs counted with the solver in the loop for `looped`.
