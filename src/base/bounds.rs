@@ -40,10 +40,6 @@ impl Bounds {
         &self.lower + u.component_mul(&self.width())
     }
 
-    pub fn clamp(&self, x: &DVector<f64>) -> DVector<f64> {
-        x.zip_zip_map(&self.lower, &self.upper, |v, lo, hi| v.clamp(lo, hi))
-    }
-
     /// Whether coordinate `k` is spread uniformly in ln x ([`Bounds::spread`]): a positive range
     /// wider than [`LOG_SPREAD_RATIO`].
     pub fn spread_in_ln(&self, k: usize) -> bool {

@@ -108,8 +108,50 @@ impl CommandAdapter {
     }
 }
 
-fn bad(problem: ResponseProblem, detail: String) -> Outcome {
-    Outcome::BadResponse { problem, detail }
+/// A response that could not be read, and why.
+pub fn bad(problem: ResponseProblem, detail: impl Into<String>) -> Outcome {
+    Outcome::BadResponse {
+        problem,
+        detail: detail.into(),
+    }
+}
+
+/// A finished run's outputs judged: the first failure text found, else the adapter's judgement.
+pub fn judge_outputs(adapter: &dyn Adapter, dir: &Path) -> (Outcome, Option<Judged>) {
+    if let Some(failure) = adapter.find_failure(dir) {
+        return (failure, None);
+    }
+    match adapter.judge(dir) {
+        Ok(j) => (Outcome::Success, Some(j)),
+        Err(outcome) => (outcome, None),
+    }
+}
+
+/// The bytes of output file `rel` of the run in `dir`; a file that is not there (or cannot be
+/// read) is a missing response.
+pub fn read_output(dir: &Path, rel: &Path) -> Result<Vec<u8>, Outcome> {
+    std::fs::read(dir.join(rel)).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => bad(ResponseProblem::Missing, format!("{} was not written", rel.display())),
+        _ => bad(ResponseProblem::Missing, format!("{}: {e}", rel.display())),
+    })
+}
+
+/// The first line of `files` (in the run directory `dir`, each read if it is there) that `is_failure`
+/// says is a failure, as failure text (trimmed, at most 200 characters).
+pub fn failure_line(dir: &Path, files: &[PathBuf], is_failure: impl Fn(&str) -> bool) -> Option<Outcome> {
+    for rel in files {
+        let Ok(bytes) = std::fs::read(dir.join(rel)) else {
+            continue;
+        };
+        let text = String::from_utf8_lossy(&bytes);
+        if let Some(line) = text.lines().find(|l| is_failure(l)) {
+            return Some(Outcome::FailureText {
+                file: rel.to_string_lossy().into_owned(),
+                line: line.trim().chars().take(200).collect(),
+            });
+        }
+    }
+    None
 }
 
 impl Adapter for CommandAdapter {
@@ -139,33 +181,14 @@ impl Adapter for CommandAdapter {
         if self.failure_patterns.is_empty() {
             return None;
         }
-        for rel in self.scanned_files() {
-            let Ok(bytes) = std::fs::read(dir.join(&rel)) else {
-                continue;
-            };
-            let text = String::from_utf8_lossy(&bytes);
-            for line in text.lines() {
-                if self.failure_patterns.iter().any(|p| p.is_match(line)) {
-                    let line: String = line.trim().chars().take(200).collect();
-                    return Some(Outcome::FailureText {
-                        file: rel.to_string_lossy().into_owned(),
-                        line,
-                    });
-                }
-            }
-        }
-        None
+        failure_line(dir, &self.scanned_files(), |line| {
+            self.failure_patterns.iter().any(|p| p.is_match(line))
+        })
     }
 
     fn extract(&self, dir: &Path) -> Result<f64, Outcome> {
         let name = self.response_file.display();
-        let bytes = match std::fs::read(dir.join(&self.response_file)) {
-            Ok(b) => b,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                return Err(bad(ResponseProblem::Missing, format!("{name} was not written")));
-            }
-            Err(e) => return Err(bad(ResponseProblem::Missing, format!("{name}: {e}"))),
-        };
+        let bytes = read_output(dir, &self.response_file)?;
         let text = String::from_utf8_lossy(&bytes);
         if text.trim().is_empty() {
             return Err(bad(ResponseProblem::Empty, format!("{name} is empty")));

@@ -47,7 +47,7 @@ use std::os::unix::process::ExitStatusExt;
 use std::path::Path;
 use std::process::{ExitStatus, Stdio};
 use std::sync::Arc;
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::Duration;
 
 use nix::sys::signal::{Signal, killpg};
 use nix::unistd::Pid;
@@ -55,9 +55,9 @@ use tokio::sync::{OwnedSemaphorePermit, Semaphore, mpsc, watch};
 use tokio::task::JoinSet;
 use tokio::time::Instant;
 
-use super::adapter::Adapter;
+use super::adapter::{Adapter, judge_outputs};
 use super::store::Committer;
-use super::{Outcome, RunRecord, RunSpec, STDERR_FILE, STDOUT_FILE};
+use super::{Outcome, RunRecord, RunSpec, STDERR_FILE, STDOUT_FILE, now_ms};
 
 /// Why the executor stops, weakest first. A stronger reason replaces a weaker one, never the reverse.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -291,13 +291,6 @@ impl Executor {
     }
 }
 
-fn now_ms() -> u64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_millis() as u64)
-        .unwrap_or(0)
-}
-
 async fn unit(
     spec: RunSpec,
     first_slot: OwnedSemaphorePermit,
@@ -346,16 +339,7 @@ async fn unit(
             attempt += 1;
             continue;
         }
-        let record = RunRecord {
-            key: spec.key.clone(),
-            outcome,
-            attempts: attempt,
-            started_ms,
-            ended_ms: now_ms(),
-            response: response.as_ref().map(|j| j.response),
-            quality: response.as_ref().and_then(|j| j.quality),
-            warnings: response.map(|j| j.warnings).unwrap_or_default(),
-        };
+        let record = RunRecord::ended(&spec.key, outcome, attempt, started_ms, response);
         let committer = ctx.committer.clone();
         let to_commit = record.clone();
         match tokio::task::spawn_blocking(move || committer.commit(&to_commit)).await {
@@ -631,17 +615,14 @@ fn judge(status: ExitStatus, adapter: &dyn Adapter, dir: &Path) -> (Outcome, Opt
     if let Some(signal) = status.signal() {
         return (Outcome::Signal { signal }, None);
     }
-    if let Some(failure) = adapter.find_failure(dir) {
-        return (failure, None);
-    }
     match status.code() {
-        Some(0) => {}
-        Some(code) => return (Outcome::NonZeroExit { code }, None),
-        None => return (Outcome::NonZeroExit { code: -1 }, None),
-    }
-    match adapter.judge(dir) {
-        Ok(j) => (Outcome::Success, Some(j)),
-        Err(outcome) => (outcome, None),
+        Some(0) => judge_outputs(adapter, dir),
+        code => {
+            let exit = Outcome::NonZeroExit {
+                code: code.unwrap_or(-1),
+            };
+            (adapter.find_failure(dir).unwrap_or(exit), None)
+        }
     }
 }
 

@@ -13,7 +13,6 @@
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
-use std::time::{SystemTime, UNIX_EPOCH};
 
 use serde::{Deserialize, Serialize};
 
@@ -34,14 +33,10 @@ impl Holder {
         let host = nix::unistd::gethostname()
             .map(|h| h.to_string_lossy().into_owned())
             .unwrap_or_else(|_| "?".into());
-        let started = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map(|d| d.as_secs())
-            .unwrap_or(0);
         Holder {
             pid: std::process::id(),
             host,
-            started,
+            started: super::now_ms() / 1000,
         }
     }
 }
@@ -56,19 +51,13 @@ pub enum LockError {
 
 fn describe(holder: &Option<Holder>) -> String {
     match holder {
-        Some(h) => {
-            let now = SystemTime::now()
-                .duration_since(UNIX_EPOCH)
-                .map(|d| d.as_secs())
-                .unwrap_or(0);
-            format!(
-                "pid {} on host {}, started {} s ago (unix time {})",
-                h.pid,
-                h.host,
-                now.saturating_sub(h.started),
-                h.started
-            )
-        }
+        Some(h) => format!(
+            "pid {} on host {}, started {} s ago (unix time {})",
+            h.pid,
+            h.host,
+            (super::now_ms() / 1000).saturating_sub(h.started),
+            h.started
+        ),
         None => "holder not yet written".to_string(),
     }
 }
@@ -99,11 +88,7 @@ impl OutLock {
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) => {
-                let mut text = String::new();
-                let holder = file
-                    .read_to_string(&mut text)
-                    .ok()
-                    .and_then(|_| serde_json::from_str(&text).ok());
+                let holder = written_holder(&mut file);
                 return Err(LockError::Held { path, holder });
             }
             Err(TryLockError::Error(e)) => return Err(io(e)),
@@ -141,16 +126,17 @@ pub fn probe(out: &Path) -> Result<Option<Option<Holder>>, LockError> {
             let _ = file.unlock();
             Ok(None)
         }
-        Err(TryLockError::WouldBlock) => {
-            let mut text = String::new();
-            Ok(Some(
-                file.read_to_string(&mut text)
-                    .ok()
-                    .and_then(|_| serde_json::from_str(&text).ok()),
-            ))
-        }
+        Err(TryLockError::WouldBlock) => Ok(Some(written_holder(&mut file))),
         Err(TryLockError::Error(e)) => Err(io(e)),
     }
+}
+
+/// The holder the lock file names, when its text reads as one.
+fn written_holder(file: &mut File) -> Option<Holder> {
+    let mut text = String::new();
+    file.read_to_string(&mut text)
+        .ok()
+        .and_then(|_| serde_json::from_str(&text).ok())
 }
 
 impl Drop for OutLock {

@@ -224,6 +224,30 @@ pub struct RunRecord {
     pub warnings: Vec<String>,
 }
 
+impl RunRecord {
+    /// The record of a run that ended now after `attempts` attempts, with the response, figures
+    /// and warnings of its judgement when it has one.
+    pub fn ended(key: &str, outcome: Outcome, attempts: u32, started_ms: u64, judged: Option<Judged>) -> RunRecord {
+        RunRecord {
+            key: key.to_string(),
+            outcome,
+            attempts,
+            started_ms,
+            ended_ms: now_ms(),
+            response: judged.as_ref().map(|j| j.response),
+            quality: judged.as_ref().and_then(|j| j.quality),
+            warnings: judged.map(|j| j.warnings).unwrap_or_default(),
+        }
+    }
+}
+
+/// Milliseconds since the Unix epoch (0 if the clock is before it).
+pub(crate) fn now_ms() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64)
+}
+
 impl RetryPolicy {
     /// Whether an attempt numbered `attempt` (from 1) that ended in `outcome` is tried again.
     pub fn retries(&self, attempt: u32, outcome: &Outcome) -> bool {

@@ -41,12 +41,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use tokio::sync::mpsc;
 
+use super::adapter::judge_outputs;
 use super::quality::{Flag, Quality};
 use super::replay::{self, InputDigest, Manifest};
 use super::store::{RUNS_DIR, run_key, write_atomic};
-use super::{
-    Adapter, CancelReason, Canceller, Executor, Outcome, OutcomeClass, RunRecord, RunSpec, RunStore, progress,
-};
+use super::{Adapter, CancelReason, Canceller, Executor, OutcomeClass, RunRecord, RunSpec, RunStore, now_ms, progress};
 use crate::error::{Error, InputError};
 use crate::plan::Plan;
 use crate::render::mesh::{self, TubeSpec};
@@ -311,24 +310,8 @@ fn judge_recording(
 ) -> Result<RunRecord, Error> {
     let started = now_ms();
     let scratch = judging_dir(out, key, inputs, recording)?;
-    let dir = &scratch.0;
-    let (outcome, judged) = match adapter.find_failure(dir) {
-        Some(failure) => (failure, None),
-        None => match adapter.judge(dir) {
-            Ok(j) => (Outcome::Success, Some(j)),
-            Err(o) => (o, None),
-        },
-    };
-    Ok(RunRecord {
-        key: key.to_string(),
-        outcome,
-        attempts: 1,
-        started_ms: started,
-        ended_ms: now_ms(),
-        response: judged.as_ref().map(|j| j.response),
-        quality: judged.as_ref().and_then(|j| j.quality),
-        warnings: judged.map(|j| j.warnings).unwrap_or_default(),
-    })
+    let (outcome, judged) = judge_outputs(adapter, &scratch.0);
+    Ok(RunRecord::ended(key, outcome, 1, started, judged))
 }
 
 /// Directory (under `--out`) where a replayed run is judged, then removed.
@@ -376,12 +359,6 @@ impl Drop for ScratchDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
     }
-}
-
-fn now_ms() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_millis() as u64)
 }
 
 fn with_run(mut e: InputError, design: &str) -> InputError {
@@ -473,25 +450,11 @@ impl SweepResult {
 
     /// Every planned run's response and outcome class as the store now holds them, in plan order.
     fn from_store(store: &RunStore, prepared: &Prepared, reused: usize, errors: Vec<String>) -> SweepResult {
-        let responses = prepared
-            .keys
-            .iter()
-            .map(|k| store.record(k).and_then(|r| r.response))
-            .collect();
-        let classes = prepared
-            .keys
-            .iter()
-            .map(|k| store.record(k).map(|r| r.outcome.class()))
-            .collect();
-        let quality = prepared
-            .keys
-            .iter()
-            .map(|k| store.record(k).and_then(|r| r.quality))
-            .collect();
+        let records: Vec<Option<&RunRecord>> = prepared.keys.iter().map(|k| store.record(k)).collect();
         SweepResult {
-            responses,
-            classes,
-            quality,
+            responses: records.iter().map(|r| r.and_then(|r| r.response)).collect(),
+            classes: records.iter().map(|r| r.map(|r| r.outcome.class())).collect(),
+            quality: records.iter().map(|r| r.and_then(|r| r.quality)).collect(),
             reused,
             errors,
         }

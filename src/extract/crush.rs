@@ -44,7 +44,8 @@ pub enum CrushError {
     Data { what: String, message: String },
 }
 
-fn data(what: &str, message: impl Into<String>) -> CrushError {
+/// A curve problem with `what` (a history, the settings, the stroke window).
+pub(crate) fn data(what: &str, message: impl Into<String>) -> CrushError {
     CrushError::Data {
         what: what.to_string(),
         message: message.into(),
@@ -129,30 +130,20 @@ pub fn from_histories(
 }
 
 fn apply_signs(d: &mut [f64], f: &mut [f64], force_sign: Sign, disp_sign: Sign) {
-    let ds = match disp_sign {
-        Sign::Plus => 1.0,
-        Sign::Minus => -1.0,
-        Sign::Auto => {
-            if d[d.len() - 1] - d[0] >= 0.0 {
-                1.0
-            } else {
-                -1.0
-            }
-        }
-    };
+    let ds = factor(disp_sign, || d[d.len() - 1] - d[0] >= 0.0);
     d.iter_mut().for_each(|x| *x *= ds);
-    let fs = match force_sign {
+    let fs = factor(force_sign, || trapezoid(d, f) >= 0.0);
+    f.iter_mut().for_each(|x| *x *= fs);
+}
+
+/// The factor a sign stands for: with [`Sign::Auto`], 1 when `positive()` holds, else −1.
+fn factor(sign: Sign, positive: impl FnOnce() -> bool) -> f64 {
+    match sign {
         Sign::Plus => 1.0,
         Sign::Minus => -1.0,
-        Sign::Auto => {
-            if trapezoid(d, f) >= 0.0 {
-                1.0
-            } else {
-                -1.0
-            }
-        }
-    };
-    f.iter_mut().for_each(|x| *x *= fs);
+        Sign::Auto if positive() => 1.0,
+        Sign::Auto => -1.0,
+    }
 }
 
 fn trapezoid(d: &[f64], f: &[f64]) -> f64 {
@@ -196,12 +187,24 @@ fn against_stroke(
         .disp
         .get(src.disp_axis)
         .ok_or_else(|| data("settings", "displacement axis must be 0, 1 or 2"))?;
+    in_units(time, force, &n.time, disp, src)
+}
+
+/// [`from_histories`] of a force and a displacement history in the solver's units, turned into kN
+/// and mm by the source's unit factors (which must be positive and finite) and signed as it says.
+pub(crate) fn in_units(
+    force_time: &[f64],
+    force: &[f64],
+    disp_time: &[f64],
+    disp: &[f64],
+    src: &SimSource,
+) -> Result<ForceDisplacement, CrushError> {
     if !(src.force_to_kn.is_finite() && src.force_to_kn > 0.0 && src.disp_to_mm.is_finite() && src.disp_to_mm > 0.0) {
         return Err(data("settings", "unit factors must be positive and finite"));
     }
     let f: Vec<f64> = force.iter().map(|v| v * src.force_to_kn).collect();
     let d: Vec<f64> = disp.iter().map(|v| v * src.disp_to_mm).collect();
-    from_histories(time, &f, &n.time, &d, src.force_sign, src.disp_sign)
+    from_histories(force_time, &f, disp_time, &d, src.force_sign, src.disp_sign)
 }
 
 /// The curve from a rigid wall's normal force (rwforc) and nodout: the wall's force against the

@@ -60,7 +60,6 @@ impl Features {
 }
 
 /// The features of `force`, sampled at `spec.grid`'s strokes.
-/// The features of `force`, sampled at `spec.grid`'s strokes.
 pub fn measure(spec: &FeatureSpec, force: &[f64]) -> Features {
     measure_with(spec, force, true)
 }

@@ -116,24 +116,7 @@ pub fn pcm(exp: &[[f64; 2]], num: &[[f64; 2]]) -> f64 {
 /// of the largest coupled distance. As `similaritymeasures.frechet_dist(exp, num, p=2)`.
 /// O(n·m) time, O(m) memory (one row of the coupling table).
 pub fn frechet(exp: &[[f64; 2]], num: &[[f64; 2]]) -> f64 {
-    if exp.is_empty() || num.is_empty() {
-        return f64::NAN;
-    }
-    let mut row: Vec<f64> = Vec::with_capacity(num.len());
-    for (j, q) in num.iter().enumerate() {
-        let c = dist(&exp[0], q);
-        row.push(if j == 0 { c } else { py_max(row[j - 1], c) });
-    }
-    for p in &exp[1..] {
-        let mut diag = row[0];
-        row[0] = py_max(row[0], dist(p, &num[0]));
-        for (j, q) in num.iter().enumerate().skip(1) {
-            let up = row[j];
-            row[j] = py_max(py_min3(up, row[j - 1], diag), dist(p, q));
-            diag = up;
-        }
-    }
-    row[num.len() - 1]
+    coupling(exp, num, py_max)
 }
 
 /// Dynamic time warping distance (Senin 2008, "Dynamic time warping algorithm review"), with
@@ -141,20 +124,27 @@ pub fn frechet(exp: &[[f64; 2]], num: &[[f64; 2]]) -> f64 {
 /// start at both first points and end at both last points. As the first value of
 /// `similaritymeasures.dtw(exp, num)`. O(n·m) time, O(m) memory (one row of the cumulative table).
 pub fn dtw(exp: &[[f64; 2]], num: &[[f64; 2]]) -> f64 {
+    coupling(exp, num, |best, d| best + d)
+}
+
+/// The last cell of the coupling table of [`frechet`] and [`dtw`], kept one row at a time: a cell
+/// is `extend(best, d)` of the best of its three predecessors (the one before it in its row or
+/// column at the table's edges) and the distance of its two points. NaN for an empty curve.
+fn coupling(exp: &[[f64; 2]], num: &[[f64; 2]], extend: impl Fn(f64, f64) -> f64) -> f64 {
     if exp.is_empty() || num.is_empty() {
         return f64::NAN;
     }
     let mut row: Vec<f64> = Vec::with_capacity(num.len());
     for (j, q) in num.iter().enumerate() {
         let c = dist(&exp[0], q);
-        row.push(if j == 0 { c } else { row[j - 1] + c });
+        row.push(if j == 0 { c } else { extend(row[j - 1], c) });
     }
     for p in &exp[1..] {
         let mut diag = row[0];
-        row[0] += dist(p, &num[0]);
+        row[0] = extend(row[0], dist(p, &num[0]));
         for (j, q) in num.iter().enumerate().skip(1) {
             let up = row[j];
-            row[j] = dist(p, q) + py_min3(up, row[j - 1], diag);
+            row[j] = extend(py_min3(up, row[j - 1], diag), dist(p, q));
             diag = up;
         }
     }

@@ -12,7 +12,7 @@ use super::schema::{BayesianFile, CalibrationFile, DiagnosisFile, Name, Simulati
 use super::yaml::{self, Spanned};
 use super::{
     CalibrationSettings, DesignVariable, DiagnosisSettings, Experiments, Expression, Hypothesis, HypothesisKind,
-    Method, Parameter, Simulation, Study, SurrogateKind, Symbols, experiments,
+    Method, Parameter, Simulation, Study, SurrogateKind, Symbols, experiments, symbols,
 };
 use crate::error::InputError;
 
@@ -46,18 +46,6 @@ struct Tested {
     experiments: Experiments,
     training: Vec<String>,
     validation: Vec<String>,
-}
-
-/// The symbols expressions may use, in the order of `Study::symbols`: design variables,
-/// parameters, constants.
-fn symbols(design: &[DesignVariable], parameters: &[Parameter], constants: &[(String, f64)]) -> Symbols {
-    Symbols::new(
-        design
-            .iter()
-            .map(|d| d.name.clone())
-            .chain(parameters.iter().map(|p| p.name.clone()))
-            .chain(constants.iter().map(|(n, _)| n.clone())),
-    )
 }
 
 /// The study file and its text, for located errors.
@@ -605,23 +593,7 @@ impl Checker<'_> {
                 ),
             ));
         }
-        let dir = self.path.parent().unwrap_or(Path::new(""));
-        let csv = dir.join(&spec.file.value);
-        if !csv.is_file() {
-            let why = if csv.exists() {
-                "is not a file"
-            } else {
-                "does not exist"
-            };
-            return Err(self.at(
-                &spec.file,
-                format!(
-                    "experiments file `{}` {why} (looked for {}; paths are relative to the study file)",
-                    spec.file.value,
-                    csv.display()
-                ),
-            ));
-        }
+        let csv = self.referenced_file(&spec.file, "experiments file")?;
         let names: Vec<String> = design.iter().map(|d| d.name.clone()).collect();
         experiments::read(&csv, &response.value, &names)
     }

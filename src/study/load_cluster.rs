@@ -126,18 +126,16 @@ impl Checker<'_> {
             return Err(self.at(&d.set, "`dat.set` is the node or element set's name (one word)"));
         }
         let component = d.component.value.trim().to_ascii_lowercase();
-        let valid = match block.as_str() {
-            "displacements" => ["vx", "vy", "vz"].contains(&component.as_str()),
-            "forces" | "total force" => ["fx", "fy", "fz"].contains(&component.as_str()),
-            _ => ["sxx", "syy", "szz", "sxy", "sxz", "syz"].contains(&component.as_str()),
+        let names: &[&str] = match block.as_str() {
+            "displacements" => &["vx", "vy", "vz"],
+            "forces" | "total force" => &["fx", "fy", "fz"],
+            _ => &["sxx", "syy", "szz", "sxy", "sxz", "syz"],
         };
-        if !valid {
-            let names = match block.as_str() {
-                "displacements" => "vx, vy, vz",
-                "forces" | "total force" => "fx, fy, fz",
-                _ => "sxx, syy, szz, sxy, sxz, syz",
-            };
-            return Err(self.at(&d.component, format!("`{block}` blocks have components {names}")));
+        if !names.contains(&component.as_str()) {
+            return Err(self.at(
+                &d.component,
+                format!("`{block}` blocks have components {}", names.join(", ")),
+            ));
         }
         let reduce = match &d.reduce {
             None if block == "total force" => Reduce::Value,

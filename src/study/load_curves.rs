@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use super::super::experiments::SpecimenCurves;
 use super::super::schema::CalibrationFile;
 use super::super::yaml::Spanned;
-use super::super::{CfcFilter, CurveMetric, CurveSettings, Experiments, Response, Simulation, SurrogateKind, Targets};
+use super::super::{CfcFilter, CurveMetric, CurveSettings, Experiments, Response, Simulation, Targets};
 use super::Checker;
 use crate::base::curve as crush;
 use crate::error::InputError;
@@ -193,12 +193,7 @@ impl Checker<'_> {
         };
         let surrogate = match &c.surrogate {
             None => None,
-            Some(k) => Some(SurrogateKind::from_key(k.value.trim()).ok_or_else(|| {
-                self.at(
-                    k,
-                    format!("unknown surrogate `{}`: choose from linear, quadratic, gp", k.value),
-                )
-            })?),
+            Some(k) => Some(self.surrogate_named(k, k.value.trim())?),
         };
         Ok(CurveSettings {
             metric,

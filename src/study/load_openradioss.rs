@@ -32,21 +32,13 @@ impl Checker<'_> {
                 "`adapter: openradioss` runs its starter then its engine: name them in `solver.openradioss: {starter, engine}`, not `command`",
             ));
         }
-        let Some(node) = &spec.openradioss else {
-            return Ok(Some(OpenRadiossSettings {
-                starter: STARTER.into(),
-                engine: ENGINE.into(),
-                threads: 1,
-                noise: None,
-                environment: Vec::new(),
-                standin: None,
-            }));
-        };
-        self.openradioss_settings(node).map(Some)
+        // Without `solver.openradioss`, the settings of an empty one: every default.
+        let o = spec.openradioss.as_ref().map(|node| &node.value);
+        self.openradioss_settings(o.unwrap_or(&OpenRadiossFile::default()))
+            .map(Some)
     }
 
-    fn openradioss_settings(&self, node: &Spanned<OpenRadiossFile>) -> Result<OpenRadiossSettings, InputError> {
-        let o = &node.value;
+    fn openradioss_settings(&self, o: &OpenRadiossFile) -> Result<OpenRadiossSettings, InputError> {
         let program = |p: &Option<Spanned<String>>, default: &str| -> Result<String, InputError> {
             match p {
                 None => Ok(default.to_string()),

@@ -35,38 +35,22 @@ type Inputs = (Vec<Template>, Vec<CopiedFile>, Vec<PathBuf>);
 impl Checker<'_> {
     /// `response`, `sampling` and `surrogate` without `solver` are a mistake, not silently ignored.
     pub(super) fn no_solver_keys(&self, sim: &SimulationFile) -> Result<(), InputError> {
-        let at = |key: &str, line: usize, column: usize| {
-            self.at_position(
-                line,
-                column,
+        let given = [
+            ("response", sim.response.as_ref().map(Spanned::place)),
+            ("sampling", sim.sampling.as_ref().map(Spanned::place)),
+            ("surrogate", sim.surrogate.as_ref().map(Spanned::place)),
+            ("mesh", sim.mesh.as_ref().map(Spanned::place)),
+            ("replay", sim.replay.as_ref().map(Spanned::place)),
+            ("quality", sim.quality.as_ref().map(Spanned::place)),
+        ];
+        match given.into_iter().find_map(|(key, node)| Some((key, node?))) {
+            Some((key, node)) => Err(self.at_key(
+                key,
+                &node,
                 format!("`simulation.{key}` goes with `simulation.solver`, which is missing"),
-            )
-        };
-        if let Some(n) = &sim.response {
-            let (l, c) = self.key_position("response", n);
-            return Err(at("response", l, c));
+            )),
+            None => Ok(()),
         }
-        if let Some(n) = &sim.sampling {
-            let (l, c) = self.key_position("sampling", n);
-            return Err(at("sampling", l, c));
-        }
-        if let Some(n) = &sim.surrogate {
-            let (l, c) = self.key_position("surrogate", n);
-            return Err(at("surrogate", l, c));
-        }
-        if let Some(n) = &sim.mesh {
-            let (l, c) = self.key_position("mesh", n);
-            return Err(at("mesh", l, c));
-        }
-        if let Some(n) = &sim.replay {
-            let (l, c) = self.key_position("replay", n);
-            return Err(at("replay", l, c));
-        }
-        if let Some(n) = &sim.quality {
-            let (l, c) = self.key_position("quality", n);
-            return Err(at("quality", l, c));
-        }
-        Ok(())
     }
 
     /// `simulation.solver` and the keys that go with it, in the order their errors are reported:
@@ -237,13 +221,18 @@ impl Checker<'_> {
     fn surrogate_kind(&self, sim: &SimulationFile) -> Result<SurrogateKind, InputError> {
         match &sim.surrogate {
             None => Ok(SurrogateKind::Linear),
-            Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
-                self.at(
-                    s,
-                    format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value),
-                )
-            }),
+            Some(s) => self.surrogate_named(s, &s.value),
         }
+    }
+
+    /// The surrogate `key` names (the value of `node`, as the caller reads it).
+    pub(super) fn surrogate_named(&self, node: &Spanned<String>, key: &str) -> Result<SurrogateKind, InputError> {
+        SurrogateKind::from_key(key).ok_or_else(|| {
+            self.at(
+                node,
+                format!("unknown surrogate `{}`: choose from linear, quadratic, gp", node.value),
+            )
+        })
     }
 
     /// `simulation.replay`, relative to the study file.
@@ -479,7 +468,7 @@ impl Checker<'_> {
     }
 
     /// A file named in the study, resolved against the study's directory; it must exist.
-    fn referenced_file(&self, node: &Spanned<String>, what: &str) -> Result<PathBuf, InputError> {
+    pub(super) fn referenced_file(&self, node: &Spanned<String>, what: &str) -> Result<PathBuf, InputError> {
         let path = self.path.parent().unwrap_or(Path::new("")).join(&node.value);
         if !path.is_file() {
             let why = if path.exists() {
@@ -642,17 +631,14 @@ impl Checker<'_> {
             }
         };
         for (key, given) in [
-            ("initial", spec.initial.as_ref().map(|n| (n.line, n.column))),
-            ("batch", spec.batch.as_ref().map(|n| (n.line, n.column))),
-            ("budget", spec.budget.as_ref().map(|n| (n.line, n.column))),
-            ("tolerance", spec.tolerance.as_ref().map(|n| (n.line, n.column))),
-            (
-                "across_designs",
-                spec.across_designs.as_ref().map(|n| (n.line, n.column)),
-            ),
-            ("replaces", spec.replaces.as_ref().map(|n| (n.line, n.column))),
+            ("initial", spec.initial.is_some()),
+            ("batch", spec.batch.is_some()),
+            ("budget", spec.budget.is_some()),
+            ("tolerance", spec.tolerance.is_some()),
+            ("across_designs", spec.across_designs.is_some()),
+            ("replaces", spec.replaces.is_some()),
         ] {
-            if given.is_some() {
+            if given {
                 return Err(self.at(
                     &spec.method,
                     format!(
@@ -792,12 +778,7 @@ impl Checker<'_> {
             ));
         }
         let own = match &node.value.surrogate {
-            Some(s) => SurrogateKind::from_key(&s.value).ok_or_else(|| {
-                self.at(
-                    s,
-                    format!("unknown surrogate `{}`: choose from linear, quadratic, gp", s.value),
-                )
-            })?,
+            Some(s) => self.surrogate_named(s, &s.value)?,
             None => surrogate,
         };
         let mut fixed = self.sampling_with(&node.value, own, p)?;

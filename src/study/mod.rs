@@ -1,8 +1,8 @@
 //! The study: what to calibrate, against which tests, with which methods.
 //!
 //! [`load`] reads a study file and everything it references (experiments CSV, expressions) and
-//! returns a validated [`Study`], or an [`InputError`] naming file, line and column. Nothing after
-//! this stage re-checks user input: a `Study` is valid by construction.
+//! returns a validated [`Study`], or an [`InputError`](crate::error::InputError) naming file, line
+//! and column. Nothing after this stage re-checks user input: a `Study` is valid by construction.
 //!
 //! Vocabulary follows Dakota: *variables* (design variables and calibration parameters), the
 //! *simulation* (how a response is computed), *experiments* (measured responses), *methods*.
@@ -28,7 +28,6 @@ pub use solver::{
 };
 
 use crate::base::Bounds;
-use crate::error::InputError;
 pub use calibration::{BayesianSettings, Method};
 
 /// A validated study.
@@ -155,14 +154,8 @@ impl CurveMetric {
     pub const KEYS: [&'static str; 5] = ["mse", "pcm", "frechet", "dtw", "area"];
 
     pub fn from_key(key: &str) -> Option<CurveMetric> {
-        Some(match key {
-            "mse" => CurveMetric::Mse,
-            "pcm" => CurveMetric::Pcm,
-            "frechet" => CurveMetric::Frechet,
-            "dtw" => CurveMetric::Dtw,
-            "area" => CurveMetric::Area,
-            _ => return None,
-        })
+        use CurveMetric::*;
+        [Mse, Pcm, Frechet, Dtw, Area].into_iter().find(|m| m.key() == key)
     }
 
     pub fn key(self) -> &'static str {
@@ -298,13 +291,7 @@ impl Study {
 
     /// Symbols of the simulation expression: design variables, parameters, constants.
     pub fn symbols(&self) -> Symbols {
-        Symbols::new(
-            self.design
-                .iter()
-                .map(|d| d.name.clone())
-                .chain(self.parameters.iter().map(|p| p.name.clone()))
-                .chain(self.constants.iter().map(|(n, _)| n.clone())),
-        )
+        symbols(&self.design, &self.parameters, &self.constants)
     }
 
     /// Symbols of a hypothesis term: the simulation's symbols plus `y`, the prediction.
@@ -363,5 +350,14 @@ pub fn curve_grid(settings: &CurveSettings, simulation: &Simulation) -> Option<c
     })
 }
 
-/// Re-exported so callers can name the error type of [`load`] from here.
-pub type LoadError = InputError;
+/// The symbols expressions may use, in the order of [`Study::symbols`]: design variables,
+/// parameters, constants (also before the study they belong to is made, while it is loaded).
+fn symbols(design: &[DesignVariable], parameters: &[Parameter], constants: &[(String, f64)]) -> Symbols {
+    Symbols::new(
+        design
+            .iter()
+            .map(|d| d.name.clone())
+            .chain(parameters.iter().map(|p| p.name.clone()))
+            .chain(constants.iter().map(|(n, _)| n.clone())),
+    )
+}

@@ -130,7 +130,7 @@ pub struct SolverFile {
 }
 
 /// `simulation.solver.openradioss` (all optional).
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OpenRadiossFile {
     /// The starter program (default `starter_linux64_gf`).

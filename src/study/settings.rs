@@ -84,22 +84,13 @@ impl Reduce {
     pub const KEYS: [&'static str; 4] = ["mean", "max_abs", "sum", "value"];
 
     pub fn from_key(key: &str) -> Option<Reduce> {
-        match key {
-            "mean" => Some(Reduce::Mean),
-            "max_abs" => Some(Reduce::MaxAbs),
-            "sum" => Some(Reduce::Sum),
-            "value" => Some(Reduce::Value),
-            _ => None,
-        }
+        [Reduce::Mean, Reduce::MaxAbs, Reduce::Sum, Reduce::Value]
+            .into_iter()
+            .find(|r| r.key() == key)
     }
 
     pub fn key(self) -> &'static str {
-        match self {
-            Reduce::Mean => "mean",
-            Reduce::MaxAbs => "max_abs",
-            Reduce::Sum => "sum",
-            Reduce::Value => "value",
-        }
+        Self::KEYS[self as usize]
     }
 }
 

@@ -20,6 +20,17 @@ pub struct Spanned<T> {
     pub column: usize,
 }
 
+impl<T> Spanned<T> {
+    /// Where the node is, without its value (to list nodes of different types together).
+    pub fn place(&self) -> Spanned<()> {
+        Spanned {
+            value: (),
+            line: self.line,
+            column: self.column,
+        }
+    }
+}
+
 impl<T: PartialEq> PartialEq for Spanned<T> {
     fn eq(&self, other: &Self) -> bool {
         self.value == other.value

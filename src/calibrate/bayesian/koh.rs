@@ -107,21 +107,6 @@ impl<'a> Koh<'a> {
         &self.theta_bounds
     }
 
-    pub fn theta_to_unit(&self, theta: &DVector<f64>) -> Vec<f64> {
-        self.theta_bounds.to_unit(theta).iter().copied().collect()
-    }
-
-    fn var(&self, u: &[f64]) -> f64 {
-        lerp(self.hyper.log_var, u[self.n_theta()]).exp()
-    }
-
-    fn roughness(&self, u: &[f64]) -> Vec<f64> {
-        u[self.n_theta() + 1..]
-            .iter()
-            .map(|&v| lerp(self.hyper.log_roughness, v).exp())
-            .collect()
-    }
-
     /// The number of design variables (one discrepancy roughness each).
     pub fn n_design(&self) -> usize {
         self.designs.ncols()
@@ -167,8 +152,8 @@ impl<'a> Koh<'a> {
     /// Negative log-likelihood (constants dropped) and the GLS β_d at the unit-box point `u`.
     pub fn neg_log_lik(&self, u: &[f64], trend: Trend) -> Option<(f64, f64)> {
         let (mu, cov_emu) = self.emu.mean_cov(&self.inputs(&self.theta(u)))?;
-        let cov_d = gauss_corr(&self.unit_designs, &self.unit_designs, &self.roughness(u)) * self.var(u);
-        let chol = cholesky_jittered(&(cov_emu + cov_d), self.jitter())?;
+        let (var, roughness) = self.hyper_values(&u[self.n_theta()..]);
+        let chol = cholesky_jittered(&(cov_emu + self.design_corr(&roughness) * var), self.jitter())?;
         let l = chol.l();
         let lr = l.solve_lower_triangular(&(&self.y - mu))?;
         let l1 = l.solve_lower_triangular(&DVector::from_element(self.y.len(), 1.0))?;
@@ -235,9 +220,8 @@ impl<'a> Koh<'a> {
     /// The discrepancy's posterior given the training residuals at the unit-box point `u`.
     pub fn discrepancy(&self, u: &[f64]) -> Option<Discrepancy> {
         let (mu, cov_emu) = self.emu.mean_cov(&self.inputs(&self.theta(u)))?;
-        let (var, roughness) = (self.var(u), self.roughness(u));
-        let cov_d = gauss_corr(&self.unit_designs, &self.unit_designs, &roughness) * var;
-        let chol = cholesky_jittered(&(cov_emu + cov_d), 1e-10 * self.scale2)?;
+        let (var, roughness) = self.hyper_values(&u[self.n_theta()..]);
+        let chol = cholesky_jittered(&(cov_emu + self.design_corr(&roughness) * var), self.jitter())?;
         let (_, beta) = self.neg_log_lik(u, Trend::Profile)?;
         let weights = chol.solve(&(&self.y - mu).add_scalar(-beta));
         Some(Discrepancy {

@@ -226,21 +226,18 @@ fn slice_step(
     let level = lp + rng.random_range(f64::EPSILON..1.0f64).ln();
     let mut left = -rng.random::<f64>();
     let mut right = left + 1.0;
-    let (mut expansions, mut contractions, mut evaluations) = (0, 0, 0);
-    while expansions < MAX_EXPANSIONS && level < log_post(&at(left)) {
-        left -= 1.0;
-        expansions += 1;
-        evaluations += 1;
-    }
-    evaluations += 1;
-    let mut right_expansions = 0;
-    while right_expansions < MAX_EXPANSIONS && level < log_post(&at(right)) {
-        right += 1.0;
-        right_expansions += 1;
-        evaluations += 1;
-    }
-    evaluations += 1;
-    expansions += right_expansions;
+    // Moves `end` by `by` until it leaves the slice; the expansions made (each end costs one
+    // density evaluation more than its expansions).
+    let step_out = |end: &mut f64, by: f64| {
+        let mut expansions = 0;
+        while expansions < MAX_EXPANSIONS && level < log_post(&at(*end)) {
+            *end += by;
+            expansions += 1;
+        }
+        expansions
+    };
+    let expansions = step_out(&mut left, -1.0) + step_out(&mut right, 1.0);
+    let (mut contractions, mut evaluations) = (0, expansions + 2);
     for _ in 0..MAX_SHRINKS {
         let s = left + rng.random::<f64>() * (right - left);
         let y = at(s);

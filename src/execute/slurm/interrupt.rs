@@ -19,7 +19,7 @@ use std::path::Path;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use super::{JobEntry, find_by_name, job_states, journal, now_ms, read_record, remove_entry, slurm_cmd, write_entry};
+use super::{JobEntry, find_by_name, job_states, journal, read_record, remove_entry, slurm_cmd, write_entry};
 use crate::error::Error;
 use crate::execute::{Outcome, RunRecord, RunStore};
 
@@ -152,18 +152,8 @@ pub fn cancel(out: &Path, store: &mut RunStore) -> Result<Cancelled, Error> {
                 done.kept_runs += 1;
                 continue;
             }
-            let record = RunRecord {
-                key: key.clone(),
-                outcome: Outcome::Cancelled {
-                    job: entry.job_id.clone().unwrap_or_else(|| format!("lab-{}", entry.token)),
-                },
-                attempts: 1,
-                started_ms: entry.submitted_ms,
-                ended_ms: now_ms(),
-                response: None,
-                quality: None,
-                warnings: Vec::new(),
-            };
+            let job = entry.job_id.clone().unwrap_or_else(|| format!("lab-{}", entry.token));
+            let record = RunRecord::ended(key, Outcome::Cancelled { job }, 1, entry.submitted_ms, None);
             store.commit(record).map_err(Error::from)?;
             done.cancelled_runs += 1;
         }

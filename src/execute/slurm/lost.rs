@@ -69,18 +69,18 @@ impl Watch {
     }
 }
 
-/// The verdict after a whole history of `(poll time in ms, sighting)`, oldest first.
-pub fn verdict(history: &[(u64, Sighting)], lost_after: Duration) -> Verdict {
-    let mut watch = Watch::default();
-    history
-        .iter()
-        .fold(Verdict::Present, |_, &(t, s)| watch.observe(s, t, lost_after))
-}
-
 #[cfg(test)]
 mod tests {
     use super::Sighting::*;
     use super::*;
+
+    /// The verdict after a whole history of `(poll time in ms, sighting)`, oldest first.
+    fn verdict(history: &[(u64, Sighting)], lost_after: Duration) -> Verdict {
+        let mut watch = Watch::default();
+        history
+            .iter()
+            .fold(Verdict::Present, |_, &(t, s)| watch.observe(s, t, lost_after))
+    }
 
     const GRACE: Duration = Duration::from_secs(120);
 

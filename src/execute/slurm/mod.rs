@@ -60,12 +60,12 @@ pub mod lost;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
 use super::store::{RESULTS_DIR, write_atomic};
-use super::{Canceller, Outcome, RunRecord, RunStore};
+use super::{Canceller, Outcome, RunRecord, RunStore, now_ms};
 use crate::error::Error;
 pub use crate::study::settings::{DEFAULT_LOST_AFTER, SlurmSettings};
 
@@ -82,13 +82,6 @@ pub struct JobEntry {
     pub job_id: Option<String>,
     pub keys: Vec<String>,
     pub submitted_ms: u64,
-}
-
-fn now_ms() -> u64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_millis() as u64)
-        .unwrap_or(0)
 }
 
 fn journal_dir(out: &Path) -> PathBuf {
@@ -292,9 +285,11 @@ fn worker_argv(study: &Path, out: &Path, jobs: u32, keys: &[String]) -> Result<V
     Ok(argv)
 }
 
-fn script(comment: &str, argv: &[String]) -> String {
+/// Writes a shell script at `path` that runs `argv` (each argument quoted), with `comment` on top.
+fn write_script(path: &Path, comment: &str, argv: &[String]) -> Result<(), Error> {
     let line: Vec<String> = argv.iter().map(|a| quote(a)).collect();
-    format!("#!/bin/sh\n# {comment}\nexec {}\n", line.join(" "))
+    let text = format!("#!/bin/sh\n# {comment}\nexec {}\n", line.join(" "));
+    std::fs::write(path, text).map_err(|e| Error::Failed(format!("{}: {e}", path.display())))
 }
 
 fn make_token(keys: &[String]) -> String {
@@ -318,20 +313,13 @@ fn submit(
     let token = make_token(&keys);
     for key in &keys {
         let argv = worker_argv(study, out, 1, std::slice::from_ref(key))?;
-        let path = store.run_dir(key).join(RUN_SCRIPT);
-        let text = script(
-            &format!("lab: run {key} (submitted in Slurm job lab-{token}); run by hand: sh {RUN_SCRIPT}"),
-            &argv,
-        );
-        std::fs::write(&path, text).map_err(|e| Error::Failed(format!("{}: {e}", path.display())))?;
+        let comment = format!("lab: run {key} (submitted in Slurm job lab-{token}); run by hand: sh {RUN_SCRIPT}");
+        write_script(&store.run_dir(key).join(RUN_SCRIPT), &comment, &argv)?;
     }
     let dir = journal_dir(out);
     let batch = dir.join(format!("{token}.sh"));
-    let text = script(
-        &format!("lab: Slurm job lab-{token}, {} run(s)", keys.len()),
-        &worker_argv(study, out, settings.cpus, &keys)?,
-    );
-    std::fs::write(&batch, text).map_err(|e| Error::Failed(format!("{}: {e}", batch.display())))?;
+    let comment = format!("lab: Slurm job lab-{token}, {} run(s)", keys.len());
+    write_script(&batch, &comment, &worker_argv(study, out, settings.cpus, &keys)?)?;
     let mut entry = JobEntry {
         token: token.clone(),
         job_id: None,
@@ -591,16 +579,7 @@ fn collect(
             open = true;
             continue;
         };
-        let record = RunRecord {
-            key: key.clone(),
-            outcome,
-            attempts: 1,
-            started_ms: entry.submitted_ms,
-            ended_ms: now_ms(),
-            response: None,
-            quality: None,
-            warnings: Vec::new(),
-        };
+        let record = RunRecord::ended(key, outcome, 1, entry.submitted_ms, None);
         store.commit(record.clone()).map_err(Error::from)?;
         summary.records.push(record);
     }

@@ -19,15 +19,12 @@
 //! assert_eq!(a.extract(dir.path()).unwrap(), 0.3055);
 //! ```
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
+use crate::execute::adapter::{bad, failure_line, read_output};
 use crate::execute::{Adapter, Outcome, ResponseProblem, STDERR_FILE, STDOUT_FILE};
 use crate::extract::calculix::{Missing, WindowMissing, find, parse_dat, window_mean};
 pub use crate::study::settings::{CalculixAdapter, DatResponse, ERROR_TEXT};
-
-fn bad(problem: ResponseProblem, detail: String) -> Outcome {
-    Outcome::BadResponse { problem, detail }
-}
 
 impl Adapter for CalculixAdapter {
     fn identity(&self) -> String {
@@ -42,34 +39,13 @@ impl Adapter for CalculixAdapter {
     }
 
     fn find_failure(&self, dir: &Path) -> Option<Outcome> {
-        for rel in [STDOUT_FILE, STDERR_FILE] {
-            let Ok(bytes) = std::fs::read(dir.join(rel)) else {
-                continue;
-            };
-            let text = String::from_utf8_lossy(&bytes);
-            if let Some(line) = text.lines().find(|l| l.contains(ERROR_TEXT)) {
-                let line: String = line.trim().chars().take(200).collect();
-                return Some(Outcome::FailureText {
-                    file: rel.to_string(),
-                    line,
-                });
-            }
-        }
-        None
+        let files = [PathBuf::from(STDOUT_FILE), PathBuf::from(STDERR_FILE)];
+        failure_line(dir, &files, |line| line.contains(ERROR_TEXT))
     }
 
     fn extract(&self, dir: &Path) -> Result<f64, Outcome> {
         let rel = self.dat_file();
-        let bytes = match std::fs::read(dir.join(&rel)) {
-            Ok(b) => b,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                return Err(bad(
-                    ResponseProblem::Missing,
-                    format!("{} was not written", rel.display()),
-                ));
-            }
-            Err(e) => return Err(bad(ResponseProblem::Missing, format!("{}: {e}", rel.display()))),
-        };
+        let bytes = read_output(dir, &rel)?;
         let text = String::from_utf8_lossy(&bytes);
         let blocks = parse_dat(&rel, &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
         let r = &self.response;

@@ -30,6 +30,9 @@
 
 use std::path::{Path, PathBuf};
 
+use super::{deck_controls, file_name, incomplete};
+use crate::error::InputError;
+use crate::execute::adapter::{bad, read_output};
 use crate::execute::{Adapter, Judged, Outcome, ResponseProblem, STDOUT_FILE};
 use crate::extract::crush::{self, SimSource, Window};
 use crate::extract::lsdyna::binout::{self, Binout, histories};
@@ -47,13 +50,6 @@ pub struct LsDynaAdapter {
     /// The main deck, relative to the run directory (the first template, rendered): where the
     /// termination time and output intervals are read.
     pub deck: PathBuf,
-}
-
-fn bad(problem: ResponseProblem, detail: impl Into<String>) -> Outcome {
-    Outcome::BadResponse {
-        problem,
-        detail: detail.into(),
-    }
 }
 
 impl LsDynaAdapter {
@@ -140,7 +136,7 @@ impl Adapter for LsDynaAdapter {
             }
         }
         let unparseable = |e: String| bad(ResponseProblem::Unparseable, e);
-        let deck = self.controls(dir)?;
+        let deck = deck_controls(dir, &self.deck, "output intervals are needed to check the outputs")?;
         let bin = open_binout(dir)?;
         let force = match self.source.rigid_wall {
             None => Force::Contact(self.rcforc(dir, &deck, bin.as_ref())?),
@@ -202,10 +198,7 @@ fn open_binout(dir: &Path) -> Result<Option<Binout>, Outcome> {
     };
     if let Some(note) = bin.as_ref().and_then(|b| b.db.notes().first()) {
         return Err(Outcome::IncompleteOutput {
-            file: note
-                .file
-                .file_name()
-                .map_or_else(String::new, |n| n.to_string_lossy().into()),
+            file: file_name(&note.file),
             line: 0,
             detail: format!("offset {}: {}", note.offset, note.detail),
         });
@@ -215,47 +208,80 @@ fn open_binout(dir: &Path) -> Result<Option<Binout>, Outcome> {
 
 /// A broken binout as a bad response, its file named relative to the run directory (as the ASCII
 /// files are: a replay judges in a scratch copy).
-fn binout_error(dir: &Path, e: crate::error::InputError) -> Outcome {
+fn binout_error(dir: &Path, e: InputError) -> Outcome {
     let file = e.file.strip_prefix(dir).unwrap_or(&e.file).display().to_string();
     bad(ResponseProblem::Unparseable, format!("{file}: {}", e.message))
 }
 
-/// Whether history `name` is read from binout: the deck sends it there, or its ASCII file is
-/// absent and the binout holds it.
-fn from_binout(dir: &Path, deck: &controls::Controls, bin: Option<&Binout>, name: &str) -> bool {
-    let Some(b) = bin else { return false };
-    deck.interval(name).is_some_and(|i| i.to_binout()) || (!dir.join(name).exists() && b.db.is_dir(&format!("/{name}")))
+/// Where history `name` is read: from the binout (`Some`) when the deck sends it there, or its
+/// ASCII file is absent and the binout holds it; else from its ASCII file (`None`). A history the
+/// deck sends to binout only (BINARY 2) when no binout was written is a missing response.
+fn binout_of<'b>(
+    dir: &Path,
+    deck: &controls::Controls,
+    bin: Option<&'b Binout>,
+    name: &str,
+) -> Result<Option<&'b Binout>, Outcome> {
+    let interval = deck.interval(name);
+    match bin {
+        Some(b)
+            if interval.is_some_and(|i| i.to_binout())
+                || (!dir.join(name).exists() && b.db.is_dir(&format!("/{name}"))) =>
+        {
+            Ok(Some(b))
+        }
+        None if interval.is_some_and(|i| i.binary == 2) => Err(bad(
+            ResponseProblem::Missing,
+            format!("binout was not written, though the deck sends {name} there (BINARY 2)"),
+        )),
+        _ => Ok(None),
+    }
 }
 
 /// A binout history's completeness problem, its step ordinal turned into the step and offset.
 fn binout_incomplete(b: &Binout, history: &str, i: Incomplete) -> Outcome {
     let place = histories::place(b, &format!("/{history}"), i.line);
     Outcome::IncompleteOutput {
-        file: b
-            .name
-            .file_name()
-            .map_or_else(String::new, |n| n.to_string_lossy().into()),
+        file: file_name(&b.name),
         line: 0,
         detail: format!("{history} {place}: {}", i.detail),
     }
 }
 
-impl LsDynaAdapter {
-    /// What the run's main deck asks of its outputs.
-    fn controls(&self, dir: &Path) -> Result<controls::Controls, Outcome> {
-        let path = dir.join(&self.deck);
-        if !path.is_file() {
-            return Err(bad(
-                ResponseProblem::Missing,
-                format!(
-                    "the deck {} is not in the run directory: its termination time and output intervals are needed to check the outputs",
-                    self.deck.display()
-                ),
-            ));
-        }
-        controls::read(&path).map_err(|e| bad(ResponseProblem::Unparseable, format!("the deck: {e}")))
-    }
+/// How a history is checked for completeness, given its parse and its last line (ASCII) or its
+/// number of output steps (binout).
+type Check<'a, T> = &'a dyn Fn(&T, usize) -> Result<(), Incomplete>;
 
+/// History `name` read from the binout by `read`, checked for completeness over its output steps.
+fn binout_history<T>(
+    dir: &Path,
+    b: &Binout,
+    name: &str,
+    read: fn(&Binout) -> Result<Option<T>, InputError>,
+    check: Check<T>,
+) -> Result<T, Outcome> {
+    let history = read(b).map_err(|e| binout_error(dir, e))?;
+    let history = history.ok_or_else(|| missing_in_binout(b, name))?;
+    check(&history, b.steps(&format!("/{name}")).len()).map_err(|i| binout_incomplete(b, name, i))?;
+    Ok(history)
+}
+
+/// History `name` parsed from its ASCII file by `parse`, checked for a cut-off last line and for
+/// completeness.
+fn ascii_history<T>(
+    dir: &Path,
+    name: &str,
+    parse: fn(&Path, &str) -> Result<T, InputError>,
+    check: Check<T>,
+) -> Result<T, Outcome> {
+    let text = read(dir, name)?;
+    let history = parse(Path::new(name), &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
+    complete::ends_with_newline(name, &text).map_err(incomplete)?;
+    check(&history, text.lines().count()).map_err(incomplete)?;
+    Ok(history)
+}
+
+impl LsDynaAdapter {
     /// What the deck asks of history `name`: its interval and the termination time.
     fn want(deck: &controls::Controls, name: &str) -> Expected {
         Expected {
@@ -267,20 +293,11 @@ impl LsDynaAdapter {
     /// rcforc, from binout or its ASCII file, checked for completeness.
     fn rcforc(&self, dir: &Path, deck: &controls::Controls, bin: Option<&Binout>) -> Result<rcforc::Rcforc, Outcome> {
         let want = Self::want(deck, "rcforc");
-        if let Some(b) = bin.filter(|b| from_binout(dir, deck, Some(b), "rcforc")) {
-            let rc = histories::rcforc(b).map_err(|e| binout_error(dir, e))?;
-            let rc = rc.ok_or_else(|| missing_in_binout(b, "rcforc"))?;
-            let steps = b.steps("/rcforc").len();
-            complete::rcforc(&rc, want, steps).map_err(|i| binout_incomplete(b, "rcforc", i))?;
-            return Ok(rc);
+        let check = |rc: &rcforc::Rcforc, last| complete::rcforc(rc, want, last);
+        match binout_of(dir, deck, bin, "rcforc")? {
+            Some(b) => binout_history(dir, b, "rcforc", histories::rcforc, &check),
+            None => ascii_history(dir, "rcforc", rcforc::parse, &check),
         }
-        no_binout(deck, bin, "rcforc")?;
-        let text = read(dir, "rcforc")?;
-        let rc =
-            rcforc::parse(Path::new("rcforc"), &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
-        complete::ends_with_newline("rcforc", &text).map_err(incomplete)?;
-        complete::rcforc(&rc, want, text.lines().count()).map_err(incomplete)?;
-        Ok(rc)
     }
 
     /// Rigid wall `id`'s force history from binout's rwforc, its times checked against the deck's
@@ -316,20 +333,11 @@ impl LsDynaAdapter {
     /// nodout, from binout or its ASCII file, checked for completeness.
     fn nodout(&self, dir: &Path, deck: &controls::Controls, bin: Option<&Binout>) -> Result<nodout::Nodout, Outcome> {
         let want = Self::want(deck, "nodout");
-        if let Some(b) = bin.filter(|b| from_binout(dir, deck, Some(b), "nodout")) {
-            let nod = histories::nodout(b).map_err(|e| binout_error(dir, e))?;
-            let nod = nod.ok_or_else(|| missing_in_binout(b, "nodout"))?;
-            let steps = b.steps("/nodout").len();
-            complete::nodout(&nod, &deck.history_nodes, want, steps).map_err(|i| binout_incomplete(b, "nodout", i))?;
-            return Ok(nod);
+        let check = |nod: &nodout::Nodout, last| complete::nodout(nod, &deck.history_nodes, want, last);
+        match binout_of(dir, deck, bin, "nodout")? {
+            Some(b) => binout_history(dir, b, "nodout", histories::nodout, &check),
+            None => ascii_history(dir, "nodout", nodout::parse, &check),
         }
-        no_binout(deck, bin, "nodout")?;
-        let text = read(dir, "nodout")?;
-        let nod =
-            nodout::parse(Path::new("nodout"), &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
-        complete::ends_with_newline("nodout", &text).map_err(incomplete)?;
-        complete::nodout(&nod, &deck.history_nodes, want, text.lines().count()).map_err(incomplete)?;
-        Ok(nod)
     }
 
     /// glstat checked for completeness, and its sanity figures; `None` when the deck does not ask
@@ -341,80 +349,48 @@ impl LsDynaAdapter {
         bin: Option<&Binout>,
     ) -> Result<Option<quality::Quality>, Outcome> {
         let want = Self::want(deck, "glstat");
-        if let Some(b) = bin.filter(|b| from_binout(dir, deck, Some(b), "glstat")) {
-            let gl = histories::glstat(b).map_err(|e| binout_error(dir, e))?;
-            let gl = gl.ok_or_else(|| missing_in_binout(b, "glstat"))?;
-            complete::glstat(&gl, want, b.steps("/glstat").len()).map_err(|i| binout_incomplete(b, "glstat", i))?;
-            return Ok(Some(quality::figures(&gl)));
-        }
-        no_binout(deck, bin, "glstat")?;
-        if !dir.join("glstat").exists() {
-            return match deck.glstat {
-                None => Ok(None),
-                Some(asked) => Err(incomplete(Incomplete {
-                    file: "glstat".into(),
-                    line: 0,
-                    detail: format!(
-                        "not written, though *DATABASE_GLSTAT at {} line {} asks for it",
-                        self.deck.display(),
-                        asked.line
-                    ),
-                })),
-            };
-        }
-        let text = read(dir, "glstat")?;
-        let gl =
-            glstat::parse(Path::new("glstat"), &text).map_err(|e| bad(ResponseProblem::Unparseable, e.to_string()))?;
-        complete::ends_with_newline("glstat", &text).map_err(incomplete)?;
-        complete::glstat(&gl, want, text.lines().count()).map_err(incomplete)?;
+        let check = |gl: &glstat::Glstat, last| complete::glstat(gl, want, last);
+        let gl = match binout_of(dir, deck, bin, "glstat")? {
+            Some(b) => binout_history(dir, b, "glstat", histories::glstat, &check)?,
+            None if !dir.join("glstat").exists() => {
+                return match deck.glstat {
+                    None => Ok(None),
+                    Some(asked) => Err(incomplete(Incomplete {
+                        file: "glstat".into(),
+                        line: 0,
+                        detail: format!(
+                            "not written, though *DATABASE_GLSTAT at {} line {} asks for it",
+                            self.deck.display(),
+                            asked.line
+                        ),
+                    })),
+                };
+            }
+            None => ascii_history(dir, "glstat", glstat::parse, &check)?,
+        };
         Ok(Some(quality::figures(&gl)))
-    }
-}
-
-/// A history the deck sends to binout only (BINARY 2), when no binout was written.
-fn no_binout(deck: &controls::Controls, bin: Option<&Binout>, history: &str) -> Result<(), Outcome> {
-    match deck.interval(history) {
-        Some(i) if i.binary == 2 && bin.is_none() => Err(bad(
-            ResponseProblem::Missing,
-            format!("binout was not written, though the deck sends {history} there (BINARY 2)"),
-        )),
-        _ => Ok(()),
     }
 }
 
 /// A history the deck sends to binout but the binout lacks.
 fn missing_in_binout(b: &Binout, history: &str) -> Outcome {
     Outcome::IncompleteOutput {
-        file: b
-            .name
-            .file_name()
-            .map_or_else(String::new, |n| n.to_string_lossy().into()),
+        file: file_name(&b.name),
         line: 0,
         detail: format!("no /{history} in the binout, though the deck sends {history} there (BINARY 2 or 3)"),
     }
 }
 
-fn incomplete(i: Incomplete) -> Outcome {
-    Outcome::IncompleteOutput {
-        file: i.file,
-        line: i.line,
-        detail: i.detail,
-    }
-}
-
 /// An output file's text: missing, empty and non-UTF-8 files are bad responses.
 fn read(dir: &Path, name: &str) -> Result<String, Outcome> {
-    match std::fs::read(dir.join(name)) {
-        Ok(b) if b.is_empty() => Err(bad(ResponseProblem::Empty, format!("{name} is empty"))),
-        Ok(b) => String::from_utf8(b).map_err(|_| {
-            bad(
-                ResponseProblem::Unparseable,
-                format!("{name} is not text (invalid UTF-8)"),
-            )
-        }),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            Err(bad(ResponseProblem::Missing, format!("{name} was not written")))
-        }
-        Err(e) => Err(bad(ResponseProblem::Missing, format!("{name}: {e}"))),
+    let bytes = read_output(dir, Path::new(name))?;
+    if bytes.is_empty() {
+        return Err(bad(ResponseProblem::Empty, format!("{name} is empty")));
     }
+    String::from_utf8(bytes).map_err(|_| {
+        bad(
+            ResponseProblem::Unparseable,
+            format!("{name} is not text (invalid UTF-8)"),
+        )
+    })
 }

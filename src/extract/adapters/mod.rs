@@ -8,12 +8,15 @@ pub mod calculix;
 pub mod lsdyna;
 pub mod openradioss;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use crate::error::Error;
+use crate::execute::adapter::bad;
 use crate::execute::sweep::Solver;
-use crate::execute::{Adapter, CommandAdapter};
+use crate::execute::{Adapter, CommandAdapter, Outcome, ResponseProblem};
+use crate::extract::lsdyna::complete::Incomplete;
+use crate::extract::lsdyna::controls::{self, Controls};
 use crate::study::{Response, SolverSimulation};
 pub use lsdyna::LsDynaAdapter;
 use openradioss::OpenRadiossAdapter;
@@ -79,4 +82,35 @@ pub fn run_curve(
         }
         None => crate::extract::crush::read_run(dirs, key, source),
     }
+}
+
+/// What the run's main deck `deck` (relative to the run directory `dir`) asks of its outputs; a
+/// deck that is not there is a missing response, saying that its termination time and `needed`.
+fn deck_controls(dir: &Path, deck: &Path, needed: &str) -> Result<Controls, Outcome> {
+    let path = dir.join(deck);
+    if !path.is_file() {
+        return Err(bad(
+            ResponseProblem::Missing,
+            format!(
+                "the deck {} is not in the run directory: its termination time and {needed}",
+                deck.display()
+            ),
+        ));
+    }
+    controls::read(&path).map_err(|e| bad(ResponseProblem::Unparseable, format!("the deck: {e}")))
+}
+
+/// A history that is not complete, as the run's outcome.
+fn incomplete(i: Incomplete) -> Outcome {
+    Outcome::IncompleteOutput {
+        file: i.file,
+        line: i.line,
+        detail: i.detail,
+    }
+}
+
+/// The file name of `path` (empty when it has none), as outcomes name output files.
+fn file_name(path: &Path) -> String {
+    path.file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into())
 }

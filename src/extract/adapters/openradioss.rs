@@ -27,10 +27,11 @@
 
 use std::path::{Path, PathBuf};
 
+use super::{deck_controls, incomplete};
+use crate::execute::adapter::bad;
 use crate::execute::{Adapter, Judged, Outcome, ResponseProblem};
 use crate::extract::crush::{self, SimSource, Window};
-use crate::extract::lsdyna::complete::{Expected, Incomplete};
-use crate::extract::lsdyna::controls;
+use crate::extract::lsdyna::complete::Expected;
 use crate::extract::radioss::{history, listing};
 use crate::study::OpenRadiossSettings;
 
@@ -46,21 +47,6 @@ pub struct OpenRadiossAdapter {
     pub deck: PathBuf,
     /// Programs, threads (`-nt`), nodal noise (`-rxalea A -rseed S`) and environment.
     pub settings: OpenRadiossSettings,
-}
-
-fn bad(problem: ResponseProblem, detail: impl Into<String>) -> Outcome {
-    Outcome::BadResponse {
-        problem,
-        detail: detail.into(),
-    }
-}
-
-fn incomplete(i: Incomplete) -> Outcome {
-    Outcome::IncompleteOutput {
-        file: i.file,
-        line: i.line,
-        detail: i.detail,
-    }
 }
 
 impl OpenRadiossAdapter {
@@ -116,17 +102,7 @@ impl OpenRadiossAdapter {
 
     /// The deck's termination time and the T01 interval (the smallest `*DATABASE_` DT).
     fn expected(&self, dir: &Path) -> Result<Expected, Outcome> {
-        let path = dir.join(&self.deck);
-        if !path.is_file() {
-            return Err(bad(
-                ResponseProblem::Missing,
-                format!(
-                    "the deck {} is not in the run directory: its termination time and output interval are needed to check the time history",
-                    self.deck.display()
-                ),
-            ));
-        }
-        let c = controls::read(&path).map_err(|e| bad(ResponseProblem::Unparseable, format!("the deck: {e}")))?;
+        let c = deck_controls(dir, &self.deck, "output interval are needed to check the time history")?;
         let dt = [c.rcforc, c.nodout, c.glstat]
             .into_iter()
             .flatten()
@@ -206,26 +182,24 @@ impl Adapter for OpenRadiossAdapter {
 
     fn find_failure(&self, dir: &Path) -> Option<Outcome> {
         let failure = |file: String, line: String| Some(Outcome::FailureText { file, line });
+        // The listing's first error, as ` (line N: TITLE)`.
+        let first = |l: &listing::Listing| {
+            l.first_error()
+                .map(|m| format!(" (line {}: {})", m.line, m.title))
+                .unwrap_or_default()
+        };
         if let Ok(Some(s)) = self.listing(dir, &self.starter_listing())
             && let Some(n) = s.error_count.filter(|n| *n > 0)
         {
-            let first = s
-                .first_error()
-                .map(|m| format!(" (line {}: {})", m.line, m.title))
-                .unwrap_or_default();
-            return failure(self.starter_listing(), format!("{n} ERROR(S){first}"));
+            return failure(self.starter_listing(), format!("{n} ERROR(S){}", first(&s)));
         }
         let Ok(Some(e)) = self.listing(dir, &self.engine_listing()) else {
             return None;
         };
         if let Some(line) = e.error_termination {
-            let first = e
-                .first_error()
-                .map(|m| format!(" (line {}: {})", m.line, m.title))
-                .unwrap_or_default();
             return failure(
                 self.engine_listing(),
-                format!("ERROR TERMINATION at line {line}{first}"),
+                format!("ERROR TERMINATION at line {line}{}", first(&e)),
             );
         }
         e.stopped.map(|(line, why)| Outcome::FailureText {

@@ -9,7 +9,7 @@
 //! `xmoment= .. ymoment= .. zmoment= ..` line, and a `xtotal= .. ytotal= .. ztotal= .. etotal= ..` line.
 //! Values are read by their `key=` labels.
 
-use super::text::{Tok, body, err, read_text, squash, tokens};
+use super::text::{Tok, body, err, read_text, squash, tokens, whole};
 use crate::error::InputError;
 use std::path::Path;
 
@@ -113,9 +113,8 @@ pub fn parse(file: &Path, text: &str) -> Result<Bndout, InputError> {
         let located = |m: String| err(file, text, no, m);
         match first.as_str() {
             "nd#" | "mt#" | "mat#" => {
-                let id = match t.get(1) {
-                    Some(Tok::Num(v, _)) if *v >= 0.0 && v.fract() == 0.0 && *v < 1e18 => *v as u64,
-                    _ => return Err(located(format!("expected an id after `{first}`"))),
+                let Some(id) = t.get(1).and_then(Tok::num).and_then(whole) else {
+                    return Err(located(format!("expected an id after `{first}`")));
                 };
                 let v = keyed(&t, &["xforce=", "yforce=", "zforce=", "energy="]).map_err(located)?;
                 step.entries.push(BndEntry {

@@ -74,6 +74,7 @@ pub fn parse(file: &Path, text: &str) -> Result<Glstat, InputError> {
         if trimmed.is_empty() {
             continue;
         }
+        let fail = |message: String| err(file, text, no, message);
         if in_mass_props {
             if trimmed.starts_with("****") {
                 in_mass_props = false;
@@ -97,15 +98,12 @@ pub fn parse(file: &Path, text: &str) -> Result<Glstat, InputError> {
             continue;
         }
         let Some(c) = LABEL_VALUE.captures(line) else {
-            return Err(err(
-                file,
-                text,
-                no,
-                "expected a `label ....... value` line (or ` dt of cycle N ...`)",
+            return Err(fail(
+                "expected a `label ....... value` line (or ` dt of cycle N ...`)".into(),
             ));
         };
         let label = c[1].split_whitespace().collect::<Vec<_>>().join(" ");
-        let value = parse_number(&c[2]).ok_or_else(|| err(file, text, no, "expected a number after the label"))?;
+        let value = parse_number(&c[2]).ok_or_else(|| fail("expected a number after the label".into()))?;
         let key = match c
             .get(3)
             .map(|m| m.as_str().split_whitespace().collect::<Vec<_>>().join(" "))
@@ -124,16 +122,11 @@ pub fn parse(file: &Path, text: &str) -> Result<Glstat, InputError> {
             continue;
         }
         let Some(step) = out.steps.last_mut() else {
-            return Err(err(
-                file,
-                text,
-                no,
-                format!("`{key}` before the first ` time....` line of a step"),
-            ));
+            return Err(fail(format!("`{key}` before the first ` time....` line of a step")));
         };
         step.lines.insert(key.clone(), no);
         if step.values.insert(key.clone(), value).is_some() {
-            return Err(err(file, text, no, format!("`{key}` appears twice in one step")));
+            return Err(fail(format!("`{key}` appears twice in one step")));
         }
     }
     Ok(out)

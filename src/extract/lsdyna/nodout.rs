@@ -9,7 +9,7 @@
 //! (x/y/z disp, vel, accl, coor). A block whose header names `x-rot` holds rotations: node id + 9 values
 //! (rot, rot vel, rot acc), kept in [`Nodout::rotations`].
 
-use super::text::{Tok, body, err, parse_number, read_text, tokens_into};
+use super::text::{Tok, body, err, parse_number, read_text, tokens_into, whole};
 use crate::error::InputError;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -174,54 +174,29 @@ fn data_row(
     t: &[Tok],
     state: Block,
 ) -> Result<(u64, Vec<f64>), InputError> {
+    let fail = |message: String| err(file, text, no, message);
     if line.as_bytes().windows(9).any(|w| w.eq_ignore_ascii_case(b"n o d a l")) {
-        return Err(err(
-            file,
-            text,
-            no,
-            "malformed heading: expected ` n o d a l   p r i n t   o u t   f o r   t i m e  s t e p N  ( at time T )`",
+        return Err(fail(
+            "malformed heading: expected ` n o d a l   p r i n t   o u t   f o r   t i m e  s t e p N  ( at time T )`"
+                .into(),
         ));
     }
     let want = match state {
         Block::Trans => 12,
         Block::Rot => 9,
-        Block::None => {
-            return Err(err(
-                file,
-                text,
-                no,
-                "data before any ` n o d a l   p r i n t   o u t` heading",
-            ));
-        }
-        Block::Heading => {
-            return Err(err(
-                file,
-                text,
-                no,
-                "expected the ` nodal point  x-disp ...` column header",
-            ));
-        }
+        Block::None => return Err(fail("data before any ` n o d a l   p r i n t   o u t` heading".into())),
+        Block::Heading => return Err(fail("expected the ` nodal point  x-disp ...` column header".into())),
     };
-    let id = match t[0] {
-        Tok::Num(v, _) if v >= 0.0 && v.fract() == 0.0 && v < 1e18 => v as u64,
-        _ => {
-            return Err(err(
-                file,
-                text,
-                no,
-                format!("expected a node id, found `{}`", t[0].text()),
-            ));
-        }
+    let Some(id) = t[0].num().and_then(whole) else {
+        return Err(fail(format!("expected a node id, found `{}`", t[0].text())));
     };
     let vals: Option<Vec<f64>> = t[1..].iter().map(Tok::num).collect();
     match vals {
         Some(v) if v.len() == want => Ok((id, v)),
-        _ => Err(err(
-            file,
-            text,
-            no,
-            format!("expected node id and {want} numbers, found `{}`", line.trim()),
-        )),
+        _ => Err(fail(format!(
+            "expected node id and {want} numbers, found `{}`",
+            line.trim()
+        ))),
     }
 }
 

@@ -37,7 +37,7 @@ pub fn figures(gl: &Glstat) -> Quality {
 }
 
 /// The value largest in size (NaN wins: a non-finite figure must not pass a gate).
-fn worst(values: impl Iterator<Item = f64>) -> Option<f64> {
+pub(crate) fn worst(values: impl Iterator<Item = f64>) -> Option<f64> {
     values.fold(None, |acc: Option<f64>, v| match acc {
         Some(a) if a.is_nan() || (!v.is_nan() && a.abs() >= v.abs()) => Some(a),
         _ => Some(v),

@@ -7,7 +7,7 @@
 //! `SURFB` (the former master side). Lines ` interface number, N,is single surface-resultants are undefined`
 //! are recorded in [`Rcforc::single_surface`]. Parsed by tokens and labels, not columns.
 
-use super::text::{Tok, body, err, read_text, tokens_into};
+use super::text::{Tok, body, err, read_text, tokens_into, whole};
 use crate::error::InputError;
 pub use crate::study::settings::Side;
 use std::collections::BTreeMap;
@@ -112,31 +112,22 @@ fn parse_keeping(file: &Path, text: &str, keep: Option<(Side, u64)>) -> Result<R
             continue;
         }
         tokens_into(line, &mut t);
+        let fail = |message: String| err(file, text, no, message);
         let first = t[0].text();
         if first.eq_ignore_ascii_case("interface") {
             let n = t.iter().find_map(|k| k.num()).filter(|v| v.fract() == 0.0 && *v >= 0.0);
             match n {
                 Some(n) => out.single_surface.push(n as u64),
-                None => {
-                    return Err(err(
-                        file,
-                        text,
-                        no,
-                        "expected `interface number, N,is single surface...`",
-                    ));
-                }
+                None => return Err(fail("expected `interface number, N,is single surface...`".into())),
             }
             continue;
         }
         let Some(side) = Side::from_label(first) else {
-            return Err(err(
-                file,
-                text,
-                no,
-                format!("expected a data line starting with master/slave/SURFA/SURFB, found `{first}`"),
-            ));
+            return Err(fail(format!(
+                "expected a data line starting with master/slave/SURFA/SURFB, found `{first}`"
+            )));
         };
-        let row = data_row(&t).map_err(|m| err(file, text, no, m))?;
+        let row = data_row(&t).map_err(fail)?;
         let s = out.interfaces.entry((side, row.id)).or_default();
         match (&mut s.moments, row.moments) {
             (Some(m), Some(r)) => {
@@ -149,11 +140,8 @@ fn parse_keeping(file: &Path, text: &str, keep: Option<(Side, u64)>) -> Result<R
             }
             (None, None) => {}
             _ => {
-                return Err(err(
-                    file,
-                    text,
-                    no,
-                    "moment columns `mx my mz` must be on every line of an interface side or on none",
+                return Err(fail(
+                    "moment columns `mx my mz` must be on every line of an interface side or on none".into(),
                 ));
             }
         }
@@ -184,9 +172,8 @@ struct Row {
 const LABELS: [&str; 10] = ["time", "x", "y", "z", "mass", "mx", "my", "mz", "tied", "tied area"];
 
 fn data_row(t: &[Tok]) -> Result<Row, String> {
-    let id = match t.get(1).and_then(Tok::num) {
-        Some(v) if v >= 0.0 && v.fract() == 0.0 && v < 1e18 => v as u64,
-        _ => return Err("expected an interface number after the side label".into()),
+    let Some(id) = t.get(1).and_then(Tok::num).and_then(whole) else {
+        return Err("expected an interface number after the side label".into());
     };
     // Label-value pairs after the id: time, x, y, z, mass, then optional mx, my, mz, tied, tied area.
     let mut vals: [Option<f64>; LABELS.len()] = [None; LABELS.len()];

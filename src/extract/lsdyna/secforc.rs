@@ -11,7 +11,7 @@
 //! magnitude; 27 blanks then centroid x, y, z and area. The native solver's own writer was not found;
 //! this parser reads by tokens (the last four numbers of lines 2 and 3), so column drift does not matter.
 
-use super::text::{Tok, body, err, read_text, tokens};
+use super::text::{Tok, all_numbers, body, err, read_text, tokens, whole};
 use crate::error::InputError;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -44,13 +44,7 @@ fn last_numbers(t: &[Tok], n: usize) -> Option<(String, Vec<f64>)> {
         return None;
     }
     let (head, tail) = t.split_at(t.len() - n);
-    let v: Option<Vec<f64>> = tail
-        .iter()
-        .map(|k| match k {
-            Tok::Num(v, _) => Some(*v),
-            Tok::Word(_) => k.num(),
-        })
-        .collect();
+    let v: Option<Vec<f64>> = tail.iter().map(Tok::num).collect();
     let label = head.iter().map(Tok::text).collect::<Vec<_>>().join(" ");
     Some((label, v?))
 }
@@ -67,30 +61,21 @@ pub fn parse(file: &Path, text: &str) -> Result<Secforc, InputError> {
         .copied()
         .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().to_ascii_lowercase().starts_with("line#"))
         .collect();
+    let at = |no: usize, message: &str| err(file, text, no, message);
     let mut i = 0;
     while i < lines.len() {
         let (no1, l1) = lines[i];
         let (id, time, f) = force_line(file, text, no1, l1)?;
         let Some(&(no2, l2)) = lines.get(i + 1) else {
-            return Err(err(
-                file,
-                text,
-                no1,
-                "record ends early: expected a moment line after this line",
-            ));
+            return Err(at(no1, "record ends early: expected a moment line after this line"));
         };
         let (system, m) = moment_line(file, text, no2, l2)?;
         let Some(&(no3, l3)) = lines.get(i + 2) else {
-            return Err(err(
-                file,
-                text,
-                no2,
-                "record ends early: expected a centroid line after this line",
-            ));
+            return Err(at(no2, "record ends early: expected a centroid line after this line"));
         };
-        let c: Vec<f64> = match tokens(l3).iter().map(Tok::num).collect::<Option<Vec<f64>>>() {
+        let c: Vec<f64> = match all_numbers(l3) {
             Some(v) if v.len() == 4 => v,
-            _ => return Err(err(file, text, no3, "expected 4 numbers: centroid x, y, z and area")),
+            _ => return Err(at(no3, "expected 4 numbers: centroid x, y, z and area")),
         };
         let s = out.sections.entry(id).or_default();
         s.time.push(time);
@@ -110,11 +95,8 @@ pub fn parse(file: &Path, text: &str) -> Result<Secforc, InputError> {
 
 /// A record's first line: section id, time, force x, y, z and magnitude.
 fn force_line(file: &Path, text: &str, no: usize, line: &str) -> Result<(u64, f64, [f64; 4]), InputError> {
-    let nums: Option<Vec<f64>> = tokens(line).iter().map(Tok::num).collect();
-    match nums {
-        Some(v) if v.len() == 6 && v[0] >= 0.0 && v[0].fract() == 0.0 && v[0] < 1e18 => {
-            Ok((v[0] as u64, v[1], [v[2], v[3], v[4], v[5]]))
-        }
+    match all_numbers(line) {
+        Some(v) if v.len() == 6 && whole(v[0]).is_some() => Ok((v[0] as u64, v[1], [v[2], v[3], v[4], v[5]])),
         _ => Err(err(
             file,
             text,

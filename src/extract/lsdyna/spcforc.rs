@@ -5,7 +5,7 @@
 //! ` node=%8d local x,y,z forces =%14.4E%14.4E%14.4E` (newer: `  setid=%8d` appended) and
 //! ` node=%8d local x,y,z moments=...`, closed by `             force resultants   =%14.4E%14.4E%14.4E`.
 
-use super::text::{Tok, body, err, read_text, tokens};
+use super::text::{Tok, body, err, read_text, tokens, whole};
 use crate::error::InputError;
 use std::path::Path;
 
@@ -37,10 +37,6 @@ pub fn read(file: &Path) -> Result<Spcforc, InputError> {
 fn three_after(t: &[Tok], key: usize) -> Option<[f64; 3]> {
     let v: Vec<f64> = t.get(key + 1..key + 4)?.iter().map(Tok::num).collect::<Option<_>>()?;
     Some([v[0], v[1], v[2]])
-}
-
-fn whole(v: f64) -> Option<u64> {
-    (v >= 0.0 && v.fract() == 0.0 && v < 1e18).then_some(v as u64)
 }
 
 pub fn parse(file: &Path, text: &str) -> Result<Spcforc, InputError> {

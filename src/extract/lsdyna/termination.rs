@@ -3,7 +3,7 @@
 //! (and time). The exit code is not a reliable signal (facts.md), so this is what decides. Matching
 //! ignores spacing and case; the last termination line in the text wins.
 
-use super::text::read_text;
+use super::text::{read_text, squash_starts_with};
 use crate::error::InputError;
 use std::path::Path;
 
@@ -21,14 +21,9 @@ pub enum Termination {
 pub fn parse(text: &str) -> Termination {
     let mut found = Termination::Missing;
     for line in text.lines() {
-        let squashed: String = line
-            .chars()
-            .filter(|c| !c.is_whitespace())
-            .flat_map(char::to_lowercase)
-            .collect();
-        let kind = if squashed.starts_with("normaltermination") {
+        let kind = if squash_starts_with(line, "normaltermination") {
             Some(true)
-        } else if squashed.starts_with("errortermination") {
+        } else if squash_starts_with(line, "errortermination") {
             Some(false)
         } else {
             None

@@ -98,6 +98,11 @@ pub fn all_numbers(line: &str) -> Option<Vec<f64>> {
     tokens(line).iter().map(Tok::num).collect()
 }
 
+/// `v` as an id: a whole number from 0 to below 10¹⁸.
+pub fn whole(v: f64) -> Option<u64> {
+    (v >= 0.0 && v.fract() == 0.0 && v < 1e18).then_some(v as u64)
+}
+
 /// The data lines of an LS-DYNA ASCII file: numbered from 1, preamble and legend blocks removed.
 pub struct Body<'a> {
     pub title: &'a str,

@@ -19,18 +19,11 @@
 
 use radioss_th::TimeHistory;
 
-use crate::extract::crush::{self, CrushError, ForceDisplacement, SimSource};
+use crate::extract::crush::{self, CrushError, ForceDisplacement, SimSource, data};
 use crate::extract::lsdyna::complete::{self, Expected, Incomplete};
-use crate::extract::lsdyna::quality::{Quality, SIGNIFICANT_INTERNAL};
+use crate::extract::lsdyna::quality::{Quality, SIGNIFICANT_INTERNAL, worst};
 
 const AXES: [&str; 3] = ["X", "Y", "Z"];
-
-fn data(what: &str, message: impl Into<String>) -> CrushError {
-    CrushError::Data {
-        what: what.to_string(),
-        message: message.into(),
-    }
-}
 
 /// The crush curve of `th`: interface `source.interface`'s normal force along `source.force_axis`
 /// against node `source.node`'s displacement along `source.disp_axis`.
@@ -49,16 +42,7 @@ pub fn curve(th: &TimeHistory, source: &SimSource) -> Result<ForceDisplacement, 
     let disp = th
         .node(node, &format!("D{d_axis}"))
         .ok_or_else(|| data("T01", format!("no history node {node}")))?;
-    if !(source.force_to_kn.is_finite()
-        && source.force_to_kn > 0.0
-        && source.disp_to_mm.is_finite()
-        && source.disp_to_mm > 0.0)
-    {
-        return Err(data("settings", "unit factors must be positive and finite"));
-    }
-    let f: Vec<f64> = force.iter().map(|v| v * source.force_to_kn).collect();
-    let d: Vec<f64> = disp.iter().map(|v| v * source.disp_to_mm).collect();
-    crush::from_histories(&th.times, &f, &th.times, &d, source.force_sign, source.disp_sign)
+    crush::in_units(&th.times, &force, &th.times, &disp, source)
 }
 
 /// The energy figures of `th` (`None` where it does not record what they need).
@@ -125,14 +109,6 @@ fn added_mass(th: &TimeHistory) -> Option<f64> {
             .zip(&mass)
             .map(|(a, m)| if m - a > 0.0 { a / (m - a) } else { f64::NAN }),
     )
-}
-
-/// The value largest in size (NaN wins: a non-finite figure must not pass a gate).
-fn worst(values: impl Iterator<Item = f64>) -> Option<f64> {
-    values.fold(None, |acc: Option<f64>, v| match acc {
-        Some(a) if a.is_nan() || (!v.is_nan() && a.abs() >= v.abs()) => Some(a),
-        _ => Some(v),
-    })
 }
 
 /// Whether `th` (the file `file`) is complete against the deck's interval and termination time,

@@ -206,8 +206,8 @@ pub fn rcforc(b: &Binout) -> Result<Option<Rcforc>, InputError> {
     if !b.db.is_dir("/rcforc") {
         return Ok(None);
     }
-    let ids = ids(b, "/rcforc/metadata/ids")?;
-    let sides = ids_or_empty(b, "/rcforc/metadata/side")?;
+    // Both read before the name `ids` is taken by the first.
+    let (ids, sides) = (ids(b, "/rcforc/metadata/ids")?, ids(b, "/rcforc/metadata/side")?);
     if sides.len() != ids.len() {
         return Err(InputError::file(
             &b.name,
@@ -282,10 +282,6 @@ pub fn rcforc(b: &Binout) -> Result<Option<Rcforc>, InputError> {
         out.interfaces.extend(slots.into_iter().zip(series));
     }
     Ok(Some(out))
-}
-
-fn ids_or_empty(b: &Binout, path: &str) -> Result<Vec<u64>, InputError> {
-    ids(b, path)
 }
 
 const NODOUT: [&str; 12] = [
