@@ -139,7 +139,11 @@ fn a_live_run_is_judged_from_its_listings_and_time_history_and_replays_bit_for_b
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     let runs = records(&out);
-    assert_eq!(runs.len(), 2);
+    // The two sampled runs, and the solver at the fitted σy at the one tested design.
+    let results: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(results["runs"]["confirmation"], 1, "{}", results["runs"]);
+    assert_eq!(runs.len(), 3);
     for r in &runs {
         let key = r["key"].as_str().unwrap();
         assert_eq!(r["outcome"]["class"], "success", "{r}");

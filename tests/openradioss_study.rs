@@ -9,9 +9,9 @@
 //! - The report draws the real solver's curves beside the stand-in's on the same decks (figures
 //!   `solvers-<design>`), measured alike in `report-data.json`.
 //! - What lab decides on these real-solver curves, as recorded in docs/openradioss.md ([`verdict`]):
-//!   no wrong cause, the next test where no model error is claimed, the yield stress where a
-//!   baseline that absorbs the hardening must put it; every method succeeds (the Bayesian method
-//!   with designs that all share c).
+//!   no wrong cause; the hardening named near its truth, or left open with both truths inside what
+//!   the tests do not exclude, never the calibrated simulation handed over "as it is" alone; every
+//!   method succeeds (the Bayesian method with designs that all share c).
 
 use std::path::Path;
 use std::process::Command;
@@ -91,30 +91,39 @@ fn the_study_replays_and_the_real_solver_behaves() {
 }
 
 /// What lab decides on the real solver's curves (docs/openradioss.md, "The study and what lab
-/// decides"). The tests' truth has strain hardening (ETAN = 200 MPa) that the baseline lacks; on
-/// three designs that share c = 6 mm the hardening raises the force by nearly the same factor at
-/// each, which a higher yield stress reproduces, so the tests cannot tell the two apart. What must
-/// hold whatever the numbers: no wrong cause is named; if no model error is claimed, the next test
-/// offered is the one that would tell the hardening from the baseline; and every method's yield
-/// stress lies above the truth (185 MPa), where a baseline that absorbs the hardening must put it,
-/// and inside the study's bounds.
+/// decides"). The tests' truth has strain hardening (ETAN = 200 MPa) that the baseline lacks, at
+/// σy = 185 MPa. Either the hardening is named with σy within 5 % of 185 and ETAN within 30 % of 200,
+/// or no cause is named and what the tests leave open covers both truths: `not_excluded` gives a
+/// range of ETAN holding 200 and σy over it holding 185, and the action does not hand over the
+/// calibrated simulation "as it is" alone. No other cause is ever named. Every method runs, each
+/// yield stress inside the study's bounds.
 fn verdict(results: &serde_json::Value) {
     let d = &results["diagnosis"];
     let hardening = "strain hardening in the fold hinges";
     assert!(d["cause"].is_null() || d["cause"] == hardening, "{}", d["cause"]);
-    if d["verdict"] == "no_model_error" {
-        let between: Vec<&str> = d["next_test"]["between"]
+    let within = |v: &serde_json::Value, truth: f64, tol: f64| v.as_f64().is_some_and(|x| (x / truth - 1.0).abs() <= tol);
+    let covers = |v: &serde_json::Value, truth: f64| {
+        v[0].as_f64().is_some_and(|lo| lo <= truth) && v[1].as_f64().is_some_and(|hi| truth <= hi)
+    };
+    if d["cause"] == hardening {
+        let x = &d["extended"]["parameters"];
+        assert!(within(&x["sigma_y"], 185.0, 0.05), "named, sigma_y {}", x["sigma_y"]);
+        assert!(within(&x["etan"], 200.0, 0.30), "named, etan {}", x["etan"]);
+    } else {
+        let open = d["not_excluded"]
             .as_array()
-            .expect("a next test")
-            .iter()
-            .filter_map(|v| v.as_str())
-            .collect();
-        assert!(between.contains(&hardening), "{between:?}");
+            .and_then(|o| o.iter().find(|n| n["hypothesis"] == hardening))
+            .unwrap_or_else(|| panic!("no cause named, and hardening not said to be open: {}", d["summary"]));
+        assert!(covers(&open["amplitude"]["etan"], 200.0), "{open}");
+        assert!(covers(&open["parameters"]["sigma_y"], 185.0), "{open}");
+        let action = d["action"].as_str().unwrap();
+        assert!(!action.contains("as it is"), "{action}");
+        assert!(action.contains(hardening), "{action}");
     }
     for m in ["least_squares", "sensitivity", "bayesian"] {
         let s = results["calibration"][m]["parameters"]["sigma_y"]
             .as_f64()
             .unwrap_or_else(|| panic!("{m}: {}", results["calibration"][m]));
-        assert!((185.0..240.0).contains(&s), "{m}: sigma_y = {s}");
+        assert!((140.0..=240.0).contains(&s), "{m}: sigma_y = {s}");
     }
 }

@@ -170,7 +170,7 @@ fn ctrl_c_at_a_terminal_then_c_cancels_the_jobs() {
     let rerun = started_once(&again);
     assert!(cancelled.is_subset(&rerun), "cancelled {cancelled:?}, rerun {rerun:?}");
     assert!(finished.is_disjoint(&rerun), "a finished run was executed again");
-    assert_eq!(keys_with(&out, "success").len(), 18);
+    assert_eq!(keys_with(&out, "success").len(), COMPLIANCE_RUNS);
 }
 
 #[test]
@@ -206,7 +206,7 @@ fn ctrl_c_at_a_terminal_then_enter_leaves_the_jobs_and_says_how_to_reattach() {
     let mut rerun = lab(&conf, tmp.path(), &args);
     rerun.stdin(Stdio::null());
     let (_, started) = rerun_reattaches(rerun, &log);
-    assert_eq!(started.len(), 18);
+    assert_eq!(started.len(), COMPLIANCE_RUNS);
 }
 
 #[test]
@@ -246,7 +246,7 @@ fn sigint_without_a_terminal_leaves_the_jobs_without_asking() {
     let argv = reattach_argv(&err);
     let args: Vec<&str> = argv[1..].iter().map(String::as_str).collect();
     let (_, started) = rerun_reattaches(lab(&conf, tmp.path(), &args), &log);
-    assert_eq!(started.len(), 18);
+    assert_eq!(started.len(), COMPLIANCE_RUNS);
 }
 
 /// The child's output once it exits within `limit` (killed and failed otherwise).

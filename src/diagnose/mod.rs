@@ -288,7 +288,11 @@ pub fn inputs_with_extensions<'a>(
             .enumerate()
             .map(
                 |(k, h)| match (h.extension(), extensions.iter().find(|(j, _)| *j == k)) {
-                    (Some(variables), Some((_, ext))) => Shape::from_extension(h.name.clone(), variables, ext.clone()),
+                    (Some(variables), Some((_, ext))) => {
+                        let mut shape = Shape::from_extension(h.name.clone(), variables, ext.clone());
+                        shape.ranges = h.ranges().iter().map(|r| (r.name.clone(), r.min, r.max)).collect();
+                        shape
+                    }
                     _ => Shape::from_hypothesis(h, study),
                 },
             )
@@ -1058,16 +1062,7 @@ impl<'a> Evidence<'a> {
         );
         facts.after_loop = after.as_ref();
         let discovered = search.as_ref().map_or(&[][..], |s| s.discovered.evidence.as_slice());
-        let mut words = text::describe(&facts, discovered);
-        let not_excluded = match decision.verdict {
-            Verdict::NoModelError => {
-                let power = self.cx.inputs.settings.power;
-                open::not_excluded(&candidates, self.noise.dof, &self.cx.levels(), power)
-            }
-            _ => Vec::new(),
-        };
-        words.limits.extend(not_excluded.iter().map(text::not_excluded_line));
-        words.summary = text::summary(&words.headline, &words.action, &words.evidence, &words.limits);
+        let (words, not_excluded) = self.words(&facts, &candidates, discovered);
         let name = |who| verdict::name_of(who, &candidates, loop_names);
         // `cause` is the decided cause only; a partial explanation goes to `partial`.
         let (cause, extended, partial) = match (decision.verdict, decision.cause) {
@@ -1111,6 +1106,25 @@ impl<'a> Evidence<'a> {
             rule: RULE.to_string(),
             notes,
         }
+    }
+
+    /// The words of a final decision, with what "no model error" leaves open (the listed
+    /// hypotheses these tests do not exclude) in its limits and its action.
+    fn words(&self, facts: &text::Facts, candidates: &[Candidate], discovered: &[String]) -> (text::Words, Vec<open::NotExcluded>) {
+        let mut words = text::describe(facts, discovered);
+        let not_excluded = match facts.decision.verdict {
+            Verdict::NoModelError => {
+                let levels = (self.cx.levels(), self.cx.inputs.settings.power);
+                open::not_excluded(candidates, &self.cx.inputs.hypotheses, self.noise.dof, levels)
+            }
+            _ => Vec::new(),
+        };
+        words.limits.extend(not_excluded.iter().map(text::not_excluded_line));
+        if !not_excluded.is_empty() {
+            words.action = text::action_with_open(facts, &not_excluded);
+        }
+        words.summary = text::summary(&words.headline, &words.action, &words.evidence, &words.limits);
+        (words, not_excluded)
     }
 
     /// Step 5b: the screening's decision, or with loop models the decision after the loop.

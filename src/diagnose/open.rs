@@ -19,6 +19,7 @@ use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
 use super::shapes::Origin;
+use super::shapes::Shape;
 use super::{Candidate, Levels, stats};
 
 /// One listed hypothesis the tests do not exclude (`diagnosis.not_excluded[]`).
@@ -34,22 +35,35 @@ pub struct NotExcluded {
     pub detectable: IndexMap<String, f64>,
 }
 
-/// The listed hypotheses' open ranges (`nu`: the noise's degrees of freedom; `power`: the
-/// settings'); empty where no candidate has an amplitude's standard error.
-pub fn not_excluded(candidates: &[Candidate], nu: usize, levels: &Levels, power: f64) -> Vec<NotExcluded> {
+/// The listed hypotheses' open ranges (`shapes`: the hypotheses, for an extension's declared
+/// ranges; `nu`: the noise's degrees of freedom; `power`: the settings'); empty where no candidate
+/// has an amplitude's standard error.
+pub fn not_excluded(candidates: &[Candidate], shapes: &[Shape], nu: usize, (levels, power): (Levels, f64)) -> Vec<NotExcluded> {
     let k = candidates.len();
     candidates
         .iter()
         .filter(|c| c.origin == Origin::Study)
-        .filter_map(|c| one(c, nu, (levels.alpha, levels.amplitude(k)), power))
+        .filter_map(|c| {
+            let declared = shapes.iter().find(|s| s.name == c.name).map_or(&[][..], |s| &s.ranges[..]);
+            one(c, declared, nu, (levels.alpha, levels.amplitude(k)), power)
+        })
         .collect()
 }
 
-fn one(c: &Candidate, nu: usize, (alpha, alpha_k): (f64, f64), power: f64) -> Option<NotExcluded> {
+fn one(c: &Candidate, declared: &[(String, f64, f64)], nu: usize, (alpha, alpha_k): (f64, f64), power: f64) -> Option<NotExcluded> {
     let se = c.separability.amplitude_se.filter(|s| s.is_finite() && *s > 0.0)?;
     let nu = nu.max(1) as f64;
     let half = stats::t_quantile(1.0 - alpha / 2.0, nu) * se;
-    let range = [c.amplitude - half, c.amplitude + half];
+    let mut range = [c.amplitude - half, c.amplitude + half];
+    // An extension's variable cannot leave the range the study declares for it (a hardening
+    // modulus below 0): the open range is clipped to it, in γ (the variable over its probe value).
+    if let (Some(e), [(name, lo, hi)]) = (c.extension.as_ref().filter(|e| e.len() == 1), declared) {
+        let probe = e.get(name).copied().filter(|v| *v != 0.0);
+        if let Some(v) = probe {
+            let (a, b) = ((lo / v).min(hi / v), (lo / v).max(hi / v));
+            range = [range[0].clamp(a, b), range[1].clamp(a, b)];
+        }
+    }
     let detect = (stats::t_quantile(1.0 - alpha_k / 2.0, nu) + stats::t_quantile(power, nu)) * se;
     // The joint fit's slope of each parameter on γ (its shift over γ at the 95 % edge, per unit).
     let edge = c

@@ -41,6 +41,9 @@ pub struct Shape {
     pub origin: Origin,
     /// The template variables of a model extension (`None` for a term).
     pub extension: Option<Vec<(String, f64)>>,
+    /// The ranges the study declares for a model extension's variables (name, min, max): what its
+    /// amplitude can physically be.
+    pub ranges: Vec<(String, f64, f64)>,
     f: Arc<ShapeFn>,
 }
 
@@ -67,6 +70,7 @@ impl Shape {
             term: term.into(),
             origin,
             extension: None,
+            ranges: Vec::new(),
             f: Arc::new(f),
         }
     }

@@ -152,6 +152,22 @@ pub(crate) fn not_excluded_line(n: &super::open::NotExcluded) -> String {
     )
 }
 
+/// One open hypothesis in the action: absent, or else the parameters over its open range.
+fn open_clause(n: &super::open::NotExcluded) -> String {
+    let range = |m: &indexmap::IndexMap<String, [f64; 2]>| {
+        m.iter()
+            .map(|(k, [lo, hi])| format!("{k} in [{}, {}]", num(*lo), num(*hi)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        "'{}' is absent: these tests do not exclude it up to {}, over which {}",
+        n.hypothesis,
+        range(&n.amplitude),
+        range(&n.parameters)
+    )
+}
+
 /// What the solver showed of one model at its fitted parameters.
 fn confirmation_line(c: &super::confirm::Confirmation) -> String {
     let model = match c.model.as_str() {
@@ -481,6 +497,13 @@ fn too_few_reason(f: &Facts) -> String {
 }
 
 fn action(f: &Facts) -> String {
+    action_with_open(f, &[])
+}
+
+/// The action, where no model error leaves listed hypotheses open (`open`, [`super::open`]): the
+/// calibrated simulation holds only where they are absent, and the parameters over what the tests
+/// do not exclude are said first.
+pub(crate) fn action_with_open(f: &Facts, open: &[super::open::NotExcluded]) -> String {
     // A named cause needs no confirming test the specimens in hand already give.
     let in_hand = |t: &&super::NextTest| matches!(t.programme.as_slice(), [one] if one.additional == 0);
     let confirming = f
@@ -508,6 +531,14 @@ fn action(f: &Facts) -> String {
             next.map_or_else(
                 || "the tests in hand decide, no further test is needed".into(),
                 |n| format!("to confirm it, {n}")
+            )
+        ),
+        (Verdict::NoModelError, _) if !open.is_empty() => format!(
+            "Action: use the calibrated simulation only where {}; {}.",
+            open.iter().map(open_clause).collect::<Vec<_>>().join(", and where "),
+            next.map_or_else(
+                || "an independent measurement of the parameters, or tests where the effect changes the response most, would tell".into(),
+                |n| format!("the test most likely to tell: {n}")
             )
         ),
         (Verdict::NoModelError, _) => format!(

@@ -42,18 +42,9 @@ pub(super) fn diagnose_with_solver(
     }
     let chosen = extend::chosen(study, &screening);
     if chosen.is_empty() {
-        let noise_alone = match crate::diagnose::diagnose(&inputs[1]) {
-            Ok(d) => d,
-            Err(e) => return Ok(Err(e)),
-        };
-        let decided =
-            [(screening, true), (noise_alone, false)].map(|(d, c)| Finished::of(study, stage, read.problem(c), d, &[]));
-        let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&[], &[]));
         let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
-        let (d, confirmation, residuals) = confirmed(cx, made, decided, subjects, &read, reporter)?;
-        runs.diagnosed.confirmation = confirmation;
-        runs.diagnosed.residual_curves = residuals;
-        return Ok(Ok(d));
+        let confirmed = without_the_loop(cx, made, stage, (&read, &inputs, screening), reporter)?;
+        return Ok(confirmed.map(|c| runs.diagnosed.keep(c)));
     }
     let dirs = runs.executed.output_dirs(runs.sim);
     let after = AfterLoop {
@@ -100,14 +91,31 @@ pub(super) fn diagnose_with_solver(
     let loop_inputs: Vec<crate::diagnose::Inputs> = readings.iter().map(|l| l.inputs()).collect();
     let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&readings, &loop_inputs));
     let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
-    let (d, confirmation, residuals) = confirmed(cx, made, decided, subjects, &read, reporter)?;
-    runs.diagnosed.confirmation = confirmation;
-    runs.diagnosed.residual_curves = residuals;
+    let d = runs.diagnosed.keep(confirmed(cx, made, decided, subjects, &read, reporter)?);
     for (m, (_, at)) in models.into_iter().zip(extended) {
         runs.diagnosed.extended.push((m, at));
     }
     runs.diagnosed.joint = Some(joint);
     Ok(Ok(d))
+}
+
+/// The decision when no extension is run with the solver in the loop: the screening's, made
+/// again with the tests' noise alone, then confirmed.
+fn without_the_loop(
+    cx: RunContext,
+    made: super::confirm::Made,
+    stage: Option<&curves::CurveStage>,
+    (read, inputs, screening): (&Reading, &[crate::diagnose::Inputs; 2], Diagnosis),
+    reporter: &mut dyn Reporter,
+) -> Result<Result<Confirmed, CalibrationError>, Error> {
+    let study = cx.study;
+    let noise_alone = match crate::diagnose::diagnose(&inputs[1]) {
+        Ok(d) => d,
+        Err(e) => return Ok(Err(e)),
+    };
+    let decided = [(screening, true), (noise_alone, false)].map(|(d, c)| Finished::of(study, stage, read.problem(c), d, &[]));
+    let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&[], &[]));
+    confirmed(cx, made, decided, subjects, read, reporter).map(Ok)
 }
 
 /// A decision with its words and, with curves, its features and residual curves.
@@ -152,6 +160,15 @@ fn confirmed(
         _ => noise_alone.residuals,
     };
     Ok((d, runs, residuals))
+}
+
+impl super::Diagnosed {
+    /// Keeps a confirmed diagnosis's runs and residual curves; returns the diagnosis.
+    fn keep(&mut self, (d, confirmation, residuals): Confirmed) -> Diagnosis {
+        self.confirmation = confirmation;
+        self.residual_curves = residuals;
+        d
+    }
 }
 
 /// A confirmed diagnosis, its confirmation runs, and its residual curves.

@@ -71,7 +71,12 @@ pub fn copy_study(to: &Path, files: &[&str], yaml: &str, edits: &[(&str, &str)])
     path
 }
 
-/// The compliance study (18 runs of studies/solvers/beam.py) in `to`, with `slurm` settings.
+/// The compliance study's solver runs: its 18 sampled runs, then the solver at the fitted
+/// parameters at each of its 3 tested designs (the confirmation runs).
+pub const COMPLIANCE_RUNS: usize = 21;
+
+/// The compliance study (18 runs of studies/solvers/beam.py and 3 confirmation runs) in `to`, with
+/// `slurm` settings.
 pub fn compliance_study(to: &Path, slurm: &str) -> PathBuf {
     copy_study(
         to,
