@@ -101,7 +101,8 @@ fn verdict(results: &serde_json::Value) {
     let d = &results["diagnosis"];
     let hardening = "strain hardening in the fold hinges";
     assert!(d["cause"].is_null() || d["cause"] == hardening, "{}", d["cause"]);
-    let within = |v: &serde_json::Value, truth: f64, tol: f64| v.as_f64().is_some_and(|x| (x / truth - 1.0).abs() <= tol);
+    let within =
+        |v: &serde_json::Value, truth: f64, tol: f64| v.as_f64().is_some_and(|x| (x / truth - 1.0).abs() <= tol);
     let covers = |v: &serde_json::Value, truth: f64| {
         v[0].as_f64().is_some_and(|lo| lo <= truth) && v[1].as_f64().is_some_and(|hi| truth <= hi)
     };

@@ -74,6 +74,8 @@ pub enum CurveHypothesis {
     Extension {
         name: String,
         variables: Vec<(String, f64)>,
+        /// The variables' declared ranges (name, min, max).
+        ranges: Vec<(String, f64, f64)>,
         curve: Arc<CurveFn>,
         baseline: Option<(Arc<CurveFn>, usize)>,
     },
@@ -762,6 +764,7 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
         CurveHypothesis::Extension {
             name,
             variables,
+            ranges,
             curve: ext,
             baseline,
         } => {
@@ -790,6 +793,7 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
                 },
             );
             s.extension = Some(variables.clone());
+            s.ranges = ranges.clone();
             s
         }
     }

@@ -290,7 +290,7 @@ pub fn inputs_with_extensions<'a>(
                 |(k, h)| match (h.extension(), extensions.iter().find(|(j, _)| *j == k)) {
                     (Some(variables), Some((_, ext))) => {
                         let mut shape = Shape::from_extension(h.name.clone(), variables, ext.clone());
-                        shape.ranges = h.ranges().iter().map(|r| (r.name.clone(), r.min, r.max)).collect();
+                        shape.ranges = h.declared_ranges();
                         shape
                     }
                     _ => Shape::from_hypothesis(h, study),
@@ -1110,7 +1110,12 @@ impl<'a> Evidence<'a> {
 
     /// The words of a final decision, with what "no model error" leaves open (the listed
     /// hypotheses these tests do not exclude) in its limits and its action.
-    fn words(&self, facts: &text::Facts, candidates: &[Candidate], discovered: &[String]) -> (text::Words, Vec<open::NotExcluded>) {
+    fn words(
+        &self,
+        facts: &text::Facts,
+        candidates: &[Candidate],
+        discovered: &[String],
+    ) -> (text::Words, Vec<open::NotExcluded>) {
         let mut words = text::describe(facts, discovered);
         let not_excluded = match facts.decision.verdict {
             Verdict::NoModelError => {

@@ -865,7 +865,9 @@ fn observation_points(cx: &Context, d: &[f64]) -> Vec<Vec<f64>> {
 /// diagnosis; `None` when the data give no noise.
 fn one_test_sigma(cx: &Context, noise: &NoiseModel) -> Option<Sigma> {
     let from_residuals = noise.kind == NoiseKind::FromResiduals;
-    let usable = noise.scale > 0.0 && noise.scale.is_finite() && (!from_residuals || cx.mode == Mode::Ranked);
+    // A stated uncertainty may be relative only (no scale of its own).
+    let stated = noise.kind == NoiseKind::Stated && (noise.absolute > 0.0 || noise.relative > 0.0);
+    let usable = stated || noise.scale > 0.0 && noise.scale.is_finite() && (!from_residuals || cx.mode == Mode::Ranked);
     usable.then(|| {
         let nm = noise.clone();
         Box::new(move |level: f64| nm.sigma_at(level).max(f64::MIN_POSITIVE)) as Sigma

@@ -38,19 +38,33 @@ pub struct NotExcluded {
 /// The listed hypotheses' open ranges (`shapes`: the hypotheses, for an extension's declared
 /// ranges; `nu`: the noise's degrees of freedom; `power`: the settings'); empty where no candidate
 /// has an amplitude's standard error.
-pub fn not_excluded(candidates: &[Candidate], shapes: &[Shape], nu: usize, (levels, power): (Levels, f64)) -> Vec<NotExcluded> {
+pub fn not_excluded(
+    candidates: &[Candidate],
+    shapes: &[Shape],
+    nu: usize,
+    (levels, power): (Levels, f64),
+) -> Vec<NotExcluded> {
     let k = candidates.len();
     candidates
         .iter()
         .filter(|c| c.origin == Origin::Study)
         .filter_map(|c| {
-            let declared = shapes.iter().find(|s| s.name == c.name).map_or(&[][..], |s| &s.ranges[..]);
+            let declared = shapes
+                .iter()
+                .find(|s| s.name == c.name)
+                .map_or(&[][..], |s| &s.ranges[..]);
             one(c, declared, nu, (levels.alpha, levels.amplitude(k)), power)
         })
         .collect()
 }
 
-fn one(c: &Candidate, declared: &[(String, f64, f64)], nu: usize, (alpha, alpha_k): (f64, f64), power: f64) -> Option<NotExcluded> {
+fn one(
+    c: &Candidate,
+    declared: &[(String, f64, f64)],
+    nu: usize,
+    (alpha, alpha_k): (f64, f64),
+    power: f64,
+) -> Option<NotExcluded> {
     let se = c.separability.amplitude_se.filter(|s| s.is_finite() && *s > 0.0)?;
     let nu = nu.max(1) as f64;
     let half = stats::t_quantile(1.0 - alpha / 2.0, nu) * se;

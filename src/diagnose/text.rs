@@ -116,6 +116,9 @@ impl super::Diagnosis {
     pub(crate) fn worded_confirmation(mut self) -> super::Diagnosis {
         let lines: Vec<String> = self.confirmation.iter().map(confirmation_line).collect();
         self.evidence.extend(lines);
+        if self.verdict == Verdict::NoModelError {
+            self.headline = no_model_error_headline(&self);
+        }
         if self.emulator.as_ref().is_some_and(|e| e.unjudged.is_some()) {
             self.limits.push(
                 "Not confirmed by the solver: its runs at the fitted parameters could not be judged (see the \
@@ -126,6 +129,35 @@ impl super::Diagnosis {
         self.resummarise();
         self
     }
+}
+
+/// "No model error" said of what it rests on: the solver at the fitted parameters against the
+/// tests' scatter alone where it ran; else the emulators, and their error named where it was
+/// counted — "within the tests' scatter" is said of the tests' scatter only.
+fn no_model_error_headline(d: &super::Diagnosis) -> String {
+    let solver = d
+        .confirmation
+        .iter()
+        .find(|c| c.model == super::confirm::UNCORRECTED)
+        .and_then(|c| Some((c, c.lack_of_fit.as_ref().filter(|l| l.fits)?)));
+    let counted = d
+        .emulator
+        .as_ref()
+        .is_some_and(|e| e.confirmed.as_deref().or(e.unjudged.as_deref()) == Some("counted"));
+    let detail = match (solver, &d.lack_of_fit) {
+        (Some((c, l)), _) => format!(
+            "the solver at the fitted parameters ({}) fits the tests within their scatter alone ({})",
+            params(&c.at),
+            lack_of_fit(l)
+        ),
+        (None, Some(l)) if counted => format!(
+            "the uncorrected simulation's emulators fit the tests within their scatter and the emulators' own \
+             error ({})",
+            lof_text(l)
+        ),
+        _ => return d.headline.clone(),
+    };
+    format!("No model error beyond the noise: {detail}.")
 }
 
 /// What no model error leaves open of one listed hypothesis, in words.

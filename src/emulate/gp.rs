@@ -552,7 +552,8 @@ mod tests {
     #[test]
     fn diagonal_predictions_match_the_covariance() {
         let euler_case = |x: &[f64]| euler(x[0], x[1], 400.0);
-        let cases: [(&dyn Fn(&[f64]) -> f64, usize, Transforms); 2] = [
+        type Case<'a> = (&'a dyn Fn(&[f64]) -> f64, usize, Transforms);
+        let cases: [Case; 2] = [
             (&euler_case, 30, TRANSFORMS),
             (&|x: &[f64]| 3.0 * x[0] - 1e-4 * x[1] + 2.0, 6, PLAIN),
         ];

@@ -287,6 +287,7 @@ pub fn extension_hypotheses(
             Some(CurveHypothesis::Extension {
                 name: h.name.clone(),
                 variables: h.extension()?.to_vec(),
+                ranges: h.declared_ranges(),
                 curve: curve.clone(),
                 baseline: baseline.clone(),
             })

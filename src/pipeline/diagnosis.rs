@@ -91,7 +91,9 @@ pub(super) fn diagnose_with_solver(
     let loop_inputs: Vec<crate::diagnose::Inputs> = readings.iter().map(|l| l.inputs()).collect();
     let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&readings, &loop_inputs));
     let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
-    let d = runs.diagnosed.keep(confirmed(cx, made, decided, subjects, &read, reporter)?);
+    let d = runs
+        .diagnosed
+        .keep(confirmed(cx, made, decided, subjects, &read, reporter)?);
     for (m, (_, at)) in models.into_iter().zip(extended) {
         runs.diagnosed.extended.push((m, at));
     }
@@ -113,7 +115,8 @@ fn without_the_loop(
         Ok(d) => d,
         Err(e) => return Ok(Err(e)),
     };
-    let decided = [(screening, true), (noise_alone, false)].map(|(d, c)| Finished::of(study, stage, read.problem(c), d, &[]));
+    let decided =
+        [(screening, true), (noise_alone, false)].map(|(d, c)| Finished::of(study, stage, read.problem(c), d, &[]));
     let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&[], &[]));
     confirmed(cx, made, decided, subjects, read, reporter).map(Ok)
 }

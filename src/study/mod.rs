@@ -277,6 +277,11 @@ impl Hypothesis {
     pub fn ranges(&self) -> &[Parameter] {
         self.extension_spec().map_or(&[], |e| &e.ranges)
     }
+
+    /// The ranges as (name, min, max): what the extension's amplitude can physically be.
+    pub fn declared_ranges(&self) -> Vec<(String, f64, f64)> {
+        self.ranges().iter().map(|r| (r.name.clone(), r.min, r.max)).collect()
+    }
 }
 
 impl Study {
