@@ -67,7 +67,7 @@ fn inputs(obs: Vec<Observation>, discover: bool) -> Inputs<'static> {
         outputs: Vec::new(),
         built_ins: None,
         noise: None,
-        emulator_variance: Vec::new(),
+        emulator: Default::default(),
         relative_error: None,
     }
 }

@@ -7,7 +7,8 @@
 //!
 //! The oracle shares no code with lab: it fits the baseline (bending alone, y = a(h)/E) to the
 //! drawn tests by weighted least squares in u = 1/E, the weights from the specimens' own scatter,
-//! and calls the baseline *exactly wrong* when that χ² exceeds its α/10 critical value. Nothing
+//! and calls the baseline *exactly wrong* when that χ² exceeds its α/10 critical value (of F with the
+//! specimens' degrees of freedom: the scatter is estimated, not known). Nothing
 //! outside this file knows the draws.
 
 use std::path::{Path, PathBuf};
@@ -21,23 +22,8 @@ use serde_json::Value;
 #[allow(dead_code)] // the runs family helpers; this file does not compare with a fixed design
 mod family_runs;
 
-const F: f64 = 600.0;
-const L: f64 = 20.0;
-const B: f64 = 2.0;
-const NU: f64 = 0.36;
-
-/// The stand-in solver, built with the tests (`cargo test` compiles the examples).
-fn solver() -> PathBuf {
-    let path = PathBuf::from(env!("CARGO_BIN_EXE_lab"))
-        .with_file_name("examples")
-        .join("clamped_beam");
-    assert!(
-        path.is_file(),
-        "{} is not built: run `cargo test --release`",
-        path.display()
-    );
-    path
-}
+mod beam_common;
+use beam_common::{B, F, L, NU, bending, clamp, solver};
 
 /// One case: the truth, the tests, and how the study samples its solver.
 #[derive(Debug, Clone)]
@@ -50,14 +36,6 @@ struct Case {
     seed: u64,
     sampling: String,
     surrogate: &'static str,
-}
-
-fn bending(h: f64) -> f64 {
-    4.0 * F * L.powi(3) / (B * h.powi(3))
-}
-
-fn clamp(h: f64) -> f64 {
-    4.0 * F * L * L / (B * h * h)
 }
 
 impl Case {
@@ -107,12 +85,7 @@ fn write_study(case: &Case, dir: &Path) -> PathBuf {
         }
     }
     std::fs::write(dir.join("tests.csv"), csv).unwrap();
-    std::fs::write(
-        dir.join("beam.txt.tera"),
-        "h = {{ h }}\nF = {{ F }}\nL = {{ L }}\nb = {{ b }}\nnu = {{ nu }}\nE = {{ E }}\n\
-         s = {{ s | default(value=0.0) }}\nkr = {{ kr | default(value=0.0) }}\n",
-    )
-    .unwrap();
+    beam_common::write_template(dir);
     let names = case.names();
     let study = format!(
         "name: confirm-case\n\
@@ -173,17 +146,19 @@ fn run(case: &Case) -> Value {
 }
 
 /// The oracle: the baseline's weighted least-squares χ² against the drawn tests (weights from the
-/// pooled scatter of the specimens about their design's mean), on n − 1 degrees of freedom.
-fn exact_chi2(case: &Case) -> (f64, usize) {
+/// pooled scatter of the specimens about their design's mean), on n − 1 degrees of freedom, with
+/// the critical value at upper tail `q` of its reference distribution: the scatter is estimated
+/// from the specimens (ν = Σ (m − 1) degrees of freedom), so χ²/(n − 1) is F(n − 1, ν), not χ².
+fn exact_chi2(case: &Case, q: f64) -> (f64, usize, f64) {
     let tests = case.tests();
     let means: Vec<f64> = tests.iter().map(|t| t.iter().sum::<f64>() / t.len() as f64).collect();
     // Relative scatter pooled over the designs (the specimens scatter in proportion to the level).
-    let (mut ss, mut dof) = (0.0, 0usize);
+    let (mut ss, mut nu) = (0.0, 0usize);
     for (t, m) in tests.iter().zip(&means) {
         ss += t.iter().map(|y| ((y - m) / m).powi(2)).sum::<f64>();
-        dof += t.len() - 1;
+        nu += t.len() - 1;
     }
-    let cv = (ss / dof as f64).sqrt();
+    let cv = (ss / nu as f64).sqrt();
     let w: Vec<f64> = means
         .iter()
         .zip(&tests)
@@ -194,13 +169,16 @@ fn exact_chi2(case: &Case) -> (f64, usize) {
     let u = (0..a.len()).map(|i| w[i] * a[i] * means[i]).sum::<f64>()
         / (0..a.len()).map(|i| w[i] * a[i] * a[i]).sum::<f64>();
     let chi2 = (0..a.len()).map(|i| w[i] * (means[i] - a[i] * u).powi(2)).sum();
-    (chi2, a.len() - 1)
+    let dof = a.len() - 1;
+    (chi2, dof, dof as f64 * f_quantile(q, dof, nu))
 }
 
-/// The upper `q` quantile of χ² on `k` degrees of freedom (statrs, independent of lab's own).
-fn chi2_quantile(q: f64, k: usize) -> f64 {
-    use statrs::distribution::{ChiSquared, ContinuousCDF};
-    ChiSquared::new(k as f64).expect("k > 0").inverse_cdf(q)
+/// The `q` quantile of F(d1, d2) (statrs, independent of lab's own).
+fn f_quantile(q: f64, d1: usize, d2: usize) -> f64 {
+    use statrs::distribution::{ContinuousCDF, FisherSnedecor};
+    FisherSnedecor::new(d1 as f64, d2 as f64)
+        .expect("dof > 0")
+        .inverse_cdf(q)
 }
 
 /// The issue's beam with its fixed design (8 Latin-hypercube samples and 3 check runs per design,
@@ -210,11 +188,8 @@ fn chi2_quantile(q: f64, k: usize) -> f64 {
 #[test]
 fn the_issues_beam_with_a_fixed_design_is_never_called_a_fit() {
     let case = issue_beam("{method: lhs, count: 8, seed: 1, check_runs: 3}");
-    let (chi2, dof) = exact_chi2(&case);
-    assert!(
-        chi2 > chi2_quantile(0.999, dof),
-        "the exact model must miss: χ² {chi2} on {dof}"
-    );
+    let (chi2, dof, critical) = exact_chi2(&case, 0.999);
+    assert!(chi2 > critical, "the exact model must miss: χ² {chi2} on {dof}");
     let r = run(&case);
     let d = &r["diagnosis"];
     eprintln!("{}", d["summary"].as_str().unwrap_or(""));
@@ -312,12 +287,12 @@ fn small_fixed_designs_are_confirmed_by_the_solver() {
     for (case, r) in cases.iter().zip(&results) {
         let d = &r["diagnosis"];
         let verdict = d["verdict"].as_str().unwrap();
-        let (chi2, dof) = exact_chi2(case);
+        let (chi2, dof, critical) = exact_chi2(case, 0.999);
         eprintln!(
             "kr {:.3} E {:.0} cv {:.4} {} {}: exact χ² {chi2:.1} on {dof}; lab: {verdict} {}",
             case.kr, case.e, case.cv, case.surrogate, case.sampling, d["cause"]
         );
-        if chi2 > chi2_quantile(0.999, dof) {
+        if chi2 > critical {
             assert_ne!(
                 verdict, "no_model_error",
                 "the exact model misses (χ² {chi2} on {dof}): {}",

@@ -379,7 +379,7 @@ fn run(case: &Case, always: bool) -> Diagnosis {
         outputs: Vec::new(),
         built_ins: None,
         noise: None,
-        emulator_variance: Vec::new(),
+        emulator: Default::default(),
         relative_error: None,
     };
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");

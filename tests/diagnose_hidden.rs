@@ -294,7 +294,7 @@ fn run(setup: &Setup, case: &Case) -> Diagnosis {
         outputs: Vec::new(),
         built_ins: None,
         noise: None,
-        emulator_variance: Vec::new(),
+        emulator: Default::default(),
         relative_error: None,
         discover: false,
         library: Default::default(),

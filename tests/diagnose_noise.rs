@@ -144,7 +144,7 @@ fn diagnose_draw(f: &Family, salt: u64, seed: u64) -> diagnose::Diagnosis {
         outputs: Vec::new(),
         built_ins: None,
         noise: None,
-        emulator_variance: Vec::new(),
+        emulator: Default::default(),
         relative_error: None,
         discover: true,
         library: Default::default(),

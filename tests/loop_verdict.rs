@@ -23,24 +23,10 @@ use serde_json::Value;
 mod family_runs;
 mod verdict_common;
 
-const F: f64 = 600.0;
-const L: f64 = 20.0;
-const B: f64 = 2.0;
-const NU: f64 = 0.36;
-const S_MAX: f64 = 1.5;
+mod beam_common;
+use beam_common::{B, F, L, NU, bending, clamp, shear, solver};
 
-/// The stand-in solver, built with the tests (`cargo test` compiles the examples).
-fn solver() -> PathBuf {
-    let path = PathBuf::from(env!("CARGO_BIN_EXE_lab"))
-        .with_file_name("examples")
-        .join("clamped_beam");
-    assert!(
-        path.is_file(),
-        "{} is not built: run `cargo test --release` (it builds the examples)",
-        path.display()
-    );
-    path
-}
+const S_MAX: f64 = 1.5;
 
 /// One drawn case: the truth, the designs, the specimens and their scatter.
 #[derive(Debug, Clone)]
@@ -54,17 +40,8 @@ struct Case {
 }
 
 impl Case {
-    fn bending(h: f64) -> f64 {
-        4.0 * F * L.powi(3) / (B * h.powi(3))
-    }
-    fn shear(h: f64) -> f64 {
-        F * L * (4.0 + 5.0 * NU) / (2.0 * B * h)
-    }
-    fn clamp(h: f64) -> f64 {
-        4.0 * F * L * L / (B * h * h)
-    }
     fn truth(&self, h: f64) -> f64 {
-        (Self::bending(h) + self.kr * Self::clamp(h)) / self.e
+        (bending(h) + self.kr * clamp(h)) / self.e
     }
     fn names(&self) -> Vec<String> {
         self.hs.iter().map(|h| format!("h{}", fmt(*h))).collect()
@@ -95,12 +72,7 @@ fn write_study(case: &Case, dir: &Path) -> PathBuf {
         }
     }
     std::fs::write(dir.join("tests.csv"), csv).unwrap();
-    std::fs::write(
-        dir.join("beam.txt.tera"),
-        "h = {{ h }}\nF = {{ F }}\nL = {{ L }}\nb = {{ b }}\nnu = {{ nu }}\nE = {{ E }}\n\
-         s = {{ s | default(value=0.0) }}\nkr = {{ kr | default(value=0.0) }}\n",
-    )
-    .unwrap();
+    beam_common::write_template(dir);
     let names = case.names();
     let lo = case.hs.first().unwrap();
     let hi = case.hs.last().unwrap();
@@ -251,7 +223,7 @@ fn oracle(case: &Case) -> (f64, f64, f64) {
     let y: Vec<f64> = case.hs.iter().map(|&h| case.truth(h)).collect();
     let w = weights(case, &tested);
     let ones = vec![1.0; y.len()];
-    let bend: Vec<f64> = case.hs.iter().map(|&h| Case::bending(h)).collect();
+    let bend: Vec<f64> = case.hs.iter().map(|&h| bending(h)).collect();
     let offset = misfit(&y, &w, &[bend.clone(), ones]).0;
     let trend = misfit(&y, &w, &[bend, case.hs.clone()]).0;
     (shear_misfit(case, &tested), offset, trend)
@@ -276,11 +248,11 @@ fn shear_misfit(case: &Case, at: &[(f64, f64)]) -> f64 {
 fn rival_misfit(case: &Case, name: &str, truth: &dyn Fn(f64) -> f64, at: &[(f64, f64)]) -> Option<f64> {
     let y: Vec<f64> = at.iter().map(|&(h, _)| truth(h)).collect();
     let w = weights(case, at);
-    let bend: Vec<f64> = at.iter().map(|&(h, _)| Case::bending(h)).collect();
+    let bend: Vec<f64> = at.iter().map(|&(h, _)| bending(h)).collect();
     let column = |f: fn(f64) -> f64| at.iter().map(|&(h, _)| f(h)).collect::<Vec<f64>>();
     Some(match name {
-        "shear correction" => bounded_misfit(&y, &w, &bend, &column(Case::shear), S_MAX),
-        "clamp compliance" => bounded_misfit(&y, &w, &bend, &column(Case::clamp), 1.0),
+        "shear correction" => bounded_misfit(&y, &w, &bend, &column(shear), S_MAX),
+        "clamp compliance" => bounded_misfit(&y, &w, &bend, &column(clamp), 1.0),
         // The study's term "1" and the built-in of the same shape.
         "fixture offset" | "constant offset" => misfit(&y, &w, &[bend, vec![1.0; y.len()]]).0,
         // The built-in term proportional to the design variable.

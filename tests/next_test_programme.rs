@@ -90,7 +90,7 @@ fn diagnose(case: &Case, obs: &[Observation]) -> diagnose::Diagnosis {
         outputs: Vec::new(),
         built_ins: Some(Vec::new()),
         noise: None,
-        emulator_variance: Vec::new(),
+        emulator: Default::default(),
         relative_error: None,
         discover: false,
         library: Default::default(),

@@ -405,7 +405,7 @@ mod tests {
             outputs: Vec::new(),
             built_ins: Some(Vec::new()),
             noise: None,
-            emulator_variance: Vec::new(),
+            emulator: Default::default(),
             relative_error: None,
         }
     }

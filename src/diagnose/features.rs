@@ -467,7 +467,7 @@ impl FeatureProblem {
             built_ins: Some(self.built_ins.clone()),
             noise: Some(self.noise.clone()),
             // The emulator's error is in the whitening already ([`emulator_error`]).
-            emulator_variance: Vec::new(),
+            emulator: Default::default(),
             relative_error: Some(self.plateau_error()),
             discover: false,
             library: Default::default(),

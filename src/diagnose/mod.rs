@@ -148,7 +148,7 @@ pub struct Settings {
     /// this share of that noise's variance (0: only what was measured). A sequential study's loop
     /// judges its decision with the error at its tolerance's worst case.
     pub emulator_floor: f64,
-    /// Count the simulation's own error (the emulators' error: `Inputs::emulator_variance`, a curve
+    /// Count the simulation's own error (the emulators' error: `Inputs::emulator`, a curve
     /// emulator's check runs, the floor) in the noise. Off: the tests' noise alone, the decision a
     /// solver study compares with the counted one to see whether the emulators decide it.
     pub emulator_counted: bool,
@@ -203,10 +203,9 @@ pub struct Inputs<'a> {
     /// (curve features whitened by their covariance: σ = 1 with the covariance's own degrees of
     /// freedom).
     pub noise: Option<NoiseModel>,
-    /// The simulation's own error at each observation (its emulator's, measured at runs it was not
-    /// fitted to), as a variance in the response's units, counted in the noise of that observation's
-    /// mean (Kennedy & O'Hagan 2001: the code's uncertainty in the likelihood); empty: none.
-    pub emulator_variance: Vec<f64>,
+    /// The simulation's own error at each observation (its emulators', measured at runs they were
+    /// not fitted to), counted in the noise of that observation's mean where the settings count it.
+    pub emulator: crate::emulate::Uncertainty,
     /// The relative error of a prediction at an observation, where the observations are not the
     /// response itself (whitened curve features: the plateau level's, `None` for the others);
     /// `None`: (predicted − measured) / measured.
@@ -233,23 +232,6 @@ impl Inputs<'_> {
 /// surrogate of its runs is skipped with a note: see [`inputs_with_extensions`]).
 pub fn inputs_from_study<'a>(study: &Study, model: &'a dyn Model) -> Inputs<'a> {
     inputs_with_extensions(study, model, &[])
-}
-
-/// Per-design surrogates' own error at each observation, as a variance in the response's units:
-/// the mean square relative error at the design's check runs times the observation's level squared
-/// (0 where a design has no check runs).
-pub fn emulator_variance(model: &crate::emulate::SurrogateModel, observations: &[Observation]) -> Vec<f64> {
-    observations
-        .iter()
-        .map(|o| {
-            model
-                .designs
-                .iter()
-                .find(|d| d.values == o.design)
-                .and_then(|d| d.check.mean_square_relative)
-                .map_or(0.0, |m| m * o.mean * o.mean)
-        })
-        .collect()
 }
 
 /// [`inputs_from_study`], with the model of each extension hypothesis's runs: `(k, y_ext)` for
@@ -313,7 +295,7 @@ pub fn inputs_with_extensions<'a>(
         outputs: Vec::new(),
         built_ins: None,
         noise: None,
-        emulator_variance: Vec::new(),
+        emulator: Default::default(),
         relative_error: None,
     }
 }
@@ -738,7 +720,7 @@ impl<'a> Context<'a> {
                 };
                 let test = nm.sigma_at(o.mean).powi(2) / n;
                 let emulator = match counted {
-                    true => inputs.emulator_variance.get(i).copied().unwrap_or(0.0),
+                    true => inputs.emulator.variance(i),
                     false => 0.0,
                 };
                 1.0 / (test * (1.0 + floor) + emulator).sqrt().max(f64::MIN_POSITIVE)

@@ -82,7 +82,7 @@ impl<'e> Explanation<'e> {
         let code = (0..cx.data.designs.len())
             .map(|i| {
                 let v = match cx.inputs.settings.emulator_counted {
-                    true => cx.inputs.emulator_variance.get(i).copied().unwrap_or(0.0),
+                    true => cx.inputs.emulator.variance(i),
                     false => 0.0,
                 };
                 let y = cx.data.means[i];
@@ -1350,7 +1350,7 @@ mod tests {
             outputs: Vec::new(),
             built_ins: Some(Vec::new()),
             noise: None,
-            emulator_variance: Vec::new(),
+            emulator: Default::default(),
             relative_error: None,
         }
     }

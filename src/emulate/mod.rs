@@ -22,7 +22,8 @@
 //!   same for the response and for the curves.
 //!
 //! What the calibration and the diagnosis count of an emulator's error is the [`Check`] of each
-//! design (the relative errors at its held-out runs) and, for curves, the held-out runs themselves.
+//! design (the relative errors at its held-out runs), reaching a decision as one value,
+//! [`Uncertainty`], and, for curves, the held-out runs themselves.
 //!
 //! - [`Model`]: what the numerics call, `y(d, θ)`; [`expression`] the closed form of a study.
 //! - [`gp`]: the Gaussian process itself; [`sequential`]: the sequential design of solver runs.
@@ -33,11 +34,13 @@ pub mod functional;
 pub mod gp;
 pub mod sequential;
 pub mod surrogate;
+pub mod uncertainty;
 
 use nalgebra::{DMatrix, DVector};
 
 pub use expression::ExpressionModel;
 pub use surrogate::{CheckError, DesignSurrogate, FitError, Surrogate, SurrogateModel};
+pub use uncertainty::Uncertainty;
 
 /// The simulation as the numerics see it: a response `y(d, θ)` at design `d` and parameters `θ`.
 ///

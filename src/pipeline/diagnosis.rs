@@ -224,7 +224,8 @@ impl<'s> Reading<'s> {
             return problem.inputs(ci);
         }
         let mut inputs = crate::diagnose::inputs_with_extensions(study, surrogates, extensions);
-        inputs.emulator_variance = crate::diagnose::emulator_variance(surrogates, &inputs.observations);
+        let at = inputs.observations.iter().map(|o| (o.design.as_slice(), o.mean));
+        inputs.emulator = crate::emulate::Uncertainty::of_surrogates(surrogates, at);
         inputs.settings.emulator_counted = counted;
         inputs
     }

@@ -302,7 +302,8 @@ pub fn loop_model<'m>(
     extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
 ) -> diagnose::LoopModel<'m> {
     let mut inputs = diagnose::inputs_from_study(&m.study, &m.surrogates);
-    inputs.emulator_variance = crate::diagnose::emulator_variance(&m.surrogates, &inputs.observations);
+    let at = inputs.observations.iter().map(|o| (o.design.as_slice(), o.mean));
+    inputs.emulator = crate::emulate::Uncertainty::of_surrogates(&m.surrogates, at);
     // The library search runs once, on the final decision (from the screening's inputs).
     inputs.discover = false;
     let p = study.parameters.len();

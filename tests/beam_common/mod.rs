@@ -1,0 +1,50 @@
+//! The clamped beam both solver-verdict families run (tests/loop_verdict.rs,
+//! tests/confirmation.rs): its constants, its closed-form terms (one shared source of the truth
+//! the tests are drawn from, independent of lab), the stand-in solver and its template.
+
+use std::path::{Path, PathBuf};
+
+pub const F: f64 = 600.0;
+pub const L: f64 = 20.0;
+pub const B: f64 = 2.0;
+pub const NU: f64 = 0.36;
+
+/// The stand-in solver `clamped_beam` (examples/clamped_beam.rs), built with the tests (`cargo
+/// test` compiles the examples).
+pub fn solver() -> PathBuf {
+    let path = PathBuf::from(env!("CARGO_BIN_EXE_lab"))
+        .with_file_name("examples")
+        .join("clamped_beam");
+    assert!(
+        path.is_file(),
+        "{} is not built: run `cargo test --release` (it builds the examples)",
+        path.display()
+    );
+    path
+}
+
+/// Euler–Bernoulli bending: E times the tip deflection.
+pub fn bending(h: f64) -> f64 {
+    4.0 * F * L.powi(3) / (B * h.powi(3))
+}
+
+/// Timoshenko's shear term: E times its deflection per unit shear factor.
+#[allow(dead_code)] // confirmation.rs draws no shear
+pub fn shear(h: f64) -> f64 {
+    F * L * (4.0 + 5.0 * NU) / (2.0 * B * h)
+}
+
+/// A compliant clamp's rotation: E times its deflection per unit kr.
+pub fn clamp(h: f64) -> f64 {
+    4.0 * F * L * L / (B * h * h)
+}
+
+/// Writes the solver's input template `beam.txt.tera` into `dir`.
+pub fn write_template(dir: &Path) {
+    std::fs::write(
+        dir.join("beam.txt.tera"),
+        "h = {{ h }}\nF = {{ F }}\nL = {{ L }}\nb = {{ b }}\nnu = {{ nu }}\nE = {{ E }}\n\
+         s = {{ s | default(value=0.0) }}\nkr = {{ kr | default(value=0.0) }}\n",
+    )
+    .unwrap();
+}
