@@ -12,7 +12,6 @@
 //! outside this file knows the draws.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -120,27 +119,10 @@ fn run(case: &Case) -> Value {
     let dir = tempfile::tempdir().unwrap();
     let study = write_study(case, dir.path());
     let out = dir.path().join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args([
-            "run",
-            study.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--jobs",
-            "2",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "lab run failed: {}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let (stderr, results) = beam_common::lab_run(&study, &out);
     if std::env::var("LAB_CONFIRM_VERBOSE").is_ok() {
-        eprintln!("{}", String::from_utf8_lossy(&o.stderr));
+        eprintln!("{stderr}");
     }
-    let results: Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
     family_runs::tally(&results, results["runs"]["planned"].as_u64().unwrap_or(0));
     results
 }

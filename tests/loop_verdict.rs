@@ -13,7 +13,6 @@
 //! freedom) and *does not decide* when the shear model's is ≤ 2 (power ≈ α).
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -120,24 +119,7 @@ fn run(case: &Case) -> Value {
     let dir = tempfile::tempdir().unwrap();
     let study = write_study(case, dir.path());
     let out = dir.path().join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_lab"))
-        .args([
-            "run",
-            study.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--jobs",
-            "2",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "lab run failed: {}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let results: Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    let (_, results) = beam_common::lab_run(&study, &out);
     // Every solver invocation counted: each run's directory holds what the stand-in wrote.
     let invoked = std::fs::read_dir(out.join("runs"))
         .unwrap()

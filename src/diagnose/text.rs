@@ -160,14 +160,16 @@ fn no_model_error_headline(d: &super::Diagnosis) -> String {
     format!("No model error beyond the noise: {detail}.")
 }
 
+/// Named ranges in words: "etan in [0, 257.8], …".
+fn range(m: &indexmap::IndexMap<String, [f64; 2]>) -> String {
+    m.iter()
+        .map(|(k, [lo, hi])| format!("{k} in [{}, {}]", num(*lo), num(*hi)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// What no model error leaves open of one listed hypothesis, in words.
 pub(crate) fn not_excluded_line(n: &super::open::NotExcluded) -> String {
-    let range = |m: &indexmap::IndexMap<String, [f64; 2]>| {
-        m.iter()
-            .map(|(k, [lo, hi])| format!("{k} in [{}, {}]", num(*lo), num(*hi)))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
     let detect = n
         .detectable
         .iter()
@@ -186,12 +188,6 @@ pub(crate) fn not_excluded_line(n: &super::open::NotExcluded) -> String {
 
 /// One open hypothesis in the action: absent, or else the parameters over its open range.
 fn open_clause(n: &super::open::NotExcluded) -> String {
-    let range = |m: &indexmap::IndexMap<String, [f64; 2]>| {
-        m.iter()
-            .map(|(k, [lo, hi])| format!("{k} in [{}, {}]", num(*lo), num(*hi)))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
     format!(
         "'{}' is absent: these tests do not exclude it up to {}, over which {}",
         n.hypothesis,

@@ -3,6 +3,7 @@
 //! the tests are drawn from, independent of lab), the stand-in solver and its template.
 
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
 pub const F: f64 = 600.0;
 pub const L: f64 = 20.0;
@@ -47,4 +48,27 @@ pub fn write_template(dir: &Path) {
          s = {{ s | default(value=0.0) }}\nkr = {{ kr | default(value=0.0) }}\n",
     )
     .unwrap();
+}
+
+/// `lab run STUDY --out OUT --jobs 2`, which must succeed: its stderr and its results.json.
+pub fn lab_run(study: &Path, out: &Path) -> (String, serde_json::Value) {
+    let o = Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args([
+            "run",
+            study.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--jobs",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "lab run failed: {}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let results = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    (String::from_utf8_lossy(&o.stderr).into_owned(), results)
 }
