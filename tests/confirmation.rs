@@ -215,7 +215,7 @@ fn the_issues_beam_with_a_fixed_design_is_never_called_a_fit() {
 }
 
 /// The same beam sampled sequentially: the clamp named, its model confirmed by the solver. (The
-/// issue asks for at most 100 solver runs; the sequence spends 133 here, the confirmation's 14
+/// issue asks for at most 100 solver runs; the sequence spends more here, the confirmation's
 /// included: printed, not yet asserted.)
 #[test]
 fn the_issues_beam_sampled_sequentially_names_the_clamp() {

@@ -42,6 +42,10 @@ pub struct Confirmation {
     /// The largest |solver − emulator| at the runs, in units of the tests' noise of the mean:
     /// what the decision's emulators got wrong where it read them.
     pub emulator_miss: Option<f64>,
+    /// The runs are the loop's own, already made at a point within one standard error of the
+    /// fitted one (its check at the decision's fitted point): the solver was not run again.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub reused: bool,
 }
 
 /// One observation of a confirmation.
@@ -130,6 +134,7 @@ pub fn confirm(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, level
             })
             .unwrap_or_default(),
         emulator_miss: miss,
+        reused: false,
     }
 }
 

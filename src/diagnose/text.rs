@@ -214,10 +214,14 @@ fn confirmation_line(c: &super::confirm::Confirmation) -> String {
             num(m)
         )
     });
-    format!(
-        "Solver runs at the fitted parameters of {model} ({}): it {shown}{miss}.",
-        params(&c.at)
-    )
+    let at = match c.reused {
+        true => format!(
+            "The loop's solver runs at {}, within one standard error of the fitted parameters of {model}",
+            params(&c.at)
+        ),
+        false => format!("Solver runs at the fitted parameters of {model} ({})", params(&c.at)),
+    };
+    format!("{at}: it {shown}{miss}.")
 }
 
 /// The verdict when the emulators' error decides it: the noise-alone diagnosis as the record,

@@ -47,6 +47,9 @@ pub(super) struct Subject<'a> {
     pub extension: Vec<(String, f64)>,
     /// The level its lack of fit is judged at (the decision's for the claim it checks).
     pub level: f64,
+    /// The loop's runs of this model already at `theta` (one per tested design, indices into the
+    /// joint runs' plan): the solver is not run again ([`already_ran`]).
+    pub ran: Option<Vec<usize>>,
 }
 
 /// A looped hypothesis's model as a confirmation reads it: its inputs (over θ and its ranged
@@ -56,6 +59,8 @@ pub(super) struct LoopReading<'m> {
     pub hypothesis: usize,
     pub model: LoopModel<'m>,
     pub fitted: [IndexMap<String, f64>; 2],
+    /// The fitted point's standard errors in each decision (empty without a covariance).
+    pub se: [IndexMap<String, f64>; 2],
 }
 
 /// A looped model's inputs: the response's, or the curves' with their feature problem.
@@ -102,10 +107,17 @@ pub(super) fn loop_readings<'m>(
                 }
             };
             let fitted = own.map(|o| o.get(j).map(|d| d.uncorrected.parameters.clone()).unwrap_or_default());
+            let se = own.map(|o| {
+                o.get(j)
+                    .and_then(|d| d.uncorrected.precision.as_ref())
+                    .map(|p| p.se.clone())
+                    .unwrap_or_default()
+            });
             Ok(LoopReading {
                 hypothesis: m.hypothesis,
                 model,
                 fitted,
+                se,
             })
         })
         .collect()
@@ -118,7 +130,7 @@ pub(super) fn subjects<'a>(
     study: &Study,
     decided: &[Finished; 2],
     screening: &'a Inputs<'a>,
-    (readings, inputs): (&[LoopReading], &'a [Inputs<'a>]),
+    (readings, inputs, joint): (&[LoopReading], &'a [Inputs<'a>], Option<&extend::JointRuns>),
 ) -> Vec<Subject<'a>> {
     let noise_alone = &decided[1].diagnosis;
     let mut out = vec![uncorrected(screening, noise_alone)];
@@ -135,7 +147,9 @@ pub(super) fn subjects<'a>(
             .zip(inputs)
             .find(|(l, _)| &study.diagnosis.hypotheses[l.hypothesis].name == cause);
         let subject = match looped {
-            Some((l, inputs)) => looped_cause(study, l, inputs, which, d),
+            Some((l, inputs)) => {
+                looped_cause(study, l, inputs, which, d).map(|s| s.already_ran(study, l, which, joint))
+            }
             None => candidate_cause(screening, d, cause),
         };
         out.extend(subject);
@@ -156,6 +170,7 @@ fn uncorrected<'a>(screening: &'a Inputs<'a>, d: &Diagnosis) -> Subject<'a> {
         theta: point,
         extension: Vec::new(),
         level: d.levels.uncorrected_fit,
+        ran: None,
     }
 }
 
@@ -181,7 +196,75 @@ fn looped_cause<'a>(
         theta: point[..p].to_vec(),
         extension: spec.at(&point[p..]),
         level: d.levels.cause_fit,
+        ran: None,
     })
+}
+
+impl Subject<'_> {
+    /// A looped model confirmed by runs the loop already made ([`already_ran`]), where there are
+    /// such runs: the subject then sits at their point.
+    fn already_ran(mut self, study: &Study, l: &LoopReading, which: usize, joint: Option<&extend::JointRuns>) -> Self {
+        let names = &self.confirming.inputs.parameter_names;
+        let se = values(names, &l.se[which]);
+        let Some((ran, at)) = joint.and_then(|j| already_ran(study, j, l.hypothesis, &self.confirming.point, &se))
+        else {
+            return self;
+        };
+        let p = study.parameters.len();
+        let spec = study.diagnosis.hypotheses[l.hypothesis].extension_spec();
+        self.extension = spec.map_or_else(Vec::new, |s| s.at(&at[p..]));
+        self.theta = at[..p].to_vec();
+        self.confirming.point = at;
+        self.ran = Some(ran);
+        self
+    }
+}
+
+/// The loop's runs of hypothesis `k` at one point at every tested design, all finished, where that
+/// point is within one standard error of the `fitted` one in every variable (`se`, the fit's own
+/// Gauss–Newton errors): a point the tests cannot tell from the fitted one, so the solver's values
+/// there confirm the model as well as new runs at the fit would (the bridge then moves them the
+/// small step, [`crate::diagnose::confirm`]). The loop's check at the decision's fitted point is
+/// such a batch. The nearest such point: its runs (one per tested design) and the point.
+fn already_ran(
+    study: &Study,
+    joint: &extend::JointRuns,
+    k: usize,
+    fitted: &[f64],
+    se: &[f64],
+) -> Option<(Vec<usize>, Vec<f64>)> {
+    let ranges = study.diagnosis.hypotheses[k].ranges();
+    let designs: Vec<&String> = crate::plan::sweep::tested_designs(study).map(|(n, _)| n).collect();
+    let runs = &joint.plan.runs;
+    let mine = |i: usize| {
+        matches!(runs[i].role, RunRole::Joint(j) | RunRole::JointCheck(j) if j == k) && joint.usable[i].is_some()
+    };
+    let distance = |x: &[f64]| {
+        x.iter()
+            .zip(fitted)
+            .zip(se)
+            .map(|((a, b), s)| (a - b).abs() / s)
+            .fold(0.0, f64::max)
+    };
+    let mut best: Option<(f64, Vec<usize>, Vec<f64>)> = None;
+    let first = *designs.first()?;
+    for i in (0..runs.len()).filter(|&i| mine(i) && &runs[i].design == first) {
+        let x = runs[i].joint_point(ranges);
+        let d = distance(&x);
+        if d.is_nan() || d > 1.0 || best.as_ref().is_some_and(|b| b.0 <= d) {
+            continue;
+        }
+        let at: Option<Vec<usize>> = designs
+            .iter()
+            .map(|name| {
+                (0..runs.len()).find(|&j| mine(j) && &runs[j].design == *name && runs[j].joint_point(ranges) == x)
+            })
+            .collect();
+        if let Some(at) = at {
+            best = Some((d, at, x));
+        }
+    }
+    best.map(|(_, at, x)| (at, x))
 }
 
 /// A screening candidate's model: the simulation at its fitted θ, its term added to the solver's
@@ -207,6 +290,7 @@ fn candidate_cause<'a>(screening: &'a Inputs<'a>, d: &Diagnosis, cause: &str) ->
         theta: point,
         extension: Vec::new(),
         level: d.levels.cause_fit,
+        ran: None,
     })
 }
 
@@ -219,12 +303,13 @@ fn values(names: &[String], named: &IndexMap<String, f64>) -> Vec<f64> {
 }
 
 /// Runs every subject at every tested design in one batch (recorded in a sequential study's
-/// record as the stage `confirmation`) and judges each against the tests' `noise` alone.
+/// record as the stage `confirmation`), but for those the loop already ran ([`Subject::ran`], read
+/// from `joint`), and judges each against the tests' `noise` alone.
 pub(super) fn run(
     cx: RunContext,
     (rendered_before, executed, sequence): Made,
     subjects: &[Subject],
-    (read, noise): (&Reading, &NoiseModel),
+    (read, noise, joint): (&Reading, &NoiseModel, Option<&extend::JointRuns>),
     reporter: &mut dyn Reporter,
 ) -> Result<(Vec<Confirmation>, Option<ConfirmRuns>), Error> {
     if subjects.is_empty() {
@@ -233,8 +318,9 @@ pub(super) fn run(
     let (study, sim) = (cx.study, cx.sim);
     let designs: Vec<(&String, &Vec<f64>)> = crate::plan::sweep::tested_designs(study).collect();
     let subjects = within_budget(cx, sequence.as_ref(), subjects, designs.len());
+    let fresh: Vec<&Subject> = subjects.iter().filter(|s| s.ran.is_none()).collect();
     let plan = Plan {
-        runs: subjects
+        runs: fresh
             .iter()
             .flat_map(|s| {
                 designs.iter().map(move |(name, values)| PlannedRun {
@@ -251,6 +337,63 @@ pub(super) fn run(
             })
             .collect(),
     };
+    let made = match plan.runs.is_empty() {
+        true => None,
+        false => Some(sweep_batch(cx, (rendered_before, executed, sequence), plan, reporter)?),
+    };
+    let fresh_values = made.as_ref().map_or_else(Vec::new, |m| {
+        solver_values(
+            cx,
+            executed,
+            read,
+            (&m.plan, &m.rendered.keys, &m.swept.usable(&sim.quality)),
+        )
+    });
+    let nd = designs.len();
+    let mut next_fresh = 0;
+    let confirmations = subjects
+        .iter()
+        .map(|s| {
+            let at: Vec<Option<DVector<f64>>> = match (&s.ran, joint) {
+                (Some(ran), Some(j)) => {
+                    let keys: Vec<String> = ran.iter().map(|&i| j.rendered.keys[i].clone()).collect();
+                    let usable: Vec<Option<f64>> = ran.iter().map(|&i| j.usable[i]).collect();
+                    let plan = Plan {
+                        runs: ran.iter().map(|&i| j.plan.runs[i].clone()).collect(),
+                    };
+                    solver_values(cx, executed, read, (&plan, &keys, &usable))
+                }
+                _ => {
+                    next_fresh += 1;
+                    fresh_values[(next_fresh - 1) * nd..next_fresh * nd].to_vec()
+                }
+            };
+            let solver: Vec<Option<f64>> = s
+                .confirming
+                .inputs
+                .observations
+                .iter()
+                .map(|o| {
+                    let d = designs.iter().position(|(n, _)| **n == o.group)?;
+                    at[d].as_ref()?.get(o.output).copied()
+                })
+                .collect();
+            let mut c = confirm(&s.confirming, &solver, noise, s.level);
+            c.reused = s.ran.is_some();
+            c
+        })
+        .collect();
+    Ok((confirmations, made))
+}
+
+/// The confirmation's new runs swept as one batch, recorded as the stage `confirmation`.
+fn sweep_batch(
+    cx: RunContext,
+    (rendered_before, executed, sequence): Made,
+    plan: Plan,
+    reporter: &mut dyn Reporter,
+) -> Result<ConfirmRuns, Error> {
+    let (study, sim) = (cx.study, cx.sim);
     let solver = crate::extract::adapters::solver(sim)?;
     let rendered = sweep::prepare_after(study, &solver, &plan, Some(rendered_before))?;
     match sequence.as_mut() {
@@ -264,37 +407,14 @@ pub(super) fn run(
     } {
         reporter.report(Event::Batch(b));
     }
-    let usable = swept.usable(&sim.quality);
-    let whitened = whitened_features(cx, executed, read, (&plan, &rendered, &usable));
-    let nd = designs.len();
-    let confirmations = subjects
-        .iter()
-        .enumerate()
-        .map(|(i, s)| {
-            let obs = &s.confirming.inputs.observations;
-            let solver: Vec<Option<f64>> = obs
-                .iter()
-                .map(|o| {
-                    let d = designs.iter().position(|(n, _)| **n == o.group)?;
-                    let at = i * nd + d;
-                    match &whitened {
-                        Some(w) => w[at].as_ref().map(|z| z[o.output]),
-                        None => usable[at],
-                    }
-                })
-                .collect();
-            confirm(&s.confirming, &solver, noise, s.level)
-        })
-        .collect();
     let flags = swept.flags(&sim.quality.gates);
-    let made = ConfirmRuns {
+    Ok(ConfirmRuns {
         plan,
         rendered,
         swept,
         outcomes,
         flags,
-    };
-    Ok((confirmations, Some(made)))
+    })
 }
 
 /// `OUT/confirmation-plan.json`: a fixed design's confirmation runs, written before they start so
@@ -319,7 +439,7 @@ pub fn recorded_plan(out: &std::path::Path) -> Vec<PlannedRun> {
 }
 
 /// The subjects a sequential study's budget has room for, in their order (the uncorrected
-/// simulation first); a fixed design runs them all.
+/// simulation first; one already run needs no room); a fixed design runs them all.
 fn within_budget<'s, 'a>(
     cx: RunContext,
     sequence: Option<&super::sequence::Sequence>,
@@ -329,27 +449,35 @@ fn within_budget<'s, 'a>(
     let (Some(sequence), Some(budget)) = (sequence, crate::plan::sweep::sequential_budget(cx.study, cx.sim)) else {
         return subjects;
     };
-    let room = budget.saturating_sub(sequence.runs) / designs.max(1);
-    &subjects[..subjects.len().min(room)]
+    let mut room = budget.saturating_sub(sequence.runs);
+    let fit = subjects
+        .iter()
+        .take_while(|s| {
+            let needs = if s.ran.is_some() { 0 } else { designs };
+            let fits = needs <= room;
+            room = room.saturating_sub(needs);
+            fits
+        })
+        .count();
+    &subjects[..fit]
 }
 
-/// With curves: each confirmation run's curve features, whitened by the tests' scatter alone (as
-/// the noise-alone decision read the specimens); `None` for a study of the response.
-fn whitened_features(
+/// Each run's values as the decisions read them: with curves, its curve features whitened by the
+/// tests' scatter alone (as the noise-alone decision read the specimens); else its response.
+fn solver_values(
     cx: RunContext,
     executed: &super::Executed,
     read: &Reading,
-    (plan, rendered, usable): (&Plan, &Prepared, &[Option<f64>]),
-) -> Option<Vec<Option<DVector<f64>>>> {
-    let problem = read.problem(false)?;
-    let setting = curves::Setting::of(cx.study)?;
+    (plan, keys, usable): (&Plan, &[String], &[Option<f64>]),
+) -> Vec<Option<DVector<f64>>> {
+    let (Some(problem), Some(setting)) = (read.problem(false), curves::Setting::of(cx.study)) else {
+        return usable.iter().map(|u| u.map(|v| DVector::from_element(1, v))).collect();
+    };
     let dirs = executed.output_dirs(cx.sim);
-    let grid = curves::on_grid(cx.study, cx.sim, &setting, &rendered.keys, usable, &dirs);
-    Some(
-        plan.runs
-            .iter()
-            .zip(grid)
-            .map(|(r, c)| problem.model.whiten_curve(&r.design_values, c?.as_slice()))
-            .collect(),
-    )
+    let grid = curves::on_grid(cx.study, cx.sim, &setting, keys, usable, &dirs);
+    plan.runs
+        .iter()
+        .zip(grid)
+        .map(|(r, c)| problem.model.whiten_curve(&r.design_values, c?.as_slice()))
+        .collect()
 }

@@ -89,11 +89,11 @@ pub(super) fn diagnose_with_solver(
     });
     let readings = super::confirm::loop_readings(stage, &models, &loop_curves, [&own, &own_alone])?;
     let loop_inputs: Vec<crate::diagnose::Inputs> = readings.iter().map(|l| l.inputs()).collect();
-    let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&readings, &loop_inputs));
+    let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&readings, &loop_inputs, Some(&joint)));
     let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
     let d = runs
         .diagnosed
-        .keep(confirmed(cx, made, decided, subjects, &read, reporter)?);
+        .keep(confirmed(cx, made, decided, (subjects, Some(&joint)), &read, reporter)?);
     for (m, (_, at)) in models.into_iter().zip(extended) {
         runs.diagnosed.extended.push((m, at));
     }
@@ -117,8 +117,8 @@ fn without_the_loop(
     };
     let decided =
         [(screening, true), (noise_alone, false)].map(|(d, c)| Finished::of(study, stage, read.problem(c), d, &[]));
-    let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&[], &[]));
-    confirmed(cx, made, decided, subjects, read, reporter).map(Ok)
+    let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&[], &[], None));
+    confirmed(cx, made, decided, (subjects, None), read, reporter).map(Ok)
 }
 
 /// A decision with its words and, with curves, its features and residual curves.
@@ -150,12 +150,12 @@ fn confirmed(
     cx: RunContext,
     made: super::confirm::Made,
     [counted, noise_alone]: [Finished; 2],
-    subjects: Vec<super::confirm::Subject>,
+    (subjects, joint): (Vec<super::confirm::Subject>, Option<&extend::JointRuns>),
     read: &Reading,
     reporter: &mut dyn Reporter,
 ) -> Result<Confirmed, Error> {
     let noise = noise_alone.diagnosis.noise.clone();
-    let (confirmations, runs) = super::confirm::run(cx, made, &subjects, (read, &noise), reporter)?;
+    let (confirmations, runs) = super::confirm::run(cx, made, &subjects, (read, &noise, joint), reporter)?;
     let d = crate::diagnose::confirm::settle(noise_alone.diagnosis, counted.diagnosis, confirmations);
     let kept = d.emulator.as_ref().and_then(|e| e.confirmed.as_deref());
     let residuals = match kept {

@@ -74,6 +74,10 @@ fn results(
     diagnosis: Result<Diagnosis, CalibrationError>,
     splits: Option<Vec<SplitResult>>,
 ) -> Results {
+    // A fixed design has no loop check to reuse: it runs every confirmed model.
+    let reused = diagnosis
+        .as_ref()
+        .map_or(0, |d| d.confirmation.iter().filter(|c| c.reused).count());
     let results = Results::build(study, simulated.model(), calibration, diagnosis);
     let Simulated::Solver(runs) = simulated else {
         return results;
@@ -85,7 +89,8 @@ fn results(
             study,
             runs.sim,
             runs.diagnosed.joint.as_ref().map(|j| &j.plan),
-            runs.diagnosed.confirmation.as_ref().map_or(0, |c| c.plan.runs.len()),
+            runs.diagnosed.confirmation.as_ref().map_or(0, |c| c.plan.runs.len())
+                + reused * crate::plan::sweep::tested_designs(study).count(),
         ),
         ..s.for_results()
     });
