@@ -53,7 +53,7 @@ fn main() {
     let Response::Dat(adapter) = &sim.response else {
         fail(format!("{STUDY}: not a CalculiX study"))
     };
-    let renderer = Renderer::new(&sim.templates).unwrap_or_else(|e| fail(e.to_string()));
+    let renderer = Renderer::new(&sim.inputs.templates).unwrap_or_else(|e| fail(e.to_string()));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(SEED);
     // The CSV holds no comment (the experiments reader takes a header and rows): the truth is
     // documented here and in the study.

@@ -72,9 +72,9 @@ fn base_solver_study_loads() {
     let Simulation::Solver(sim) = &s.simulation else {
         panic!("not a solver study")
     };
-    assert_eq!(sim.command, ["python3", "beam.py"]);
-    assert_eq!(sim.templates[0].output, Path::new("beam.txt"));
-    assert_eq!(sim.retry.max_attempts, 2);
+    assert_eq!(sim.execution.command, ["python3", "beam.py"]);
+    assert_eq!(sim.inputs.templates[0].output, Path::new("beam.txt"));
+    assert_eq!(sim.execution.retry.max_attempts, 2);
     assert_eq!(sim.sampling.check_runs, 5, "the paper's 5 check runs by default");
 }
 
@@ -392,7 +392,7 @@ fn slurm_lost_after_loads_and_is_checked() {
         let Simulation::Solver(sim) = s.simulation else {
             panic!("not a solver study")
         };
-        sim.slurm
+        sim.execution.slurm
     };
     let settings = load(&slurm("45")).unwrap();
     assert_eq!(settings.lost_after, std::time::Duration::from_secs(45));

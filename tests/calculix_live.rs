@@ -41,7 +41,7 @@ fn render_beam(study: &Study, dir: &Path, h: f64, e: f64, mesh: (u32, u32, u32))
     let Simulation::Solver(sim) = &study.simulation else {
         panic!("a solver study")
     };
-    let renderer = Renderer::new(&sim.templates).unwrap();
+    let renderer = Renderer::new(&sim.inputs.templates).unwrap();
     let mut ctx = render::context(study, "h", &[h], &[e]);
     ctx.insert("nx", &(mesh.0 as f64));
     ctx.insert("ny", &(mesh.1 as f64));

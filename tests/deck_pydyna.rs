@@ -149,8 +149,12 @@ fn render_study(file: &str, out: &Path) -> Rendered {
     let sim = &sim;
     let sim: &SolverSimulation = sim;
     let store = RunStore::open(out).unwrap();
-    let spec = sim.mesh.as_ref().expect("the honeycomb studies generate their mesh");
-    let deck_name = &sim.templates[0].output;
+    let spec = sim
+        .inputs
+        .mesh
+        .as_ref()
+        .expect("the honeycomb studies generate their mesh");
+    let deck_name = &sim.inputs.templates[0].output;
     let mut counts: BTreeMap<String, (usize, usize, usize)> = BTreeMap::new();
     let mut by_key: BTreeMap<String, Value> = BTreeMap::new();
     let mut roles = BTreeMap::new();

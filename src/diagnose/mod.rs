@@ -965,11 +965,11 @@ pub fn conclude(inputs: &Inputs, looped: &[LoopModel]) -> Result<(Diagnosis, Vec
 }
 
 /// What the conclusion found besides the decision, as the words read it.
-struct Found<'f> {
-    candidates: &'f [Candidate],
-    residuals: &'f [Residual],
-    structure: &'f [Trend],
-    confounded: &'f [String],
+pub(crate) struct Found<'f> {
+    pub candidates: &'f [Candidate],
+    pub residuals: &'f [Residual],
+    pub structure: &'f [Trend],
+    pub confounded: &'f [String],
 }
 
 /// The evidence for one model taken as the simulation: every candidate fitted with it, tested,
@@ -1218,7 +1218,7 @@ impl<'a> Evidence<'a> {
     fn facts<'f>(
         &'f self,
         decision: &'f verdict::Decision,
-        found: &Found<'f>,
+        found: &'f Found<'f>,
         extended: Option<&'f Extended>,
         next_test: Option<&'f NextTest>,
         loop_names: &'f [String],
@@ -1227,15 +1227,11 @@ impl<'a> Evidence<'a> {
         text::Facts {
             cx: &self.cx,
             noise: &self.noise,
-            residuals: found.residuals,
-            structure: found.structure,
-            candidates: found.candidates,
-            base: &self.ranked.base,
+            found,
+            ranked: &self.ranked,
             decision,
-            rivals: &self.ranked.rivals,
             extended,
             next_test,
-            confounded: found.confounded,
             loop_names,
             after_loop: None,
             parameter_limits,

@@ -6,22 +6,20 @@
 use super::after_loop::AfterLoop;
 use super::ranking::RivalTest;
 use super::verdict::{Decision, Verdict, Who};
-use super::{Candidate, Context, Extended, LackOfFit, NextTest, NoiseModel, Residual, Role, Trend};
+use super::{Candidate, Context, Extended, LackOfFit, NextTest, NoiseModel, Residual, Role};
 
 pub(crate) use crate::base::format::{num, p_text, params, pct};
 
 pub(crate) struct Facts<'a> {
     pub cx: &'a Context<'a>,
     pub noise: &'a NoiseModel,
-    pub residuals: &'a [Residual],
-    pub structure: &'a [Trend],
-    pub candidates: &'a [Candidate],
-    pub base: &'a super::ranking::Entry,
+    /// The candidates, the residuals and their trends, the confounded shapes.
+    pub found: &'a super::Found<'a>,
+    /// The uncorrected model's entry and the rival tests.
+    pub ranked: &'a super::ranking::Ranked,
     pub decision: &'a Decision,
-    pub rivals: &'a [RivalTest],
     pub extended: Option<&'a Extended>,
     pub next_test: Option<&'a NextTest>,
-    pub confounded: &'a [String],
     /// The hypotheses the loop's models extend (their names), by loop index.
     pub loop_names: &'a [String],
     /// How the loop's models changed the screening's verdict.
@@ -32,13 +30,13 @@ pub(crate) struct Facts<'a> {
 
 impl Facts<'_> {
     fn name(&self, who: Who) -> String {
-        super::verdict::name_of(who, self.candidates, self.loop_names)
+        super::verdict::name_of(who, self.found.candidates, self.loop_names)
     }
 
     /// The screening candidate behind an explanation (a loop model's: the one it extends).
     fn candidate(&self, who: Who) -> Option<&Candidate> {
         let name = self.name(who);
-        self.candidates.iter().find(|c| c.name == name)
+        self.found.candidates.iter().find(|c| c.name == name)
     }
 }
 
@@ -311,7 +309,7 @@ pub(crate) fn headline(f: &Facts) -> String {
             .unwrap_or_default()
     };
     let detail = match d.verdict {
-        Verdict::NoModelError => match &f.base.assessed.lack_of_fit {
+        Verdict::NoModelError => match &f.ranked.base.assessed.lack_of_fit {
             Some(l) => format!(
                 "the uncorrected simulation fits the tests within their scatter ({})",
                 lof_text(l)
@@ -325,6 +323,7 @@ pub(crate) fn headline(f: &Facts) -> String {
         Verdict::CauseNamed => {
             let k = f.candidate(d.cause.expect("a cause")).expect("a candidate");
             let worst = f
+                .ranked
                 .rivals
                 .iter()
                 .filter_map(|r| r.p_leader_given_rival)
@@ -352,6 +351,7 @@ pub(crate) fn headline(f: &Facts) -> String {
 /// its amplitude test needed (the one the next test examines).
 fn unexplained(f: &Facts) -> String {
     let misfit = f
+        .ranked
         .base
         .assessed
         .lack_of_fit
@@ -363,7 +363,7 @@ fn unexplained(f: &Facts) -> String {
         .first()
         .and_then(|&who| f.candidate(who))
         .and_then(|c| {
-            let level = f.cx.levels().amplitude(f.candidates.len());
+            let level = f.cx.levels().amplitude(f.found.candidates.len());
             c.p_value.map(|p| {
                 format!(
                     "; the nearest, '{}', has {} where p < {} was needed",
@@ -412,6 +412,7 @@ fn cannot_tell_apart(f: &Facts) -> String {
     let misses = |n: &String| match f.after_loop {
         Some(a) => a.explanations.iter().find(|j| &j.name == n).is_some_and(|j| j.rejected),
         None => f
+            .found
             .candidates
             .iter()
             .find(|c| &c.name == n)
@@ -440,7 +441,7 @@ fn partly_explained(f: &Facts) -> String {
     let share = f
         .extended
         .and_then(|e| e.lack_of_fit.as_ref())
-        .zip(f.base.assessed.lack_of_fit.as_ref())
+        .zip(f.ranked.base.assessed.lack_of_fit.as_ref())
         .and_then(|(e, u)| {
             let excess = |l: &LackOfFit| l.chi2 - l.dof as f64;
             (excess(u) > 0.0).then(|| (1.0 - excess(e).max(0.0) / excess(u)).clamp(0.0, 1.0))
@@ -453,13 +454,13 @@ fn partly_explained(f: &Facts) -> String {
         .and_then(|e| e.lack_of_fit.as_ref())
         .filter(|l| l.rejects())
         .map(|l| format!("its model still misses the tests beyond the noise ({})", lof_text(l)));
-    let bound = f.cx.levels().rival(f.rivals.len());
+    let bound = f.cx.levels().rival(f.ranked.rivals.len());
     // Before the loop the rivals' encompassing tests say what still adds; after it, the decision's
     // own second explanation.
     let rival = f
         .after_loop
         .is_none()
-        .then_some(f.rivals)
+        .then_some(f.ranked.rivals.as_slice())
         .into_iter()
         .flatten()
         .filter_map(|r| Some((r, r.p_rival_given_leader.filter(|p| *p < bound)?)))
@@ -519,7 +520,8 @@ fn too_few_reason(f: &Facts) -> String {
         format!(
             "with {n} training design(s) for {p} parameter(s), every candidate fits the training tests; the misfit is \
              within the noise{}, but so few designs could hide an error of several times the noise",
-            f.base
+            f.ranked
+                .base
                 .assessed
                 .lack_of_fit
                 .as_ref()
@@ -588,7 +590,7 @@ pub(crate) fn action_with_open(f: &Facts, open: &[super::open::NotExcluded]) -> 
 
 fn evidence_lines(f: &Facts) -> Vec<String> {
     let mut out = Vec::new();
-    if let Some(l) = &f.base.assessed.lack_of_fit {
+    if let Some(l) = &f.ranked.base.assessed.lack_of_fit {
         out.push(format!(
             "Misfit of the uncorrected simulation against the replicate noise: {} ({} the noise: each test at {}, α \
              shared by the two).",
@@ -610,7 +612,7 @@ fn evidence_lines(f: &Facts) -> Vec<String> {
     {
         out.extend(separation(c));
     }
-    let unbeaten: Vec<&RivalTest> = f.rivals.iter().filter(|r| !r.beaten).collect();
+    let unbeaten: Vec<&RivalTest> = f.ranked.rivals.iter().filter(|r| !r.beaten).collect();
     for r in unbeaten.iter().take(if f.after_loop.is_some() { 0 } else { 3 }) {
         out.push(match r.p_leader_given_rival {
             Some(p) => format!(
@@ -625,13 +627,14 @@ fn evidence_lines(f: &Facts) -> Vec<String> {
     if let Some(e) = f.extended {
         out.extend(extended_lines(e));
     }
-    out.extend(f.confounded.iter().map(|c| format!("{c}.")));
+    out.extend(f.found.confounded.iter().map(|c| format!("{c}.")));
     out
 }
 
 /// The leading candidates with their weights (and the uncorrected model's, where it is scored).
 fn leading_line(f: &Facts) -> Option<String> {
     let ranked: Vec<String> = f
+        .found
         .candidates
         .iter()
         .take(3)
@@ -648,10 +651,11 @@ fn leading_line(f: &Facts) -> Option<String> {
         return None;
     }
     let base_w = f
+        .ranked
         .base
         .score
         .as_ref()
-        .map(|_| format!("; uncorrected {:.2}", f.base.weight));
+        .map(|_| format!("; uncorrected {:.2}", f.ranked.base.weight));
     Some(format!(
         "Leading candidates (weight): {}{}.",
         ranked.join(", "),
@@ -692,7 +696,7 @@ fn extended_lines(e: &Extended) -> Vec<String> {
 /// several outputs per design (curve features) the mean is the plateau level's relative error and
 /// the largest misfit is the observation furthest from its prediction in units of its noise.
 fn where_it_errs(f: &Facts) -> Vec<String> {
-    let r = f.residuals;
+    let r = f.found.residuals;
     let obs = &f.cx.inputs.observations;
     let mut out = Vec::new();
     let mut groups: Vec<&str> = obs
@@ -747,6 +751,7 @@ fn where_it_errs(f: &Facts) -> Vec<String> {
         ));
     }
     let trends: Vec<String> = f
+        .found
         .structure
         .iter()
         .filter(|t| t.significant)
@@ -806,7 +811,7 @@ fn limits(f: &Facts) -> Vec<String> {
             out.push(x.meaning.clone());
         }
         // Identifiability of the enlarged parameter set: γ nearly a function of one θ_j.
-        let cause = f.candidates.iter().find(|c| c.name == e.cause);
+        let cause = f.found.candidates.iter().find(|c| c.name == e.cause);
         for (name, r) in cause.iter().flat_map(|c| c.separability.correlation.iter()) {
             if r.abs() > 0.99 {
                 let se = e.parameter_se.as_ref().and_then(|s| s.get(name)).copied();

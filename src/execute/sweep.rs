@@ -97,7 +97,7 @@ pub fn prepare_after(
     earlier: Option<&Prepared>,
 ) -> Result<Prepared, Error> {
     let sim = solver.sim;
-    let renderer = Renderer::new(&sim.templates)?;
+    let renderer = Renderer::new(&sim.inputs.templates)?;
     let identity = solver.adapter.identity();
     let mut prepared = Prepared {
         keys: Vec::with_capacity(plan.runs.len()),
@@ -106,7 +106,7 @@ pub fn prepare_after(
         run_mesh: Vec::with_capacity(plan.runs.len()),
         design_mesh: earlier.map(|e| e.design_mesh.clone()).unwrap_or_default(),
     };
-    if let Some(spec) = &sim.mesh {
+    if let Some(spec) = &sim.inputs.mesh {
         for (design, path, text) in new_meshes(spec, plan, &prepared.design_mesh)? {
             prepared.meshes.insert(path.clone(), text);
             prepared.design_mesh.insert(design, path);
@@ -119,8 +119,8 @@ pub fn prepare_after(
             context.insert("mesh_file", &format!("../../{}", path.display()));
         }
         prepared.run_mesh.push(mesh_path);
-        let inputs = render::inputs(&renderer, &sim.files, &context).map_err(|e| with_run(e, &run.design))?;
-        let key = run_key(&inputs, &sim.command, &identity);
+        let inputs = render::inputs(&renderer, &sim.inputs.files, &context).map_err(|e| with_run(e, &run.design))?;
+        let key = run_key(&inputs, &sim.execution.command, &identity);
         prepared.keys.push(key.clone());
         prepared.inputs.entry(key).or_insert(inputs);
     }
@@ -219,7 +219,7 @@ pub fn manifest(study: &Study, solver: &Solver, plan: &Plan, prepared: &Prepared
         design: run.design.clone(),
         role: run.role.key().to_string(),
         parameters: study.parameter_values(&run.theta),
-        command: sim.command.clone(),
+        command: sim.execution.command.clone(),
         adapter: adapter.identity(),
         inputs,
         shared,
@@ -540,10 +540,10 @@ pub fn spec(solver: &Solver, key: &str, dir: PathBuf) -> RunSpec {
     RunSpec {
         key: key.to_string(),
         dir,
-        argv: solver.sim.command.clone(),
-        timeout: solver.sim.timeout,
+        argv: solver.sim.execution.command.clone(),
+        timeout: solver.sim.execution.timeout,
         outputs: solver.adapter.cleared(),
-        retry: solver.sim.retry.clone(),
+        retry: solver.sim.execution.retry.clone(),
     }
 }
 
@@ -556,7 +556,7 @@ pub fn run_slurm(
     signals: &Signals,
 ) -> Result<SweepResult, Error> {
     let reused = prepared.keys.iter().filter(|k| store.is_finished(k)).count();
-    let settings = sim.slurm.clone().unwrap_or_default();
+    let settings = sim.execution.slurm.clone().unwrap_or_default();
     let study_path =
         std::fs::canonicalize(&study.path).map_err(|e| Error::Failed(format!("{}: {e}", study.path.display())))?;
     let mut distinct: Vec<String> = Vec::new();

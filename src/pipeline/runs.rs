@@ -42,7 +42,7 @@ pub fn source(sim: &SolverSimulation, options: &RunOptions, reporter: &mut dyn R
     if let Some(dir) = &options.replay {
         return Source::Replay(dir.clone());
     }
-    let program = &sim.command[0];
+    let program = &sim.execution.command[0];
     match &sim.replay {
         Some(default) if !on_path(program) => {
             reporter.report(Event::Note(format!(

@@ -149,7 +149,7 @@ fn batches(s: &super::sequence::Sequence) -> Batches {
     let mut in_flight = None;
     for b in &s.sequence {
         if b.state != super::sequence::BatchState::Done {
-            in_flight = Some((b.stage.clone(), b.batch, b.runs));
+            in_flight = Some((b.stage.clone(), b.batch, b.count.runs));
             continue;
         }
         match done.last_mut() {

@@ -246,7 +246,7 @@ pub fn joint_samples(study: &Study, sim: &SolverSimulation, d: usize) -> usize {
 pub fn as_written(sim: &SolverSimulation, point: &[f64]) -> Vec<f64> {
     point
         .iter()
-        .map(|&v| match sim.parameter_width {
+        .map(|&v| match sim.inputs.parameter_width {
             Some(w) => lsdyna_keyword::field::fit_real(v, w).unwrap_or(v),
             None => v,
         })
@@ -270,7 +270,7 @@ pub fn fixed_runs(study: &Study, sim: &SolverSimulation, fixed: &Sampling, loope
 /// fields read a rounded value, that value, so the surrogates are fitted at exactly what the solver
 /// saw.
 fn planned_points(sim: &SolverSimulation, bounds: &Bounds, unit: DMatrix<f64>) -> Vec<Vec<f64>> {
-    let fit = |v: f64| match sim.parameter_width {
+    let fit = |v: f64| match sim.inputs.parameter_width {
         Some(w) => lsdyna_keyword::field::fit_real(v, w).unwrap_or(v),
         None => v,
     };

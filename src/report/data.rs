@@ -471,7 +471,7 @@ impl From<&Study> for StudyInfo {
             .collect();
         let (simulation, solver) = match &study.simulation {
             Simulation::Expression(e) => (e.text().to_string(), None),
-            Simulation::Solver(sim) => (sim.command.join(" "), Some(solver_info(sim))),
+            Simulation::Solver(sim) => (sim.execution.command.join(" "), Some(solver_info(sim))),
         };
         let role = |name: &String| {
             if study.training.contains(name) {

@@ -54,7 +54,7 @@ fn stops(s: &Sequence) -> String {
 fn variables(s: &Sequence) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
     for b in &s.sequence {
-        for n in b.estimates.keys() {
+        for n in b.posterior.estimates.keys() {
             if !out.contains(n) {
                 out.push(n.clone());
             }
@@ -70,7 +70,13 @@ fn interval_plot(s: &Sequence, name: &str, truth: Option<f64>) -> String {
     let at: Vec<Point> = s
         .sequence
         .iter()
-        .filter_map(|b| Some((b.total as f64, *b.estimates.get(name)?, *b.interval95.get(name)?)))
+        .filter_map(|b| {
+            Some((
+                b.count.total as f64,
+                *b.posterior.estimates.get(name)?,
+                *b.posterior.interval95.get(name)?,
+            ))
+        })
         .collect();
     let line = |label: &str, color, style, f: &dyn Fn(&Point) -> f64| {
         Series::new(label, color, style, at.iter().map(|p| (p.0, f(p))).collect())
@@ -111,15 +117,17 @@ fn table(s: &Sequence) -> String {
     );
     for b in &s.sequence {
         let errors: Vec<String> = b
+            .errors
             .emulator_error
             .iter()
             .map(|(d, e)| format!("{d} {}", e.map_or("–".into(), crate::base::format::num)))
             .collect();
         let estimates: Vec<String> = b
+            .posterior
             .estimates
             .iter()
             .map(|(n, v)| {
-                let [lo, hi] = b.interval95.get(n).copied().unwrap_or([f64::NAN; 2]);
+                let [lo, hi] = b.posterior.interval95.get(n).copied().unwrap_or([f64::NAN; 2]);
                 format!(
                     "{n} {} [{}, {}]",
                     crate::base::format::num(*v),
@@ -133,8 +141,8 @@ fn table(s: &Sequence) -> String {
             "<tr><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td><td class=l>{}</td></tr>",
             escape(&b.stage),
             b.batch,
-            b.runs,
-            b.total,
+            b.count.runs,
+            b.count.total,
             escape(&errors.join(", ")),
             escape(&estimates.join(", "))
         );

@@ -416,9 +416,9 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
             result.median = Some(names().zip(fit.median.iter().copied()).collect());
             result.mean = Some(names().zip(fit.mean.iter().copied()).collect());
             result.quadrature = fit.quadrature.clone();
-            result.convergence = (!fit.convergence.is_empty()).then(|| {
+            result.convergence = (!fit.sampler.convergence.is_empty()).then(|| {
                 names()
-                    .zip(&fit.convergence)
+                    .zip(&fit.sampler.convergence)
                     .map(|(n, c)| {
                         let result = ConvergenceResult {
                             split_rhat: c.split_rhat,
@@ -429,18 +429,18 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
                     })
                     .collect()
             });
-            result.sampler = (!fit.sampling_powers.is_empty()).then(|| SamplerResult {
-                steps: fit.steps,
-                evaluations_per_move: fit.evaluations_per_move,
-                kernel: if fit.acceptance.is_nan() {
+            result.sampler = (!fit.sampler.sampling_powers.is_empty()).then(|| SamplerResult {
+                steps: fit.sampler.steps,
+                evaluations_per_move: fit.sampler.evaluations_per_move,
+                kernel: if fit.sampler.acceptance.is_nan() {
                     "slice"
                 } else {
                     "independence"
                 }
                 .into(),
-                acceptance: (!fit.acceptance.is_nan()).then_some(fit.acceptance),
-                evaluations: fit.evaluations,
-                power: names().zip(fit.sampling_powers.iter().copied()).collect(),
+                acceptance: (!fit.sampler.acceptance.is_nan()).then_some(fit.sampler.acceptance),
+                evaluations: fit.sampler.evaluations,
+                power: names().zip(fit.sampler.sampling_powers.iter().copied()).collect(),
             });
             let d = &fit.discrepancy;
             result.discrepancy = Some(serde_json::json!({

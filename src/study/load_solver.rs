@@ -7,7 +7,8 @@ use std::time::Duration;
 
 use super::super::schema::{MeshFile, ResponseFile, RetriesFile, SamplingFile, SimulationFile, SolverFile};
 use super::super::solver::{
-    CopiedFile, MeshSpec, Response, Sampling, SamplingMethod, SolverSimulation, SurrogateKind, Template,
+    CopiedFile, Execution, MeshSpec, Response, RunInputs, Sampling, SamplingMethod, SolverSimulation, SurrogateKind,
+    Template,
 };
 use super::super::yaml::Spanned;
 use super::Checker;
@@ -105,18 +106,22 @@ impl Checker<'_> {
         let replay = self.replay_dir(sim)?;
         Ok(SolverSimulation {
             adapter,
-            templates,
-            files,
-            command,
-            timeout,
-            retry,
+            inputs: RunInputs {
+                templates,
+                files,
+                mesh,
+                parameter_width: lsdyna.then_some(10),
+            },
+            execution: Execution {
+                command,
+                timeout,
+                retry,
+                slurm: cluster.slurm,
+            },
             response,
             sampling,
             surrogate,
-            mesh,
             replay,
-            parameter_width: lsdyna.then_some(10),
-            slurm: cluster.slurm,
             quality: sim
                 .quality
                 .as_ref()

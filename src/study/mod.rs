@@ -23,8 +23,8 @@ pub use experiments::{Experiments, TestDesign};
 pub use expr::{Expression, Symbols};
 pub use load::load;
 pub use solver::{
-    CopiedFile, MeshSpec, OpenRadiossSettings, QualitySettings, Response, SamplingMethod, SolverSimulation,
-    SurrogateKind, Template,
+    CopiedFile, Execution, MeshSpec, OpenRadiossSettings, QualitySettings, Response, RunInputs, SamplingMethod,
+    SolverSimulation, SurrogateKind, Template,
 };
 
 use crate::base::Bounds;

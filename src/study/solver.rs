@@ -18,33 +18,49 @@ pub const DEFAULT_BUDGET_PER_DESIGN: usize = 30;
 /// `simulation.solver` plus the keys that go with it.
 #[derive(Debug, Clone)]
 pub struct SolverSimulation {
-    /// `command` or `lsdyna` (`calculix` is refused until its adapter lands).
+    /// `command`, `lsdyna`, `calculix` or `openradioss`.
     pub adapter: String,
-    pub templates: Vec<Template>,
-    /// Files copied verbatim into every run directory.
-    pub files: Vec<CopiedFile>,
-    /// argv, run in the run directory; never through a shell. Not empty.
-    pub command: Vec<String>,
-    pub timeout: Option<Duration>,
-    pub retry: RetryPolicy,
+    /// What each run directory gets.
+    pub inputs: RunInputs,
+    /// How the solver process is run.
+    pub execution: Execution,
     /// How the response is read from a finished run.
     pub response: Response,
     pub sampling: Sampling,
     pub surrogate: SurrogateKind,
-    /// A mesh generated once per design and included by the deck (`mesh_file` in the context).
-    pub mesh: Option<MeshSpec>,
     /// Default replay directory (absolute or relative to the current directory), used when the
     /// solver program is not on PATH and no `--replay` is given.
     pub replay: Option<PathBuf>,
-    /// Width of the solver's fixed number fields: sampled parameters are rounded to fit them
-    /// (10 for `lsdyna`), so the surrogates see exactly the values the solver read.
-    pub parameter_width: Option<usize>,
-    /// `solver.slurm`: settings of `--executor slurm` (defaults when absent).
-    pub slurm: Option<crate::study::settings::SlurmSettings>,
     /// `simulation.quality`: the gates on each run's sanity figures (defaults when absent).
     pub quality: QualitySettings,
     /// `adapter: openradioss`: `solver.openradioss` (defaults when absent); `None` for the others.
     pub openradioss: Option<OpenRadiossSettings>,
+}
+
+/// What each run directory of a solver study gets: its rendered templates, its copied files, the
+/// design's mesh, and the width the values are written in.
+#[derive(Debug, Clone)]
+pub struct RunInputs {
+    pub templates: Vec<Template>,
+    /// Files copied verbatim into every run directory.
+    pub files: Vec<CopiedFile>,
+    /// A mesh generated once per design and included by the deck (`mesh_file` in the context).
+    pub mesh: Option<MeshSpec>,
+    /// Width of the solver's fixed number fields: sampled parameters are rounded to fit them
+    /// (10 for `lsdyna`), so the surrogates see exactly the values the solver read.
+    pub parameter_width: Option<usize>,
+}
+
+/// How the solver process is run: its argv (never through a shell), its time limit, its retries,
+/// and the settings of `--executor slurm`.
+#[derive(Debug, Clone)]
+pub struct Execution {
+    /// argv, run in the run directory. Not empty.
+    pub command: Vec<String>,
+    pub timeout: Option<Duration>,
+    pub retry: RetryPolicy,
+    /// `solver.slurm`: settings of `--executor slurm` (defaults when absent).
+    pub slurm: Option<crate::study::settings::SlurmSettings>,
 }
 
 impl SolverSimulation {

@@ -109,6 +109,13 @@ pub struct BayesianFit {
     pub emulator: Emulator,
     /// The discrepancy at the maximum-likelihood point, conditioned on the training residuals (A5–A7).
     pub discrepancy: Discrepancy,
+    /// How the sampler went (its defaults when computed by quadrature).
+    pub sampler: SamplerRun,
+}
+
+/// How the posterior's sampler went: its cost, its convergence and the coordinates it sampled in.
+#[derive(Debug, Clone)]
+pub struct SamplerRun {
     /// Density evaluations per walker move of the sampler's run (NaN when computed by quadrature).
     pub evaluations_per_move: f64,
     /// Split R-hat and effective sample size per parameter, over the walkers' kept traces (empty
@@ -123,6 +130,20 @@ pub struct BayesianFit {
     pub acceptance: f64,
     /// Density evaluations of the whole sampler, pilot and adaptation included (0 by quadrature).
     pub evaluations: usize,
+}
+
+impl Default for SamplerRun {
+    /// A posterior computed by quadrature: no sampler ran.
+    fn default() -> SamplerRun {
+        SamplerRun {
+            evaluations_per_move: f64::NAN,
+            convergence: Vec::new(),
+            steps: 0,
+            sampling_powers: Vec::new(),
+            acceptance: f64::NAN,
+            evaluations: 0,
+        }
+    }
 }
 
 impl BayesianFit {
@@ -188,12 +209,7 @@ pub fn calibrate(
         posterior: DMatrix::zeros(0, theta.len()),
         density: vec![],
         quadrature: None,
-        evaluations_per_move: f64::NAN,
-        convergence: vec![],
-        steps: 0,
-        sampling_powers: vec![],
-        acceptance: f64::NAN,
-        evaluations: 0,
+        sampler: SamplerRun::default(),
         theta,
         emulator: emulator.clone(),
         discrepancy,
@@ -256,12 +272,17 @@ fn by_sampling(koh: &Koh, u_hat: &[f64], settings: &Settings, base: BayesianFit)
         .iter()
         .map(|t| t.iter().map(|v| DVector::from_column_slice(v)).collect())
         .collect();
-    BayesianFit {
+    let sampler = SamplerRun {
+        evaluations_per_move: run.evaluations_per_move,
+        convergence: run.convergence,
         steps: run.steps,
         sampling_powers: coords.power.clone(),
         acceptance: run.acceptance,
         evaluations: adapted.evaluations + run.evaluations,
-        ..sampled_fit(&traces, run.convergence, run.evaluations_per_move, base)
+    };
+    BayesianFit {
+        sampler,
+        ..sampled_fit(&traces, base)
     }
 }
 
@@ -333,12 +354,7 @@ fn in_coords<'m>(marginal: &'m exact::Marginal, coords: &'m coords::Coords) -> i
 }
 
 /// The posterior summaries from the walkers' kept traces.
-fn sampled_fit(
-    traces: &[Vec<DVector<f64>>],
-    convergence: Vec<convergence::Convergence>,
-    evaluations_per_move: f64,
-    base: BayesianFit,
-) -> BayesianFit {
+fn sampled_fit(traces: &[Vec<DVector<f64>>], base: BayesianFit) -> BayesianFit {
     let len = traces.first().map_or(0, Vec::len);
     // Step-major, as the thinning below expects: step s of every walker, then step s + 1.
     let thetas: Vec<&DVector<f64>> = (0..len).flat_map(|s| traces.iter().map(move |t| &t[s])).collect();
@@ -352,8 +368,6 @@ fn sampled_fit(
         median: DVector::from_fn(p, |k, _| quantile(k, 0.5)),
         mean: DVector::from_fn(p, |k, _| thetas.iter().map(|t| t[k]).sum::<f64>() / n),
         posterior: DMatrix::from_fn(kept.len(), p, |i, k| kept[i][k]),
-        evaluations_per_move,
-        convergence,
         ..base
     }
 }

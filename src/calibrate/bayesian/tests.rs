@@ -436,11 +436,11 @@ fn three_parameters_are_sampled_with_diagnostics() {
     let fit = run(&p, &settings);
     eprintln!(
         "three parameters: {:?}, {:?}, {} steps",
-        fit.interval95, fit.convergence, fit.steps
+        fit.interval95, fit.sampler.convergence, fit.sampler.steps
     );
-    assert!(fit.quadrature.is_none() && fit.convergence.len() == 3);
-    let all = fit.convergence.iter().all(|c| c.converged());
-    assert!(all || fit.steps == 4000, "{} steps", fit.steps);
+    assert!(fit.quadrature.is_none() && fit.sampler.convergence.len() == 3);
+    let all = fit.sampler.convergence.iter().all(|c| c.converged());
+    assert!(all || fit.sampler.steps == 4000, "{} steps", fit.sampler.steps);
     for (k, &(lo, hi)) in fit.interval95.iter().enumerate() {
         assert!(
             p.bounds.lower[k] <= lo && lo < hi && hi <= p.bounds.upper[k],
@@ -462,8 +462,12 @@ fn sampler_budget_ends_unconverged() {
         ..Settings::default()
     };
     let fit = run(&p, &settings);
-    assert_eq!(fit.steps, 60);
-    assert!(fit.convergence.iter().any(|c| !c.converged()), "{:?}", fit.convergence);
+    assert_eq!(fit.sampler.steps, 60);
+    assert!(
+        fit.sampler.convergence.iter().any(|c| !c.converged()),
+        "{:?}",
+        fit.sampler.convergence
+    );
 }
 
 /// The scale case: a cantilever of depth h and length L (two design variables) under F at L − a,
@@ -561,11 +565,11 @@ fn scale_growth() {
         eprintln!(
             "n = {n}: emulator fit {fit_s:.2} s, one density {:.3} ms, calibrate {cal_s:.1} s ({} steps, {} evaluations), θ̂ {:?}, 95 % {:?}, {:?}",
             1e3 * lik_s,
-            fit.steps,
-            fit.evaluations,
+            fit.sampler.steps,
+            fit.sampler.evaluations,
             fit.theta.as_slice(),
             fit.interval95,
-            fit.convergence
+            fit.sampler.convergence
         );
     }
 }
@@ -599,15 +603,19 @@ fn scale_fresh_data() {
             .zip(truth)
             .map(|(&(lo, hi), t)| lo < t && t < hi)
             .collect();
-        let converged = fit.convergence.iter().all(|c| c.converged());
+        let converged = fit.sampler.convergence.iter().all(|c| c.converged());
         eprintln!(
             "seed {seed}: {secs:.1} s, {} steps, acceptance {:.2}, {} evaluations, powers {:?}, R-hat ≤ {:.3}, ESS ≥ {:.0}, truth inside {covered:?}",
-            fit.steps,
-            fit.acceptance,
-            fit.evaluations,
-            fit.sampling_powers,
-            fit.convergence.iter().map(|c| c.split_rhat).fold(0.0, f64::max),
-            fit.convergence.iter().map(|c| c.ess).fold(f64::INFINITY, f64::min),
+            fit.sampler.steps,
+            fit.sampler.acceptance,
+            fit.sampler.evaluations,
+            fit.sampler.sampling_powers,
+            fit.sampler.convergence.iter().map(|c| c.split_rhat).fold(0.0, f64::max),
+            fit.sampler
+                .convergence
+                .iter()
+                .map(|c| c.ess)
+                .fold(f64::INFINITY, f64::min),
         );
         if !converged {
             unconverged.push(seed);

@@ -42,7 +42,12 @@ pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
         Response::CrushForce { window, source } => Arc::new(LsDynaAdapter {
             window: *window,
             source: source.clone(),
-            deck: sim.templates.first().map(|t| t.output.clone()).unwrap_or_default(),
+            deck: sim
+                .inputs
+                .templates
+                .first()
+                .map(|t| t.output.clone())
+                .unwrap_or_default(),
         }),
         Response::Dat(ccx) => Arc::new(ccx.clone()),
     })
@@ -56,7 +61,12 @@ pub fn openradioss(sim: &SolverSimulation) -> Option<OpenRadiossAdapter> {
     Some(OpenRadiossAdapter {
         window: *window,
         source: source.clone(),
-        deck: sim.templates.first().map(|t| t.output.clone()).unwrap_or_default(),
+        deck: sim
+            .inputs
+            .templates
+            .first()
+            .map(|t| t.output.clone())
+            .unwrap_or_default(),
         settings: settings.clone(),
     })
 }

@@ -48,19 +48,17 @@ pub struct Batch {
     pub batch: usize,
     /// `done`, or `in flight` (written before the batch's runs start).
     pub state: BatchState,
-    pub runs: usize,
-    /// Runs so far, every stage.
-    pub total: usize,
+    /// Its runs, and the runs so far (its keys inline).
+    #[serde(flatten)]
+    pub count: BatchCount,
     /// Runs per tested design in this batch.
     pub designs: IndexMap<String, usize>,
-    /// Per tested design: the emulators' error on its latest runs, fitted without them, in units of
-    /// the tests' noise of the mean (`null`: nothing held out yet).
-    pub emulator_error: IndexMap<String, Option<f64>>,
-    /// Per tested design: the emulators' own predictive error at the posterior, same units.
-    pub predicted_error: IndexMap<String, f64>,
-    /// The posterior's mean and 95 % interval of each variable of the space.
-    pub estimates: IndexMap<String, f64>,
-    pub interval95: IndexMap<String, [f64; 2]>,
+    /// The emulators' error once the batch was in (its keys inline).
+    #[serde(flatten)]
+    pub errors: BatchErrors,
+    /// The posterior once the batch was in (its keys inline).
+    #[serde(flatten)]
+    pub posterior: BatchPosterior,
     /// Wall time the planner took to choose this batch (fitting the emulators and the posterior on
     /// the runs in hand, then the batch), seconds; 0 for a stage's fixed start.
     #[serde(default)]
@@ -73,6 +71,31 @@ pub struct Batch {
     /// its emulators where the decision reads them.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub placed: Option<Placed>,
+}
+
+/// A batch's runs, and the runs so far of every stage.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct BatchCount {
+    pub runs: usize,
+    /// Runs so far, every stage.
+    pub total: usize,
+}
+
+/// The emulators' error per tested design once a batch was in.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct BatchErrors {
+    /// Per tested design: the emulators' error on its latest runs, fitted without them, in units of
+    /// the tests' noise of the mean (`null`: nothing held out yet).
+    pub emulator_error: IndexMap<String, Option<f64>>,
+    /// Per tested design: the emulators' own predictive error at the posterior, same units.
+    pub predicted_error: IndexMap<String, f64>,
+}
+
+/// The posterior's mean and 95 % interval of each variable of the space once a batch was in.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct BatchPosterior {
+    pub estimates: IndexMap<String, f64>,
+    pub interval95: IndexMap<String, [f64; 2]>,
 }
 
 /// Where a batch stands: `in flight` (written before its runs start) or `done`.
@@ -294,13 +317,13 @@ impl Batch {
             stage: stage.to_string(),
             batch: b,
             state: BatchState::InFlight,
-            runs: batch.runs.len(),
-            total,
+            count: BatchCount {
+                runs: batch.runs.len(),
+                total,
+            },
             designs,
-            emulator_error: Default::default(),
-            predicted_error: Default::default(),
-            estimates: Default::default(),
-            interval95: Default::default(),
+            errors: Default::default(),
+            posterior: Default::default(),
             stopped: None,
             planning_seconds: planning,
             placed: None,
@@ -318,12 +341,12 @@ impl Batch {
     ) {
         self.state = BatchState::Done;
         for (d, (m, p)) in designs.iter().zip(measured.iter().zip(predicted)) {
-            self.emulator_error.insert(d.clone(), *m);
-            self.predicted_error.insert(d.clone(), *p);
+            self.errors.emulator_error.insert(d.clone(), *m);
+            self.errors.predicted_error.insert(d.clone(), *p);
         }
         for (j, n) in names.iter().enumerate() {
-            self.estimates.insert(n.clone(), posterior.mean[j]);
-            self.interval95.insert(n.clone(), posterior.interval[j]);
+            self.posterior.estimates.insert(n.clone(), posterior.mean[j]);
+            self.posterior.interval95.insert(n.clone(), posterior.interval[j]);
         }
     }
 
@@ -332,9 +355,16 @@ impl Batch {
     /// measured error (`None`: nothing held out yet) and its predicted one.
     pub fn worst(&self) -> Option<(&str, Option<f64>, f64)> {
         let size = |(_, m, p): &(&str, Option<f64>, f64)| m.map_or(f64::INFINITY, |m| m.max(*p));
-        self.emulator_error
+        self.errors
+            .emulator_error
             .iter()
-            .map(|(d, m)| (d.as_str(), *m, self.predicted_error.get(d).copied().unwrap_or(0.0)))
+            .map(|(d, m)| {
+                (
+                    d.as_str(),
+                    *m,
+                    self.errors.predicted_error.get(d).copied().unwrap_or(0.0),
+                )
+            })
             .max_by(|a, b| size(a).total_cmp(&size(b)))
     }
 
@@ -342,8 +372,8 @@ impl Batch {
     pub fn line(&self) -> String {
         // The largest over the designs measured; those with nothing held out yet are counted apart
         // (an infinite "error" would say nothing the engineer can act on).
-        let measured: Vec<f64> = self.emulator_error.values().flatten().copied().collect();
-        let unmeasured = self.emulator_error.len() - measured.len();
+        let measured: Vec<f64> = self.errors.emulator_error.values().flatten().copied().collect();
+        let unmeasured = self.errors.emulator_error.len() - measured.len();
         let error = if measured.is_empty() {
             "nothing held out yet".to_string()
         } else {
@@ -358,10 +388,11 @@ impl Batch {
             )
         };
         let estimates: Vec<String> = self
+            .posterior
             .estimates
             .iter()
             .map(|(n, v)| {
-                let [lo, hi] = self.interval95.get(n).copied().unwrap_or([f64::NAN; 2]);
+                let [lo, hi] = self.posterior.interval95.get(n).copied().unwrap_or([f64::NAN; 2]);
                 format!(
                     "{n} {} [{}, {}]",
                     crate::base::format::num(*v),
@@ -373,7 +404,7 @@ impl Batch {
         let placed = self.placed.map_or_else(String::new, |p| format!(" at {}", p.words()));
         let mut line = format!(
             "{} batch {}: {} run(s){placed}, {} in all; {error}",
-            self.stage, self.batch, self.runs, self.total
+            self.stage, self.batch, self.count.runs, self.count.total
         );
         if !estimates.is_empty() {
             line += &format!("; {}", estimates.join(", "));
