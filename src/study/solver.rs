@@ -51,6 +51,13 @@ pub struct RunInputs {
     pub parameter_width: Option<usize>,
 }
 
+impl RunInputs {
+    /// The deck the solver reads: the first template's rendered name (empty without templates).
+    pub fn deck(&self) -> PathBuf {
+        self.templates.first().map(|t| t.output.clone()).unwrap_or_default()
+    }
+}
+
 /// How the solver process is run: its argv (never through a shell), its time limit, its retries,
 /// and the settings of `--executor slurm`.
 #[derive(Debug, Clone)]

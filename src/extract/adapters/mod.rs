@@ -42,12 +42,7 @@ pub fn adapter(sim: &SolverSimulation) -> Result<Arc<dyn Adapter>, Error> {
         Response::CrushForce { window, source } => Arc::new(LsDynaAdapter {
             window: *window,
             source: source.clone(),
-            deck: sim
-                .inputs
-                .templates
-                .first()
-                .map(|t| t.output.clone())
-                .unwrap_or_default(),
+            deck: sim.inputs.deck(),
         }),
         Response::Dat(ccx) => Arc::new(ccx.clone()),
     })
@@ -61,12 +56,7 @@ pub fn openradioss(sim: &SolverSimulation) -> Option<OpenRadiossAdapter> {
     Some(OpenRadiossAdapter {
         window: *window,
         source: source.clone(),
-        deck: sim
-            .inputs
-            .templates
-            .first()
-            .map(|t| t.output.clone())
-            .unwrap_or_default(),
+        deck: sim.inputs.deck(),
         settings: settings.clone(),
     })
 }
