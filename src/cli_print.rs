@@ -17,20 +17,16 @@ impl Reporter for Stderr {
         match event {
             Event::Note(note) => eprintln!("note: {note}"),
             Event::Recorded { runs, dir } => eprintln!("recorded {runs} run(s) into {}", dir.display()),
+            Event::Failed(runs) => {
+                for run in runs {
+                    eprintln!("failed: {}", run.words());
+                }
+            }
             Event::RunsEnded(outcomes) => {
                 eprint!(
                     "{}",
                     progress::summary_table(&outcomes.classes, outcomes.reused, outcomes.missing)
                 );
-                for run in outcomes.failed.iter().take(5) {
-                    eprintln!(
-                        "failed: design `{}`, parameters {:?}: {} (see {})",
-                        run.design,
-                        run.theta,
-                        run.why,
-                        run.dir.display()
-                    );
-                }
             }
             Event::Batch(b) => eprintln!("{}", b.line()),
             Event::Interrupted { out } => eprintln!(
@@ -59,6 +55,14 @@ pub(super) fn status(study: &Study, out: &Path) -> Result<i32, Error> {
         "study `{}`: {} planned run(s): done {}, failed {}, running {}, pending {}",
         study.name, s.planned, s.done, s.failed, s.running, s.pending
     );
+    if !s.failed_by_stage.is_empty() {
+        let stages: Vec<String> = s
+            .failed_by_stage
+            .iter()
+            .map(|(stage, n)| format!("{stage} {n}"))
+            .collect();
+        println!("failed by stage: {}", stages.join(", "));
+    }
     if let Some(b) = &s.batches {
         let done: Vec<String> = b.done.iter().map(|(stage, n)| format!("{stage} {n}")).collect();
         println!(

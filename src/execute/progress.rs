@@ -76,13 +76,7 @@ pub fn summary_table(classes: &BTreeMap<OutcomeClass, usize>, reused: usize, mis
         rows.push(("reused (finished earlier)".into(), reused));
     }
     for (class, n) in classes.iter().filter(|(_, n)| **n > 0) {
-        rows.push((
-            serde_json::to_value(class)
-                .ok()
-                .and_then(|v| v.as_str().map(String::from))
-                .unwrap_or_default(),
-            *n,
-        ));
+        rows.push((class.key(), *n));
     }
     if missing > 0 {
         rows.push(("not run".into(), missing));

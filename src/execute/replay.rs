@@ -45,6 +45,11 @@ pub struct Manifest {
     pub shared: BTreeMap<String, String>,
     /// The recorded output files.
     pub outputs: Vec<String>,
+    /// How the recorded run failed, for the recording of a run that failed (absent: it succeeded).
+    /// A replay commits this outcome as it is, so that it plans around the failure as the live
+    /// sequence did; a recording without it that fails to be read is damaged.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub outcome: Option<super::Outcome>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -90,6 +95,39 @@ pub fn record(dir: &Path, run_dir: &Path, manifest: &Manifest) -> std::io::Resul
     }
     let text = serde_json::to_vec_pretty(&manifest).expect("manifests serialize");
     write_atomic(&at.join(MANIFEST), &text)
+}
+
+/// The manifest of the recording at `at`, if it has a readable one.
+pub fn read_manifest(at: &Path) -> Option<Manifest> {
+    serde_json::from_slice(&fs::read(at.join(MANIFEST)).ok()?).ok()
+}
+
+/// A recording of a run that succeeded, which this replay could not read as a finished run: the
+/// file is damaged (cut short, lines lost, bytes written over), or it is read with other settings
+/// than it was recorded with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Damaged {
+    pub key: String,
+    /// The recording's directory.
+    pub at: PathBuf,
+    pub design: String,
+    pub parameters: IndexMap<String, f64>,
+    /// How it was judged, naming the file and line where the adapter says.
+    pub outcome: super::Outcome,
+}
+
+impl Damaged {
+    /// `recording DIR/KEY (design `C3T7`, sigma_y = 152.0): rcforc:380:1: missing …`
+    pub fn words(&self) -> String {
+        let params: Vec<String> = self.parameters.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+        format!(
+            "recording {} (design `{}`, {}): {}",
+            self.at.display(),
+            self.design,
+            params.join(", "),
+            self.outcome
+        )
+    }
 }
 
 /// Every readable manifest in `dir`.
@@ -245,6 +283,7 @@ mod tests {
             inputs,
             shared: BTreeMap::new(),
             outputs: vec![],
+            outcome: None,
         }
     }
 

@@ -224,10 +224,13 @@ pub fn manifest(study: &Study, solver: &Solver, plan: &Plan, prepared: &Prepared
         inputs,
         shared,
         outputs: adapter.outputs().iter().map(|p| p.display().to_string()).collect(),
+        outcome: None,
     })
 }
 
-/// Copies every finished planned run that `dir` does not hold yet into `dir`; returns how many.
+/// Copies every planned run with a record into `dir`, unless `dir` already holds it as it ended;
+/// returns how many. A failed run is recorded too, with its outcome in the manifest: a replay then
+/// fails it as the live run failed and plans around it as the live sequence did.
 pub fn record(
     study: &Study,
     solver: &Solver,
@@ -238,19 +241,31 @@ pub fn record(
 ) -> Result<usize, Error> {
     let mut done = BTreeSet::new();
     for (i, key) in prepared.keys.iter().enumerate() {
-        if !store.is_finished(key) || replay::find(dir, key).is_some() || !done.insert(key.clone()) {
+        let Some(ended) = store.record(key) else { continue };
+        let failure = (!ended.outcome.is_success()).then(|| ended.outcome.clone());
+        let held = replay::find(dir, key).and_then(|at| replay::read_manifest(&at));
+        if held.is_some_and(|m| m.outcome == failure) || !done.insert(key.clone()) {
             continue;
         }
-        let m = manifest(study, solver, plan, prepared, i)?;
+        let mut m = manifest(study, solver, plan, prepared, i)?;
+        m.outcome = failure;
         replay::record(dir, &store.run_dir(key), &m)
             .map_err(|e| Error::Failed(format!("recording run {key} into {}: {e}", dir.display())))?;
     }
     Ok(done.len())
 }
 
+/// What a replay made of the planned runs: the sweep, the runs without a recording (explained,
+/// see [`replay::explain_miss`]) and the recordings of successful runs it could not read.
+pub struct Replayed {
+    pub swept: SweepResult,
+    pub misses: Vec<String>,
+    pub damaged: Vec<replay::Damaged>,
+}
+
 /// Serves every unfinished planned run from its recording in `dir` (no solver is started): the
-/// recording is judged by the adapter as a live run's outputs would be, and the record committed.
-/// Runs without a recording are returned as explanations (see [`replay::explain_miss`]).
+/// recording is judged by the adapter as a live run's outputs would be, and the record committed;
+/// the recording of a failed run commits its recorded outcome.
 pub fn replay_runs(
     study: &Study,
     solver: &Solver,
@@ -258,7 +273,7 @@ pub fn replay_runs(
     prepared: &Prepared,
     store: &mut RunStore,
     dir: &std::path::Path,
-) -> Result<(SweepResult, Vec<String>), Error> {
+) -> Result<Replayed, Error> {
     let adapter = &solver.adapter;
     let reused = prepared.keys.iter().filter(|k| store.is_finished(k)).count();
     let mut misses = Vec::new();
@@ -269,32 +284,95 @@ pub fn replay_runs(
         if store.is_finished(key) || !seen.insert(key.clone()) {
             continue;
         }
+        let wanted = manifest(study, solver, plan, prepared, i)?;
         match replay::find(dir, key) {
-            Some(at) => found.push((key, at)),
+            Some(at) => found.push((wanted, at)),
             None => {
                 let all = recorded.get_or_insert_with(|| replay::manifests(dir));
-                misses.push(replay::explain_miss(
-                    dir,
-                    &manifest(study, solver, plan, prepared, i)?,
-                    all,
-                ));
+                misses.push(replay::explain_miss(dir, &wanted, all));
             }
         }
     }
     // Judged in parallel (each in its own scratch directory), committed in plan order a batch at
     // a time: an interrupted replay keeps every batch committed before it.
+    let mut damaged = Vec::new();
     for batch in found.chunks(REPLAY_BATCH) {
         use rayon::prelude::*;
-        let records: Vec<Result<RunRecord, Error>> = batch
+        let records: Vec<Result<(RunRecord, bool), Error>> = batch
             .par_iter()
-            .map(|(key, at)| judge_recording(adapter.as_ref(), store.out(), key, &prepared.inputs[*key], at))
+            .map(|(m, at)| replayed(adapter.as_ref(), store.out(), &prepared.inputs[&m.key], at))
             .collect();
-        for record in records {
-            store.commit(record?)?;
+        for ((m, at), record) in batch.iter().zip(records) {
+            let (record, recorded_failure) = record?;
+            if !record.outcome.is_success() && !recorded_failure {
+                damaged.push(replay::Damaged {
+                    key: m.key.clone(),
+                    at: at.clone(),
+                    design: m.design.clone(),
+                    parameters: m.parameters.clone(),
+                    outcome: record.outcome.clone(),
+                });
+            }
+            store.commit(record)?;
         }
     }
     let _ = std::fs::remove_dir(store.out().join(REPLAY_SCRATCH)); // only succeeds when empty
-    Ok((SweepResult::from_store(store, prepared, reused, Vec::new()), misses))
+    Ok(Replayed {
+        swept: SweepResult::from_store(store, prepared, reused, Vec::new()),
+        misses,
+        damaged,
+    })
+}
+
+/// The record a recording gives: its recorded failure as it is (`true`), else its outputs judged.
+fn replayed(
+    adapter: &dyn Adapter,
+    out: &std::path::Path,
+    inputs: &Inputs,
+    at: &std::path::Path,
+) -> Result<(RunRecord, bool), Error> {
+    let key = at.file_name().unwrap_or_default().to_string_lossy();
+    match replay::read_manifest(at).and_then(|m| m.outcome) {
+        Some(failed) => Ok((RunRecord::ended(&key, failed, 1, now_ms(), None), true)),
+        None => Ok((judge_recording(adapter, out, &key, inputs, at)?, false)),
+    }
+}
+
+/// Every recording in `dir` of a run that succeeded, except `skip`'s, judged by `adapter` from the
+/// inputs its manifest keeps: those it cannot read as finished runs. A recording whose inputs the
+/// manifest does not keep whole is not judged.
+pub fn damaged_recordings(
+    adapter: &dyn Adapter,
+    out: &std::path::Path,
+    dir: &std::path::Path,
+    skip: &BTreeSet<String>,
+) -> Vec<replay::Damaged> {
+    use rayon::prelude::*;
+    let manifests: Vec<Manifest> = replay::manifests(dir)
+        .into_iter()
+        .filter(|m| m.outcome.is_none() && !skip.contains(&m.key))
+        .collect();
+    let damaged = manifests
+        .par_iter()
+        .filter_map(|m| {
+            let inputs: Option<Inputs> = m
+                .inputs
+                .iter()
+                .map(|(path, d)| d.text.as_ref().map(|t| (PathBuf::from(path), t.clone().into_bytes())))
+                .collect();
+            let at = dir.join(&m.key);
+            let record = judge_recording(adapter, out, &m.key, &inputs?, &at).ok()?;
+            (!record.outcome.is_success()).then(|| replay::Damaged {
+                key: m.key.clone(),
+                at,
+                design: m.design.clone(),
+                parameters: m.parameters.clone(),
+                outcome: record.outcome,
+            })
+        })
+        .collect();
+    let _ = std::fs::remove_dir(out.join(REPLAY_SCRATCH)); // only succeeds when empty
+    damaged
 }
 
 /// Recordings judged at once between two commits.

@@ -12,6 +12,7 @@ use nalgebra::DVector;
 
 use super::diagnosis::{Finished, Reading};
 use super::runs::{self, RunContext, RunOutcomes};
+use super::sequence::record::Failed;
 use super::{Event, Reporter, curves, extend};
 use crate::diagnose::confirm::{Confirmation, Confirming, UNCORRECTED, confirm};
 use crate::diagnose::verdict::Verdict;
@@ -402,7 +403,10 @@ fn sweep_batch(
     }
     let (swept, outcomes) = runs::sweep_plan(cx, &plan, &rendered, &mut executed.store, reporter)?;
     if let Some(b) = match sequence.as_mut() {
-        Some(sequence) => sequence.finish_planned("confirmation", plan.runs.len(), &cx.options.out)?,
+        Some(sequence) => {
+            let failed = Failed::of(&outcomes);
+            sequence.finish_planned("confirmation", (plan.runs.len(), failed), &cx.options.out)?
+        }
         None => None,
     } {
         reporter.report(Event::Batch(b));

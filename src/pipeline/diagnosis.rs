@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use super::runs::RunContext;
-use super::{Event, Reporter, SolverRuns, curves, extend, extension_models, sequence, values};
+use super::{Event, Reporter, SolverRuns, curves, extend, extension_surrogates, sequence, values};
 use crate::calibrate::{CalibrationError, Model};
 use crate::diagnose::Diagnosis;
 use crate::emulate::SurrogateModel;
@@ -13,6 +13,40 @@ use crate::error::Error;
 use crate::execute::sweep::Prepared;
 use crate::plan::Plan;
 use crate::study::{SolverSimulation, Study};
+
+/// The extension hypotheses' screening models (the surrogates of their probe runs). A hypothesis
+/// whose probe runs failed at a tested design cannot be screened there and is left out of the
+/// candidates: said, with the runs, never silently.
+fn screened_extensions(
+    study: &Study,
+    runs: &SolverRuns,
+    reporter: &mut dyn Reporter,
+) -> Vec<(usize, std::sync::Arc<dyn Model + Send>)> {
+    let fitted = extension_surrogates(study, runs.sim, &runs.plan, &runs.usable);
+    for (k, m) in &fitted {
+        let missing: Vec<String> = crate::plan::sweep::tested_designs(study)
+            .map(|(d, _)| d)
+            .filter(|d| !m.designs.iter().any(|s| &s.design == *d))
+            .map(|d| {
+                let probes = (runs.plan.runs.iter().zip(&runs.usable))
+                    .filter(|(r, _)| r.role == crate::plan::RunRole::Extension(*k) && &r.design == d);
+                let (n, ok) = probes.fold((0, 0), |(n, ok), (_, y)| (n + 1, ok + usize::from(y.is_some())));
+                format!("{d} ({ok} of {n} finished)")
+            })
+            .collect();
+        if !missing.is_empty() {
+            reporter.report(Event::Note(format!(
+                "'{}' cannot be screened: its probe runs failed at {}, too few for its surrogate there, so the \
+                 diagnosis leaves it out of the candidates; `lab run` again retries the failed runs",
+                study.diagnosis.hypotheses[*k].name,
+                missing.join(", ")
+            )));
+        }
+    }
+    (fitted.into_iter())
+        .map(|(k, m)| (k, std::sync::Arc::new(m) as std::sync::Arc<dyn Model + Send>))
+        .collect()
+}
 
 /// A solver study's diagnosis: the screening (the extension hypotheses judged from their runs at
 /// their probe values), then the solver in the loop ([`extend`]) for the hypotheses it leaves
@@ -26,7 +60,7 @@ pub(super) fn diagnose_with_solver(
     reporter: &mut dyn Reporter,
 ) -> Result<Result<Diagnosis, CalibrationError>, Error> {
     let study = cx.study;
-    let extensions = extension_models(study, runs.sim, &runs.plan, &runs.usable);
+    let extensions = screened_extensions(study, runs, reporter);
     let read = match Reading::of(study, stage) {
         Ok(r) => r,
         Err(e) => return Ok(Err(e)),

@@ -76,6 +76,9 @@ pub enum Event<'a> {
     Note(String),
     /// Finished runs were copied into a recording directory.
     Recorded { runs: usize, dir: &'a Path },
+    /// A sweep (a fixed plan, or one batch of a sequence) ended with these runs failed: reported
+    /// as soon as it ends, before anything is fitted to the rest.
+    Failed(&'a [runs::FailedRun]),
     /// The sweep is over: how every planned run ended.
     RunsEnded(&'a RunOutcomes),
     /// The sweep was interrupted; the finished runs are kept in `out`.

@@ -5,10 +5,13 @@
 //! report is written, so no second `lab run` works on the same output directory meanwhile.
 
 use std::collections::BTreeMap;
+
+use indexmap::IndexMap;
 use std::path::{Path, PathBuf};
 
 use super::{Engine, Event, Reporter, RunOptions};
 use crate::error::Error;
+use crate::execute::replay::Damaged;
 use crate::execute::store::RUNS_DIR;
 use crate::execute::sweep::{self, Prepared, SweepResult};
 use crate::execute::{self, OutcomeClass, RunStore};
@@ -105,6 +108,8 @@ pub struct RunOutcomes {
     pub missing: usize,
     /// Planned runs with a record but no response, in plan order.
     pub failed: Vec<FailedRun>,
+    /// Recordings of successful runs this replay could not read (none when not replaying).
+    pub damaged: Vec<Damaged>,
 }
 
 impl RunOutcomes {
@@ -116,6 +121,7 @@ impl RunOutcomes {
         self.reused += more.reused;
         self.missing += more.missing;
         self.failed.extend(more.failed);
+        self.damaged.extend(more.damaged);
         self
     }
 }
@@ -124,11 +130,36 @@ impl RunOutcomes {
 #[derive(Debug, Clone)]
 pub struct FailedRun {
     pub design: String,
-    pub theta: Vec<f64>,
-    /// Its record's outcome.
+    /// Its calibration parameters and, for an extension's run, the extension's variables.
+    pub parameters: IndexMap<String, f64>,
+    pub key: String,
+    /// Its record's outcome class, and the outcome in words (the adapter's file:line where it
+    /// names one).
+    pub class: OutcomeClass,
     pub why: String,
-    /// Its run directory.
+    /// Its run directory; for a replayed run, its recording.
     pub dir: PathBuf,
+    /// Replayed from a recording of a run that succeeded: the recording is damaged.
+    pub damaged: bool,
+}
+
+impl FailedRun {
+    /// `design `C3T7`, parameters [152.0], key 115fad52…: <outcome> (see DIR)`: what failed, how,
+    /// and where to look.
+    pub fn words(&self) -> String {
+        let parameters: Vec<String> = self.parameters.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+        let place = match self.damaged {
+            true => format!("damaged recording {}", self.dir.display()),
+            false => format!("run directory {}", self.dir.display()),
+        };
+        format!(
+            "design `{}`, {}, key {} ({place}): {}",
+            self.design,
+            parameters.join(", "),
+            self.key,
+            self.why
+        )
+    }
 }
 
 /// What making a study's runs reads: the study and its solver, where the runs come from, how `lab
@@ -178,12 +209,19 @@ pub fn sweep_plan(
     let (options, engine) = (cx.options, cx.engine);
     sweep::write_meshes(&options.out, rendered)?;
     let solver = crate::extract::adapters::solver(cx.sim)?;
-    let swept = sweep_runs(cx, &solver, (plan, rendered), store, reporter)?;
+    let (swept, damaged) = sweep_runs(cx, &solver, (plan, rendered), store, reporter)?;
     if let Some(dir) = &options.record {
         let runs = sweep::record(cx.study, &solver, plan, rendered, store, dir)?;
         reporter.report(Event::Recorded { runs, dir });
     }
-    let outcomes = outcomes(plan, &rendered.keys, &swept, store);
+    let recordings = match cx.source {
+        Source::Replay(dir) => Some(dir.as_path()),
+        _ => None,
+    };
+    let outcomes = outcomes((cx.study, plan, &rendered.keys), &swept, store, (recordings, damaged));
+    if !outcomes.failed.is_empty() {
+        reporter.report(Event::Failed(&outcomes.failed));
+    }
     reporter.report(Event::RunsEnded(&outcomes));
     if engine.signals.interrupted() {
         reporter.report(Event::Interrupted { out: &options.out });
@@ -202,10 +240,10 @@ fn sweep_runs(
     (plan, rendered): (&Plan, &Prepared),
     store: &mut RunStore,
     reporter: &mut dyn Reporter,
-) -> Result<SweepResult, Error> {
+) -> Result<(SweepResult, Vec<Damaged>), Error> {
     let engine = cx.engine;
-    match cx.source {
-        Source::Replay(dir) => replay(cx.study, solver, plan, rendered, store, dir, reporter),
+    let swept = match cx.source {
+        Source::Replay(dir) => return replay(cx.study, solver, (plan, rendered), store, dir, reporter),
         Source::Slurm => sweep::run_slurm(store, cx.study, solver.sim, rendered, engine.signals),
         Source::Local => sweep::run(
             engine.runtime,
@@ -216,55 +254,112 @@ fn sweep_runs(
             &engine.signals.canceller,
             &mut |runs| reporter.progress(runs),
         ),
-    }
+    };
+    Ok((swept?, Vec::new()))
 }
 
 /// Serves the runs from recordings; a planned run without one is an error naming it, except a
 /// confirmation run: the recordings of another study's settings (other gates, other tests) cannot
 /// hold the solver at this study's fitted parameters, so those runs fail, named, and the verdict
-/// says it is not confirmed.
+/// says it is not confirmed. Where recordings this replay read are damaged, the error says so
+/// first: a damaged run changes what a sequence plans next, which is why runs have no recording.
 fn replay(
     study: &Study,
     solver: &sweep::Solver,
-    plan: &Plan,
-    rendered: &Prepared,
+    (plan, rendered): (&Plan, &Prepared),
     store: &mut RunStore,
     dir: &Path,
     reporter: &mut dyn Reporter,
-) -> Result<SweepResult, Error> {
+) -> Result<(SweepResult, Vec<Damaged>), Error> {
     if !dir.is_dir() {
         return Err(Error::Failed(format!(
             "replay directory {} does not exist",
             dir.display()
         )));
     }
-    let (swept, misses) = sweep::replay_runs(study, solver, plan, rendered, store, dir)?;
+    let replayed = sweep::replay_runs(study, solver, plan, rendered, store, dir)?;
+    let misses = &replayed.misses;
     if misses.is_empty() {
-        return Ok(swept);
+        return Ok((replayed.swept, replayed.damaged));
     }
-    let shown: Vec<&String> = misses.iter().take(5).collect();
-    let more = if misses.len() > 5 {
-        format!("\n... and {} more", misses.len() - 5)
-    } else {
-        String::new()
-    };
-    let listed = shown.iter().map(|m| format!("- {m}")).collect::<Vec<_>>().join("\n");
+    let listed = listed(misses);
     if plan.runs.iter().all(|r| r.role == crate::plan::RunRole::Confirm) {
         reporter.report(Event::Note(format!(
             "{} confirmation run(s) have no recording, so they failed and the verdict is not confirmed by the \
-             solver there (run the study live to confirm it):\n{listed}{more}",
+             solver there (run the study live to confirm it):\n{listed}",
             misses.len()
         )));
-        return Ok(swept);
+        return Ok((replayed.swept, replayed.damaged));
     }
-    Err(Error::Failed(format!(
-        "{} planned run(s) have no recording:\n{listed}{more}",
-        misses.len()
-    )))
+    let missing = format!("{} planned run(s) have no recording:\n{listed}", misses.len());
+    match replayed.damaged.is_empty() {
+        true => Err(Error::Failed(missing)),
+        false => Err(damaged_error(solver, store, dir, &replayed.damaged, Some(&missing))),
+    }
 }
 
-/// How the planned runs ended, from the sweep and the store's records.
-fn outcomes(plan: &Plan, keys: &[String], swept: &SweepResult, store: &RunStore) -> RunOutcomes {
+/// At most five lines of `items` as a list, then a count of the rest.
+fn listed(items: &[String]) -> String {
+    let mut text = items
+        .iter()
+        .take(5)
+        .map(|m| format!("- {m}"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    if items.len() > 5 {
+        text += &format!("\n... and {} more", items.len() - 5);
+    }
+    text
+}
+
+/// Why a replay cannot go on: the damaged recordings it read, every other recording in `dir` that
+/// is damaged too (judged now, so that all of them are named at once), and what to do.
+pub fn damaged_error(
+    solver: &sweep::Solver,
+    store: &RunStore,
+    dir: &Path,
+    damaged: &[Damaged],
+    missing: Option<&str>,
+) -> Error {
+    let read: std::collections::BTreeSet<String> = damaged.iter().map(|d| d.key.clone()).collect();
+    let others = sweep::damaged_recordings(solver.adapter.as_ref(), store.out(), dir, &read);
+    let words = |d: &[Damaged]| {
+        d.iter()
+            .map(|d| format!("- {}", d.words()))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    let mut text = format!(
+        "{} recording(s) in {} are damaged: the live runs they record succeeded, but their outputs as they are now \
+         fail as a live run would:\n{}",
+        damaged.len(),
+        dir.display(),
+        words(damaged)
+    );
+    if !others.is_empty() {
+        text += &format!(
+            "\n{} other recording(s) there are damaged too (not yet asked for):\n{}",
+            others.len(),
+            words(&others)
+        );
+    }
+    text += "\nA live sequence plans its next runs around a failed run; a replay can serve only the runs that were \
+             recorded, so it stops here. Restore these recordings from where they were made, or make them again with \
+             `lab run STUDY --record DIR` where the solver is installed.";
+    if let Some(m) = missing {
+        text += &format!("\n(what the replay asked for next: {m})");
+    }
+    Error::Failed(text)
+}
+
+/// How the planned runs ended, from the sweep and the store's records; `recordings`: the replay's
+/// directory and the recordings in it found damaged.
+fn outcomes(
+    (study, plan, keys): (&Study, &Plan, &[String]),
+    swept: &SweepResult,
+    store: &RunStore,
+    (recordings, damaged): (Option<&Path>, Vec<Damaged>),
+) -> RunOutcomes {
     let mut classes = BTreeMap::new();
     for class in swept.classes.iter().flatten() {
         *classes.entry(*class).or_insert(0) += 1;
@@ -276,11 +371,17 @@ fn outcomes(plan: &Plan, keys: &[String], swept: &SweepResult, store: &RunStore)
         .filter(|&i| swept.classes[i].is_some() && swept.responses[i].is_none())
         .map(|i| {
             let (run, key) = (&plan.runs[i], &keys[i]);
+            let record = store.record(key);
+            let mut parameters = study.parameter_values(&run.theta);
+            parameters.extend(run.extension.iter().cloned());
             FailedRun {
                 design: run.design.clone(),
-                theta: run.theta.clone(),
-                why: store.record(key).map(|r| r.outcome.to_string()).unwrap_or_default(),
-                dir: store.run_dir(key),
+                parameters,
+                key: key.clone(),
+                class: swept.classes[i].unwrap_or(OutcomeClass::BadResponse),
+                why: record.map(|r| r.outcome.to_string()).unwrap_or_default(),
+                dir: recordings.map_or_else(|| store.run_dir(key), |d| d.join(key)),
+                damaged: damaged.iter().any(|d| &d.key == key),
             }
         })
         .collect();
@@ -289,6 +390,7 @@ fn outcomes(plan: &Plan, keys: &[String], swept: &SweepResult, store: &RunStore)
         reused: swept.reused,
         missing: swept.classes.iter().filter(|c| c.is_none()).count(),
         failed,
+        damaged,
     }
 }
 

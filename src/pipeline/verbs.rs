@@ -77,6 +77,9 @@ pub struct Status {
     pub planned: usize,
     pub done: usize,
     pub failed: usize,
+    /// Of `failed`, per stage (`screening`, `probes`, `loop: <hypothesis>`, `confirmation`), in
+    /// the order the stages ran.
+    pub failed_by_stage: Vec<(String, usize)>,
     pub running: usize,
     pub pending: usize,
     /// Whether a lab holds the output directory: `Some(None)` while the holder is being written.
@@ -127,15 +130,23 @@ pub fn status(study: &Study, out: &Path) -> Result<Option<Status>, Error> {
         planned: plan.runs.len(),
         done: 0,
         failed: 0,
+        failed_by_stage: Vec::new(),
         running: 0,
         pending: 0,
         holder,
         batches: sequence.as_ref().map(batches),
     };
-    for key in &prepared.keys {
+    for (key, run) in prepared.keys.iter().zip(&plan.runs) {
         match snapshot.records.get(key) {
             Some(r) if r.outcome.is_success() => status.done += 1,
-            Some(_) => status.failed += 1,
+            Some(_) => {
+                status.failed += 1;
+                let stage = run.role.stage(study);
+                match status.failed_by_stage.iter_mut().find(|(s, _)| *s == stage) {
+                    Some((_, n)) => *n += 1,
+                    None => status.failed_by_stage.push((stage, 1)),
+                }
+            }
             None if status.holder.is_some() && snapshot.run_dirs.contains(key) => status.running += 1,
             None => status.pending += 1,
         }

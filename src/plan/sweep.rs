@@ -57,6 +57,18 @@ impl RunRole {
             RunRole::Confirm => "confirmation",
         }
     }
+
+    /// The stage a run of this role belongs to, as `sequence.json`, `results.json` `runs.outcomes`
+    /// and `lab status` name it: `screening` (samples and checks), `probes` (the extension
+    /// hypotheses' screening runs), `loop: <hypothesis>`, `confirmation`.
+    pub fn stage(self, study: &Study) -> String {
+        match self {
+            RunRole::Sample | RunRole::Check => "screening".into(),
+            RunRole::Extension(_) => "probes".into(),
+            RunRole::Joint(k) | RunRole::JointCheck(k) => format!("loop: {}", study.diagnosis.hypotheses[k].name),
+            RunRole::Confirm => "confirmation".into(),
+        }
+    }
 }
 
 /// One planned solver run.

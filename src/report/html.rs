@@ -322,10 +322,13 @@ impl Page<'_> {
 
     fn runs_summary(&self) -> String {
         match &self.r.runs {
-            Some(r) => format!(
-                "<p>{} planned solver runs: {} done, {} failed.</p>",
-                r.planned, r.succeeded, r.failed
-            ),
+            Some(r) => match r.failed_words() {
+                Some(words) => format!("<p class=warn>{}.</p>", escape(&words)),
+                None => format!(
+                    "<p>{} planned solver runs: {} done, none failed.</p>",
+                    r.planned, r.succeeded
+                ),
+            },
             None => String::new(),
         }
     }

@@ -2,6 +2,7 @@
 //!
 //! Built from the study and the calibration; serialised with parameter and design order kept.
 
+use std::collections::BTreeMap;
 use std::path::Path;
 
 use indexmap::IndexMap;
@@ -148,6 +149,30 @@ pub struct SurrogateResult {
     pub check_mean_relative_error: Option<f64>,
 }
 
+impl RunsResult {
+    /// When runs failed: `23 of 54 solver runs failed (screening 18, probes 3, confirmation 2); the
+    /// emulators, the calibration and the verdict rest on the 31 that finished`.
+    pub fn failed_words(&self) -> Option<String> {
+        if self.failed == 0 {
+            return None;
+        }
+        let stages: Vec<String> = (self.outcomes.iter())
+            .filter_map(|(stage, classes)| {
+                let failed: usize = (classes.iter()).filter(|(c, _)| *c != "success").map(|(_, n)| n).sum();
+                (failed > 0).then(|| format!("{stage} {failed}"))
+            })
+            .collect();
+        Some(format!(
+            "{} of {} solver runs failed ({}); the emulators, the calibration and the verdict rest on the {} that \
+             finished",
+            self.failed,
+            self.planned,
+            stages.join(", "),
+            self.succeeded
+        ))
+    }
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct RunsResult {
     /// Every run of the study: the screening's, the solver-in-the-loop's and the confirmation's.
@@ -174,6 +199,11 @@ pub struct RunsResult {
     /// Every suspect run, with the gates it breaks and whether the surrogates used it.
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub suspect_runs: Vec<SuspectRun>,
+    /// The planned runs per stage (`screening`, `probes`, `loop: <hypothesis>`, `confirmation`) and
+    /// outcome class of their record (`success`, `bad_response`, `timeout`, ...; `not_run` for a run
+    /// with no record).
+    #[serde(default)]
+    pub outcomes: IndexMap<String, BTreeMap<String, usize>>,
 }
 
 /// A run that broke a quality gate: kept and shown, used only with `quality.suspect: use`.

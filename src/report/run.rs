@@ -4,6 +4,8 @@
 use std::path::Path;
 use std::time::Instant;
 
+use indexmap::IndexMap;
+
 use super::Results;
 use super::data::{ExtensionSurface, ReportData};
 use super::results::{RunsResult, SplitResult, SuspectRun};
@@ -117,8 +119,17 @@ fn results(
             .any(|(_, _, swept, _)| swept.quality.iter().any(Option::is_some))
             .then_some(gates),
         suspect_runs: Vec::new(),
+        outcomes: IndexMap::new(),
     };
     for (plan, keys, swept, flags) in sweeps {
+        for (run, class) in plan.runs.iter().zip(&swept.classes) {
+            let class = class.map_or("not_run".to_string(), |c| c.key());
+            *all.outcomes
+                .entry(run.role.stage(study))
+                .or_default()
+                .entry(class)
+                .or_insert(0) += 1;
+        }
         let succeeded = swept.responses.iter().filter(|r| r.is_some()).count();
         all.planned += plan.runs.len();
         all.succeeded += succeeded;

@@ -16,8 +16,22 @@ pub fn render(results: &Results) -> String {
     if let Some(c) = &results.curve_calibration {
         out.push_str(&curves_table(c));
     }
+    out.push_str(&failed_runs(results));
     write_diagnosis(&mut out, results);
     out
+}
+
+/// When runs failed: how many, in which stages, and that the fits and the verdict rest on the
+/// runs that finished.
+fn failed_runs(results: &Results) -> String {
+    let Some(words) = results.runs.as_ref().and_then(|r| r.failed_words()) else {
+        return String::new();
+    };
+    let listed = match results.sampling {
+        Some(_) => "listed above and in results.json `sampling.sequence[].failed`",
+        None => "listed above",
+    };
+    format!("\ncaution: {words} (the failed runs are {listed})\n")
 }
 
 /// A sequential study's solver runs in all, stage by stage, and why each stopped; first, when the
@@ -29,16 +43,27 @@ fn sampling_line(results: &Results) -> String {
     let stages: Vec<String> = s
         .stopped
         .iter()
-        .map(|x| format!("{} {} ({})", x.stage, x.runs, x.reason.key()))
+        .map(|x| match x.failed {
+            0 => format!("{} {} ({})", x.stage, x.runs, x.reason.key()),
+            n => format!("{} {} ({}, {n} failed)", x.stage, x.runs, x.reason.key()),
+        })
         .collect();
+    let starts = match s.attempts() {
+        n if n > s.runs => format!(" ({n} solver starts with retries)"),
+        _ => String::new(),
+    };
+    let failed = match s.failed() {
+        0 => starts,
+        n => format!("{starts}, {n} failed"),
+    };
     let total = match &s.replaces {
         Some(r) => format!(
-            "{} → {} solver runs: sampled sequentially in place of a {}",
+            "{} → {} solver runs{failed}: sampled sequentially in place of a {}",
             r.runs,
             s.runs,
             r.design()
         ),
-        None => format!("solver runs: {} in all, sampled sequentially", s.runs),
+        None => format!("solver runs: {} in all{failed}, sampled sequentially", s.runs),
     };
     format!("{total}: {}\n\n", stages.join(", "))
 }

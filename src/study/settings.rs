@@ -190,6 +190,16 @@ pub enum OutcomeClass {
     Lost,
 }
 
+impl OutcomeClass {
+    /// Its name in `results.json` and on the terminal (`bad_response`), as serialized.
+    pub fn key(self) -> String {
+        serde_json::to_value(self)
+            .ok()
+            .and_then(|v| v.as_str().map(String::from))
+            .unwrap_or_default()
+    }
+}
+
 /// How often, on which outcomes, and after how long a failed attempt is retried.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RetryPolicy {

@@ -45,7 +45,9 @@ use crate::study::{SolverSimulation, Study};
 pub use converge::{Decide, Decided, Fitted, Provisional};
 pub use record::{Batch, BatchState, Placed, Sequence, Stop};
 use sites::{RunData, Tests};
-use stage::{Assessed, Limits, Next, Stage, StageId, fnv, latest_batches, probe_points, run_at, usable_counts};
+use stage::{
+    Assessed, Limits, Next, Stage, StageId, fnv, latest_batches, probe_points, probe_replacement, run_at, usable_counts,
+};
 pub use stage::{ScreeningRuns, StopReason};
 
 /// The screening of a sequential study: the plan it made (samples, the latest batch per design as
@@ -225,7 +227,7 @@ impl<'a> Runner<'a> {
     }
 
     /// Renders and runs `new` as batch `b` of the stage, records it, and reads its responses and
-    /// curves.
+    /// curves; the batch's runs that failed.
     fn batch(
         &mut self,
         stage: &Stage,
@@ -233,7 +235,7 @@ impl<'a> Runner<'a> {
         b: usize,
         store: &mut RunStore,
         reporter: &mut dyn Reporter,
-    ) -> Result<(), Error> {
+    ) -> Result<Vec<PlannedRun>, Error> {
         let cx = self.set.cx;
         let batch = Plan { runs: new };
         self.sequence.planned.extend(batch.runs.iter().map(record::Planned::of));
@@ -245,11 +247,25 @@ impl<'a> Runner<'a> {
         let solver = crate::extract::adapters::solver(cx.sim)?;
         let rendered = sweep::prepare_after(cx.study, &solver, &batch, self.made.rendered.as_ref())?;
         let (swept, outcomes) = runs::sweep_plan(cx, &batch, &rendered, store, &mut Quiet(reporter))?;
+        if let Some(last) = self.sequence.sequence.last_mut() {
+            last.count.failed = record::Failed::of(&outcomes);
+            last.count.attempts = record::retried(store, &rendered.keys);
+        }
+        self.sequence.write(&cx.options.out)?;
+        if let Source::Replay(dir) = cx.source
+            && !outcomes.damaged.is_empty()
+        {
+            return Err(runs::damaged_error(&solver, store, dir, &outcomes.damaged, None));
+        }
         let usable = swept.usable(&cx.sim.quality);
         let curves = match &self.set.setting {
             Some(s) => curves::on_grid(cx.study, cx.sim, s, &rendered.keys, &usable, &self.dirs(store)),
             None => vec![None; usable.len()],
         };
+        let failed: Vec<PlannedRun> = (batch.runs.iter().zip(&rendered.keys))
+            .filter(|(_, key)| outcomes.failed.iter().any(|f| f.key == **key))
+            .map(|(run, _)| run.clone())
+            .collect();
         let made = &mut self.made;
         made.outcomes = std::mem::take(&mut made.outcomes).merge(outcomes);
         made.batch_of.extend(std::iter::repeat_n(b, batch.runs.len()));
@@ -257,7 +273,7 @@ impl<'a> Runner<'a> {
         made.curves.extend(curves);
         made.plan.runs.extend(batch.runs);
         made.rendered = Some(merge(made.rendered.take(), rendered));
-        Ok(())
+        Ok(failed)
     }
 
     /// Where finished runs' outputs are (as [`Executed::output_dirs`]).
@@ -330,6 +346,10 @@ impl<'a> Runner<'a> {
         let latest = self.made.batch_of.last().copied().unwrap_or(0);
         let seed = self.set.limits.seed ^ fnv(&stage.name) ^ (latest as u64).wrapping_mul(0x9e37_79b9);
         let started = std::time::Instant::now();
+        let failing = self.sequence.failing(&stage.name);
+        if failing && self.run_data(stage).iter().all(|r| r.response.is_none()) {
+            return Err(self.nothing_to_fit(stage));
+        }
         let assessed = self.assess(stage, self.made.stage_batch(stage), seed);
         if let Some(last) = self.sequence.sequence.iter().rev().find(|l| l.stage == stage.name) {
             reporter.report(Event::Batch(last));
@@ -344,7 +364,7 @@ impl<'a> Runner<'a> {
             false => Vec::new(),
         };
         self.planning = started.elapsed().as_secs_f64();
-        match stage.next(&assessed, room, settled, picks) {
+        match stage.next(&assessed, (room, failing), settled, picks) {
             Next::Batch(new) => {
                 self.batch(stage, new, latest + 1, store, reporter)?;
                 Ok(None)
@@ -362,16 +382,43 @@ impl<'a> Runner<'a> {
     }
 
     /// The planner's next batch of the stage: its points where the runs most reduce what the
-    /// posterior depends on, as runs at their tested designs.
+    /// posterior depends on, as runs at their tested designs; never a run that failed already (its
+    /// retries, where the study allows them, were made when it ran).
     fn picks(&self, stage: &Stage, a: &Assessed, room: usize, seed: u64) -> Vec<PlannedRun> {
         let q = self.set.limits.batch.min(room);
+        let made = &self.made;
+        let failed: Vec<&PlannedRun> = (made.plan.runs.iter().zip(&made.responses))
+            .filter(|(run, y)| y.is_none() && stage.mine(run))
+            .map(|(run, _)| run)
+            .collect();
         seq::choose(&stage.bounds, &a.sites, &a.emulators, &a.posterior, &a.open, q, seed)
             .iter()
             .map(|(s, x)| {
                 let t = &self.set.tests.designs[*s];
                 stage.run_at(self.set.sim(), &t.name, &t.values, x)
             })
+            .filter(|run| !failed.iter().any(|f| same_run(f, run)))
             .collect()
+    }
+
+    /// Why a stage whose runs all failed stops the study: nothing to fit.
+    fn nothing_to_fit(&self, stage: &Stage) -> Error {
+        let failed: Vec<&record::Failed> = (self.sequence.sequence.iter())
+            .filter(|b| b.stage == stage.name)
+            .flat_map(|b| &b.count.failed)
+            .collect();
+        let shown: Vec<String> = failed
+            .iter()
+            .take(5)
+            .map(|f| format!("- design `{}`, key {}: {}", f.design, f.key, f.detail))
+            .collect();
+        Error::Failed(format!(
+            "{}: every one of its {} run(s) failed, so there is nothing to fit an emulator to (each is in {}):\n{}",
+            stage.name,
+            failed.len(),
+            self.set.cx.options.out.join(record::FILE).display(),
+            shown.join("\n")
+        ))
     }
 
     /// Says that a stage stopped before its emulators were within the tolerance: the decision then
@@ -387,9 +434,13 @@ impl<'a> Runner<'a> {
         else {
             return;
         };
+        let predicted = match predicted {
+            Some(p) => format!("{p:.3} of the tests' noise predicted"),
+            None => "none predicted (no run there finished)".to_string(),
+        };
         let error = match measured {
-            Some(m) => format!("{m:.3} of the tests' noise on runs they were not fitted to, {predicted:.3} predicted"),
-            None => format!("not yet measured (nothing held out), {predicted:.3} of the tests' noise predicted"),
+            Some(m) => format!("{m:.3} of the tests' noise on runs they were not fitted to, {predicted}"),
+            None => format!("not measured (nothing held out yet, or the runs held out failed), {predicted}"),
         };
         reporter.report(Event::Note(format!(
             "{}: stopped ({}) before its emulators were within {} of the tests' noise at every tested design — \
@@ -426,6 +477,9 @@ impl<'a> Runner<'a> {
                 false => sites::measured_errors(tests, &data, kinds, bounds),
             },
         );
+        // An error that could not be measured (the held-out runs failed, or the emulators could not
+        // be fitted without them) is not measured: the design stays open, and no "inf" is shown.
+        let measured: Vec<Option<f64>> = measured.into_iter().map(|m| m.filter(|v| v.is_finite())).collect();
         let predicted: Vec<f64> = sites
             .iter()
             .zip(&emulators)
@@ -516,20 +570,45 @@ impl<'a> Runner<'a> {
             return Ok(());
         }
         let stage = Stage::probes(study);
-        let n = new.len();
-        self.batch(
-            &stage,
-            new,
-            1 + self.made.batch_of.last().copied().unwrap_or(0),
-            store,
-            reporter,
-        )?;
+        let mut n = new.len();
+        let failed = self.probe_batch(&stage, new, store, reporter)?;
+        // A failed probe is placed once more, elsewhere: without it the hypothesis would be
+        // screened on fewer points than its surrogate needs.
+        let bounds = study.parameter_bounds();
+        let again: Vec<PlannedRun> = (failed.into_iter())
+            .map(|run| PlannedRun {
+                theta: crate::plan::sweep::as_written(sim, &probe_replacement(&run.theta, posterior, &bounds)),
+                ..run
+            })
+            .collect();
+        if !again.is_empty() {
+            if let Some(last) = self.sequence.sequence.last() {
+                reporter.report(Event::Batch(last));
+            }
+            n += again.len();
+            self.probe_batch(&stage, again, store, reporter)?;
+        }
         self.sequence.stop(&stage.name, StopReason::Planned, n);
         if let Some(last) = self.sequence.sequence.last_mut() {
-            last.state = BatchState::Done;
             reporter.report(Event::Batch(last));
         }
         self.sequence.write(&self.set.cx.options.out)
+    }
+
+    /// One batch of probes, done as planned; its failed runs.
+    fn probe_batch(
+        &mut self,
+        stage: &Stage,
+        new: Vec<PlannedRun>,
+        store: &mut RunStore,
+        reporter: &mut dyn Reporter,
+    ) -> Result<Vec<PlannedRun>, Error> {
+        let b = self.made.next_batch();
+        let failed = self.batch(stage, new, b, store, reporter)?;
+        if let Some(last) = self.sequence.sequence.last_mut() {
+            last.state = BatchState::Done;
+        }
+        Ok(failed)
     }
 
     /// The stage's plan as made, its rendering, and every run's record as the store holds it (read
@@ -552,6 +631,11 @@ impl<'a> Runner<'a> {
         self.sequence.write(&self.set.cx.options.out)?;
         Ok((plan, rendered, swept, outcomes))
     }
+}
+
+/// Whether two planned runs are the same run (design, parameters and extension values).
+fn same_run(a: &PlannedRun, b: &PlannedRun) -> bool {
+    a.design == b.design && a.theta == b.theta && a.extension == b.extension
 }
 
 /// A rendering of nothing.

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use super::stage::StopReason;
 use crate::error::Error;
+use crate::pipeline::runs::RunOutcomes;
 use crate::plan::sweep::fixed_runs;
 use crate::plan::{Plan, PlannedRun, RunRole};
 use crate::study::solver::Sampling;
@@ -73,12 +74,33 @@ pub struct Batch {
     pub placed: Option<Placed>,
 }
 
-/// A batch's runs, and the runs so far of every stage.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+/// A batch's runs, the runs so far of every stage, and the batch's runs that failed.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct BatchCount {
     pub runs: usize,
     /// Runs so far, every stage.
     pub total: usize,
+    /// The batch's runs that failed (the stage went on without them), in plan order.
+    #[serde(default)]
+    pub failed: Vec<Failed>,
+    /// Solver starts its runs took, retries included, where more than its runs.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub attempts: Option<usize>,
+}
+
+/// A run that failed, as `sequence.json` and `results.json` keep it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Failed {
+    pub design: String,
+    /// Its calibration parameters and, for an extension's run, the extension's variables.
+    pub parameters: IndexMap<String, f64>,
+    pub key: String,
+    pub outcome: crate::execute::OutcomeClass,
+    /// The outcome in words: the adapter's file:line where it names one.
+    pub detail: String,
+    /// Replayed from a recording of a run that succeeded: the recording is damaged.
+    #[serde(skip_serializing_if = "std::ops::Not::not", default)]
+    pub damaged: bool,
 }
 
 /// The emulators' error per tested design once a batch was in.
@@ -87,8 +109,9 @@ pub struct BatchErrors {
     /// Per tested design: the emulators' error on its latest runs, fitted without them, in units of
     /// the tests' noise of the mean (`null`: nothing held out yet).
     pub emulator_error: IndexMap<String, Option<f64>>,
-    /// Per tested design: the emulators' own predictive error at the posterior, same units.
-    pub predicted_error: IndexMap<String, f64>,
+    /// Per tested design: the emulators' own predictive error at the posterior, same units
+    /// (`null`: it cannot be computed, no run of the design finished).
+    pub predicted_error: IndexMap<String, Option<f64>>,
 }
 
 /// The posterior's mean and 95 % interval of each variable of the space once a batch was in.
@@ -187,10 +210,14 @@ impl Replaced {
 pub struct Stop {
     pub stage: String,
     /// `converged` (the emulators' error at the posterior within the tolerance at every tested
-    /// design), `settled`, `budget` (the runs allowed are spent), `nowhere to run`, or `planned` (a
-    /// stage of fixed size).
+    /// design), `settled`, `budget` (the runs allowed are spent), `nowhere to run`, `failures`
+    /// (its latest batches' runs all failed), or `planned` (a stage of fixed size).
     pub reason: StopReason,
+    /// Its runs, the failed ones included.
     pub runs: usize,
+    /// Of those, the runs that failed.
+    #[serde(default)]
+    pub failed: usize,
 }
 
 /// A planned run as `sequence.json` keeps it.
@@ -240,6 +267,34 @@ impl Planned {
     }
 }
 
+/// The solver starts of the runs `keys` (each key once), where a retry made them more than the
+/// runs; `None` otherwise.
+pub fn retried(store: &crate::execute::RunStore, keys: &[String]) -> Option<usize> {
+    let unique: std::collections::BTreeSet<&String> = keys.iter().collect();
+    let attempts: usize = (unique.iter())
+        .map(|k| store.record(k).map_or(1, |r| r.attempts as usize))
+        .sum();
+    (attempts > unique.len()).then_some(attempts + keys.len() - unique.len())
+}
+
+impl Failed {
+    /// A batch's failed runs as the sequence's record keeps them.
+    pub fn of(outcomes: &RunOutcomes) -> Vec<Failed> {
+        outcomes
+            .failed
+            .iter()
+            .map(|f| Failed {
+                design: f.design.clone(),
+                parameters: f.parameters.clone(),
+                key: f.key.clone(),
+                outcome: f.class,
+                detail: f.why.clone(),
+                damaged: f.damaged,
+            })
+            .collect()
+    }
+}
+
 impl Sequence {
     /// Records that `stage` stopped for `reason` after `runs` runs, on the stage's last batch too.
     pub fn stop(&mut self, stage: &str, reason: StopReason, runs: usize) {
@@ -249,11 +304,45 @@ impl Sequence {
         // A stage stopped again (the loop's tolerance tightened, or its emulators checked at the
         // decision's fitted point) has one stop: its last.
         self.stopped.retain(|s| s.stage != stage);
+        let failed = self.failed_in(stage);
         self.stopped.push(Stop {
             stage: stage.to_string(),
             reason,
             runs,
+            failed,
         });
+    }
+
+    /// The runs of `stage` that failed, every batch.
+    pub fn failed_in(&self, stage: &str) -> usize {
+        self.sequence
+            .iter()
+            .filter(|b| b.stage == stage)
+            .map(|b| b.count.failed.len())
+            .sum()
+    }
+
+    /// Whether every run of `stage`'s latest two batches failed (of its only one, when it has one).
+    pub fn failing(&self, stage: &str) -> bool {
+        let mine: Vec<&Batch> = self.sequence.iter().filter(|b| b.stage == stage).collect();
+        let latest = &mine[mine.len().saturating_sub(2)..];
+        !latest.is_empty()
+            && latest
+                .iter()
+                .all(|b| b.count.runs > 0 && b.count.failed.len() == b.count.runs)
+    }
+
+    /// Solver starts in all, retries included (`runs` when no run was retried).
+    pub fn attempts(&self) -> usize {
+        self.sequence
+            .iter()
+            .map(|b| b.count.attempts.unwrap_or(b.count.runs))
+            .sum()
+    }
+
+    /// The runs that failed, every stage.
+    pub fn failed(&self) -> usize {
+        self.sequence.iter().map(|b| b.count.failed.len()).sum()
     }
 
     /// Whether `stage` last stopped with its emulators within the tolerance.
@@ -294,12 +383,19 @@ impl Sequence {
         self.write(out)
     }
 
-    /// `stage`'s batch of fixed size done with its `runs` runs: stopped as planned; the batch.
-    pub fn finish_planned(&mut self, stage: &str, runs: usize, out: &Path) -> Result<Option<&Batch>, Error> {
-        self.stop(stage, StopReason::Planned, runs);
+    /// `stage`'s batch of fixed size done with its `runs` runs, `failed` of them failed: stopped as
+    /// planned; the batch.
+    pub fn finish_planned(
+        &mut self,
+        stage: &str,
+        (runs, failed): (usize, Vec<Failed>),
+        out: &Path,
+    ) -> Result<Option<&Batch>, Error> {
         if let Some(last) = self.sequence.last_mut() {
             last.state = BatchState::Done;
+            last.count.failed = failed;
         }
+        self.stop(stage, StopReason::Planned, runs);
         self.write(out)?;
         Ok(self.sequence.last())
     }
@@ -320,6 +416,8 @@ impl Batch {
             count: BatchCount {
                 runs: batch.runs.len(),
                 total,
+                failed: Vec::new(),
+                attempts: None,
             },
             designs,
             errors: Default::default(),
@@ -342,7 +440,9 @@ impl Batch {
         self.state = BatchState::Done;
         for (d, (m, p)) in designs.iter().zip(measured.iter().zip(predicted)) {
             self.errors.emulator_error.insert(d.clone(), *m);
-            self.errors.predicted_error.insert(d.clone(), *p);
+            self.errors
+                .predicted_error
+                .insert(d.clone(), p.is_finite().then_some(*p));
         }
         for (j, n) in names.iter().enumerate() {
             self.posterior.estimates.insert(n.clone(), posterior.mean[j]);
@@ -352,53 +452,74 @@ impl Batch {
 
     /// The tested design whose emulators are furthest from the tests' noise after this batch (by
     /// the larger of measured and predicted error; nothing held out counts as furthest), with its
-    /// measured error (`None`: nothing held out yet) and its predicted one.
-    pub fn worst(&self) -> Option<(&str, Option<f64>, f64)> {
-        let size = |(_, m, p): &(&str, Option<f64>, f64)| m.map_or(f64::INFINITY, |m| m.max(*p));
+    /// measured error (`None`: nothing held out yet) and its predicted one (`None`: no run of the
+    /// design finished).
+    pub fn worst(&self) -> Option<(&str, Option<f64>, Option<f64>)> {
+        let size = |(_, m, p): &(&str, Option<f64>, Option<f64>)| match (m, p) {
+            (Some(m), Some(p)) => m.max(*p),
+            _ => f64::INFINITY,
+        };
         self.errors
             .emulator_error
             .iter()
-            .map(|(d, m)| {
-                (
-                    d.as_str(),
-                    *m,
-                    self.errors.predicted_error.get(d).copied().unwrap_or(0.0),
-                )
-            })
+            .map(|(d, m)| (d.as_str(), *m, self.errors.predicted_error.get(d).copied().flatten()))
             .max_by(|a, b| size(a).total_cmp(&size(b)))
     }
 
     /// One line for the terminal: the batch, its runs, the worst emulator error and the estimates.
     pub fn line(&self) -> String {
-        // The largest over the designs measured; those with nothing held out yet are counted apart
-        // (an infinite "error" would say nothing the engineer can act on).
+        // The largest over the designs measured; those not measured are counted apart (an infinite
+        // "error" would say nothing the engineer can act on): nothing held out yet, or the runs held
+        // out at the design all failed.
         let measured: Vec<f64> = self.errors.emulator_error.values().flatten().copied().collect();
-        let unmeasured = self.errors.emulator_error.len() - measured.len();
-        let error = if measured.is_empty() {
-            "nothing held out yet".to_string()
-        } else {
-            let worst = measured.iter().copied().fold(0.0, f64::max);
-            let rest = match unmeasured {
-                0 => String::new(),
-                n => format!(" ({n} design(s) with nothing held out yet)"),
-            };
-            format!(
-                "emulator error ≤ {} of the tests' noise{rest}",
-                crate::base::format::num(worst)
-            )
+        let unmeasured: Vec<&String> = (self.errors.emulator_error.iter())
+            .filter(|(_, m)| m.is_none())
+            .map(|(d, _)| d)
+            .collect();
+        // Held out at a design are this batch's runs there: unmeasured because they failed when
+        // every one of them failed.
+        let failed_at = |d: &String| {
+            let failed = self.count.failed.iter().filter(|f| f.design == *d).count();
+            failed > 0 && failed == self.designs.get(d).copied().unwrap_or(0)
+        };
+        let (failed, unheld) = (
+            unmeasured.iter().filter(|d| failed_at(d)).count(),
+            unmeasured.iter().filter(|d| !failed_at(d)).count(),
+        );
+        let mut apart = Vec::new();
+        if unheld > 0 {
+            apart.push(format!("{unheld} design(s) with nothing held out yet"));
+        }
+        if failed > 0 {
+            apart.push(format!("{failed} design(s) whose runs held out failed"));
+        }
+        let error = match (measured.is_empty(), failed) {
+            (true, 0) => "nothing held out yet".to_string(),
+            (true, _) => format!("emulator error not measured ({})", apart.join(", ")),
+            (false, _) => {
+                let worst = measured.iter().copied().fold(0.0, f64::max);
+                let rest = match apart.is_empty() {
+                    true => String::new(),
+                    false => format!(" ({})", apart.join(", ")),
+                };
+                format!(
+                    "emulator error ≤ {} of the tests' noise{rest}",
+                    crate::base::format::num(worst)
+                )
+            }
         };
         let estimates: Vec<String> = self
             .posterior
             .estimates
             .iter()
-            .map(|(n, v)| {
-                let [lo, hi] = self.posterior.interval95.get(n).copied().unwrap_or([f64::NAN; 2]);
-                format!(
+            .map(|(n, v)| match self.posterior.interval95.get(n) {
+                Some([lo, hi]) => format!(
                     "{n} {} [{}, {}]",
                     crate::base::format::num(*v),
-                    crate::base::format::num(lo),
-                    crate::base::format::num(hi)
-                )
+                    crate::base::format::num(*lo),
+                    crate::base::format::num(*hi)
+                ),
+                None => format!("{n} {}", crate::base::format::num(*v)),
             })
             .collect();
         let placed = self.placed.map_or_else(String::new, |p| format!(" at {}", p.words()));
@@ -409,9 +530,56 @@ impl Batch {
         if !estimates.is_empty() {
             line += &format!("; {}", estimates.join(", "));
         }
+        if !self.count.failed.is_empty() {
+            line += &format!("; {} failed", self.count.failed.len());
+        }
         if let Some(reason) = self.stopped {
             line += &format!("; stopped: {}", reason.key());
         }
         line
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn batch(stage: &str, runs: usize, failed: usize) -> Batch {
+        let mut b = Batch::in_flight(stage, &Plan { runs: Vec::new() }, 0, 0, 0.0);
+        b.count.runs = runs;
+        let f = Failed {
+            design: "d".into(),
+            parameters: IndexMap::new(),
+            key: "k".into(),
+            outcome: crate::execute::OutcomeClass::Timeout,
+            detail: "timeout".into(),
+            damaged: false,
+        };
+        b.count.failed = vec![f; failed];
+        b
+    }
+
+    #[test]
+    fn a_stage_is_failing_when_its_latest_two_batches_all_failed() {
+        let with = |batches: Vec<Batch>| Sequence {
+            sequence: batches,
+            ..Sequence::default()
+        };
+        assert!(!with(vec![]).failing("s"));
+        assert!(with(vec![batch("s", 12, 12)]).failing("s"));
+        assert!(!with(vec![batch("s", 12, 11)]).failing("s"));
+        assert!(!with(vec![batch("s", 12, 3), batch("s", 3, 3)]).failing("s"));
+        assert!(
+            with(vec![
+                batch("s", 12, 3),
+                batch("s", 3, 3),
+                batch("t", 3, 0),
+                batch("s", 3, 3)
+            ])
+            .failing("s")
+        );
+        assert!(!with(vec![batch("s", 3, 3), batch("s", 3, 2)]).failing("s"));
+        let s = with(vec![batch("s", 12, 3), batch("t", 3, 1), batch("s", 3, 2)]);
+        assert_eq!((s.failed_in("s"), s.failed_in("t"), s.failed()), (5, 1, 6));
     }
 }

@@ -49,6 +49,10 @@ pub enum StopReason {
     /// A stage of fixed size.
     #[serde(rename = "planned")]
     Planned,
+    /// Every run of the stage's latest two batches failed (of its first, when it has one): more
+    /// runs would spend the budget on a solver that does not finish there.
+    #[serde(rename = "failures")]
+    Failures,
 }
 
 impl StopReason {
@@ -60,6 +64,7 @@ impl StopReason {
             StopReason::Budget => "budget",
             StopReason::NowhereToRun => "nowhere to run",
             StopReason::Planned => "planned",
+            StopReason::Failures => "failures",
         }
     }
 }
@@ -166,8 +171,17 @@ impl<'s> Stage<'s> {
     /// Given what the runs in hand showed, `room` runs left in the budget for this stage, and
     /// whether the decision is settled whatever its runs show: the next batch (`picks`: the
     /// planner's points per tested design), or why the stage stops.
-    pub fn next(&self, assessed: &Assessed, room: usize, settled: bool, picks: Vec<PlannedRun>) -> Next {
-        if !assessed.open.iter().any(|&o| o) {
+    /// `failing`: the latest batches' runs all failed.
+    pub fn next(
+        &self,
+        assessed: &Assessed,
+        (room, failing): (usize, bool),
+        settled: bool,
+        picks: Vec<PlannedRun>,
+    ) -> Next {
+        if failing {
+            Next::Stop(StopReason::Failures)
+        } else if !assessed.open.iter().any(|&o| o) {
             Next::Stop(StopReason::Converged)
         } else if settled {
             Next::Stop(StopReason::Settled)
@@ -327,22 +341,9 @@ pub fn usable_counts(prior: &[PriorRun]) -> Vec<(String, usize)> {
 /// The mode, and the mode plus one standard deviation along each coordinate (minus, where that
 /// leaves the box).
 pub fn probe_points(posterior: &Posterior, bounds: &Bounds) -> Vec<Vec<f64>> {
-    let p = bounds.dim();
-    let sd: Vec<f64> = (0..p)
-        .map(|j| {
-            let m = posterior.mean[j];
-            let v: f64 = posterior
-                .points
-                .column(j)
-                .iter()
-                .zip(&posterior.weights)
-                .map(|(x, w)| w * (x - m).powi(2))
-                .sum();
-            v.sqrt().max(1e-3 * bounds.width()[j])
-        })
-        .collect();
+    let sd = posterior_sd(posterior, bounds);
     let mut out = vec![posterior.mode.clone()];
-    for j in 0..p {
+    for j in 0..bounds.dim() {
         let mut x = posterior.mode.clone();
         x[j] = if x[j] + sd[j] <= bounds.upper[j] {
             x[j] + sd[j]
@@ -352,6 +353,47 @@ pub fn probe_points(posterior: &Posterior, bounds: &Bounds) -> Vec<Vec<f64>> {
         out.push(x);
     }
     out.iter().map(|x| seq::snap(bounds, x)).collect()
+}
+
+/// The posterior's standard deviation along each coordinate (at least 0.1 % of the box's width).
+fn posterior_sd(posterior: &Posterior, bounds: &Bounds) -> Vec<f64> {
+    (0..bounds.dim())
+        .map(|j| {
+            let m = posterior.mean[j];
+            let v: f64 = (posterior.points.column(j).iter().zip(&posterior.weights))
+                .map(|(x, w)| w * (x - m).powi(2))
+                .sum();
+            v.sqrt().max(1e-3 * bounds.width()[j])
+        })
+        .collect()
+}
+
+/// Where a probe that failed at `x` is placed again: mirrored through the mode (a probe one
+/// standard deviation above it goes one below), the mode's own one standard deviation below it
+/// along the first coordinate; inside the box. A linear surrogate of the extension's effect over θ
+/// then still has its p + 1 points, none of them the one the solver failed at.
+pub fn probe_replacement(x: &[f64], posterior: &Posterior, bounds: &Bounds) -> Vec<f64> {
+    let mode = &posterior.mode;
+    let inside = |v: Vec<f64>| {
+        let v: Vec<f64> = (0..v.len())
+            .map(|j| v[j].clamp(bounds.lower[j], bounds.upper[j]))
+            .collect();
+        seq::snap(bounds, &v)
+    };
+    let reflected = inside(x.iter().zip(mode.iter()).map(|(x, m)| 2.0 * m - x).collect());
+    if reflected != inside(x.to_vec()) {
+        return reflected;
+    }
+    // At the mode (to the planner's resolution): one standard deviation below it, or above where
+    // below leaves the box.
+    let sd = posterior_sd(posterior, bounds)[0];
+    let mut y = mode.clone();
+    y[0] = if mode[0] - sd >= bounds.lower[0] {
+        mode[0] - sd
+    } else {
+        mode[0] + sd
+    };
+    inside(y)
 }
 
 /// The runs of a stage (`mine`) that are their design's latest batch: what each design's emulator
@@ -476,21 +518,28 @@ mod tests {
             Next::Batch(_) => None,
         };
         assert_eq!(
-            reason(stage.next(&assessed(false), 5, true, study_run())),
+            reason(stage.next(&assessed(false), (5, false), true, study_run())),
             Some(StopReason::Converged)
         );
         assert_eq!(
-            reason(stage.next(&assessed(true), 5, true, study_run())),
+            reason(stage.next(&assessed(true), (5, false), true, study_run())),
             Some(StopReason::Settled)
         );
         assert_eq!(
-            reason(stage.next(&assessed(true), 0, false, study_run())),
+            reason(stage.next(&assessed(true), (0, false), false, study_run())),
             Some(StopReason::Budget)
         );
         assert_eq!(
-            reason(stage.next(&assessed(true), 5, false, Vec::new())),
+            reason(stage.next(&assessed(true), (5, false), false, Vec::new())),
             Some(StopReason::NowhereToRun)
         );
-        assert_eq!(reason(stage.next(&assessed(true), 5, false, study_run())), None);
+        assert_eq!(
+            reason(stage.next(&assessed(true), (5, false), false, study_run())),
+            None
+        );
+        assert_eq!(
+            reason(stage.next(&assessed(true), (5, true), false, study_run())),
+            Some(StopReason::Failures)
+        );
     }
 }
