@@ -305,6 +305,9 @@ pub struct CurveStage {
     pub baseline: CurveModel,
     /// `(k, model)` for `study.diagnosis.hypotheses[k]`, over θ.
     pub extensions: Vec<(usize, CurveModel)>,
+    /// Why an extension hypothesis's curves could not be emulated (its probe runs failed): left
+    /// out of the candidates, said.
+    pub unscreened: Vec<String>,
 }
 
 impl CurveStage {
@@ -344,16 +347,25 @@ impl CurveStage {
             sim.across_designs(),
         )?;
         let probes_across = crate::plan::sweep::probes_across(study, sim);
+        let mut unscreened = Vec::new();
         let extensions = study
             .extension_hypotheses()
-            .filter_map(|(k, _)| {
+            .filter_map(|(k, h)| {
                 let runs = of(&|r| r == RunRole::Extension(k));
                 // A sequential study probes each design at p + 1 points of the posterior: enough for
-                // a linear emulator of the extension's curves over θ there.
-                let per_design = runs.len() / crate::plan::sweep::tested_designs(study).count().max(1);
+                // a linear emulator of the extension's curves over θ there; counted where they finished.
+                let per_design = crate::plan::sweep::tested_designs(study)
+                    .map(|(d, _)| runs.iter().filter(|r| &r.run.design == d && r.curve.is_some()).count())
+                    .min()
+                    .unwrap_or(0);
                 let kind = crate::emulate::fits::kind_for(kind, per_design, bounds.dim());
-                let model = emulators(study, kind, &bounds, &runs, probes_across).ok()?;
-                Some((k, model))
+                match emulators(study, kind, &bounds, &runs, probes_across) {
+                    Ok(model) => Some((k, model)),
+                    Err(e) => {
+                        unscreened.push(format!("'{}' cannot be screened on its curves: {e}", h.name));
+                        None
+                    }
+                }
             })
             .collect();
         Ok(CurveStage {
@@ -362,6 +374,7 @@ impl CurveStage {
             runs,
             baseline,
             extensions,
+            unscreened,
         })
     }
 

@@ -19,9 +19,14 @@ use crate::study::{SolverSimulation, Study};
 /// candidates: said, with the runs, never silently.
 fn screened_extensions(
     study: &Study,
-    runs: &SolverRuns,
+    (runs, stage): (&SolverRuns, Option<&curves::CurveStage>),
     reporter: &mut dyn Reporter,
 ) -> Vec<(usize, std::sync::Arc<dyn Model + Send>)> {
+    for why in stage.iter().flat_map(|s| &s.unscreened) {
+        reporter.report(Event::Note(format!(
+            "{why}; the diagnosis leaves it out of the candidates; `lab run` again retries the failed runs"
+        )));
+    }
     let fitted = extension_surrogates(study, runs.sim, &runs.plan, &runs.usable);
     for (k, m) in &fitted {
         let missing: Vec<String> = crate::plan::sweep::tested_designs(study)
@@ -60,7 +65,7 @@ pub(super) fn diagnose_with_solver(
     reporter: &mut dyn Reporter,
 ) -> Result<Result<Diagnosis, CalibrationError>, Error> {
     let study = cx.study;
-    let extensions = screened_extensions(study, runs, reporter);
+    let extensions = screened_extensions(study, (runs, stage), reporter);
     let read = match Reading::of(study, stage) {
         Ok(r) => r,
         Err(e) => return Ok(Err(e)),

@@ -280,8 +280,11 @@ pub fn extension_surrogates(
                 })
                 .collect();
             // A sequential study probes each design at p + 1 points of the posterior: enough for a
-            // linear surrogate of the extension there.
-            let per_design = runs.len() / crate::plan::sweep::tested_designs(study).count().max(1);
+            // linear surrogate of the extension there; counted where they finished.
+            let per_design = crate::plan::sweep::tested_designs(study)
+                .map(|(d, _)| runs.iter().filter(|r| &r.run.design == d && r.y.is_some()).count())
+                .min()
+                .unwrap_or(0);
             let kind = super::sequence::sites::kind_for(sim.surrogate, per_design, bounds.dim());
             let across = crate::plan::sweep::probes_across(study, sim);
             let fitted = fit_kind(study, (!across).then_some(kind), &bounds, &runs);

@@ -46,7 +46,8 @@ pub use converge::{Decide, Decided, Fitted, Provisional};
 pub use record::{Batch, BatchState, Placed, Sequence, Stop};
 use sites::{RunData, Tests};
 use stage::{
-    Assessed, Limits, Next, Stage, StageId, fnv, latest_batches, probe_points, probe_replacement, run_at, usable_counts,
+    Assessed, Limits, Next, PROBE_RETRIES, Stage, StageId, fnv, latest_batches, probe_points, probe_replacement,
+    run_at, usable_counts,
 };
 pub use stage::{ScreeningRuns, StopReason};
 
@@ -572,21 +573,30 @@ impl<'a> Runner<'a> {
         let stage = Stage::probes(study);
         let mut n = new.len();
         let failed = self.probe_batch(&stage, new, store, reporter)?;
-        // A failed probe is placed once more, elsewhere: without it the hypothesis would be
-        // screened on fewer points than its surrogate needs.
+        // A failed probe is tried again elsewhere: without it the hypothesis would be screened on
+        // fewer points than its surrogate needs. Each retry is placed from the probe's first point.
         let bounds = study.parameter_bounds();
-        let again: Vec<PlannedRun> = (failed.into_iter())
-            .map(|run| PlannedRun {
-                theta: crate::plan::sweep::as_written(sim, &probe_replacement(&run.theta, posterior, &bounds)),
-                ..run
-            })
-            .collect();
-        if !again.is_empty() {
+        let mut open: Vec<(Vec<f64>, PlannedRun)> = failed.into_iter().map(|r| (r.theta.clone(), r)).collect();
+        for f in PROBE_RETRIES {
+            if open.is_empty() {
+                break;
+            }
             if let Some(last) = self.sequence.sequence.last() {
                 reporter.report(Event::Batch(last));
             }
+            let again: Vec<(Vec<f64>, PlannedRun)> = (open.into_iter())
+                .map(|(first, run)| {
+                    let theta = crate::plan::sweep::as_written(sim, &probe_replacement(&first, posterior, &bounds, f));
+                    (first, PlannedRun { theta, ..run })
+                })
+                .collect();
             n += again.len();
-            self.probe_batch(&stage, again, store, reporter)?;
+            let runs: Vec<PlannedRun> = again.iter().map(|(_, r)| r.clone()).collect();
+            let failed = self.probe_batch(&stage, runs, store, reporter)?;
+            open = again
+                .into_iter()
+                .filter(|(_, r)| failed.iter().any(|f| same_run(f, r)))
+                .collect();
         }
         self.sequence.stop(&stage.name, StopReason::Planned, n);
         if let Some(last) = self.sequence.sequence.last_mut() {
