@@ -85,7 +85,7 @@ pub(crate) fn shapes(cx: &Context, base: &Model, notes: &mut Vec<String>) -> Vec
         inputs
             .built_ins
             .clone()
-            .unwrap_or_else(|| Shape::built_ins(&inputs.design_names)),
+            .unwrap_or_else(|| Shape::built_ins(&inputs.space.design_names)),
     ) {
         let v = shape_vector(cx, &shape, base);
         if v.iter().any(|x| !x.is_finite()) {

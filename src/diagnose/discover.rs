@@ -303,7 +303,10 @@ pub(crate) fn run<'a>(
     notes: &mut Vec<String>,
 ) -> Option<Search<'a>> {
     let inputs = screening.cx.inputs;
-    if !inputs.discover || !(decision.detected || inputs.settings.search_without_detection) {
+    let Some(spec) = &inputs.library else {
+        return None;
+    };
+    if !(decision.detected || inputs.settings.search_without_detection) {
         return None;
     }
     let listed = !inputs.hypotheses.is_empty();
@@ -343,7 +346,7 @@ pub(crate) fn run<'a>(
             simulated_by: None,
         },
     };
-    search(base, &inputs.library, notes)
+    search(base, spec, notes)
 }
 
 /// What the search starts from: a fitted model in its own context.
@@ -458,7 +461,7 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
 /// same over them as one of the base's shapes, is dropped; shapes the same as one already kept are
 /// merged into it.
 fn kept(cx: &Context, base: &Model, base_shapes: &[Shape], base_name: &str, spec: &LibrarySpec) -> Kept {
-    let built = library::build(&cx.inputs.design_names, spec);
+    let built = library::build(&cx.inputs.space.design_names, spec);
     let same_cosine = cx.inputs.settings.same_shape_cosine;
     let mut dropped = built.dropped.clone();
     let mut same_shape: IndexMap<String, Vec<String>> = IndexMap::new();
@@ -1089,7 +1092,7 @@ fn reading_of(s: &Searcher, t: &FoundTerm) -> Option<String> {
 /// Local power-law exponents ∂ln|f|/∂ln x_j at every training design, when f is a pure power law
 /// over them (the same exponents everywhere, to 1e-4); `None` otherwise.
 fn power_law(cx: &Context, f: &dyn Fn(&[f64]) -> f64) -> Option<Vec<f64>> {
-    let dims = cx.inputs.design_names.len();
+    let dims = cx.inputs.space.design_names.len();
     let mut out: Option<Vec<f64>> = None;
     for &i in &cx.train {
         let d = &cx.data.designs[i];
@@ -1121,7 +1124,7 @@ fn power_law(cx: &Context, f: &dyn Fn(&[f64]) -> f64) -> Option<Vec<f64>> {
 fn reading(cx: &Context, theta: &DVector<f64>, shape: &Shape) -> Option<String> {
     let th = theta.as_slice();
     let model = cx.inputs.model;
-    let names = &cx.inputs.design_names;
+    let names = &cx.inputs.space.design_names;
     let g = |d: &[f64]| shape.eval(d, th, model.predict(d, th));
     let y = |d: &[f64]| model.predict(d, th);
     let ratio = |d: &[f64]| g(d) / y(d);

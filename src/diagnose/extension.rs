@@ -23,7 +23,7 @@ pub(crate) fn extend(cx: &Context, ranked: &Ranked, k: usize) -> Option<Extended
     let loo = |x: &Entry| x.score.as_ref().and_then(|s| s.loo_error);
     let (loo_before, loo_after) = (loo(base), loo(e));
     let lof = e.assessed.lack_of_fit.as_ref();
-    let names = &cx.inputs.parameter_names;
+    let names = &cx.inputs.space.parameter_names;
     let theta0 = &base.model.fit.theta;
     let theta = &e.model.fit.theta;
     let gamma = e.model.fit.amplitude();
@@ -129,6 +129,7 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
     e.parameters = cx.param_map(&base.model.fit.theta);
     e.parameter_se = base.assessed.cov.as_ref().map(|c| {
         cx.inputs
+            .space
             .parameter_names
             .iter()
             .enumerate()
@@ -172,6 +173,7 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
     let intervals = looped.ranked.uncorrected(cx).precision;
     let variables: Vec<String> = cx
         .inputs
+        .space
         .parameter_names
         .iter()
         .filter(|n| !before.contains_key(*n))

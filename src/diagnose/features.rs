@@ -42,8 +42,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use super::shapes::{Origin, Shape};
-use super::{Inputs, NoiseModel, Observation, Role, Settings};
-use crate::base::Bounds;
+use super::{FeatureOutputs, Inputs, NoiseModel, Observation, Role, Settings, Space};
 use crate::emulate::Model;
 use crate::extract::features::{self, FeatureSpec};
 
@@ -272,10 +271,7 @@ pub struct CurveInputs<'a> {
     pub designs: Vec<CurveDesign>,
     pub spec: FeatureSpec,
     pub curve: Arc<CurveFn>,
-    pub parameter_names: Vec<String>,
-    pub parameter_bounds: Bounds,
-    pub design_names: Vec<String>,
-    pub design_bounds: Bounds,
+    pub space: Space,
     pub hypotheses: Vec<CurveHypothesis>,
     pub settings: Settings,
     /// The study's constants, for a term's expression.
@@ -438,7 +434,7 @@ impl FeatureProblem {
         };
         let shape_of = |h: &CurveHypothesis| feature_shape(h, &model);
         let shapes = ci.hypotheses.iter().map(shape_of).collect();
-        let built_ins = Shape::built_ins(&ci.design_names)
+        let built_ins = Shape::built_ins(&ci.space.design_names)
             .into_iter()
             .map(|s| feature_shape(&CurveHypothesis::Term(s), &model))
             .collect();
@@ -457,20 +453,18 @@ impl FeatureProblem {
         Inputs {
             observations: self.observations.clone(),
             model: &self.model,
-            parameter_names: ci.parameter_names.clone(),
-            parameter_bounds: ci.parameter_bounds.clone(),
-            design_names: ci.design_names.clone(),
-            design_bounds: ci.design_bounds.clone(),
+            space: ci.space.clone(),
             hypotheses: self.shapes.clone(),
             settings: ci.settings.clone(),
-            outputs: self.model.whitening.names(),
+            library: None,
             built_ins: Some(self.built_ins.clone()),
-            noise: Some(self.noise.clone()),
+            features: Some(FeatureOutputs {
+                outputs: self.model.whitening.names(),
+                noise: self.noise.clone(),
+                relative_error: self.plateau_error(),
+            }),
             // The emulator's error is in the whitening already ([`emulator_error`]).
             emulator: Default::default(),
-            relative_error: Some(self.plateau_error()),
-            discover: false,
-            library: Default::default(),
         }
     }
 

@@ -80,7 +80,7 @@ pub enum Role {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observation {
     pub name: String,
-    /// Design-variable values, in the order of [`Inputs::design_names`].
+    /// Design-variable values, in the order of [`Space::design_names`].
     pub design: Vec<f64>,
     pub role: Role,
     /// Mean of the replicates.
@@ -174,52 +174,82 @@ impl Default for Settings {
     }
 }
 
+/// The parameters and the design variables: their names and bounds (the diagnosis's [`Inputs`]
+/// and its curve inputs, [`features::CurveInputs`]).
+#[derive(Debug, Clone)]
+pub struct Space {
+    pub parameter_names: Vec<String>,
+    pub parameter_bounds: Bounds,
+    pub design_names: Vec<String>,
+    pub design_bounds: Bounds,
+}
+
+impl Space {
+    /// A study's parameters and design variables.
+    pub fn of_study(study: &Study) -> Space {
+        Space {
+            parameter_names: study.parameters.iter().map(|p| p.name.clone()).collect(),
+            parameter_bounds: study.parameter_bounds(),
+            design_names: study.design.iter().map(|d| d.name.clone()).collect(),
+            design_bounds: study.design_bounds(),
+        }
+    }
+}
+
 /// Everything the diagnosis needs.
 #[derive(Clone)]
 pub struct Inputs<'a> {
     /// Every tested design with its role (training and validation).
     pub observations: Vec<Observation>,
     pub model: &'a dyn Model,
-    pub parameter_names: Vec<String>,
-    pub parameter_bounds: Bounds,
-    pub design_names: Vec<String>,
-    pub design_bounds: Bounds,
+    pub space: Space,
     /// The user's candidate causes (study hypotheses); the built-in shapes are added by [`diagnose`].
     pub hypotheses: Vec<Shape>,
     pub settings: Settings,
-    /// Search a library of shapes when no listed hypothesis explains the misfit (`diagnosis.discover`).
-    pub discover: bool,
-    /// What the library is built from: the design variables' units and scales, the simulation's
-    /// exponents.
-    pub library: library::LibrarySpec,
-    /// The outputs each tested design is observed in: empty (or one) for a scalar response; the
-    /// names of curve features otherwise. With several, the model and every shape are called with
-    /// the output's index appended to the design (`[c, t, k]`).
-    pub outputs: Vec<String>,
+    /// What the library is built from (the design variables' units and scales, the simulation's
+    /// exponents), when a library of shapes is searched where no listed hypothesis explains the
+    /// misfit (`diagnosis.discover`); `None`: no search.
+    pub library: Option<library::LibrarySpec>,
     /// The shapes every diagnosis tries besides the hypotheses (`None`: [`Shape::built_ins`] over
     /// the design variables).
     pub built_ins: Option<Vec<Shape>>,
-    /// The noise when the caller knows it better than the replicate scatter of the observations
-    /// (curve features whitened by their covariance: σ = 1 with the covariance's own degrees of
-    /// freedom).
-    pub noise: Option<NoiseModel>,
+    /// What the observations are when they are not the response itself (whitened curve features);
+    /// `None`: the response, its noise from the replicate scatter of the observations.
+    pub features: Option<FeatureOutputs>,
     /// The simulation's own error at each observation (its emulators', measured at runs they were
     /// not fitted to), counted in the noise of that observation's mean where the settings count it.
     pub emulator: crate::emulate::Uncertainty,
-    /// The relative error of a prediction at an observation, where the observations are not the
-    /// response itself (whitened curve features: the plateau level's, `None` for the others);
-    /// `None`: (predicted − measured) / measured.
-    pub relative_error: Option<RelativeError>,
 }
 
-/// See [`Inputs::relative_error`].
+/// The observations as outputs other than the response: the features of curves, whitened by
+/// their covariance ([`Inputs::features`]).
+#[derive(Clone)]
+pub struct FeatureOutputs {
+    /// The outputs each tested design is observed in: the names of the curve features. With
+    /// several, the model and every shape are called with the output's index appended to the
+    /// design (`[c, t, k]`).
+    pub outputs: Vec<String>,
+    /// The noise, known better than the replicate scatter of the observations (σ = 1 with the
+    /// covariance's own degrees of freedom).
+    pub noise: NoiseModel,
+    /// The relative error of a prediction at an observation (the plateau level's, `None` for the
+    /// other features); without features it is (predicted − measured) / measured.
+    pub relative_error: RelativeError,
+}
+
+/// See [`FeatureOutputs::relative_error`].
 pub type RelativeError = std::sync::Arc<dyn Fn(&Observation, f64) -> Option<f64> + Send + Sync>;
 
 impl Inputs<'_> {
+    /// The number of outputs each tested design is observed in (1 for the response).
+    pub fn outputs(&self) -> usize {
+        self.features.as_ref().map_or(1, |f| f.outputs.len())
+    }
+
     /// An observation's point as the model and the shapes see it: the design, and with several
     /// outputs the output's index after it.
     pub fn point(&self, o: &Observation) -> Vec<f64> {
-        if self.outputs.len() > 1 {
+        if self.outputs() > 1 {
             o.design.iter().copied().chain([o.output as f64]).collect()
         } else {
             o.design.clone()
@@ -259,10 +289,7 @@ pub fn inputs_with_extensions<'a>(
     Inputs {
         observations,
         model,
-        parameter_names: study.parameters.iter().map(|p| p.name.clone()).collect(),
-        parameter_bounds: study.parameter_bounds(),
-        design_names: study.design.iter().map(|d| d.name.clone()).collect(),
-        design_bounds: study.design_bounds(),
+        space: Space::of_study(study),
         hypotheses: study
             .diagnosis
             .hypotheses
@@ -283,20 +310,17 @@ pub fn inputs_with_extensions<'a>(
             measurement: study.experiments.uncertainty,
             ..Settings::default()
         },
-        discover: study.diagnosis.discover,
-        library: library::LibrarySpec {
+        library: study.diagnosis.discover.then(|| library::LibrarySpec {
             units: study.design.iter().map(|d| d.unit.clone()).collect(),
             scales: study.design.iter().map(|d| d.scale).collect(),
             exponents: match &study.simulation {
                 crate::study::Simulation::Expression(e) => e.exponents(),
                 crate::study::Simulation::Solver(_) => Vec::new(),
             },
-        },
-        outputs: Vec::new(),
+        }),
         built_ins: None,
-        noise: None,
+        features: None,
         emulator: Default::default(),
-        relative_error: None,
     }
 }
 
@@ -705,7 +729,7 @@ impl<'a> Context<'a> {
         // The emulator's error floor, where the noise is the replicates' (a caller's noise, the curve
         // features', carries it already): the variance of each mean grows by that share.
         let counted = inputs.settings.emulator_counted;
-        let floor = if inputs.noise.is_none() && counted {
+        let floor = if inputs.features.is_none() && counted {
             inputs.settings.emulator_floor
         } else {
             0.0
@@ -728,7 +752,7 @@ impl<'a> Context<'a> {
             .collect();
         let data = Data {
             model: inputs.model,
-            bounds: &inputs.parameter_bounds,
+            bounds: &inputs.space.parameter_bounds,
             designs: obs.iter().map(|o| inputs.point(o)).collect(),
             means: obs.iter().map(|o| o.mean).collect(),
             weights,
@@ -747,7 +771,7 @@ impl<'a> Context<'a> {
             f64::EPSILON * ms * n as f64
         };
         let nu = noise.map_or(0, |nm| nm.dof);
-        let p = inputs.parameter_names.len();
+        let p = inputs.space.parameter_names.len();
         let mode = if nu > 0 && n >= p + 3 || nu == 0 && n >= p + 4 {
             Mode::Ranked
         } else if nu > 0 && n > p {
@@ -777,11 +801,11 @@ impl<'a> Context<'a> {
         }
     }
 
-    /// The relative error of `yh` at observation `i` (see [`Inputs::relative_error`]).
+    /// The relative error of `yh` at observation `i` (see [`FeatureOutputs::relative_error`]).
     pub fn relative_error(&self, i: usize, yh: f64) -> Option<f64> {
         let o = &self.inputs.observations[i];
-        match &self.inputs.relative_error {
-            Some(f) => f(o, yh),
+        match &self.inputs.features {
+            Some(f) => (f.relative_error)(o, yh),
             None => Some((yh - o.mean) / o.mean),
         }
     }
@@ -792,7 +816,7 @@ impl<'a> Context<'a> {
     }
 
     pub fn p(&self) -> usize {
-        self.inputs.parameter_names.len()
+        self.inputs.space.parameter_names.len()
     }
 
     pub fn alpha(&self) -> f64 {
@@ -806,6 +830,7 @@ impl<'a> Context<'a> {
 
     pub fn param_map(&self, theta: &DVector<f64>) -> IndexMap<String, f64> {
         self.inputs
+            .space
             .parameter_names
             .iter()
             .cloned()
@@ -879,8 +904,8 @@ fn noise_and_base<'a>(
         let base = candidates::uncorrected(&cx)?;
         Ok((cx, base, nm))
     };
-    if inputs.noise.is_some() {
-        return fitted(inputs.noise.clone());
+    if let Some(f) = &inputs.features {
+        return fitted(Some(f.noise.clone()));
     }
     let Some(scatter) = noise::Scatter::of(&inputs.observations) else {
         return fitted(inputs.settings.measurement.map(NoiseModel::stated));

@@ -77,7 +77,7 @@ impl<'e> Explanation<'e> {
             p + model.fit.gamma.len(),
             model.fit.theta.iter().chain(&model.fit.gamma).copied(),
         );
-        let mut names = cx.inputs.parameter_names.clone();
+        let mut names = cx.inputs.space.parameter_names.clone();
         names.extend((0..model.fit.gamma.len()).map(|k| format!("γ{k}")));
         let code = (0..cx.data.designs.len())
             .map(|i| {
@@ -98,7 +98,7 @@ impl<'e> Explanation<'e> {
             beta,
             names,
             cov: entry.assessed.cov.as_ref().map(|c| c.matrix.clone()),
-            bounds: &cx.inputs.parameter_bounds,
+            bounds: &cx.inputs.space.parameter_bounds,
             parts: if uncorrected {
                 Vec::new()
             } else {
@@ -192,7 +192,7 @@ pub(crate) fn recommend(
     fresh: bool,
     level: f64,
 ) -> Option<NextTest> {
-    if cx.inputs.design_bounds.dim() == 0 {
+    if cx.inputs.space.design_bounds.dim() == 0 {
         return None;
     }
     let mut ex: Vec<&Explanation> = ex.iter().collect();
@@ -477,7 +477,7 @@ impl<'a, 'e> Search<'a, 'e> {
     fn inside_then_outside(&self) -> (Option<Pick>, bool) {
         let cx = self.cx;
         let per_axis = cx.inputs.settings.grid_per_axis;
-        if let Some(p) = self.cheapest(&candidate_points(cx, &cx.inputs.design_bounds, per_axis)) {
+        if let Some(p) = self.cheapest(&candidate_points(cx, &cx.inputs.space.design_bounds, per_axis)) {
             return (Some(p), false);
         }
         match widened(cx) {
@@ -626,7 +626,7 @@ impl<'a, 'e> Search<'a, 'e> {
     /// Nothing decides: the single design where the explanations differ most (bound of λ at the
     /// largest number of specimens).
     fn closest(&self, cx: &Context) -> Option<Pick> {
-        candidate_points(cx, &cx.inputs.design_bounds, cx.inputs.settings.grid_per_axis)
+        candidate_points(cx, &cx.inputs.space.design_bounds, cx.inputs.settings.grid_per_axis)
             .into_iter()
             .filter_map(|d| {
                 let runs = vec![(d, MAX_SPECIMENS)];
@@ -852,7 +852,7 @@ fn draw(e: &Explanation, rng: &mut rand_chacha::ChaCha8Rng) -> Option<DVector<f6
 
 /// The observation points of one specimen at design `d`: one per observed output.
 fn observation_points(cx: &Context, d: &[f64]) -> Vec<Vec<f64>> {
-    let outputs = cx.inputs.outputs.len();
+    let outputs = cx.inputs.outputs();
     if outputs <= 1 {
         return vec![d.to_vec()];
     }
@@ -923,7 +923,7 @@ fn coarse(cx: &Context, table: &Table) -> Vec<usize> {
 /// The design box widened by half its width on each side (a positive lower bound stays above half
 /// of itself); `None` for a solver study, whose surrogates exist at its tested designs only.
 fn widened(cx: &Context) -> Option<crate::base::Bounds> {
-    let b = &cx.inputs.design_bounds;
+    let b = &cx.inputs.space.design_bounds;
     let probe: Vec<f64> = (0..b.dim())
         .map(|j| b.lower[j] - 0.25 * (b.upper[j] - b.lower[j]))
         .collect();
@@ -932,7 +932,7 @@ fn widened(cx: &Context) -> Option<crate::base::Bounds> {
         return None;
     }
     let pt = observation_points(cx, &probe);
-    let theta = cx.inputs.parameter_bounds.center();
+    let theta = cx.inputs.space.parameter_bounds.center();
     if !cx.inputs.model.predict(&pt[0], theta.as_slice()).is_finite() {
         return None;
     }
@@ -950,7 +950,7 @@ fn widened(cx: &Context) -> Option<crate::base::Bounds> {
 /// With nothing to compare (no candidate could be fitted): the design in the box farthest from
 /// every tested one (in units of the box), where the calibrated model is least checked.
 fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
-    let width = cx.inputs.design_bounds.width();
+    let width = cx.inputs.space.design_bounds.width();
     let gap = |d: &[f64]| {
         cx.inputs
             .observations
@@ -965,7 +965,7 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
             })
             .fold(f64::INFINITY, f64::min)
     };
-    let d = candidate_points(cx, &cx.inputs.design_bounds, cx.inputs.settings.grid_per_axis)
+    let d = candidate_points(cx, &cx.inputs.space.design_bounds, cx.inputs.settings.grid_per_axis)
         .into_iter()
         .max_by(|a, b| gap(a).total_cmp(&gap(b)))?;
     let y = ex
@@ -1010,7 +1010,7 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
 /// Without a noise: the design where the closest pair differs most, relatively.
 fn widest_gap(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
     let mut best: Option<(f64, Vec<f64>, (usize, usize))> = None;
-    for d in candidate_points(cx, &cx.inputs.design_bounds, cx.inputs.settings.grid_per_axis) {
+    for d in candidate_points(cx, &cx.inputs.space.design_bounds, cx.inputs.settings.grid_per_axis) {
         let pt = &observation_points(cx, &d)[0];
         let y: Vec<f64> = ex.iter().map(|e| e.predict(pt)).collect();
         let mut closest: Option<(f64, (usize, usize))> = None;
@@ -1049,7 +1049,13 @@ fn widest_gap(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
 }
 
 fn named(cx: &Context, d: &[f64]) -> IndexMap<String, f64> {
-    cx.inputs.design_names.iter().cloned().zip(d.iter().copied()).collect()
+    cx.inputs
+        .space
+        .design_names
+        .iter()
+        .cloned()
+        .zip(d.iter().copied())
+        .collect()
 }
 
 fn at_text(design: &IndexMap<String, f64>) -> String {
@@ -1076,7 +1082,7 @@ fn observation_at<'c>(
     d: &[f64],
     among: impl Iterator<Item = usize>,
 ) -> Option<&'c super::Observation> {
-    let width = cx.inputs.design_bounds.width();
+    let width = cx.inputs.space.design_bounds.width();
     among.map(|i| &cx.inputs.observations[i]).find(|o| {
         o.design
             .iter()
@@ -1294,7 +1300,7 @@ fn why(t: &NextTest, noise_known: bool) -> String {
 mod tests {
     use super::*;
     use crate::base::Bounds;
-    use crate::diagnose::{Inputs, Observation, Role, Settings};
+    use crate::diagnose::{Inputs, Observation, Role, Settings, Space};
 
     /// n specimens of an exact simulation count n; with its error shared by a design's specimens
     /// (k = its variance in units of one test's) no number counts more than 1/k, and new specimens
@@ -1339,19 +1345,18 @@ mod tests {
         Inputs {
             observations,
             model: &simulation,
-            parameter_names: vec!["theta".into()],
-            parameter_bounds: Bounds::new(vec![100.0], vec![3000.0]),
-            design_names: vec!["x".into()],
-            design_bounds: Bounds::new(vec![4.0], vec![16.0]),
+            space: Space {
+                parameter_names: vec!["theta".into()],
+                parameter_bounds: Bounds::new(vec![100.0], vec![3000.0]),
+                design_names: vec!["x".into()],
+                design_bounds: Bounds::new(vec![4.0], vec![16.0]),
+            },
             hypotheses: Vec::new(),
             settings: Settings::default(),
-            discover: false,
-            library: Default::default(),
-            outputs: Vec::new(),
+            library: None,
             built_ins: Some(Vec::new()),
-            noise: None,
+            features: None,
             emulator: Default::default(),
-            relative_error: None,
         }
     }
 
@@ -1369,7 +1374,7 @@ mod tests {
             beta,
             names: vec!["theta".into(), "γ0".into()],
             cov: None,
-            bounds: &cx.inputs.parameter_bounds,
+            bounds: &cx.inputs.space.parameter_bounds,
             parts: vec![format!("simulation: {name}")],
             code: cx.data.designs.iter().map(|d| (d.clone(), rel)).collect(),
         }

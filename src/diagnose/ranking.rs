@@ -250,8 +250,8 @@ fn candidate(cx: &Context, e: &Entry) -> Candidate {
 /// only gain), and an interval reaching past a range a study set (a Cowper–Symonds C to 67,000
 /// from a range to 40,000) reads as a fault.
 fn precision(cx: &Context, theta: &nalgebra::DVector<f64>, cov: &nalgebra::DMatrix<f64>) -> Precision {
-    let names = &cx.inputs.parameter_names;
-    let bounds = &cx.inputs.parameter_bounds;
+    let names = &cx.inputs.space.parameter_names;
+    let bounds = &cx.inputs.space.parameter_bounds;
     let range = |j: usize| match (bounds.lower.get(j), bounds.upper.get(j)) {
         (Some(&lo), Some(&hi)) => (lo, hi),
         _ => (f64::NEG_INFINITY, f64::INFINITY),

@@ -24,6 +24,7 @@ pub(crate) fn table(cx: &Context, fit: &Fit, noise: &NoiseModel) -> Vec<Residual
                 design: o.name.clone(),
                 role: o.role,
                 values: inputs
+                    .space
                     .design_names
                     .iter()
                     .cloned()
@@ -46,6 +47,7 @@ pub(crate) fn trends(cx: &Context, residuals: &[Residual]) -> Vec<Trend> {
     let inputs = cx.inputs;
     let z: Vec<f64> = residuals.iter().map(|r| r.z).collect();
     let mut against: Vec<(String, Vec<f64>)> = inputs
+        .space
         .design_names
         .iter()
         .enumerate()

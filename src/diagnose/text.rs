@@ -715,7 +715,7 @@ fn where_it_errs(f: &Facts) -> Vec<String> {
             .collect::<Vec<_>>()
             .join(", ")
     };
-    let several = f.cx.inputs.outputs.len() > 1;
+    let several = f.cx.inputs.outputs() > 1;
     if several {
         if let Some(w) = r
             .iter()
