@@ -216,19 +216,11 @@ struct Tried {
 
 impl Tried {
     fn press(&self, cx: &Context) -> f64 {
-        self.loo.as_ref().map_or(f64::INFINITY, |loo| {
-            cx.train
-                .iter()
-                .zip(loo)
-                .map(|(&i, yh)| (cx.data.weights[i] * (cx.data.means[i] - yh)).powi(2))
-                .sum()
-        })
+        self.loo.as_ref().map_or(f64::INFINITY, |loo| cx.press(loo))
     }
 
     fn loo_error(&self, cx: &Context) -> f64 {
-        self.loo.as_ref().map_or(f64::NAN, |loo| {
-            cx.mean_abs_rel(cx.train.iter().zip(loo).map(|(&i, &yh)| (i, yh)))
-        })
+        self.loo.as_ref().map_or(f64::NAN, |loo| cx.loo_error(loo))
     }
 }
 

@@ -13,6 +13,7 @@ use indexmap::IndexMap;
 
 use super::ranking::{Entry, Ranked};
 use super::{Context, Evidence, Extended, ExtensionEffect};
+use crate::base::format::num;
 
 /// The screening's extended model of candidate `k`: θ and its amplitude fitted jointly.
 pub(crate) fn extend(cx: &Context, ranked: &Ranked, k: usize) -> Option<Extended> {
@@ -194,8 +195,4 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
     }
     e.solver_in_the_loop = true;
     e
-}
-
-fn num(v: f64) -> String {
-    crate::base::format::num(v)
 }

@@ -765,11 +765,7 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
             let ext = ext.clone();
             let baseline = baseline.clone();
             let memo = Memo::default();
-            let set = variables
-                .iter()
-                .map(|(k, v)| format!("{k} = {v}"))
-                .collect::<Vec<_>>()
-                .join(", ");
+            let set = super::shapes::setting(variables);
             let mut s = Shape::new(
                 name.clone(),
                 format!("y[{set}] - y"),

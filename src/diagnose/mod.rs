@@ -569,10 +569,9 @@ pub struct Partial {
 impl Partial {
     fn new(name: String, extended: Option<Extended>, uncorrected: Option<&LackOfFit>) -> Partial {
         let remaining = extended.as_ref().and_then(|e| e.lack_of_fit.clone());
-        let excess = |l: &LackOfFit| l.chi2 - l.dof as f64;
         let share_removed = uncorrected
             .zip(remaining.as_ref())
-            .and_then(|(u, r)| (excess(u) > 0.0).then(|| (1.0 - excess(r).max(0.0) / excess(u)).clamp(0.0, 1.0)));
+            .and_then(|(u, r)| r.share_removed(u));
         Partial {
             name,
             share_removed,
@@ -799,6 +798,20 @@ impl<'a> Context<'a> {
         } else {
             errors.iter().map(|e| e.abs()).sum::<f64>() / errors.len() as f64
         }
+    }
+
+    /// Σ (w_i (ȳ_i − ŷ_i))² of the leave-one-design-out predictions `loo` at the training designs.
+    pub fn press(&self, loo: &[f64]) -> f64 {
+        self.train
+            .iter()
+            .zip(loo)
+            .map(|(&i, yh)| (self.data.weights[i] * (self.data.means[i] - yh)).powi(2))
+            .sum()
+    }
+
+    /// Mean |relative error| of the leave-one-design-out predictions `loo` at the training designs.
+    pub fn loo_error(&self, loo: &[f64]) -> f64 {
+        self.mean_abs_rel(self.train.iter().zip(loo).map(|(&i, &yh)| (i, yh)))
     }
 
     /// The relative error of `yh` at observation `i` (see [`FeatureOutputs::relative_error`]).

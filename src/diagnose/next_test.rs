@@ -38,6 +38,7 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use super::{Context, Mode, NextTest, NoiseKind, NoiseModel, stats};
+use crate::base::format::{num, params};
 
 /// A prediction at an observation point for fitted numbers β.
 type Eval<'e> = dyn Fn(&[f64], &[f64]) -> f64 + Sync + 'e;
@@ -241,6 +242,18 @@ struct Pick {
 }
 
 impl Pick {
+    /// Specimens `runs` reaching λ = `lambda` for `pair`, before any expected power.
+    fn new(runs: Vec<(Vec<f64>, usize)>, pair: (usize, usize), lambda: f64, decides: bool) -> Pick {
+        Pick {
+            runs,
+            pair,
+            lambda,
+            decides,
+            expected_power: None,
+            limited_by_emulators: false,
+        }
+    }
+
     fn total(&self) -> usize {
         self.runs.iter().map(|r| r.1).sum()
     }
@@ -507,14 +520,8 @@ impl<'a, 'e> Search<'a, 'e> {
                     .0
                     .total_cmp(&self.weakest_in(&table, &[(b, 1)]).0)
             })?;
-            return Some(Pick {
-                runs: vec![(table.points[best].clone(), 0)],
-                pair: self.weakest_in(&table, &[]).1,
-                lambda: in_hand,
-                decides: true,
-                expected_power: None,
-                limited_by_emulators: false,
-            });
+            let pair = self.weakest_in(&table, &[]).1;
+            return Some(Pick::new(vec![(table.points[best].clone(), 0)], pair, in_hand, true));
         }
         let single = (0..table.points.len())
             .filter_map(|i| self.fewest(&table, &[i], MAX_SPECIMENS))
@@ -565,14 +572,8 @@ impl<'a, 'e> Search<'a, 'e> {
             }
         }
         let (lambda, pair, ms) = best_split(hi)?;
-        Some(Pick {
-            runs: at.iter().map(|&i| table.points[i].clone()).zip(ms).collect(),
-            pair,
-            lambda,
-            decides: true,
-            expected_power: None,
-            limited_by_emulators: false,
-        })
+        let runs = at.iter().map(|&i| table.points[i].clone()).zip(ms).collect();
+        Some(Pick::new(runs, pair, lambda, true))
     }
 
     /// The cheapest pairs of designs, best first (at most a few), each no dearer than `budget`.
@@ -630,14 +631,8 @@ impl<'a, 'e> Search<'a, 'e> {
             .into_iter()
             .filter_map(|d| {
                 let runs = vec![(d, MAX_SPECIMENS)];
-                self.weakest(&runs).map(|(lambda, pair)| Pick {
-                    runs,
-                    pair,
-                    lambda,
-                    decides: false,
-                    expected_power: None,
-                    limited_by_emulators: false,
-                })
+                self.weakest(&runs)
+                    .map(|(lambda, pair)| Pick::new(runs, pair, lambda, false))
             })
             .max_by(|a, b| a.lambda.total_cmp(&b.lambda))
     }
@@ -980,8 +975,8 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
             "Test at {} (not tested yet): no candidate cause can be fitted to so few tests, so the most useful \
              next test is the design farthest from those tested, where the calibrated simulation predicts {}. In \
              numbers: {advice}.",
-            at_text(&design),
-            crate::base::format::num(y)
+            params(&design),
+            num(y)
         ),
         advice,
         level: cx.alpha(),
@@ -1029,14 +1024,7 @@ fn widest_gap(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
         }
     }
     let (gap, d, pair) = best?;
-    let pick = Pick {
-        runs: vec![(d, 3)],
-        pair,
-        lambda: 0.0,
-        decides: false,
-        expected_power: None,
-        limited_by_emulators: false,
-    };
+    let pick = Pick::new(vec![(d, 3)], pair, 0.0, false);
     let mut t = describe_common(cx, ex, &pick, false, Vec::new(), None);
     t.separation = gap;
     t.specimens = None;
@@ -1056,14 +1044,6 @@ fn named(cx: &Context, d: &[f64]) -> IndexMap<String, f64> {
         .cloned()
         .zip(d.iter().copied())
         .collect()
-}
-
-fn at_text(design: &IndexMap<String, f64>) -> String {
-    design
-        .iter()
-        .map(|(n, v)| format!("{n} = {}", crate::base::format::num(*v)))
-        .collect::<Vec<_>>()
-        .join(", ")
 }
 
 /// The tested design at `d` (within 1e-6 of the box on every variable), with its specimens.
@@ -1167,7 +1147,7 @@ fn describe(
 /// What it takes, in one sentence, read from the typed recommendation.
 fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
     let power = 100.0 * cx.inputs.settings.power;
-    let alpha = crate::base::format::num(t.level);
+    let alpha = num(t.level);
     // The power over the uncertainty of the fitted parameters: said beside, or as a caveat when
     // no programme could reach the target over it.
     let (expected, caveat) = match t.expected_power {
@@ -1247,8 +1227,8 @@ fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
 pub(crate) fn programme_words(runs: &[ProgrammeRun]) -> String {
     runs.iter()
         .map(|r| match &r.tested_as {
-            Some(name) => format!("{} more at {name} ({})", r.additional, at_text(&r.design)),
-            None => format!("{} at {} (not tested yet)", r.specimens, at_text(&r.design)),
+            Some(name) => format!("{} more at {name} ({})", r.additional, params(&r.design)),
+            None => format!("{} at {} (not tested yet)", r.specimens, params(&r.design)),
         })
         .collect::<Vec<_>>()
         .join(" and ")
@@ -1263,17 +1243,17 @@ fn measurement_words(ms: &[Measurement]) -> Option<String> {
          them apart with the tests in hand",
         m.parameter,
         crate::base::format::pct(m.relative_uncertainty),
-        crate::base::format::num(m.values[0]),
-        crate::base::format::num(m.values[1])
+        num(m.values[0]),
+        num(m.values[1])
     ))
 }
 
 fn why(t: &NextTest, noise_known: bool) -> String {
-    let at = at_text(&t.design);
+    let at = params(&t.design);
     let preds = t
         .compared
         .iter()
-        .map(|(n, y)| format!("'{n}' {}", crate::base::format::num(*y)))
+        .map(|(n, y)| format!("'{n}' {}", num(*y)))
         .collect::<Vec<_>>()
         .join(", ");
     let (ya, yb) = (t.predictions[0], t.predictions[1]);
