@@ -138,7 +138,7 @@ pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[St
     let open = opens(screening, looped, loop_names);
     let mut readings = FromEvidence::new(screening, looped);
     let judged = judge(&mut readings, &open);
-    let weights = weights(&open);
+    let weights = ranking::weights(&open.iter().map(|o| o.score).collect::<Vec<_>>());
     let record = AfterLoop {
         screening_verdict: screening.decision.verdict,
         screening_headline: String::new(),
@@ -487,20 +487,6 @@ fn all_rejected(r: &dyn Readings, open: &[Open]) -> Decision {
         },
         None => r.screening(),
     }
-}
-
-/// Akaike-type weights over the open explanations' scores (equal without scores).
-fn weights(open: &[Open]) -> Vec<f64> {
-    let best = open.iter().filter_map(|o| o.score).fold(f64::INFINITY, f64::min);
-    let raw: Vec<f64> = open
-        .iter()
-        .map(|o| match o.score {
-            Some(s) if best.is_finite() => (-0.5 * (s - best)).exp(),
-            _ => 1.0,
-        })
-        .collect();
-    let total: f64 = raw.iter().sum();
-    raw.iter().map(|r| r / total.max(f64::MIN_POSITIVE)).collect()
 }
 
 #[cfg(test)]

@@ -34,13 +34,7 @@ pub(crate) fn extend(cx: &Context, ranked: &Ranked, k: usize) -> Option<Extended
         amplitude: gamma,
         amplitude_ci95: e.assessed.separability.amplitude_ci95,
         parameters: cx.param_map(theta),
-        parameter_se: e.assessed.cov.as_ref().map(|c| {
-            names
-                .iter()
-                .enumerate()
-                .map(|(j, n)| (n.clone(), c.matrix[(j, j)].sqrt()))
-                .collect()
-        }),
+        parameter_se: e.assessed.cov.as_ref().map(|c| cx.standard_errors(c)),
         parameter_change: names
             .iter()
             .enumerate()
@@ -128,15 +122,7 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
     let mut e = screening;
     let before = e.parameters.clone();
     e.parameters = cx.param_map(&base.model.fit.theta);
-    e.parameter_se = base.assessed.cov.as_ref().map(|c| {
-        cx.inputs
-            .space
-            .parameter_names
-            .iter()
-            .enumerate()
-            .map(|(j, n)| (n.clone(), c.matrix[(j, j)].sqrt()))
-            .collect()
-    });
+    e.parameter_se = base.assessed.cov.as_ref().map(|c| cx.standard_errors(c));
     e.parameter_change = before
         .iter()
         .filter_map(|(n, v0)| Some((n.clone(), e.parameters.get(n)? / v0 - 1.0)))

@@ -194,6 +194,11 @@ impl Space {
             design_bounds: study.design_bounds(),
         }
     }
+
+    /// Design-variable values `d` by name.
+    pub fn design_at(&self, d: &[f64]) -> IndexMap<String, f64> {
+        self.design_names.iter().cloned().zip(d.iter().copied()).collect()
+    }
 }
 
 /// Everything the diagnosis needs.
@@ -849,6 +854,11 @@ impl<'a> Context<'a> {
             .cloned()
             .zip(theta.iter().copied())
             .collect()
+    }
+
+    /// The parameters' standard errors from a fit's covariance (θ first), by name.
+    pub fn standard_errors(&self, c: &fit::Covariance) -> IndexMap<String, f64> {
+        self.param_map(&c.matrix.diagonal().map(f64::sqrt))
     }
 
     /// A test of a drop in weighted RSS by `extra` fitted numbers: F(extra, ν) against the replicate

@@ -966,7 +966,7 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
     let y = ex
         .first()
         .map_or(f64::NAN, |e| e.predict(&observation_points(cx, &d)[0]));
-    let design = named(cx, &d);
+    let design = cx.inputs.space.design_at(&d);
     let advice = "at least 3 specimens there, so that the scatter is measured and the calibrated model is checked \
                   where it was not fitted"
         .to_string();
@@ -1036,16 +1036,6 @@ fn widest_gap(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
     Some(t)
 }
 
-fn named(cx: &Context, d: &[f64]) -> IndexMap<String, f64> {
-    cx.inputs
-        .space
-        .design_names
-        .iter()
-        .cloned()
-        .zip(d.iter().copied())
-        .collect()
-}
-
 /// The tested design at `d` (within 1e-6 of the box on every variable), with its specimens.
 fn tested_at(cx: &Context, d: &[f64]) -> Option<(String, usize)> {
     observation_at(cx, d, 0..cx.inputs.observations.len()).map(|o| (o.group.clone(), o.count))
@@ -1093,7 +1083,7 @@ fn describe_common(
         .map(|(d, m)| {
             let tested = tested_at(cx, d);
             ProgrammeRun {
-                design: named(cx, d),
+                design: cx.inputs.space.design_at(d),
                 specimens: m + tested.as_ref().map_or(0, |t| t.1),
                 additional: *m,
                 tested_as: tested.map(|t| t.0),
@@ -1102,7 +1092,7 @@ fn describe_common(
         .collect();
     let single = pick.runs.len() == 1 && pick.decides;
     NextTest {
-        design: named(cx, &d),
+        design: cx.inputs.space.design_at(&d),
         why: String::new(),
         advice: String::new(),
         level: cx.alpha(),

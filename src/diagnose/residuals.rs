@@ -23,13 +23,7 @@ pub(crate) fn table(cx: &Context, fit: &Fit, noise: &NoiseModel) -> Vec<Residual
             Residual {
                 design: o.name.clone(),
                 role: o.role,
-                values: inputs
-                    .space
-                    .design_names
-                    .iter()
-                    .cloned()
-                    .zip(o.design.iter().copied())
-                    .collect(),
+                values: inputs.space.design_at(&o.design),
                 measured: o.mean,
                 count: o.count,
                 std_dev: o.std_dev,
