@@ -204,13 +204,8 @@ impl FeaturesReport {
         let spec = problem.model.spec;
         let w = &problem.model.whitening;
         let value = |c: &DVector<f64>, feature: &str| -> Option<f64> {
-            let f = features::measure(&spec, c.as_slice());
-            match features::NAMES.iter().position(|n| *n == feature)? {
-                0 => Some(f.plateau),
-                1 => f.peak.map(|p| p.0),
-                2 => Some(f.slope),
-                _ => f.period,
-            }
+            let k = features::NAMES.iter().position(|n| *n == feature)?;
+            raw(&features::measure(&spec, c.as_slice()), k)
         };
         let rows = problem
             .rows
@@ -673,6 +668,16 @@ fn pooled(
     Err("the specimens' feature scatter is degenerate".into())
 }
 
+/// Feature `k` of [`features::NAMES`] as measured, untransformed.
+fn raw(f: &features::Features, k: usize) -> Option<f64> {
+    match k {
+        0 => Some(f.plateau),
+        1 => f.peak.map(|p| p.0),
+        2 => Some(f.slope),
+        _ => f.period,
+    }
+}
+
 /// The measured features per design, unwhitened, for the report.
 fn rows(designs: &[CurveDesign], spec: &FeatureSpec) -> Vec<FeatureRow> {
     let mut out = Vec::new();
@@ -683,23 +688,13 @@ fn rows(designs: &[CurveDesign], spec: &FeatureSpec) -> Vec<FeatureRow> {
             .map(|c| features::measure(spec, c.as_slice()))
             .collect();
         let n = f.len();
-        let value = |x: &features::Features, k: usize| match k {
-            0 => Some(x.plateau),
-            1 => x.peak.map(|p| p.0),
-            2 => Some(x.slope),
-            _ => x.period,
-        };
         for k in 0..4 {
-            let v: Vec<f64> = f.iter().filter_map(|x| value(x, k)).collect();
+            let v: Vec<f64> = f.iter().filter_map(|x| raw(x, k)).collect();
             if v.len() != n || n == 0 {
                 continue;
             }
-            let mean = v.iter().sum::<f64>() / n as f64;
-            let sd = if n > 1 {
-                (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
-            } else {
-                f64::NAN
-            };
+            let (mean, sd) = crate::study::experiments::mean_sd(&v);
+            let sd = sd.unwrap_or(f64::NAN);
             out.push(FeatureRow {
                 design: d.name.clone(),
                 feature: features::NAMES[k].to_string(),

@@ -97,10 +97,7 @@ pub struct Observation {
 
 impl Observation {
     pub fn from_replicates(name: impl Into<String>, design: Vec<f64>, role: Role, replicates: &[f64]) -> Self {
-        let n = replicates.len();
-        let mean = replicates.iter().sum::<f64>() / n as f64;
-        let std_dev =
-            (n > 1).then(|| (replicates.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
+        let (mean, std_dev) = crate::study::experiments::mean_sd(replicates);
         let name = name.into();
         Observation {
             group: name.clone(),
@@ -108,7 +105,7 @@ impl Observation {
             design,
             role,
             mean,
-            count: n,
+            count: replicates.len(),
             std_dev,
             output: 0,
         }

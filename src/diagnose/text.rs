@@ -197,12 +197,17 @@ fn open_clause(n: &super::open::NotExcluded) -> String {
     )
 }
 
-/// What the solver showed of one model at its fitted parameters.
-fn confirmation_line(c: &super::confirm::Confirmation) -> String {
-    let model = match c.model.as_str() {
+/// A confirmation's model in words.
+fn model_words(c: &super::confirm::Confirmation) -> String {
+    match c.model.as_str() {
         super::confirm::UNCORRECTED => "the uncorrected simulation".to_string(),
         name => format!("the model with '{name}'"),
-    };
+    }
+}
+
+/// What the solver showed of one model at its fitted parameters.
+fn confirmation_line(c: &super::confirm::Confirmation) -> String {
+    let model = model_words(c);
     let shown = match &c.lack_of_fit {
         Some(l) if l.fits => format!("fits the tests within their scatter alone ({})", lack_of_fit(l)),
         Some(l) => format!("misses the tests beyond their scatter alone ({})", lack_of_fit(l)),
@@ -242,12 +247,11 @@ pub(crate) fn emulator_limited(
         .iter()
         .filter_map(|c| {
             let l = c.lack_of_fit.as_ref()?;
-            let what = if c.model == super::confirm::UNCORRECTED {
-                "the uncorrected simulation".to_string()
-            } else {
-                format!("the model with '{}'", c.model)
-            };
-            Some(format!("{what} {} the tests", if l.fits { "fits" } else { "misses" }))
+            Some(format!(
+                "{} {} the tests",
+                model_words(c),
+                if l.fits { "fits" } else { "misses" }
+            ))
         })
         .collect();
     let solver = match shown.is_empty() {
