@@ -329,10 +329,11 @@ pub fn settle(
     counted: super::Diagnosis,
     confirmations: Vec<Confirmation>,
 ) -> super::Diagnosis {
+    let differ = (noise_alone.verdict, &noise_alone.cause) != (counted.verdict, &counted.cause);
     let reading = |confirmed: Option<&str>, unjudged: Option<&str>| EmulatorReading {
         noise_alone: Decided::of(&noise_alone),
         counted: Decided::of(&counted),
-        differ: (noise_alone.verdict, &noise_alone.cause) != (counted.verdict, &counted.cause),
+        differ,
         confirmed: confirmed.map(str::to_string),
         unjudged: unjudged.map(str::to_string),
     };
@@ -352,7 +353,6 @@ pub fn settle(
     // Where the two decisions agree, the counted one is kept (its intervals and next test count
     // the emulators' error); where they differ, the noise alone's first: the solver's runs, not the
     // emulators, then say whether its claims hold.
-    let differ = (noise_alone.verdict, &noise_alone.cause) != (counted.verdict, &counted.cause);
     let order: [(&super::Diagnosis, &str); 2] = match differ {
         true => [(&noise_alone, "noise_alone"), (&counted, "counted")],
         false => [(&counted, "counted"), (&noise_alone, "noise_alone")],

@@ -315,27 +315,24 @@ pub(crate) fn run<'a>(
         let shape = screening.ranked.entries[k].model.shape.as_ref();
         shape.is_some_and(|s| s.origin == Origin::Study)
     };
+    let fitted = |cx, entry: &'a Entry| Base {
+        cx,
+        entry,
+        name: entry.model.name().to_string(),
+        uncorrected: false,
+        simulated_by: None,
+    };
     let base = match cause {
-        Some(Who::Candidate(k)) if is_listed(k) => Base {
-            cx: &screening.cx,
-            entry: &screening.ranked.entries[k],
-            name: screening.ranked.entries[k].model.name().to_string(),
-            uncorrected: false,
-            simulated_by: None,
-        },
+        Some(Who::Candidate(k)) if is_listed(k) => fitted(&screening.cx, &screening.ranked.entries[k]),
         Some(Who::Extended(j)) => Base {
-            cx: &looped[j].cx,
-            entry: &looped[j].ranked.base,
             name: loop_names[j].clone(),
-            uncorrected: false,
             simulated_by: Some(loop_names[j].clone()),
+            ..fitted(&looped[j].cx, &looped[j].ranked.base)
         },
+        // The uncorrected model's name is `uncorrected`.
         _ => Base {
-            cx: &screening.cx,
-            entry: &screening.ranked.base,
-            name: "uncorrected".to_string(),
             uncorrected: true,
-            simulated_by: None,
+            ..fitted(&screening.cx, &screening.ranked.base)
         },
     };
     search(base, spec, notes)
@@ -1150,6 +1147,10 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
         if pairs { " and their pairs" } else { "" },
         num(d.threshold)
     );
+    let base = match d.base.as_str() {
+        "uncorrected" => "uncorrected".to_string(),
+        name => format!("'{name}'"),
+    };
     let mut out = Vec::new();
     match d.outcome {
         Outcome::Found => {
@@ -1178,11 +1179,7 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
                  misfit beyond what a search of {searched} allows ({}), no other library shape still reduces it with \
                  it in{fit}{gains}{loo}.",
                 d.shape.as_deref().unwrap_or_default(),
-                if d.base == "uncorrected" {
-                    "uncorrected".to_string()
-                } else {
-                    format!("'{}'", d.base)
-                },
+                base,
                 num(t.coefficient),
                 crate::base::format::params(&d.parameters),
                 d.p_value.map_or("-".into(), p_text),
@@ -1207,11 +1204,7 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
             out.push(format!(
                 "Searched by library, not listed: no shape in the library explains the misfit (searched {searched}, \
                  base {}){}.",
-                if d.base == "uncorrected" {
-                    "uncorrected".to_string()
-                } else {
-                    format!("'{}'", d.base)
-                },
+                base,
                 if closest.is_empty() {
                     String::new()
                 } else {
