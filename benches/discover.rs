@@ -15,7 +15,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use lab::calibrate::Bounds;
 use lab::diagnose::library::LibrarySpec;
-use lab::diagnose::{self, Inputs, Observation, Role, Settings};
+use lab::diagnose::{self, Inputs, Observation, Role, Settings, Space};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -52,23 +52,22 @@ fn inputs(obs: Vec<Observation>, discover: bool) -> Inputs<'static> {
     Inputs {
         observations: obs,
         model: &junction,
-        parameter_names: vec!["sigma".into()],
-        parameter_bounds: Bounds::new(vec![100.0], vec![300.0]),
-        design_names: vec!["t".into(), "c".into()],
-        design_bounds: Bounds::new(vec![0.6, 4.0], vec![1.4, 8.0]),
+        space: Space {
+            parameter_names: vec!["sigma".into()],
+            parameter_bounds: Bounds::new(vec![100.0], vec![300.0]),
+            design_names: vec!["t".into(), "c".into()],
+            design_bounds: Bounds::new(vec![0.6, 4.0], vec![1.4, 8.0]),
+        },
         hypotheses: Vec::new(),
         settings: Settings::default(),
-        discover,
-        library: LibrarySpec {
+        library: discover.then(|| LibrarySpec {
             units: vec![Some("mm".into()), Some("mm".into())],
             scales: vec![None, None],
             exponents: vec![5.0 / 3.0, 1.0 / 3.0],
-        },
-        outputs: Vec::new(),
+        }),
         built_ins: None,
-        noise: None,
+        features: None,
         emulator: Default::default(),
-        relative_error: None,
     }
 }
 

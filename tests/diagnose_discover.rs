@@ -25,7 +25,7 @@ mod verdict_common;
 use lab::calibrate::Bounds;
 use lab::diagnose::discover::{Discovered, Outcome};
 use lab::diagnose::library::LibrarySpec;
-use lab::diagnose::{self, Diagnosis, Inputs, Observation, Role, Settings, Shape};
+use lab::diagnose::{self, Diagnosis, Inputs, Observation, Role, Settings, Shape, Space};
 use nalgebra::{DMatrix, DVector};
 use power_common::power_at;
 use rand::{Rng, SeedableRng};
@@ -354,13 +354,15 @@ fn run(case: &Case, always: bool) -> Diagnosis {
     let inputs = Inputs {
         observations: case.obs.clone(),
         model: &model,
-        parameter_names: case.param_names(),
-        parameter_bounds: Bounds::new(
-            f.params.iter().map(|p| p.1).collect(),
-            f.params.iter().map(|p| p.2).collect(),
-        ),
-        design_names: case.names(),
-        design_bounds: Bounds::new(case.lower.clone(), case.upper.clone()),
+        space: Space {
+            parameter_names: case.param_names(),
+            parameter_bounds: Bounds::new(
+                f.params.iter().map(|p| p.1).collect(),
+                f.params.iter().map(|p| p.2).collect(),
+            ),
+            design_names: case.names(),
+            design_bounds: Bounds::new(case.lower.clone(), case.upper.clone()),
+        },
         hypotheses: case
             .listed
             .iter()
@@ -370,17 +372,14 @@ fn run(case: &Case, always: bool) -> Diagnosis {
             search_without_detection: always,
             ..Settings::default()
         },
-        discover: true,
-        library: LibrarySpec {
+        library: Some(LibrarySpec {
             units: f.units.iter().map(|u| Some(u.to_string())).collect(),
             scales: f.scales.clone(),
             exponents: f.exponents.clone(),
-        },
-        outputs: Vec::new(),
+        }),
         built_ins: None,
-        noise: None,
+        features: None,
         emulator: Default::default(),
-        relative_error: None,
     };
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
     if !always || d.discrepancy_detected {

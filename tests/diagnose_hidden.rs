@@ -24,7 +24,7 @@ mod verdict_common;
 
 use lab::calibrate::Bounds;
 use lab::diagnose::verdict::Verdict;
-use lab::diagnose::{self, Diagnosis, Inputs, Observation, Role, Settings, Shape};
+use lab::diagnose::{self, Diagnosis, Inputs, Observation, Role, Settings, Shape, Space};
 use nalgebra::{DMatrix, DVector};
 use power_common::power_at;
 use rand::seq::SliceRandom;
@@ -282,22 +282,21 @@ fn run(setup: &Setup, case: &Case) -> Diagnosis {
     let inputs = Inputs {
         observations: case.obs.clone(),
         model: &model,
-        parameter_names: setup.param_names(),
-        parameter_bounds: Bounds::new(
-            setup.params.iter().map(|p| p.lo).collect(),
-            setup.params.iter().map(|p| p.hi).collect(),
-        ),
-        design_names: setup.names(),
-        design_bounds: Bounds::new(setup.lower.clone(), setup.upper.clone()),
+        space: Space {
+            parameter_names: setup.param_names(),
+            parameter_bounds: Bounds::new(
+                setup.params.iter().map(|p| p.lo).collect(),
+                setup.params.iter().map(|p| p.hi).collect(),
+            ),
+            design_names: setup.names(),
+            design_bounds: Bounds::new(setup.lower.clone(), setup.upper.clone()),
+        },
         hypotheses: case.hypotheses.clone(),
         settings: Settings::default(),
-        outputs: Vec::new(),
+        library: None,
         built_ins: None,
-        noise: None,
+        features: None,
         emulator: Default::default(),
-        relative_error: None,
-        discover: false,
-        library: Default::default(),
     };
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
     verdict_common::assert_verdict_follows_evidence(&serde_json::to_value(&d).unwrap());

@@ -15,7 +15,7 @@
 
 use lab::calibrate::Bounds;
 use lab::diagnose::discover::Outcome;
-use lab::diagnose::{self, Inputs, Observation, Role, Settings, Shape};
+use lab::diagnose::{self, Inputs, Observation, Role, Settings, Shape, Space};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -135,19 +135,18 @@ fn diagnose_draw(f: &Family, salt: u64, seed: u64) -> diagnose::Diagnosis {
     let inputs = Inputs {
         observations,
         model: &model,
-        parameter_names: vec![pname.to_string()],
-        parameter_bounds: Bounds::new(vec![lo], vec![hi]),
-        design_names: names,
-        design_bounds: Bounds::new(f.lower.clone(), f.upper.clone()),
+        space: Space {
+            parameter_names: vec![pname.to_string()],
+            parameter_bounds: Bounds::new(vec![lo], vec![hi]),
+            design_names: names,
+            design_bounds: Bounds::new(f.lower.clone(), f.upper.clone()),
+        },
         hypotheses,
         settings: Settings::default(),
-        outputs: Vec::new(),
+        library: Some(Default::default()),
         built_ins: None,
-        noise: None,
+        features: None,
         emulator: Default::default(),
-        relative_error: None,
-        discover: true,
-        library: Default::default(),
     };
     diagnose::diagnose(&inputs).expect("the diagnosis runs")
 }

@@ -15,7 +15,7 @@
 
 use lab::calibrate::Bounds;
 use lab::diagnose::verdict::Verdict;
-use lab::diagnose::{self, Inputs, Observation, Role, Settings, Shape};
+use lab::diagnose::{self, Inputs, Observation, Role, Settings, Shape, Space};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -81,19 +81,18 @@ fn diagnose(case: &Case, obs: &[Observation]) -> diagnose::Diagnosis {
     let inputs = Inputs {
         observations: obs.to_vec(),
         model: &model,
-        parameter_names: params.clone(),
-        parameter_bounds: Bounds::new(vec![100.0], vec![3000.0]),
-        design_names: names.clone(),
-        design_bounds: Bounds::new(vec![case.lower], vec![case.upper]),
+        space: Space {
+            parameter_names: params.clone(),
+            parameter_bounds: Bounds::new(vec![100.0], vec![3000.0]),
+            design_names: names.clone(),
+            design_bounds: Bounds::new(vec![case.lower], vec![case.upper]),
+        },
         hypotheses: vec![shape("A", "x^-1"), shape("B", "x^-2")],
         settings: Settings::default(),
-        outputs: Vec::new(),
+        library: None,
         built_ins: Some(Vec::new()),
-        noise: None,
+        features: None,
         emulator: Default::default(),
-        relative_error: None,
-        discover: false,
-        library: Default::default(),
     };
     diagnose::diagnose(&inputs).unwrap()
 }

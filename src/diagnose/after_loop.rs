@@ -138,7 +138,7 @@ pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[St
     let open = opens(screening, looped, loop_names);
     let mut readings = FromEvidence::new(screening, looped);
     let judged = judge(&mut readings, &open);
-    let weights = weights(&open);
+    let weights = ranking::weights(&open.iter().map(|o| o.score).collect::<Vec<_>>());
     let record = AfterLoop {
         screening_verdict: screening.decision.verdict,
         screening_headline: String::new(),
@@ -266,13 +266,7 @@ fn against_each_other(
         }
         // Both (or more) beat each other: each explains a part; the best-scored is named.
         [first, ..] => named(r, first, beats_all.get(1).map(|o| o.who)),
-        [] => Decision {
-            verdict: Verdict::CannotTellApart,
-            detected: true,
-            cause: None,
-            leading: many.iter().map(|o| o.who).collect(),
-            compare: many.iter().take(2).map(|o| o.who).collect(),
-        },
+        [] => apart(many.to_vec()),
     }
 }
 
@@ -460,16 +454,20 @@ fn unsettled(open: &[Open]) -> Option<Decision> {
     if standing.len() < 2 || standing.iter().all(|o| o.checked) {
         return None;
     }
-    let mut ranked = standing;
-    ranked.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
-    let leading: Vec<Who> = ranked.iter().map(|o| o.who).collect();
-    Some(Decision {
+    Some(apart(standing))
+}
+
+/// "Cannot tell apart" between `open`, ranked by score (best first).
+fn apart(mut open: Vec<&Open>) -> Decision {
+    open.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
+    let leading: Vec<Who> = open.iter().map(|o| o.who).collect();
+    Decision {
         verdict: Verdict::CannotTellApart,
         detected: true,
         cause: None,
         compare: leading.iter().take(2).copied().collect(),
         leading,
-    })
+    }
 }
 
 /// Every open explanation's final model misses the tests: the best-scored partly explains.
@@ -477,16 +475,7 @@ fn all_rejected(r: &dyn Readings, open: &[Open]) -> Decision {
     let best = open.iter().min_by(|a, b| key(a.score).total_cmp(&key(b.score)));
     if open.len() > 1 {
         // Every final model misses: which one is the part is not decided by a score alone.
-        let mut ranked: Vec<&Open> = open.iter().collect();
-        ranked.sort_by(|a, b| key(a.score).total_cmp(&key(b.score)));
-        let leading: Vec<Who> = ranked.iter().map(|o| o.who).collect();
-        return Decision {
-            verdict: Verdict::CannotTellApart,
-            detected: true,
-            cause: None,
-            compare: leading.iter().take(2).copied().collect(),
-            leading,
-        };
+        return apart(open.iter().collect());
     }
     match best {
         Some(b) => Decision {
@@ -498,20 +487,6 @@ fn all_rejected(r: &dyn Readings, open: &[Open]) -> Decision {
         },
         None => r.screening(),
     }
-}
-
-/// Akaike-type weights over the open explanations' scores (equal without scores).
-fn weights(open: &[Open]) -> Vec<f64> {
-    let best = open.iter().filter_map(|o| o.score).fold(f64::INFINITY, f64::min);
-    let raw: Vec<f64> = open
-        .iter()
-        .map(|o| match o.score {
-            Some(s) if best.is_finite() => (-0.5 * (s - best)).exp(),
-            _ => 1.0,
-        })
-        .collect();
-    let total: f64 = raw.iter().sum();
-    raw.iter().map(|r| r / total.max(f64::MIN_POSITIVE)).collect()
 }
 
 #[cfg(test)]

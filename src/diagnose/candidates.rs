@@ -85,7 +85,7 @@ pub(crate) fn shapes(cx: &Context, base: &Model, notes: &mut Vec<String>) -> Vec
         inputs
             .built_ins
             .clone()
-            .unwrap_or_else(|| Shape::built_ins(&inputs.design_names)),
+            .unwrap_or_else(|| Shape::built_ins(&inputs.space.design_names)),
     ) {
         let v = shape_vector(cx, &shape, base);
         if v.iter().any(|x| !x.is_finite()) {
@@ -181,16 +181,8 @@ pub(crate) fn score(cx: &Context, model: &Model, validation_deviance: Option<f64
     let bic = m2ll + k * nf.ln();
     let aicc = (nf - k - 1.0 > 0.0).then(|| m2ll + 2.0 * k + 2.0 * k * (k + 1.0) / (nf - k - 1.0));
     let loo = model.loo.as_ref();
-    let loo_deviance = loo.map(|loo| {
-        let press: f64 = cx
-            .train
-            .iter()
-            .zip(loo)
-            .map(|(&i, yh)| (cx.data.weights[i] * (cx.data.means[i] - yh)).powi(2))
-            .sum();
-        deviance(cx, press, n)
-    });
-    let loo_error = loo.map(|loo| cx.mean_abs_rel(cx.train.iter().zip(loo).map(|(&i, &yh)| (i, yh))));
+    let loo_deviance = loo.map(|loo| deviance(cx, cx.press(loo), n));
+    let loo_error = loo.map(|loo| cx.loo_error(loo));
     let score = match (cx.mode, aicc, loo_deviance) {
         (Mode::Ranked, Some(a), Some(d)) => 0.5 * (a + d),
         _ => m2ll + 2.0 * k + validation_deviance.unwrap_or(0.0),

@@ -58,7 +58,7 @@ pub struct ConfirmedRun {
     pub measured: f64,
 }
 
-/// What a model is, for its confirmation: its name, its fitted point (`inputs.parameter_names`),
+/// What a model is, for its confirmation: its name, its fitted point (`inputs.space.parameter_names`),
 /// and per observation the correction the model adds to the simulation at that point.
 pub struct Confirming<'a> {
     pub name: String,
@@ -116,8 +116,8 @@ pub fn confirm(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, level
             )
         })
         .flatten();
-    let names = &inputs.parameter_names;
-    let width = inputs.parameter_bounds.width();
+    let names = &inputs.space.parameter_names;
+    let width = inputs.space.parameter_bounds.width();
     Confirmation {
         model: m.name.clone(),
         at: names.iter().cloned().zip(theta.iter().copied()).collect(),
@@ -204,7 +204,7 @@ fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridged> {
 fn slope(m: &Confirming) -> DMatrix<f64> {
     let inputs = m.inputs;
     let obs = &inputs.observations;
-    let width = inputs.parameter_bounds.width();
+    let width = inputs.space.parameter_bounds.width();
     let p = m.point.len();
     DMatrix::from_fn(obs.len(), p, |i, k| {
         let h = 1e-4 * width[k];
@@ -329,10 +329,11 @@ pub fn settle(
     counted: super::Diagnosis,
     confirmations: Vec<Confirmation>,
 ) -> super::Diagnosis {
+    let differ = (noise_alone.verdict, &noise_alone.cause) != (counted.verdict, &counted.cause);
     let reading = |confirmed: Option<&str>, unjudged: Option<&str>| EmulatorReading {
         noise_alone: Decided::of(&noise_alone),
         counted: Decided::of(&counted),
-        differ: (noise_alone.verdict, &noise_alone.cause) != (counted.verdict, &counted.cause),
+        differ,
         confirmed: confirmed.map(str::to_string),
         unjudged: unjudged.map(str::to_string),
     };
@@ -352,7 +353,6 @@ pub fn settle(
     // Where the two decisions agree, the counted one is kept (its intervals and next test count
     // the emulators' error); where they differ, the noise alone's first: the solver's runs, not the
     // emulators, then say whether its claims hold.
-    let differ = (noise_alone.verdict, &noise_alone.cause) != (counted.verdict, &counted.cause);
     let order: [(&super::Diagnosis, &str); 2] = match differ {
         true => [(&noise_alone, "noise_alone"), (&counted, "counted")],
         false => [(&counted, "counted"), (&noise_alone, "noise_alone")],
@@ -399,19 +399,18 @@ mod tests {
         Inputs {
             observations,
             model,
-            parameter_names: vec!["a".into()],
-            parameter_bounds: Bounds::new(vec![300.0], vec![900.0]),
-            design_names: vec!["h".into()],
-            design_bounds: Bounds::new(vec![7.0], vec![13.0]),
+            space: crate::diagnose::Space {
+                parameter_names: vec!["a".into()],
+                parameter_bounds: Bounds::new(vec![300.0], vec![900.0]),
+                design_names: vec!["h".into()],
+                design_bounds: Bounds::new(vec![7.0], vec![13.0]),
+            },
             hypotheses: Vec::new(),
             settings: Default::default(),
-            discover: false,
-            library: Default::default(),
-            outputs: Vec::new(),
+            library: None,
             built_ins: Some(Vec::new()),
-            noise: None,
+            features: None,
             emulator: Default::default(),
-            relative_error: None,
         }
     }
 

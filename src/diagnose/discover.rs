@@ -216,19 +216,11 @@ struct Tried {
 
 impl Tried {
     fn press(&self, cx: &Context) -> f64 {
-        self.loo.as_ref().map_or(f64::INFINITY, |loo| {
-            cx.train
-                .iter()
-                .zip(loo)
-                .map(|(&i, yh)| (cx.data.weights[i] * (cx.data.means[i] - yh)).powi(2))
-                .sum()
-        })
+        self.loo.as_ref().map_or(f64::INFINITY, |loo| cx.press(loo))
     }
 
     fn loo_error(&self, cx: &Context) -> f64 {
-        self.loo.as_ref().map_or(f64::NAN, |loo| {
-            cx.mean_abs_rel(cx.train.iter().zip(loo).map(|(&i, &yh)| (i, yh)))
-        })
+        self.loo.as_ref().map_or(f64::NAN, |loo| cx.loo_error(loo))
     }
 }
 
@@ -303,7 +295,10 @@ pub(crate) fn run<'a>(
     notes: &mut Vec<String>,
 ) -> Option<Search<'a>> {
     let inputs = screening.cx.inputs;
-    if !inputs.discover || !(decision.detected || inputs.settings.search_without_detection) {
+    let Some(spec) = &inputs.library else {
+        return None;
+    };
+    if !(decision.detected || inputs.settings.search_without_detection) {
         return None;
     }
     let listed = !inputs.hypotheses.is_empty();
@@ -320,30 +315,27 @@ pub(crate) fn run<'a>(
         let shape = screening.ranked.entries[k].model.shape.as_ref();
         shape.is_some_and(|s| s.origin == Origin::Study)
     };
+    let fitted = |cx, entry: &'a Entry| Base {
+        cx,
+        entry,
+        name: entry.model.name().to_string(),
+        uncorrected: false,
+        simulated_by: None,
+    };
     let base = match cause {
-        Some(Who::Candidate(k)) if is_listed(k) => Base {
-            cx: &screening.cx,
-            entry: &screening.ranked.entries[k],
-            name: screening.ranked.entries[k].model.name().to_string(),
-            uncorrected: false,
-            simulated_by: None,
-        },
+        Some(Who::Candidate(k)) if is_listed(k) => fitted(&screening.cx, &screening.ranked.entries[k]),
         Some(Who::Extended(j)) => Base {
-            cx: &looped[j].cx,
-            entry: &looped[j].ranked.base,
             name: loop_names[j].clone(),
-            uncorrected: false,
             simulated_by: Some(loop_names[j].clone()),
+            ..fitted(&looped[j].cx, &looped[j].ranked.base)
         },
+        // The uncorrected model's name is `uncorrected`.
         _ => Base {
-            cx: &screening.cx,
-            entry: &screening.ranked.base,
-            name: "uncorrected".to_string(),
             uncorrected: true,
-            simulated_by: None,
+            ..fitted(&screening.cx, &screening.ranked.base)
         },
     };
-    search(base, &inputs.library, notes)
+    search(base, spec, notes)
 }
 
 /// What the search starts from: a fitted model in its own context.
@@ -458,7 +450,7 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
 /// same over them as one of the base's shapes, is dropped; shapes the same as one already kept are
 /// merged into it.
 fn kept(cx: &Context, base: &Model, base_shapes: &[Shape], base_name: &str, spec: &LibrarySpec) -> Kept {
-    let built = library::build(&cx.inputs.design_names, spec);
+    let built = library::build(&cx.inputs.space.design_names, spec);
     let same_cosine = cx.inputs.settings.same_shape_cosine;
     let mut dropped = built.dropped.clone();
     let mut same_shape: IndexMap<String, Vec<String>> = IndexMap::new();
@@ -1089,7 +1081,7 @@ fn reading_of(s: &Searcher, t: &FoundTerm) -> Option<String> {
 /// Local power-law exponents ∂ln|f|/∂ln x_j at every training design, when f is a pure power law
 /// over them (the same exponents everywhere, to 1e-4); `None` otherwise.
 fn power_law(cx: &Context, f: &dyn Fn(&[f64]) -> f64) -> Option<Vec<f64>> {
-    let dims = cx.inputs.design_names.len();
+    let dims = cx.inputs.space.design_names.len();
     let mut out: Option<Vec<f64>> = None;
     for &i in &cx.train {
         let d = &cx.data.designs[i];
@@ -1121,7 +1113,7 @@ fn power_law(cx: &Context, f: &dyn Fn(&[f64]) -> f64) -> Option<Vec<f64>> {
 fn reading(cx: &Context, theta: &DVector<f64>, shape: &Shape) -> Option<String> {
     let th = theta.as_slice();
     let model = cx.inputs.model;
-    let names = &cx.inputs.design_names;
+    let names = &cx.inputs.space.design_names;
     let g = |d: &[f64]| shape.eval(d, th, model.predict(d, th));
     let y = |d: &[f64]| model.predict(d, th);
     let ratio = |d: &[f64]| g(d) / y(d);
@@ -1155,6 +1147,10 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
         if pairs { " and their pairs" } else { "" },
         num(d.threshold)
     );
+    let base = match d.base.as_str() {
+        "uncorrected" => "uncorrected".to_string(),
+        name => format!("'{name}'"),
+    };
     let mut out = Vec::new();
     match d.outcome {
         Outcome::Found => {
@@ -1183,11 +1179,7 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
                  misfit beyond what a search of {searched} allows ({}), no other library shape still reduces it with \
                  it in{fit}{gains}{loo}.",
                 d.shape.as_deref().unwrap_or_default(),
-                if d.base == "uncorrected" {
-                    "uncorrected".to_string()
-                } else {
-                    format!("'{}'", d.base)
-                },
+                base,
                 num(t.coefficient),
                 crate::base::format::params(&d.parameters),
                 d.p_value.map_or("-".into(), p_text),
@@ -1212,11 +1204,7 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
             out.push(format!(
                 "Searched by library, not listed: no shape in the library explains the misfit (searched {searched}, \
                  base {}){}.",
-                if d.base == "uncorrected" {
-                    "uncorrected".to_string()
-                } else {
-                    format!("'{}'", d.base)
-                },
+                base,
                 if closest.is_empty() {
                     String::new()
                 } else {

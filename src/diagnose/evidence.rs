@@ -191,7 +191,7 @@ fn separability(cx: &Context, m: &Model, c: &Covariance, dof: usize) -> Separabi
     let q = stats::t_quantile(0.975, if cx.known() { cx.nu } else { dof } as f64);
     let ci = [gamma - q * se, gamma + q * se];
     let edge = if ci[0].abs() > ci[1].abs() { ci[0] } else { ci[1] };
-    let names = &cx.inputs.parameter_names;
+    let names = &cx.inputs.space.parameter_names;
     Separability {
         amplitude_se: Some(se),
         amplitude_ci95: Some(ci),
@@ -213,7 +213,7 @@ fn separability(cx: &Context, m: &Model, c: &Covariance, dof: usize) -> Separabi
 /// significant, and its variance is inflated ≥ `absorbed_inflation` × by θ (or infinitely).
 pub(crate) fn absorbed_by(cx: &Context, m: &Model, a: &Assessed, explains: bool) -> Vec<String> {
     let limit = cx.inputs.settings.absorbed_inflation;
-    let names = &cx.inputs.parameter_names;
+    let names = &cx.inputs.space.parameter_names;
     if explains || m.shape.is_none() {
         return Vec::new();
     }
@@ -245,7 +245,7 @@ fn collinear_with(cx: &Context, m: &Model) -> Vec<String> {
     let a = cx.data.jacobian(&shapes, &m.fit, &cx.train);
     let p = cx.p();
     let g: Vec<f64> = a.column(p).iter().copied().collect();
-    let names = &cx.inputs.parameter_names;
+    let names = &cx.inputs.space.parameter_names;
     let single: Vec<String> = (0..p)
         .filter(|&j| {
             let col: Vec<f64> = a.column(j).iter().copied().collect();

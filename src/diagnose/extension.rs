@@ -13,6 +13,7 @@ use indexmap::IndexMap;
 
 use super::ranking::{Entry, Ranked};
 use super::{Context, Evidence, Extended, ExtensionEffect};
+use crate::base::format::num;
 
 /// The screening's extended model of candidate `k`: θ and its amplitude fitted jointly.
 pub(crate) fn extend(cx: &Context, ranked: &Ranked, k: usize) -> Option<Extended> {
@@ -23,7 +24,7 @@ pub(crate) fn extend(cx: &Context, ranked: &Ranked, k: usize) -> Option<Extended
     let loo = |x: &Entry| x.score.as_ref().and_then(|s| s.loo_error);
     let (loo_before, loo_after) = (loo(base), loo(e));
     let lof = e.assessed.lack_of_fit.as_ref();
-    let names = &cx.inputs.parameter_names;
+    let names = &cx.inputs.space.parameter_names;
     let theta0 = &base.model.fit.theta;
     let theta = &e.model.fit.theta;
     let gamma = e.model.fit.amplitude();
@@ -33,13 +34,7 @@ pub(crate) fn extend(cx: &Context, ranked: &Ranked, k: usize) -> Option<Extended
         amplitude: gamma,
         amplitude_ci95: e.assessed.separability.amplitude_ci95,
         parameters: cx.param_map(theta),
-        parameter_se: e.assessed.cov.as_ref().map(|c| {
-            names
-                .iter()
-                .enumerate()
-                .map(|(j, n)| (n.clone(), c.matrix[(j, j)].sqrt()))
-                .collect()
-        }),
+        parameter_se: e.assessed.cov.as_ref().map(|c| cx.standard_errors(c)),
         parameter_change: names
             .iter()
             .enumerate()
@@ -127,14 +122,7 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
     let mut e = screening;
     let before = e.parameters.clone();
     e.parameters = cx.param_map(&base.model.fit.theta);
-    e.parameter_se = base.assessed.cov.as_ref().map(|c| {
-        cx.inputs
-            .parameter_names
-            .iter()
-            .enumerate()
-            .map(|(j, n)| (n.clone(), c.matrix[(j, j)].sqrt()))
-            .collect()
-    });
+    e.parameter_se = base.assessed.cov.as_ref().map(|c| cx.standard_errors(c));
     e.parameter_change = before
         .iter()
         .filter_map(|(n, v0)| Some((n.clone(), e.parameters.get(n)? / v0 - 1.0)))
@@ -172,6 +160,7 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
     let intervals = looped.ranked.uncorrected(cx).precision;
     let variables: Vec<String> = cx
         .inputs
+        .space
         .parameter_names
         .iter()
         .filter(|n| !before.contains_key(*n))
@@ -192,8 +181,4 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
     }
     e.solver_in_the_loop = true;
     e
-}
-
-fn num(v: f64) -> String {
-    crate::base::format::num(v)
 }

@@ -42,8 +42,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use super::shapes::{Origin, Shape};
-use super::{Inputs, NoiseModel, Observation, Role, Settings};
-use crate::base::Bounds;
+use super::{FeatureOutputs, Inputs, NoiseModel, Observation, Role, Settings, Space};
 use crate::emulate::Model;
 use crate::extract::features::{self, FeatureSpec};
 
@@ -205,13 +204,8 @@ impl FeaturesReport {
         let spec = problem.model.spec;
         let w = &problem.model.whitening;
         let value = |c: &DVector<f64>, feature: &str| -> Option<f64> {
-            let f = features::measure(&spec, c.as_slice());
-            match features::NAMES.iter().position(|n| *n == feature)? {
-                0 => Some(f.plateau),
-                1 => f.peak.map(|p| p.0),
-                2 => Some(f.slope),
-                _ => f.period,
-            }
+            let k = features::NAMES.iter().position(|n| *n == feature)?;
+            raw(&features::measure(&spec, c.as_slice()), k)
         };
         let rows = problem
             .rows
@@ -272,10 +266,7 @@ pub struct CurveInputs<'a> {
     pub designs: Vec<CurveDesign>,
     pub spec: FeatureSpec,
     pub curve: Arc<CurveFn>,
-    pub parameter_names: Vec<String>,
-    pub parameter_bounds: Bounds,
-    pub design_names: Vec<String>,
-    pub design_bounds: Bounds,
+    pub space: Space,
     pub hypotheses: Vec<CurveHypothesis>,
     pub settings: Settings,
     /// The study's constants, for a term's expression.
@@ -438,7 +429,7 @@ impl FeatureProblem {
         };
         let shape_of = |h: &CurveHypothesis| feature_shape(h, &model);
         let shapes = ci.hypotheses.iter().map(shape_of).collect();
-        let built_ins = Shape::built_ins(&ci.design_names)
+        let built_ins = Shape::built_ins(&ci.space.design_names)
             .into_iter()
             .map(|s| feature_shape(&CurveHypothesis::Term(s), &model))
             .collect();
@@ -457,20 +448,18 @@ impl FeatureProblem {
         Inputs {
             observations: self.observations.clone(),
             model: &self.model,
-            parameter_names: ci.parameter_names.clone(),
-            parameter_bounds: ci.parameter_bounds.clone(),
-            design_names: ci.design_names.clone(),
-            design_bounds: ci.design_bounds.clone(),
+            space: ci.space.clone(),
             hypotheses: self.shapes.clone(),
             settings: ci.settings.clone(),
-            outputs: self.model.whitening.names(),
+            library: None,
             built_ins: Some(self.built_ins.clone()),
-            noise: Some(self.noise.clone()),
+            features: Some(FeatureOutputs {
+                outputs: self.model.whitening.names(),
+                noise: self.noise.clone(),
+                relative_error: self.plateau_error(),
+            }),
             // The emulator's error is in the whitening already ([`emulator_error`]).
             emulator: Default::default(),
-            relative_error: Some(self.plateau_error()),
-            discover: false,
-            library: Default::default(),
         }
     }
 
@@ -679,6 +668,16 @@ fn pooled(
     Err("the specimens' feature scatter is degenerate".into())
 }
 
+/// Feature `k` of [`features::NAMES`] as measured, untransformed.
+fn raw(f: &features::Features, k: usize) -> Option<f64> {
+    match k {
+        0 => Some(f.plateau),
+        1 => f.peak.map(|p| p.0),
+        2 => Some(f.slope),
+        _ => f.period,
+    }
+}
+
 /// The measured features per design, unwhitened, for the report.
 fn rows(designs: &[CurveDesign], spec: &FeatureSpec) -> Vec<FeatureRow> {
     let mut out = Vec::new();
@@ -689,23 +688,13 @@ fn rows(designs: &[CurveDesign], spec: &FeatureSpec) -> Vec<FeatureRow> {
             .map(|c| features::measure(spec, c.as_slice()))
             .collect();
         let n = f.len();
-        let value = |x: &features::Features, k: usize| match k {
-            0 => Some(x.plateau),
-            1 => x.peak.map(|p| p.0),
-            2 => Some(x.slope),
-            _ => x.period,
-        };
         for k in 0..4 {
-            let v: Vec<f64> = f.iter().filter_map(|x| value(x, k)).collect();
+            let v: Vec<f64> = f.iter().filter_map(|x| raw(x, k)).collect();
             if v.len() != n || n == 0 {
                 continue;
             }
-            let mean = v.iter().sum::<f64>() / n as f64;
-            let sd = if n > 1 {
-                (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
-            } else {
-                f64::NAN
-            };
+            let (mean, sd) = crate::study::experiments::mean_sd(&v);
+            let sd = sd.unwrap_or(f64::NAN);
             out.push(FeatureRow {
                 design: d.name.clone(),
                 feature: features::NAMES[k].to_string(),
@@ -771,11 +760,7 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
             let ext = ext.clone();
             let baseline = baseline.clone();
             let memo = Memo::default();
-            let set = variables
-                .iter()
-                .map(|(k, v)| format!("{k} = {v}"))
-                .collect::<Vec<_>>()
-                .join(", ");
+            let set = super::shapes::setting(variables);
             let mut s = Shape::new(
                 name.clone(),
                 format!("y[{set}] - y"),

@@ -16,6 +16,7 @@ use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
 use super::{Diagnosis, Role};
+use crate::base::format::num;
 
 /// One ranged extension variable.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -289,8 +290,4 @@ fn standardised(d: &Diagnosis) -> IndexMap<String, f64> {
             (r.design.clone(), z)
         })
         .collect()
-}
-
-fn num(v: f64) -> String {
-    crate::base::format::num(v)
 }

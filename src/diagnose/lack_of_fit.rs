@@ -85,29 +85,12 @@ impl LackOfFit {
         !self.fits
     }
 
-    /// The smaller of the two p-values: below the level exactly when the model does not fit.
-    pub fn p_either(&self) -> f64 {
-        let p_max = self.largest.as_ref().map_or(1.0, |l| l.p_corrected);
-        self.p_value.min(p_max)
+    /// The share of the `uncorrected` model's misfit beyond the noise that this model removes:
+    /// 1 − (χ² − dof) / (χ²_unc − dof_unc), in [0, 1] (`None` when the uncorrected has no excess).
+    pub fn share_removed(&self, uncorrected: &LackOfFit) -> Option<f64> {
+        let excess = |l: &LackOfFit| l.chi2 - l.dof as f64;
+        (excess(uncorrected) > 0.0).then(|| (1.0 - excess(self).max(0.0) / excess(uncorrected)).clamp(0.0, 1.0))
     }
-
-    /// Which of the two tests rejects (`None` when the model fits).
-    pub fn failed_by(&self) -> Option<FailedBy> {
-        let residual = self.largest.as_ref().is_some_and(|l| l.p_corrected < self.level);
-        let omnibus = self.p_value < self.level;
-        match (omnibus, residual) {
-            (_, true) => Some(FailedBy::Residual),
-            (true, false) => Some(FailedBy::Omnibus),
-            (false, false) => None,
-        }
-    }
-}
-
-/// Which test said a model does not fit (the residual test first when both did: it names where).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FailedBy {
-    Omnibus,
-    Residual,
 }
 
 /// The largest |z| of `z` with its t(ν) and Šidák p-values.
@@ -191,7 +174,7 @@ mod tests {
         assert_eq!(big.residuals, 12);
         assert!((big.p_corrected - 0.0087).abs() < 0.0002, "{}", big.p_corrected);
         assert!(l.rejects());
-        assert_eq!(l.failed_by(), Some(FailedBy::Residual));
+        assert!(big.p_corrected < l.level, "the residual test rejects");
         // With the noise known far better (ν = 200) the residual is decisive: Šidák p near 1e-6.
         let known = LackOfFit::new(57.0, 10, 200, &z, 0.01);
         let p = known.largest.as_ref().unwrap().p_corrected;
@@ -205,7 +188,8 @@ mod tests {
             .collect();
         let chi2: f64 = z.iter().map(|(_, v)| v * v).sum();
         let l = LackOfFit::new(chi2, 10, 30, &z, 0.01);
-        assert!(l.fits && l.failed_by().is_none() && l.p_either() >= 0.01);
+        let largest_passes = l.largest.as_ref().is_none_or(|b| b.p_corrected >= 0.01);
+        assert!(l.fits && l.p_value >= 0.01 && largest_passes);
     }
 
     /// Leverages against the hat matrix computed by the normal equations on a full-rank design.

@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use super::shapes::{Origin, Shape};
 
 /// What the study declares that the library is built from, per design variable in the order of
-/// [`super::Inputs::design_names`] (a shorter list means "not declared" for the rest).
+/// [`super::Space::design_names`] (a shorter list means "not declared" for the rest).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct LibrarySpec {
     pub units: Vec<Option<String>>,

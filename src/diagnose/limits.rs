@@ -90,6 +90,7 @@ fn moves(
     absorbed: &[(String, f64)],
 ) -> Vec<ParameterLimit> {
     cx.inputs
+        .space
         .parameter_names
         .iter()
         .enumerate()

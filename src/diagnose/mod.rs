@@ -80,7 +80,7 @@ pub enum Role {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observation {
     pub name: String,
-    /// Design-variable values, in the order of [`Inputs::design_names`].
+    /// Design-variable values, in the order of [`Space::design_names`].
     pub design: Vec<f64>,
     pub role: Role,
     /// Mean of the replicates.
@@ -97,10 +97,7 @@ pub struct Observation {
 
 impl Observation {
     pub fn from_replicates(name: impl Into<String>, design: Vec<f64>, role: Role, replicates: &[f64]) -> Self {
-        let n = replicates.len();
-        let mean = replicates.iter().sum::<f64>() / n as f64;
-        let std_dev =
-            (n > 1).then(|| (replicates.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
+        let (mean, std_dev) = crate::study::experiments::mean_sd(replicates);
         let name = name.into();
         Observation {
             group: name.clone(),
@@ -108,7 +105,7 @@ impl Observation {
             design,
             role,
             mean,
-            count: n,
+            count: replicates.len(),
             std_dev,
             output: 0,
         }
@@ -174,52 +171,87 @@ impl Default for Settings {
     }
 }
 
+/// The parameters and the design variables: their names and bounds (the diagnosis's [`Inputs`]
+/// and its curve inputs, [`features::CurveInputs`]).
+#[derive(Debug, Clone)]
+pub struct Space {
+    pub parameter_names: Vec<String>,
+    pub parameter_bounds: Bounds,
+    pub design_names: Vec<String>,
+    pub design_bounds: Bounds,
+}
+
+impl Space {
+    /// A study's parameters and design variables.
+    pub fn of_study(study: &Study) -> Space {
+        Space {
+            parameter_names: study.parameters.iter().map(|p| p.name.clone()).collect(),
+            parameter_bounds: study.parameter_bounds(),
+            design_names: study.design.iter().map(|d| d.name.clone()).collect(),
+            design_bounds: study.design_bounds(),
+        }
+    }
+
+    /// Design-variable values `d` by name.
+    pub fn design_at(&self, d: &[f64]) -> IndexMap<String, f64> {
+        self.design_names.iter().cloned().zip(d.iter().copied()).collect()
+    }
+}
+
 /// Everything the diagnosis needs.
 #[derive(Clone)]
 pub struct Inputs<'a> {
     /// Every tested design with its role (training and validation).
     pub observations: Vec<Observation>,
     pub model: &'a dyn Model,
-    pub parameter_names: Vec<String>,
-    pub parameter_bounds: Bounds,
-    pub design_names: Vec<String>,
-    pub design_bounds: Bounds,
+    pub space: Space,
     /// The user's candidate causes (study hypotheses); the built-in shapes are added by [`diagnose`].
     pub hypotheses: Vec<Shape>,
     pub settings: Settings,
-    /// Search a library of shapes when no listed hypothesis explains the misfit (`diagnosis.discover`).
-    pub discover: bool,
-    /// What the library is built from: the design variables' units and scales, the simulation's
-    /// exponents.
-    pub library: library::LibrarySpec,
-    /// The outputs each tested design is observed in: empty (or one) for a scalar response; the
-    /// names of curve features otherwise. With several, the model and every shape are called with
-    /// the output's index appended to the design (`[c, t, k]`).
-    pub outputs: Vec<String>,
+    /// What the library is built from (the design variables' units and scales, the simulation's
+    /// exponents), when a library of shapes is searched where no listed hypothesis explains the
+    /// misfit (`diagnosis.discover`); `None`: no search.
+    pub library: Option<library::LibrarySpec>,
     /// The shapes every diagnosis tries besides the hypotheses (`None`: [`Shape::built_ins`] over
     /// the design variables).
     pub built_ins: Option<Vec<Shape>>,
-    /// The noise when the caller knows it better than the replicate scatter of the observations
-    /// (curve features whitened by their covariance: σ = 1 with the covariance's own degrees of
-    /// freedom).
-    pub noise: Option<NoiseModel>,
+    /// What the observations are when they are not the response itself (whitened curve features);
+    /// `None`: the response, its noise from the replicate scatter of the observations.
+    pub features: Option<FeatureOutputs>,
     /// The simulation's own error at each observation (its emulators', measured at runs they were
     /// not fitted to), counted in the noise of that observation's mean where the settings count it.
     pub emulator: crate::emulate::Uncertainty,
-    /// The relative error of a prediction at an observation, where the observations are not the
-    /// response itself (whitened curve features: the plateau level's, `None` for the others);
-    /// `None`: (predicted − measured) / measured.
-    pub relative_error: Option<RelativeError>,
 }
 
-/// See [`Inputs::relative_error`].
+/// The observations as outputs other than the response: the features of curves, whitened by
+/// their covariance ([`Inputs::features`]).
+#[derive(Clone)]
+pub struct FeatureOutputs {
+    /// The outputs each tested design is observed in: the names of the curve features. With
+    /// several, the model and every shape are called with the output's index appended to the
+    /// design (`[c, t, k]`).
+    pub outputs: Vec<String>,
+    /// The noise, known better than the replicate scatter of the observations (σ = 1 with the
+    /// covariance's own degrees of freedom).
+    pub noise: NoiseModel,
+    /// The relative error of a prediction at an observation (the plateau level's, `None` for the
+    /// other features); without features it is (predicted − measured) / measured.
+    pub relative_error: RelativeError,
+}
+
+/// See [`FeatureOutputs::relative_error`].
 pub type RelativeError = std::sync::Arc<dyn Fn(&Observation, f64) -> Option<f64> + Send + Sync>;
 
 impl Inputs<'_> {
+    /// The number of outputs each tested design is observed in (1 for the response).
+    pub fn outputs(&self) -> usize {
+        self.features.as_ref().map_or(1, |f| f.outputs.len())
+    }
+
     /// An observation's point as the model and the shapes see it: the design, and with several
     /// outputs the output's index after it.
     pub fn point(&self, o: &Observation) -> Vec<f64> {
-        if self.outputs.len() > 1 {
+        if self.outputs() > 1 {
             o.design.iter().copied().chain([o.output as f64]).collect()
         } else {
             o.design.clone()
@@ -259,10 +291,7 @@ pub fn inputs_with_extensions<'a>(
     Inputs {
         observations,
         model,
-        parameter_names: study.parameters.iter().map(|p| p.name.clone()).collect(),
-        parameter_bounds: study.parameter_bounds(),
-        design_names: study.design.iter().map(|d| d.name.clone()).collect(),
-        design_bounds: study.design_bounds(),
+        space: Space::of_study(study),
         hypotheses: study
             .diagnosis
             .hypotheses
@@ -283,20 +312,17 @@ pub fn inputs_with_extensions<'a>(
             measurement: study.experiments.uncertainty,
             ..Settings::default()
         },
-        discover: study.diagnosis.discover,
-        library: library::LibrarySpec {
+        library: study.diagnosis.discover.then(|| library::LibrarySpec {
             units: study.design.iter().map(|d| d.unit.clone()).collect(),
             scales: study.design.iter().map(|d| d.scale).collect(),
             exponents: match &study.simulation {
                 crate::study::Simulation::Expression(e) => e.exponents(),
                 crate::study::Simulation::Solver(_) => Vec::new(),
             },
-        },
-        outputs: Vec::new(),
+        }),
         built_ins: None,
-        noise: None,
+        features: None,
         emulator: Default::default(),
-        relative_error: None,
     }
 }
 
@@ -545,10 +571,9 @@ pub struct Partial {
 impl Partial {
     fn new(name: String, extended: Option<Extended>, uncorrected: Option<&LackOfFit>) -> Partial {
         let remaining = extended.as_ref().and_then(|e| e.lack_of_fit.clone());
-        let excess = |l: &LackOfFit| l.chi2 - l.dof as f64;
         let share_removed = uncorrected
             .zip(remaining.as_ref())
-            .and_then(|(u, r)| (excess(u) > 0.0).then(|| (1.0 - excess(r).max(0.0) / excess(u)).clamp(0.0, 1.0)));
+            .and_then(|(u, r)| r.share_removed(u));
         Partial {
             name,
             share_removed,
@@ -705,7 +730,7 @@ impl<'a> Context<'a> {
         // The emulator's error floor, where the noise is the replicates' (a caller's noise, the curve
         // features', carries it already): the variance of each mean grows by that share.
         let counted = inputs.settings.emulator_counted;
-        let floor = if inputs.noise.is_none() && counted {
+        let floor = if inputs.features.is_none() && counted {
             inputs.settings.emulator_floor
         } else {
             0.0
@@ -728,7 +753,7 @@ impl<'a> Context<'a> {
             .collect();
         let data = Data {
             model: inputs.model,
-            bounds: &inputs.parameter_bounds,
+            bounds: &inputs.space.parameter_bounds,
             designs: obs.iter().map(|o| inputs.point(o)).collect(),
             means: obs.iter().map(|o| o.mean).collect(),
             weights,
@@ -747,7 +772,7 @@ impl<'a> Context<'a> {
             f64::EPSILON * ms * n as f64
         };
         let nu = noise.map_or(0, |nm| nm.dof);
-        let p = inputs.parameter_names.len();
+        let p = inputs.space.parameter_names.len();
         let mode = if nu > 0 && n >= p + 3 || nu == 0 && n >= p + 4 {
             Mode::Ranked
         } else if nu > 0 && n > p {
@@ -777,11 +802,25 @@ impl<'a> Context<'a> {
         }
     }
 
-    /// The relative error of `yh` at observation `i` (see [`Inputs::relative_error`]).
+    /// Σ (w_i (ȳ_i − ŷ_i))² of the leave-one-design-out predictions `loo` at the training designs.
+    pub fn press(&self, loo: &[f64]) -> f64 {
+        self.train
+            .iter()
+            .zip(loo)
+            .map(|(&i, yh)| (self.data.weights[i] * (self.data.means[i] - yh)).powi(2))
+            .sum()
+    }
+
+    /// Mean |relative error| of the leave-one-design-out predictions `loo` at the training designs.
+    pub fn loo_error(&self, loo: &[f64]) -> f64 {
+        self.mean_abs_rel(self.train.iter().zip(loo).map(|(&i, &yh)| (i, yh)))
+    }
+
+    /// The relative error of `yh` at observation `i` (see [`FeatureOutputs::relative_error`]).
     pub fn relative_error(&self, i: usize, yh: f64) -> Option<f64> {
         let o = &self.inputs.observations[i];
-        match &self.inputs.relative_error {
-            Some(f) => f(o, yh),
+        match &self.inputs.features {
+            Some(f) => (f.relative_error)(o, yh),
             None => Some((yh - o.mean) / o.mean),
         }
     }
@@ -792,7 +831,7 @@ impl<'a> Context<'a> {
     }
 
     pub fn p(&self) -> usize {
-        self.inputs.parameter_names.len()
+        self.inputs.space.parameter_names.len()
     }
 
     pub fn alpha(&self) -> f64 {
@@ -806,11 +845,17 @@ impl<'a> Context<'a> {
 
     pub fn param_map(&self, theta: &DVector<f64>) -> IndexMap<String, f64> {
         self.inputs
+            .space
             .parameter_names
             .iter()
             .cloned()
             .zip(theta.iter().copied())
             .collect()
+    }
+
+    /// The parameters' standard errors from a fit's covariance (θ first), by name.
+    pub fn standard_errors(&self, c: &fit::Covariance) -> IndexMap<String, f64> {
+        self.param_map(&c.matrix.diagonal().map(f64::sqrt))
     }
 
     /// A test of a drop in weighted RSS by `extra` fitted numbers: F(extra, ν) against the replicate
@@ -879,8 +924,8 @@ fn noise_and_base<'a>(
         let base = candidates::uncorrected(&cx)?;
         Ok((cx, base, nm))
     };
-    if inputs.noise.is_some() {
-        return fitted(inputs.noise.clone());
+    if let Some(f) = &inputs.features {
+        return fitted(Some(f.noise.clone()));
     }
     let Some(scatter) = noise::Scatter::of(&inputs.observations) else {
         return fitted(inputs.settings.measurement.map(NoiseModel::stated));

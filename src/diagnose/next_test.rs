@@ -38,6 +38,7 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use super::{Context, Mode, NextTest, NoiseKind, NoiseModel, stats};
+use crate::base::format::{num, params};
 
 /// A prediction at an observation point for fitted numbers β.
 type Eval<'e> = dyn Fn(&[f64], &[f64]) -> f64 + Sync + 'e;
@@ -77,7 +78,7 @@ impl<'e> Explanation<'e> {
             p + model.fit.gamma.len(),
             model.fit.theta.iter().chain(&model.fit.gamma).copied(),
         );
-        let mut names = cx.inputs.parameter_names.clone();
+        let mut names = cx.inputs.space.parameter_names.clone();
         names.extend((0..model.fit.gamma.len()).map(|k| format!("γ{k}")));
         let code = (0..cx.data.designs.len())
             .map(|i| {
@@ -98,7 +99,7 @@ impl<'e> Explanation<'e> {
             beta,
             names,
             cov: entry.assessed.cov.as_ref().map(|c| c.matrix.clone()),
-            bounds: &cx.inputs.parameter_bounds,
+            bounds: &cx.inputs.space.parameter_bounds,
             parts: if uncorrected {
                 Vec::new()
             } else {
@@ -192,7 +193,7 @@ pub(crate) fn recommend(
     fresh: bool,
     level: f64,
 ) -> Option<NextTest> {
-    if cx.inputs.design_bounds.dim() == 0 {
+    if cx.inputs.space.design_bounds.dim() == 0 {
         return None;
     }
     let mut ex: Vec<&Explanation> = ex.iter().collect();
@@ -241,6 +242,18 @@ struct Pick {
 }
 
 impl Pick {
+    /// Specimens `runs` reaching λ = `lambda` for `pair`, before any expected power.
+    fn new(runs: Vec<(Vec<f64>, usize)>, pair: (usize, usize), lambda: f64, decides: bool) -> Pick {
+        Pick {
+            runs,
+            pair,
+            lambda,
+            decides,
+            expected_power: None,
+            limited_by_emulators: false,
+        }
+    }
+
     fn total(&self) -> usize {
         self.runs.iter().map(|r| r.1).sum()
     }
@@ -477,7 +490,7 @@ impl<'a, 'e> Search<'a, 'e> {
     fn inside_then_outside(&self) -> (Option<Pick>, bool) {
         let cx = self.cx;
         let per_axis = cx.inputs.settings.grid_per_axis;
-        if let Some(p) = self.cheapest(&candidate_points(cx, &cx.inputs.design_bounds, per_axis)) {
+        if let Some(p) = self.cheapest(&candidate_points(cx, &cx.inputs.space.design_bounds, per_axis)) {
             return (Some(p), false);
         }
         match widened(cx) {
@@ -507,14 +520,8 @@ impl<'a, 'e> Search<'a, 'e> {
                     .0
                     .total_cmp(&self.weakest_in(&table, &[(b, 1)]).0)
             })?;
-            return Some(Pick {
-                runs: vec![(table.points[best].clone(), 0)],
-                pair: self.weakest_in(&table, &[]).1,
-                lambda: in_hand,
-                decides: true,
-                expected_power: None,
-                limited_by_emulators: false,
-            });
+            let pair = self.weakest_in(&table, &[]).1;
+            return Some(Pick::new(vec![(table.points[best].clone(), 0)], pair, in_hand, true));
         }
         let single = (0..table.points.len())
             .filter_map(|i| self.fewest(&table, &[i], MAX_SPECIMENS))
@@ -565,14 +572,8 @@ impl<'a, 'e> Search<'a, 'e> {
             }
         }
         let (lambda, pair, ms) = best_split(hi)?;
-        Some(Pick {
-            runs: at.iter().map(|&i| table.points[i].clone()).zip(ms).collect(),
-            pair,
-            lambda,
-            decides: true,
-            expected_power: None,
-            limited_by_emulators: false,
-        })
+        let runs = at.iter().map(|&i| table.points[i].clone()).zip(ms).collect();
+        Some(Pick::new(runs, pair, lambda, true))
     }
 
     /// The cheapest pairs of designs, best first (at most a few), each no dearer than `budget`.
@@ -626,18 +627,12 @@ impl<'a, 'e> Search<'a, 'e> {
     /// Nothing decides: the single design where the explanations differ most (bound of λ at the
     /// largest number of specimens).
     fn closest(&self, cx: &Context) -> Option<Pick> {
-        candidate_points(cx, &cx.inputs.design_bounds, cx.inputs.settings.grid_per_axis)
+        candidate_points(cx, &cx.inputs.space.design_bounds, cx.inputs.settings.grid_per_axis)
             .into_iter()
             .filter_map(|d| {
                 let runs = vec![(d, MAX_SPECIMENS)];
-                self.weakest(&runs).map(|(lambda, pair)| Pick {
-                    runs,
-                    pair,
-                    lambda,
-                    decides: false,
-                    expected_power: None,
-                    limited_by_emulators: false,
-                })
+                self.weakest(&runs)
+                    .map(|(lambda, pair)| Pick::new(runs, pair, lambda, false))
             })
             .max_by(|a, b| a.lambda.total_cmp(&b.lambda))
     }
@@ -852,7 +847,7 @@ fn draw(e: &Explanation, rng: &mut rand_chacha::ChaCha8Rng) -> Option<DVector<f6
 
 /// The observation points of one specimen at design `d`: one per observed output.
 fn observation_points(cx: &Context, d: &[f64]) -> Vec<Vec<f64>> {
-    let outputs = cx.inputs.outputs.len();
+    let outputs = cx.inputs.outputs();
     if outputs <= 1 {
         return vec![d.to_vec()];
     }
@@ -923,7 +918,7 @@ fn coarse(cx: &Context, table: &Table) -> Vec<usize> {
 /// The design box widened by half its width on each side (a positive lower bound stays above half
 /// of itself); `None` for a solver study, whose surrogates exist at its tested designs only.
 fn widened(cx: &Context) -> Option<crate::base::Bounds> {
-    let b = &cx.inputs.design_bounds;
+    let b = &cx.inputs.space.design_bounds;
     let probe: Vec<f64> = (0..b.dim())
         .map(|j| b.lower[j] - 0.25 * (b.upper[j] - b.lower[j]))
         .collect();
@@ -932,7 +927,7 @@ fn widened(cx: &Context) -> Option<crate::base::Bounds> {
         return None;
     }
     let pt = observation_points(cx, &probe);
-    let theta = cx.inputs.parameter_bounds.center();
+    let theta = cx.inputs.space.parameter_bounds.center();
     if !cx.inputs.model.predict(&pt[0], theta.as_slice()).is_finite() {
         return None;
     }
@@ -950,7 +945,7 @@ fn widened(cx: &Context) -> Option<crate::base::Bounds> {
 /// With nothing to compare (no candidate could be fitted): the design in the box farthest from
 /// every tested one (in units of the box), where the calibrated model is least checked.
 fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
-    let width = cx.inputs.design_bounds.width();
+    let width = cx.inputs.space.design_bounds.width();
     let gap = |d: &[f64]| {
         cx.inputs
             .observations
@@ -965,13 +960,13 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
             })
             .fold(f64::INFINITY, f64::min)
     };
-    let d = candidate_points(cx, &cx.inputs.design_bounds, cx.inputs.settings.grid_per_axis)
+    let d = candidate_points(cx, &cx.inputs.space.design_bounds, cx.inputs.settings.grid_per_axis)
         .into_iter()
         .max_by(|a, b| gap(a).total_cmp(&gap(b)))?;
     let y = ex
         .first()
         .map_or(f64::NAN, |e| e.predict(&observation_points(cx, &d)[0]));
-    let design = named(cx, &d);
+    let design = cx.inputs.space.design_at(&d);
     let advice = "at least 3 specimens there, so that the scatter is measured and the calibrated model is checked \
                   where it was not fitted"
         .to_string();
@@ -980,8 +975,8 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
             "Test at {} (not tested yet): no candidate cause can be fitted to so few tests, so the most useful \
              next test is the design farthest from those tested, where the calibrated simulation predicts {}. In \
              numbers: {advice}.",
-            at_text(&design),
-            crate::base::format::num(y)
+            params(&design),
+            num(y)
         ),
         advice,
         level: cx.alpha(),
@@ -1010,7 +1005,7 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
 /// Without a noise: the design where the closest pair differs most, relatively.
 fn widest_gap(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
     let mut best: Option<(f64, Vec<f64>, (usize, usize))> = None;
-    for d in candidate_points(cx, &cx.inputs.design_bounds, cx.inputs.settings.grid_per_axis) {
+    for d in candidate_points(cx, &cx.inputs.space.design_bounds, cx.inputs.settings.grid_per_axis) {
         let pt = &observation_points(cx, &d)[0];
         let y: Vec<f64> = ex.iter().map(|e| e.predict(pt)).collect();
         let mut closest: Option<(f64, (usize, usize))> = None;
@@ -1029,14 +1024,7 @@ fn widest_gap(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
         }
     }
     let (gap, d, pair) = best?;
-    let pick = Pick {
-        runs: vec![(d, 3)],
-        pair,
-        lambda: 0.0,
-        decides: false,
-        expected_power: None,
-        limited_by_emulators: false,
-    };
+    let pick = Pick::new(vec![(d, 3)], pair, 0.0, false);
     let mut t = describe_common(cx, ex, &pick, false, Vec::new(), None);
     t.separation = gap;
     t.specimens = None;
@@ -1046,18 +1034,6 @@ fn widest_gap(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
         .to_string();
     t.why = why(&t, false);
     Some(t)
-}
-
-fn named(cx: &Context, d: &[f64]) -> IndexMap<String, f64> {
-    cx.inputs.design_names.iter().cloned().zip(d.iter().copied()).collect()
-}
-
-fn at_text(design: &IndexMap<String, f64>) -> String {
-    design
-        .iter()
-        .map(|(n, v)| format!("{n} = {}", crate::base::format::num(*v)))
-        .collect::<Vec<_>>()
-        .join(", ")
 }
 
 /// The tested design at `d` (within 1e-6 of the box on every variable), with its specimens.
@@ -1076,7 +1052,7 @@ fn observation_at<'c>(
     d: &[f64],
     among: impl Iterator<Item = usize>,
 ) -> Option<&'c super::Observation> {
-    let width = cx.inputs.design_bounds.width();
+    let width = cx.inputs.space.design_bounds.width();
     among.map(|i| &cx.inputs.observations[i]).find(|o| {
         o.design
             .iter()
@@ -1107,7 +1083,7 @@ fn describe_common(
         .map(|(d, m)| {
             let tested = tested_at(cx, d);
             ProgrammeRun {
-                design: named(cx, d),
+                design: cx.inputs.space.design_at(d),
                 specimens: m + tested.as_ref().map_or(0, |t| t.1),
                 additional: *m,
                 tested_as: tested.map(|t| t.0),
@@ -1116,7 +1092,7 @@ fn describe_common(
         .collect();
     let single = pick.runs.len() == 1 && pick.decides;
     NextTest {
-        design: named(cx, &d),
+        design: cx.inputs.space.design_at(&d),
         why: String::new(),
         advice: String::new(),
         level: cx.alpha(),
@@ -1161,7 +1137,7 @@ fn describe(
 /// What it takes, in one sentence, read from the typed recommendation.
 fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
     let power = 100.0 * cx.inputs.settings.power;
-    let alpha = crate::base::format::num(t.level);
+    let alpha = num(t.level);
     // The power over the uncertainty of the fitted parameters: said beside, or as a caveat when
     // no programme could reach the target over it.
     let (expected, caveat) = match t.expected_power {
@@ -1241,8 +1217,8 @@ fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
 pub(crate) fn programme_words(runs: &[ProgrammeRun]) -> String {
     runs.iter()
         .map(|r| match &r.tested_as {
-            Some(name) => format!("{} more at {name} ({})", r.additional, at_text(&r.design)),
-            None => format!("{} at {} (not tested yet)", r.specimens, at_text(&r.design)),
+            Some(name) => format!("{} more at {name} ({})", r.additional, params(&r.design)),
+            None => format!("{} at {} (not tested yet)", r.specimens, params(&r.design)),
         })
         .collect::<Vec<_>>()
         .join(" and ")
@@ -1257,17 +1233,17 @@ fn measurement_words(ms: &[Measurement]) -> Option<String> {
          them apart with the tests in hand",
         m.parameter,
         crate::base::format::pct(m.relative_uncertainty),
-        crate::base::format::num(m.values[0]),
-        crate::base::format::num(m.values[1])
+        num(m.values[0]),
+        num(m.values[1])
     ))
 }
 
 fn why(t: &NextTest, noise_known: bool) -> String {
-    let at = at_text(&t.design);
+    let at = params(&t.design);
     let preds = t
         .compared
         .iter()
-        .map(|(n, y)| format!("'{n}' {}", crate::base::format::num(*y)))
+        .map(|(n, y)| format!("'{n}' {}", num(*y)))
         .collect::<Vec<_>>()
         .join(", ");
     let (ya, yb) = (t.predictions[0], t.predictions[1]);
@@ -1294,7 +1270,7 @@ fn why(t: &NextTest, noise_known: bool) -> String {
 mod tests {
     use super::*;
     use crate::base::Bounds;
-    use crate::diagnose::{Inputs, Observation, Role, Settings};
+    use crate::diagnose::{Inputs, Observation, Role, Settings, Space};
 
     /// n specimens of an exact simulation count n; with its error shared by a design's specimens
     /// (k = its variance in units of one test's) no number counts more than 1/k, and new specimens
@@ -1339,19 +1315,18 @@ mod tests {
         Inputs {
             observations,
             model: &simulation,
-            parameter_names: vec!["theta".into()],
-            parameter_bounds: Bounds::new(vec![100.0], vec![3000.0]),
-            design_names: vec!["x".into()],
-            design_bounds: Bounds::new(vec![4.0], vec![16.0]),
+            space: Space {
+                parameter_names: vec!["theta".into()],
+                parameter_bounds: Bounds::new(vec![100.0], vec![3000.0]),
+                design_names: vec!["x".into()],
+                design_bounds: Bounds::new(vec![4.0], vec![16.0]),
+            },
             hypotheses: Vec::new(),
             settings: Settings::default(),
-            discover: false,
-            library: Default::default(),
-            outputs: Vec::new(),
+            library: None,
             built_ins: Some(Vec::new()),
-            noise: None,
+            features: None,
             emulator: Default::default(),
-            relative_error: None,
         }
     }
 
@@ -1369,7 +1344,7 @@ mod tests {
             beta,
             names: vec!["theta".into(), "γ0".into()],
             cov: None,
-            bounds: &cx.inputs.parameter_bounds,
+            bounds: &cx.inputs.space.parameter_bounds,
             parts: vec![format!("simulation: {name}")],
             code: cx.data.designs.iter().map(|d| (d.clone(), rel)).collect(),
         }

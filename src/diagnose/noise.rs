@@ -261,18 +261,11 @@ impl Scatter {
             mixing: Some(lambda),
             mixing_ml: Some(ml),
             mixing_set: Some(set),
-            note: self.note(lambda, ml, set, (a, b), (ll_abs, ll_rel)),
+            note: self.note(lambda, set, (a, b), (ll_abs, ll_rel)),
         }
     }
 
-    fn note(
-        &self,
-        lambda: f64,
-        ml: f64,
-        set: [f64; 2],
-        (a, b): (f64, f64),
-        (ll_abs, ll_rel): (f64, Option<f64>),
-    ) -> String {
+    fn note(&self, lambda: f64, set: [f64; 2], (a, b): (f64, f64), (ll_abs, ll_rel): (f64, Option<f64>)) -> String {
         let designs = self.groups.len();
         let num = crate::base::format::num;
         let form = format!(
@@ -294,7 +287,6 @@ impl Scatter {
              coefficient of variation), the replicates allow {:.2} to {:.2} ({edges})",
             self.nu as usize, lambda, set[0], set[1]
         );
-        let _ = ml;
         let levels = self
             .groups
             .iter()

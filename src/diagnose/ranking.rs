@@ -103,29 +103,29 @@ fn set_weights(base: &mut Entry, entries: &mut [Entry]) {
         .chain(entries.iter())
         .map(|e| e.score.as_ref().map(|s| s.score))
         .collect();
-    let all = scores.len() as f64;
-    let best = scores.iter().flatten().copied().fold(f64::INFINITY, f64::min);
-    let raw: Vec<f64> = scores
-        .iter()
-        .map(|s| {
-            s.map_or(1.0, |s| {
-                if best.is_finite() {
-                    (-0.5 * (s - best)).exp()
-                } else {
-                    1.0
-                }
-            })
-        })
-        .collect();
-    let total: f64 = raw.iter().sum();
-    let w: Vec<f64> = raw
-        .iter()
-        .map(|r| if total > 0.0 { r / total } else { 1.0 / all })
-        .collect();
+    let w = weights(&scores);
     base.weight = w[0];
     for (e, wi) in entries.iter_mut().zip(&w[1..]) {
         e.weight = *wi;
     }
+}
+
+/// Akaike-type weights `exp(−½ Δscore)` over `scores`, normalised; a model without a score (or
+/// every model, when none has one) weighs as the best.
+pub(crate) fn weights(scores: &[Option<f64>]) -> Vec<f64> {
+    let all = scores.len() as f64;
+    let best = scores.iter().flatten().copied().fold(f64::INFINITY, f64::min);
+    let raw: Vec<f64> = scores
+        .iter()
+        .map(|s| match s {
+            Some(s) if best.is_finite() => (-0.5 * (s - best)).exp(),
+            _ => 1.0,
+        })
+        .collect();
+    let total: f64 = raw.iter().sum();
+    raw.iter()
+        .map(|r| if total > 0.0 { r / total } else { 1.0 / all })
+        .collect()
 }
 
 pub(crate) fn rival_tests(cx: &Context, entries: &[Entry], l: usize) -> Vec<RivalTest> {
@@ -250,8 +250,8 @@ fn candidate(cx: &Context, e: &Entry) -> Candidate {
 /// only gain), and an interval reaching past a range a study set (a Cowper–Symonds C to 67,000
 /// from a range to 40,000) reads as a fault.
 fn precision(cx: &Context, theta: &nalgebra::DVector<f64>, cov: &nalgebra::DMatrix<f64>) -> Precision {
-    let names = &cx.inputs.parameter_names;
-    let bounds = &cx.inputs.parameter_bounds;
+    let names = &cx.inputs.space.parameter_names;
+    let bounds = &cx.inputs.space.parameter_bounds;
     let range = |j: usize| match (bounds.lower.get(j), bounds.upper.get(j)) {
         (Some(&lo), Some(&hi)) => (lo, hi),
         _ => (f64::NEG_INFINITY, f64::INFINITY),

@@ -23,12 +23,7 @@ pub(crate) fn table(cx: &Context, fit: &Fit, noise: &NoiseModel) -> Vec<Residual
             Residual {
                 design: o.name.clone(),
                 role: o.role,
-                values: inputs
-                    .design_names
-                    .iter()
-                    .cloned()
-                    .zip(o.design.iter().copied())
-                    .collect(),
+                values: inputs.space.design_at(&o.design),
                 measured: o.mean,
                 count: o.count,
                 std_dev: o.std_dev,
@@ -46,6 +41,7 @@ pub(crate) fn trends(cx: &Context, residuals: &[Residual]) -> Vec<Trend> {
     let inputs = cx.inputs;
     let z: Vec<f64> = residuals.iter().map(|r| r.z).collect();
     let mut against: Vec<(String, Vec<f64>)> = inputs
+        .space
         .design_names
         .iter()
         .enumerate()

@@ -117,11 +117,7 @@ impl Shape {
         variables: &[(String, f64)],
         extension: Arc<dyn Model + Send>,
     ) -> Shape {
-        let set = variables
-            .iter()
-            .map(|(k, v)| format!("{k} = {v}"))
-            .collect::<Vec<_>>()
-            .join(", ");
+        let set = setting(variables);
         let mut shape = Shape::new(name, format!("y[{set}] - y"), Origin::Study, move |d, theta, y| {
             extension.predict(d, theta) - y
         });
@@ -151,11 +147,7 @@ impl Shape {
     /// What a fitted amplitude γ of this extension means, in words (`None` for a term).
     pub fn amplitude_meaning(&self, gamma: f64) -> Option<String> {
         let variables = self.extension.as_ref()?;
-        let set = variables
-            .iter()
-            .map(|(k, v)| format!("{k} = {v}"))
-            .collect::<Vec<_>>()
-            .join(", ");
+        let set = setting(variables);
         let g = crate::base::format::num(gamma);
         let mut s = format!(
             "γ = {g}: the tests want {g} × the effect of the extension as specified ({set}); γ = 1 is the \
@@ -221,4 +213,13 @@ impl Shape {
         }
         shapes
     }
+}
+
+/// An extension's template variables as set: `shear = 1, etan = 200`.
+pub(crate) fn setting(variables: &[(String, f64)]) -> String {
+    variables
+        .iter()
+        .map(|(k, v)| format!("{k} = {v}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }

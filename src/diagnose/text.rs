@@ -56,6 +56,14 @@ fn direction(mean_rel: f64) -> &'static str {
     }
 }
 
+/// Designs with their standardised misses: `h8 (+2.4 σ), h13 (-3.1 σ)`.
+fn misses(z: &[(String, f64)]) -> String {
+    z.iter()
+        .map(|(n, z)| format!("{n} ({z:+.1} σ)"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 fn quoted(names: &[String]) -> String {
     names.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(" and ")
 }
@@ -151,7 +159,7 @@ fn no_model_error_headline(d: &super::Diagnosis) -> String {
         (None, Some(l)) if counted => format!(
             "the uncorrected simulation's emulators fit the tests within their scatter and the emulators' own \
              error ({})",
-            lof_text(l)
+            lack_of_fit(l)
         ),
         _ => return d.headline.clone(),
     };
@@ -168,12 +176,7 @@ fn range(m: &indexmap::IndexMap<String, [f64; 2]>) -> String {
 
 /// What no model error leaves open of one listed hypothesis, in words.
 pub(crate) fn not_excluded_line(n: &super::open::NotExcluded) -> String {
-    let detect = n
-        .detectable
-        .iter()
-        .map(|(k, v)| format!("{k} = {}", num(*v)))
-        .collect::<Vec<_>>()
-        .join(", ");
+    let detect = params(&n.detectable);
     format!(
         "'{}' is not excluded by these tests ({}); over that range {}; an effect smaller than {detect} could not \
          have been detected. A test where it changes the response most, or an independent measurement of the \
@@ -194,12 +197,17 @@ fn open_clause(n: &super::open::NotExcluded) -> String {
     )
 }
 
-/// What the solver showed of one model at its fitted parameters.
-fn confirmation_line(c: &super::confirm::Confirmation) -> String {
-    let model = match c.model.as_str() {
+/// A confirmation's model in words.
+fn model_words(c: &super::confirm::Confirmation) -> String {
+    match c.model.as_str() {
         super::confirm::UNCORRECTED => "the uncorrected simulation".to_string(),
         name => format!("the model with '{name}'"),
-    };
+    }
+}
+
+/// What the solver showed of one model at its fitted parameters.
+fn confirmation_line(c: &super::confirm::Confirmation) -> String {
+    let model = model_words(c);
     let shown = match &c.lack_of_fit {
         Some(l) if l.fits => format!("fits the tests within their scatter alone ({})", lack_of_fit(l)),
         Some(l) => format!("misses the tests beyond their scatter alone ({})", lack_of_fit(l)),
@@ -239,12 +247,11 @@ pub(crate) fn emulator_limited(
         .iter()
         .filter_map(|c| {
             let l = c.lack_of_fit.as_ref()?;
-            let what = if c.model == super::confirm::UNCORRECTED {
-                "the uncorrected simulation".to_string()
-            } else {
-                format!("the model with '{}'", c.model)
-            };
-            Some(format!("{what} {} the tests", if l.fits { "fits" } else { "misses" }))
+            Some(format!(
+                "{} {} the tests",
+                model_words(c),
+                if l.fits { "fits" } else { "misses" }
+            ))
         })
         .collect();
     let solver = match shown.is_empty() {
@@ -295,10 +302,6 @@ pub(crate) fn summary(headline: &str, action: &str, evidence: &[String], limits:
     summary
 }
 
-fn lof_text(l: &LackOfFit) -> String {
-    lack_of_fit(l)
-}
-
 pub(crate) fn headline(f: &Facts) -> String {
     let d = f.decision;
     let words = d.verdict.words();
@@ -312,7 +315,7 @@ pub(crate) fn headline(f: &Facts) -> String {
         Verdict::NoModelError => match &f.ranked.base.assessed.lack_of_fit {
             Some(l) => format!(
                 "the uncorrected simulation fits the tests within their scatter ({})",
-                lof_text(l)
+                lack_of_fit(l)
             ),
             None => "no candidate improves on the uncorrected simulation beyond the residual scatter".to_string(),
         },
@@ -350,13 +353,7 @@ pub(crate) fn headline(f: &Facts) -> String {
 /// "Unexplained": the misfit, and the candidate the data come nearest to detecting with the level
 /// its amplitude test needed (the one the next test examines).
 fn unexplained(f: &Facts) -> String {
-    let misfit = f
-        .ranked
-        .base
-        .assessed
-        .lack_of_fit
-        .as_ref()
-        .map_or(String::new(), |l| format!(" ({})", lof_text(l)));
+    let misfit = in_parentheses(f.ranked.base.assessed.lack_of_fit.as_ref());
     let nearest = f
         .decision
         .leading
@@ -442,10 +439,7 @@ fn partly_explained(f: &Facts) -> String {
         .extended
         .and_then(|e| e.lack_of_fit.as_ref())
         .zip(f.ranked.base.assessed.lack_of_fit.as_ref())
-        .and_then(|(e, u)| {
-            let excess = |l: &LackOfFit| l.chi2 - l.dof as f64;
-            (excess(u) > 0.0).then(|| (1.0 - excess(e).max(0.0) / excess(u)).clamp(0.0, 1.0))
-        })
+        .and_then(|(e, u)| e.share_removed(u))
         .map_or(String::new(), |s| {
             format!(" (it removes {:.0} % of the misfit beyond the noise)", 100.0 * s)
         });
@@ -453,7 +447,7 @@ fn partly_explained(f: &Facts) -> String {
         .extended
         .and_then(|e| e.lack_of_fit.as_ref())
         .filter(|l| l.rejects())
-        .map(|l| format!("its model still misses the tests beyond the noise ({})", lof_text(l)));
+        .map(|l| format!("its model still misses the tests beyond the noise ({})", lack_of_fit(l)));
     let bound = f.cx.levels().rival(f.ranked.rivals.len());
     // Before the loop the rivals' encompassing tests say what still adds; after it, the decision's
     // own second explanation.
@@ -520,12 +514,7 @@ fn too_few_reason(f: &Facts) -> String {
         format!(
             "with {n} training design(s) for {p} parameter(s), every candidate fits the training tests; the misfit is \
              within the noise{}, but so few designs could hide an error of several times the noise",
-            f.ranked
-                .base
-                .assessed
-                .lack_of_fit
-                .as_ref()
-                .map_or(String::new(), |l| format!(" ({})", lof_text(l)))
+            in_parentheses(f.ranked.base.assessed.lack_of_fit.as_ref())
         )
     }
 }
@@ -544,12 +533,7 @@ pub(crate) fn action_with_open(f: &Facts, open: &[super::open::NotExcluded]) -> 
         .next_test
         .filter(|t| !(f.decision.verdict == Verdict::CauseNamed && in_hand(t)));
     let next = confirming.map(|t| {
-        let at = t
-            .design
-            .iter()
-            .map(|(k, v)| format!("{k} = {}", num(*v)))
-            .collect::<Vec<_>>()
-            .join(", ");
+        let at = params(&t.design);
         let names: Vec<String> = t.compared.keys().cloned().collect();
         if names.len() < 2 {
             format!("test at {at} — {}", t.advice)
@@ -594,7 +578,7 @@ fn evidence_lines(f: &Facts) -> Vec<String> {
         out.push(format!(
             "Misfit of the uncorrected simulation against the replicate noise: {} ({} the noise: each test at {}, α \
              shared by the two).",
-            lof_text(l),
+            lack_of_fit(l),
             if l.rejects() { "beyond" } else { "within" },
             num(l.level)
         ));
@@ -679,12 +663,7 @@ fn extended_lines(e: &Extended) -> Vec<String> {
         }
     ));
     if !e.remaining.is_empty() {
-        let at = e
-            .remaining
-            .iter()
-            .map(|(n, z)| format!("{n} ({z:+.1} σ)"))
-            .collect::<Vec<_>>()
-            .join(", ");
+        let at = misses(&e.remaining);
         out.push(format!(
             "What remains unexplained: the extended model still misses {at}."
         ));
@@ -708,14 +687,8 @@ fn where_it_errs(f: &Facts) -> Vec<String> {
     let n_train = groups.len();
     let rel: Vec<f64> = r.iter().filter_map(|x| x.relative_error).collect();
     let mean_rel = rel.iter().sum::<f64>() / rel.len().max(1) as f64;
-    let values = |x: &Residual| {
-        x.values
-            .iter()
-            .map(|(k, v)| format!("{k} = {}", num(*v)))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    let several = f.cx.inputs.outputs.len() > 1;
+    let values = |x: &Residual| params(&x.values);
+    let several = f.cx.inputs.outputs() > 1;
     if several {
         if let Some(w) = r
             .iter()
@@ -842,12 +815,7 @@ fn parameter_limits(limits: &[super::limits::ParameterLimit]) -> Vec<String> {
     let Some(first) = limits.first() else {
         return Vec::new();
     };
-    let at = first
-        .absorbed
-        .iter()
-        .map(|(n, z)| format!("{n} ({z:+.1} σ)"))
-        .collect::<Vec<_>>()
-        .join(", ");
+    let at = misses(&first.absorbed);
     let moves: Vec<String> = limits
         .iter()
         .map(|l| {
@@ -878,9 +846,7 @@ fn after_loop_named(f: &Facts, who: Who) -> String {
         Who::Extended(_) => "its model calibrated with the solver in the loop",
         _ => "its fitted model",
     };
-    let fit = judged
-        .and_then(|j| j.lack_of_fit.as_ref())
-        .map_or(String::new(), |l| format!(" ({})", lof_text(l)));
+    let fit = in_parentheses(judged.and_then(|j| j.lack_of_fit.as_ref()));
     let rivals: Vec<String> = a
         .explanations
         .iter()
@@ -923,14 +889,14 @@ fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
                 } else {
                     "fits within the noise"
                 },
-                lof_text(l)
+                lack_of_fit(l)
             ),
             Some(l) if j.rejected => format!(
                 "'{}' {what}: rejected, its model still misses the tests beyond the noise ({}; α = {alpha}).",
                 j.name,
-                lof_text(l)
+                lack_of_fit(l)
             ),
-            Some(l) => format!("'{}' {what}: fits within the noise ({}).", j.name, lof_text(l)),
+            Some(l) => format!("'{}' {what}: fits within the noise ({}).", j.name, lack_of_fit(l)),
             None => format!("'{}' {what}: no replicates to test its lack of fit.", j.name),
         });
     }
@@ -956,6 +922,11 @@ fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
         });
     }
     out
+}
+
+/// A lack of fit's figures in parentheses after a space, or nothing without a test.
+fn in_parentheses(l: Option<&LackOfFit>) -> String {
+    l.map_or(String::new(), |l| format!(" ({})", lack_of_fit(l)))
 }
 
 /// Both figures of a lack-of-fit test: `χ² = … on … degrees of freedom, p = …; largest residual

@@ -160,7 +160,7 @@ pub(super) fn subjects<'a>(
 
 /// The uncorrected simulation at the noise-alone decision's fitted parameters.
 fn uncorrected<'a>(screening: &'a Inputs<'a>, d: &Diagnosis) -> Subject<'a> {
-    let point = values(&screening.parameter_names, &d.uncorrected.parameters);
+    let point = values(&screening.space.parameter_names, &d.uncorrected.parameters);
     Subject {
         confirming: Confirming {
             name: UNCORRECTED.into(),
@@ -185,7 +185,7 @@ fn looped_cause<'a>(
 ) -> Option<Subject<'a>> {
     let h = &study.diagnosis.hypotheses[l.hypothesis];
     let spec = h.extension_spec()?;
-    let point = values(&inputs.parameter_names, &l.fitted[which]);
+    let point = values(&inputs.space.parameter_names, &l.fitted[which]);
     let p = study.parameters.len();
     Some(Subject {
         confirming: Confirming {
@@ -205,7 +205,7 @@ impl Subject<'_> {
     /// A looped model confirmed by runs the loop already made ([`already_ran`]), where there are
     /// such runs: the subject then sits at their point.
     fn already_ran(mut self, study: &Study, l: &LoopReading, which: usize, joint: Option<&extend::JointRuns>) -> Self {
-        let names = &self.confirming.inputs.parameter_names;
+        let names = &self.confirming.inputs.space.parameter_names;
         let se = values(names, &l.se[which]);
         let Some((ran, at)) = joint.and_then(|j| already_ran(study, j, l.hypothesis, &self.confirming.point, &se))
         else {
@@ -272,7 +272,7 @@ fn already_ran(
 /// value (its prediction less the emulator's at the same θ).
 fn candidate_cause<'a>(screening: &'a Inputs<'a>, d: &Diagnosis, cause: &str) -> Option<Subject<'a>> {
     let c = d.candidates.iter().find(|c| c.name == cause)?;
-    let point = values(&screening.parameter_names, &c.parameters);
+    let point = values(&screening.space.parameter_names, &c.parameters);
     let correction = screening
         .observations
         .iter()

@@ -261,10 +261,7 @@ pub fn inputs<'s>(
                 emulated: c.emulated,
             })
             .collect(),
-        parameter_names: study.parameters.iter().map(|p| p.name.clone()).collect(),
-        parameter_bounds: study.parameter_bounds(),
-        design_names: study.design.iter().map(|d| d.name.clone()).collect(),
-        design_bounds: study.design_bounds(),
+        space: crate::diagnose::Space::of_study(study),
         hypotheses: terms.chain(extensions).collect(),
         settings: Default::default(),
         constants: &study.constants,

@@ -305,7 +305,7 @@ pub fn loop_model<'m>(
     let at = inputs.observations.iter().map(|o| (o.design.as_slice(), o.mean));
     inputs.emulator = crate::emulate::Uncertainty::of_surrogates(&m.surrogates, at);
     // The library search runs once, on the final decision (from the screening's inputs).
-    inputs.discover = false;
+    inputs.library = None;
     let p = study.parameters.len();
     for (j, ext) in extensions.iter().filter(|(j, _)| *j != m.hypothesis) {
         let h = &study.diagnosis.hypotheses[*j];

@@ -45,17 +45,21 @@ pub struct TestDesign {
 
 impl TestDesign {
     pub fn mean(&self) -> f64 {
-        self.replicates.iter().sum::<f64>() / self.replicates.len() as f64
+        mean_sd(&self.replicates).0
     }
 
     /// Sample standard deviation of the replicates; `None` with a single test.
     pub fn std_dev(&self) -> Option<f64> {
-        let n = self.replicates.len();
-        (n > 1).then(|| {
-            let m = self.mean();
-            (self.replicates.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
-        })
+        mean_sd(&self.replicates).1
     }
+}
+
+/// The mean of `v` and its sample standard deviation (`None` with fewer than two values).
+pub fn mean_sd(v: &[f64]) -> (f64, Option<f64>) {
+    let n = v.len();
+    let mean = v.iter().sum::<f64>() / n as f64;
+    let sd = (n > 1).then(|| (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt());
+    (mean, sd)
 }
 
 impl Experiments {

@@ -183,13 +183,11 @@ pub enum SamplingMethod {
 }
 
 impl SamplingMethod {
-    /// The study's word for it (`sampling.method`).
+    /// The study's words for them (`sampling.method`), in the order of the variants.
+    pub const KEYS: [&'static str; 3] = ["lhs", "grid", "sequential"];
+
     pub fn key(self) -> &'static str {
-        match self {
-            SamplingMethod::Lhs => "lhs",
-            SamplingMethod::Grid => "grid",
-            SamplingMethod::Sequential => "sequential",
-        }
+        Self::KEYS[self as usize]
     }
 }
 
@@ -221,12 +219,10 @@ pub enum SurrogateKind {
 }
 
 impl SurrogateKind {
+    pub const KEYS: [&'static str; 3] = ["linear", "quadratic", "gp"];
+
     pub fn key(self) -> &'static str {
-        match self {
-            SurrogateKind::Linear => "linear",
-            SurrogateKind::Quadratic => "quadratic",
-            SurrogateKind::Gp => "gp",
-        }
+        Self::KEYS[self as usize]
     }
 
     pub fn from_key(key: &str) -> Option<Self> {
