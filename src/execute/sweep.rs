@@ -284,10 +284,10 @@ pub fn replay_runs(
         if store.is_finished(key) || !seen.insert(key.clone()) {
             continue;
         }
-        let wanted = manifest(study, solver, plan, prepared, i)?;
         match replay::find(dir, key) {
-            Some(at) => found.push((wanted, at)),
+            Some(at) => found.push((i, at)),
             None => {
+                let wanted = manifest(study, solver, plan, prepared, i)?;
                 let all = recorded.get_or_insert_with(|| replay::manifests(dir));
                 misses.push(replay::explain_miss(dir, &wanted, all));
             }
@@ -300,16 +300,17 @@ pub fn replay_runs(
         use rayon::prelude::*;
         let records: Vec<Result<(RunRecord, bool), Error>> = batch
             .par_iter()
-            .map(|(m, at)| replayed(adapter.as_ref(), store.out(), &prepared.inputs[&m.key], at))
+            .map(|(i, at)| replayed(adapter.as_ref(), store.out(), &prepared.inputs[&prepared.keys[*i]], at))
             .collect();
-        for ((m, at), record) in batch.iter().zip(records) {
+        for ((i, at), record) in batch.iter().zip(records) {
             let (record, recorded_failure) = record?;
             if !record.outcome.is_success() && !recorded_failure {
+                let run = &plan.runs[*i];
                 damaged.push(replay::Damaged {
-                    key: m.key.clone(),
+                    key: record.key.clone(),
                     at: at.clone(),
-                    design: m.design.clone(),
-                    parameters: m.parameters.clone(),
+                    design: run.design.clone(),
+                    parameters: study.parameter_values(&run.theta),
                     outcome: record.outcome.clone(),
                 });
             }
