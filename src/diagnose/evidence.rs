@@ -23,6 +23,7 @@ use serde::{Deserialize, Serialize};
 use super::candidates::Model;
 use super::fit::Covariance;
 use super::{Candidate, Context, LackOfFit, stats};
+use crate::base::format::num;
 
 /// The joint fit's figures for γ.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -231,10 +232,15 @@ pub(crate) fn absorbed_by(cx: &Context, m: &Model, a: &Assessed, explains: bool)
         .filter(|(_, r)| r.abs() >= r_min)
         .map(|(n, _)| n.clone())
         .collect();
-    if !single.is_empty() {
-        single
-    } else {
+    or_combination(single, names)
+}
+
+/// The single parameters found, or else their combination.
+fn or_combination(single: Vec<String>, names: &[String]) -> Vec<String> {
+    if single.is_empty() {
         vec![format!("a combination of {}", names.join(", "))]
+    } else {
+        single
     }
 }
 
@@ -253,11 +259,7 @@ fn collinear_with(cx: &Context, m: &Model) -> Vec<String> {
         })
         .map(|j| names[j].clone())
         .collect();
-    if single.is_empty() {
-        vec![format!("a combination of {}", names.join(", "))]
-    } else {
-        single
-    }
+    or_combination(single, names)
 }
 
 /// One sentence per candidate the data cannot tell from a change of θ.
@@ -277,7 +279,7 @@ pub(crate) fn absorbed_sentences(candidates: &[Candidate]) -> Vec<String> {
                     if v.abs() > own {
                         format!("{n} by more than its own value")
                     } else {
-                        format!("{n} by up to {}", crate::base::format::num(v.abs()))
+                        format!("{n} by up to {}", num(v.abs()))
                     }
                 })
                 .collect::<Vec<_>>();

@@ -43,6 +43,7 @@ use serde::{Deserialize, Serialize};
 
 use super::shapes::{Origin, Shape};
 use super::{FeatureOutputs, Inputs, NoiseModel, Observation, Role, Settings, Space};
+use crate::base::format::num;
 use crate::emulate::Model;
 use crate::extract::features::{self, FeatureSpec};
 
@@ -841,8 +842,8 @@ fn noise_source(ci: &CurveInputs, whitening: &Whitening) -> String {
             "whitened by a scale factor per specimen plus independent noise along the stroke, which the features' \
              own scatter does not reject (χ² = {} on {f} degrees of freedom, p = {}); the tests take the \
              specimens' {} degrees of freedom",
-            crate::base::format::num(t),
-            crate::base::format::num(p),
+            num(t),
+            num(p),
             whitening.dof
         ),
         (_, check) => format!(
@@ -853,8 +854,8 @@ fn noise_source(ci: &CurveInputs, whitening: &Whitening) -> String {
             check.map_or(String::new(), |(t, f, p)| format!(
                 "; a scale factor plus independent noise along the stroke was rejected: χ² = {} on {f} degrees of \
                  freedom, p = {}",
-                crate::base::format::num(t),
-                crate::base::format::num(p)
+                num(t),
+                num(p)
             ))
         ),
     };
@@ -863,11 +864,7 @@ fn noise_source(ci: &CurveInputs, whitening: &Whitening) -> String {
             "{how}; plus the emulator's own error, measured at {} check run(s) (mean square {} of one \
              specimen's noise variance, per whitened feature), which more specimens do not reduce",
             e.runs,
-            e.variance
-                .iter()
-                .map(|v| crate::base::format::num(*v))
-                .collect::<Vec<_>>()
-                .join(", ")
+            e.variance.iter().map(|v| num(*v)).collect::<Vec<_>>().join(", ")
         ),
         None => how,
     };

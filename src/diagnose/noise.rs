@@ -28,6 +28,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::Observation;
+use crate::base::format::num;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -129,9 +130,9 @@ impl NoiseModel {
             format!(
                 "no replicates: the measurement's uncertainty the study states, σ = {}{} (`experiments.uncertainty`), taken \
                  as known",
-                crate::base::format::num(a),
+                num(a),
                 if b > 0.0 {
-                    format!(" ⊕ {} of the level", crate::base::format::num(b))
+                    format!(" ⊕ {} of the level", num(b))
                 } else {
                     String::new()
                 }
@@ -267,7 +268,6 @@ impl Scatter {
 
     fn note(&self, lambda: f64, set: [f64; 2], (a, b): (f64, f64), (ll_abs, ll_rel): (f64, Option<f64>)) -> String {
         let designs = self.groups.len();
-        let num = crate::base::format::num;
         let form = format!(
             "σ² = a² + (b·y)² with a = {}, b = {} (a coefficient of variation of {:.3} %)",
             num(a),
@@ -349,7 +349,7 @@ pub(crate) fn finalise(
     } else {
         format!(
             "no replicates: σ = {} estimated from the residuals of {who} ({dof} degrees of freedom)",
-            crate::base::format::num(sigma)
+            num(sigma)
         )
     };
     let mut nm = NoiseModel::constant(sigma, dof, note);

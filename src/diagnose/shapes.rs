@@ -14,6 +14,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
+use crate::base::format::num;
 use crate::emulate::Model;
 use crate::study::expr::ExprError;
 use crate::study::{Expression, Hypothesis, HypothesisKind, Study, Symbols};
@@ -148,7 +149,7 @@ impl Shape {
     pub fn amplitude_meaning(&self, gamma: f64) -> Option<String> {
         let variables = self.extension.as_ref()?;
         let set = setting(variables);
-        let g = crate::base::format::num(gamma);
+        let g = num(gamma);
         let mut s = format!(
             "γ = {g}: the tests want {g} × the effect of the extension as specified ({set}); γ = 1 is the \
              extension exactly, γ = 0 the baseline. The extension enters linearised around the baseline, exact when \
@@ -157,8 +158,8 @@ impl Shape {
         if let [(k, v)] = variables.as_slice() {
             s.push_str(&format!(
                 ": then, with {k} = 0 in the baseline, the tests want {k} ≈ γ × {} = {}",
-                crate::base::format::num(*v),
-                crate::base::format::num(gamma * v)
+                num(*v),
+                num(gamma * v)
             ));
         }
         s.push('.');
