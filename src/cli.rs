@@ -48,6 +48,9 @@ enum Command {
         /// misfit (`diagnosis.discover: true` for this run).
         #[arg(long)]
         discover: bool,
+        /// Print the diagnosis's evidence lines after the tables (the report always has them).
+        #[arg(long, short)]
+        verbose: bool,
     },
     /// Validate the study and everything it references, without running anything.
     Check { study: PathBuf },
@@ -147,6 +150,7 @@ fn execute(command: Command) -> Result<i32, Error> {
             replay,
             record,
             discover,
+            verbose,
         } => {
             let mut study = study::load(&study)?;
             study.diagnosis.discover |= discover;
@@ -166,7 +170,7 @@ fn execute(command: Command) -> Result<i32, Error> {
                 replay,
                 record,
             };
-            run(&study, &options)
+            run(&study, &options, verbose)
         }
         Command::SlurmWorker { study, out, jobs, keys } => {
             verbs::slurm_worker(&study::load(&study)?, &out, jobs, &keys)
@@ -207,7 +211,7 @@ fn default_jobs() -> usize {
 }
 
 /// `lab run`: installs the signal handlers, runs the pipeline, prints the summary.
-fn run(study: &Study, options: &RunOptions) -> Result<i32, Error> {
+fn run(study: &Study, options: &RunOptions, verbose: bool) -> Result<i32, Error> {
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     let signals = Signals::install(&runtime)?;
     let engine = Engine {
@@ -216,11 +220,12 @@ fn run(study: &Study, options: &RunOptions) -> Result<i32, Error> {
     };
     let outcome = pipeline::run(study, options, &engine, &mut Stderr)?;
     let written = report::run::write_run(study, outcome, &options.out)?;
-    print!("{}", report::summary::render(&written.results));
-    println!("\nwrote {}", options.out.join("results.json").display());
+    print!("{}", report::summary::render(&written.results, verbose));
     if let Some(splits) = &written.results.splits {
         print!("{}", report::summary::splits(splits));
     }
+    println!("\nwrote {}", options.out.join("results.json").display());
+    println!("wrote {}", options.out.join("report.html").display());
     Ok(written.exit_code())
 }
 

@@ -881,7 +881,7 @@ fn the_cantilever_study_finds_the_shear_term() {
     // Terminal and report: after the verdict, marked as found by search.
     let verdict = stdout.find("diagnosis: ").expect("the verdict");
     let found = stdout
-        .find("Found by search, not listed")
+        .find("found by search, not listed")
         .expect("the search on the terminal");
     assert!(verdict < found);
     let page = std::fs::read_to_string(out.path().join("report.html")).unwrap();

@@ -76,3 +76,65 @@ fn a_significant_word_backed_by_its_test_passes() {
         "Rank correlation 0.2 (p = 0.5): no significant trend at α = 0.01.",
     );
 }
+
+/// `lab run` shows the answer and the tables; the diagnosis's statistical headline and its evidence
+/// lines come with `--verbose` (and are always in the report), after the same first three lines.
+#[test]
+fn verbose_adds_the_evidence_after_the_same_answer() {
+    let run = |verbose: bool| {
+        let out = tempfile::tempdir().unwrap();
+        let mut c = Command::new(env!("CARGO_BIN_EXE_lab"));
+        c.args(["run", "studies/cantilever-diagnosis.yaml", "--out"])
+            .arg(out.path())
+            .current_dir(root());
+        if verbose {
+            c.arg("--verbose");
+        }
+        let o = c.output().unwrap();
+        assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.path().join("results.json")).unwrap()).unwrap();
+        (String::from_utf8_lossy(&o.stdout).into_owned(), r)
+    };
+    let (plain, r) = run(false);
+    let (verbose, _) = run(true);
+    let d = &r["diagnosis"];
+    let headline = d["headline"].as_str().unwrap();
+    let evidence: Vec<&str> = d["evidence"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e.as_str().unwrap())
+        .collect();
+    assert!(!evidence.is_empty());
+    verdict_common::assert_answer_first("cantilever-diagnosis", &plain, &r);
+    verdict_common::assert_answer_first("cantilever-diagnosis --verbose", &verbose, &r);
+    assert!(
+        !plain.contains(headline),
+        "the default screen carries the headline:\n{plain}"
+    );
+    assert!(
+        plain.contains(&format!(
+            "({} evidence lines: `lab run --verbose`, or the report)",
+            evidence.len() + d["limits"].as_array().unwrap().len()
+        )),
+        "{plain}"
+    );
+    assert!(verbose.contains(&format!("diagnosis: {headline}")), "{verbose}");
+    for e in evidence {
+        assert!(!plain.contains(e), "evidence on the default screen: {e}");
+        assert!(verbose.contains(e), "evidence missing under --verbose: {e}");
+    }
+    // Both end by naming what was written.
+    for out in [&plain, &verbose] {
+        let last: Vec<&str> = out.lines().rev().take(2).collect();
+        assert!(
+            last[1].starts_with("wrote ") && last[1].ends_with("results.json"),
+            "{last:?}"
+        );
+        assert!(
+            last[0].starts_with("wrote ") && last[0].ends_with("report.html"),
+            "{last:?}"
+        );
+    }
+}

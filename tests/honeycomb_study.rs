@@ -195,7 +195,7 @@ fn replays_the_fixtures_without_a_solver_and_reports_the_three_methods() {
     decided_where_solver_runs_checked_the_emulators(&r, out.path());
     assert_eq!(
         r["units"],
-        serde_json::json!({"parameters": {"sigma_y": "MPa"}, "response": "kN"})
+        serde_json::json!({"parameters": {"sigma_y": "MPa"}, "response": "kN", "variables": {"etan": "MPa"}})
     );
     check_curves(&r, &report_data(out.path()));
 }

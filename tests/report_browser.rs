@@ -48,7 +48,9 @@ window.addEventListener('error', function (e) {
   window.__labErrors.push(Array.prototype.join.call(arguments, ' ')); return ce.apply(console, arguments); }; })();
 window.addEventListener('load', function () {
   var d = document.createElement('pre'); d.id = 'lab-test-hook';
-  d.textContent = JSON.stringify({ errors: window.__labErrors, load_ms: performance.now() });
+  var a = document.getElementById('answer-verdict');
+  var answer = a ? { top: a.getBoundingClientRect().top, bottom: a.getBoundingClientRect().bottom, text: a.innerText } : null;
+  d.textContent = JSON.stringify({ errors: window.__labErrors, load_ms: performance.now(), answer: answer });
   document.body.appendChild(d);
 });
 </script>"#;
@@ -130,8 +132,9 @@ const CASES: [Case; 5] = [
             "tests: mean ± 2 s.d. (3 specimens)",
             "with 'strain hardening in the fold hinges'",
             "Decided by the plateau level",
+            "in blue the recommended model (with 'strain hardening in the fold hinges'): the solver's run",
             "test C3T7-3",
-            "run nearest the estimate: sigma_y = ",
+            "uncorrected, run nearest the estimate: sigma_y = ",
             "1. train C6T5, C3T8 → validate C3T7",
             "2. train C6T5, C3T7 → validate C3T8",
             "3. train C3T7, C3T8 → validate C6T5",
@@ -339,7 +342,7 @@ fn reports_render_in_chromium_with_every_section_and_plot() {
         let o = browser(
             &chromium,
             &tmp.path().join(format!("profile-dom-{}", case.study)),
-            &["--dump-dom".into()],
+            &["--dump-dom".into(), format!("--window-size=1280,{FIRST_SCREEN}")],
             &hooked,
         );
         let dom = String::from_utf8_lossy(&o.stdout).into_owned();
@@ -377,9 +380,13 @@ fn reports_render_in_chromium_with_every_section_and_plot() {
             .nth(1)
             .and_then(|s| s.split("</pre>").next())
             .unwrap_or_else(|| panic!("{}: the load hook did not run", case.study))
-            .replace("&quot;", "\"");
+            .replace("&quot;", "\"")
+            .replace("&lt;", "<")
+            .replace("&gt;", ">")
+            .replace("&amp;", "&");
         let hook: serde_json::Value = serde_json::from_str(&hook).expect("hook JSON");
         assert_eq!(hook["errors"], serde_json::json!([]), "{}: page errors", case.study);
+        answer_on_first_screen(case, &hook["answer"], out);
         let load_ms = hook["load_ms"].as_f64().unwrap();
         eprintln!(
             "{}: {svgs} plots, loaded in {load_ms:.0} ms, screenshot {}",
@@ -389,6 +396,54 @@ fn reports_render_in_chromium_with_every_section_and_plot() {
         assert!(
             load_ms < 1000.0,
             "{}: the page took {load_ms} ms to load (limit 1 s)",
+            case.study
+        );
+    }
+}
+
+/// The height of the first screen a reader sees, in CSS pixels (a laptop's browser window).
+const FIRST_SCREEN: u32 = 800;
+
+/// On the page as the browser lays it out, the answer box lies within the first screen and reads
+/// results.json's plain verdict, with each parameter of the recommended model at its value.
+fn answer_on_first_screen(case: &Case, answer: &serde_json::Value, out: &Path) {
+    let results: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
+    let expected = &results["answer"];
+    let bottom = answer["bottom"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{}: no answer box laid out", case.study));
+    assert!(
+        bottom <= f64::from(FIRST_SCREEN),
+        "{}: the answer box ends at {bottom} px, below the first screen ({FIRST_SCREEN} px)",
+        case.study
+    );
+    let text = answer["text"].as_str().unwrap();
+    for key in ["verdict", "action", "decided_by"] {
+        let words = expected[key].as_str().unwrap();
+        assert!(
+            text.contains(words),
+            "{}: `{words}` not in the answer box: {text}",
+            case.study
+        );
+    }
+    let model = &expected["recommended"];
+    let quantities = model["parameters"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .chain(model["variables"].as_array().into_iter().flatten());
+    for q in quantities {
+        let name = format!("{} = ", q["name"].as_str().unwrap());
+        let v = q["value"].as_f64().unwrap();
+        let shown: f64 = text
+            .split(&name)
+            .nth(1)
+            .and_then(|rest| rest.split([' ', ',', ')']).next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{}: `{name}` not in the answer box: {text}", case.study));
+        assert!(
+            (shown - v).abs() <= 5e-4 * v.abs(),
+            "{}: {name}{shown} in the answer box, {v} in results.json",
             case.study
         );
     }

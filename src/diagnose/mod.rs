@@ -652,6 +652,13 @@ pub struct NextTest {
     pub limited_by_emulators: bool,
 }
 
+impl NextTest {
+    /// The specimens in hand already decide: the programme is one tested design with none to add.
+    pub fn in_hand(&self) -> bool {
+        matches!(self.programme.as_slice(), [one] if one.additional == 0)
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Residual {
     pub design: String,

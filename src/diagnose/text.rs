@@ -528,10 +528,9 @@ fn action(f: &Facts) -> String {
 /// do not exclude are said first.
 pub(crate) fn action_with_open(f: &Facts, open: &[super::open::NotExcluded]) -> String {
     // A named cause needs no confirming test the specimens in hand already give.
-    let in_hand = |t: &&super::NextTest| matches!(t.programme.as_slice(), [one] if one.additional == 0);
     let confirming = f
         .next_test
-        .filter(|t| !(f.decision.verdict == Verdict::CauseNamed && in_hand(t)));
+        .filter(|t| !(f.decision.verdict == Verdict::CauseNamed && t.in_hand()));
     let next = confirming.map(|t| {
         let at = params(&t.design);
         let names: Vec<String> = t.compared.keys().cloned().collect();

@@ -15,6 +15,7 @@
 
 use std::path::PathBuf;
 
+use super::answer::Model;
 use super::data::{Curve, DesignCurves, Reference};
 use crate::extract::crush::{self, ForceDisplacement, SimSource, Window};
 use crate::plan::{Plan, RunRole};
@@ -70,6 +71,7 @@ pub fn design_curves(study: &Study, runs: Option<&RunOutputs>, reference: Option
             nearest,
             reference: nearest.and(reference.cloned()),
             tests_total,
+            recommended: None,
         });
     }
     out
@@ -174,6 +176,89 @@ fn parameter_text(study: &Study, theta: &[f64]) -> String {
         })
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// Per tested design, the solver's run of the recommended `model` nearest its fitted point (among
+/// the runs of `sets`: the study's, the loop's and the confirmation's), with how far it lies from
+/// that point (the largest offset, as a fraction of each variable's range). A model that adds a
+/// correction term to the simulation has no run of its own: none is drawn.
+pub fn recommended_curves(study: &Study, sets: &[RunOutputs], model: &Model) -> Vec<(String, Curve, f64)> {
+    if model.correction.is_some() {
+        return Vec::new();
+    }
+    let Simulation::Solver(sim) = &study.simulation else {
+        return Vec::new();
+    };
+    let ranges: Vec<(&str, f64, f64)> = study
+        .parameters
+        .iter()
+        .map(|p| (p.name.as_str(), p.min, p.max))
+        .chain(
+            study
+                .diagnosis
+                .hypotheses
+                .iter()
+                .flat_map(|h| h.ranges())
+                .map(|r| (r.name.as_str(), r.min, r.max)),
+        )
+        .collect();
+    let target: Vec<(&str, f64)> = model
+        .parameters
+        .iter()
+        .chain(&model.variables)
+        .map(|q| (q.name.as_str(), q.value))
+        .collect();
+    let offset = |run: &crate::plan::PlannedRun| -> Option<f64> {
+        // A run of this model: the model's extension variables set, and no others.
+        if run.extension.len() != model.variables.len() {
+            return None;
+        }
+        let value = |name: &str| {
+            let k = study.parameters.iter().position(|p| p.name == name);
+            k.map(|k| run.theta[k])
+                .or(run.extension.iter().find(|(n, _)| n == name).map(|v| v.1))
+        };
+        target.iter().try_fold(0.0_f64, |worst, (name, at)| {
+            let (_, lo, hi) = ranges.iter().find(|r| r.0 == *name)?;
+            Some(worst.max((value(name)? - at).abs() / (hi - lo).abs().max(f64::MIN_POSITIVE)))
+        })
+    };
+    let mut out = Vec::new();
+    for design in study.training.iter().chain(&study.validation) {
+        let best = sets
+            .iter()
+            .flat_map(|set| set.plan.runs.iter().enumerate().map(move |(i, r)| (set, i, r)))
+            .filter(|(set, i, r)| &r.design == design && set.responses.get(*i).copied().flatten().is_some())
+            .filter_map(|(set, i, r)| Some((set, i, offset(r)?)))
+            .min_by(|a, b| a.2.total_cmp(&b.2));
+        let Some((set, i, far)) = best else {
+            continue;
+        };
+        let Some(curve) = crate::extract::adapters::run_curve(sim, &set.dirs, &set.keys[i]) else {
+            continue;
+        };
+        let run = &set.plan.runs[i];
+        let mut c = thin(parameter_text(study, &run.theta), &curve);
+        for (name, v) in &run.extension {
+            let unit = study
+                .diagnosis
+                .hypotheses
+                .iter()
+                .flat_map(|h| h.ranges())
+                .find(|r| &r.name == name);
+            let unit = unit
+                .and_then(|r| r.unit.as_ref())
+                .map_or(String::new(), |u| format!(" {u}"));
+            c.label
+                .push_str(&format!(", {name} = {}{unit}", super::plots::short(*v, 4)));
+        }
+        c.parameters = run.theta.clone();
+        if let Response::CrushForce { window, .. } = &sim.response {
+            c.mean_force = crush::crush_force(&curve, *window).ok().map(|r| r.mean_force);
+        }
+        out.push((design.clone(), c, far));
+    }
+    out
 }
 
 /// Index of the point of `thetas` nearest `at`, each parameter scaled by its range.

@@ -276,6 +276,20 @@ pub struct DesignCurves {
     /// Specimens of the design, drawn or not.
     #[serde(default)]
     pub tests_total: usize,
+    /// The solver's run of the model the verdict recommends (`results.json` `answer.recommended`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recommended: Option<RecommendedCurve>,
+}
+
+/// The run drawn for the recommended model at one design.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RecommendedCurve {
+    /// `uncorrected`, or the hypothesis whose model it is.
+    pub model: String,
+    pub curve: Curve,
+    /// How far the run lies from the model's fitted point: the largest offset of a parameter or
+    /// extension variable, as a fraction of its range (0: a run at the fitted point).
+    pub offset: f64,
 }
 
 /// The calibrated parameters the highlighted run is nearest to.

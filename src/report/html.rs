@@ -749,15 +749,18 @@ impl Page<'_> {
             Verdict::TooFewTests | Verdict::CannotTellApart => "open",
             _ => "flag",
         };
+        // Results written before the answer had its key: built from the same values.
+        let answer = self.r.answer.clone().or_else(|| crate::report::answer::of(self.r));
+        let Some(a) = answer else {
+            return String::new();
+        };
         let mut s = format!(
-            "<div id=answer-verdict class=\"verdict {class}\"><p class=headline><strong>{}</strong></p><p class=action>{}</p>",
-            escape(&dg.headline),
-            escape(&dg.action)
+            "<div id=answer-verdict class=\"verdict {class}\"><p class=headline><strong>{}</strong></p>\
+             <p class=action>{}</p><p id=decided-by>{}</p></div>",
+            escape(&a.verdict),
+            escape(&a.action),
+            escape(&a.decided_by)
         );
-        if let Some(figure) = deciding_figure(dg) {
-            let _ = write!(s, "<p id=decided-by>Decided by: {}</p>", escape(&figure));
-        }
-        s.push_str("</div>");
         for l in dg
             .limits
             .iter()
@@ -1207,69 +1210,6 @@ fn verdict_block(dg: &crate::diagnose::Diagnosis) -> String {
         s.push_str("</ul>");
     }
     s
-}
-
-/// The figure a verdict rests on, in one line: the final model's fit both ways for a named cause,
-/// the share a partial cause removes and what its model leaves, the uncorrected model's fit when
-/// there is no model error (or none explained), the open explanations' weights otherwise.
-fn deciding_figure(dg: &crate::diagnose::Diagnosis) -> Option<String> {
-    use crate::diagnose::text::lack_of_fit;
-    use crate::diagnose::verdict::Verdict;
-    let decided_by = dg
-        .features
-        .as_ref()
-        .and_then(|f| f.decided_by.as_ref().zip(f.decided_share))
-        .map(|(name, share)| format!("; the {name} carries {:.0} % of what it removes", 100.0 * share));
-    match dg.verdict {
-        Verdict::CauseNamed => dg.extended.as_ref().and_then(|e| e.lack_of_fit.as_ref()).map(|l| {
-            format!(
-                "the model extended with '{}' fits the tests: {}{}",
-                dg.cause.as_deref().unwrap_or("?"),
-                lack_of_fit(l),
-                decided_by.unwrap_or_default()
-            )
-        }),
-        Verdict::PartlyExplained => dg.partial.as_ref().map(|p| {
-            let share = p.share_removed.map_or(String::new(), |s| {
-                format!(" removes {:.0} % of the misfit, but", 100.0 * s)
-            });
-            let rest = p
-                .remaining
-                .as_ref()
-                .map_or("leaves more than the noise".to_string(), |l| {
-                    format!("its model leaves {}", lack_of_fit(l))
-                });
-            format!("'{}'{share} {rest}", p.name)
-        }),
-        Verdict::NoModelError | Verdict::Unexplained => dg
-            .lack_of_fit
-            .as_ref()
-            .map(|l| format!("the uncorrected simulation against the tests: {}", lack_of_fit(l))),
-        Verdict::CannotTellApart => {
-            let weights: Vec<String> = match &dg.after_loop {
-                Some(a) => a
-                    .explanations
-                    .iter()
-                    .map(|j| format!("'{}' {:.2}", j.name, j.weight))
-                    .collect(),
-                None => dg
-                    .candidates
-                    .iter()
-                    .filter(|c| dg.leading.contains(&c.name))
-                    .map(|c| format!("'{}' {:.2}", c.name, c.weight))
-                    .collect(),
-            };
-            Some(format!("the open explanations' weights: {}", weights.join(", ")))
-        }
-        Verdict::TooFewTests => None,
-        Verdict::EmulatorLimited => dg.emulator.as_ref().map(|e| {
-            format!(
-                "with the tests' scatter alone: {}; with the emulators' error counted: {}",
-                e.noise_alone.verdict.words(),
-                e.counted.verdict.words()
-            )
-        }),
-    }
 }
 
 /// The library search, after the verdict: what it found (or that nothing in the library explains

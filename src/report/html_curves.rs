@@ -89,13 +89,20 @@ impl Page<'_> {
             };
             series.push(Series::new(label, plots::GREY, Style::Thin, points(c)));
         }
+        // With a recommended model drawn, the uncorrected estimate's run is the one it replaces.
+        let uncorrected = dc.recommended.as_ref().is_some_and(|r| r.model != "uncorrected");
         if let Some(c) = dc.nearest.and_then(|i| dc.simulations.get(i)) {
-            series.push(Series::new(
-                format!("run nearest the estimate: {}", c.label),
-                plots::BLACK_,
-                Style::Line,
-                points(c),
-            ));
+            let (label, style) = match uncorrected {
+                true => (
+                    format!("uncorrected, run nearest the estimate: {}", c.label),
+                    Style::Dashed,
+                ),
+                false => (format!("run nearest the estimate: {}", c.label), Style::Line),
+            };
+            series.push(Series::new(label, plots::BLACK_, style, points(c)));
+        }
+        if let Some(r) = &dc.recommended {
+            series.push(Series::new(recommended_label(r), 0, Style::Line, points(&r.curve)));
         }
         // Beyond a few specimens one legend entry stands for all: a legend line each would cover the plot.
         let many = dc.tests.len() > MAX_TEST_LABELS;
@@ -127,8 +134,12 @@ impl Page<'_> {
             };
             parts.push(shown);
             if let (Some(c), Some(r)) = (dc.nearest.and_then(|i| dc.simulations.get(i)), &dc.reference) {
+                let black = match dc.recommended.as_ref().is_some_and(|r| r.model != "uncorrected") {
+                    true => "dashed black, the uncorrected model: the run",
+                    false => "in black the run",
+                };
                 parts.push(format!(
-                    "in black the run nearest the {} estimate ({}): {}, mean crush force {}",
+                    "{black} nearest the {} estimate ({}): {}, mean crush force {}",
                     method_name(&r.method),
                     self.parameters_text(&r.parameters),
                     c.label,
@@ -142,6 +153,14 @@ impl Page<'_> {
                     ));
                 }
             }
+        }
+        if let Some(r) = &dc.recommended {
+            parts.push(format!(
+                "in blue the recommended model ({}): {}, mean crush force {}",
+                model_name(&r.model),
+                recommended_where(r),
+                kn(r.curve.mean_force)
+            ));
         }
         if !dc.tests.is_empty() {
             let means: Vec<f64> = dc.tests.iter().filter_map(|c| c.mean_force).collect();
@@ -191,6 +210,38 @@ impl Page<'_> {
             })
             .collect::<Vec<_>>()
             .join(", ")
+    }
+}
+
+/// `with 'strain hardening': sigma_y = 184.6 MPa, etan = 195.4 MPa` and where the run lies.
+fn recommended_label(r: &crate::report::data::RecommendedCurve) -> String {
+    let at = if r.offset <= FAR { "" } else { " (nearest run)" };
+    format!("recommended, {}: {}{at}", model_name(&r.model), r.curve.label)
+}
+
+fn model_name(model: &str) -> String {
+    match model {
+        "uncorrected" => "the simulation as calibrated".to_string(),
+        cause => format!("with '{cause}'"),
+    }
+}
+
+/// Whether the drawn run is at the model's fitted point or only the nearest to it.
+fn recommended_where(r: &crate::report::data::RecommendedCurve) -> String {
+    if r.offset < 1e-9 {
+        format!("the solver's run at its fitted parameters, {}", r.curve.label)
+    } else if r.offset <= FAR {
+        format!(
+            "the solver's run nearest its fitted parameters ({} % of a range away), {}",
+            short(100.0 * r.offset, 2),
+            r.curve.label
+        )
+    } else {
+        format!(
+            "no run lies near its fitted parameters: the nearest, {} % of a range away, {}",
+            short(100.0 * r.offset, 2),
+            r.curve.label
+        )
     }
 }
 
@@ -264,6 +315,7 @@ mod tests {
                     parameters: vec![199.23],
                 }),
                 tests_total: 3,
+                recommended: None,
             }],
             ..Default::default()
         }

@@ -1,6 +1,7 @@
 //! What `lab` hands back: `results.json` (the contract), the terminal summary, the HTML report
 //! (drawn from `results.json` plus `report-data.json`, both recorded by `lab run`).
 
+pub mod answer;
 pub mod curves;
 pub mod data;
 pub mod html;

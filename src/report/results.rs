@@ -21,6 +21,10 @@ use crate::study::Study;
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Results {
     pub study: String,
+    /// The verdict in an engineer's words: what the model gets wrong, what to use, what to do next,
+    /// and the statistics that decided (absent without a diagnosis).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub answer: Option<super::answer::Answer>,
     /// Keyed by method name (`least_squares`, `sensitivity`, `bayesian`), in the study's order.
     pub calibration: IndexMap<String, MethodResult>,
     pub identifiability: IdentifiabilityResult,
@@ -59,11 +63,14 @@ pub struct Units {
     pub parameters: IndexMap<String, String>,
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub response: Option<String>,
+    /// The units of the hypotheses' ranged extension variables (`etan: MPa`).
+    #[serde(skip_serializing_if = "IndexMap::is_empty", default)]
+    pub variables: IndexMap<String, String>,
 }
 
 impl Units {
     fn is_empty(&self) -> bool {
-        self.parameters.is_empty() && self.response.is_none()
+        self.parameters.is_empty() && self.response.is_none() && self.variables.is_empty()
     }
 
     fn of(study: &Study) -> Units {
@@ -74,6 +81,13 @@ impl Units {
                 .filter_map(|p| Some((p.name.clone(), p.unit.clone()?)))
                 .collect(),
             response: study.experiments.unit.clone(),
+            variables: study
+                .diagnosis
+                .hypotheses
+                .iter()
+                .flat_map(|h| h.ranges())
+                .filter_map(|r| Some((r.name.clone(), r.unit.clone()?)))
+                .collect(),
         }
     }
 
@@ -344,6 +358,7 @@ impl Results {
             .collect();
         Results {
             study: study.name.clone(),
+            answer: None,
             calibration: methods,
             identifiability: (&calibration.identifiability).into(),
             diagnosis_error: diagnosis.as_ref().err().map(|e| e.to_string()),

@@ -47,7 +47,9 @@ pub fn write_run(study: &Study, outcome: Outcome, out: &Path) -> Result<Written,
     let splits = splits.map(|s| split_results(&simulated, &s));
     let mut results = results(study, &simulated, &calibration, diagnosis, splits);
     results.curve_calibration = curve_calibration;
-    let report = report_data(study, &simulated, &calibration, started);
+    results.answer = super::answer::of(&results);
+    let recommended = results.answer.as_ref().and_then(|a| a.recommended.as_ref());
+    let report = report_data(study, &simulated, &calibration, started, recommended);
     write(out, &results, &report)?;
     Ok(Written {
         results,
@@ -144,7 +146,13 @@ fn results(
 
 /// `report-data.json`: what the page draws beyond `results.json` (posterior samples, prediction
 /// curves, the runs and their surrogates, force–displacement curves, the wall time).
-fn report_data(study: &Study, simulated: &Simulated, calibration: &Calibration, started: Instant) -> ReportData {
+fn report_data(
+    study: &Study,
+    simulated: &Simulated,
+    calibration: &Calibration,
+    started: Instant,
+    recommended: Option<&super::answer::Model>,
+) -> ReportData {
     let mut data = ReportData::build(study, simulated.model(), calibration);
     data.force_displacement = match simulated {
         Simulated::ClosedForm(_) => super::curves::design_curves(study, None, None),
@@ -176,11 +184,55 @@ fn report_data(study: &Study, simulated: &Simulated, calibration: &Calibration, 
                 .collect();
             data.residual_curves = r.diagnosed.residual_curves.clone();
             data.solver_comparison = super::solvers::compare(r.sim, &outputs);
-            super::curves::design_curves(study, Some(&outputs), reference.as_ref())
+            let mut curves = super::curves::design_curves(study, Some(&outputs), reference.as_ref());
+            if let Some(model) = recommended {
+                with_recommended(study, r, outputs, model, &mut curves);
+            }
+            curves
         }
     };
     data.wall_time_s = Some(started.elapsed().as_secs_f64());
     data
+}
+
+/// Adds to each design's curves the solver's run of the recommended model nearest its fitted point,
+/// among the study's runs, the loop's and the confirmation's.
+fn with_recommended(
+    study: &Study,
+    r: &crate::pipeline::SolverRuns,
+    outputs: super::curves::RunOutputs,
+    model: &super::answer::Model,
+    curves: &mut [super::data::DesignCurves],
+) {
+    let dirs = outputs.dirs.clone();
+    let joint = r
+        .diagnosed
+        .joint
+        .as_ref()
+        .map(|j| (&j.plan, &j.rendered.keys, &j.swept.responses));
+    let confirm = r
+        .diagnosed
+        .confirmation
+        .as_ref()
+        .map(|c| (&c.plan, &c.rendered.keys, &c.swept.responses));
+    let mut sets = vec![outputs];
+    for (plan, keys, responses) in joint.into_iter().chain(confirm) {
+        sets.push(super::curves::RunOutputs {
+            plan,
+            keys,
+            responses,
+            dirs: dirs.clone(),
+        });
+    }
+    for (design, curve, offset) in super::curves::recommended_curves(study, &sets, model) {
+        if let Some(dc) = curves.iter_mut().find(|c| c.design == design) {
+            dc.recommended = Some(super::data::RecommendedCurve {
+                model: model.model.clone(),
+                curve,
+                offset,
+            });
+        }
+    }
 }
 
 /// Writes results.json, report-data.json and report.html into `out`.

@@ -2,12 +2,17 @@
 
 use std::fmt::Write;
 
+use indexmap::IndexMap;
+
 use super::results::{Results, Role, SplitResult, Units};
 
-/// Renders the summary as plain text (no colour: it is also what a log file gets).
-pub fn render(results: &Results) -> String {
-    let mut out = sampling_line(results);
+/// Renders the summary as plain text (no colour: it is also what a log file gets): the answer in
+/// plain words first, then the tables; the diagnosis's evidence lines only when `verbose`.
+pub fn render(results: &Results, verbose: bool) -> String {
+    let mut out = answer_lines(results);
+    out.push_str(&sampling_line(results));
     out.push_str(&methods_table(results));
+    out.push_str(&diagnosis_models(results));
     out.push_str(&model_caution(results));
     out.push_str(&convergence_warnings(results));
     out.push_str(&predictions_table(results));
@@ -17,8 +22,67 @@ pub fn render(results: &Results) -> String {
         out.push_str(&curves_table(c));
     }
     out.push_str(&failed_runs(results));
-    write_diagnosis(&mut out, results);
+    write_diagnosis(&mut out, results, verbose);
     out
+}
+
+/// The answer's three lines: the verdict in plain words, the action, the statistics that decided.
+fn answer_lines(results: &Results) -> String {
+    match &results.answer {
+        Some(a) => format!("{}\n{}\n{}\n\n", a.verdict, a.action, a.decided_by),
+        None => String::new(),
+    }
+}
+
+/// The models the diagnosis calibrated, beside the methods' table: its own calibration (least
+/// squares weighted by the tests' noise, on what it read) of the uncorrected simulation and of the
+/// cause's model, so that each figure the verdict quotes has its row.
+fn diagnosis_models(results: &Results) -> String {
+    let Some(d) = &results.diagnosis else {
+        return String::new();
+    };
+    let extended = d
+        .extended
+        .as_ref()
+        .or(d.partial.as_ref().and_then(|p| p.extended.as_ref()));
+    let cause = extended.map(|e| (e.cause.as_str(), &e.parameters, Some(e.validation_error_after)));
+    let before = extended
+        .map(|e| e.validation_error_before)
+        .or(d.uncorrected.validation.as_ref().map(|v| v.error));
+    let rows: Vec<(&str, &IndexMap<String, f64>, Option<f64>)> =
+        std::iter::once(("uncorrected", &d.uncorrected.parameters, before))
+            .chain(cause)
+            .collect();
+    let mut names: Vec<&String> = Vec::new();
+    for n in rows.iter().flat_map(|r| r.1.keys()) {
+        if !names.contains(&n) {
+            names.push(n);
+        }
+    }
+    let read = match &d.features {
+        Some(f) => format!("the curve features: {}", f.read.join(", ")),
+        None => "the response".to_string(),
+    };
+    let on = extended.map_or("validation", |e| e.measured_on.as_str());
+    let units = super::answer::units(results);
+    let mut t = format!("\nthe diagnosis's models (least squares weighted by the tests' noise, on {read})\n");
+    let _ = write!(t, "{:<36}", "model");
+    for n in &names {
+        let _ = write!(t, " {:>14}", Units::label(units.get(*n), n));
+    }
+    let _ = writeln!(t, "  {} err", if on == "validation" { "valid" } else { "LOO" });
+    for (model, values, error) in rows {
+        let _ = write!(t, "{model:<36}");
+        for n in &names {
+            let _ = write!(
+                t,
+                " {:>14}",
+                values.get(*n).map_or("-".to_string(), |v| significant(*v, 6))
+            );
+        }
+        let _ = writeln!(t, "  {:>9}", percent(error));
+    }
+    t
 }
 
 /// When runs failed: how many, in which stages, and that the fits and the verdict rest on the
@@ -308,14 +372,23 @@ pub fn splits(splits: &[SplitResult]) -> String {
     t
 }
 
-fn write_diagnosis(out: &mut String, results: &Results) {
+fn write_diagnosis(out: &mut String, results: &Results, verbose: bool) {
     let Some(d) = &results.diagnosis else {
         if let Some(e) = &results.diagnosis_error {
             let _ = writeln!(out, "\ndiagnosis: could not run: {e}");
         }
         return;
     };
-    let _ = writeln!(out, "\ndiagnosis: {}", d.summary);
+    if verbose {
+        let _ = writeln!(out, "\ndiagnosis: {}", d.summary);
+    } else {
+        let _ = writeln!(
+            out,
+            "\ndiagnosis: {} ({} evidence lines: `lab run --verbose`, or the report)",
+            d.verdict.words(),
+            d.evidence.len() + d.limits.len()
+        );
+    }
     if !d.candidates.is_empty() {
         let _ = writeln!(
             out,

@@ -319,20 +319,77 @@ pub fn assert_settled_stages_decide_nothing(results: &Value) {
 }
 
 /// What every study's run must show besides a verdict that follows from its evidence: the
-/// terminal leads with the verdict, and no sentence of the summary or the report calls a p-value
+/// terminal and the report open with the answer in plain words, and no sentence of the summary or the report calls a p-value
 /// at or above α significant.
 #[allow(dead_code)] // used by the tests that run whole studies
 pub fn assert_study_reads_its_verdict(study: &str, stdout: &str, out: &std::path::Path, r: &Value) {
     let d = &r["diagnosis"];
     assert_verdict_follows_evidence(d);
-    let headline = d["headline"].as_str().unwrap();
+    assert_answer_first(study, stdout, r);
+    // The page's first section carries the same plain words.
+    let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+    let first = page_text(&page[..page.find("id=study").unwrap_or(page.len())]);
+    let verdict = r["answer"]["verdict"].as_str().unwrap();
     assert!(
-        stdout.contains(&format!("diagnosis: {headline}")),
-        "{study}: the terminal does not lead with the verdict"
+        first.contains(verdict),
+        "{study}: the report does not open with the plain verdict"
     );
     let page = std::fs::read_to_string(out.join("report.html")).unwrap();
     for text in [d["summary"].as_str().unwrap().to_string(), page_text(&page)] {
         significance_is_backed(study, &text);
+    }
+}
+
+/// The terminal opens with the answer (`results.json` `answer`): the plain verdict, the action and
+/// the statistics that decided, in that order; the plain verdict quotes no test statistic; each
+/// value of the recommended model appears under its name in the diagnosis's table of models (the
+/// row of that model), within the rounding of the two.
+#[allow(dead_code)]
+pub fn assert_answer_first(study: &str, stdout: &str, r: &Value) {
+    let a = &r["answer"];
+    let first: Vec<&str> = stdout.lines().take(3).collect();
+    let expected: Vec<&str> = ["verdict", "action", "decided_by"]
+        .map(|k| a[k].as_str().unwrap())
+        .to_vec();
+    assert_eq!(first, expected, "{study}: the terminal does not open with the answer");
+    let verdict = expected[0];
+    for stat in ["χ²", "p =", "p <", "Šidák", " dof"] {
+        assert!(
+            !verdict.contains(stat),
+            "{study}: the plain verdict quotes `{stat}`: {verdict}"
+        );
+    }
+    assert!(
+        expected[1].starts_with("Action: ") && expected[2].starts_with("Decided by: "),
+        "{study}"
+    );
+    let Some(model) = a["recommended"].as_object() else {
+        return;
+    };
+    let name = model["model"].as_str().unwrap();
+    let row = stdout
+        .lines()
+        .skip(3)
+        .find(|l| l.starts_with(name))
+        .unwrap_or_else(|| panic!("{study}: no table row of the recommended model `{name}`\n{stdout}"));
+    let numbers: Vec<f64> = row.split_whitespace().filter_map(|w| w.parse().ok()).collect();
+    let quantities = model["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .chain(model.get("variables").and_then(|v| v.as_array()).into_iter().flatten());
+    for q in quantities {
+        let v = q["value"].as_f64().unwrap();
+        assert!(
+            numbers.iter().any(|x| (x - v).abs() <= 5e-4 * v.abs()),
+            "{study}: {} = {v} is not in the table row `{row}`",
+            q["name"]
+        );
+        let quoted = format!("{} = ", q["name"].as_str().unwrap());
+        assert!(
+            verdict.contains(&quoted),
+            "{study}: the verdict does not quote {quoted}: {verdict}"
+        );
     }
 }
 
