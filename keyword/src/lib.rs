@@ -8,6 +8,8 @@
 //! - [`field`]: numbers written into fixed-width fields, exactly or as an error ([`field::real`]),
 //!   or rounded on request ([`field::fit_real`]).
 //! - [`deck`]: a reader for keyword text: blocks, cards, `*PARAMETER` values.
+//! - [`parameters`]: a deck as it is with its `*PARAMETER` values and LS-OPT `<<name>>` marks set
+//!   in their cards' own format, and the files it `*INCLUDE`s.
 //! - [`lint`]: checks a deck (and, through the caller's resolver, every file it `*INCLUDE`s): on
 //!   the keywords it knows, every fixed field holds one token of the right kind.
 //!
@@ -22,5 +24,6 @@
 pub mod deck;
 pub mod field;
 pub mod lint;
+pub mod parameters;
 
 pub use lint::{Problem, lint};
