@@ -73,8 +73,11 @@ pub fn entries(text: &str) -> Result<Vec<Entry>, DeckError> {
     Ok(out)
 }
 
-/// The name/value pairs of one card: (name field, value field) byte ranges.
-fn pairs(text: &str) -> (Vec<(Range<usize>, Range<usize>)>, bool) {
+/// A name field and its value field, as byte ranges of a card.
+type Pair = (Range<usize>, Range<usize>);
+
+/// The name/value pairs of one card, and whether it is comma-separated.
+fn pairs(text: &str) -> (Vec<Pair>, bool) {
     if text.contains(',') {
         let mut cuts = vec![0];
         cuts.extend(text.match_indices(',').map(|(i, _)| i + 1));

@@ -4,6 +4,7 @@
 
 pub mod bounds;
 pub mod curve;
+pub mod deck;
 pub mod dyna_filters;
 pub mod format;
 pub mod grid;

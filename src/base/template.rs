@@ -33,10 +33,12 @@ pub struct Template {
 /// The rendered inputs of one run: (path relative to the run directory, bytes).
 pub type Inputs = Vec<(PathBuf, Vec<u8>)>;
 
-/// A study's templates, parsed once, ready to render any number of runs.
+/// A study's templates, parsed once, ready to render any number of runs; and its deck used as it
+/// is, when it names one.
 pub struct Renderer {
     tera: Tera,
     templates: Vec<Template>,
+    deck: Option<super::deck::Deck>,
 }
 
 /// The Tera name of template `i` (no suffix, so nothing is autoescaped by name either).
@@ -56,19 +58,31 @@ impl Renderer {
         Ok(Renderer {
             tera,
             templates: templates.to_vec(),
+            deck: None,
         })
+    }
+
+    /// The templates and a deck used as it is (`simulation.solver.deck`), rendered after them.
+    pub fn with_deck(mut self, deck: Option<&super::deck::Deck>) -> Self {
+        self.deck = deck.cloned();
+        self
     }
 
     /// Renders every template with `context`, in the study's order.
     pub fn render(&self, context: &Context) -> Result<Inputs, InputError> {
-        self.templates
+        let mut inputs: Inputs = self
+            .templates
             .iter()
             .enumerate()
             .map(|(i, t)| {
                 let text = self.tera.render(&name(i), context).map_err(|e| located(t, &e))?;
                 Ok((t.output.clone(), text.into_bytes()))
             })
-            .collect()
+            .collect::<Result<_, InputError>>()?;
+        if let Some(deck) = &self.deck {
+            inputs.extend(deck.render(context)?);
+        }
+        Ok(inputs)
     }
 }
 

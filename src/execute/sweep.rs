@@ -49,7 +49,7 @@ use super::{Adapter, CancelReason, Canceller, Executor, OutcomeClass, RunRecord,
 use crate::error::{Error, InputError};
 use crate::plan::Plan;
 use crate::render::mesh::{self, TubeSpec};
-use crate::render::{self, Inputs, Renderer};
+use crate::render::{self, Inputs};
 use crate::study::settings::Gates;
 use crate::study::{QualitySettings, SolverSimulation, Study};
 
@@ -97,7 +97,7 @@ pub fn prepare_after(
     earlier: Option<&Prepared>,
 ) -> Result<Prepared, Error> {
     let sim = solver.sim;
-    let renderer = Renderer::new(&sim.inputs.templates)?;
+    let renderer = sim.inputs.renderer()?;
     let identity = solver.adapter.identity();
     let mut prepared = Prepared {
         keys: Vec::with_capacity(plan.runs.len()),

@@ -143,7 +143,19 @@ impl Checker<'_> {
         let design = self.design_variables(&file)?;
         let parameters = self.parameters(&file)?;
         let symbols = symbols(&design, &parameters, &constants);
-        let simulation = self.simulation(&file.simulation, &symbols, design.len(), parameters.len())?;
+        // The names a deck used as it is must define: the design variables, the parameters and the
+        // hypotheses' extension variables.
+        let extension_names = file
+            .diagnosis
+            .iter()
+            .flat_map(|d| &d.hypotheses)
+            .flat_map(|h| h.extension.iter().flat_map(|e| e.value.keys().map(|k| k.value.clone())));
+        let deck_names: Vec<String> = symbols.names()[..design.len() + parameters.len()]
+            .iter()
+            .cloned()
+            .chain(extension_names)
+            .collect();
+        let simulation = self.simulation(&file.simulation, &symbols, &deck_names, design.len(), parameters.len())?;
         let Tested {
             experiments,
             training,
@@ -497,6 +509,7 @@ impl Checker<'_> {
         &self,
         node: &Spanned<SimulationFile>,
         symbols: &Symbols,
+        deck_names: &[String],
         n_design: usize,
         n_parameters: usize,
     ) -> Result<Simulation, InputError> {
@@ -510,7 +523,7 @@ impl Checker<'_> {
                 ));
             }
             return self
-                .solver(node, solver, &symbols.names()[..n_design], n_parameters)
+                .solver(node, solver, (&symbols.names()[..n_design], deck_names), n_parameters)
                 .map(|s| Simulation::Solver(Box::new(s)));
         }
         self.no_solver_keys(sim)?;

@@ -62,7 +62,7 @@ impl Checker<'_> {
             extension.screening.push(screening);
             extension.ranges.extend(range);
         }
-        let renderer = crate::base::template::Renderer::new(&sim.inputs.templates)?;
+        let renderer = sim.inputs.renderer()?;
         self.used_by_templates(study, &renderer, &who, node, &extension.screening)?;
         if !extension.ranges.is_empty() {
             let edge = render_at_centre(study, &renderer, &extension.at_lower_bounds());

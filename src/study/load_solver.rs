@@ -5,13 +5,16 @@
 use std::path::{Component, Path, PathBuf};
 use std::time::Duration;
 
-use super::super::schema::{MeshFile, ResponseFile, RetriesFile, SamplingFile, SimulationFile, SolverFile};
+use super::super::schema::{
+    DeckSpecFile, MeshFile, ResponseFile, RetriesFile, SamplingFile, SimulationFile, SolverFile,
+};
 use super::super::solver::{
     CopiedFile, Execution, MeshSpec, Response, RunInputs, Sampling, SamplingMethod, SolverSimulation, SurrogateKind,
     Template,
 };
 use super::super::yaml::Spanned;
 use super::Checker;
+use crate::base::deck::Deck;
 use crate::error::InputError;
 use crate::study::settings::Side;
 use crate::study::settings::{Backoff, OutcomeClass, RetryPolicy};
@@ -61,7 +64,7 @@ impl Checker<'_> {
         &self,
         node: &Spanned<SimulationFile>,
         solver: &Spanned<SolverFile>,
-        design_names: &[String],
+        (design_names, deck_names): (&[String], &[String]),
         n_parameters: usize,
     ) -> Result<SolverSimulation, InputError> {
         let sim = &node.value;
@@ -71,12 +74,18 @@ impl Checker<'_> {
         let lsdyna = adapter == "lsdyna" || adapter == "openradioss";
         let openradioss = self.openradioss(&adapter, solver)?;
         let (templates, files, outputs) = self.inputs(spec)?;
+        let deck = spec
+            .deck
+            .as_ref()
+            .map(|d| self.deck(d, &templates, deck_names, &outputs))
+            .transpose()?;
+        let main = match &deck {
+            Some(d) => Some(d.files[0].output.clone()),
+            None => templates.first().map(|t| t.output.clone()),
+        };
         let command = match &openradioss {
-            Some(settings) => {
-                let deck = self.main_deck(solver, &templates)?;
-                settings.starter_argv(&deck)
-            }
-            None => self.solver_command(solver, &adapter, &templates)?,
+            Some(settings) => settings.starter_argv(&self.main_deck(solver, main)?),
+            None => self.solver_command(solver, &adapter, main)?,
         };
         let (timeout, retry) = self.limits(spec)?;
         let Some(response) = &sim.response else {
@@ -108,6 +117,7 @@ impl Checker<'_> {
             adapter,
             inputs: RunInputs {
                 templates,
+                deck,
                 files,
                 mesh,
                 parameter_width: lsdyna.then_some(10),
@@ -162,15 +172,75 @@ impl Checker<'_> {
         self.at_key("solver", solver, want)
     }
 
-    /// The first template's output: the main deck of an `openradioss` run.
-    fn main_deck(&self, solver: &Spanned<SolverFile>, templates: &[Template]) -> Result<PathBuf, InputError> {
-        templates.first().map(|t| t.output.clone()).ok_or_else(|| {
+    /// The main deck of an `openradioss` run: the deck used as it is, or the first template's output.
+    fn main_deck(&self, solver: &Spanned<SolverFile>, main: Option<PathBuf>) -> Result<PathBuf, InputError> {
+        main.ok_or_else(|| {
             self.at_key(
                 "solver",
                 solver,
-                "an `openradioss` solver needs `templates: [main.k.tera, ...]` (the first is the main deck)",
+                "an `openradioss` solver needs `deck: {file: model.k}` or `templates: [main.k.tera, ...]` (the first \
+                 is the main deck)",
             )
         })
+    }
+
+    /// `solver.deck`: the deck and its includes read, every study variable defined in them (a
+    /// `*PARAMETER` entry or a `<<name>>` mark), each under its own name in upper case or the name
+    /// `names:` gives it.
+    fn deck(
+        &self,
+        node: &Spanned<DeckSpecFile>,
+        templates: &[Template],
+        variables: &[String],
+        outputs: &[PathBuf],
+    ) -> Result<Deck, InputError> {
+        if !templates.is_empty() {
+            return Err(self.at_key(
+                "deck",
+                node,
+                "`deck` and `templates` together: a deck used as it is takes the place of the templates",
+            ));
+        }
+        let spec = &node.value;
+        let file = self.referenced_file(&spec.file, "deck")?;
+        let mut names: Vec<(String, String)> = variables.iter().map(|v| (v.clone(), v.to_ascii_uppercase())).collect();
+        for (variable, name) in &spec.names {
+            let Some(entry) = names.iter_mut().find(|(v, _)| *v == variable.value) else {
+                return Err(self.at(
+                    variable,
+                    format!(
+                        "`{}` is not a design variable, parameter or extension variable of the study",
+                        variable.value
+                    ),
+                ));
+            };
+            let valid = !name.value.is_empty() && name.value.len() <= 9;
+            if !valid || !name.value.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                return Err(self.at(name, "a `*PARAMETER` name: 1 to 9 letters, digits or `_`"));
+            }
+            entry.1 = name.value.to_ascii_uppercase();
+        }
+        let (deck, defined) = Deck::read(&file, names)?;
+        let marks = deck.marks()?;
+        for (variable, name) in &deck.names {
+            if !defined.iter().any(|d| d.entry.name == *name) && !marks.contains(name) {
+                return Err(self.at(&spec.file, format!(
+                    "`{variable}` has no `*PARAMETER` {name} in {} or the files it includes (nor a `<<{name}>>` mark): \
+                     add one, or name the deck's parameter with `names: {{{variable}: ...}}`",
+                    file.display()
+                )));
+            }
+        }
+        if let Some(f) = deck.files.iter().find(|f| outputs.contains(&f.output)) {
+            return Err(self.at(
+                &spec.file,
+                format!(
+                    "the deck's file `{}` and another input would both be written to it in the run directory",
+                    f.output.display()
+                ),
+            ));
+        }
+        Ok(deck)
     }
 
     /// `solver.command`, or the adapter's default: `lsdyna` runs `ls-dyna i=<first template>`;
@@ -179,21 +249,22 @@ impl Checker<'_> {
         &self,
         solver: &Spanned<SolverFile>,
         adapter: &str,
-        templates: &[Template],
+        main: Option<PathBuf>,
     ) -> Result<Vec<String>, InputError> {
         match &solver.value.command {
             Some(c) => self.command(c),
             None if adapter == "lsdyna" => {
-                let Some(main) = templates.first() else {
+                let Some(main) = main else {
                     return Err(self.at_key(
                         "solver",
                         solver,
-                        "an `lsdyna` solver needs `templates: [main.k.tera, ...]` (the first is the main deck)",
+                        "an `lsdyna` solver needs `deck: {file: model.k}` or `templates: [main.k.tera, ...]` (the first \
+                         is the main deck)",
                     ));
                 };
                 Ok(vec![
                     "ls-dyna".to_string(),
-                    format!("i={}", main.output.display()),
+                    format!("i={}", main.display()),
                     "ncpu=1".to_string(),
                 ])
             }

@@ -113,6 +113,8 @@ pub struct SolverFile {
     pub adapter: Spanned<String>,
     #[serde(default)]
     pub templates: Vec<Spanned<String>>,
+    /// A keyword deck used as it is, in place of `templates`: its `*PARAMETER` values set by name.
+    pub deck: Option<Spanned<DeckSpecFile>>,
     /// Files copied verbatim into every run directory (part of the run key).
     #[serde(default)]
     pub files: Vec<Spanned<String>>,
@@ -127,6 +129,17 @@ pub struct SolverFile {
     pub slurm: Option<Spanned<SlurmFile>>,
     /// `adapter: openradioss`: its programs, threads, nodal noise and environment.
     pub openradioss: Option<Spanned<OpenRadiossFile>>,
+}
+
+/// `simulation.solver.deck`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeckSpecFile {
+    /// The main deck, relative to the study file; its includes are found relative to it.
+    pub file: Spanned<String>,
+    /// Study variable → the deck's `*PARAMETER` name (default: the variable's name in upper case).
+    #[serde(default)]
+    pub names: IndexMap<Name, Spanned<String>>,
 }
 
 /// `simulation.solver.openradioss` (all optional).

@@ -42,6 +42,8 @@ pub struct SolverSimulation {
 #[derive(Debug, Clone)]
 pub struct RunInputs {
     pub templates: Vec<Template>,
+    /// A deck used as it is (`simulation.solver.deck`), in place of templates.
+    pub deck: Option<crate::base::deck::Deck>,
     /// Files copied verbatim into every run directory.
     pub files: Vec<CopiedFile>,
     /// A mesh generated once per design and included by the deck (`mesh_file` in the context).
@@ -52,9 +54,18 @@ pub struct RunInputs {
 }
 
 impl RunInputs {
-    /// The deck the solver reads: the first template's rendered name (empty without templates).
+    /// The deck the solver reads: the deck used as it is, or the first template's rendered name
+    /// (empty without either).
     pub fn deck(&self) -> PathBuf {
-        self.templates.first().map(|t| t.output.clone()).unwrap_or_default()
+        match &self.deck {
+            Some(d) => d.files[0].output.clone(),
+            None => self.templates.first().map(|t| t.output.clone()).unwrap_or_default(),
+        }
+    }
+
+    /// What renders a run's inputs: the templates and the deck used as it is.
+    pub fn renderer(&self) -> Result<crate::base::template::Renderer, crate::error::InputError> {
+        Ok(crate::base::template::Renderer::new(&self.templates)?.with_deck(self.deck.as_ref()))
     }
 }
 

@@ -1,0 +1,173 @@
+//! A deck used as it is (`simulation.solver.deck`): the engineer's own keyword deck and the files it
+//! `*INCLUDE`s, written into each run directory with the values of its `*PARAMETER` entries and
+//! LS-OPT `<<name>>` marks set from the run's design variables, parameters and extension
+//! variables (`lsdyna_keyword::parameters`); nothing else in the files changes. The run key hashes
+//! what is written, so editing an include reruns exactly the runs that read it.
+
+use std::collections::HashMap;
+use std::path::{Component, Path, PathBuf};
+
+use lsdyna_keyword::parameters::{self, DeckError, Entry};
+use tera::Context;
+
+use super::template::Inputs;
+use crate::error::InputError;
+
+/// One file of a deck: where it was read, its name in the run directory, its text.
+#[derive(Debug, Clone)]
+pub struct DeckFile {
+    pub file: PathBuf,
+    pub output: PathBuf,
+    pub source: String,
+}
+
+/// The main deck (first) and every file it includes, and the names its values are set by.
+#[derive(Debug, Clone)]
+pub struct Deck {
+    pub files: Vec<DeckFile>,
+    /// Study name → the deck's parameter name (upper case).
+    pub names: Vec<(String, String)>,
+}
+
+/// A deck's `*PARAMETER` entry and the file it is in.
+pub struct Defined {
+    pub file: PathBuf,
+    pub entry: Entry,
+}
+
+impl Deck {
+    /// Reads `main` and, recursively, every file it includes, each found relative to the main
+    /// deck's directory as LS-DYNA finds it; a missing include, one outside that directory, a bad
+    /// `*PARAMETER` entry or a name defined twice (in one file or across two) is an error at its
+    /// file and line.
+    pub fn read(main: &Path, names: Vec<(String, String)>) -> Result<(Deck, Vec<Defined>), InputError> {
+        let dir = main.parent().unwrap_or(Path::new("")).to_path_buf();
+        let output = PathBuf::from(main.file_name().unwrap_or_default());
+        let mut deck = Deck {
+            files: vec![read_file(main, output)?],
+            names,
+        };
+        let mut k = 0;
+        while k < deck.files.len() {
+            for include in parameters::includes(&deck.files[k].source) {
+                let at = &deck.files[k];
+                let output = included_name(at, include.line, &include.file)?;
+                if deck.files.iter().any(|f| f.output == output) {
+                    continue;
+                }
+                let file = dir.join(&output);
+                if !file.is_file() {
+                    return Err(error(
+                        at,
+                        include.line,
+                        1,
+                        format!(
+                            "*INCLUDE `{}`: no such file (looked for {}; includes are found relative to the main deck)",
+                            include.file,
+                            file.display()
+                        ),
+                    ));
+                }
+                deck.files.push(read_file(&file, output)?);
+            }
+            k += 1;
+        }
+        let defined = deck.defined()?;
+        Ok((deck, defined))
+    }
+
+    /// Every `*PARAMETER` entry of every file; a name defined twice is an error at the second.
+    fn defined(&self) -> Result<Vec<Defined>, InputError> {
+        let mut all: Vec<Defined> = Vec::new();
+        for f in &self.files {
+            let entries = parameters::entries(&f.source).map_err(|e| deck_error(f, e))?;
+            for entry in entries {
+                if let Some(first) = all.iter().find(|d| d.entry.name == entry.name) {
+                    let message = format!(
+                        "parameter {} is defined twice (first at {}:{})",
+                        entry.name,
+                        first.file.display(),
+                        first.entry.line
+                    );
+                    return Err(error(f, entry.line, 1, message));
+                }
+                all.push(Defined {
+                    file: f.file.clone(),
+                    entry,
+                });
+            }
+        }
+        Ok(all)
+    }
+
+    /// The deck's name of the marks (`<<name>>`) in its files, upper case.
+    pub fn marks(&self) -> Result<Vec<String>, InputError> {
+        let mut out = Vec::new();
+        for f in &self.files {
+            let marks = parameters::marks(&f.source).map_err(|e| deck_error(f, e))?;
+            out.extend(marks.into_iter().map(|m| m.name.to_ascii_uppercase()));
+        }
+        Ok(out)
+    }
+
+    /// Every file of the deck with the run's values set (those the context has; the others keep
+    /// the deck's own). A value that does not fit its field is an error at its file and line.
+    pub fn render(&self, context: &Context) -> Result<Inputs, InputError> {
+        let values: HashMap<String, f64> = self
+            .names
+            .iter()
+            .filter_map(|(study, deck)| Some((deck.clone(), context.get(study)?.as_f64()?)))
+            .collect();
+        self.files
+            .iter()
+            .map(|f| {
+                let (text, _) = parameters::set(&f.source, &values).map_err(|e| deck_error(f, e))?;
+                let text = parameters::set_marks(&text, &values).map_err(|e| deck_error(f, e))?;
+                Ok((f.output.clone(), text.into_bytes()))
+            })
+            .collect()
+    }
+}
+
+fn read_file(file: &Path, output: PathBuf) -> Result<DeckFile, InputError> {
+    let bytes = std::fs::read(file).map_err(|e| InputError::file(file, format!("cannot read the deck: {e}")))?;
+    let source = String::from_utf8(bytes)
+        .map_err(|e| InputError::file(file, format!("a keyword deck is text; this file is not UTF-8 ({e})")))?;
+    Ok(DeckFile {
+        file: file.to_path_buf(),
+        output,
+        source,
+    })
+}
+
+/// An include's name in the run directory: as the deck writes it, which must stay inside the
+/// directory (the run directory gets the same tree).
+fn included_name(at: &DeckFile, line: usize, name: &str) -> Result<PathBuf, InputError> {
+    let path = PathBuf::from(name);
+    if path
+        .components()
+        .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Ok(path
+            .components()
+            .filter(|c| matches!(c, Component::Normal(_)))
+            .collect());
+    }
+    Err(error(
+        at,
+        line,
+        1,
+        format!(
+            "*INCLUDE `{name}`: an include outside the deck's directory cannot be copied into the run directory; \
+         move it beside the deck (or below it) and name it relative to the deck"
+        ),
+    ))
+}
+
+fn error(f: &DeckFile, line: usize, column: usize, message: String) -> InputError {
+    InputError::at(&f.file, &f.source, line, column, message)
+}
+
+fn deck_error(f: &DeckFile, e: DeckError) -> InputError {
+    error(f, e.line, e.column, e.message)
+}
