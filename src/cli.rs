@@ -273,6 +273,21 @@ fn check(study: &Study) -> Result<i32, Error> {
     if designs > 0 {
         println!("ok: {specimens} force-displacement curve(s) of {designs} design(s) read");
     }
+    if let crate::study::Simulation::Solver(sim) = &study.simulation
+        && let Some(deck) = &sim.inputs.deck
+    {
+        let (set, left) = deck.settings();
+        let set: Vec<String> = set.iter().map(|(s, d)| format!("{d} ({s})")).collect();
+        println!(
+            "ok: deck {} and {} included file(s): each run sets {}",
+            deck.files[0].file.display(),
+            deck.files.len() - 1 + deck.per_design.len(),
+            set.join(", ")
+        );
+        if !left.is_empty() {
+            println!("    *PARAMETER entries left as the deck has them: {}", left.join(", "));
+        }
+    }
     Ok(0)
 }
 

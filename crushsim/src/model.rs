@@ -249,7 +249,68 @@ pub fn parameters(blocks: &[Located]) -> Res<Reader> {
             order.extend(new);
         }
     }
+    for b in blocks.iter().filter(|b| b.block.keyword == "PARAMETER_EXPRESSION") {
+        for card in &b.block.cards {
+            let (name, value) = expression(&params, card).map_err(|message| DeckError {
+                file: b.file.clone(),
+                line: card.line,
+                message,
+            })?;
+            if !params.contains_key(&name) {
+                order.push(name.clone());
+            }
+            params.insert(name, value);
+        }
+    }
     Ok(Reader { params, order })
+}
+
+/// One `*PARAMETER_EXPRESSION` card, as LS-DYNA reads it: the type letter and name in the first 10
+/// columns, the expression in the next 70, over the parameters defined before it (names compared
+/// in upper case, `**` a power, functions such as `sqrt` and `sin`). An `I` entry is rounded.
+fn expression(params: &HashMap<String, Param>, card: &Card) -> Result<(String, Param), String> {
+    let text = card.text.as_str();
+    let head = text.get(..10.min(text.len())).unwrap_or(text).trim();
+    let body = text.get(10.min(text.len())..).unwrap_or("").trim();
+    let kind = head.chars().next().unwrap_or(' ').to_ascii_uppercase();
+    let name = head.get(1..).unwrap_or("").trim().to_ascii_uppercase();
+    if name.is_empty() || !matches!(kind, 'R' | 'I') {
+        return Err(format!(
+            "*PARAMETER_EXPRESSION: `{head}` is not a type letter R or I and a name"
+        ));
+    }
+    // Parameters by their upper-case names; everything else (function names) in lower case.
+    let mut spelled = String::new();
+    let mut word = String::new();
+    for c in body.replace("**", "^").chars().chain([' ']) {
+        if c.is_ascii_alphanumeric() || c == '_' || (c == '.' && word.chars().all(|d| d.is_ascii_digit())) {
+            word.push(c);
+            continue;
+        }
+        let upper = word.to_ascii_uppercase();
+        spelled.push_str(&if params.contains_key(&upper) {
+            upper
+        } else {
+            word.to_ascii_lowercase()
+        });
+        word.clear();
+        spelled.push(c);
+    }
+    let names: Vec<String> = params.keys().cloned().collect();
+    let symbols = lab::study::Symbols::new(names.clone());
+    let compiled = lab::study::Expression::compile(spelled.trim(), &symbols)
+        .map_err(|e| format!("*PARAMETER_EXPRESSION {name}: `{body}`: {}", e.message))?;
+    let values: Vec<f64> = names.iter().map(|n| params[n].as_f64().unwrap_or(f64::NAN)).collect();
+    let v = compiled.eval(&values);
+    if !v.is_finite() {
+        return Err(format!("*PARAMETER_EXPRESSION {name}: `{body}` is not a finite number"));
+    }
+    let value = if kind == 'I' {
+        Param::Int(v.round() as i64)
+    } else {
+        Param::Real(v)
+    };
+    Ok((name, value))
 }
 
 /// A card of a block, or an error saying which card is missing.

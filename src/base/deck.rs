@@ -27,6 +27,26 @@ pub struct Deck {
     pub files: Vec<DeckFile>,
     /// Study name → the deck's parameter name (upper case).
     pub names: Vec<(String, String)>,
+    /// The includes that differ per design (the geometry of each tested design).
+    pub per_design: Vec<PerDesign>,
+}
+
+/// An `*INCLUDE` of the deck whose file is the tested design's own (`per_design:` in the study):
+/// each design's bytes, written once per study under the output directory's meshes (named by their
+/// content's hash) and named on the include's line of each run's deck in place of the deck's name.
+#[derive(Debug, Clone)]
+pub struct PerDesign {
+    /// The include's name as the deck writes it.
+    pub include: String,
+    /// Where each design's file is: a path with `{design}` in it.
+    pub pattern: PathBuf,
+    /// Design name → the file read and its bytes (shared, not copied, by the runs).
+    pub files: std::collections::BTreeMap<String, (PathBuf, std::sync::Arc<Vec<u8>>)>,
+}
+
+/// The context key a run's path to the per-design include `k` is given under.
+pub fn include_key(k: usize) -> String {
+    format!("deck_include_{k}")
 }
 
 /// A deck's `*PARAMETER` entry and the file it is in.
@@ -40,16 +60,31 @@ impl Deck {
     /// deck's directory as LS-DYNA finds it; a missing include, one outside that directory, a bad
     /// `*PARAMETER` entry or a name defined twice (in one file or across two) is an error at its
     /// file and line.
-    pub fn read(main: &Path, names: Vec<(String, String)>) -> Result<(Deck, Vec<Defined>), InputError> {
+    pub fn read(
+        main: &Path,
+        names: Vec<(String, String)>,
+        per_design: &[(String, PathBuf)],
+    ) -> Result<(Deck, Vec<Defined>), InputError> {
         let dir = main.parent().unwrap_or(Path::new("")).to_path_buf();
         let output = PathBuf::from(main.file_name().unwrap_or_default());
         let mut deck = Deck {
             files: vec![read_file(main, output)?],
             names,
+            per_design: per_design
+                .iter()
+                .map(|(include, pattern)| PerDesign {
+                    include: include.clone(),
+                    pattern: pattern.clone(),
+                    files: Default::default(),
+                })
+                .collect(),
         };
         let mut k = 0;
         while k < deck.files.len() {
             for include in parameters::includes(&deck.files[k].source) {
+                if per_design.iter().any(|(name, _)| *name == include.file) {
+                    continue;
+                }
                 let at = &deck.files[k];
                 let output = included_name(at, include.line, &include.file)?;
                 if deck.files.iter().any(|f| f.output == output) {
@@ -100,6 +135,29 @@ impl Deck {
         Ok(all)
     }
 
+    /// What a run sets and what it leaves: the (study name, deck name) pairs the deck defines, and
+    /// the deck's other `*PARAMETER` names, in file order (for `lab check`).
+    pub fn settings(&self) -> (Vec<(String, String)>, Vec<String>) {
+        let entries: Vec<String> = self
+            .files
+            .iter()
+            .flat_map(|f| parameters::entries(&f.source).unwrap_or_default())
+            .map(|e| e.name)
+            .collect();
+        let marks = self.marks().unwrap_or_default();
+        let set: Vec<(String, String)> = self
+            .names
+            .iter()
+            .filter(|(_, d)| entries.contains(d) || marks.contains(d))
+            .cloned()
+            .collect();
+        let left = entries
+            .into_iter()
+            .filter(|e| !set.iter().any(|(_, d)| d == e))
+            .collect();
+        (set, left)
+    }
+
     /// The deck's name of the marks (`<<name>>`) in its files, upper case.
     pub fn marks(&self) -> Result<Vec<String>, InputError> {
         let mut out = Vec::new();
@@ -118,15 +176,63 @@ impl Deck {
             .iter()
             .filter_map(|(study, deck)| Some((deck.clone(), context.get(study)?.as_f64()?)))
             .collect();
+        let moved: Vec<(&str, String)> = self
+            .per_design
+            .iter()
+            .enumerate()
+            .filter_map(|(k, p)| Some((p.include.as_str(), context.get(&include_key(k))?.as_str()?.to_string())))
+            .collect();
         self.files
             .iter()
             .map(|f| {
                 let (text, _) = parameters::set(&f.source, &values).map_err(|e| deck_error(f, e))?;
                 let text = parameters::set_marks(&text, &values).map_err(|e| deck_error(f, e))?;
-                Ok((f.output.clone(), text.into_bytes()))
+                Ok((f.output.clone(), with_includes_at(&text, &moved).into_bytes()))
             })
             .collect()
     }
+
+    /// Reads each design's file of every per-design include (its pattern with `{design}`
+    /// replaced); a missing one is an error naming the design and the file.
+    pub fn read_per_design(&mut self, designs: &[String]) -> Result<(), String> {
+        for p in &mut self.per_design {
+            for design in designs {
+                let file = PathBuf::from(p.pattern.to_string_lossy().replace("{design}", design));
+                let bytes = std::fs::read(&file).map_err(|e| {
+                    format!(
+                        "the include `{}` of design `{design}`: cannot read {} ({e})",
+                        p.include,
+                        file.display()
+                    )
+                })?;
+                p.files.insert(design.clone(), (file, std::sync::Arc::new(bytes)));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `text` with each `*INCLUDE` card naming one of `moved` (name, path) naming the path instead.
+fn with_includes_at(text: &str, moved: &[(&str, String)]) -> String {
+    if moved.is_empty() {
+        return text.to_string();
+    }
+    let mut include = false;
+    let lines: Vec<String> = text
+        .split('\n')
+        .map(|line| {
+            if let Some(keyword) = line.strip_prefix('*') {
+                include = keyword.trim_end().eq_ignore_ascii_case("INCLUDE");
+            } else if include && !line.starts_with('$') {
+                let bare = line.trim_end_matches('\r').trim();
+                if let Some((_, path)) = moved.iter().find(|(name, _)| *name == bare) {
+                    return line.replacen(bare, path, 1);
+                }
+            }
+            line.to_string()
+        })
+        .collect();
+    lines.join("\n")
 }
 
 fn read_file(file: &Path, output: PathBuf) -> Result<DeckFile, InputError> {

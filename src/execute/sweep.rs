@@ -112,11 +112,18 @@ pub fn prepare_after(
             prepared.design_mesh.insert(design, path);
         }
     }
+    let includes = deck_includes(sim, &mut prepared.meshes);
     for run in &plan.runs {
         let mut context = render::run_context(study, run);
-        let mesh_path = prepared.design_mesh.get(&run.design).cloned();
+        let mut mesh_path = prepared.design_mesh.get(&run.design).cloned();
         if let Some(path) = &mesh_path {
             context.insert("mesh_file", &format!("../../{}", path.display()));
+        }
+        for (k, paths) in includes.iter().enumerate() {
+            if let Some(path) = paths.get(&run.design) {
+                context.insert(crate::base::deck::include_key(k), &format!("../../{}", path.display()));
+                mesh_path = mesh_path.or(Some(path.clone()));
+            }
         }
         prepared.run_mesh.push(mesh_path);
         let inputs = render::inputs(&renderer, &sim.inputs.files, &context).map_err(|e| with_run(e, &run.design))?;
@@ -125,6 +132,37 @@ pub fn prepare_after(
         prepared.inputs.entry(key).or_insert(inputs);
     }
     Ok(prepared)
+}
+
+/// A deck's per-design includes (`deck.per_design`), each design's file named by the hash of its
+/// bytes under the meshes directory (`meshes/<design>-<hash>-<name>`) and added to `meshes`, written
+/// once per study like a generated mesh: per include, design → path relative to `--out`.
+fn deck_includes(
+    sim: &crate::study::SolverSimulation,
+    meshes: &mut BTreeMap<PathBuf, Vec<u8>>,
+) -> Vec<BTreeMap<String, PathBuf>> {
+    let Some(deck) = &sim.inputs.deck else {
+        return Vec::new();
+    };
+    deck.per_design
+        .iter()
+        .map(|p| {
+            let name = std::path::Path::new(&p.include)
+                .file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into_owned();
+            p.files
+                .iter()
+                .map(|(design, (_, bytes))| {
+                    let hash = blake3::hash(bytes).to_hex().to_string();
+                    let path = PathBuf::from(MESHES_DIR).join(format!("{design}-{}-{name}", &hash[..16]));
+                    meshes.entry(path.clone()).or_insert_with(|| bytes.to_vec());
+                    (design.clone(), path)
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// The meshes of the plan's designs not in `known`: (design, path, bytes), in plan order. Each

@@ -155,12 +155,14 @@ impl Checker<'_> {
             .cloned()
             .chain(extension_names)
             .collect();
-        let simulation = self.simulation(&file.simulation, &symbols, &deck_names, design.len(), parameters.len())?;
+        let mut simulation =
+            self.simulation(&file.simulation, &symbols, &deck_names, design.len(), parameters.len())?;
         let Tested {
             experiments,
             training,
             validation,
         } = self.tested(&file, &design, &simulation)?;
+        self.per_design_files(&file, &mut simulation, &training, &validation)?;
         let mut calibration = self.calibration(file.calibration.as_ref(), &file.training, training.len())?;
         (calibration.against, calibration.curve) = self.curve_calibration(
             file.calibration.as_ref(),
@@ -503,6 +505,36 @@ impl Checker<'_> {
         } else {
             Err(self.at(node, format!("{what} must be a finite number, not {}", node.value)))
         }
+    }
+
+    /// A deck's per-design includes (`deck.per_design`): each tested design's file read, or an
+    /// error at the key naming the design and the file.
+    fn per_design_files(
+        &self,
+        file: &StudyFile,
+        simulation: &mut Simulation,
+        training: &[String],
+        validation: &[String],
+    ) -> Result<(), InputError> {
+        let Simulation::Solver(sim) = simulation else {
+            return Ok(());
+        };
+        let Some(deck) = sim.inputs.deck.as_mut() else {
+            return Ok(());
+        };
+        let designs: Vec<String> = training.iter().chain(validation).cloned().collect();
+        deck.read_per_design(&designs).map_err(|message| {
+            let node = file
+                .simulation
+                .value
+                .solver
+                .as_ref()
+                .and_then(|s| s.value.deck.as_ref());
+            match node {
+                Some(node) => self.at_key("per_design", node, message),
+                None => InputError::file(self.path, message),
+            }
+        })
     }
 
     fn simulation(

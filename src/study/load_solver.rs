@@ -77,7 +77,7 @@ impl Checker<'_> {
         let deck = spec
             .deck
             .as_ref()
-            .map(|d| self.deck(d, &templates, deck_names, &outputs))
+            .map(|d| self.deck(d, &templates, (deck_names, design_names), &outputs))
             .transpose()?;
         let main = match &deck {
             Some(d) => Some(d.files[0].output.clone()),
@@ -172,6 +172,24 @@ impl Checker<'_> {
         self.at_key("solver", solver, want)
     }
 
+    /// `deck.per_design`: each include's name and its files' pattern (relative to the study file,
+    /// with `{design}` in it).
+    fn per_design(&self, spec: &DeckSpecFile) -> Result<Vec<(String, PathBuf)>, InputError> {
+        let dir = self.path.parent().unwrap_or(Path::new(""));
+        spec.per_design
+            .iter()
+            .map(|(include, pattern)| {
+                if !pattern.value.contains("{design}") {
+                    return Err(self.at(
+                        pattern,
+                        "a per-design file's path with `{design}` in it, e.g. `meshes/{design}.k`",
+                    ));
+                }
+                Ok((include.value.clone(), dir.join(&pattern.value)))
+            })
+            .collect()
+    }
+
     /// The main deck of an `openradioss` run: the deck used as it is, or the first template's output.
     fn main_deck(&self, solver: &Spanned<SolverFile>, main: Option<PathBuf>) -> Result<PathBuf, InputError> {
         main.ok_or_else(|| {
@@ -185,13 +203,14 @@ impl Checker<'_> {
     }
 
     /// `solver.deck`: the deck and its includes read, every study variable defined in them (a
-    /// `*PARAMETER` entry or a `<<name>>` mark), each under its own name in upper case or the name
+    /// `*PARAMETER` entry or a `<<name>>` mark; with per-design includes, a design variable may be
+    /// the geometry they carry instead), each under its own name in upper case or the name
     /// `names:` gives it.
     fn deck(
         &self,
         node: &Spanned<DeckSpecFile>,
         templates: &[Template],
-        variables: &[String],
+        (variables, design): (&[String], &[String]),
         outputs: &[PathBuf],
     ) -> Result<Deck, InputError> {
         if !templates.is_empty() {
@@ -220,9 +239,28 @@ impl Checker<'_> {
             }
             entry.1 = name.value.to_ascii_uppercase();
         }
-        let (deck, defined) = Deck::read(&file, names)?;
+        let per_design = self.per_design(spec)?;
+        let (deck, defined) = Deck::read(&file, names, &per_design)?;
+        let included: Vec<String> = deck
+            .files
+            .iter()
+            .flat_map(|f| lsdyna_keyword::parameters::includes(&f.source))
+            .map(|i| i.file)
+            .collect();
+        if let Some((name, _)) = spec.per_design.iter().find(|(n, _)| !included.contains(&n.value)) {
+            return Err(self.at(
+                name,
+                format!(
+                    "`per_design`: no `*INCLUDE` of the deck or its includes names `{}`",
+                    name.value
+                ),
+            ));
+        }
         let marks = deck.marks()?;
-        for (variable, name) in &deck.names {
+        // With per-design includes, a design variable the deck does not name is the geometry they
+        // carry (the honeycomb's cell size).
+        let geometry = |v: &String| !deck.per_design.is_empty() && design.contains(v);
+        for (variable, name) in deck.names.iter().filter(|(v, _)| !geometry(v)) {
             if !defined.iter().any(|d| d.entry.name == *name) && !marks.contains(name) {
                 return Err(self.at(&spec.file, format!(
                     "`{variable}` has no `*PARAMETER` {name} in {} or the files it includes (nor a `<<{name}>>` mark): \

@@ -140,6 +140,10 @@ pub struct DeckSpecFile {
     /// Study variable → the deck's `*PARAMETER` name (default: the variable's name in upper case).
     #[serde(default)]
     pub names: IndexMap<Name, Spanned<String>>,
+    /// An include of the deck (its name as the deck writes it) → each tested design's own file, a
+    /// path relative to the study file with `{design}` in it (`meshes/{design}.k`).
+    #[serde(default)]
+    pub per_design: IndexMap<Name, Spanned<String>>,
 }
 
 /// `simulation.solver.openradioss` (all optional).
