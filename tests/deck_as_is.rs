@@ -273,3 +273,55 @@ fn bad_decks_are_refused_at_their_file_and_line() {
         "{wide}"
     );
 }
+
+/// An include no run changes is written once per study (under the output directory's `meshes/`,
+/// named by its content) and named on the including line; an include holding a value the runs set
+/// goes into every run with the value set.
+#[test]
+fn an_include_no_run_changes_is_shared_one_that_sets_a_value_is_per_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let main = "*KEYWORD\n*PARAMETER\nR VEL         1000.0\n*INCLUDE\nmesh.k\nsub/material.k\n*END\n";
+    std::fs::write(dir.path().join("model.k"), main).unwrap();
+    std::fs::write(
+        dir.path().join("mesh.k"),
+        "*KEYWORD\n*NODE\n       1             0.0             0.0             0.0\n*END\n",
+    )
+    .unwrap();
+    std::fs::create_dir_all(dir.path().join("sub")).unwrap();
+    std::fs::write(
+        dir.path().join("sub/material.k"),
+        "*KEYWORD\n*PARAMETER\nR SIGY         200.0\n*END\n",
+    )
+    .unwrap();
+    let path = study(dir.path(), "");
+    let study = study::load(&path).unwrap();
+    let Simulation::Solver(sim) = &study.simulation else {
+        unreachable!()
+    };
+    let plan = Plan::new(&study, sim);
+    let prepared = sweep::prepare(&study, &lab::extract::adapters::solver(sim).unwrap(), &plan).unwrap();
+    let shared: Vec<&PathBuf> = prepared.meshes.keys().collect();
+    assert_eq!(shared.len(), 1, "{shared:?}");
+    let name = shared[0].to_string_lossy().into_owned();
+    assert!(name.starts_with("meshes/") && name.ends_with("-mesh.k"), "{name}");
+    for (run, key) in plan.runs.iter().zip(&prepared.keys) {
+        let inputs = &prepared.inputs[key];
+        let names: Vec<String> = inputs.iter().map(|(n, _)| n.display().to_string()).collect();
+        assert_eq!(
+            names,
+            ["model.k", "sub/material.k"],
+            "the shared mesh is not copied into the run"
+        );
+        let deck = String::from_utf8(inputs[0].1.clone()).unwrap();
+        assert!(
+            deck.contains(&format!("*INCLUDE\n../../{name}\nsub/material.k\n")),
+            "{deck}"
+        );
+        let material = String::from_utf8(inputs[1].1.clone()).unwrap();
+        let sigy: f64 = material.lines().find(|l| l.starts_with("R SIGY")).unwrap()[10..20]
+            .trim()
+            .parse()
+            .unwrap();
+        assert_eq!(sigy, run.theta[0], "the include's value is the run's");
+    }
+}

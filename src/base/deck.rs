@@ -49,6 +49,11 @@ pub fn include_key(k: usize) -> String {
     format!("deck_include_{k}")
 }
 
+/// The context key a run's path to the study's one copy of the deck's file `k` is given under.
+pub fn shared_key(k: usize) -> String {
+    format!("deck_shared_{k}")
+}
+
 /// A deck's `*PARAMETER` entry and the file it is in.
 pub struct Defined {
     pub file: PathBuf,
@@ -135,6 +140,23 @@ impl Deck {
         Ok(all)
     }
 
+    /// The included files no run changes — none holds an entry or a mark the runs set, nor an
+    /// include of its own — by index: written once per study rather than into every run (a mesh
+    /// of megabytes, say).
+    pub fn shared(&self) -> Vec<usize> {
+        (1..self.files.len())
+            .filter(|&k| {
+                let f = &self.files[k];
+                let entries = parameters::entries(&f.source).unwrap_or_default();
+                let marks = parameters::marks(&f.source).unwrap_or_default();
+                let sets = |d: &String| {
+                    entries.iter().any(|e| e.name == *d) || marks.iter().any(|m| m.name.eq_ignore_ascii_case(d))
+                };
+                parameters::includes(&f.source).is_empty() && !self.names.iter().any(|(_, d)| sets(d))
+            })
+            .collect()
+    }
+
     /// What a run sets and what it leaves: the (study name, deck name) pairs the deck defines, and
     /// the deck's other `*PARAMETER` names, in file order (for `lab check`).
     pub fn settings(&self) -> (Vec<(String, String)>, Vec<String>) {
@@ -176,15 +198,29 @@ impl Deck {
             .iter()
             .filter_map(|(study, deck)| Some((deck.clone(), context.get(study)?.as_f64()?)))
             .collect();
-        let moved: Vec<(&str, String)> = self
+        let path = |key: String| Some(context.get(&key)?.as_str()?.to_string());
+        let mut moved: Vec<(String, String)> = self
             .per_design
             .iter()
             .enumerate()
-            .filter_map(|(k, p)| Some((p.include.as_str(), context.get(&include_key(k))?.as_str()?.to_string())))
+            .filter_map(|(k, p)| Some((p.include.clone(), path(include_key(k))?)))
             .collect();
+        // A file the study writes once is named on its include line, not copied into the run.
+        let shared: Vec<usize> = (1..self.files.len())
+            .filter(|&k| path(shared_key(k)).is_some())
+            .collect();
+        for &k in &shared {
+            moved.push((
+                self.files[k].output.to_string_lossy().into_owned(),
+                path(shared_key(k)).unwrap_or_default(),
+            ));
+        }
+        let moved: Vec<(&str, String)> = moved.iter().map(|(n, p)| (n.as_str(), p.clone())).collect();
         self.files
             .iter()
-            .map(|f| {
+            .enumerate()
+            .filter(|(k, _)| !shared.contains(k))
+            .map(|(_, f)| {
                 let (text, _) = parameters::set(&f.source, &values).map_err(|e| deck_error(f, e))?;
                 let text = parameters::set_marks(&text, &values).map_err(|e| deck_error(f, e))?;
                 Ok((f.output.clone(), with_includes_at(&text, &moved).into_bytes()))
@@ -225,7 +261,8 @@ fn with_includes_at(text: &str, moved: &[(&str, String)]) -> String {
                 include = keyword.trim_end().eq_ignore_ascii_case("INCLUDE");
             } else if include && !line.starts_with('$') {
                 let bare = line.trim_end_matches('\r').trim();
-                if let Some((_, path)) = moved.iter().find(|(name, _)| *name == bare) {
+                let plain = bare.trim_start_matches("./");
+                if let Some((_, path)) = moved.iter().find(|(name, _)| *name == bare || *name == plain) {
                     return line.replacen(bare, path, 1);
                 }
             }

@@ -119,9 +119,12 @@ pub fn prepare_after(
         if let Some(path) = &mesh_path {
             context.insert("mesh_file", &format!("../../{}", path.display()));
         }
-        for (k, paths) in includes.iter().enumerate() {
-            if let Some(path) = paths.get(&run.design) {
-                context.insert(crate::base::deck::include_key(k), &format!("../../{}", path.display()));
+        for (key, design, path) in includes
+            .iter()
+            .filter(|i| i.1.as_ref().is_none_or(|d| *d == run.design))
+        {
+            context.insert(key.clone(), &format!("../../{}", path.display()));
+            if design.is_some() {
                 mesh_path = mesh_path.or(Some(path.clone()));
             }
         }
@@ -134,35 +137,40 @@ pub fn prepare_after(
     Ok(prepared)
 }
 
-/// A deck's per-design includes (`deck.per_design`), each design's file named by the hash of its
-/// bytes under the meshes directory (`meshes/<design>-<hash>-<name>`) and added to `meshes`, written
-/// once per study like a generated mesh: per include, design → path relative to `--out`.
+/// The deck's files a study writes once rather than into every run: each design's file of a
+/// per-design include (`deck.per_design`), and every include no run changes
+/// ([`crate::base::deck::Deck::shared`]); each named by the hash of its bytes under the meshes
+/// directory (`meshes/<design>-<hash>-<name>`, `meshes/<hash>-<name>`) and added to `meshes`. Per
+/// file: its context key, the design it belongs to (`None`: every design) and its path relative
+/// to `--out`.
 fn deck_includes(
     sim: &crate::study::SolverSimulation,
     meshes: &mut BTreeMap<PathBuf, Vec<u8>>,
-) -> Vec<BTreeMap<String, PathBuf>> {
+) -> Vec<(String, Option<String>, PathBuf)> {
+    use crate::base::deck::{include_key, shared_key};
     let Some(deck) = &sim.inputs.deck else {
         return Vec::new();
     };
-    deck.per_design
-        .iter()
-        .map(|p| {
-            let name = std::path::Path::new(&p.include)
-                .file_name()
-                .unwrap_or_default()
-                .to_string_lossy()
-                .into_owned();
-            p.files
-                .iter()
-                .map(|(design, (_, bytes))| {
-                    let hash = blake3::hash(bytes).to_hex().to_string();
-                    let path = PathBuf::from(MESHES_DIR).join(format!("{design}-{}-{name}", &hash[..16]));
-                    meshes.entry(path.clone()).or_insert_with(|| bytes.to_vec());
-                    (design.clone(), path)
-                })
-                .collect()
-        })
-        .collect()
+    let mut add = |prefix: &str, name: &std::path::Path, bytes: &[u8]| {
+        let name = name.file_name().unwrap_or_default().to_string_lossy().into_owned();
+        let hash = blake3::hash(bytes).to_hex().to_string();
+        let path = PathBuf::from(MESHES_DIR).join(format!("{prefix}{}-{name}", &hash[..16]));
+        meshes.entry(path.clone()).or_insert_with(|| bytes.to_vec());
+        path
+    };
+    let mut out = Vec::new();
+    for (k, p) in deck.per_design.iter().enumerate() {
+        for (design, (_, bytes)) in &p.files {
+            let path = add(&format!("{design}-"), std::path::Path::new(&p.include), bytes);
+            out.push((include_key(k), Some(design.clone()), path));
+        }
+    }
+    for k in deck.shared() {
+        let f = &deck.files[k];
+        let path = add("", &f.output, f.source.as_bytes());
+        out.push((shared_key(k), None, path));
+    }
+    out
 }
 
 /// The meshes of the plan's designs not in `known`: (design, path, bytes), in plan order. Each
