@@ -325,3 +325,30 @@ fn an_include_no_run_changes_is_shared_one_that_sets_a_value_is_per_run() {
         assert_eq!(sigy, run.theta[0], "the include's value is the run's");
     }
 }
+
+/// LS-OPT's marks: a deck with `<<sigy:10>>` in a fixed field and `<<vel>>` (the study names `v` VEL) in a
+/// free-format card is run with each mark replaced by the run's value, in its width.
+#[test]
+fn ls_opt_marks_take_the_runs_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let deck = "*KEYWORD\n*MAT_PLASTIC_KINEMATIC\n         1   2.7e-09   70000.0      0.33<<sigy:10>>\n*INITIAL_VELOCITY\n1,0.0,0.0,<<vel>>\n*END\n";
+    std::fs::write(dir.path().join("model.k"), deck).unwrap();
+    let path = study(dir.path(), "");
+    let o = lab(&["check", path.to_str().unwrap()], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let study = study::load(&path).unwrap();
+    let Simulation::Solver(sim) = &study.simulation else {
+        unreachable!()
+    };
+    let plan = Plan::new(&study, sim);
+    let prepared = sweep::prepare(&study, &lab::extract::adapters::solver(sim).unwrap(), &plan).unwrap();
+    for (run, key) in plan.runs.iter().zip(&prepared.keys) {
+        let text = String::from_utf8(prepared.inputs[key][0].1.clone()).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        let field = &lines[2][40..];
+        assert_eq!(field.len(), 10, "{text}");
+        assert_eq!(field.trim().parse::<f64>().unwrap(), run.theta[0], "{text}");
+        let v: f64 = lines[4].rsplit(',').next().unwrap().parse().unwrap();
+        assert_eq!(v, run.design_values[0], "{text}");
+    }
+}
