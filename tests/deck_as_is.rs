@@ -10,6 +10,8 @@
 //!   for its field, a parameter defined twice (in an include): exit 2 with the file and line, and
 //!   nothing written.
 
+mod readers;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -84,25 +86,6 @@ fn the_real_deck_without_a_parameter_card_is_refused() {
     }
 }
 
-/// PyDyna's python, or `None` (skip) outside CI; in CI its absence fails.
-fn pydyna_python() -> Option<PathBuf> {
-    let python = std::env::var_os("LAB_PYDYNA_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo().join("target/pydyna-venv/bin/python"));
-    let ok = Command::new(&python)
-        .args(["-c", "import ansys.dyna.core"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        assert!(std::env::var("CI").as_deref() != Ok("true"), "PyDyna is missing in CI");
-        eprintln!(
-            "SKIPPED the PyDyna part: no venv at {} (scripts/pydyna-venv.sh)",
-            python.display()
-        );
-    }
-    ok.then_some(python)
-}
-
 /// Each deck's `*PARAMETER` values and the first `*MAT_PLASTIC_KINEMATIC`'s yield stress as PyDyna
 /// reads them: `[{"SIGY": .., "VEL": .., "mat_sigy": ..}, ...]`.
 const READ: &str = r#"
@@ -167,7 +150,7 @@ fn each_run_deck_carries_its_values_read_back_by_pydyna() {
             decks.push((file, run.theta[0], run.design_values[0]));
             let _ = name;
         }
-        let Some(python) = pydyna_python() else { return };
+        let Some(python) = readers::pydyna_python() else { return };
         let o = Command::new(&python)
             .arg("-c")
             .arg(READ)

@@ -7,6 +7,8 @@
 //! solver (`crushsim`, built with the tests): the deck study makes the same runs and reaches the
 //! same results and verdict, `results.json` equal key for key but for wall and planner times.
 
+mod readers;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -217,18 +219,10 @@ fn the_main_job_as_a_plain_deck_gives_the_same_runs_results_and_verdict() {
 /// OpenRadioss reads `*PARAMETER` itself: the reduced specimen's deck (`tests/openradioss/mini.yaml`)
 /// written out as a plain deck with a yield stress no run uses (999), run live through `deck:`;
 /// the starter's listing of each run (its material review, `YIELD STRESS`) echoes the run's own
-/// yield stress, never 999. Needs
-/// OpenRadioss on PATH (skipped without it, a failure when CI=true).
+/// yield stress, never 999. Needs OpenRadioss on PATH (skipped without it, a failure when CI=true).
 #[test]
 fn openradioss_reads_the_values_the_deck_was_given() {
-    let found = std::env::var_os("PATH")
-        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("starter_linux64_gf").is_file()));
-    if !found {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "OpenRadioss is missing in CI"
-        );
-        eprintln!("SKIPPED: no OpenRadioss on PATH (eval \"$(../shared/tools/openradioss/install.sh)\")");
+    if !readers::openradioss() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

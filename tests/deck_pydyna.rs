@@ -16,6 +16,8 @@
 //! The reader lives in a virtual environment made by scripts/pydyna-venv.sh (`.ci/run` makes it);
 //! `LAB_PYDYNA_PYTHON` names another python. Without it the tests skip, or fail when CI=true.
 
+mod readers;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -30,29 +32,6 @@ use serde_json::{Value, json};
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// The venv's python, or `None` (skip) when it is missing outside CI; in CI its absence fails.
-fn pydyna_python() -> Option<PathBuf> {
-    let python = std::env::var_os("LAB_PYDYNA_PYTHON")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo().join("target/pydyna-venv/bin/python"));
-    let ok = Command::new(&python)
-        .args(["-c", "import ansys.dyna.core"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "PyDyna (ansys-dyna-core) is missing in CI: {} cannot import it; .ci/run must run scripts/pydyna-venv.sh",
-            python.display()
-        );
-        eprintln!(
-            "SKIPPED: no PyDyna venv at {} (run scripts/pydyna-venv.sh); set CI=true to make this fail",
-            python.display()
-        );
-    }
-    ok.then_some(python)
 }
 
 /// What lab planned for a run, by template variable: design values, parameters, constants, then
@@ -242,7 +221,7 @@ fn check(python: &Path, dir: &Path, decks: &[Value]) -> (Option<i32>, String, Va
 
 #[test]
 fn pydyna_reads_every_planned_honeycomb_deck_as_lab_planned_it() {
-    let Some(python) = pydyna_python() else { return };
+    let Some(python) = readers::pydyna_python() else { return };
     let dir = tempfile::tempdir().unwrap();
     let mut decks = Vec::new();
     for (file, sub) in [
@@ -298,7 +277,7 @@ fn pydyna_reads_every_planned_honeycomb_deck_as_lab_planned_it() {
 /// still resolves, are rejected with the right finding; the untouched deck passes.
 #[test]
 fn corrupted_decks_are_rejected() {
-    let Some(python) = pydyna_python() else { return };
+    let Some(python) = readers::pydyna_python() else { return };
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let r = render_study("studies/honeycomb-diagnosis.yaml", &out);

@@ -17,24 +17,13 @@
 //! Needs OpenRadioss on PATH (`eval "$(../shared/tools/openradioss/install.sh)"`): skipped with a
 //! message without it, a failure when CI=true.
 
+mod readers;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn have_openradioss() -> bool {
-    let found = std::env::var_os("PATH")
-        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join("starter_linux64_gf").is_file()));
-    if !found {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "CI=true but OpenRadioss (starter_linux64_gf) is not on PATH"
-        );
-        eprintln!("skipped: OpenRadioss is not on PATH");
-    }
-    found
 }
 
 /// A copy of the mini study in `dir`, its template too, with `edit` applied to the template and
@@ -119,7 +108,7 @@ fn mean_from_th_to_csv(t01: &Path, s0: f64, s1: f64) -> f64 {
 
 #[test]
 fn a_live_run_is_judged_from_its_listings_and_time_history_and_replays_bit_for_bit() {
-    if !have_openradioss() {
+    if !readers::openradioss() {
         return;
     }
     let tmp = tempfile::tempdir().unwrap();
@@ -259,7 +248,7 @@ fn fails(edit: &dyn Fn(String) -> String, listing: &str, phrase: &str) {
 
 #[test]
 fn a_rejected_deck_and_a_run_stopped_early_are_failures() {
-    if !have_openradioss() {
+    if !readers::openradioss() {
         return;
     }
     let part = "tube single walls\n$      pid     secid       mid     eosid      hgid\n         1         1         1";
@@ -289,7 +278,7 @@ fn a_rejected_deck_and_a_run_stopped_early_are_failures() {
 /// fail; named in `openradioss.environment`, they succeed.
 #[test]
 fn the_solver_environment_comes_from_the_study_or_lab() {
-    if !have_openradioss() {
+    if !readers::openradioss() {
         return;
     }
     let Ok(cfg) = std::env::var("RAD_CFG_PATH") else {
