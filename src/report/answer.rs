@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use super::results::Results;
 use crate::base::format::{num, p_text, pct};
 use crate::diagnose::verdict::Verdict;
-use crate::diagnose::{Diagnosis, LackOfFit, NextTest};
+use crate::diagnose::{Diagnosis, Extended, LackOfFit, NextTest};
 
 /// `results.json` `answer`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -179,7 +179,11 @@ impl Reading {
     fn of(results: &Results, d: &Diagnosis) -> Reading {
         let units = units(results);
         let model = match d.verdict {
-            Verdict::CauseNamed => d.cause.as_deref().and_then(|c| cause_model(d, c, &units)),
+            Verdict::CauseNamed => d
+                .extended
+                .as_ref()
+                .filter(|e| d.cause.as_ref() == Some(&e.cause))
+                .map(|e| cause_model(d, e, &units)),
             _ => None,
         }
         .or_else(|| Some(uncorrected_model(d, &units)));
@@ -240,30 +244,54 @@ fn uncorrected_model(d: &Diagnosis, units: &IndexMap<String, String>) -> Model {
     )
 }
 
-/// The model of `cause`: the solver-in-the-loop model when the loop calibrated it (its
-/// parameters and the extension's variables), else the screening's extended model (its
-/// parameters, ±1.96 standard errors, and the correction term it adds).
-fn cause_model(d: &Diagnosis, cause: &str, units: &IndexMap<String, String>) -> Option<Model> {
+/// The model of a cause whose extended model is `e` (the named cause's, or a partial one's): the
+/// solver-in-the-loop model when the loop calibrated it (its parameters and the extension's
+/// variables), else the screening's extended model (its parameters, ±1.96 standard errors, and the
+/// correction term it adds).
+fn cause_model(d: &Diagnosis, e: &Extended, units: &IndexMap<String, String>) -> Model {
+    let cause = e.cause.as_str();
     if let Some(x) = d.extensions.iter().find(|x| x.hypothesis == cause) {
         let variables: Vec<&String> = x.variables.keys().collect();
-        return Some(Model::of(
-            cause,
-            &x.parameters,
-            x.interval95.as_ref(),
-            units,
-            &variables,
-        ));
+        return Model::of(cause, &x.parameters, x.interval95.as_ref(), units, &variables);
     }
-    let e = d.extended.as_ref().filter(|e| e.cause == cause)?;
     let intervals: Option<IndexMap<String, [f64; 2]>> = e.parameter_se.as_ref().map(|se| {
         se.iter()
             .filter_map(|(n, s)| Some((n.clone(), e.parameters.get(n).map(|v| [v - 1.96 * s, v + 1.96 * s])?)))
             .collect()
     });
-    Some(Model {
+    Model {
         correction: Some(format!("{} × ({})", num(e.amplitude), e.term)),
         ..Model::of(cause, &e.parameters, intervals.as_ref(), units, &[])
-    })
+    }
+}
+
+/// The models the answer may quote, each with its validation (or leave-one-out) error where the
+/// diagnosis measured one: the uncorrected simulation, the cause's (or the partial cause's) model,
+/// and, when the tests cannot tell them apart, each leading explanation's; for the terminal's
+/// table of the diagnosis's models, so that every figure the answer quotes has its row.
+pub(super) fn quoted_models(results: &Results, d: &Diagnosis) -> Vec<(Model, Option<f64>)> {
+    let units = units(results);
+    let extended = d
+        .extended
+        .as_ref()
+        .or(d.partial.as_ref().and_then(|p| p.extended.as_ref()));
+    let before = extended
+        .map(|e| e.validation_error_before)
+        .or(d.uncorrected.validation.as_ref().map(|v| v.error));
+    let mut out = vec![(uncorrected_model(d, &units), before)];
+    if let Some(e) = extended {
+        out.push((cause_model(d, e, &units), Some(e.validation_error_after)));
+    }
+    if d.verdict == Verdict::CannotTellApart {
+        for name in &d.leading {
+            if !out.iter().any(|(m, _)| m.model == *name)
+                && let Some(m) = named_model(d, name, &units)
+            {
+                out.push((m, None));
+            }
+        }
+    }
+    out
 }
 
 /// A leading explanation's parameters: its loop model's, else its screening candidate's.

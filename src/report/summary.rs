@@ -2,8 +2,6 @@
 
 use std::fmt::Write;
 
-use indexmap::IndexMap;
-
 use super::results::{Results, Role, SplitResult, Units};
 
 /// Renders the summary as plain text (no colour: it is also what a log file gets): the answer in
@@ -35,52 +33,42 @@ fn answer_lines(results: &Results) -> String {
 }
 
 /// The models the diagnosis calibrated, beside the methods' table: its own calibration (least
-/// squares weighted by the tests' noise, on what it read) of the uncorrected simulation and of the
-/// cause's model, so that each figure the verdict quotes has its row.
+/// squares weighted by the tests' noise, on what it read) of the uncorrected simulation, the
+/// cause's model and, when the tests cannot tell them apart, the leading explanations', so that
+/// each figure the answer quotes has its row.
 fn diagnosis_models(results: &Results) -> String {
     let Some(d) = &results.diagnosis else {
         return String::new();
     };
-    let extended = d
-        .extended
-        .as_ref()
-        .or(d.partial.as_ref().and_then(|p| p.extended.as_ref()));
-    let cause = extended.map(|e| (e.cause.as_str(), &e.parameters, Some(e.validation_error_after)));
-    let before = extended
-        .map(|e| e.validation_error_before)
-        .or(d.uncorrected.validation.as_ref().map(|v| v.error));
-    let rows: Vec<(&str, &IndexMap<String, f64>, Option<f64>)> =
-        std::iter::once(("uncorrected", &d.uncorrected.parameters, before))
-            .chain(cause)
-            .collect();
-    let mut names: Vec<&String> = Vec::new();
-    for n in rows.iter().flat_map(|r| r.1.keys()) {
-        if !names.contains(&n) {
-            names.push(n);
+    let rows = super::answer::quoted_models(results, d);
+    let mut columns: Vec<(&String, Option<&String>)> = Vec::new();
+    for q in rows.iter().flat_map(|(m, _)| m.parameters.iter().chain(&m.variables)) {
+        if !columns.iter().any(|(n, _)| *n == &q.name) {
+            columns.push((&q.name, q.unit.as_ref()));
         }
     }
     let read = match &d.features {
         Some(f) => format!("the curve features: {}", f.read.join(", ")),
         None => "the response".to_string(),
     };
+    let extended = d
+        .extended
+        .as_ref()
+        .or(d.partial.as_ref().and_then(|p| p.extended.as_ref()));
     let on = extended.map_or("validation", |e| e.measured_on.as_str());
-    let units = super::answer::units(results);
     let mut t = format!("\nthe diagnosis's models (least squares weighted by the tests' noise, on {read})\n");
     let _ = write!(t, "{:<36}", "model");
-    for n in &names {
-        let _ = write!(t, " {:>14}", Units::label(units.get(*n), n));
+    for (n, unit) in &columns {
+        let _ = write!(t, " {:>14}", Units::label(*unit, n));
     }
     let _ = writeln!(t, "  {} err", if on == "validation" { "valid" } else { "LOO" });
-    for (model, values, error) in rows {
-        let _ = write!(t, "{model:<36}");
-        for n in &names {
-            let _ = write!(
-                t,
-                " {:>14}",
-                values.get(*n).map_or("-".to_string(), |v| significant(*v, 6))
-            );
+    for (model, error) in &rows {
+        let _ = write!(t, "{:<36}", model.model);
+        for (n, _) in &columns {
+            let value = model.parameters.iter().chain(&model.variables).find(|q| q.name == **n);
+            let _ = write!(t, " {:>14}", value.map_or("-".to_string(), |q| significant(q.value, 6)));
         }
-        let _ = writeln!(t, "  {:>9}", percent(error));
+        let _ = writeln!(t, "  {:>9}", percent(*error));
     }
     t
 }
