@@ -271,10 +271,7 @@ fn cause_model(d: &Diagnosis, e: &Extended, units: &IndexMap<String, String>) ->
 /// table of the diagnosis's models, so that every figure the answer quotes has its row.
 pub(super) fn quoted_models(results: &Results, d: &Diagnosis) -> Vec<(Model, Option<f64>)> {
     let units = units(results);
-    let extended = d
-        .extended
-        .as_ref()
-        .or(d.partial.as_ref().and_then(|p| p.extended.as_ref()));
+    let extended = d.extended_model();
     let before = extended
         .map(|e| e.validation_error_before)
         .or(d.uncorrected.validation.as_ref().map(|v| v.error));
@@ -373,10 +370,7 @@ impl Evidence {
                 .and_then(|c| c.lack_of_fit.clone())
         };
         let cause = d.cause.as_deref().or(d.partial.as_ref().map(|p| p.name.as_str()));
-        let extended = d
-            .extended
-            .as_ref()
-            .or(d.partial.as_ref().and_then(|p| p.extended.as_ref()));
+        let extended = d.extended_model();
         Evidence {
             uncorrected: confirmed("uncorrected").or_else(|| d.lack_of_fit.clone()),
             with_cause: cause

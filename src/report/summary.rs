@@ -51,10 +51,7 @@ fn diagnosis_models(results: &Results) -> String {
         Some(f) => format!("the curve features: {}", f.read.join(", ")),
         None => "the response".to_string(),
     };
-    let extended = d
-        .extended
-        .as_ref()
-        .or(d.partial.as_ref().and_then(|p| p.extended.as_ref()));
+    let extended = d.extended_model();
     let on = extended.map_or("validation", |e| e.measured_on.as_str());
     let mut t = format!("\nthe diagnosis's models (least squares weighted by the tests' noise, on {read})\n");
     let _ = write!(t, "{:<36}", "model");
