@@ -19,6 +19,8 @@ pub struct DeckFile {
     pub file: PathBuf,
     pub output: PathBuf,
     pub source: String,
+    /// blake3 of the text, hex: names the study's one copy of a file no run changes.
+    pub hash: String,
 }
 
 /// The main deck (first) and every file it includes, and the names its values are set by.
@@ -29,6 +31,8 @@ pub struct Deck {
     pub names: Vec<(String, String)>,
     /// The includes that differ per design (the geometry of each tested design).
     pub per_design: Vec<PerDesign>,
+    /// The included files no run changes, by index ([`Deck::read`] finds them once).
+    pub shared: Vec<usize>,
 }
 
 /// An `*INCLUDE` of the deck whose file is the tested design's own (`per_design:` in the study):
@@ -40,8 +44,9 @@ pub struct PerDesign {
     pub include: String,
     /// Where each design's file is: a path with `{design}` in it.
     pub pattern: PathBuf,
-    /// Design name → the file read and its bytes (shared, not copied, by the runs).
-    pub files: std::collections::BTreeMap<String, (PathBuf, std::sync::Arc<Vec<u8>>)>,
+    /// Design name → the file read, its bytes (shared, not copied, by the runs) and their blake3
+    /// hash (hex), computed once.
+    pub files: std::collections::BTreeMap<String, (PathBuf, std::sync::Arc<Vec<u8>>, String)>,
 }
 
 /// The context key a run's path to the per-design include `k` is given under.
@@ -83,6 +88,7 @@ impl Deck {
                     files: Default::default(),
                 })
                 .collect(),
+            shared: Vec::new(),
         };
         let mut k = 0;
         while k < deck.files.len() {
@@ -113,6 +119,7 @@ impl Deck {
             k += 1;
         }
         let defined = deck.defined()?;
+        deck.shared = deck.unchanged();
         Ok((deck, defined))
     }
 
@@ -143,7 +150,7 @@ impl Deck {
     /// The included files no run changes — none holds an entry or a mark the runs set, nor an
     /// include of its own — by index: written once per study rather than into every run (a mesh
     /// of megabytes, say).
-    pub fn shared(&self) -> Vec<usize> {
+    fn unchanged(&self) -> Vec<usize> {
         (1..self.files.len())
             .filter(|&k| {
                 let f = &self.files[k];
@@ -241,7 +248,8 @@ impl Deck {
                         file.display()
                     )
                 })?;
-                p.files.insert(design.clone(), (file, std::sync::Arc::new(bytes)));
+                let hash = blake3::hash(&bytes).to_hex().to_string();
+                p.files.insert(design.clone(), (file, std::sync::Arc::new(bytes), hash));
             }
         }
         Ok(())
@@ -278,6 +286,7 @@ fn read_file(file: &Path, output: PathBuf) -> Result<DeckFile, InputError> {
         .map_err(|e| InputError::file(file, format!("a keyword deck is text; this file is not UTF-8 ({e})")))?;
     Ok(DeckFile {
         file: file.to_path_buf(),
+        hash: blake3::hash(source.as_bytes()).to_hex().to_string(),
         output,
         source,
     })

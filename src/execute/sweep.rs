@@ -151,23 +151,22 @@ fn deck_includes(
     let Some(deck) = &sim.inputs.deck else {
         return Vec::new();
     };
-    let mut add = |prefix: &str, name: &std::path::Path, bytes: &[u8]| {
+    let mut add = |prefix: &str, name: &std::path::Path, bytes: &[u8], hash: &str| {
         let name = name.file_name().unwrap_or_default().to_string_lossy().into_owned();
-        let hash = blake3::hash(bytes).to_hex().to_string();
         let path = PathBuf::from(MESHES_DIR).join(format!("{prefix}{}-{name}", &hash[..16]));
         meshes.entry(path.clone()).or_insert_with(|| bytes.to_vec());
         path
     };
     let mut out = Vec::new();
     for (k, p) in deck.per_design.iter().enumerate() {
-        for (design, (_, bytes)) in &p.files {
-            let path = add(&format!("{design}-"), std::path::Path::new(&p.include), bytes);
+        for (design, (_, bytes, hash)) in &p.files {
+            let path = add(&format!("{design}-"), std::path::Path::new(&p.include), bytes, hash);
             out.push((include_key(k), Some(design.clone()), path));
         }
     }
-    for k in deck.shared() {
+    for &k in &deck.shared {
         let f = &deck.files[k];
-        let path = add("", &f.output, f.source.as_bytes());
+        let path = add("", &f.output, f.source.as_bytes(), &f.hash);
         out.push((shared_key(k), None, path));
     }
     out
