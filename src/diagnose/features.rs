@@ -294,6 +294,10 @@ pub struct EmulatorError {
     /// Per whitened feature, the mean square of (simulation − emulator) at the check runs, in units
     /// of one specimen's noise variance.
     pub variance: Vec<f64>,
+    /// The check runs pair across the designs: only the part of the error a change of θ cannot
+    /// absorb is counted ([`crate::emulate::Uncertainty::beyond`]).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub paired: bool,
 }
 
 /// The emulator's error at the check runs, whitened like the tests (Kennedy & O'Hagan 2001 count the
@@ -311,6 +315,7 @@ pub fn emulator_error(w: &Whitening, spec: &FeatureSpec, checks: &[EmulatorCheck
         .collect();
     let n = errors.len();
     (n > 0).then(|| EmulatorError {
+        paired: false,
         runs: n,
         variance: (0..w.read.len())
             .map(|k| errors.iter().map(|e| e[k] * e[k]).sum::<f64>() / n as f64 / w.variance)
@@ -319,6 +324,12 @@ pub fn emulator_error(w: &Whitening, spec: &FeatureSpec, checks: &[EmulatorCheck
 }
 
 impl Whitening {
+    /// Records the emulator's error `e` without counting it here (the diagnosis counts it).
+    fn noting(mut self, e: EmulatorError) -> Whitening {
+        self.emulator = (e.runs > 0).then_some(e);
+        self
+    }
+
     /// Counts the emulator's error in the noise of each design's mean features. A design's mean of m
     /// specimens has whitened variance v/m from the tests (v = [`Whitening::variance`]) plus s²_k·v
     /// from the emulator, which does not shrink with m: the k-th whitened feature is divided by
@@ -415,13 +426,20 @@ pub struct FeatureProblem {
     pub shapes: Vec<Shape>,
     pub built_ins: Vec<Shape>,
     pub noise: NoiseModel,
+    /// The curve emulator's error in the whitened features when its check runs pair across the
+    /// designs (then counted by the diagnosis, beyond what θ absorbs); else it is in the whitening.
+    pub emulator: crate::emulate::Uncertainty,
 }
 
 impl FeatureProblem {
     /// The whitened features of every specimen, the feature model, and the hypotheses' and
     /// built-ins' shapes on them; `Err` when the specimens cannot give a covariance.
     pub fn new(ci: &CurveInputs) -> Result<FeatureProblem, String> {
-        let whitening = with_emulator_error(whitening(&ci.designs, &ci.spec, ci.settings.alpha)?, ci);
+        let tests = whitening(&ci.designs, &ci.spec, ci.settings.alpha)?;
+        let (whitening, emulator) = match paired_emulator_error(&tests, ci) {
+            Some((e, u)) => (tests.noting(e), u),
+            None => (with_emulator_error(tests, ci), Default::default()),
+        };
         let model = FeatureModel {
             curve: ci.curve.clone(),
             spec: ci.spec,
@@ -435,6 +453,7 @@ impl FeatureProblem {
             .map(|s| feature_shape(&CurveHypothesis::Term(s), &model))
             .collect();
         Ok(FeatureProblem {
+            emulator,
             rows: rows(&ci.designs, &ci.spec),
             noise: NoiseModel::constant(whitening.variance.sqrt(), whitening.dof, noise_source(ci, &whitening)),
             observations: observations(ci, &whitening),
@@ -459,8 +478,9 @@ impl FeatureProblem {
                 noise: self.noise.clone(),
                 relative_error: self.plateau_error(),
             }),
-            // The emulator's error is in the whitening already ([`emulator_error`]).
-            emulator: Default::default(),
+            // Paired across the designs, the emulator's error is counted by the diagnosis (beyond
+            // what θ absorbs); else it is in the whitening already ([`emulator_error`]).
+            emulator: self.emulator.clone(),
         }
     }
 
@@ -785,6 +805,38 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
     }
 }
 
+/// The curve emulator's error when its check runs pair across the designs (each design checked at
+/// the same points θ, as a fixed design's are) and no floor is asked for: its figures, and the
+/// errors in the whitened features as the diagnosis reads them (per observation, in the order of
+/// [`observations`]), so that the part a change of θ absorbs is not counted
+/// ([`crate::emulate::Uncertainty::beyond`]). `None`: counted in the whitening instead.
+fn paired_emulator_error(tests: &Whitening, ci: &CurveInputs) -> Option<(EmulatorError, crate::emulate::Uncertainty)> {
+    if !ci.settings.emulator_counted || ci.settings.emulator_floor > 0.0 {
+        return None;
+    }
+    let errors: Vec<(&[f64], &[f64], DVector<f64>)> = ci
+        .checks
+        .iter()
+        .filter_map(|c| {
+            let a = tests.whiten(&ci.spec, &c.design, c.curve.as_slice())?;
+            let b = tests.whiten(&ci.spec, &c.design, c.emulated.as_slice())?;
+            Some((c.design.as_slice(), c.theta.as_slice(), b - a))
+        })
+        .collect();
+    let at: Vec<(&[f64], usize)> = ci
+        .designs
+        .iter()
+        .flat_map(|d| (0..tests.read.len()).map(move |k| (d.values.as_slice(), k)))
+        .collect();
+    let u = crate::emulate::Uncertainty::of_outputs(&at, &errors);
+    if !u.is_paired() {
+        return None;
+    }
+    let mut e = emulator_error(tests, &ci.spec, &ci.checks)?;
+    e.paired = true;
+    Some((e, u))
+}
+
 /// The specimens' whitening with the curve emulator's own error counted (its check runs), at least
 /// at the settings' floor.
 fn with_emulator_error(whitening: Whitening, ci: &CurveInputs) -> Whitening {
@@ -796,6 +848,7 @@ fn with_emulator_error(whitening: Whitening, ci: &CurveInputs) -> Whitening {
         Some(e) => whitening.with_emulator(&ci.designs, e, floor),
         None if floor > 0.0 => {
             let none = EmulatorError {
+                paired: false,
                 runs: 0,
                 variance: vec![0.0; whitening.read.len()],
             };
@@ -862,9 +915,13 @@ fn noise_source(ci: &CurveInputs, whitening: &Whitening) -> String {
     let how = match &whitening.emulator {
         Some(e) => format!(
             "{how}; plus the emulator's own error, measured at {} check run(s) (mean square {} of one \
-             specimen's noise variance, per whitened feature), which more specimens do not reduce",
+             specimen's noise variance, per whitened feature), which more specimens do not reduce{}",
             e.runs,
-            e.variance.iter().map(|v| num(*v)).collect::<Vec<_>>().join(", ")
+            e.variance.iter().map(|v| num(*v)).collect::<Vec<_>>().join(", "),
+            match e.paired {
+                true => " (only its part that a change of the parameters cannot absorb)",
+                false => "",
+            }
         ),
         None => how,
     };

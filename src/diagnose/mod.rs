@@ -53,7 +53,7 @@ mod fit;
 pub mod text;
 
 use indexmap::IndexMap;
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 pub use lack_of_fit::LackOfFit;
@@ -484,6 +484,10 @@ pub struct Precision {
     pub interval95: IndexMap<String, [f64; 2]>,
     /// corr(θ_i, θ_j), row by row.
     pub correlation: IndexMap<String, IndexMap<String, f64>>,
+    /// Per parameter, the standard deviation of the shift the emulators' error causes (included in
+    /// `se` and `interval95`; [`Context::emulator_covariance`]). Empty where it is not known.
+    #[serde(skip_serializing_if = "IndexMap::is_empty", default)]
+    pub emulator_se: IndexMap<String, f64>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -720,10 +724,61 @@ pub(crate) struct Context<'a> {
     /// The base model is the study's own simulation: its lack of fit detects model error, with
     /// its two tests sharing α ([`lack_of_fit`]).
     pub detection: bool,
+    /// The emulators' error counted in each observation's variance (empty: none counted).
+    emulator: Vec<f64>,
 }
 
 impl<'a> Context<'a> {
+    /// The context under `noise`, the emulators' error counted where the settings count it: only
+    /// the part the parameters cannot absorb ([`crate::emulate::Uncertainty::beyond`], at the
+    /// uncorrected model's fit under the tests' noise alone).
     fn new(inputs: &'a Inputs<'a>, noise: Option<&NoiseModel>, detection: bool) -> Result<Self, CalibrationError> {
+        let first = Self::weighted(inputs, noise, detection, Vec::new())?;
+        if !inputs.settings.emulator_counted || inputs.emulator.is_empty() {
+            return Ok(first);
+        }
+        let emulator = match first.data.fit(&[], &first.train) {
+            Ok(fit) => inputs
+                .emulator
+                .beyond(&first.base_jacobian(&fit), &first.data.weights, &first.train),
+            Err(_) => (0..inputs.observations.len())
+                .map(|i| inputs.emulator.variance(i))
+                .collect(),
+        };
+        Self::weighted(inputs, noise, detection, emulator)
+    }
+
+    /// ∂ŷ/∂θ of the uncorrected model at `fit`, a row per observation.
+    fn base_jacobian(&self, fit: &fit::Fit) -> DMatrix<f64> {
+        let rows: Vec<DVector<f64>> = self
+            .data
+            .designs
+            .iter()
+            .map(|d| self.data.gradient(&[], fit, d))
+            .collect();
+        DMatrix::from_fn(rows.len(), fit.theta.len(), |i, j| rows[i][j])
+    }
+
+    /// The covariance of the uncorrected model's parameters that the emulators' error causes where
+    /// it is counted and its shape across designs is known
+    /// ([`crate::emulate::Uncertainty::parameter_covariance`]).
+    pub(crate) fn emulator_covariance(&self, fit: &fit::Fit) -> Option<DMatrix<f64>> {
+        if !self.inputs.settings.emulator_counted {
+            return None;
+        }
+        let jacobian = self.base_jacobian(fit);
+        self.inputs
+            .emulator
+            .parameter_covariance(&jacobian, &self.data.weights, &self.train)
+    }
+
+    /// The context with `emulator` the emulators' error counted at each observation (empty: none).
+    fn weighted(
+        inputs: &'a Inputs<'a>,
+        noise: Option<&NoiseModel>,
+        detection: bool,
+        emulator: Vec<f64>,
+    ) -> Result<Self, CalibrationError> {
         let obs = &inputs.observations;
         let train: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Training).collect();
         let val: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Validation).collect();
@@ -751,10 +806,7 @@ impl<'a> Context<'a> {
                     return (n / (1.0 + floor)).sqrt();
                 };
                 let test = nm.sigma_at(o.mean).powi(2) / n;
-                let emulator = match counted {
-                    true => inputs.emulator.variance(i),
-                    false => 0.0,
-                };
+                let emulator = emulator.get(i).copied().unwrap_or(0.0);
                 1.0 / (test * (1.0 + floor) + emulator).sqrt().max(f64::MIN_POSITIVE)
             })
             .collect();
@@ -796,7 +848,13 @@ impl<'a> Context<'a> {
             mode,
             rss_floor,
             detection,
+            emulator,
         })
+    }
+
+    /// The emulators' error counted at observation `i` (0 where none is).
+    pub fn emulator_variance(&self, i: usize) -> f64 {
+        self.emulator.get(i).copied().unwrap_or(0.0)
     }
 
     /// Mean |relative error| of predictions `yh` at observations `i` (NaN when none has one).

@@ -82,9 +82,11 @@ impl<'e> Explanation<'e> {
         names.extend((0..model.fit.gamma.len()).map(|k| format!("γ{k}")));
         let code = (0..cx.data.designs.len())
             .map(|i| {
-                let v = match cx.inputs.settings.emulator_counted {
-                    true => cx.inputs.emulator.variance(i),
-                    false => 0.0,
+                // Relative to the response's level; whitened curve features have none (their
+                // emulator's error is in their noise).
+                let v = match cx.inputs.features {
+                    None => cx.emulator_variance(i),
+                    Some(_) => 0.0,
                 };
                 let y = cx.data.means[i];
                 let rel = if y != 0.0 && v > 0.0 { v / (y * y) } else { 0.0 };

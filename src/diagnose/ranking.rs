@@ -200,11 +200,7 @@ impl Ranked {
             weight: s.map(|_| b.weight),
             weighted_rss: b.model.fit.wrss,
             validation: b.assessed.validation.clone(),
-            precision: b
-                .assessed
-                .cov
-                .as_ref()
-                .map(|c| precision(cx, &b.model.fit.theta, &c.matrix)),
+            precision: b.assessed.cov.as_ref().map(|c| precision(cx, &b.model.fit, &c.matrix)),
         }
     }
 }
@@ -249,8 +245,16 @@ fn candidate(cx: &Context, e: &Entry) -> Candidate {
 /// range: the study says the value lies in it, so the cut part holds no truth (the coverage can
 /// only gain), and an interval reaching past a range a study set (a Cowper–Symonds C to 67,000
 /// from a range to 40,000) reads as a fault.
-fn precision(cx: &Context, theta: &nalgebra::DVector<f64>, cov: &nalgebra::DMatrix<f64>) -> Precision {
+fn precision(cx: &Context, fit: &super::fit::Fit, tests: &nalgebra::DMatrix<f64>) -> Precision {
+    let theta = &fit.theta;
     let names = &cx.inputs.space.parameter_names;
+    let p = names.len();
+    // The tests' covariance of θ, plus the shift the emulators' error causes where it is known.
+    let emulator = cx.emulator_covariance(fit).filter(|e| e.nrows() == p);
+    let mut cov = tests.view((0, 0), (p, p)).into_owned();
+    if let Some(e) = &emulator {
+        cov += e;
+    }
     let bounds = &cx.inputs.space.parameter_bounds;
     let range = |j: usize| match (bounds.lower.get(j), bounds.upper.get(j)) {
         (Some(&lo), Some(&hi)) => (lo, hi),
@@ -288,5 +292,12 @@ fn precision(cx: &Context, theta: &nalgebra::DVector<f64>, cov: &nalgebra::DMatr
                 (a.clone(), row)
             })
             .collect(),
+        emulator_se: emulator.map_or_else(indexmap::IndexMap::new, |e| {
+            names
+                .iter()
+                .enumerate()
+                .map(|(j, n)| (n.clone(), e[(j, j)].max(0.0).sqrt()))
+                .collect()
+        }),
     }
 }

@@ -144,8 +144,11 @@ impl Surrogate {
 
     /// Relative errors (predicted − run) / run at the check runs.
     pub fn check(&self, checks: &[(Vec<f64>, f64)]) -> CheckError {
-        let errors: Vec<f64> = checks.iter().map(|(t, y)| ((self.predict(t) - y) / y).abs()).collect();
-        CheckError::of(&errors)
+        let signed = checks
+            .iter()
+            .map(|(t, y)| (t.clone(), (self.predict(t) - y) / y))
+            .collect();
+        CheckError::signed(signed)
     }
 }
 
@@ -158,6 +161,16 @@ impl CheckError {
             max_relative_error: (n > 0).then(|| errors.iter().copied().fold(0.0, f64::max)),
             mean_relative_error: (n > 0).then(|| errors.iter().sum::<f64>() / n as f64),
             mean_square_relative: (n > 0).then(|| errors.iter().map(|e| e * e).sum::<f64>() / n as f64),
+            signed: Vec::new(),
+        }
+    }
+
+    /// The figures of signed relative errors at their check points (θ, error).
+    pub fn signed(signed: Vec<(Vec<f64>, f64)>) -> CheckError {
+        let errors: Vec<f64> = signed.iter().map(|(_, e)| e.abs()).collect();
+        CheckError {
+            signed,
+            ..CheckError::of(&errors)
         }
     }
 }
@@ -186,6 +199,9 @@ pub struct CheckError {
     /// The mean of the squared relative errors: the emulator's own variance, relative to the
     /// level, that the diagnosis counts in the noise of a prediction.
     pub mean_square_relative: Option<f64>,
+    /// Each check run's point θ and signed relative error (predicted − run) / run, where known: the
+    /// error's shape across designs ([`super::Uncertainty::beyond`]).
+    pub signed: Vec<(Vec<f64>, f64)>,
 }
 
 /// The surrogate of one design, with its check.

@@ -1,37 +1,285 @@
-//! The emulators' own error where a decision reads them, as one value: measured on runs they were
+//! The emulators' error where a decision reads them, as one value: measured on runs they were
 //! not fitted to, and kept apart from the tests' noise (more specimens do not reduce it).
+
+use nalgebra::{DMatrix, DVector};
 
 use super::SurrogateModel;
 
-/// The emulators' error at each observation a decision reads, as a variance in the response's
-/// units (Kennedy & O'Hagan 2001 count the code's uncertainty in the likelihood; here it is
-/// measured at check runs, not modelled). Empty: no emulator (a closed form), or none measured.
+/// The emulators' error at each observation a decision reads, in the response's units (Kennedy &
+/// O'Hagan 2001 count the code's uncertainty in the likelihood; here it is measured at check runs,
+/// not modelled). Empty: no emulator (a closed form), or none measured.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Uncertainty {
+    /// Per observation, the mean square error at its design's check runs.
     variance: Vec<f64>,
+    /// The error across the observations at each check point every observation's design was
+    /// checked at (a fixed design checks every design at the same points): the error's shape
+    /// across designs, whose second moment is its covariance.
+    paired: Vec<DVector<f64>>,
 }
 
 impl Uncertainty {
-    /// Per-design surrogates' error at observations `at` (each its design and its level): the mean
-    /// square relative error at the design's check runs times the level squared (0 where a design
-    /// has no check runs).
+    /// Per-design surrogates' error at observations `at` (each its design and its level): the
+    /// relative errors at the design's check runs times the level (none where a design has no
+    /// check runs).
     pub fn of_surrogates<'a>(model: &SurrogateModel, at: impl IntoIterator<Item = (&'a [f64], f64)>) -> Uncertainty {
-        let variance = at
+        let errors = at
             .into_iter()
             .map(|(design, level)| {
-                model
-                    .designs
-                    .iter()
-                    .find(|d| d.values == design)
-                    .and_then(|d| d.check.mean_square_relative)
-                    .map_or(0.0, |m| m * level * level)
+                let checks = model.designs.iter().find(|d| d.values == design);
+                let signed = checks.map_or(&[][..], |d| d.check.signed.as_slice());
+                signed.iter().map(|(theta, e)| (theta.as_slice(), e * level)).collect()
             })
             .collect();
-        Uncertainty { variance }
+        Uncertainty::of_errors(errors)
+    }
+
+    /// Errors measured at check runs in several outputs, `checks` each (design, θ, the error in
+    /// every output), read at observations `at` (design, output).
+    pub fn of_outputs(at: &[(&[f64], usize)], checks: &[(&[f64], &[f64], DVector<f64>)]) -> Uncertainty {
+        let errors = at
+            .iter()
+            .map(|(design, k)| {
+                checks
+                    .iter()
+                    .filter(|(d, _, e)| d == design && *k < e.len())
+                    .map(|(_, theta, e)| (*theta, e[*k]))
+                    .collect()
+            })
+            .collect();
+        Uncertainty::of_errors(errors)
+    }
+
+    /// From each observation's errors at its check points (θ, error): their mean square, and the
+    /// error vectors at the points every observation has.
+    fn of_errors(errors: Vec<Vec<(&[f64], f64)>>) -> Uncertainty {
+        let variance = errors
+            .iter()
+            .map(|e| match e.len() {
+                0 => 0.0,
+                n => e.iter().map(|(_, x)| x * x).sum::<f64>() / n as f64,
+            })
+            .collect();
+        let at = |theta: &[f64], e: &Vec<(&[f64], f64)>| e.iter().find(|(t, _)| *t == theta).map(|(_, x)| *x);
+        let paired = errors
+            .first()
+            .map_or(&[][..], |e| e.as_slice())
+            .iter()
+            .filter_map(|(theta, _)| {
+                let column: Option<Vec<f64>> = errors.iter().map(|e| at(theta, e)).collect();
+                column.map(DVector::from_vec)
+            })
+            .collect();
+        Uncertainty { variance, paired }
+    }
+
+    /// Whether the errors are paired across the observations at some check point: their shape
+    /// across designs is known.
+    pub fn is_paired(&self) -> bool {
+        !self.paired.is_empty()
+    }
+
+    /// No error was measured at any observation.
+    pub fn is_empty(&self) -> bool {
+        self.variance.iter().all(|&v| v == 0.0)
     }
 
     /// The variance at observation `i` (0 where none was measured).
     pub fn variance(&self, i: usize) -> f64 {
         self.variance.get(i).copied().unwrap_or(0.0)
+    }
+
+    /// Per observation, the emulators' error a fit of the parameters cannot absorb. At each shared
+    /// check point the error vector e is split into its least-squares projection on the model's
+    /// Jacobian `jacobian` (rows: observations; columns: parameters) over the `fitted` observations
+    /// in the metric `weights` (1/σ of each), and the rest r = e − J(WJ)⁺We. An error in the span
+    /// of J moves the fitted parameters and leaves the misfit as it was (the generalised
+    /// least-squares residual is unchanged by a covariance J A Jᵀ, Rao 1967), so it cannot excuse a
+    /// misfit. Each observation's measured variance is counted in the share Σr²/Σe² of its error
+    /// the shared points leave beyond the parameters (the variance itself draws on every check
+    /// run, shared or not). Without shared check points the error's shape across designs is
+    /// unknown, and its whole variance is counted ([`Self::variance`]).
+    pub fn beyond(&self, jacobian: &DMatrix<f64>, weights: &[f64], fitted: &[usize]) -> Vec<f64> {
+        let n = self.variance.len();
+        let Some(shifts) = self.shifts(jacobian, weights, fitted) else {
+            return self.variance.clone();
+        };
+        let (mut rest, mut whole) = (vec![0.0; n], vec![0.0; n]);
+        for (e, delta) in self.paired.iter().zip(&shifts) {
+            let r = e - jacobian * delta;
+            for i in 0..n {
+                rest[i] += r[i] * r[i];
+                whole[i] += e[i] * e[i];
+            }
+        }
+        (0..n)
+            .map(|i| match whole[i] > 0.0 {
+                true => self.variance[i] * rest[i] / whole[i],
+                false => self.variance[i],
+            })
+            .collect()
+    }
+
+    /// The covariance of the parameters' shift the emulators' error causes, mean δδᵀ over the
+    /// shared check points, δ = (WJ)⁺We (see [`Self::beyond`]): the part of the error a fit absorbs
+    /// moves the fitted parameters by δ, an uncertainty of theirs that more tests do not reduce.
+    /// `None` without shared check points (the shape across designs, hence the shift, is unknown).
+    pub fn parameter_covariance(
+        &self,
+        jacobian: &DMatrix<f64>,
+        weights: &[f64],
+        fitted: &[usize],
+    ) -> Option<DMatrix<f64>> {
+        let shifts = self.shifts(jacobian, weights, fitted)?;
+        let p = jacobian.ncols();
+        let sum = shifts
+            .iter()
+            .fold(DMatrix::zeros(p, p), |acc, d| acc + d * d.transpose());
+        Some(sum / shifts.len() as f64)
+    }
+
+    /// At each shared check point, the parameters' least-squares shift that absorbs its error
+    /// vector, δ = (WJ)⁺We over the `fitted` observations.
+    fn shifts(&self, jacobian: &DMatrix<f64>, weights: &[f64], fitted: &[usize]) -> Option<Vec<DVector<f64>>> {
+        if self.paired.is_empty() || jacobian.nrows() != self.variance.len() || fitted.is_empty() {
+            return None;
+        }
+        let a = DMatrix::from_fn(fitted.len(), jacobian.ncols(), |r, c| {
+            weights[fitted[r]] * jacobian[(fitted[r], c)]
+        });
+        let svd = a.svd(true, true);
+        let tol = 1e-12 * svd.singular_values.max().max(f64::MIN_POSITIVE);
+        let shift = |e: &DVector<f64>| {
+            let b = DVector::from_iterator(fitted.len(), fitted.iter().map(|&i| weights[i] * e[i]));
+            svd.solve(&b, tol).unwrap_or_else(|_| DVector::zeros(jacobian.ncols()))
+        };
+        Some(self.paired.iter().map(shift).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::emulate::{CheckError, DesignSurrogate, Surrogate};
+    use crate::study::SurrogateKind;
+
+    /// The clamped beam's case: a surrogate of y = a(h)/E off by the same relative error at every
+    /// design (tip ∝ 1/E) is an error in the span of ∂y/∂E; a fit of E absorbs it all.
+    #[test]
+    fn an_error_the_parameter_absorbs_is_not_counted() {
+        let levels = [1.0, 0.6, 0.4, 0.3, 0.25];
+        let jacobian = DMatrix::from_fn(5, 1, |i, _| -levels[i] / 70_000.0);
+        let relative = [0.004, -0.006, 0.002];
+        let u = Uncertainty {
+            variance: levels.iter().map(|y| y * y * 0.004f64.powi(2)).collect(),
+            paired: relative
+                .iter()
+                .map(|r| DVector::from_iterator(5, levels.iter().map(|y| r * y)))
+                .collect(),
+        };
+        let weights = [30.0, 50.0, 80.0, 100.0, 120.0];
+        let beyond = u.beyond(&jacobian, &weights, &[0, 1, 2, 3]);
+        // Exact up to rounding: the error is J times a scalar at every point.
+        for (b, y) in beyond.iter().zip(levels) {
+            assert!(b.abs() < 1e-24 * y * y + 1e-30, "{beyond:?}");
+        }
+        // Absorbed, the error moves E instead: y(1 + r) = a/E' with a/E = y gives E' − E ≈ −rE,
+        // exactly δ = r·(−E) along ∂y/∂E = −y/E, so the shift's variance is E² times the mean r².
+        let cov = u.parameter_covariance(&jacobian, &weights, &[0, 1, 2, 3]).unwrap();
+        let want = 70_000f64.powi(2) * relative.iter().map(|r| r * r).sum::<f64>() / 3.0;
+        assert!((cov[(0, 0)] - want).abs() < 1e-9 * want, "{} vs {want}", cov[(0, 0)]);
+    }
+
+    /// An error with a part the parameters cannot take (a trend across designs): that part is
+    /// counted in full, checked against its own construction (Gram–Schmidt in the weighted metric,
+    /// not the SVD the code uses).
+    #[test]
+    fn the_part_beyond_the_parameters_is_counted_in_full() {
+        let n = 6;
+        let w: Vec<f64> = (0..n).map(|i| 1.0 + 0.3 * i as f64).collect();
+        let j = DMatrix::from_fn(
+            n,
+            2,
+            |i, k| if k == 0 { 1.0 + i as f64 } else { (i as f64).sin() + 2.0 },
+        );
+        // A direction W-orthogonal to both columns over the fitted rows (all of them here).
+        let inner = |a: &DVector<f64>, b: &DVector<f64>| (0..n).map(|i| w[i] * w[i] * a[i] * b[i]).sum::<f64>();
+        let mut q: Vec<DVector<f64>> = Vec::new();
+        for c in 0..2 {
+            let mut v = j.column(c).into_owned();
+            for u in &q {
+                v -= u * (inner(&v, u) / inner(u, u));
+            }
+            q.push(v);
+        }
+        let mut trend = DVector::from_iterator(n, (0..n).map(|i| (i as f64 - 2.5).powi(2) * 1e-3));
+        for u in &q {
+            trend -= u * (inner(&trend, u) / inner(u, u));
+        }
+        let scales = [1.0, -2.0, 0.5];
+        let paired: Vec<DVector<f64>> = scales
+            .iter()
+            .enumerate()
+            .map(|(k, s)| &trend * *s + j.column(0) * (0.01 * k as f64) - j.column(1) * 0.02)
+            .collect();
+        let variance = (0..n)
+            .map(|i| paired.iter().map(|e| e[i] * e[i]).sum::<f64>() / 3.0)
+            .collect();
+        let u = Uncertainty { variance, paired };
+        let all: Vec<usize> = (0..n).collect();
+        let beyond = u.beyond(&j, &w, &all);
+        let ms = scales.iter().map(|s| s * s).sum::<f64>() / 3.0;
+        for i in 0..n {
+            let want = trend[i] * trend[i] * ms;
+            assert!(
+                (beyond[i] - want).abs() <= 1e-12 * want.max(1e-12),
+                "{i}: {} vs {want}",
+                beyond[i]
+            );
+        }
+    }
+
+    /// Errors are paired across designs only at check points every design was checked at; without
+    /// such points the whole variance is counted.
+    #[test]
+    fn errors_are_paired_at_shared_check_points_only() {
+        let samples: Vec<(Vec<f64>, f64)> = (0..4).map(|i| (vec![1.0 + i as f64], 2.0 + i as f64)).collect();
+        let bounds = crate::base::Bounds::new(vec![1.0], vec![4.0]);
+        let surrogate = Surrogate::fit(SurrogateKind::Linear, &samples, &bounds).unwrap();
+        let design = |v: f64, checks: Vec<(Vec<f64>, f64)>| DesignSurrogate {
+            design: format!("d{v}"),
+            values: vec![v],
+            surrogate: surrogate.clone(),
+            check: CheckError::signed(checks),
+            samples: 4,
+        };
+        let model = SurrogateModel {
+            designs: vec![
+                design(1.0, vec![(vec![1.5], 0.01), (vec![2.5], -0.02)]),
+                design(2.0, vec![(vec![2.5], 0.03), (vec![3.5], 0.01)]),
+            ],
+        };
+        let at = [(&[1.0][..], 10.0), (&[2.0][..], 20.0)];
+        let u = Uncertainty::of_surrogates(&model, at);
+        assert_eq!(u.paired.len(), 1, "only θ = 2.5 is shared");
+        assert!((u.paired[0][0] + 0.2).abs() < 1e-12 && (u.paired[0][1] - 0.6).abs() < 1e-12);
+        assert!((u.variance(0) - (0.01f64.powi(2) + 0.02f64.powi(2)) / 2.0 * 100.0).abs() < 1e-12);
+        let alone = Uncertainty {
+            paired: Vec::new(),
+            ..u.clone()
+        };
+        let j = DMatrix::from_element(2, 1, 1.0);
+        assert_eq!(
+            alone.beyond(&j, &[1.0, 1.0], &[0, 1]),
+            vec![u.variance(0), u.variance(1)]
+        );
+        // The shared point's errors (−0.2, 0.6) have the shape (−1, 3): in the span of J = (−1, 3),
+        // all of every check run's variance is absorbed; in the span of (1, 1), the share left is
+        // that of the rest (−0.4, 0.4) at each observation: 0.16/0.04 and 0.16/0.36.
+        let along = DMatrix::from_column_slice(2, 1, &[-1.0, 3.0]);
+        assert!(u.beyond(&along, &[1.0, 1.0], &[0, 1]).iter().all(|v| v.abs() < 1e-15));
+        let beyond = u.beyond(&j, &[1.0, 1.0], &[0, 1]);
+        assert!((beyond[0] - u.variance(0) * 0.16 / 0.04).abs() < 1e-12, "{beyond:?}");
+        assert!((beyond[1] - u.variance(1) * 0.16 / 0.36).abs() < 1e-12, "{beyond:?}");
     }
 }

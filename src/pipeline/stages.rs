@@ -102,22 +102,22 @@ fn index_of<Y>(all: &[Run<'_, Y>], r: &Run<'_, Y>) -> usize {
         .expect("a run of the slice")
 }
 
-/// A design's fitted surrogate with its check: the relative errors at its held-out runs.
+/// A design's fitted surrogate with its check: the signed relative errors at its held-out runs.
 fn design_surrogate(f: emulate::DesignFit<Surrogate, f64>, all: &[Run<'_, f64>]) -> DesignSurrogate {
-    let errors: Vec<f64> = f
+    let signed = f
         .held
         .runs
         .iter()
         .zip(&f.held.predicted)
         .map(|(&i, m)| {
             let y = *all[i].y.expect("held out with an output");
-            ((m - y) / y).abs()
+            (all[i].x.to_vec(), (m - y) / y)
         })
         .collect();
     DesignSurrogate {
         design: f.design,
         values: f.values,
-        check: crate::emulate::CheckError::of(&errors),
+        check: crate::emulate::CheckError::signed(signed),
         surrogate: f.emulator,
         samples: f.fitted,
     }
