@@ -382,7 +382,7 @@ fn run(case: &Case, always: bool) -> Diagnosis {
         emulator: Default::default(),
     };
     let d = diagnose::diagnose(&inputs).expect("diagnosis runs");
-    if !always || d.discrepancy_detected {
+    if !always || d.finding.discrepancy_detected {
         verdict_common::assert_verdict_follows_evidence(&serde_json::to_value(&d).unwrap());
     }
     d
@@ -574,7 +574,7 @@ fn recovered_beside(case: &Case, d: &Discovered) -> bool {
 }
 
 fn line(what: &str, seed: u64, case: &Case, extra: &str, d: &Diagnosis) -> String {
-    let f = d.discovered.as_ref();
+    let f = d.checked.discovered.as_ref();
     format!(
         "{what} seed {seed} [{}]: hidden {:?} {:?} m {:.4} rel {} n {} reps {} | {extra} | {:?} {:?} | base {:?} found {:?} \
          group {:?} p {:?} gain_loo {:?} lof {:?} | closest {:?}",
@@ -585,8 +585,8 @@ fn line(what: &str, seed: u64, case: &Case, extra: &str, d: &Diagnosis) -> Strin
         case.relative,
         case.train.len(),
         case.replicates,
-        d.verdict,
-        d.cause,
+        d.finding.verdict,
+        d.finding.cause,
         f.map(|f| f.base.clone()),
         f.and_then(|f| f.term.clone()),
         f.map(group),
@@ -609,12 +609,16 @@ fn no_false_discoveries_on_clean_data() {
         let family = &fams[(seed % fams.len() as u64) as usize];
         let case = generate(family, Hidden::None, (0.1, 0.1), seed * 31 + 1);
         let d = run(&case, true);
-        let found = d.discovered.as_ref().is_some_and(|f| f.outcome == Outcome::Found);
+        let found = d
+            .checked
+            .discovered
+            .as_ref()
+            .is_some_and(|f| f.outcome == Outcome::Found);
         if found {
             eprintln!("{}", line("clean", seed, &case, "false discovery", &d));
         }
         forced += usize::from(found);
-        pipeline += usize::from(found && d.discrepancy_detected);
+        pipeline += usize::from(found && d.finding.discrepancy_detected);
     }
     eprintln!(
         "clean data: false discoveries {forced}/{cases} with the search run on every case, {pipeline}/{cases} as lab \
@@ -641,7 +645,7 @@ fn shapes_inside_the_library_are_recovered_when_large_enough() {
         let pw = power(lambda, nu(&case));
         let named = nameable(&case);
         let d = run(&case, false);
-        let ok = d.discovered.as_ref().is_some_and(|f| recovered(&case, f));
+        let ok = d.checked.discovered.as_ref().is_some_and(|f| recovered(&case, f));
         eprintln!(
             "{}",
             line(
@@ -657,7 +661,12 @@ fn shapes_inside_the_library_are_recovered_when_large_enough() {
             got += usize::from(ok);
         } else {
             small += 1;
-            found_small += usize::from(d.discovered.as_ref().is_some_and(|f| f.outcome == Outcome::Found));
+            found_small += usize::from(
+                d.checked
+                    .discovered
+                    .as_ref()
+                    .is_some_and(|f| f.outcome == Outcome::Found),
+            );
         }
     }
     eprintln!("inside the library: recovered {got}/{large} large enough; found {found_small}/{small} of the smaller");
@@ -690,7 +699,7 @@ fn shapes_outside_the_library_are_not_claimed_falsely() {
         let took = started.elapsed().as_secs_f64();
         eprintln!("{}", line("outside", seed, &case, &format!("{took:.2} s"), &d));
         of += 1;
-        let Some(f) = d.discovered.as_ref().filter(|f| f.outcome == Outcome::Found) else {
+        let Some(f) = d.checked.discovered.as_ref().filter(|f| f.outcome == Outcome::Found) else {
             continue;
         };
         found += 1;
@@ -751,7 +760,11 @@ fn a_listed_cause_beside_an_unlisted_effect() {
         let lambda = detect(&case);
         let pw = power(lambda, nu(&case));
         let d = run(&case, false);
-        let ok = d.discovered.as_ref().is_some_and(|f| recovered_beside(&case, f));
+        let ok = d
+            .checked
+            .discovered
+            .as_ref()
+            .is_some_and(|f| recovered_beside(&case, f));
         eprintln!(
             "{}",
             line(
@@ -762,13 +775,18 @@ fn a_listed_cause_beside_an_unlisted_effect() {
                 &d
             )
         );
-        let verdict = serde_json::to_value(d.verdict).unwrap();
+        let verdict = serde_json::to_value(d.finding.verdict).unwrap();
         // The listed cause the verdict rests on: the cause, or the one that partly explains.
-        let listed = d.cause.as_deref().or(d.partial.as_ref().map(|p| p.name.as_str()));
+        let listed = d
+            .finding
+            .cause
+            .as_deref()
+            .or(d.finding.partial.as_ref().map(|p| p.name.as_str()));
         let shear_cause = listed == Some("shear deformation");
         if verdict == "partly_explained" {
             partly += 1;
             let f = d
+                .checked
                 .discovered
                 .as_ref()
                 .unwrap_or_else(|| panic!("seed {seed}: partly explained, no search"));
@@ -794,16 +812,21 @@ fn a_listed_cause_beside_an_unlisted_effect() {
                 Outcome::NothingExplains => {
                     nothing += 1;
                     assert!(
-                        d.summary.contains("no shape in the library explains the misfit"),
+                        d.record.summary.contains("no shape in the library explains the misfit"),
                         "seed {seed}: {}",
-                        d.summary
+                        d.record.summary
                     );
                 }
             }
         }
         if matches!(case.hidden, Hidden::Outside(_)) {
             outside_n += 1;
-            found_outside += usize::from(d.discovered.as_ref().is_some_and(|f| f.outcome == Outcome::Found));
+            found_outside += usize::from(
+                d.checked
+                    .discovered
+                    .as_ref()
+                    .is_some_and(|f| f.outcome == Outcome::Found),
+            );
         }
         if pw >= 0.95 {
             large += 1;
@@ -949,5 +972,5 @@ fn debug_one() {
     };
     let d = run(&case, false);
     eprintln!("{}", line("inside", seed, &case, "", &d));
-    eprintln!("{}", d.summary);
+    eprintln!("{}", d.record.summary);
 }

@@ -466,11 +466,11 @@ fn classify(t: &Truth) -> Class {
 }
 
 fn named_right(case: &Case, d: &Diagnosis) -> bool {
-    d.verdict == Verdict::CauseNamed && d.cause.is_some() && d.cause == case.hidden
+    d.finding.verdict == Verdict::CauseNamed && d.finding.cause.is_some() && d.finding.cause == case.hidden
 }
 
 fn extended_within(setup: &Setup, d: &Diagnosis, tol: f64) -> bool {
-    d.extended.as_ref().is_some_and(|x| {
+    d.explained.extended.as_ref().is_some_and(|x| {
         setup
             .params
             .iter()
@@ -480,7 +480,8 @@ fn extended_within(setup: &Setup, d: &Diagnosis, tol: f64) -> bool {
 
 fn line(family: &str, seed: u64, case: &Case, t: &Truth, d: &Diagnosis) -> String {
     let term = |n: &str| {
-        d.candidates
+        d.explained
+            .candidates
             .iter()
             .find(|c| c.name == n)
             .map(|c| c.term.clone())
@@ -497,11 +498,11 @@ fn line(family: &str, seed: u64, case: &Case, t: &Truth, d: &Diagnosis) -> Strin
         t.remaining,
         t.best_remaining,
         classify(t),
-        d.verdict,
-        d.cause,
-        d.cause.as_deref().map(term).unwrap_or_default(),
-        d.leading,
-        d.extended.as_ref().map(|x| x
+        d.finding.verdict,
+        d.finding.cause,
+        d.finding.cause.as_deref().map(term).unwrap_or_default(),
+        d.finding.leading,
+        d.explained.extended.as_ref().map(|x| x
             .parameters
             .values()
             .map(|v| (v * 1000.0).round() / 1000.0)
@@ -549,7 +550,7 @@ fn in_pool_family(
             }
             Class::Inseparable => {
                 counts[1].1 += 1;
-                counts[1].0 += usize::from(d.cause.is_none() && d.next_test.is_some());
+                counts[1].0 += usize::from(d.finding.cause.is_none() && d.explained.next_test.is_some());
             }
             Class::Between => {}
         }
@@ -657,6 +658,7 @@ fn scale_error_on_a_multiplicative_parameter_is_not_named() {
     let case = generate(&s, Hidden::Term("y"), (0.1, 0.1), 0, 6);
     let d = run(&s, &case);
     let c = d
+        .explained
         .candidates
         .iter()
         .find(|c| Some(&c.name) == case.hidden.as_ref())
@@ -730,20 +732,21 @@ fn step(d: &[f64]) -> f64 {
 /// explains all of the misfit. Never a cause, never a model called a fit.
 fn not_explained(d: &lab::diagnose::Diagnosis) -> bool {
     let rejected = |l: Option<&lab::diagnose::LackOfFit>| l.is_some_and(|l| l.rejects());
-    match d.verdict {
+    match d.finding.verdict {
         Verdict::PartlyExplained => {
-            d.cause.is_none() && d.extended_model().is_some_and(|x| rejected(x.lack_of_fit.as_ref()))
+            d.finding.cause.is_none() && d.extended_model().is_some_and(|x| rejected(x.lack_of_fit.as_ref()))
         }
         Verdict::CannotTellApart => {
-            d.cause.is_none()
-                && !d.leading.is_empty()
-                && d.leading.iter().all(|n| {
-                    d.candidates
+            d.finding.cause.is_none()
+                && !d.finding.leading.is_empty()
+                && d.finding.leading.iter().all(|n| {
+                    d.explained
+                        .candidates
                         .iter()
                         .find(|c| &c.name == n)
                         .is_some_and(|c| rejected(c.lack_of_fit.as_ref()))
                 })
-                && d.headline.contains("none all of it")
+                && d.finding.headline.contains("none all of it")
         }
         _ => false,
     }
@@ -768,7 +771,7 @@ fn effect_outside_the_hypotheses_is_partly_explained() {
         if t.best_remaining >= 60.0 && t.best_detect >= 30.0 {
             of += 1;
             partly += usize::from(not_explained(&d));
-            named += usize::from(d.verdict == Verdict::CauseNamed);
+            named += usize::from(d.finding.verdict == Verdict::CauseNamed);
         }
     }
     eprintln!("outside: partly explained {partly}/{of}, named as the whole story {named}");
@@ -785,7 +788,9 @@ fn no_effect_is_not_a_discrepancy() {
         let case = generate(&s, Hidden::None, (0.1, 0.1), seed, 11);
         let d = run(&s, &case);
         eprintln!("{}", line("none", seed, &case, &oracle(&s, &case), &d));
-        clean += usize::from(!d.discrepancy_detected && d.cause.is_none() && d.verdict == Verdict::NoModelError);
+        clean += usize::from(
+            !d.finding.discrepancy_detected && d.finding.cause.is_none() && d.finding.verdict == Verdict::NoModelError,
+        );
     }
     assert!(clean >= 9, "false alarms in {} of {SEEDS}", SEEDS as usize - clean);
 }
@@ -796,7 +801,11 @@ fn no_effect_is_not_a_discrepancy() {
 fn false_alarm_rate_over_sixty_seeds() {
     let s = honeycomb_setup(honeycomb, vec![sigma_param()], 3);
     let alarms = (100..160)
-        .filter(|&seed| run(&s, &generate(&s, Hidden::None, (0.1, 0.1), seed, 12)).discrepancy_detected)
+        .filter(|&seed| {
+            run(&s, &generate(&s, Hidden::None, (0.1, 0.1), seed, 12))
+                .finding
+                .discrepancy_detected
+        })
         .count();
     eprintln!("false alarms: {alarms}/60");
     assert!(alarms <= 5, "false alarms in {alarms} of 60 seeds");
@@ -816,7 +825,9 @@ fn two_or_three_designs_without_replicates_say_too_few_and_give_a_next_test() {
         let case = generate(&s, Hidden::Term("1/h^2"), (0.02, 0.2), seed, 13);
         let d = run(&s, &case);
         eprintln!("{}", line("few", seed, &case, &oracle(&s, &case), &d));
-        good += usize::from(d.verdict == Verdict::TooFewTests && d.cause.is_none() && d.next_test.is_some());
+        good += usize::from(
+            d.finding.verdict == Verdict::TooFewTests && d.finding.cause.is_none() && d.explained.next_test.is_some(),
+        );
     }
     assert!(good >= 9, "too few + next test in {good}/{SEEDS}");
 }
@@ -856,7 +867,7 @@ fn validation_design_at_a_crossing_point_is_flagged() {
         if named_right(&case, &d) {
             named += 1;
             nameable_named += usize::from(decidable);
-            let x = d.extended.as_ref().unwrap();
+            let x = d.explained.extended.as_ref().unwrap();
             flagged += usize::from(!x.before_within_noise.is_empty() && x.gain_loo.is_some_and(|g| g >= 0.5));
         }
     }

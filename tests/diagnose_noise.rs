@@ -161,14 +161,21 @@ fn clean_families_with_few_replicates_claim_no_model_error() {
         for i in 0..DRAWS {
             let seed = seed_base() + i;
             let d = diagnose_draw(&f, salt as u64, seed);
-            if d.discrepancy_detected {
-                eprintln!("{} seed {seed}: {}\n  noise: {}", f.name, d.headline, d.noise.note);
+            if d.finding.discrepancy_detected {
+                eprintln!(
+                    "{} seed {seed}: {}\n  noise: {}",
+                    f.name, d.finding.headline, d.record.noise.note
+                );
                 detected.push(seed);
             }
-            if d.discovered.as_ref().is_some_and(|x| x.outcome == Outcome::Found) {
+            if d.checked
+                .discovered
+                .as_ref()
+                .is_some_and(|x| x.outcome == Outcome::Found)
+            {
                 discovered.push(seed);
             }
-            switched += usize::from(d.noise.note.contains("not claimed on the noise model's account"));
+            switched += usize::from(d.record.noise.note.contains("not claimed on the noise model's account"));
         }
         eprintln!(
             "{}: model error claimed {}/{DRAWS} {detected:?}, term discovered {}/{DRAWS} {discovered:?}; the noise \
@@ -192,11 +199,11 @@ fn debug_one() {
     let seed: u64 = std::env::var("SEED").unwrap().parse().unwrap();
     let f = &families()[k];
     let d = diagnose_draw(f, k as u64, seed);
-    for r in &d.residuals {
+    for r in &d.record.residuals {
         eprintln!(
             "{} mean {} sd {:?} n {} pred {} z {}",
             r.design, r.measured, r.std_dev, r.count, r.predicted, r.z
         );
     }
-    eprintln!("{}", d.summary);
+    eprintln!("{}", d.record.summary);
 }

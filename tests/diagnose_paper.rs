@@ -31,11 +31,11 @@ fn run_with(study: &str, change: impl FnOnce(&mut diagnose::Inputs)) -> Diagnosi
 #[test]
 fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
     let d = run("cantilever-diagnosis.yaml");
-    assert!(d.discrepancy_detected);
-    assert_eq!(d.verdict, Verdict::CauseNamed);
-    assert_eq!(d.cause.as_deref(), Some("shear deformation"));
-    assert_eq!(d.candidates[0].name, "shear deformation");
-    let ext = d.extended.as_ref().expect("an extended model");
+    assert!(d.finding.discrepancy_detected);
+    assert_eq!(d.finding.verdict, Verdict::CauseNamed);
+    assert_eq!(d.finding.cause.as_deref(), Some("shear deformation"));
+    assert_eq!(d.explained.candidates[0].name, "shear deformation");
+    let ext = d.explained.extended.as_ref().expect("an extended model");
     let e = ext.parameters["E"];
     assert!((e / 68_000.0 - 1.0).abs() < 0.005, "E = {e}");
     // The exact term leaves floating-point residuals: the validation error all but vanishes.
@@ -44,25 +44,32 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
     assert!(ext.gain.unwrap() > 0.99);
     // No replicates: the noise is the measurement's uncertainty the study states (0.3 %), and the
     // output says so.
-    assert_eq!(d.noise.kind, NoiseKind::Stated);
+    assert_eq!(d.record.noise.kind, NoiseKind::Stated);
     assert!(
-        d.noise.note.contains("no replicates") && d.noise.note.contains("states"),
+        d.record.noise.note.contains("no replicates") && d.record.noise.note.contains("states"),
         "{}",
-        d.noise.note
+        d.record.noise.note
     );
     // "offset" is the study's name for the built-in constant offset: it replaces it.
-    let offset = d.candidates.iter().find(|c| c.name == "offset").expect("offset ranked");
+    let offset = d
+        .explained
+        .candidates
+        .iter()
+        .find(|c| c.name == "offset")
+        .expect("offset ranked");
     assert_eq!(offset.replaces.as_deref(), Some("constant offset"));
-    assert!(d.candidates.iter().all(|c| c.name != "constant offset"));
+    assert!(d.explained.candidates.iter().all(|c| c.name != "constant offset"));
     // The scale error is proportional to ∂y/∂E (y ∝ 1/E): confounded with E, and said so.
     let scale = d
+        .explained
         .candidates
         .iter()
         .find(|c| c.name == "scale error")
         .expect("scale error ranked");
     assert_eq!(scale.confounded_with, vec!["E".to_string()]);
     assert!(
-        d.confounded
+        d.record
+            .confounded
             .iter()
             .any(|s| s.contains("scale error") && s.contains("E"))
     );
@@ -70,21 +77,26 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
     // ranking and model error is detected (an F test of nested models needs no measured noise),
     // but no cause is decisive, and the words say why.
     let unmeasured = run_with("cantilever-diagnosis.yaml", |i| i.settings.measurement = None);
-    assert_eq!(unmeasured.noise.kind, NoiseKind::FromResiduals);
-    assert_eq!(unmeasured.verdict, Verdict::TooFewTests, "{}", unmeasured.headline);
-    assert_eq!(unmeasured.cause, None);
-    assert!(unmeasured.discrepancy_detected);
+    assert_eq!(unmeasured.record.noise.kind, NoiseKind::FromResiduals);
     assert_eq!(
-        unmeasured.leading.first().map(String::as_str),
+        unmeasured.finding.verdict,
+        Verdict::TooFewTests,
+        "{}",
+        unmeasured.finding.headline
+    );
+    assert_eq!(unmeasured.finding.cause, None);
+    assert!(unmeasured.finding.discrepancy_detected);
+    assert_eq!(
+        unmeasured.finding.leading.first().map(String::as_str),
         Some("shear deformation")
     );
     assert!(
-        unmeasured.headline.contains("noise is not measured"),
+        unmeasured.finding.headline.contains("noise is not measured"),
         "{}",
-        unmeasured.headline
+        unmeasured.finding.headline
     );
     // The next test lies inside the design bounds [7, 13].
-    let next = d.next_test.as_ref().expect("a next test");
+    let next = d.explained.next_test.as_ref().expect("a next test");
     let h = next.design["h"];
     assert!((7.0..=13.0).contains(&h), "h = {h}");
     assert!(next.between.contains(&"shear deformation".to_string()));
@@ -98,23 +110,23 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
 #[test]
 fn simple_machine_names_the_saturation_term() {
     let d = run("simple-machine.yaml");
-    assert!(d.discrepancy_detected);
-    assert_eq!(d.cause, None);
-    let partial = d.partial.as_ref().expect("a partial explanation");
+    assert!(d.finding.discrepancy_detected);
+    assert_eq!(d.finding.cause, None);
+    let partial = d.finding.partial.as_ref().expect("a partial explanation");
     assert_eq!(partial.name, "saturation");
     let ext = d.extended_model().unwrap();
     let theta = ext.parameters["theta"];
     assert!((theta / 0.65 - 1.0).abs() < 0.02, "theta = {theta}");
     assert!((theta - 0.6414).abs() < 5e-4, "theta = {theta} (facts.md: 0.6414)");
     // Uncorrected least squares: 0.5626 (facts.md); unweighted without replicates.
-    let theta0 = d.uncorrected.parameters["theta"];
+    let theta0 = d.record.uncorrected.parameters["theta"];
     assert!((theta0 - 0.5626).abs() < 5e-4, "theta0 = {theta0}");
     // No validation designs: the gain is measured leave-one-design-out.
     assert_eq!(ext.measured_on, "leave-one-out");
     assert!(ext.gain.unwrap() > 0.5, "{ext:?}");
     // Linear in x and the scale error are both ∝ ∂y/∂θ = x: confounded with theta.
     for name in ["linear in x", "scale error"] {
-        let c = d.candidates.iter().find(|c| c.name == name).unwrap();
+        let c = d.explained.candidates.iter().find(|c| c.name == name).unwrap();
         assert_eq!(c.confounded_with, vec!["theta".to_string()], "{name}");
     }
 }
@@ -143,7 +155,8 @@ fn output_has_the_contract_keys_and_round_trips() {
     assert!(v["next_test"]["why"].is_string());
     assert_eq!(v["verdict"], "cause_named");
     assert!(v["extended"]["gain_loo"].is_f64());
-    let weights: f64 = d.candidates.iter().map(|c| c.weight).sum::<f64>() + d.uncorrected.weight.unwrap();
+    let weights: f64 =
+        d.explained.candidates.iter().map(|c| c.weight).sum::<f64>() + d.record.uncorrected.weight.unwrap();
     assert!((weights - 1.0).abs() < 1e-12, "weights sum to {weights}");
     let back: Diagnosis = serde_json::from_str(&json).unwrap();
     assert_eq!(back, d);
@@ -155,13 +168,21 @@ fn output_has_the_contract_keys_and_round_trips() {
 #[test]
 fn two_tests_are_too_few_to_tell_and_give_a_next_test() {
     let d = run("cantilever.yaml");
-    assert!(!d.discrepancy_detected);
-    assert_eq!(d.verdict, Verdict::TooFewTests);
-    assert!(d.cause.is_none() && d.extended.is_none());
-    assert!(d.summary.starts_with("Too few tests to tell"), "{}", d.summary);
-    assert!(!d.summary.contains("No significant discrepancy"), "{}", d.summary);
-    assert!(!d.candidates.is_empty());
-    for c in &d.candidates {
+    assert!(!d.finding.discrepancy_detected);
+    assert_eq!(d.finding.verdict, Verdict::TooFewTests);
+    assert!(d.finding.cause.is_none() && d.explained.extended.is_none());
+    assert!(
+        d.record.summary.starts_with("Too few tests to tell"),
+        "{}",
+        d.record.summary
+    );
+    assert!(
+        !d.record.summary.contains("No significant discrepancy"),
+        "{}",
+        d.record.summary
+    );
+    assert!(!d.explained.candidates.is_empty());
+    for c in &d.explained.candidates {
         assert_eq!(
             c.predictions.len(),
             3,
@@ -170,14 +191,14 @@ fn two_tests_are_too_few_to_tell_and_give_a_next_test() {
         );
         assert!(c.p_value.is_none(), "{}: no test without a noise", c.name);
     }
-    let next = d.next_test.as_ref().expect("a next test");
+    let next = d.explained.next_test.as_ref().expect("a next test");
     assert!((7.0..=13.0).contains(&next.design["h"]));
     assert!(
         next.specimens.is_none() && next.why.contains("noise is unknown"),
         "{}",
         next.why
     );
-    assert_eq!(d.residuals.len(), 3);
+    assert_eq!(d.record.residuals.len(), 3);
     verdict_common::assert_verdict_follows_evidence(&serde_json::to_value(&d).unwrap());
 }
 

@@ -258,16 +258,20 @@ fn programmes_decide_where_single_designs_cannot() {
         let obs = observations(&case);
         let d = diagnose(&case, &obs);
         let lambda = in_hand(&case);
-        eprintln!("seed {seed}: oracle λ(A) {lambda:.2}: {:?} {:?}", d.verdict, d.cause);
-        a_named += usize::from(d.cause.as_deref() == Some("A"));
+        eprintln!(
+            "seed {seed}: oracle λ(A) {lambda:.2}: {:?} {:?}",
+            d.finding.verdict, d.finding.cause
+        );
+        a_named += usize::from(d.finding.cause.as_deref() == Some("A"));
         if lambda > 2.0 {
             continue;
         }
         open += 1;
-        named_open += usize::from(d.verdict == Verdict::CauseNamed);
+        named_open += usize::from(d.finding.verdict == Verdict::CauseNamed);
         // The programme is checked where the next test tells A from B (with no model error detected,
         // it looks for a hidden error instead).
         let Some(t) = d
+            .explained
             .next_test
             .as_ref()
             .filter(|t| t.compared.contains_key("A") && t.compared.contains_key("B"))

@@ -247,8 +247,8 @@ pub enum Claim {
 /// explanations it cannot tell apart, none), that the simulation misses.
 pub fn claims(d: &super::Diagnosis) -> Vec<(String, Claim)> {
     use super::verdict::Verdict;
-    let by_lack_of_fit = d.lack_of_fit.as_ref().is_some_and(LackOfFit::rejects);
-    match (d.verdict, &d.cause) {
+    let by_lack_of_fit = d.record.lack_of_fit.as_ref().is_some_and(LackOfFit::rejects);
+    match (d.finding.verdict, &d.finding.cause) {
         (Verdict::NoModelError, _) => vec![(UNCORRECTED.into(), Claim::Fits)],
         (Verdict::CauseNamed, Some(c)) => vec![(c.clone(), Claim::Fits)],
         (Verdict::PartlyExplained | Verdict::CannotTellApart | Verdict::Unexplained, _) if by_lack_of_fit => {
@@ -301,10 +301,10 @@ pub struct Decided {
 impl Decided {
     fn of(d: &super::Diagnosis) -> Decided {
         Decided {
-            verdict: d.verdict,
-            cause: d.cause.clone(),
-            headline: d.headline.clone(),
-            lack_of_fit: d.lack_of_fit.clone(),
+            verdict: d.finding.verdict,
+            cause: d.finding.cause.clone(),
+            headline: d.finding.headline.clone(),
+            lack_of_fit: d.record.lack_of_fit.clone(),
         }
     }
 }
@@ -329,7 +329,8 @@ pub fn settle(
     counted: super::Diagnosis,
     confirmations: Vec<Confirmation>,
 ) -> super::Diagnosis {
-    let differ = (noise_alone.verdict, &noise_alone.cause) != (counted.verdict, &counted.cause);
+    let differ =
+        (noise_alone.finding.verdict, &noise_alone.finding.cause) != (counted.finding.verdict, &counted.finding.cause);
     let reading = |confirmed: Option<&str>, unjudged: Option<&str>| EmulatorReading {
         noise_alone: Decided::of(&noise_alone),
         counted: Decided::of(&counted),
@@ -367,8 +368,8 @@ pub fn settle(
         ),
     };
     let mut d = d;
-    d.confirmation = confirmations;
-    d.emulator = Some(reading);
+    d.checked.confirmation = confirmations;
+    d.checked.emulator = Some(reading);
     d.worded_confirmation()
 }
 

@@ -249,7 +249,8 @@ fn decided(w: &Whitening, d: &super::Diagnosis) -> Option<(String, f64)> {
     let drop: Vec<f64> = names
         .iter()
         .map(|name| {
-            d.residuals
+            d.record
+                .residuals
                 .iter()
                 .filter(|r| r.design.ends_with(&format!(" · {name}")))
                 .map(|r| r.z.powi(2) - after.get(&r.design).map_or(r.z.powi(2), |z| z * z))
@@ -934,7 +935,7 @@ fn noise_source(ci: &CurveInputs, whitening: &Whitening) -> String {
 impl super::Diagnosis {
     /// The diagnosis with the curve features it read (worded by [`super::Diagnosis::worded`]).
     pub fn with_features(mut self, report: FeaturesReport) -> super::Diagnosis {
-        self.features = Some(report);
+        self.checked.features = Some(report);
         self
     }
 }

@@ -159,11 +159,11 @@ impl SolverExtension {
         baseline: &Diagnosis,
         extended: &Diagnosis,
     ) -> SolverExtension {
-        let (before, after) = (&baseline.uncorrected, &extended.uncorrected);
+        let (before, after) = (&baseline.record.uncorrected, &extended.record.uncorrected);
         let val = |u: &super::Uncorrected| u.validation.as_ref().map(|v| v.error);
         let gain = |b: Option<f64>, a: Option<f64>| b.zip(a).filter(|(b, _)| *b > 0.0).map(|(b, a)| 1.0 - a / b);
         let residual_z = standardised(extended);
-        let lof = extended.lack_of_fit.as_ref();
+        let lof = extended.record.lack_of_fit.as_ref();
         let precision = after.precision.as_ref();
         SolverExtension {
             hypothesis: hypothesis.to_string(),
@@ -192,18 +192,21 @@ impl SolverExtension {
                 .collect(),
             residual_z,
             predictions: extended
+                .record
                 .residuals
                 .iter()
                 .map(|r| (r.design.clone(), r.predicted))
                 .collect(),
             screening_amplitude: baseline
+                .explained
                 .candidates
                 .iter()
                 .find(|c| c.name == hypothesis)
                 .map(|c| c.amplitude),
-            what_remains: extended.verdict,
+            what_remains: extended.finding.verdict,
             // The extended model's diagnosis calls it "the uncorrected simulation".
             what_remains_headline: extended
+                .finding
                 .headline
                 .replace("the uncorrected simulation", "the extended model"),
         }
@@ -272,15 +275,16 @@ impl Diagnosis {
     /// `extensions` (worded by [`Diagnosis::worded`]). The verdict already rests on the loop's
     /// models ([`super::conclude`]); this adds what only the run engine knows.
     pub fn with_extensions(mut self, extensions: Vec<SolverExtension>) -> Diagnosis {
-        self.extensions = extensions;
+        self.explained.extensions = extensions;
         self
     }
 }
 
 /// Training residuals in units of the noise of the mean, validation designs by their predictive z.
 fn standardised(d: &Diagnosis) -> IndexMap<String, f64> {
-    let predictive = d.uncorrected.validation.as_ref().map(|v| &v.z);
-    d.residuals
+    let predictive = d.record.uncorrected.validation.as_ref().map(|v| &v.z);
+    d.record
+        .residuals
         .iter()
         .map(|r| {
             let z = match (r.role, predictive.and_then(|z| z.get(&r.design))) {

@@ -326,9 +326,28 @@ pub fn inputs_with_extensions<'a>(
     }
 }
 
-/// The diagnosis, as written under `diagnosis` in `results.json`.
+/// The diagnosis, as written under `diagnosis` in `results.json`: four parts, each flattened into
+/// the one object (the keys and their order are the record's).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Diagnosis {
+    /// What the diagnosis decided, and its words.
+    #[serde(flatten)]
+    pub finding: Finding,
+    /// The explanations weighed, the models they make, and the test that would tell them apart.
+    #[serde(flatten)]
+    pub explained: Explained,
+    /// What was checked beyond the screening: the library search, the curves, what the tests leave
+    /// open, the solver's confirmation, the emulators' part, the loop.
+    #[serde(flatten)]
+    pub checked: Checked,
+    /// The uncorrected model and the noise it was judged against.
+    #[serde(flatten)]
+    pub record: Record,
+}
+
+/// What the diagnosis decided (`verdict`, `cause`, …) and its words (`headline`, `action`, …).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Finding {
     /// Whether the data show model error beyond the noise.
     pub discrepancy_detected: bool,
     /// The cause the verdict decides (`verdict` = `cause_named`); `null` otherwise, also when a
@@ -349,6 +368,11 @@ pub struct Diagnosis {
     pub evidence: Vec<String>,
     /// What the data cannot say.
     pub limits: Vec<String>,
+}
+
+/// The explanations the diagnosis weighed and what they make of the simulation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Explained {
     /// Ranked best first: the study's hypotheses and the built-in shapes.
     pub candidates: Vec<Candidate>,
     /// The leader's encompassing tests against every rival.
@@ -366,6 +390,11 @@ pub struct Diagnosis {
     pub extensions: Vec<joint::SolverExtension>,
     /// The test that would best tell the leading explanations apart.
     pub next_test: Option<NextTest>,
+}
+
+/// What the diagnosis checked beyond the screening (each absent or empty where it did not run).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Checked {
     /// The library search for a missing term, when it ran ([`discover`]): found by search, not listed.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub discovered: Option<discover::Discovered>,
@@ -386,6 +415,11 @@ pub struct Diagnosis {
     /// How the models the loop calibrated changed the screening's verdict (absent without a loop).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub after_loop: Option<after_loop::AfterLoop>,
+}
+
+/// The uncorrected model, the noise it was judged against, and the rule.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Record {
     /// The verdict, the action and the evidence as one text (terminal and report).
     pub summary: String,
     pub noise: NoiseModel,
@@ -591,9 +625,10 @@ impl Partial {
 impl Diagnosis {
     /// The model extended with the named cause, or with the cause that partly explains the misfit.
     pub fn extended_model(&self) -> Option<&Extended> {
-        self.extended
+        self.explained
+            .extended
             .as_ref()
-            .or_else(|| self.partial.as_ref().and_then(|p| p.extended.as_ref()))
+            .or_else(|| self.finding.partial.as_ref().and_then(|p| p.extended.as_ref()))
     }
 }
 
@@ -1166,37 +1201,45 @@ impl<'a> Evidence<'a> {
             (_, None) => (None, extended, None),
         };
         Diagnosis {
-            discrepancy_detected: decision.detected,
-            cause,
-            partial,
-            parameter_limits,
-            verdict: decision.verdict,
-            headline: words.headline,
-            leading: decision.leading.iter().map(|&w| name(w)).collect(),
-            action: words.action,
-            evidence: words.evidence,
-            limits: words.limits,
-            uncorrected: self.ranked.uncorrected(&self.cx),
-            lack_of_fit: self.ranked.base.assessed.lack_of_fit.clone(),
-            rivals: self.ranked.rivals.clone(),
-            candidates,
-            extended,
-            extensions: Vec::new(),
-            next_test,
-            features: None,
-            not_excluded,
-            confirmation: Vec::new(),
-            emulator: None,
-            after_loop: after,
-            discovered: search.map(|s| s.discovered),
-            summary: words.summary,
-            noise: self.noise.clone(),
-            residuals,
-            structure,
-            confounded,
-            levels: self.cx.levels().record(),
-            rule: RULE.to_string(),
-            notes,
+            finding: Finding {
+                discrepancy_detected: decision.detected,
+                cause,
+                partial,
+                verdict: decision.verdict,
+                headline: words.headline,
+                leading: decision.leading.iter().map(|&w| name(w)).collect(),
+                action: words.action,
+                evidence: words.evidence,
+                limits: words.limits,
+            },
+            explained: Explained {
+                candidates,
+                rivals: self.ranked.rivals.clone(),
+                extended,
+                parameter_limits,
+                extensions: Vec::new(),
+                next_test,
+            },
+            checked: Checked {
+                discovered: search.map(|s| s.discovered),
+                features: None,
+                not_excluded,
+                confirmation: Vec::new(),
+                emulator: None,
+                after_loop: after,
+            },
+            record: Record {
+                summary: words.summary,
+                noise: self.noise.clone(),
+                uncorrected: self.ranked.uncorrected(&self.cx),
+                lack_of_fit: self.ranked.base.assessed.lack_of_fit.clone(),
+                residuals,
+                structure,
+                confounded,
+                levels: self.cx.levels().record(),
+                rule: RULE.to_string(),
+                notes,
+            },
         }
     }
 

@@ -91,7 +91,12 @@ impl super::Diagnosis {
     /// Writes `summary` again from the headline, action, evidence and limits (after a later step
     /// added to them).
     pub(crate) fn resummarise(&mut self) {
-        self.summary = summary(&self.headline, &self.action, &self.evidence, &self.limits);
+        self.record.summary = summary(
+            &self.finding.headline,
+            &self.finding.action,
+            &self.finding.evidence,
+            &self.finding.limits,
+        );
     }
 
     /// The words of what only the pipeline's later steps know, added once the decision is final:
@@ -99,18 +104,19 @@ impl super::Diagnosis {
     /// and one line of evidence per model the solver in the loop calibrated.
     pub fn worded(mut self) -> super::Diagnosis {
         let decided = self
+            .checked
             .features
             .as_ref()
             .and_then(|r| Some((r.decided_by.clone()?, r.decided_share?)));
-        if let (Some((name, share)), Some(_)) = (decided, &self.cause) {
-            let headline = self.headline.trim_end_matches('.').to_string();
-            self.headline = format!(
+        if let (Some((name, share)), Some(_)) = (decided, &self.finding.cause) {
+            let headline = self.finding.headline.trim_end_matches('.').to_string();
+            self.finding.headline = format!(
                 "{headline}; decided by the {name} ({:.0} % of the misfit the extended model removes).",
                 100.0 * share
             );
         }
-        let lines: Vec<String> = self.extensions.iter().map(|x| x.evidence_line()).collect();
-        self.evidence.extend(lines);
+        let lines: Vec<String> = self.explained.extensions.iter().map(|x| x.evidence_line()).collect();
+        self.finding.evidence.extend(lines);
         self.resummarise();
         self
     }
@@ -120,13 +126,13 @@ impl super::Diagnosis {
     /// One line of evidence per model the solver confirmed at its fitted parameters, after the
     /// verdict's own evidence.
     pub(crate) fn worded_confirmation(mut self) -> super::Diagnosis {
-        let lines: Vec<String> = self.confirmation.iter().map(confirmation_line).collect();
-        self.evidence.extend(lines);
-        if self.verdict == Verdict::NoModelError {
-            self.headline = no_model_error_headline(&self);
+        let lines: Vec<String> = self.checked.confirmation.iter().map(confirmation_line).collect();
+        self.finding.evidence.extend(lines);
+        if self.finding.verdict == Verdict::NoModelError {
+            self.finding.headline = no_model_error_headline(&self);
         }
-        if self.emulator.as_ref().is_some_and(|e| e.unjudged.is_some()) {
-            self.limits.push(
+        if self.checked.emulator.as_ref().is_some_and(|e| e.unjudged.is_some()) {
+            self.finding.limits.push(
                 "Not confirmed by the solver: its runs at the fitted parameters could not be judged (see the \
                  confirmation lines); the verdict rests on the emulators alone."
                     .into(),
@@ -142,15 +148,17 @@ impl super::Diagnosis {
 /// counted — "within the tests' scatter" is said of the tests' scatter only.
 fn no_model_error_headline(d: &super::Diagnosis) -> String {
     let solver = d
+        .checked
         .confirmation
         .iter()
         .find(|c| c.model == super::confirm::UNCORRECTED)
         .and_then(|c| Some((c, c.lack_of_fit.as_ref().filter(|l| l.fits)?)));
     let counted = d
+        .checked
         .emulator
         .as_ref()
         .is_some_and(|e| e.confirmed.as_deref().or(e.unjudged.as_deref()) == Some("counted"));
-    let detail = match (solver, &d.lack_of_fit) {
+    let detail = match (solver, &d.record.lack_of_fit) {
         (Some((c, l)), _) => format!(
             "the solver at the fitted parameters ({}) fits the tests within their scatter alone ({})",
             params(&c.at),
@@ -161,7 +169,7 @@ fn no_model_error_headline(d: &super::Diagnosis) -> String {
              error ({})",
             lack_of_fit(l)
         ),
-        _ => return d.headline.clone(),
+        _ => return d.finding.headline.clone(),
     };
     format!("No model error beyond the noise: {detail}.")
 }
@@ -239,9 +247,9 @@ pub(crate) fn emulator_limited(
     confirmations: &[super::confirm::Confirmation],
 ) -> super::Diagnosis {
     let mut d = noise_alone.clone();
-    let short = |x: &super::Diagnosis| match &x.cause {
-        Some(c) => format!("{} ('{c}')", x.verdict.words()),
-        None => x.verdict.words().to_string(),
+    let short = |x: &super::Diagnosis| match &x.finding.cause {
+        Some(c) => format!("{} ('{c}')", x.finding.verdict.words()),
+        None => x.finding.verdict.words().to_string(),
     };
     let shown: Vec<String> = confirmations
         .iter()
@@ -258,7 +266,7 @@ pub(crate) fn emulator_limited(
         true => "no solver run at the fitted parameters could be judged".to_string(),
         false => format!("the solver at the fitted parameters says {}", shown.join(" and ")),
     };
-    d.headline = format!(
+    d.finding.headline = format!(
         "Undecided: the emulators' error, not the tests, decides: with the tests' scatter alone, {}; with the \
          emulators' error counted, {}; {solver}, which confirms neither.",
         short(noise_alone),
@@ -268,24 +276,25 @@ pub(crate) fn emulator_limited(
         .iter()
         .find(|c| c.model == super::confirm::UNCORRECTED)
         .map_or(String::new(), |c| format!(" around {}", params(&c.at)));
-    d.action = format!(
+    d.finding.action = format!(
         "Do not take either model's parameters as the answer yet: more solver runs{at} at the tested designs \
          (with `sampling: sequential`, a larger `sampling.budget`; with a fixed design, more samples) make the \
          emulators good enough to decide."
     );
-    d.verdict = super::verdict::Verdict::EmulatorLimited;
-    let mut leading = noise_alone.leading.clone();
+    d.finding.verdict = super::verdict::Verdict::EmulatorLimited;
+    let mut leading = noise_alone.finding.leading.clone();
     leading.extend(
         counted
+            .finding
             .leading
             .iter()
-            .filter(|l| !noise_alone.leading.contains(l))
+            .filter(|l| !noise_alone.finding.leading.contains(l))
             .cloned(),
     );
-    d.leading = leading;
-    d.cause = None;
-    d.partial = None;
-    d.extended = None;
+    d.finding.leading = leading;
+    d.finding.cause = None;
+    d.finding.partial = None;
+    d.explained.extended = None;
     d
 }
 

@@ -107,10 +107,14 @@ pub(super) fn loop_readings<'m>(
                     LoopModel::Curves(Box::new((ci, problem)))
                 }
             };
-            let fitted = own.map(|o| o.get(j).map(|d| d.uncorrected.parameters.clone()).unwrap_or_default());
+            let fitted = own.map(|o| {
+                o.get(j)
+                    .map(|d| d.record.uncorrected.parameters.clone())
+                    .unwrap_or_default()
+            });
             let se = own.map(|o| {
                 o.get(j)
-                    .and_then(|d| d.uncorrected.precision.as_ref())
+                    .and_then(|d| d.record.uncorrected.precision.as_ref())
                     .map(|p| p.se.clone())
                     .unwrap_or_default()
             });
@@ -137,7 +141,7 @@ pub(super) fn subjects<'a>(
     let mut out = vec![uncorrected(screening, noise_alone)];
     for (which, f) in decided.iter().enumerate() {
         let d = &f.diagnosis;
-        let (Verdict::CauseNamed, Some(cause)) = (d.verdict, &d.cause) else {
+        let (Verdict::CauseNamed, Some(cause)) = (d.finding.verdict, &d.finding.cause) else {
             continue;
         };
         if out.iter().any(|s| &s.confirming.name == cause) {
@@ -160,7 +164,7 @@ pub(super) fn subjects<'a>(
 
 /// The uncorrected simulation at the noise-alone decision's fitted parameters.
 fn uncorrected<'a>(screening: &'a Inputs<'a>, d: &Diagnosis) -> Subject<'a> {
-    let point = values(&screening.space.parameter_names, &d.uncorrected.parameters);
+    let point = values(&screening.space.parameter_names, &d.record.uncorrected.parameters);
     Subject {
         confirming: Confirming {
             name: UNCORRECTED.into(),
@@ -170,7 +174,7 @@ fn uncorrected<'a>(screening: &'a Inputs<'a>, d: &Diagnosis) -> Subject<'a> {
         },
         theta: point,
         extension: Vec::new(),
-        level: d.levels.uncorrected_fit,
+        level: d.record.levels.uncorrected_fit,
         ran: None,
     }
 }
@@ -196,7 +200,7 @@ fn looped_cause<'a>(
         },
         theta: point[..p].to_vec(),
         extension: spec.at(&point[p..]),
-        level: d.levels.cause_fit,
+        level: d.record.levels.cause_fit,
         ran: None,
     })
 }
@@ -271,7 +275,7 @@ fn already_ran(
 /// A screening candidate's model: the simulation at its fitted θ, its term added to the solver's
 /// value (its prediction less the emulator's at the same θ).
 fn candidate_cause<'a>(screening: &'a Inputs<'a>, d: &Diagnosis, cause: &str) -> Option<Subject<'a>> {
-    let c = d.candidates.iter().find(|c| c.name == cause)?;
+    let c = d.explained.candidates.iter().find(|c| c.name == cause)?;
     let point = values(&screening.space.parameter_names, &c.parameters);
     let correction = screening
         .observations
@@ -290,7 +294,7 @@ fn candidate_cause<'a>(screening: &'a Inputs<'a>, d: &Diagnosis, cause: &str) ->
         },
         theta: point,
         extension: Vec::new(),
-        level: d.levels.cause_fit,
+        level: d.record.levels.cause_fit,
         ran: None,
     })
 }

@@ -425,7 +425,7 @@ fn model_curves<'a>(
     loops: &'a [(usize, CurveModel)],
     d: &crate::diagnose::Diagnosis,
 ) -> (DesignCurve<'a>, Option<DesignCurve<'a>>) {
-    let theta: Vec<f64> = d.uncorrected.parameters.values().copied().collect();
+    let theta: Vec<f64> = d.record.uncorrected.parameters.values().copied().collect();
     let uncorrected: DesignCurve<'a> = Box::new(move |values: &[f64]| stage.baseline.curve(values, &theta));
     let extended = d.extended_model().and_then(|e| -> Option<DesignCurve<'a>> {
         let k = study.diagnosis.hypotheses.iter().position(|h| h.name == e.cause)?;

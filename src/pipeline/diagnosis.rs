@@ -193,10 +193,10 @@ fn confirmed(
     read: &Reading,
     reporter: &mut dyn Reporter,
 ) -> Result<Confirmed, Error> {
-    let noise = noise_alone.diagnosis.noise.clone();
+    let noise = noise_alone.diagnosis.record.noise.clone();
     let (confirmations, runs) = super::confirm::run(cx, made, &subjects, (read, &noise, joint), reporter)?;
     let d = crate::diagnose::confirm::settle(noise_alone.diagnosis, counted.diagnosis, confirmations);
-    let kept = d.emulator.as_ref().and_then(|e| e.confirmed.as_deref());
+    let kept = d.checked.emulator.as_ref().and_then(|e| e.confirmed.as_deref());
     let residuals = match kept {
         Some("counted") => counted.residuals,
         _ => noise_alone.residuals,
@@ -391,12 +391,12 @@ impl AfterLoop<'_> {
 fn provisional(chosen: &[usize], d: &Diagnosis, own: &[Diagnosis]) -> sequence::Provisional {
     sequence::Provisional {
         decided: sequence::Decided {
-            verdict: d.verdict,
-            cause: d.cause.clone(),
-            partial: d.partial.as_ref().map(|p| p.name.clone()),
+            verdict: d.finding.verdict,
+            cause: d.finding.cause.clone(),
+            partial: d.finding.partial.as_ref().map(|p| p.name.clone()),
         },
         points: fitted_points(chosen, own),
-        settled: d.after_loop.as_ref().is_some_and(|a| a.settled),
+        settled: d.checked.after_loop.as_ref().is_some_and(|a| a.settled),
     }
 }
 
@@ -409,7 +409,7 @@ fn fitted_points(chosen: &[usize], own: &[Diagnosis]) -> Vec<(usize, sequence::F
             (
                 k,
                 sequence::Fitted {
-                    values: o.uncorrected.parameters.clone(),
+                    values: o.record.uncorrected.parameters.clone(),
                 },
             )
         })

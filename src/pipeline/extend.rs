@@ -36,9 +36,9 @@ use crate::study::{HypothesisKind, SolverSimulation, Study};
 /// fit the extension's parameters.
 pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
     use crate::diagnose::verdict::Verdict;
-    let names: Vec<&String> = match diagnosis.verdict {
-        Verdict::CauseNamed => diagnosis.cause.iter().collect(),
-        Verdict::PartlyExplained | Verdict::CannotTellApart => diagnosis.leading.iter().collect(),
+    let names: Vec<&String> = match diagnosis.finding.verdict {
+        Verdict::CauseNamed => diagnosis.finding.cause.iter().collect(),
+        Verdict::PartlyExplained | Verdict::CannotTellApart => diagnosis.finding.leading.iter().collect(),
         Verdict::NoModelError | Verdict::Unexplained | Verdict::TooFewTests | Verdict::EmulatorLimited => Vec::new(),
     };
     let hypotheses = &study.diagnosis.hypotheses;

@@ -178,33 +178,48 @@ impl Reading {
 
     fn of(results: &Results, d: &Diagnosis) -> Reading {
         let units = units(results);
-        let model = match d.verdict {
+        let model = match d.finding.verdict {
             Verdict::CauseNamed => d
+                .explained
                 .extended
                 .as_ref()
-                .filter(|e| d.cause.as_ref() == Some(&e.cause))
+                .filter(|e| d.finding.cause.as_ref() == Some(&e.cause))
                 .map(|e| cause_model(d, e, &units)),
             _ => None,
         }
         .or_else(|| Some(uncorrected_model(d, &units)));
-        let alternatives = match d.verdict {
-            Verdict::CannotTellApart => d.leading.iter().filter_map(|n| named_model(d, n, &units)).collect(),
+        let alternatives = match d.finding.verdict {
+            Verdict::CannotTellApart => d
+                .finding
+                .leading
+                .iter()
+                .filter_map(|n| named_model(d, n, &units))
+                .collect(),
             _ => Vec::new(),
         };
         Reading {
-            verdict: d.verdict,
-            cause: d.cause.clone().or_else(|| d.partial.as_ref().map(|p| p.name.clone())),
-            leading: d.leading.clone(),
+            verdict: d.finding.verdict,
+            cause: d
+                .finding
+                .cause
+                .clone()
+                .or_else(|| d.finding.partial.as_ref().map(|p| p.name.clone())),
+            leading: d.finding.leading.clone(),
             shift: model.as_ref().and_then(|m| shift(results, m)),
             model,
             alternatives,
             open: open(d, &units),
-            absorbed: d.parameter_limits.first().map(|l| (l.parameter.clone(), l.relative)),
+            absorbed: d
+                .explained
+                .parameter_limits
+                .first()
+                .map(|l| (l.parameter.clone(), l.relative)),
             // A named cause needs no confirming test the specimens in hand already give.
             next: d
+                .explained
                 .next_test
                 .clone()
-                .filter(|t| !(d.verdict == Verdict::CauseNamed && t.in_hand())),
+                .filter(|t| !(d.finding.verdict == Verdict::CauseNamed && t.in_hand())),
             evidence: Evidence::of(d),
         }
     }
@@ -234,7 +249,7 @@ fn quantities(
 }
 
 fn uncorrected_model(d: &Diagnosis, units: &IndexMap<String, String>) -> Model {
-    let u = &d.uncorrected;
+    let u = &d.record.uncorrected;
     Model::of(
         "uncorrected",
         &u.parameters,
@@ -250,7 +265,7 @@ fn uncorrected_model(d: &Diagnosis, units: &IndexMap<String, String>) -> Model {
 /// correction term it adds).
 fn cause_model(d: &Diagnosis, e: &Extended, units: &IndexMap<String, String>) -> Model {
     let cause = e.cause.as_str();
-    if let Some(x) = d.extensions.iter().find(|x| x.hypothesis == cause) {
+    if let Some(x) = d.explained.extensions.iter().find(|x| x.hypothesis == cause) {
         let variables: Vec<&String> = x.variables.keys().collect();
         return Model::of(cause, &x.parameters, x.interval95.as_ref(), units, &variables);
     }
@@ -272,15 +287,16 @@ fn cause_model(d: &Diagnosis, e: &Extended, units: &IndexMap<String, String>) ->
 pub(super) fn quoted_models(results: &Results, d: &Diagnosis) -> Vec<(Model, Option<f64>)> {
     let units = units(results);
     let extended = d.extended_model();
-    let before = extended
-        .map(|e| e.validation_error_before)
-        .or(d.uncorrected.validation.as_ref().map(|v| v.error));
+    let before =
+        extended
+            .map(|e| e.validation_error_before)
+            .or(d.record.uncorrected.validation.as_ref().map(|v| v.error));
     let mut out = vec![(uncorrected_model(d, &units), before)];
     if let Some(e) = extended {
         out.push((cause_model(d, e, &units), Some(e.validation_error_after)));
     }
-    if d.verdict == Verdict::CannotTellApart {
-        for name in &d.leading {
+    if d.finding.verdict == Verdict::CannotTellApart {
+        for name in &d.finding.leading {
             if !out.iter().any(|(m, _)| m.model == *name)
                 && let Some(m) = named_model(d, name, &units)
             {
@@ -296,11 +312,11 @@ fn named_model(d: &Diagnosis, name: &str, units: &IndexMap<String, String>) -> O
     if name == "uncorrected" {
         return Some(uncorrected_model(d, units));
     }
-    if let Some(x) = d.extensions.iter().find(|x| x.hypothesis == name) {
+    if let Some(x) = d.explained.extensions.iter().find(|x| x.hypothesis == name) {
         let variables: Vec<&String> = x.variables.keys().collect();
         return Some(Model::of(name, &x.parameters, None, units, &variables));
     }
-    let c = d.candidates.iter().find(|c| c.name == name)?;
+    let c = d.explained.candidates.iter().find(|c| c.name == name)?;
     Some(Model::of(name, &c.parameters, None, units, &[]))
 }
 
@@ -348,7 +364,8 @@ fn open(d: &Diagnosis, units: &IndexMap<String, String>) -> Vec<Open> {
             unit: units.get(name).cloned(),
         })
     };
-    d.not_excluded
+    d.checked
+        .not_excluded
         .iter()
         .filter_map(|n| {
             Some(Open {
@@ -364,36 +381,43 @@ impl Evidence {
     fn of(d: &Diagnosis) -> Evidence {
         // The solver's own runs at the fitted parameters judge a model where they ran.
         let confirmed = |model: &str| {
-            d.confirmation
+            d.checked
+                .confirmation
                 .iter()
                 .find(|c| c.model == model)
                 .and_then(|c| c.lack_of_fit.clone())
         };
-        let cause = d.cause.as_deref().or(d.partial.as_ref().map(|p| p.name.as_str()));
+        let cause = d
+            .finding
+            .cause
+            .as_deref()
+            .or(d.finding.partial.as_ref().map(|p| p.name.as_str()));
         let extended = d.extended_model();
         Evidence {
-            uncorrected: confirmed("uncorrected").or_else(|| d.lack_of_fit.clone()),
+            uncorrected: confirmed("uncorrected").or_else(|| d.record.lack_of_fit.clone()),
             with_cause: cause
                 .and_then(confirmed)
                 .or_else(|| extended.and_then(|e| e.lack_of_fit.clone())),
-            too_few: (d.verdict == Verdict::TooFewTests).then(|| {
-                let h = d.headline.as_str();
+            too_few: (d.finding.verdict == Verdict::TooFewTests).then(|| {
+                let h = d.finding.headline.as_str();
                 h.split_once(": ").map_or(h, |(_, why)| why).to_string()
             }),
             // Cannot tell apart: a rival that survives; partly explained: the rival that explains
             // most of what remains with the leader in the model.
             carried_by: d
+                .checked
                 .features
                 .as_ref()
                 .and_then(|f| Some((f.decided_by.clone()?, f.decided_share?))),
-            share_removed: d.partial.as_ref().and_then(|p| p.share_removed),
+            share_removed: d.finding.partial.as_ref().and_then(|p| p.share_removed),
             rival: d
+                .explained
                 .rivals
                 .iter()
-                .filter(|r| d.verdict != Verdict::CannotTellApart || !r.beaten)
+                .filter(|r| d.finding.verdict != Verdict::CannotTellApart || !r.beaten)
                 .filter_map(|r| Some((r.rival.clone(), r.p_rival_given_leader?)))
                 .min_by(|a, b| a.1.total_cmp(&b.1)),
-            between: d.emulator.as_ref().filter(|e| e.differ).map(|e| {
+            between: d.checked.emulator.as_ref().filter(|e| e.differ).map(|e| {
                 [
                     (e.noise_alone.verdict, e.noise_alone.cause.clone()),
                     (e.counted.verdict, e.counted.cause.clone()),

@@ -657,7 +657,7 @@ impl Page<'_> {
             .r
             .diagnosis
             .iter()
-            .flat_map(|d| d.residuals.iter())
+            .flat_map(|d| d.record.residuals.iter())
             .filter(|r| r.sigma.is_finite() && r.sigma > 0.0 && r.count > 1)
             .map(|r| (r.measured, r.sigma))
             .collect();
@@ -744,7 +744,7 @@ impl Page<'_> {
             ));
         };
         use crate::diagnose::verdict::Verdict;
-        let class = match dg.verdict {
+        let class = match dg.finding.verdict {
             Verdict::NoModelError => "clear",
             Verdict::TooFewTests | Verdict::CannotTellApart => "open",
             _ => "flag",
@@ -762,6 +762,7 @@ impl Page<'_> {
             escape(&a.decided_by)
         );
         for l in dg
+            .finding
             .limits
             .iter()
             .filter(|l| l.starts_with("The calibrated parameters are only as good"))
@@ -779,12 +780,12 @@ impl Page<'_> {
             ));
         };
         let mut s = verdict_block(dg);
-        if let Some(f) = &dg.discovered {
+        if let Some(f) = &dg.checked.discovered {
             s.push_str(&discovered_block(f));
         }
         s.push_str("<div class=grid>");
         s.push_str(&self.residual_plots(dg));
-        if dg.candidates.is_empty() {
+        if dg.explained.candidates.is_empty() {
             s.push_str("</div>");
             s.push_str(&note("no candidate causes were ranked (see the notes below)"));
             s.push_str("<div class=grid>");
@@ -803,11 +804,11 @@ impl Page<'_> {
         }
         s.push_str(&self.stroke(dg));
         s.push_str(&solver_loop::section(dg, self.d));
-        if !dg.candidates.is_empty() {
+        if !dg.explained.candidates.is_empty() {
             s.push_str(&candidate_table(dg));
         }
         s.push_str(&self.next_test(dg));
-        for n in &dg.notes {
+        for n in &dg.record.notes {
             s.push_str(&note(n));
         }
         s
@@ -817,6 +818,7 @@ impl Page<'_> {
     fn residual_plots(&self, dg: &crate::diagnose::Diagnosis) -> String {
         let response = self.response_label();
         let names: Vec<String> = dg
+            .record
             .residuals
             .first()
             .map(|r| r.values.keys().cloned().collect())
@@ -832,7 +834,7 @@ impl Page<'_> {
                 (crate::diagnose::Role::Training, "training", Style::Markers),
                 (crate::diagnose::Role::Validation, "validation", Style::Hollow),
             ] {
-                let rs: Vec<_> = dg.residuals.iter().filter(|r| r.role == role).collect();
+                let rs: Vec<_> = dg.record.residuals.iter().filter(|r| r.role == role).collect();
                 if rs.is_empty() {
                     continue;
                 }
@@ -853,13 +855,14 @@ impl Page<'_> {
                 ..Default::default()
             };
             let trend = dg
+                .record
                 .structure
                 .iter()
                 .find(|t| &t.against == name)
                 .map_or(String::new(), trend_words);
             let caption = format!(
                 "Residuals of the uncorrected model (calibrated by weighted least squares on the training designs); bars: ± σ of the mean measurement ({} noise).{trend}",
-                noise_kind(&dg.noise.kind)
+                noise_kind(&dg.record.noise.kind)
             );
             s.push_str(&figure(
                 &format!("residuals-{}", id_part(name)),
@@ -873,7 +876,7 @@ impl Page<'_> {
     /// The recommended next test, with the design's units.
     fn next_test(&self, dg: &crate::diagnose::Diagnosis) -> String {
         let mut s = String::from("<h3>Recommended next test</h3>");
-        let Some(nt) = &dg.next_test else {
+        let Some(nt) = &dg.explained.next_test else {
             return s + &note("no next test recommended");
         };
         let at: Vec<String> = nt
@@ -898,9 +901,9 @@ impl Page<'_> {
 
     fn candidate_plot(&self, dg: &crate::diagnose::Diagnosis) -> String {
         let mut s = String::new();
-        let mut categories: Vec<String> = dg.candidates.iter().map(|c| c.name.clone()).collect();
-        let mut weights: Vec<Option<f64>> = dg.candidates.iter().map(|c| Some(c.weight)).collect();
-        if let Some(w) = dg.uncorrected.weight {
+        let mut categories: Vec<String> = dg.explained.candidates.iter().map(|c| c.name.clone()).collect();
+        let mut weights: Vec<Option<f64>> = dg.explained.candidates.iter().map(|c| Some(c.weight)).collect();
+        if let Some(w) = dg.record.uncorrected.weight {
             categories.push("uncorrected model".into());
             weights.push(Some(w));
         }
@@ -1181,30 +1184,30 @@ const DIAGNOSIS_ALPHA: f64 = 0.01;
 /// The verdict first, then the action, the evidence one fact per line, and the limits.
 fn verdict_block(dg: &crate::diagnose::Diagnosis) -> String {
     use crate::diagnose::verdict::Verdict;
-    let class = match dg.verdict {
+    let class = match dg.finding.verdict {
         Verdict::NoModelError => "clear",
         Verdict::TooFewTests => "open",
         _ => "flag",
     };
     let mut s = format!(
         "<div id=verdict class=\"verdict {class}\" data-verdict=\"{}\"><p class=headline><strong>{}</strong></p><p class=action>{}</p></div>",
-        serde_json::to_value(dg.verdict)
+        serde_json::to_value(dg.finding.verdict)
             .ok()
             .and_then(|v| v.as_str().map(str::to_string))
             .unwrap_or_default(),
-        escape(&dg.headline),
-        escape(&dg.action)
+        escape(&dg.finding.headline),
+        escape(&dg.finding.action)
     );
-    if !dg.evidence.is_empty() {
+    if !dg.finding.evidence.is_empty() {
         s.push_str("<h3>Evidence</h3><ul id=evidence>");
-        for e in &dg.evidence {
+        for e in &dg.finding.evidence {
             let _ = write!(s, "<li>{}</li>", escape(e));
         }
         s.push_str("</ul>");
     }
-    if !dg.limits.is_empty() {
+    if !dg.finding.limits.is_empty() {
         s.push_str("<h3>Limits</h3><ul id=limits class=note>");
-        for l in &dg.limits {
+        for l in &dg.finding.limits {
             let _ = write!(s, "<li>{}</li>", escape(l));
         }
         s.push_str("</ul>");
@@ -1375,7 +1378,7 @@ fn candidate_table(dg: &crate::diagnose::Diagnosis) -> String {
          <th class=l>explains misfit (p &lt; α/K)</th><th class=l>cannot be told from</th></tr>",
     );
     let opt = |v: Option<f64>| v.map_or("-".to_string(), |v| significant(v, 3));
-    for (i, c) in dg.candidates.iter().enumerate() {
+    for (i, c) in dg.explained.candidates.iter().enumerate() {
         let ci = c.separability.amplitude_ci95.map_or("-".to_string(), |[a, b]| {
             format!("{} to {}", significant(a, 3), significant(b, 3))
         });
@@ -1399,12 +1402,12 @@ fn candidate_table(dg: &crate::diagnose::Diagnosis) -> String {
         );
     }
     s.push_str("</table>");
-    if !dg.rivals.is_empty() {
+    if !dg.explained.rivals.is_empty() {
         s.push_str(
             "<table id=rivals><tr><th class=l>rival of the leader</th><th>p (leader added to rival)</th>\
              <th>p (rival added to leader)</th><th class=l>rejected</th><th class=l>by</th></tr>",
         );
-        for r in &dg.rivals {
+        for r in &dg.explained.rivals {
             let _ = write!(
                 s,
                 "<tr><td class=l>{}</td><td>{}</td><td>{}</td><td class=l>{}</td><td class=l>{}</td></tr>",

@@ -15,13 +15,13 @@ use crate::report::summary::significant;
 
 /// The loop's subsection; empty when no hypothesis was extended with the solver.
 pub(super) fn section(dg: &Diagnosis, data: Option<&ReportData>) -> String {
-    if dg.extensions.is_empty() {
+    if dg.explained.extensions.is_empty() {
         return String::new();
     }
     let mut s = String::from("<h3>Simulation in the loop</h3>");
-    s.push_str(&table(&dg.extensions));
+    s.push_str(&table(&dg.explained.extensions));
     s.push_str("<div class=grid>");
-    for x in &dg.extensions {
+    for x in &dg.explained.extensions {
         let surface = data.and_then(|d| d.extension_surfaces.iter().find(|c| c.hypothesis == x.hypothesis));
         if let Some(surface) = surface {
             s.push_str(&surface_plot(x, surface));
@@ -146,7 +146,7 @@ fn before_after_z(dg: &Diagnosis, x: &SolverExtension) -> String {
     // Magnitudes: the bars grow from 0 (the table of residuals gives the signs).
     let before: Vec<Option<f64>> = designs
         .iter()
-        .map(|d| dg.residuals.iter().find(|r| &r.design == d).map(|r| r.z.abs()))
+        .map(|d| dg.record.residuals.iter().find(|r| &r.design == d).map(|r| r.z.abs()))
         .collect();
     let plot = BarPlot {
         title: format!("Residual / σ before and after extending with {}", x.hypothesis),

@@ -22,11 +22,11 @@ impl Page<'_> {
     /// The features table and, per design, the curves and their residuals; empty without curves.
     pub(super) fn stroke(&self, dg: &crate::diagnose::Diagnosis) -> String {
         let curves = self.d.map(|d| d.residual_curves.as_slice()).unwrap_or_default();
-        if dg.features.is_none() && curves.is_empty() {
+        if dg.checked.features.is_none() && curves.is_empty() {
             return String::new();
         }
         let mut s = String::from("<h3 id=stroke>Where along the stroke the model errs</h3>");
-        if let Some(f) = &dg.features {
+        if let Some(f) = &dg.checked.features {
             s.push_str(&features_table(f));
         }
         if curves.is_empty() {

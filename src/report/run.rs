@@ -81,7 +81,7 @@ fn results(
     // A fixed design has no loop check to reuse: it runs every confirmed model.
     let reused = diagnosis
         .as_ref()
-        .map_or(0, |d| d.confirmation.iter().filter(|c| c.reused).count());
+        .map_or(0, |d| d.checked.confirmation.iter().filter(|c| c.reused).count());
     let results = Results::build(study, simulated.model(), calibration, diagnosis);
     let Simulated::Solver(runs) = simulated else {
         return results;

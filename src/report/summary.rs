@@ -47,7 +47,7 @@ fn diagnosis_models(results: &Results) -> String {
             columns.push((&q.name, q.unit.as_ref()));
         }
     }
-    let read = match &d.features {
+    let read = match &d.checked.features {
         Some(f) => format!("the curve features: {}", f.read.join(", ")),
         None => "the response".to_string(),
     };
@@ -125,14 +125,14 @@ fn model_caution(results: &Results) -> String {
     let Some(d) = &results.diagnosis else {
         return String::new();
     };
-    let moved = d.parameter_limits.first().map_or(String::new(), |l| {
+    let moved = d.explained.parameter_limits.first().map_or(String::new(), |l| {
         format!(
             "; with the misfit absorbed {} moves {:+.1} %",
             l.parameter,
             100.0 * l.relative
         )
     });
-    match d.verdict {
+    match d.finding.verdict {
         Verdict::PartlyExplained | Verdict::Unexplained => format!(
             "caution: the diagnosis finds model error that no listed cause accounts for; these parameters absorb it and \
              are only as good as the model{moved}\n"
@@ -365,22 +365,22 @@ fn write_diagnosis(out: &mut String, results: &Results, verbose: bool) {
         return;
     };
     if verbose {
-        let _ = writeln!(out, "\ndiagnosis: {}", d.summary);
+        let _ = writeln!(out, "\ndiagnosis: {}", d.record.summary);
     } else {
         let _ = writeln!(
             out,
             "\ndiagnosis: {} ({} evidence lines: `lab run --verbose`, or the report)",
-            d.verdict.words(),
-            d.evidence.len() + d.limits.len()
+            d.finding.verdict.words(),
+            d.finding.evidence.len() + d.finding.limits.len()
         );
     }
-    if !d.candidates.is_empty() {
+    if !d.explained.candidates.is_empty() {
         let _ = writeln!(
             out,
             "  {:<24} {:>8} {:>10} {:>10}",
             "candidate", "weight", "p-value", "LOO error"
         );
-        for c in d.candidates.iter().take(5) {
+        for c in d.explained.candidates.iter().take(5) {
             let flag = if c.confounded_with.is_empty() {
                 String::new()
             } else {
@@ -412,7 +412,7 @@ fn write_diagnosis(out: &mut String, results: &Results, verbose: bool) {
             x.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g))
         );
     }
-    if let Some(f) = &d.discovered {
+    if let Some(f) = &d.checked.discovered {
         write_discovered(out, f);
     }
 }
