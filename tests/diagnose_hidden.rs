@@ -474,7 +474,7 @@ fn extended_within(setup: &Setup, d: &Diagnosis, tol: f64) -> bool {
         setup
             .params
             .iter()
-            .all(|p| (x.parameters[p.name] / p.truth - 1.0).abs() <= tol)
+            .all(|p| (x.model.parameters[p.name] / p.truth - 1.0).abs() <= tol)
     })
 }
 
@@ -483,8 +483,8 @@ fn line(family: &str, seed: u64, case: &Case, t: &Truth, d: &Diagnosis) -> Strin
         d.explained
             .candidates
             .iter()
-            .find(|c| c.name == n)
-            .map(|c| c.term.clone())
+            .find(|c| c.shape.name == n)
+            .map(|c| c.shape.term.clone())
             .unwrap_or_default()
     };
     format!(
@@ -503,6 +503,7 @@ fn line(family: &str, seed: u64, case: &Case, t: &Truth, d: &Diagnosis) -> Strin
         d.finding.cause.as_deref().map(term).unwrap_or_default(),
         d.finding.leading,
         d.explained.extended.as_ref().map(|x| x
+            .model
             .parameters
             .values()
             .map(|v| (v * 1000.0).round() / 1000.0)
@@ -661,9 +662,9 @@ fn scale_error_on_a_multiplicative_parameter_is_not_named() {
         .explained
         .candidates
         .iter()
-        .find(|c| Some(&c.name) == case.hidden.as_ref())
+        .find(|c| Some(&c.shape.name) == case.hidden.as_ref())
         .unwrap();
-    assert_eq!(c.confounded_with, vec!["sigma".to_string()]);
+    assert_eq!(c.checks.confounded_with, vec!["sigma".to_string()]);
 }
 
 /// The example: the Timoshenko model as the simulation and a hidden tip rotation at the
@@ -734,7 +735,9 @@ fn not_explained(d: &lab::diagnose::Diagnosis) -> bool {
     let rejected = |l: Option<&lab::diagnose::LackOfFit>| l.is_some_and(|l| l.rejects());
     match d.finding.verdict {
         Verdict::PartlyExplained => {
-            d.finding.cause.is_none() && d.extended_model().is_some_and(|x| rejected(x.lack_of_fit.as_ref()))
+            d.finding.cause.is_none()
+                && d.extended_model()
+                    .is_some_and(|x| rejected(x.check.lack_of_fit.as_ref()))
         }
         Verdict::CannotTellApart => {
             d.finding.cause.is_none()
@@ -743,8 +746,8 @@ fn not_explained(d: &lab::diagnose::Diagnosis) -> bool {
                     d.explained
                         .candidates
                         .iter()
-                        .find(|c| &c.name == n)
-                        .is_some_and(|c| rejected(c.lack_of_fit.as_ref()))
+                        .find(|c| &c.shape.name == n)
+                        .is_some_and(|c| rejected(c.checks.lack_of_fit.as_ref()))
                 })
                 && d.finding.headline.contains("none all of it")
         }
@@ -868,7 +871,8 @@ fn validation_design_at_a_crossing_point_is_flagged() {
             named += 1;
             nameable_named += usize::from(decidable);
             let x = d.explained.extended.as_ref().unwrap();
-            flagged += usize::from(!x.before_within_noise.is_empty() && x.gain_loo.is_some_and(|g| g >= 0.5));
+            flagged +=
+                usize::from(!x.gains.before_within_noise.is_empty() && x.gains.gain_loo.is_some_and(|g| g >= 0.5));
         }
     }
     assert!(of >= 12, "only {of} of {} draws nameable", seed - seed_base());

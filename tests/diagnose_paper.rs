@@ -34,14 +34,22 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
     assert!(d.finding.discrepancy_detected);
     assert_eq!(d.finding.verdict, Verdict::CauseNamed);
     assert_eq!(d.finding.cause.as_deref(), Some("shear deformation"));
-    assert_eq!(d.explained.candidates[0].name, "shear deformation");
+    assert_eq!(d.explained.candidates[0].shape.name, "shear deformation");
     let ext = d.explained.extended.as_ref().expect("an extended model");
-    let e = ext.parameters["E"];
+    let e = ext.model.parameters["E"];
     assert!((e / 68_000.0 - 1.0).abs() < 0.005, "E = {e}");
     // The exact term leaves floating-point residuals: the validation error all but vanishes.
-    assert!(ext.validation_error_before > 0.05, "{}", ext.validation_error_before);
-    assert!(ext.validation_error_after < 1e-6, "{}", ext.validation_error_after);
-    assert!(ext.gain.unwrap() > 0.99);
+    assert!(
+        ext.gains.validation_error_before > 0.05,
+        "{}",
+        ext.gains.validation_error_before
+    );
+    assert!(
+        ext.gains.validation_error_after < 1e-6,
+        "{}",
+        ext.gains.validation_error_after
+    );
+    assert!(ext.gains.gain.unwrap() > 0.99);
     // No replicates: the noise is the measurement's uncertainty the study states (0.3 %), and the
     // output says so.
     assert_eq!(d.record.noise.kind, NoiseKind::Stated);
@@ -55,18 +63,18 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
         .explained
         .candidates
         .iter()
-        .find(|c| c.name == "offset")
+        .find(|c| c.shape.name == "offset")
         .expect("offset ranked");
-    assert_eq!(offset.replaces.as_deref(), Some("constant offset"));
-    assert!(d.explained.candidates.iter().all(|c| c.name != "constant offset"));
+    assert_eq!(offset.shape.replaces.as_deref(), Some("constant offset"));
+    assert!(d.explained.candidates.iter().all(|c| c.shape.name != "constant offset"));
     // The scale error is proportional to ∂y/∂E (y ∝ 1/E): confounded with E, and said so.
     let scale = d
         .explained
         .candidates
         .iter()
-        .find(|c| c.name == "scale error")
+        .find(|c| c.shape.name == "scale error")
         .expect("scale error ranked");
-    assert_eq!(scale.confounded_with, vec!["E".to_string()]);
+    assert_eq!(scale.checks.confounded_with, vec!["E".to_string()]);
     assert!(
         d.record
             .confounded
@@ -97,9 +105,9 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
     );
     // The next test lies inside the design bounds [7, 13].
     let next = d.explained.next_test.as_ref().expect("a next test");
-    let h = next.design["h"];
+    let h = next.choice.design["h"];
     assert!((7.0..=13.0).contains(&h), "h = {h}");
-    assert!(next.between.contains(&"shear deformation".to_string()));
+    assert!(next.choice.between.contains(&"shear deformation".to_string()));
 }
 
 /// Tolerance: the 2 % on θ. facts.md: the quadratic term gives θ = 0.6414 by least squares
@@ -115,19 +123,19 @@ fn simple_machine_names_the_saturation_term() {
     let partial = d.finding.partial.as_ref().expect("a partial explanation");
     assert_eq!(partial.name, "saturation");
     let ext = d.extended_model().unwrap();
-    let theta = ext.parameters["theta"];
+    let theta = ext.model.parameters["theta"];
     assert!((theta / 0.65 - 1.0).abs() < 0.02, "theta = {theta}");
     assert!((theta - 0.6414).abs() < 5e-4, "theta = {theta} (facts.md: 0.6414)");
     // Uncorrected least squares: 0.5626 (facts.md); unweighted without replicates.
     let theta0 = d.record.uncorrected.parameters["theta"];
     assert!((theta0 - 0.5626).abs() < 5e-4, "theta0 = {theta0}");
     // No validation designs: the gain is measured leave-one-design-out.
-    assert_eq!(ext.measured_on, "leave-one-out");
-    assert!(ext.gain.unwrap() > 0.5, "{ext:?}");
+    assert_eq!(ext.gains.measured_on, "leave-one-out");
+    assert!(ext.gains.gain.unwrap() > 0.5, "{ext:?}");
     // Linear in x and the scale error are both ∝ ∂y/∂θ = x: confounded with theta.
     for name in ["linear in x", "scale error"] {
-        let c = d.explained.candidates.iter().find(|c| c.name == name).unwrap();
-        assert_eq!(c.confounded_with, vec!["theta".to_string()], "{name}");
+        let c = d.explained.candidates.iter().find(|c| c.shape.name == name).unwrap();
+        assert_eq!(c.checks.confounded_with, vec!["theta".to_string()], "{name}");
     }
 }
 
@@ -156,7 +164,7 @@ fn output_has_the_contract_keys_and_round_trips() {
     assert_eq!(v["verdict"], "cause_named");
     assert!(v["extended"]["gain_loo"].is_f64());
     let weights: f64 =
-        d.explained.candidates.iter().map(|c| c.weight).sum::<f64>() + d.record.uncorrected.weight.unwrap();
+        d.explained.candidates.iter().map(|c| c.scores.weight).sum::<f64>() + d.record.uncorrected.weight.unwrap();
     assert!((weights - 1.0).abs() < 1e-12, "weights sum to {weights}");
     let back: Diagnosis = serde_json::from_str(&json).unwrap();
     assert_eq!(back, d);
@@ -184,19 +192,19 @@ fn two_tests_are_too_few_to_tell_and_give_a_next_test() {
     assert!(!d.explained.candidates.is_empty());
     for c in &d.explained.candidates {
         assert_eq!(
-            c.predictions.len(),
+            c.checks.predictions.len(),
             3,
             "{}: a prediction at every tested design",
-            c.name
+            c.shape.name
         );
-        assert!(c.p_value.is_none(), "{}: no test without a noise", c.name);
+        assert!(c.fit.p_value.is_none(), "{}: no test without a noise", c.shape.name);
     }
     let next = d.explained.next_test.as_ref().expect("a next test");
-    assert!((7.0..=13.0).contains(&next.design["h"]));
+    assert!((7.0..=13.0).contains(&next.choice.design["h"]));
     assert!(
-        next.specimens.is_none() && next.why.contains("noise is unknown"),
+        next.amount.specimens.is_none() && next.choice.why.contains("noise is unknown"),
         "{}",
-        next.why
+        next.choice.why
     );
     assert_eq!(d.record.residuals.len(), 3);
     verdict_common::assert_verdict_follows_evidence(&serde_json::to_value(&d).unwrap());

@@ -274,17 +274,18 @@ fn programmes_decide_where_single_designs_cannot() {
             .explained
             .next_test
             .as_ref()
-            .filter(|t| t.compared.contains_key("A") && t.compared.contains_key("B"))
+            .filter(|t| t.choice.compared.contains_key("A") && t.choice.compared.contains_key("B"))
         else {
             continue;
         };
         compares += 1;
-        if t.programme.is_empty() {
+        if t.amount.programme.is_empty() {
             continue;
         }
         with_programme += 1;
         let sigma = noise(&obs);
         let programme: Vec<(f64, f64)> = t
+            .amount
             .programme
             .iter()
             .map(|r| (r.design["x"], r.additional as f64))
@@ -296,7 +297,7 @@ fn programmes_decide_where_single_designs_cannot() {
                 "seed {seed}: programme {programme:?} gains λ = {lam} < {target} (truth x^{a}, rival x^{b})"
             );
         }
-        for m in &t.measurements {
+        for m in &t.amount.measurements {
             assert_eq!(m.parameter, "theta");
             for (a, b) in [(-1, -2), (-2, -1)] {
                 let lam = measured(&obs, sigma.as_ref(), a, b, m.relative_uncertainty * m.values[0].abs());

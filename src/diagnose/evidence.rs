@@ -266,16 +266,16 @@ fn collinear_with(cx: &Context, m: &Model) -> Vec<String> {
 pub(crate) fn absorbed_sentences(candidates: &[Candidate]) -> Vec<String> {
     candidates
         .iter()
-        .filter(|c| !c.confounded_with.is_empty())
+        .filter(|c| !c.checks.confounded_with.is_empty())
         .map(|c| {
-            let with = c.confounded_with.join(" and ");
+            let with = c.checks.confounded_with.join(" and ");
             let shift = c
-                .separability
+                .checks.separability
                 .parameter_shift
                 .iter()
-                .filter(|(n, _)| c.confounded_with.contains(n))
+                .filter(|(n, _)| c.checks.confounded_with.contains(n))
                 .map(|(n, v)| {
-                    let own = c.parameters.get(n).copied().unwrap_or(f64::INFINITY).abs();
+                    let own = c.fit.parameters.get(n).copied().unwrap_or(f64::INFINITY).abs();
                     if v.abs() > own {
                         format!("{n} by more than its own value")
                     } else {
@@ -291,7 +291,7 @@ pub(crate) fn absorbed_sentences(candidates: &[Candidate]) -> Vec<String> {
             format!(
                 "'{}' ({}) cannot be told from a change of {with} with these tests: a refit of {with} absorbs it{extent}; \
                  an independent measurement of {with}, or tests where the shapes part, would separate them",
-                c.name, c.term
+                c.shape.name, c.shape.term
             )
         })
         .collect()

@@ -12,7 +12,7 @@
 use indexmap::IndexMap;
 
 use super::ranking::{Entry, Ranked};
-use super::{Context, Evidence, Extended, ExtensionEffect};
+use super::{Context, Evidence, Extended, ExtendedCheck, ExtendedFit, ExtendedGain, ExtensionEffect};
 use crate::base::format::num;
 
 /// The screening's extended model of candidate `k`: θ and its amplitude fitted jointly.
@@ -29,40 +29,46 @@ pub(crate) fn extend(cx: &Context, ranked: &Ranked, k: usize) -> Option<Extended
     let theta = &e.model.fit.theta;
     let gamma = e.model.fit.amplitude();
     Some(Extended {
-        cause: shape.name.clone(),
-        term: shape.term.clone(),
-        amplitude: gamma,
-        amplitude_ci95: e.assessed.separability.amplitude_ci95,
-        parameters: cx.param_map(theta),
-        parameter_se: e.assessed.cov.as_ref().map(|c| cx.standard_errors(c)),
-        parameter_change: names
-            .iter()
-            .enumerate()
-            .map(|(j, n)| (n.clone(), theta[j] / theta0[j] - 1.0))
-            .collect(),
-        validation_error_before: before,
-        validation_error_after: after,
-        gain: (before > 0.0).then(|| 1.0 - after / before),
-        measured_on: measured_on.to_string(),
-        loo_error_before: loo_before,
-        loo_error_after: loo_after,
-        gain_loo: loo_before
-            .zip(loo_after)
-            .filter(|(b, _)| *b > 0.0)
-            .map(|(b, a)| 1.0 - a / b),
-        before_within_noise: within_noise(cx, base),
-        lack_of_fit_chi2: lof.map(|l| l.chi2),
-        lack_of_fit_dof: lof.map(|l| l.dof),
-        lack_of_fit_p: lof.map(|l| l.p_value),
-        lack_of_fit: lof.cloned(),
-        remaining: standardised(cx, e).into_iter().filter(|(_, z)| z.abs() > 2.0).collect(),
-        residual_z: standardised(cx, e),
-        extension: shape.amplitude_meaning(gamma).map(|meaning| ExtensionEffect {
-            variables: shape.extension.iter().flatten().cloned().collect(),
+        model: ExtendedFit {
+            cause: shape.name.clone(),
+            term: shape.term.clone(),
             amplitude: gamma,
-            meaning,
-        }),
-        solver_in_the_loop: false,
+            amplitude_ci95: e.assessed.separability.amplitude_ci95,
+            parameters: cx.param_map(theta),
+            parameter_se: e.assessed.cov.as_ref().map(|c| cx.standard_errors(c)),
+            parameter_change: names
+                .iter()
+                .enumerate()
+                .map(|(j, n)| (n.clone(), theta[j] / theta0[j] - 1.0))
+                .collect(),
+        },
+        gains: ExtendedGain {
+            validation_error_before: before,
+            validation_error_after: after,
+            gain: (before > 0.0).then(|| 1.0 - after / before),
+            measured_on: measured_on.to_string(),
+            loo_error_before: loo_before,
+            loo_error_after: loo_after,
+            gain_loo: loo_before
+                .zip(loo_after)
+                .filter(|(b, _)| *b > 0.0)
+                .map(|(b, a)| 1.0 - a / b),
+            before_within_noise: within_noise(cx, base),
+        },
+        check: ExtendedCheck {
+            lack_of_fit_chi2: lof.map(|l| l.chi2),
+            lack_of_fit_dof: lof.map(|l| l.dof),
+            lack_of_fit_p: lof.map(|l| l.p_value),
+            lack_of_fit: lof.cloned(),
+            remaining: standardised(cx, e).into_iter().filter(|(_, z)| z.abs() > 2.0).collect(),
+            residual_z: standardised(cx, e),
+            extension: shape.amplitude_meaning(gamma).map(|meaning| ExtensionEffect {
+                variables: shape.extension.iter().flatten().cloned().collect(),
+                amplitude: gamma,
+                meaning,
+            }),
+            solver_in_the_loop: false,
+        },
     })
 }
 
@@ -120,38 +126,40 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
     let cx = &looped.cx;
     let base = &looped.ranked.base;
     let mut e = screening;
-    let before = e.parameters.clone();
-    e.parameters = cx.param_map(&base.model.fit.theta);
-    e.parameter_se = base.assessed.cov.as_ref().map(|c| cx.standard_errors(c));
-    e.parameter_change = before
+    let before = e.model.parameters.clone();
+    e.model.parameters = cx.param_map(&base.model.fit.theta);
+    e.model.parameter_se = base.assessed.cov.as_ref().map(|c| cx.standard_errors(c));
+    e.model.parameter_change = before
         .iter()
-        .filter_map(|(n, v0)| Some((n.clone(), e.parameters.get(n)? / v0 - 1.0)))
+        .filter_map(|(n, v0)| Some((n.clone(), e.model.parameters.get(n)? / v0 - 1.0)))
         .collect();
     if let Some(v) = &base.assessed.validation
-        && e.measured_on == "validation"
+        && e.gains.measured_on == "validation"
     {
-        e.validation_error_after = v.error;
-        e.gain = (e.validation_error_before > 0.0).then(|| 1.0 - v.error / e.validation_error_before);
+        e.gains.validation_error_after = v.error;
+        e.gains.gain = (e.gains.validation_error_before > 0.0).then(|| 1.0 - v.error / e.gains.validation_error_before);
     }
-    e.loo_error_after = base.score.as_ref().and_then(|s| s.loo_error);
-    e.gain_loo = e
+    e.gains.loo_error_after = base.score.as_ref().and_then(|s| s.loo_error);
+    e.gains.gain_loo = e
+        .gains
         .loo_error_before
-        .zip(e.loo_error_after)
+        .zip(e.gains.loo_error_after)
         .filter(|(b, _)| *b > 0.0)
         .map(|(b, a)| 1.0 - a / b);
-    if e.measured_on == "leave-one-out"
-        && let Some(a) = e.loo_error_after
+    if e.gains.measured_on == "leave-one-out"
+        && let Some(a) = e.gains.loo_error_after
     {
-        e.validation_error_after = a;
-        e.gain = e.gain_loo;
+        e.gains.validation_error_after = a;
+        e.gains.gain = e.gains.gain_loo;
     }
     let lof = base.assessed.lack_of_fit.as_ref();
-    e.lack_of_fit_chi2 = lof.map(|l| l.chi2);
-    e.lack_of_fit_dof = lof.map(|l| l.dof);
-    e.lack_of_fit_p = lof.map(|l| l.p_value);
-    e.lack_of_fit = lof.cloned();
-    e.residual_z = standardised(cx, base);
-    e.remaining = e
+    e.check.lack_of_fit_chi2 = lof.map(|l| l.chi2);
+    e.check.lack_of_fit_dof = lof.map(|l| l.dof);
+    e.check.lack_of_fit_p = lof.map(|l| l.p_value);
+    e.check.lack_of_fit = lof.cloned();
+    e.check.residual_z = standardised(cx, base);
+    e.check.remaining = e
+        .check
         .residual_z
         .iter()
         .filter(|(_, z)| z.abs() > 2.0)
@@ -165,20 +173,20 @@ pub(crate) fn from_loop(screening: Extended, looped: &Evidence) -> Extended {
         .iter()
         .filter(|n| !before.contains_key(*n))
         .map(|n| {
-            let v = e.parameters[n];
+            let v = e.model.parameters[n];
             match intervals.as_ref().and_then(|p| p.interval95.get(n)) {
                 Some([lo, hi]) => format!("{n} = {} (95 % {} to {})", num(v), num(*lo), num(*hi)),
                 None => format!("{n} = {}", num(v)),
             }
         })
         .collect();
-    if let Some(x) = &mut e.extension {
+    if let Some(x) = &mut e.check.extension {
         x.meaning = format!(
             "calibrated with the solver in the loop: {} (the screening's linearised amplitude was γ = {})",
             variables.join(", "),
             num(x.amplitude)
         );
     }
-    e.solver_in_the_loop = true;
+    e.check.solver_in_the_loop = true;
     e
 }

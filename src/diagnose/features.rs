@@ -244,7 +244,7 @@ impl FeaturesReport {
 /// The whitened output with the largest share of the drop in Σz² from the uncorrected model to the
 /// named cause's extended model.
 fn decided(w: &Whitening, d: &super::Diagnosis) -> Option<(String, f64)> {
-    let after = &d.extended_model()?.residual_z;
+    let after = &d.extended_model()?.check.residual_z;
     let names = w.names();
     let drop: Vec<f64> = names
         .iter()

@@ -201,8 +201,8 @@ impl SolverExtension {
                 .explained
                 .candidates
                 .iter()
-                .find(|c| c.name == hypothesis)
-                .map(|c| c.amplitude),
+                .find(|c| c.shape.name == hypothesis)
+                .map(|c| c.fit.amplitude),
             what_remains: extended.finding.verdict,
             // The extended model's diagnosis calls it "the uncorrected simulation".
             what_remains_headline: extended

@@ -444,12 +444,34 @@ pub struct Record {
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Candidate {
+    /// What the candidate is: its name, term and origin.
+    #[serde(flatten)]
+    pub shape: CandidateShape,
+    /// How it ranks: its information criteria, score and weight.
+    #[serde(flatten)]
+    pub scores: CandidateScores,
+    /// Its fit with the parameters: amplitude, parameters, misfit and amplitude test.
+    #[serde(flatten)]
+    pub fit: CandidateFit,
+    /// What its fit shows beyond the amplitude test.
+    #[serde(flatten)]
+    pub checks: CandidateChecks,
+}
+
+/// What the candidate is: its name, term and origin.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidateShape {
     pub name: String,
     pub term: String,
     pub origin: Origin,
     /// The built-in shape this study hypothesis stands in for, if any.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub replaces: Option<String>,
+}
+
+/// How it ranks: its information criteria, score and weight.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidateScores {
     /// Mean |relative error| of the leave-one-design-out predictions over the training designs
     /// (`null` with too few designs to leave one out).
     pub loo_error: Option<f64>,
@@ -462,6 +484,11 @@ pub struct Candidate {
     /// The ranking key, smaller is better (see [`candidates`]); `null` when the data give none.
     pub score: Option<f64>,
     pub weight: f64,
+}
+
+/// Its fit with the parameters: amplitude, parameters, misfit and amplitude test.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidateFit {
     /// Fitted amplitude γ of the term.
     pub amplitude: f64,
     pub parameters: IndexMap<String, f64>,
@@ -472,6 +499,11 @@ pub struct Candidate {
     pub p_value: Option<f64>,
     /// p < α / K: the data tell this shape from a change of θ and it reduces the misfit.
     pub explains_misfit: bool,
+}
+
+/// What its fit shows beyond the amplitude test.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidateChecks {
     /// The joint fit's covariance figures for γ.
     pub separability: evidence::Separability,
     /// The predictive check at the validation designs (absent without them).
@@ -526,6 +558,20 @@ pub struct Precision {
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Extended {
+    /// The extended model: the cause's term, its amplitude and the parameters.
+    #[serde(flatten)]
+    pub model: ExtendedFit,
+    /// What the extension gains in prediction, on validation and left-out designs.
+    #[serde(flatten)]
+    pub gains: ExtendedGain,
+    /// How the extended model fits the tests, and where it still misses.
+    #[serde(flatten)]
+    pub check: ExtendedCheck,
+}
+
+/// The extended model: the cause's term, its amplitude and the parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExtendedFit {
     pub cause: String,
     pub term: String,
     pub amplitude: f64,
@@ -538,6 +584,11 @@ pub struct Extended {
     pub parameter_se: Option<IndexMap<String, f64>>,
     /// Relative change of each parameter from the uncorrected calibration.
     pub parameter_change: IndexMap<String, f64>,
+}
+
+/// What the extension gains in prediction, on validation and left-out designs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExtendedGain {
     /// Mean |relative error| over the validation designs (leave-one-design-out over the training
     /// designs when there are none), before and after; `gain` = 1 − after / before.
     pub validation_error_before: f64,
@@ -556,6 +607,11 @@ pub struct Extended {
     /// Validation designs where the uncorrected prediction is already within the noise (|z| < 2):
     /// the gain there says nothing.
     pub before_within_noise: Vec<String>,
+}
+
+/// How the extended model fits the tests, and where it still misses.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExtendedCheck {
     /// The extended model's lack of fit against the replicate noise (training residuals and the
     /// validation designs' predictive residuals); absent without replicates.
     pub lack_of_fit_chi2: Option<f64>,
@@ -608,7 +664,7 @@ pub struct Partial {
 
 impl Partial {
     fn new(name: String, extended: Option<Extended>, uncorrected: Option<&LackOfFit>) -> Partial {
-        let remaining = extended.as_ref().and_then(|e| e.lack_of_fit.clone());
+        let remaining = extended.as_ref().and_then(|e| e.check.lack_of_fit.clone());
         let share_removed = uncorrected
             .zip(remaining.as_ref())
             .and_then(|(u, r)| r.share_removed(u));
@@ -616,7 +672,7 @@ impl Partial {
             name,
             share_removed,
             remaining,
-            misses: extended.as_ref().map_or_else(Vec::new, |e| e.remaining.clone()),
+            misses: extended.as_ref().map_or_else(Vec::new, |e| e.check.remaining.clone()),
             extended,
         }
     }
@@ -645,6 +701,17 @@ pub struct ExtensionEffect {
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct NextTest {
+    /// Where to test, why, and what the two explanations predict there.
+    #[serde(flatten)]
+    pub choice: TestChoice,
+    /// How many specimens, with what power, or what else would tell.
+    #[serde(flatten)]
+    pub amount: TestAmount,
+}
+
+/// Where to test, why, and what the two explanations predict there.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TestChoice {
     pub design: IndexMap<String, f64>,
     pub why: String,
     /// What it takes there (specimens, power), in one clause.
@@ -663,6 +730,11 @@ pub struct NextTest {
     /// The tested design at this point, if any, and its specimens.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub already_tested: Option<(String, usize)>,
+}
+
+/// How many specimens, with what power, or what else would tell.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TestAmount {
     /// Specimens needed at the design for power ≥ `power` at α (`null` when no number suffices,
     /// or the noise is unknown).
     pub specimens: Option<usize>,
@@ -694,7 +766,7 @@ pub struct NextTest {
 impl NextTest {
     /// The specimens in hand already decide: the programme is one tested design with none to add.
     pub fn in_hand(&self) -> bool {
-        matches!(self.programme.as_slice(), [one] if one.additional == 0)
+        matches!(self.amount.programme.as_slice(), [one] if one.additional == 0)
     }
 }
 
@@ -1228,18 +1300,29 @@ impl<'a> Evidence<'a> {
                 emulator: None,
                 after_loop: after,
             },
-            record: Record {
-                summary: words.summary,
-                noise: self.noise.clone(),
-                uncorrected: self.ranked.uncorrected(&self.cx),
-                lack_of_fit: self.ranked.base.assessed.lack_of_fit.clone(),
-                residuals,
-                structure,
-                confounded,
-                levels: self.cx.levels().record(),
-                rule: RULE.to_string(),
-                notes,
-            },
+            record: self.record(words.summary, (residuals, structure, confounded), notes),
+        }
+    }
+
+    /// The uncorrected model's record under this evidence, with the residuals' table and the
+    /// conclusion's `summary` and `notes`.
+    fn record(
+        &self,
+        summary: String,
+        (residuals, structure, confounded): (Vec<Residual>, Vec<Trend>, Vec<String>),
+        notes: Vec<String>,
+    ) -> Record {
+        Record {
+            summary,
+            noise: self.noise.clone(),
+            uncorrected: self.ranked.uncorrected(&self.cx),
+            lack_of_fit: self.ranked.base.assessed.lack_of_fit.clone(),
+            residuals,
+            structure,
+            confounded,
+            levels: self.cx.levels().record(),
+            rule: RULE.to_string(),
+            notes,
         }
     }
 

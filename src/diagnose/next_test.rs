@@ -37,7 +37,7 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use super::{Context, Mode, NextTest, NoiseKind, NoiseModel, stats};
+use super::{Context, Mode, NextTest, NoiseKind, NoiseModel, TestAmount, TestChoice, stats};
 use crate::base::format::{num, params};
 
 /// A prediction at an observation point for fitted numbers β.
@@ -973,34 +973,38 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
                   where it was not fitted"
         .to_string();
     Some(NextTest {
-        why: format!(
-            "Test at {} (not tested yet): no candidate cause can be fitted to so few tests, so the most useful \
+        choice: TestChoice {
+            why: format!(
+                "Test at {} (not tested yet): no candidate cause can be fitted to so few tests, so the most useful \
              next test is the design farthest from those tested, where the calibrated simulation predicts {}. In \
              numbers: {advice}.",
-            params(&design),
-            num(y)
-        ),
-        advice,
-        level: cx.alpha(),
-        between: ["uncorrected".into(), "uncorrected".into()],
-        predictions: [y, y],
-        separation: 0.0,
-        compared: [("uncorrected".to_string(), y)].into_iter().collect(),
-        already_tested: None,
-        specimens: None,
-        additional_specimens: None,
-        power: None,
-        expected_power: None,
-        programme: vec![ProgrammeRun {
+                params(&design),
+                num(y)
+            ),
+            advice,
+            level: cx.alpha(),
+            between: ["uncorrected".into(), "uncorrected".into()],
+            predictions: [y, y],
+            separation: 0.0,
+            compared: [("uncorrected".to_string(), y)].into_iter().collect(),
+            already_tested: None,
             design: design.clone(),
-            specimens: 3,
-            tested_as: None,
-            additional: 3,
-        }],
-        outside_range: false,
-        measurements: Vec::new(),
-        limited_by_emulators: false,
-        design,
+        },
+        amount: TestAmount {
+            specimens: None,
+            additional_specimens: None,
+            power: None,
+            expected_power: None,
+            programme: vec![ProgrammeRun {
+                design: design.clone(),
+                specimens: 3,
+                tested_as: None,
+                additional: 3,
+            }],
+            outside_range: false,
+            measurements: Vec::new(),
+            limited_by_emulators: false,
+        },
     })
 }
 
@@ -1028,13 +1032,14 @@ fn widest_gap(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
     let (gap, d, pair) = best?;
     let pick = Pick::new(vec![(d, 3)], pair, 0.0, false);
     let mut t = describe_common(cx, ex, &pick, false, Vec::new(), None);
-    t.separation = gap;
-    t.specimens = None;
-    t.additional_specimens = None;
-    t.advice = "the noise is unknown (no replicate tests): test at least 3 specimens there, so that the scatter is \
+    t.choice.separation = gap;
+    t.amount.specimens = None;
+    t.amount.additional_specimens = None;
+    t.choice.advice =
+        "the noise is unknown (no replicate tests): test at least 3 specimens there, so that the scatter is \
                 measured as well"
-        .to_string();
-    t.why = why(&t, false);
+            .to_string();
+    t.choice.why = why(&t, false);
     Some(t)
 }
 
@@ -1094,23 +1099,27 @@ fn describe_common(
         .collect();
     let single = pick.runs.len() == 1 && pick.decides;
     NextTest {
-        design: cx.inputs.space.design_at(&d),
-        why: String::new(),
-        advice: String::new(),
-        level: cx.alpha(),
-        between: [ea.name.clone(), eb.name.clone()],
-        predictions: [ya, yb],
-        separation: 0.0,
-        compared: ex.iter().map(|e| (e.name.clone(), e.predict(pt))).collect(),
-        specimens: single.then(|| m + already_tested.as_ref().map_or(0, |t| t.1)),
-        additional_specimens: single.then_some(m),
-        already_tested,
-        power,
-        expected_power: pick.expected_power,
-        programme: if pick.decides { programme } else { Vec::new() },
-        outside_range: outside,
-        measurements,
-        limited_by_emulators: pick.limited_by_emulators,
+        choice: TestChoice {
+            design: cx.inputs.space.design_at(&d),
+            why: String::new(),
+            advice: String::new(),
+            level: cx.alpha(),
+            between: [ea.name.clone(), eb.name.clone()],
+            predictions: [ya, yb],
+            separation: 0.0,
+            compared: ex.iter().map(|e| (e.name.clone(), e.predict(pt))).collect(),
+            already_tested: already_tested.clone(),
+        },
+        amount: TestAmount {
+            specimens: single.then(|| m + already_tested.as_ref().map_or(0, |t| t.1)),
+            additional_specimens: single.then_some(m),
+            power,
+            expected_power: pick.expected_power,
+            programme: if pick.decides { programme } else { Vec::new() },
+            outside_range: outside,
+            measurements,
+            limited_by_emulators: pick.limited_by_emulators,
+        },
     }
 }
 
@@ -1128,21 +1137,21 @@ fn describe(
         .decides
         .then(|| stats::normal_cdf(pick.lambda.max(0.0).sqrt() - z_alpha));
     let mut t = describe_common(cx, ex, &pick, outside, measurements, power);
-    let (ya, yb) = (t.predictions[0], t.predictions[1]);
-    t.separation = (ya - yb).abs() / sigma(0.5 * (ya + yb));
-    t.level = level;
-    t.advice = advice(cx, &t, pick.decides);
-    t.why = why(&t, true);
+    let (ya, yb) = (t.choice.predictions[0], t.choice.predictions[1]);
+    t.choice.separation = (ya - yb).abs() / sigma(0.5 * (ya + yb));
+    t.choice.level = level;
+    t.choice.advice = advice(cx, &t, pick.decides);
+    t.choice.why = why(&t, true);
     t
 }
 
 /// What it takes, in one sentence, read from the typed recommendation.
 fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
     let power = 100.0 * cx.inputs.settings.power;
-    let alpha = num(t.level);
+    let alpha = num(t.choice.level);
     // The power over the uncertainty of the fitted parameters: said beside, or as a caveat when
     // no programme could reach the target over it.
-    let (expected, caveat) = match t.expected_power {
+    let (expected, caveat) = match t.amount.expected_power {
         Some(p) if p + 0.005 >= cx.inputs.settings.power => (
             format!(" ({:.0} % over the uncertainty of the fitted parameters)", 100.0 * p),
             String::new(),
@@ -1157,8 +1166,8 @@ fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
         ),
         None => (String::new(), String::new()),
     };
-    let measure = measurement_words(&t.measurements);
-    if !decides && t.limited_by_emulators {
+    let measure = measurement_words(&t.amount.measurements);
+    if !decides && t.amount.limited_by_emulators {
         let mut s = format!(
             "no programme of specimens makes the difference decisive (power {power:.0} % at α = {alpha}): the \
              explanations differ by less than their emulators' own error, measured on solver runs they were not \
@@ -1182,12 +1191,12 @@ fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
         });
         return s;
     }
-    let place = if t.outside_range {
+    let place = if t.amount.outside_range {
         "only designs outside the tested range decide: "
     } else {
         ""
     };
-    let mut s = match (t.programme.as_slice(), &t.already_tested) {
+    let mut s = match (t.amount.programme.as_slice(), &t.choice.already_tested) {
         ([one], Some((name, n))) if one.additional == 0 => format!(
             "{place}the {n} specimen(s) already tested at {name} should tell them apart (power {power:.0} % at α = \
              {alpha}{expected}): the data in hand carry the answer"
@@ -1241,22 +1250,23 @@ fn measurement_words(ms: &[Measurement]) -> Option<String> {
 }
 
 fn why(t: &NextTest, noise_known: bool) -> String {
-    let at = params(&t.design);
+    let at = params(&t.choice.design);
     let preds = t
+        .choice
         .compared
         .iter()
         .map(|(n, y)| format!("'{n}' {}", num(*y)))
         .collect::<Vec<_>>()
         .join(", ");
-    let (ya, yb) = (t.predictions[0], t.predictions[1]);
+    let (ya, yb) = (t.choice.predictions[0], t.choice.predictions[1]);
     let rel = (ya - yb).abs() / (0.5 * (ya.abs() + yb.abs())).max(f64::MIN_POSITIVE);
-    let place = match &t.already_tested {
+    let place = match &t.choice.already_tested {
         Some((name, n)) => format!("{at} (already tested as {name}, {n} specimen(s))"),
         None => format!("{at} (not tested yet)"),
     };
     let chosen = if !noise_known {
         "the widest such gap inside the design bounds"
-    } else if t.programme.len() > 1 {
+    } else if t.amount.programme.len() > 1 {
         "the first design of the cheapest programme that tells them apart"
     } else {
         "the design where the fewest specimens would tell them apart"
@@ -1264,7 +1274,7 @@ fn why(t: &NextTest, noise_known: bool) -> String {
     format!(
         "Test at {place}: there {preds}; the closest two are {} apart, {chosen}. In numbers: {}.",
         crate::base::format::pct(rel),
-        t.advice
+        t.choice.advice
     )
 }
 
@@ -1366,15 +1376,25 @@ mod tests {
             recommend(&cx, &ex, &noise, true, level).unwrap()
         };
         let exact = next(0.0);
-        assert!(!exact.programme.is_empty() && !exact.limited_by_emulators, "{exact:?}");
+        assert!(
+            !exact.amount.programme.is_empty() && !exact.amount.limited_by_emulators,
+            "{exact:?}"
+        );
         // The response is about 2 at x = 8 and 0.3 at x = 16: σ = 0.002 is 0.1 to 0.7 % of it,
         // and a relative simulation error of 5 % (variance 0.0025) is far beyond.
         let rough = next(0.0025);
-        assert!(rough.programme.is_empty() && rough.limited_by_emulators, "{rough:?}");
-        assert!(rough.advice.contains("emulators' own error"), "{}", rough.advice);
+        assert!(
+            rough.amount.programme.is_empty() && rough.amount.limited_by_emulators,
+            "{rough:?}"
+        );
+        assert!(
+            rough.choice.advice.contains("emulators' own error"),
+            "{}",
+            rough.choice.advice
+        );
         // An error far below the noise changes the programme by little.
         let fine = next(1e-12);
-        let total = |t: &NextTest| t.programme.iter().map(|r| r.additional).sum::<usize>() as f64;
+        let total = |t: &NextTest| t.amount.programme.iter().map(|r| r.additional).sum::<usize>() as f64;
         assert!(
             (total(&fine) - total(&exact)).abs() <= 0.05 * total(&exact) + 1.0,
             "{fine:?}"

@@ -47,11 +47,11 @@ pub fn not_excluded(
     let k = candidates.len();
     candidates
         .iter()
-        .filter(|c| c.origin == Origin::Study)
+        .filter(|c| c.shape.origin == Origin::Study)
         .filter_map(|c| {
             let declared = shapes
                 .iter()
-                .find(|s| s.name == c.name)
+                .find(|s| s.name == c.shape.name)
                 .map_or(&[][..], |s| &s.ranges[..]);
             one(c, declared, nu, (levels.alpha, levels.amplitude(k)), power)
         })
@@ -65,13 +65,17 @@ fn one(
     (alpha, alpha_k): (f64, f64),
     power: f64,
 ) -> Option<NotExcluded> {
-    let se = c.separability.amplitude_se.filter(|s| s.is_finite() && *s > 0.0)?;
+    let se = c
+        .checks
+        .separability
+        .amplitude_se
+        .filter(|s| s.is_finite() && *s > 0.0)?;
     let nu = nu.max(1) as f64;
     let half = stats::t_quantile(1.0 - alpha / 2.0, nu) * se;
-    let mut range = [c.amplitude - half, c.amplitude + half];
+    let mut range = [c.fit.amplitude - half, c.fit.amplitude + half];
     // An extension's variable cannot leave the range the study declares for it (a hardening
     // modulus below 0): the open range is clipped to it, in γ (the variable over its probe value).
-    if let (Some(e), [(name, lo, hi)]) = (c.extension.as_ref().filter(|e| e.len() == 1), declared) {
+    if let (Some(e), [(name, lo, hi)]) = (c.checks.extension.as_ref().filter(|e| e.len() == 1), declared) {
         let probe = e.get(name).copied().filter(|v| *v != 0.0);
         if let Some(v) = probe {
             let (a, b) = ((lo / v).min(hi / v), (lo / v).max(hi / v));
@@ -81,20 +85,22 @@ fn one(
     let detect = (stats::t_quantile(1.0 - alpha_k / 2.0, nu) + stats::t_quantile(power, nu)) * se;
     // The joint fit's slope of each parameter on γ (its shift over γ at the 95 % edge, per unit).
     let edge = c
+        .checks
         .separability
         .amplitude_ci95
         .map(|[lo, hi]| if lo.abs() > hi.abs() { lo } else { hi });
     let parameters = c
+        .fit
         .parameters
         .iter()
         .map(|(n, v)| {
-            let shift = c.separability.parameter_shift.get(n).copied().unwrap_or(0.0);
+            let shift = c.checks.separability.parameter_shift.get(n).copied().unwrap_or(0.0);
             let slope = edge.filter(|e| *e != 0.0).map_or(0.0, |e| shift / e);
-            let ends = range.map(|g| v + slope * (g - c.amplitude));
+            let ends = range.map(|g| v + slope * (g - c.fit.amplitude));
             (n.clone(), [ends[0].min(ends[1]), ends[0].max(ends[1])])
         })
         .collect();
-    let (names, scale) = match c.extension.as_ref().filter(|e| e.len() == 1) {
+    let (names, scale) = match c.checks.extension.as_ref().filter(|e| e.len() == 1) {
         Some(e) => {
             let (n, v) = e.iter().next().expect("one");
             (n.clone(), *v)
@@ -103,7 +109,7 @@ fn one(
     };
     let ends = range.map(|g| g * scale);
     Some(NotExcluded {
-        hypothesis: c.name.clone(),
+        hypothesis: c.shape.name.clone(),
         amplitude: [(names.clone(), [ends[0].min(ends[1]), ends[0].max(ends[1])])]
             .into_iter()
             .collect(),

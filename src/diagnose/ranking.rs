@@ -19,7 +19,9 @@ use serde::{Deserialize, Serialize};
 
 use super::candidates::{self, Model, Score};
 use super::evidence::Assessed;
-use super::{Candidate, Context, Mode, Precision, Uncorrected};
+use super::{
+    Candidate, CandidateChecks, CandidateFit, CandidateScores, CandidateShape, Context, Mode, Precision, Uncorrected,
+};
 
 /// The leader against one rival.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -209,33 +211,41 @@ fn candidate(cx: &Context, e: &Entry) -> Candidate {
     let shape = e.model.shape.as_ref().expect("a candidate has a shape");
     let s = e.score.as_ref();
     Candidate {
-        name: shape.name.clone(),
-        term: shape.term.clone(),
-        origin: shape.origin,
-        replaces: e.model.replaces.clone(),
-        loo_error: s.and_then(|s| s.loo_error),
-        bic: s.map(|s| s.bic),
-        aicc: s.and_then(|s| s.aicc),
-        loo_deviance: s.and_then(|s| s.loo_deviance),
-        score: s.map(|s| s.score),
-        weight: e.weight,
-        amplitude: e.model.fit.amplitude(),
-        parameters: cx.param_map(&e.model.fit.theta),
-        weighted_rss: e.model.fit.wrss,
-        p_value: e.assessed.p_value,
-        explains_misfit: e.explains,
-        separability: e.assessed.separability.clone(),
-        validation: e.assessed.validation.clone(),
-        lack_of_fit: e.assessed.lack_of_fit.clone(),
-        confounded_with: super::evidence::absorbed_by(cx, &e.model, &e.assessed, e.explains),
-        predictions: cx
-            .inputs
-            .observations
-            .iter()
-            .zip(&cx.data.designs)
-            .map(|(o, point)| (o.name.clone(), e.model.predict(cx, point)))
-            .collect(),
-        extension: shape.extension.as_ref().map(|v| v.iter().cloned().collect()),
+        shape: CandidateShape {
+            name: shape.name.clone(),
+            term: shape.term.clone(),
+            origin: shape.origin,
+            replaces: e.model.replaces.clone(),
+        },
+        scores: CandidateScores {
+            loo_error: s.and_then(|s| s.loo_error),
+            bic: s.map(|s| s.bic),
+            aicc: s.and_then(|s| s.aicc),
+            loo_deviance: s.and_then(|s| s.loo_deviance),
+            score: s.map(|s| s.score),
+            weight: e.weight,
+        },
+        fit: CandidateFit {
+            amplitude: e.model.fit.amplitude(),
+            parameters: cx.param_map(&e.model.fit.theta),
+            weighted_rss: e.model.fit.wrss,
+            p_value: e.assessed.p_value,
+            explains_misfit: e.explains,
+        },
+        checks: CandidateChecks {
+            separability: e.assessed.separability.clone(),
+            validation: e.assessed.validation.clone(),
+            lack_of_fit: e.assessed.lack_of_fit.clone(),
+            confounded_with: super::evidence::absorbed_by(cx, &e.model, &e.assessed, e.explains),
+            predictions: cx
+                .inputs
+                .observations
+                .iter()
+                .zip(&cx.data.designs)
+                .map(|(o, point)| (o.name.clone(), e.model.predict(cx, point)))
+                .collect(),
+            extension: shape.extension.as_ref().map(|v| v.iter().cloned().collect()),
+        },
     }
 }
 

@@ -36,7 +36,7 @@ impl Facts<'_> {
     /// The screening candidate behind an explanation (a loop model's: the one it extends).
     fn candidate(&self, who: Who) -> Option<&Candidate> {
         let name = self.name(who);
-        self.found.candidates.iter().find(|c| c.name == name)
+        self.found.candidates.iter().find(|c| c.shape.name == name)
     }
 }
 
@@ -342,10 +342,10 @@ pub(crate) fn headline(f: &Facts) -> String {
                 .fold(0.0, f64::max);
             format!(
                 "'{}' ({}; weight {:.2}, {}), decisive: it beats every rival (largest p of the encompassing tests {})",
-                k.name,
-                k.term,
-                k.weight,
-                k.p_value.map_or("-".into(), p_text),
+                k.shape.name,
+                k.shape.term,
+                k.scores.weight,
+                k.fit.p_value.map_or("-".into(), p_text),
                 num(worst)
             )
         }
@@ -370,10 +370,10 @@ fn unexplained(f: &Facts) -> String {
         .and_then(|&who| f.candidate(who))
         .and_then(|c| {
             let level = f.cx.levels().amplitude(f.found.candidates.len());
-            c.p_value.map(|p| {
+            c.fit.p_value.map(|p| {
                 format!(
                     "; the nearest, '{}', has {} where p < {} was needed",
-                    c.name,
+                    c.shape.name,
                     p_text(p),
                     num(level)
                 )
@@ -405,7 +405,7 @@ fn cannot_tell_apart(f: &Facts) -> String {
             .iter()
             .take(3)
             .filter_map(|&w| f.candidate(w))
-            .map(|c| format!("{:.2}", c.weight))
+            .map(|c| format!("{:.2}", c.scores.weight))
             .collect(),
     };
     let after = if f.after_loop.is_some() {
@@ -421,8 +421,8 @@ fn cannot_tell_apart(f: &Facts) -> String {
             .found
             .candidates
             .iter()
-            .find(|c| &c.name == n)
-            .and_then(|c| c.lack_of_fit.as_ref())
+            .find(|c| &c.shape.name == n)
+            .and_then(|c| c.checks.lack_of_fit.as_ref())
             .is_some_and(LackOfFit::rejects),
     };
     let all: Vec<String> = open.iter().map(|&w| f.name(w)).collect();
@@ -446,7 +446,7 @@ fn partly_explained(f: &Facts) -> String {
     let k = f.candidate(d.cause.expect("a cause")).expect("a candidate");
     let share = f
         .extended
-        .and_then(|e| e.lack_of_fit.as_ref())
+        .and_then(|e| e.check.lack_of_fit.as_ref())
         .zip(f.ranked.base.assessed.lack_of_fit.as_ref())
         .and_then(|(e, u)| e.share_removed(u))
         .map_or(String::new(), |s| {
@@ -454,7 +454,7 @@ fn partly_explained(f: &Facts) -> String {
         });
     let lof = f
         .extended
-        .and_then(|e| e.lack_of_fit.as_ref())
+        .and_then(|e| e.check.lack_of_fit.as_ref())
         .filter(|l| l.rejects())
         .map(|l| format!("its model still misses the tests beyond the noise ({})", lack_of_fit(l)));
     let bound = f.cx.levels().rival(f.ranked.rivals.len());
@@ -491,8 +491,8 @@ fn partly_explained(f: &Facts) -> String {
     }
     format!(
         "no listed cause accounts for the misfit; '{}' ({}) explains part of it{share}, but {}",
-        k.name,
-        k.term,
+        k.shape.name,
+        k.shape.term,
         why.join("; and ")
     )
 }
@@ -541,19 +541,19 @@ pub(crate) fn action_with_open(f: &Facts, open: &[super::open::NotExcluded]) -> 
         .next_test
         .filter(|t| !(f.decision.verdict == Verdict::CauseNamed && t.in_hand()));
     let next = confirming.map(|t| {
-        let at = params(&t.design);
-        let names: Vec<String> = t.compared.keys().cloned().collect();
+        let at = params(&t.choice.design);
+        let names: Vec<String> = t.choice.compared.keys().cloned().collect();
         if names.len() < 2 {
-            format!("test at {at} — {}", t.advice)
+            format!("test at {at} — {}", t.choice.advice)
         } else {
-            format!("test at {at} to tell {} apart — {}", quoted(&names), t.advice)
+            format!("test at {at} to tell {} apart — {}", quoted(&names), t.choice.advice)
         }
     });
     match (f.decision.verdict, f.extended) {
         (Verdict::CauseNamed, Some(e)) => format!(
             "Action: use the model extended with '{}' ({}); {}.",
-            e.cause,
-            params(&e.parameters),
+            e.model.cause,
+            params(&e.model.parameters),
             next.map_or_else(
                 || "the tests in hand decide, no further test is needed".into(),
                 |n| format!("to confirm it, {n}")
@@ -633,9 +633,9 @@ fn leading_line(f: &Facts) -> Option<String> {
         .map(|c| {
             format!(
                 "'{}' {:.2}{}",
-                c.name,
-                c.weight,
-                c.p_value.map_or(String::new(), |p| format!(" ({})", p_text(p)))
+                c.shape.name,
+                c.scores.weight,
+                c.fit.p_value.map_or(String::new(), |p| format!(" ({})", p_text(p)))
             )
         })
         .collect();
@@ -660,18 +660,18 @@ fn extended_lines(e: &Extended) -> Vec<String> {
     let mut out = Vec::new();
     out.push(format!(
         "Extended model: {}; {} error {} → {}{}.",
-        params(&e.parameters),
-        e.measured_on,
-        pct(e.validation_error_before),
-        pct(e.validation_error_after),
-        match (e.loo_error_before, e.loo_error_after) {
-            (Some(b), Some(a)) if e.measured_on != "leave-one-out" =>
+        params(&e.model.parameters),
+        e.gains.measured_on,
+        pct(e.gains.validation_error_before),
+        pct(e.gains.validation_error_after),
+        match (e.gains.loo_error_before, e.gains.loo_error_after) {
+            (Some(b), Some(a)) if e.gains.measured_on != "leave-one-out" =>
                 format!("; leave-one-design-out {} → {}", pct(b), pct(a)),
             _ => String::new(),
         }
     ));
-    if !e.remaining.is_empty() {
-        let at = misses(&e.remaining);
+    if !e.check.remaining.is_empty() {
+        let at = misses(&e.check.remaining);
         out.push(format!(
             "What remains unexplained: the extended model still misses {at}."
         ));
@@ -759,7 +759,7 @@ fn where_it_errs(f: &Facts) -> Vec<String> {
 
 /// The joint fit's figures for a candidate's amplitude.
 fn separation(c: &Candidate) -> Option<String> {
-    let s = &c.separability;
+    let s = &c.checks.separability;
     let ci = s.amplitude_ci95?;
     let corr = s
         .correlation
@@ -769,8 +769,8 @@ fn separation(c: &Candidate) -> Option<String> {
         .join(", ");
     Some(format!(
         "'{}': γ = {} (95 % interval {} to {}), {corr}, variance inflation {}.",
-        c.name,
-        num(c.amplitude),
+        c.shape.name,
+        num(c.fit.amplitude),
         num(ci[0]),
         num(ci[1]),
         s.variance_inflation.map_or("∞".into(), num)
@@ -788,28 +788,29 @@ fn limits(f: &Facts) -> Vec<String> {
         ));
     }
     if let Some(e) = f.extended {
-        if let Some(x) = &e.extension {
+        if let Some(x) = &e.check.extension {
             out.push(x.meaning.clone());
         }
         // Identifiability of the enlarged parameter set: γ nearly a function of one θ_j.
-        let cause = f.found.candidates.iter().find(|c| c.name == e.cause);
-        for (name, r) in cause.iter().flat_map(|c| c.separability.correlation.iter()) {
+        let cause = f.found.candidates.iter().find(|c| c.shape.name == e.model.cause);
+        for (name, r) in cause.iter().flat_map(|c| c.checks.separability.correlation.iter()) {
             if r.abs() > 0.99 {
-                let se = e.parameter_se.as_ref().and_then(|s| s.get(name)).copied();
+                let se = e.model.parameter_se.as_ref().and_then(|s| s.get(name)).copied();
                 out.push(format!(
                     "In the extended model γ and {name} are correlated at {r:+.3}: the tests fix them mostly together \
                      ({name} = {} ± {} in the extended fit); an independent measurement of {name} would pin both.",
-                    num(e.parameters[name]),
+                    num(e.model.parameters[name]),
                     se.map_or("?".into(), num)
                 ));
             }
         }
-        if !e.before_within_noise.is_empty() && e.measured_on == "validation" {
+        if !e.gains.before_within_noise.is_empty() && e.gains.measured_on == "validation" {
             out.push(format!(
                 "At {} the uncorrected prediction is already within the noise, so the validation gain there says \
                  nothing; the leave-one-design-out gain {}.",
-                e.before_within_noise.join(", "),
-                e.gain_loo
+                e.gains.before_within_noise.join(", "),
+                e.gains
+                    .gain_loo
                     .map_or("is not available".into(), |g| format!("is {:.0} %", 100.0 * g))
             ));
         }

@@ -85,7 +85,7 @@ impl Decision {
 pub(crate) fn name_of(who: Who, candidates: &[Candidate], loop_names: &[String]) -> String {
     match who {
         Who::Uncorrected => "uncorrected".to_string(),
-        Who::Candidate(k) => candidates[k].name.clone(),
+        Who::Candidate(k) => candidates[k].shape.name.clone(),
         Who::Extended(j) => loop_names[j].clone(),
     }
 }

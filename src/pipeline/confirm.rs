@@ -275,13 +275,13 @@ fn already_ran(
 /// A screening candidate's model: the simulation at its fitted θ, its term added to the solver's
 /// value (its prediction less the emulator's at the same θ).
 fn candidate_cause<'a>(screening: &'a Inputs<'a>, d: &Diagnosis, cause: &str) -> Option<Subject<'a>> {
-    let c = d.explained.candidates.iter().find(|c| c.name == cause)?;
-    let point = values(&screening.space.parameter_names, &c.parameters);
+    let c = d.explained.candidates.iter().find(|c| c.shape.name == cause)?;
+    let point = values(&screening.space.parameter_names, &c.fit.parameters);
     let correction = screening
         .observations
         .iter()
         .map(|o| {
-            c.predictions.get(&o.name).copied().unwrap_or(f64::NAN)
+            c.checks.predictions.get(&o.name).copied().unwrap_or(f64::NAN)
                 - screening.model.predict(&screening.point(o), &point)
         })
         .collect();

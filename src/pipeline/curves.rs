@@ -428,14 +428,18 @@ fn model_curves<'a>(
     let theta: Vec<f64> = d.record.uncorrected.parameters.values().copied().collect();
     let uncorrected: DesignCurve<'a> = Box::new(move |values: &[f64]| stage.baseline.curve(values, &theta));
     let extended = d.extended_model().and_then(|e| -> Option<DesignCurve<'a>> {
-        let k = study.diagnosis.hypotheses.iter().position(|h| h.name == e.cause)?;
-        let at: Vec<f64> = e.parameters.values().copied().collect();
+        let k = study
+            .diagnosis
+            .hypotheses
+            .iter()
+            .position(|h| h.name == e.model.cause)?;
+        let at: Vec<f64> = e.model.parameters.values().copied().collect();
         let hypothesis = &study.diagnosis.hypotheses[k];
         match loops.iter().find(|(j, _)| *j == k) {
-            Some((_, model)) if e.solver_in_the_loop => Some(Box::new(move |v: &[f64]| model.curve(v, &at))),
+            Some((_, model)) if e.check.solver_in_the_loop => Some(Box::new(move |v: &[f64]| model.curve(v, &at))),
             _ if matches!(hypothesis.kind, HypothesisKind::Term(_)) => {
                 let shape = crate::diagnose::Shape::from_hypothesis(hypothesis, study);
-                let gamma = e.amplitude;
+                let gamma = e.model.amplitude;
                 Some(Box::new(move |v: &[f64]| {
                     let y = stage.baseline.curve(v, &at)?;
                     Some(DVector::from_iterator(
@@ -484,7 +488,7 @@ pub fn residual_curves(
             let mut r = super::values::ResidualCurves::band(&design.name, validation, stroke.clone(), &specimens);
             r.before = uncorrected(&design.values).map(vec);
             r.after = extended.as_ref().and_then(|f| f(&design.values)).map(vec);
-            r.after_label = r.after.as_ref().and(d.extended_model().map(|e| e.cause.clone()));
+            r.after_label = r.after.as_ref().and(d.extended_model().map(|e| e.model.cause.clone()));
             r
         })
         .collect()

@@ -183,7 +183,7 @@ impl Reading {
                 .explained
                 .extended
                 .as_ref()
-                .filter(|e| d.finding.cause.as_ref() == Some(&e.cause))
+                .filter(|e| d.finding.cause.as_ref() == Some(&e.model.cause))
                 .map(|e| cause_model(d, e, &units)),
             _ => None,
         }
@@ -264,19 +264,24 @@ fn uncorrected_model(d: &Diagnosis, units: &IndexMap<String, String>) -> Model {
 /// variables), else the screening's extended model (its parameters, ±1.96 standard errors, and the
 /// correction term it adds).
 fn cause_model(d: &Diagnosis, e: &Extended, units: &IndexMap<String, String>) -> Model {
-    let cause = e.cause.as_str();
+    let cause = e.model.cause.as_str();
     if let Some(x) = d.explained.extensions.iter().find(|x| x.hypothesis == cause) {
         let variables: Vec<&String> = x.variables.keys().collect();
         return Model::of(cause, &x.parameters, x.interval95.as_ref(), units, &variables);
     }
-    let intervals: Option<IndexMap<String, [f64; 2]>> = e.parameter_se.as_ref().map(|se| {
+    let intervals: Option<IndexMap<String, [f64; 2]>> = e.model.parameter_se.as_ref().map(|se| {
         se.iter()
-            .filter_map(|(n, s)| Some((n.clone(), e.parameters.get(n).map(|v| [v - 1.96 * s, v + 1.96 * s])?)))
+            .filter_map(|(n, s)| {
+                Some((
+                    n.clone(),
+                    e.model.parameters.get(n).map(|v| [v - 1.96 * s, v + 1.96 * s])?,
+                ))
+            })
             .collect()
     });
     Model {
-        correction: Some(format!("{} × ({})", num(e.amplitude), e.term)),
-        ..Model::of(cause, &e.parameters, intervals.as_ref(), units, &[])
+        correction: Some(format!("{} × ({})", num(e.model.amplitude), e.model.term)),
+        ..Model::of(cause, &e.model.parameters, intervals.as_ref(), units, &[])
     }
 }
 
@@ -289,11 +294,11 @@ pub(super) fn quoted_models(results: &Results, d: &Diagnosis) -> Vec<(Model, Opt
     let extended = d.extended_model();
     let before =
         extended
-            .map(|e| e.validation_error_before)
+            .map(|e| e.gains.validation_error_before)
             .or(d.record.uncorrected.validation.as_ref().map(|v| v.error));
     let mut out = vec![(uncorrected_model(d, &units), before)];
     if let Some(e) = extended {
-        out.push((cause_model(d, e, &units), Some(e.validation_error_after)));
+        out.push((cause_model(d, e, &units), Some(e.gains.validation_error_after)));
     }
     if d.finding.verdict == Verdict::CannotTellApart {
         for name in &d.finding.leading {
@@ -316,8 +321,8 @@ fn named_model(d: &Diagnosis, name: &str, units: &IndexMap<String, String>) -> O
         let variables: Vec<&String> = x.variables.keys().collect();
         return Some(Model::of(name, &x.parameters, None, units, &variables));
     }
-    let c = d.explained.candidates.iter().find(|c| c.name == name)?;
-    Some(Model::of(name, &c.parameters, None, units, &[]))
+    let c = d.explained.candidates.iter().find(|c| c.shape.name == name)?;
+    Some(Model::of(name, &c.fit.parameters, None, units, &[]))
 }
 
 /// The methods' estimates of the study parameter whose estimate the model moves most.
@@ -397,7 +402,7 @@ impl Evidence {
             uncorrected: confirmed("uncorrected").or_else(|| d.record.lack_of_fit.clone()),
             with_cause: cause
                 .and_then(confirmed)
-                .or_else(|| extended.and_then(|e| e.lack_of_fit.clone())),
+                .or_else(|| extended.and_then(|e| e.check.lack_of_fit.clone())),
             too_few: (d.finding.verdict == Verdict::TooFewTests).then(|| {
                 let h = d.finding.headline.as_str();
                 h.split_once(": ").map_or(h, |(_, why)| why).to_string()
@@ -681,14 +686,19 @@ fn next_words(n: &NextTest) -> String {
         let values = crate::base::format::params(design);
         tested.map_or(values.clone(), |t| format!("{t} ({values})"))
     };
-    let place = if n.programme.is_empty() {
-        let tested = n.already_tested.as_ref().map(|t| &t.0);
-        match n.additional_specimens.or(n.specimens) {
-            Some(k) => format!("test {k} more specimen{} at {}", plural(k), at(&n.design, tested)),
-            None => format!("test at least 3 specimens at {}", at(&n.design, tested)),
+    let place = if n.amount.programme.is_empty() {
+        let tested = n.choice.already_tested.as_ref().map(|t| &t.0);
+        match n.amount.additional_specimens.or(n.amount.specimens) {
+            Some(k) => format!(
+                "test {k} more specimen{} at {}",
+                plural(k),
+                at(&n.choice.design, tested)
+            ),
+            None => format!("test at least 3 specimens at {}", at(&n.choice.design, tested)),
         }
     } else {
         let parts: Vec<String> = n
+            .amount
             .programme
             .iter()
             .filter(|p| p.additional > 0)
@@ -704,8 +714,8 @@ fn next_words(n: &NextTest) -> String {
             .collect();
         format!("test {}", parts.join(" and "))
     };
-    let [a, b] = &n.between;
-    let why = if n.compared.len() < 2 {
+    let [a, b] = &n.choice.between;
+    let why = if n.choice.compared.len() < 2 {
         "where the model has not been checked".to_string()
     } else if b == "uncorrected" {
         format!("to tell whether the model misses '{a}'")
@@ -714,7 +724,7 @@ fn next_words(n: &NextTest) -> String {
     } else {
         format!("to tell '{a}' from '{b}'")
     };
-    let first = if n.limited_by_emulators {
+    let first = if n.amount.limited_by_emulators {
         "run more solver runs first (the explanations differ by less than their emulators' error), then "
     } else {
         ""

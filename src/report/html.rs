@@ -880,6 +880,7 @@ impl Page<'_> {
             return s + &note("no next test recommended");
         };
         let at: Vec<String> = nt
+            .choice
             .design
             .iter()
             .map(|(k, v)| {
@@ -894,15 +895,15 @@ impl Page<'_> {
             s,
             "<p id=next-test><strong>Test at {}.</strong> {}</p>",
             at.join(", "),
-            escape(&nt.why)
+            escape(&nt.choice.why)
         );
         s
     }
 
     fn candidate_plot(&self, dg: &crate::diagnose::Diagnosis) -> String {
         let mut s = String::new();
-        let mut categories: Vec<String> = dg.explained.candidates.iter().map(|c| c.name.clone()).collect();
-        let mut weights: Vec<Option<f64>> = dg.explained.candidates.iter().map(|c| Some(c.weight)).collect();
+        let mut categories: Vec<String> = dg.explained.candidates.iter().map(|c| c.shape.name.clone()).collect();
+        let mut weights: Vec<Option<f64>> = dg.explained.candidates.iter().map(|c| Some(c.scores.weight)).collect();
         if let Some(w) = dg.record.uncorrected.weight {
             categories.push("uncorrected model".into());
             weights.push(Some(w));
@@ -1153,26 +1154,29 @@ fn trend_words(t: &crate::diagnose::Trend) -> String {
 /// Validation error before and after the extension.
 fn before_after(ext: &crate::diagnose::Extended) -> String {
     let plot = BarPlot {
-        title: format!("Validation error before and after adding {}", ext.cause),
-        value_label: format!("mean |relative error| (%), {}", ext.measured_on),
-        categories: vec!["uncorrected".into(), format!("with {}", ext.cause)],
+        title: format!("Validation error before and after adding {}", ext.model.cause),
+        value_label: format!("mean |relative error| (%), {}", ext.gains.measured_on),
+        categories: vec!["uncorrected".into(), format!("with {}", ext.model.cause)],
         groups: vec![(
             String::new(),
             0,
-            vec![Some(ext.validation_error_before), Some(ext.validation_error_after)],
+            vec![
+                Some(ext.gains.validation_error_before),
+                Some(ext.gains.validation_error_after),
+            ],
         )],
         percent: true,
         headings: vec![],
     };
-    let loo = ext.gain_loo.map_or(String::new(), |g| {
+    let loo = ext.gains.gain_loo.map_or(String::new(), |g| {
         format!("; leave-one-design-out gain {:.0} %", 100.0 * g)
     });
     let caption = format!(
         "Validation error of the uncorrected model and of the model extended with {} (term {}), measured on {}; gain {}{loo}.",
-        ext.cause,
-        ext.term,
-        ext.measured_on,
-        pct(ext.gain)
+        ext.model.cause,
+        ext.model.term,
+        ext.gains.measured_on,
+        pct(ext.gains.gain)
     );
     figure("before-after", plot.render(), &caption)
 }
@@ -1346,18 +1350,22 @@ fn closest_table(f: &crate::diagnose::discover::Discovered) -> String {
 
 /// The extended model's standardised residuals at every design: what the cause leaves unexplained.
 fn remaining_block(ext: &crate::diagnose::Extended) -> String {
-    if ext.residual_z.is_empty() {
+    if ext.check.residual_z.is_empty() {
         return String::new();
     }
     let plot = BarPlot {
-        title: format!("What remains after adding {}", ext.cause),
+        title: format!("What remains after adding {}", ext.model.cause),
         value_label: "residual of the extended model / σ".into(),
-        categories: ext.residual_z.keys().cloned().collect(),
-        groups: vec![(String::new(), 0, ext.residual_z.values().map(|z| Some(*z)).collect())],
+        categories: ext.check.residual_z.keys().cloned().collect(),
+        groups: vec![(
+            String::new(),
+            0,
+            ext.check.residual_z.values().map(|z| Some(*z)).collect(),
+        )],
         percent: false,
         headings: vec![],
     };
-    let verdict = match &ext.lack_of_fit {
+    let verdict = match &ext.check.lack_of_fit {
         Some(l) if l.rejects() => format!("beyond the noise: {}", crate::diagnose::text::lack_of_fit(l)),
         Some(l) => format!("within the noise both ways: {}", crate::diagnose::text::lack_of_fit(l)),
         None => "no replicates, so no test against the noise".into(),
@@ -1365,7 +1373,7 @@ fn remaining_block(ext: &crate::diagnose::Extended) -> String {
     let caption = format!(
         "Residuals of the model extended with {} in units of σ (training: of the mean; validation: with the \
          prediction's uncertainty). Beyond ±2 the design is still missed. Lack of fit: {verdict}.",
-        ext.cause
+        ext.model.cause
     );
     figure("remaining", plot.render(), &caption)
 }
@@ -1379,12 +1387,15 @@ fn candidate_table(dg: &crate::diagnose::Diagnosis) -> String {
     );
     let opt = |v: Option<f64>| v.map_or("-".to_string(), |v| significant(v, 3));
     for (i, c) in dg.explained.candidates.iter().enumerate() {
-        let ci = c.separability.amplitude_ci95.map_or("-".to_string(), |[a, b]| {
+        let ci = c.checks.separability.amplitude_ci95.map_or("-".to_string(), |[a, b]| {
             format!("{} to {}", significant(a, 3), significant(b, 3))
         });
-        let vif = match (c.separability.variance_inflation, c.separability.amplitude_se) {
+        let vif = match (
+            c.checks.separability.variance_inflation,
+            c.checks.separability.amplitude_se,
+        ) {
             (Some(v), _) => significant(v, 3),
-            (None, None) if !c.confounded_with.is_empty() => "∞".into(),
+            (None, None) if !c.checks.confounded_with.is_empty() => "∞".into(),
             _ => "-".into(),
         };
         let _ = write!(
@@ -1392,13 +1403,13 @@ fn candidate_table(dg: &crate::diagnose::Diagnosis) -> String {
             "<tr><td>{}</td><td class=l>{}</td><td class=l><code>{}</code></td><td>{}</td><td>{}</td><td>{ci}</td>\
              <td>{}</td><td>{vif}</td><td class=l>{}</td><td class=l>{}</td></tr>",
             i + 1,
-            escape(&c.name),
-            escape(&c.term),
-            significant(c.weight, 3),
-            significant(c.amplitude, 3),
-            opt(c.p_value),
-            if c.explains_misfit { "yes" } else { "no" },
-            escape(&c.confounded_with.join(", "))
+            escape(&c.shape.name),
+            escape(&c.shape.term),
+            significant(c.scores.weight, 3),
+            significant(c.fit.amplitude, 3),
+            opt(c.fit.p_value),
+            if c.fit.explains_misfit { "yes" } else { "no" },
+            escape(&c.checks.confounded_with.join(", "))
         );
     }
     s.push_str("</table>");

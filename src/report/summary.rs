@@ -52,7 +52,7 @@ fn diagnosis_models(results: &Results) -> String {
         None => "the response".to_string(),
     };
     let extended = d.extended_model();
-    let on = extended.map_or("validation", |e| e.measured_on.as_str());
+    let on = extended.map_or("validation", |e| e.gains.measured_on.as_str());
     let mut t = format!("\nthe diagnosis's models (least squares weighted by the tests' noise, on {read})\n");
     let _ = write!(t, "{:<36}", "model");
     for (n, unit) in &columns {
@@ -381,23 +381,27 @@ fn write_diagnosis(out: &mut String, results: &Results, verbose: bool) {
             "candidate", "weight", "p-value", "LOO error"
         );
         for c in d.explained.candidates.iter().take(5) {
-            let flag = if c.confounded_with.is_empty() {
+            let flag = if c.checks.confounded_with.is_empty() {
                 String::new()
             } else {
-                format!("  (cannot be told from a change of {})", c.confounded_with.join(", "))
+                format!(
+                    "  (cannot be told from a change of {})",
+                    c.checks.confounded_with.join(", ")
+                )
             };
             let _ = writeln!(
                 out,
                 "  {:<24} {:>8.3} {:>10} {:>10}{flag}",
-                c.name,
-                c.weight,
-                c.p_value.map_or("-".to_string(), |p| significant(p, 2)),
-                percent(c.loo_error)
+                c.shape.name,
+                c.scores.weight,
+                c.fit.p_value.map_or("-".to_string(), |p| significant(p, 2)),
+                percent(c.scores.loo_error)
             );
         }
     }
     if let Some(x) = d.extended_model() {
         let params: Vec<String> = x
+            .model
             .parameters
             .iter()
             .map(|(n, v)| format!("{n} = {}", significant(*v, 6)))
@@ -405,11 +409,11 @@ fn write_diagnosis(out: &mut String, results: &Results, verbose: bool) {
         let _ = writeln!(
             out,
             "  extended with `{}`: {}; validation error {:.2} % -> {:.2} % (gain {})",
-            x.cause,
+            x.model.cause,
             params.join(", "),
-            100.0 * x.validation_error_before,
-            100.0 * x.validation_error_after,
-            x.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g))
+            100.0 * x.gains.validation_error_before,
+            100.0 * x.gains.validation_error_after,
+            x.gains.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g))
         );
     }
     if let Some(f) = &d.checked.discovered {
