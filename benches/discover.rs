@@ -83,10 +83,10 @@ fn search(c: &mut Criterion) {
             .expect("the search ran");
         eprintln!(
             "{name}: {:?} {:?} ({} models searched)",
-            f.outcome, f.term, f.library.models
+            f.found.outcome, f.found.term, f.search.library.models
         );
         if std::env::var("LAB_BENCH_VERBOSE").is_ok() {
-            eprintln!("{}", f.evidence.join("\n"));
+            eprintln!("{}", f.search.evidence.join("\n"));
         }
         // The evidence (fits, tests, ranking) and the search; the evidence alone.
         group.bench_function(format!("{name}: evidence and search"), |b| {

@@ -511,7 +511,8 @@ fn nu(case: &Case) -> f64 {
 /// The found model's terms (the first term's group: the term, the shapes the same over the
 /// designs, and those the data cannot tell from it).
 fn group(d: &Discovered) -> Vec<String> {
-    d.terms
+    d.named
+        .terms
         .first()
         .map(|t| {
             std::iter::once(t.term.clone())
@@ -530,7 +531,7 @@ const GROUP_MAX: usize = 5;
 /// and the group is small enough to name it ([`GROUP_MAX`]).
 fn recovered(case: &Case, d: &Discovered) -> bool {
     let Some(hidden) = case.hidden_term() else { return false };
-    if d.outcome != Outcome::Found || d.terms.len() != 1 || group(d).len() > GROUP_MAX {
+    if d.found.outcome != Outcome::Found || d.named.terms.len() != 1 || group(d).len() > GROUP_MAX {
         return false;
     }
     let (w, _, _) = weighted(case);
@@ -546,11 +547,12 @@ fn recovered(case: &Case, d: &Discovered) -> bool {
 /// tell from it.
 fn recovered_beside(case: &Case, d: &Discovered) -> bool {
     let Some(hidden) = case.hidden_term() else { return false };
-    if d.outcome != Outcome::Found {
+    if d.found.outcome != Outcome::Found {
         return false;
     }
     let (w, _, _) = weighted(case);
     let groups_small = d
+        .named
         .terms
         .iter()
         .all(|t| 1 + t.same_shape.len() + t.alike.len() <= GROUP_MAX);
@@ -558,6 +560,7 @@ fn recovered_beside(case: &Case, d: &Discovered) -> bool {
         return false;
     }
     let terms: Vec<String> = d
+        .named
         .terms
         .iter()
         .flat_map(|t| std::iter::once(&t.term).chain(&t.same_shape).chain(&t.alike).cloned())
@@ -569,7 +572,10 @@ fn recovered_beside(case: &Case, d: &Discovered) -> bool {
             (h.dot(&v).abs() / (h.norm() * v.norm())) > 1.0 - 1e-9
         })
     };
-    let listed = case.listed.iter().all(|&(name, term, _)| d.base == name || holds(term));
+    let listed = case
+        .listed
+        .iter()
+        .all(|&(name, term, _)| d.test.base == name || holds(term));
     listed && holds(hidden)
 }
 
@@ -587,13 +593,13 @@ fn line(what: &str, seed: u64, case: &Case, extra: &str, d: &Diagnosis) -> Strin
         case.replicates,
         d.finding.verdict,
         d.finding.cause,
-        f.map(|f| f.base.clone()),
-        f.and_then(|f| f.term.clone()),
+        f.map(|f| f.test.base.clone()),
+        f.and_then(|f| f.found.term.clone()),
         f.map(group),
-        f.and_then(|f| f.p_value),
-        f.and_then(|f| f.gain_loo),
-        f.and_then(|f| f.lack_of_fit.as_ref().map(|l| l.p_value)),
-        f.map(|f| f.closest.iter().map(|c| c.term.clone()).collect::<Vec<_>>()),
+        f.and_then(|f| f.test.p_value),
+        f.and_then(|f| f.checks.gain_loo),
+        f.and_then(|f| f.checks.lack_of_fit.as_ref().map(|l| l.p_value)),
+        f.map(|f| f.search.closest.iter().map(|c| c.term.clone()).collect::<Vec<_>>()),
     )
 }
 
@@ -613,7 +619,7 @@ fn no_false_discoveries_on_clean_data() {
             .checked
             .discovered
             .as_ref()
-            .is_some_and(|f| f.outcome == Outcome::Found);
+            .is_some_and(|f| f.found.outcome == Outcome::Found);
         if found {
             eprintln!("{}", line("clean", seed, &case, "false discovery", &d));
         }
@@ -665,7 +671,7 @@ fn shapes_inside_the_library_are_recovered_when_large_enough() {
                 d.checked
                     .discovered
                     .as_ref()
-                    .is_some_and(|f| f.outcome == Outcome::Found),
+                    .is_some_and(|f| f.found.outcome == Outcome::Found),
             );
         }
     }
@@ -699,16 +705,21 @@ fn shapes_outside_the_library_are_not_claimed_falsely() {
         let took = started.elapsed().as_secs_f64();
         eprintln!("{}", line("outside", seed, &case, &format!("{took:.2} s"), &d));
         of += 1;
-        let Some(f) = d.checked.discovered.as_ref().filter(|f| f.outcome == Outcome::Found) else {
+        let Some(f) = d
+            .checked
+            .discovered
+            .as_ref()
+            .filter(|f| f.found.outcome == Outcome::Found)
+        else {
             continue;
         };
         found += 1;
         assert!(
-            f.gain_loo.is_some_and(|g| g > 0.0),
+            f.checks.gain_loo.is_some_and(|g| g > 0.0),
             "seed {seed}: the found term does not improve the leave-one-design-out error"
         );
         assert!(
-            f.lack_of_fit.as_ref().is_none_or(|l| l.fits),
+            f.checks.lack_of_fit.as_ref().is_none_or(|l| l.fits),
             "seed {seed}: found, yet the lack-of-fit test rejects"
         );
     }
@@ -797,15 +808,15 @@ fn a_listed_cause_beside_an_unlisted_effect() {
             } else {
                 "uncorrected"
             };
-            assert_eq!(f.base, from, "seed {seed}: the search's base");
-            match f.outcome {
+            assert_eq!(f.test.base, from, "seed {seed}: the search's base");
+            match f.found.outcome {
                 Outcome::Found => {
                     assert!(
-                        f.gain_loo.is_some_and(|g| g > 0.0),
+                        f.checks.gain_loo.is_some_and(|g| g > 0.0),
                         "seed {seed}: no leave-one-out gain"
                     );
                     assert!(
-                        f.lack_of_fit.as_ref().is_none_or(|l| l.fits),
+                        f.checks.lack_of_fit.as_ref().is_none_or(|l| l.fits),
                         "seed {seed}: found, yet its lack of fit rejects"
                     );
                 }
@@ -825,7 +836,7 @@ fn a_listed_cause_beside_an_unlisted_effect() {
                 d.checked
                     .discovered
                     .as_ref()
-                    .is_some_and(|f| f.outcome == Outcome::Found),
+                    .is_some_and(|f| f.found.outcome == Outcome::Found),
             );
         }
         if pw >= 0.95 {

@@ -171,7 +171,7 @@ fn clean_families_with_few_replicates_claim_no_model_error() {
             if d.checked
                 .discovered
                 .as_ref()
-                .is_some_and(|x| x.outcome == Outcome::Found)
+                .is_some_and(|x| x.found.outcome == Outcome::Found)
             {
                 discovered.push(seed);
             }

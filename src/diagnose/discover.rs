@@ -132,6 +132,26 @@ pub struct LibrarySummary {
 /// `diagnosis.discovered`: the library search and what it found.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Discovered {
+    /// What the search found: its outcome, the term, its coefficient and the parameters with it.
+    #[serde(flatten)]
+    pub found: FoundFit,
+    /// The found term in words: its reading, name, terms and shape.
+    #[serde(flatten)]
+    pub named: FoundName,
+    /// The search's test: against which base, its p-value and the threshold its size pays for.
+    #[serde(flatten)]
+    pub test: SearchTest,
+    /// How the model with the found term predicts and fits.
+    #[serde(flatten)]
+    pub checks: FoundChecks,
+    /// The nearest library terms, the library searched, and the evidence in words.
+    #[serde(flatten)]
+    pub search: SearchRecord,
+}
+
+/// What the search found: its outcome, the term, its coefficient and the parameters with it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FoundFit {
     pub outcome: Outcome,
     /// The found term as a study term (two terms: `a + c*(b)`, c the ratio of their coefficients);
     /// `null` when nothing was found.
@@ -144,6 +164,11 @@ pub struct Discovered {
     /// 1 − after / before of the mean |relative error| on `measured_on` (the validation designs,
     /// else leave-one-design-out), against the base.
     pub gain: Option<f64>,
+}
+
+/// The found term in words: its reading, name, terms and shape.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FoundName {
     /// The physical form the shape matches, in words (absent when none is known).
     pub reading: Option<String>,
     /// The name the hypothesis line gives it (`found 1/h`).
@@ -154,6 +179,11 @@ pub struct Discovered {
     pub shape: Option<String>,
     /// The lines to paste under `diagnosis.hypotheses` to test it as a listed cause.
     pub hypothesis_line: Option<String>,
+}
+
+/// The search's test: against which base, its p-value and the threshold its size pays for.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SearchTest {
     /// What the search started from: `uncorrected`, or the listed cause it extends.
     pub base: String,
     /// p of the found model's F test against the base.
@@ -162,6 +192,11 @@ pub struct Discovered {
     pub threshold: f64,
     /// The correction for the size of the search, in words.
     pub correction: String,
+}
+
+/// How the model with the found term predicts and fits.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FoundChecks {
     pub validation_error_before: Option<f64>,
     pub validation_error_after: Option<f64>,
     pub measured_on: Option<String>,
@@ -171,6 +206,11 @@ pub struct Discovered {
     /// The found model's lack of fit against the replicate noise (absent without replicates).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub lack_of_fit: Option<LackOfFit>,
+}
+
+/// The nearest library terms, the library searched, and the evidence in words.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SearchRecord {
     /// The models that came closest, best first (when nothing was found: why each falls short).
     pub closest: Vec<Closest>,
     pub library: LibrarySummary,
@@ -432,13 +472,13 @@ fn search<'a>(b: Base<'a>, spec: &LibrarySpec, notes: &mut Vec<String>) -> Optio
         adds,
     }) = judged.winner
     {
-        discovered.lack_of_fit = assessed.lack_of_fit.clone();
-        discovered.p_value = w.p;
+        discovered.checks.lack_of_fit = assessed.lack_of_fit.clone();
+        discovered.test.p_value = w.p;
         found = Some(finish(&s, &w, model, assessed, &adds, &mut discovered));
         found_terms = w.terms.clone();
     }
-    discovered.closest = closest(&s, &tried, &judged.failed, &found_terms, &size);
-    discovered.evidence = words(&discovered, size.l, size.pairs);
+    discovered.search.closest = closest(&s, &tried, &judged.failed, &found_terms, &size);
+    discovered.search.evidence = words(&discovered, size.l, size.pairs);
     Some(Search {
         discovered,
         found,
@@ -631,31 +671,41 @@ fn judge_shortlist(s: &Searcher, tried: &[Tried], size: &Size, vectors: &[Vec<f6
 fn empty_record(b: &Base, size: &Size, library: LibrarySummary) -> Discovered {
     let e = b.entry;
     Discovered {
-        outcome: Outcome::NothingExplains,
-        term: None,
-        coefficient: None,
-        interval: None,
-        parameters: IndexMap::new(),
-        gain: None,
-        reading: None,
-        name: None,
-        terms: Vec::new(),
-        shape: None,
-        hypothesis_line: None,
-        base: b.name.clone(),
-        p_value: None,
-        threshold: size.threshold,
-        correction: correction_text(size, b.cx.alpha()),
-        validation_error_before: e.assessed.validation.as_ref().map(|v| v.error),
-        validation_error_after: None,
-        measured_on: None,
-        loo_error_before: e.score.as_ref().and_then(|x| x.loo_error),
-        loo_error_after: None,
-        gain_loo: None,
-        lack_of_fit: None,
-        closest: Vec::new(),
-        library,
-        evidence: Vec::new(),
+        found: FoundFit {
+            outcome: Outcome::NothingExplains,
+            term: None,
+            coefficient: None,
+            interval: None,
+            parameters: IndexMap::new(),
+            gain: None,
+        },
+        named: FoundName {
+            reading: None,
+            name: None,
+            terms: Vec::new(),
+            shape: None,
+            hypothesis_line: None,
+        },
+        test: SearchTest {
+            base: b.name.clone(),
+            p_value: None,
+            threshold: size.threshold,
+            correction: correction_text(size, b.cx.alpha()),
+        },
+        checks: FoundChecks {
+            validation_error_before: e.assessed.validation.as_ref().map(|v| v.error),
+            validation_error_after: None,
+            measured_on: None,
+            loo_error_before: e.score.as_ref().and_then(|x| x.loo_error),
+            loo_error_after: None,
+            gain_loo: None,
+            lack_of_fit: None,
+        },
+        search: SearchRecord {
+            closest: Vec::new(),
+            library,
+            evidence: Vec::new(),
+        },
     }
 }
 
@@ -953,7 +1003,7 @@ fn finish(
                 [coefficient - q * se, coefficient + q * se]
             });
             FoundTerm {
-                same_shape: d.library.same_shape.get(&term).cloned().unwrap_or_default(),
+                same_shape: d.search.library.same_shape.get(&term).cloned().unwrap_or_default(),
                 alike: alike[k].iter().map(|&r| s.shapes[r].term.clone()).collect(),
                 term,
                 coefficient,
@@ -972,25 +1022,29 @@ fn finish(
     );
     let val_after = assessed.validation.as_ref().map(|v| v.error);
     let loo_after = w.loo_error(cx);
-    d.outcome = Outcome::Found;
-    d.term = Some(term.clone());
-    d.coefficient = terms.first().map(|t| t.coefficient);
-    d.interval = terms.first().and_then(|t| t.interval);
-    d.parameters = cx.param_map(&fit.theta);
-    d.validation_error_after = val_after;
-    let (before, after, on) = match (d.validation_error_before, val_after) {
+    d.found.outcome = Outcome::Found;
+    d.found.term = Some(term.clone());
+    d.found.coefficient = terms.first().map(|t| t.coefficient);
+    d.found.interval = terms.first().and_then(|t| t.interval);
+    d.found.parameters = cx.param_map(&fit.theta);
+    d.checks.validation_error_after = val_after;
+    let (before, after, on) = match (d.checks.validation_error_before, val_after) {
         (Some(b), Some(a)) => (Some(b), Some(a), "validation"),
-        _ => (d.loo_error_before, Some(loo_after), "leave-one-out"),
+        _ => (d.checks.loo_error_before, Some(loo_after), "leave-one-out"),
     };
-    d.measured_on = Some(on.to_string());
-    d.gain = before.zip(after).filter(|(b, _)| *b > 0.0).map(|(b, a)| 1.0 - a / b);
-    d.loo_error_after = Some(loo_after);
-    d.gain_loo = d.loo_error_before.filter(|b| *b > 0.0).map(|b| 1.0 - loo_after / b);
-    d.reading = terms.iter().find_map(|t| reading_of(s, t));
-    d.shape = Some(shape_words(&terms));
-    d.hypothesis_line = Some(format!("- name: {name}\n  term: \"{term}\""));
-    d.name = Some(name.clone());
-    d.terms = terms;
+    d.checks.measured_on = Some(on.to_string());
+    d.found.gain = before.zip(after).filter(|(b, _)| *b > 0.0).map(|(b, a)| 1.0 - a / b);
+    d.checks.loo_error_after = Some(loo_after);
+    d.checks.gain_loo = d
+        .checks
+        .loo_error_before
+        .filter(|b| *b > 0.0)
+        .map(|b| 1.0 - loo_after / b);
+    d.named.reading = terms.iter().find_map(|t| reading_of(s, t));
+    d.named.shape = Some(shape_words(&terms));
+    d.named.hypothesis_line = Some(format!("- name: {name}\n  term: \"{term}\""));
+    d.named.name = Some(name.clone());
+    d.named.terms = terms;
     let score = candidates::score(cx, &model, assessed.validation.as_ref().map(|v| v.deviance));
     (
         name,
@@ -1143,22 +1197,22 @@ fn reading(cx: &Context, theta: &DVector<f64>, shape: &Shape) -> Option<String> 
 fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
     let searched = format!(
         "{} models ({l} shapes{}) at α/M = {}",
-        d.library.models,
+        d.search.library.models,
         if pairs { " and their pairs" } else { "" },
-        num(d.threshold)
+        num(d.test.threshold)
     );
-    let base = match d.base.as_str() {
+    let base = match d.test.base.as_str() {
         "uncorrected" => "uncorrected".to_string(),
         name => format!("'{name}'"),
     };
     let mut out = Vec::new();
-    match d.outcome {
+    match d.found.outcome {
         Outcome::Found => {
-            let t = &d.terms[0];
+            let t = &d.named.terms[0];
             let ci = t
                 .interval
                 .map_or(String::new(), |[a, b]| format!(" (95 % {} to {})", num(a), num(b)));
-            let fit = d.lack_of_fit.as_ref().map_or(String::new(), |l| {
+            let fit = d.checks.lack_of_fit.as_ref().map_or(String::new(), |l| {
                 format!(
                     ", and it leaves nothing beyond the noise (χ² = {} on {} degrees of freedom, {})",
                     num(l.chi2),
@@ -1166,11 +1220,11 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
                     p_text(l.p_value)
                 )
             });
-            let gains = match (d.validation_error_before, d.validation_error_after) {
+            let gains = match (d.checks.validation_error_before, d.checks.validation_error_after) {
                 (Some(b), Some(a)) => format!("; validation error {} → {}", pct(b), pct(a)),
                 _ => String::new(),
             };
-            let loo = match (d.loo_error_before, d.loo_error_after) {
+            let loo = match (d.checks.loo_error_before, d.checks.loo_error_after) {
                 (Some(b), Some(a)) => format!("; leave-one-design-out {} → {}", pct(b), pct(a)),
                 _ => String::new(),
             };
@@ -1178,16 +1232,16 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
                 "Found by search, not listed: {} added to the {} model, coefficient {}{ci}, with {}; it reduces the \
                  misfit beyond what a search of {searched} allows ({}), no other library shape still reduces it with \
                  it in{fit}{gains}{loo}.",
-                d.shape.as_deref().unwrap_or_default(),
+                d.named.shape.as_deref().unwrap_or_default(),
                 base,
                 num(t.coefficient),
-                crate::base::format::params(&d.parameters),
-                d.p_value.map_or("-".into(), p_text),
+                crate::base::format::params(&d.found.parameters),
+                d.test.p_value.map_or("-".into(), p_text),
             ));
-            if let Some(r) = &d.reading {
+            if let Some(r) = &d.named.reading {
                 out.push(format!("Reading of the found term: {r}."));
             }
-            if let Some(line) = &d.hypothesis_line {
+            if let Some(line) = &d.named.hypothesis_line {
                 out.push(format!(
                     "To test it as a listed cause, add under diagnosis.hypotheses: {}.",
                     line.replace('\n', " ")
@@ -1196,6 +1250,7 @@ fn words(d: &Discovered, l: usize, pairs: bool) -> Vec<String> {
         }
         Outcome::NothingExplains => {
             let closest = d
+                .search
                 .closest
                 .iter()
                 .map(|c| format!("'{}' ({})", c.term, c.why))

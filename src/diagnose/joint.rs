@@ -101,12 +101,34 @@ pub struct Calibrated {
 /// `diagnosis.extensions[]`: one hypothesis extended with the solver in the loop.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SolverExtension {
+    /// What the loop extended: the hypothesis, its ranged and fixed variables, its runs.
+    #[serde(flatten)]
+    pub setup: LoopSetup,
+    /// The parameters and extension variables the loop calibrated, with their precision.
+    #[serde(flatten)]
+    pub fitted: LoopFit,
+    /// The loop model's lack of fit and what it gains in prediction.
+    #[serde(flatten)]
+    pub judged: LoopJudged,
+    /// What the loop model leaves: its residuals, predictions and what remains.
+    #[serde(flatten)]
+    pub left: LoopLeft,
+}
+
+/// What the loop extended: the hypothesis, its ranged and fixed variables, its runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LoopSetup {
     pub hypothesis: String,
     /// The ranged template variables, now parameters of the extended model.
     pub variables: IndexMap<String, VariableRange>,
     /// The extension's template variables held at a value.
     pub fixed: IndexMap<String, f64>,
     pub runs: LoopRuns,
+}
+
+/// The parameters and extension variables the loop calibrated, with their precision.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LoopFit {
     /// Weighted least squares over the training designs (the diagnosis's fit): θ, then the
     /// extension variables.
     pub parameters: IndexMap<String, f64>,
@@ -119,6 +141,11 @@ pub struct SolverExtension {
     pub correlation: Option<IndexMap<String, IndexMap<String, f64>>>,
     /// The study's calibration methods run on the extended model, and its identifiability.
     pub calibration: Calibrated,
+}
+
+/// The loop model's lack of fit and what it gains in prediction.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LoopJudged {
     /// The extended model against the replicate noise (absent without replicates).
     pub lack_of_fit_chi2: Option<f64>,
     pub lack_of_fit_dof: Option<usize>,
@@ -134,6 +161,11 @@ pub struct SolverExtension {
     pub loo_error_before: Option<f64>,
     pub loo_error_after: Option<f64>,
     pub gain_loo: Option<f64>,
+}
+
+/// What the loop model leaves: its residuals, predictions and what remains.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LoopLeft {
     /// Standardised residual at every design (training: of the mean; validation: predictive).
     pub residual_z: IndexMap<String, f64>,
     /// Designs where the extended model still misses by more than 2 σ.
@@ -166,59 +198,67 @@ impl SolverExtension {
         let lof = extended.record.lack_of_fit.as_ref();
         let precision = after.precision.as_ref();
         SolverExtension {
-            hypothesis: hypothesis.to_string(),
-            variables,
-            fixed,
-            runs,
-            parameters: after.parameters.clone(),
-            parameter_se: precision.map(|p| p.se.clone()),
-            interval95: precision.map(|p| p.interval95.clone()),
-            correlation: precision.map(|p| p.correlation.clone()),
-            calibration,
-            lack_of_fit_chi2: lof.map(|l| l.chi2),
-            lack_of_fit_dof: lof.map(|l| l.dof),
-            lack_of_fit_p: lof.map(|l| l.p_value),
-            lack_of_fit: lof.cloned(),
-            validation_error_before: val(before),
-            validation_error_after: val(after),
-            gain: gain(val(before), val(after)),
-            loo_error_before: before.loo_error,
-            loo_error_after: after.loo_error,
-            gain_loo: gain(before.loo_error, after.loo_error),
-            remaining: residual_z
-                .iter()
-                .filter(|(_, z)| z.abs() > 2.0)
-                .map(|(n, z)| (n.clone(), *z))
-                .collect(),
-            residual_z,
-            predictions: extended
-                .record
-                .residuals
-                .iter()
-                .map(|r| (r.design.clone(), r.predicted))
-                .collect(),
-            screening_amplitude: baseline
-                .explained
-                .candidates
-                .iter()
-                .find(|c| c.shape.name == hypothesis)
-                .map(|c| c.fit.amplitude),
-            what_remains: extended.finding.verdict,
-            // The extended model's diagnosis calls it "the uncorrected simulation".
-            what_remains_headline: extended
-                .finding
-                .headline
-                .replace("the uncorrected simulation", "the extended model"),
+            setup: LoopSetup {
+                hypothesis: hypothesis.to_string(),
+                variables,
+                fixed,
+                runs,
+            },
+            fitted: LoopFit {
+                parameters: after.parameters.clone(),
+                parameter_se: precision.map(|p| p.se.clone()),
+                interval95: precision.map(|p| p.interval95.clone()),
+                correlation: precision.map(|p| p.correlation.clone()),
+                calibration,
+            },
+            judged: LoopJudged {
+                lack_of_fit_chi2: lof.map(|l| l.chi2),
+                lack_of_fit_dof: lof.map(|l| l.dof),
+                lack_of_fit_p: lof.map(|l| l.p_value),
+                lack_of_fit: lof.cloned(),
+                validation_error_before: val(before),
+                validation_error_after: val(after),
+                gain: gain(val(before), val(after)),
+                loo_error_before: before.loo_error,
+                loo_error_after: after.loo_error,
+                gain_loo: gain(before.loo_error, after.loo_error),
+            },
+            left: LoopLeft {
+                remaining: residual_z
+                    .iter()
+                    .filter(|(_, z)| z.abs() > 2.0)
+                    .map(|(n, z)| (n.clone(), *z))
+                    .collect(),
+                residual_z,
+                predictions: extended
+                    .record
+                    .residuals
+                    .iter()
+                    .map(|r| (r.design.clone(), r.predicted))
+                    .collect(),
+                screening_amplitude: baseline
+                    .explained
+                    .candidates
+                    .iter()
+                    .find(|c| c.shape.name == hypothesis)
+                    .map(|c| c.fit.amplitude),
+                what_remains: extended.finding.verdict, // The extended model's diagnosis calls it "the uncorrected simulation".
+                what_remains_headline: extended
+                    .finding
+                    .headline
+                    .replace("the uncorrected simulation", "the extended model"),
+            },
         }
     }
 
     /// The ranged variables with their 95 % intervals, in words: `etan = 201.3 (95 % 170.2 to 232.4)`.
     pub fn variables_text(&self) -> String {
-        self.variables
+        self.setup
+            .variables
             .keys()
             .map(|name| {
-                let v = self.parameters.get(name).copied().unwrap_or(f64::NAN);
-                match self.interval95.as_ref().and_then(|i| i.get(name)) {
+                let v = self.fitted.parameters.get(name).copied().unwrap_or(f64::NAN);
+                match self.fitted.interval95.as_ref().and_then(|i| i.get(name)) {
                     Some([lo, hi]) => format!("{name} = {} (95 % {} to {})", num(v), num(*lo), num(*hi)),
                     None => format!("{name} = {}", num(v)),
                 }
@@ -230,36 +270,37 @@ impl SolverExtension {
     /// One line of evidence: the calibrated extension, its fit and its gain.
     pub fn evidence_line(&self) -> String {
         let params: Vec<String> = self
+            .fitted
             .parameters
             .iter()
-            .filter(|(n, _)| !self.variables.contains_key(*n))
+            .filter(|(n, _)| !self.setup.variables.contains_key(*n))
             .map(|(n, v)| format!("{n} = {}", num(*v)))
             .collect();
         let mut line = format!(
             "'{}' calibrated with the solver in the loop ({} runs over {}): {}, {}",
-            self.hypothesis,
-            self.runs.succeeded,
-            self.parameters.keys().cloned().collect::<Vec<_>>().join(" × "),
+            self.setup.hypothesis,
+            self.setup.runs.succeeded,
+            self.fitted.parameters.keys().cloned().collect::<Vec<_>>().join(" × "),
             self.variables_text(),
             params.join(", ")
         );
-        if let Some(l) = &self.lack_of_fit {
+        if let Some(l) = &self.judged.lack_of_fit {
             line.push_str(&format!(
                 "; lack of fit against the replicate noise {}",
                 crate::diagnose::text::lack_of_fit(l)
             ));
         }
-        if let (Some(b), Some(a)) = (self.validation_error_before, self.validation_error_after) {
+        if let (Some(b), Some(a)) = (self.judged.validation_error_before, self.judged.validation_error_after) {
             line.push_str(&format!("; validation error {:.2} % → {:.2} %", 100.0 * b, 100.0 * a));
         }
-        if let (Some(b), Some(a)) = (self.loo_error_before, self.loo_error_after) {
+        if let (Some(b), Some(a)) = (self.judged.loo_error_before, self.judged.loo_error_after) {
             line.push_str(&format!(
                 ", leave-one-design-out {:.2} % → {:.2} %",
                 100.0 * b,
                 100.0 * a
             ));
         }
-        if !self.runs.checked {
+        if !self.setup.runs.checked {
             line.push_str(
                 "; no solver run checked its emulators at this fitted point (the loop stopped first), so these \
                  values may be the emulators' rather than the solver's",

@@ -1260,7 +1260,9 @@ impl<'a> Evidence<'a> {
             &parameter_limits,
         );
         facts.after_loop = after.as_ref();
-        let discovered = search.as_ref().map_or(&[][..], |s| s.discovered.evidence.as_slice());
+        let discovered = search
+            .as_ref()
+            .map_or(&[][..], |s| s.discovered.search.evidence.as_slice());
         let (words, not_excluded) = self.words(&facts, &candidates, discovered);
         let name = |who| verdict::name_of(who, &candidates, loop_names);
         // `cause` is the decided cause only; a partial explanation goes to `partial`.

@@ -115,7 +115,7 @@ pub(super) fn diagnose_with_solver(
     let extended: Vec<(usize, Vec<f64>)> = models
         .iter()
         .zip(&records)
-        .map(|(m, x)| (m.hypothesis, x.parameters.values().copied().collect()))
+        .map(|(m, x)| (m.hypothesis, x.fitted.parameters.values().copied().collect()))
         .collect();
     let decided = [(counted, true), (noise_alone, false)].map(|(d, c)| {
         Finished::of(

@@ -265,9 +265,15 @@ fn uncorrected_model(d: &Diagnosis, units: &IndexMap<String, String>) -> Model {
 /// correction term it adds).
 fn cause_model(d: &Diagnosis, e: &Extended, units: &IndexMap<String, String>) -> Model {
     let cause = e.model.cause.as_str();
-    if let Some(x) = d.explained.extensions.iter().find(|x| x.hypothesis == cause) {
-        let variables: Vec<&String> = x.variables.keys().collect();
-        return Model::of(cause, &x.parameters, x.interval95.as_ref(), units, &variables);
+    if let Some(x) = d.explained.extensions.iter().find(|x| x.setup.hypothesis == cause) {
+        let variables: Vec<&String> = x.setup.variables.keys().collect();
+        return Model::of(
+            cause,
+            &x.fitted.parameters,
+            x.fitted.interval95.as_ref(),
+            units,
+            &variables,
+        );
     }
     let intervals: Option<IndexMap<String, [f64; 2]>> = e.model.parameter_se.as_ref().map(|se| {
         se.iter()
@@ -317,9 +323,9 @@ fn named_model(d: &Diagnosis, name: &str, units: &IndexMap<String, String>) -> O
     if name == "uncorrected" {
         return Some(uncorrected_model(d, units));
     }
-    if let Some(x) = d.explained.extensions.iter().find(|x| x.hypothesis == name) {
-        let variables: Vec<&String> = x.variables.keys().collect();
-        return Some(Model::of(name, &x.parameters, None, units, &variables));
+    if let Some(x) = d.explained.extensions.iter().find(|x| x.setup.hypothesis == name) {
+        let variables: Vec<&String> = x.setup.variables.keys().collect();
+        return Some(Model::of(name, &x.fitted.parameters, None, units, &variables));
     }
     let c = d.explained.candidates.iter().find(|c| c.shape.name == name)?;
     Some(Model::of(name, &c.fit.parameters, None, units, &[]))

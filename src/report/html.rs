@@ -1224,15 +1224,15 @@ fn verdict_block(dg: &crate::diagnose::Diagnosis) -> String {
 fn discovered_block(f: &crate::diagnose::discover::Discovered) -> String {
     use crate::diagnose::discover::Outcome;
     let mut s = String::from("<div id=discovered class=\"verdict found\"><h3>Found by search, not listed</h3>");
-    match (f.outcome, &f.term) {
+    match (f.found.outcome, &f.found.term) {
         (Outcome::Found, Some(term)) => s.push_str(&found_table(f, term)),
         _ => {
             let _ = write!(
                 s,
                 "<p class=headline><strong>No shape in the library explains the misfit</strong> ({} models searched, \
                  α/M = {}).</p>",
-                f.library.models,
-                significant(f.threshold, 2)
+                f.search.library.models,
+                significant(f.test.threshold, 2)
             );
         }
     }
@@ -1240,13 +1240,13 @@ fn discovered_block(f: &crate::diagnose::discover::Discovered) -> String {
     let _ = write!(
         s,
         "<p class=note>Library: {} distinct shapes (exponents {}); {}.</p>",
-        f.library.size,
-        escape(&f.library.exponents.join(", ")),
-        escape(&f.correction)
+        f.search.library.size,
+        escape(&f.search.library.exponents.join(", ")),
+        escape(&f.test.correction)
     );
-    if !f.library.dropped.is_empty() {
+    if !f.search.library.dropped.is_empty() {
         s.push_str("<ul id=discovered-dropped class=note>");
-        for d in &f.library.dropped {
+        for d in &f.search.library.dropped {
             let _ = write!(
                 s,
                 "<li><code>{}</code> left out: {}</li>",
@@ -1265,58 +1265,59 @@ fn found_table(f: &crate::diagnose::discover::Discovered, term: &str) -> String 
     let mut s = format!(
         "<p class=headline><strong><code>{}</code></strong> added to the {} model</p>",
         escape(term),
-        escape(&f.base)
+        escape(&f.test.base)
     );
     let params: Vec<String> = f
+        .found
         .parameters
         .iter()
         .map(|(n, v)| format!("{} = {}", escape(n), significant(*v, 6)))
         .collect();
-    let interval = f.interval.map_or("-".to_string(), |[a, b]| {
+    let interval = f.found.interval.map_or("-".to_string(), |[a, b]| {
         format!("{} to {}", significant(a, 4), significant(b, 4))
     });
-    let coefficient = f.coefficient.map_or("-".into(), |c| significant(c, 4));
+    let coefficient = f.found.coefficient.map_or("-".into(), |c| significant(c, 4));
     let rows = [
-        ("shape", escape(f.shape.as_deref().unwrap_or("-"))),
+        ("shape", escape(f.named.shape.as_deref().unwrap_or("-"))),
         ("coefficient (95 % interval)", format!("{coefficient} ({interval})")),
         ("parameters with the term", params.join(", ")),
         (
             "validation error before → after (gain)",
             format!(
                 "{} → {} ({})",
-                pct(f.validation_error_before),
-                pct(f.validation_error_after),
-                pct(f.gain)
+                pct(f.checks.validation_error_before),
+                pct(f.checks.validation_error_after),
+                pct(f.found.gain)
             ),
         ),
         (
             "leave-one-design-out error before → after (gain)",
             format!(
                 "{} → {} ({})",
-                pct(f.loo_error_before),
-                pct(f.loo_error_after),
-                pct(f.gain_loo)
+                pct(f.checks.loo_error_before),
+                pct(f.checks.loo_error_after),
+                pct(f.checks.gain_loo)
             ),
         ),
         (
             "test against the search's size",
             format!(
                 "p = {} &lt; α/M = {} ({} models)",
-                f.p_value.map_or("-".into(), |p| significant(p, 2)),
-                significant(f.threshold, 2),
-                f.library.models
+                f.test.p_value.map_or("-".into(), |p| significant(p, 2)),
+                significant(f.test.threshold, 2),
+                f.search.library.models
             ),
         ),
     ];
     s.push_str("<table id=discovered-table>");
     for (k, v) in rows
         .iter()
-        .chain(f.reading.as_ref().map(|r| ("reading", escape(r))).iter())
+        .chain(f.named.reading.as_ref().map(|r| ("reading", escape(r))).iter())
     {
         let _ = write!(s, "<tr><th class=l>{k}</th><td class=l>{v}</td></tr>");
     }
     s.push_str("</table>");
-    if let Some(line) = &f.hypothesis_line {
+    if let Some(line) = &f.named.hypothesis_line {
         let _ = write!(
             s,
             "<p>To test it as a listed cause, add under <code>diagnosis.hypotheses</code>:</p><pre id=hypothesis-line>{}</pre>",
@@ -1328,13 +1329,13 @@ fn found_table(f: &crate::diagnose::discover::Discovered, term: &str) -> String 
 
 /// The models that came closest, and why each falls short.
 fn closest_table(f: &crate::diagnose::discover::Discovered) -> String {
-    if f.closest.is_empty() {
+    if f.search.closest.is_empty() {
         return String::new();
     }
     let mut s = String::from(
         "<table id=discovered-closest><tr><th class=l>closest</th><th>p</th><th>leave-one-out error</th><th class=l>why not</th></tr>",
     );
-    for c in &f.closest {
+    for c in &f.search.closest {
         let _ = write!(
             s,
             "<tr><td class=l><code>{}</code></td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",

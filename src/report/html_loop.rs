@@ -22,7 +22,7 @@ pub(super) fn section(dg: &Diagnosis, data: Option<&ReportData>) -> String {
     s.push_str(&table(&dg.explained.extensions));
     s.push_str("<div class=grid>");
     for x in &dg.explained.extensions {
-        let surface = data.and_then(|d| d.extension_surfaces.iter().find(|c| c.hypothesis == x.hypothesis));
+        let surface = data.and_then(|d| d.extension_surfaces.iter().find(|c| c.hypothesis == x.setup.hypothesis));
         if let Some(surface) = surface {
             s.push_str(&surface_plot(x, surface));
         }
@@ -41,9 +41,10 @@ fn table(extensions: &[SolverExtension]) -> String {
     );
     for x in extensions {
         let params: Vec<String> = x
+            .fitted
             .parameters
             .iter()
-            .map(|(n, v)| match x.interval95.as_ref().and_then(|i| i.get(n)) {
+            .map(|(n, v)| match x.fitted.interval95.as_ref().and_then(|i| i.get(n)) {
                 Some([lo, hi]) => format!(
                     "{n} = {} ({} to {})",
                     significant(*v, 5),
@@ -57,14 +58,14 @@ fn table(extensions: &[SolverExtension]) -> String {
         let _ = write!(
             s,
             "<tr><td class=l>{}</td><td>{} / {}</td><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
-            escape(&x.hypothesis),
-            x.runs.succeeded,
-            x.runs.planned,
+            escape(&x.setup.hypothesis),
+            x.setup.runs.succeeded,
+            x.setup.runs.planned,
             escape(&params.join("; ")),
-            x.lack_of_fit_p.map_or("–".into(), |p| significant(p, 2)),
-            arrow(x.validation_error_before, x.validation_error_after),
-            arrow(x.loo_error_before, x.loo_error_after),
-            escape(&x.what_remains_headline)
+            x.judged.lack_of_fit_p.map_or("–".into(), |p| significant(p, 2)),
+            arrow(x.judged.validation_error_before, x.judged.validation_error_after),
+            arrow(x.judged.loo_error_before, x.judged.loo_error_after),
+            escape(&x.left.what_remains_headline)
         );
     }
     s.push_str("</table>");
@@ -86,11 +87,11 @@ fn surface_plot(x: &SolverExtension, surface: &ExtensionSurface) -> String {
             s
         })
         .collect();
-    let value = x.parameters.get(&surface.variable).copied();
-    let interval = x.interval95.as_ref().and_then(|i| i.get(&surface.variable));
+    let value = x.fitted.parameters.get(&surface.variable).copied();
+    let interval = x.fitted.interval95.as_ref().and_then(|i| i.get(&surface.variable));
     let unit = surface.unit.as_deref().map_or(String::new(), |u| format!(" [{u}]"));
     let plot = XyPlot {
-        title: format!("The extended model over {} ({})", surface.variable, x.hypothesis),
+        title: format!("The extended model over {} ({})", surface.variable, x.setup.hypothesis),
         x_label: format!("{}{unit}", surface.variable),
         y_label: "predicted / measured".into(),
         series,
@@ -124,16 +125,16 @@ fn surface_plot(x: &SolverExtension, surface: &ExtensionSurface) -> String {
          parameters at their calibrated values), from the surrogates fitted to the {} runs over the joint space. \
          Where a line crosses 1 the model meets that design's tests{}; the vertical line is the calibrated value, \
          the band its 95 % interval.",
-        x.hypothesis,
+        x.setup.hypothesis,
         surface.variable,
-        x.runs.succeeded,
+        x.setup.runs.succeeded,
         noise.map_or(String::new(), |n| format!(
             " (the tests' means are uncertain by up to ±{:.2} % at one σ)",
             100.0 * n
         ))
     );
     figure(
-        &format!("loop-surface-{}", id_part(&x.hypothesis)),
+        &format!("loop-surface-{}", id_part(&x.setup.hypothesis)),
         plot.render(),
         &caption,
     )
@@ -142,22 +143,22 @@ fn surface_plot(x: &SolverExtension, surface: &ExtensionSurface) -> String {
 /// Each design's residual in units of σ, before (the uncorrected simulation) and after (the
 /// extended model): within ±2 is within the noise.
 fn before_after_z(dg: &Diagnosis, x: &SolverExtension) -> String {
-    let designs: Vec<String> = x.residual_z.keys().cloned().collect();
+    let designs: Vec<String> = x.left.residual_z.keys().cloned().collect();
     // Magnitudes: the bars grow from 0 (the table of residuals gives the signs).
     let before: Vec<Option<f64>> = designs
         .iter()
         .map(|d| dg.record.residuals.iter().find(|r| &r.design == d).map(|r| r.z.abs()))
         .collect();
     let plot = BarPlot {
-        title: format!("Residual / σ before and after extending with {}", x.hypothesis),
+        title: format!("Residual / σ before and after extending with {}", x.setup.hypothesis),
         value_label: "|measured − predicted| / σ".into(),
         categories: designs,
         groups: vec![
             ("uncorrected".into(), 1, before),
             (
-                format!("extended with {}", x.hypothesis),
+                format!("extended with {}", x.setup.hypothesis),
                 2,
-                x.residual_z.values().map(|z| Some(z.abs())).collect(),
+                x.left.residual_z.values().map(|z| Some(z.abs())).collect(),
             ),
         ],
         percent: false,
@@ -167,11 +168,11 @@ fn before_after_z(dg: &Diagnosis, x: &SolverExtension) -> String {
         "Each tested design's |residual| in units of σ (training: σ of the mean; validation: with the prediction's \
          uncertainty, after) for the uncorrected simulation and the model extended with {} calibrated in the loop. \
          Within ±2 is within the noise; {} design(s) remain beyond it.",
-        x.hypothesis,
-        x.remaining.len()
+        x.setup.hypothesis,
+        x.left.remaining.len()
     );
     figure(
-        &format!("loop-residuals-{}", id_part(&x.hypothesis)),
+        &format!("loop-residuals-{}", id_part(&x.setup.hypothesis)),
         plot.render(),
         &caption,
     )

@@ -424,45 +424,46 @@ fn write_diagnosis(out: &mut String, results: &Results, verbose: bool) {
 /// The library search's result, after the verdict: found by search, not listed.
 fn write_discovered(out: &mut String, f: &crate::diagnose::discover::Discovered) {
     use crate::diagnose::discover::Outcome;
-    match (f.outcome, &f.term) {
+    match (f.found.outcome, &f.found.term) {
         (Outcome::Found, Some(term)) => {
             let params: Vec<String> = f
+                .found
                 .parameters
                 .iter()
                 .map(|(n, v)| format!("{n} = {}", significant(*v, 6)))
                 .collect();
-            let interval = f.interval.map_or(String::new(), |[a, b]| {
+            let interval = f.found.interval.map_or(String::new(), |[a, b]| {
                 format!(" [{}, {}]", significant(a, 4), significant(b, 4))
             });
             let _ = writeln!(
                 out,
                 "  found by search, not listed: `{term}` added to the {} model: coefficient {}{interval}, {}; {} \
                  error {} -> {} (gain {}), leave-one-design-out {} -> {}",
-                f.base,
-                f.coefficient.map_or("-".into(), |c| significant(c, 4)),
+                f.test.base,
+                f.found.coefficient.map_or("-".into(), |c| significant(c, 4)),
                 params.join(", "),
-                f.measured_on.as_deref().unwrap_or("validation"),
-                percent(if f.measured_on.as_deref() == Some("validation") {
-                    f.validation_error_before
+                f.checks.measured_on.as_deref().unwrap_or("validation"),
+                percent(if f.checks.measured_on.as_deref() == Some("validation") {
+                    f.checks.validation_error_before
                 } else {
-                    f.loo_error_before
+                    f.checks.loo_error_before
                 }),
-                percent(if f.measured_on.as_deref() == Some("validation") {
-                    f.validation_error_after
+                percent(if f.checks.measured_on.as_deref() == Some("validation") {
+                    f.checks.validation_error_after
                 } else {
-                    f.loo_error_after
+                    f.checks.loo_error_after
                 }),
-                f.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g)),
-                percent(f.loo_error_before),
-                percent(f.loo_error_after)
+                f.found.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g)),
+                percent(f.checks.loo_error_before),
+                percent(f.checks.loo_error_after)
             );
-            if let Some(shape) = &f.shape {
+            if let Some(shape) = &f.named.shape {
                 let _ = writeln!(out, "    shape: {shape}");
             }
-            if let Some(r) = &f.reading {
+            if let Some(r) = &f.named.reading {
                 let _ = writeln!(out, "    reading: {r}");
             }
-            if let Some(line) = &f.hypothesis_line {
+            if let Some(line) = &f.named.hypothesis_line {
                 let _ = writeln!(out, "    to test it as a listed cause, add under diagnosis.hypotheses:");
                 for l in line.lines() {
                     let _ = writeln!(out, "      {l}");
@@ -473,10 +474,10 @@ fn write_discovered(out: &mut String, f: &crate::diagnose::discover::Discovered)
             let _ = writeln!(
                 out,
                 "  library search (not listed): no shape in the library explains the misfit ({} models, α/M = {})",
-                f.library.models,
-                significant(f.threshold, 2)
+                f.search.library.models,
+                significant(f.test.threshold, 2)
             );
-            for c in &f.closest {
+            for c in &f.search.closest {
                 let _ = writeln!(out, "    closest: `{}` — {}", c.term, c.why);
             }
         }
