@@ -306,20 +306,33 @@ pub struct EmulatorError {
 /// whitened feature k, s²_k = mean over the checks of (L⁻¹φ(simulated) − L⁻¹φ(emulated))_k², the
 /// mean square rather than the variance, so that a bias counts too. `None` without check runs.
 pub fn emulator_error(w: &Whitening, spec: &FeatureSpec, checks: &[EmulatorCheck]) -> Option<EmulatorError> {
-    let errors: Vec<DVector<f64>> = checks
+    mean_square(w, &whitened_errors(w, spec, checks))
+}
+
+/// At each check run whose features can be read: L⁻¹φ(simulated) − L⁻¹φ(emulated).
+fn whitened_errors<'c>(
+    w: &Whitening,
+    spec: &FeatureSpec,
+    checks: &'c [EmulatorCheck],
+) -> Vec<(&'c EmulatorCheck, DVector<f64>)> {
+    checks
         .iter()
         .filter_map(|c| {
             let a = w.whiten(spec, &c.design, c.curve.as_slice())?;
             let b = w.whiten(spec, &c.design, c.emulated.as_slice())?;
-            Some(a - b)
+            Some((c, a - b))
         })
-        .collect();
+        .collect()
+}
+
+/// The figures of [`emulator_error`] from the whitened `errors`.
+fn mean_square(w: &Whitening, errors: &[(&EmulatorCheck, DVector<f64>)]) -> Option<EmulatorError> {
     let n = errors.len();
     (n > 0).then(|| EmulatorError {
         paired: false,
         runs: n,
         variance: (0..w.read.len())
-            .map(|k| errors.iter().map(|e| e[k] * e[k]).sum::<f64>() / n as f64 / w.variance)
+            .map(|k| errors.iter().map(|(_, e)| e[k] * e[k]).sum::<f64>() / n as f64 / w.variance)
             .collect(),
     })
 }
@@ -815,14 +828,10 @@ fn paired_emulator_error(tests: &Whitening, ci: &CurveInputs) -> Option<(Emulato
     if !ci.settings.emulator_counted || ci.settings.emulator_floor > 0.0 {
         return None;
     }
-    let errors: Vec<(&[f64], &[f64], DVector<f64>)> = ci
-        .checks
+    let whitened = whitened_errors(tests, &ci.spec, &ci.checks);
+    let errors: Vec<(&[f64], &[f64], DVector<f64>)> = whitened
         .iter()
-        .filter_map(|c| {
-            let a = tests.whiten(&ci.spec, &c.design, c.curve.as_slice())?;
-            let b = tests.whiten(&ci.spec, &c.design, c.emulated.as_slice())?;
-            Some((c.design.as_slice(), c.theta.as_slice(), b - a))
-        })
+        .map(|(c, e)| (c.design.as_slice(), c.theta.as_slice(), e.clone()))
         .collect();
     let at: Vec<(&[f64], usize)> = ci
         .designs
@@ -833,7 +842,7 @@ fn paired_emulator_error(tests: &Whitening, ci: &CurveInputs) -> Option<(Emulato
     if !u.is_paired() {
         return None;
     }
-    let mut e = emulator_error(tests, &ci.spec, &ci.checks)?;
+    let mut e = mean_square(tests, &whitened)?;
     e.paired = true;
     Some((e, u))
 }

@@ -160,7 +160,6 @@ impl CheckError {
             runs: n,
             max_relative_error: (n > 0).then(|| errors.iter().copied().fold(0.0, f64::max)),
             mean_relative_error: (n > 0).then(|| errors.iter().sum::<f64>() / n as f64),
-            mean_square_relative: (n > 0).then(|| errors.iter().map(|e| e * e).sum::<f64>() / n as f64),
             signed: Vec::new(),
         }
     }
@@ -196,9 +195,6 @@ pub struct CheckError {
     pub runs: usize,
     pub max_relative_error: Option<f64>,
     pub mean_relative_error: Option<f64>,
-    /// The mean of the squared relative errors: the emulator's own variance, relative to the
-    /// level, that the diagnosis counts in the noise of a prediction.
-    pub mean_square_relative: Option<f64>,
     /// Each check run's point θ and signed relative error (predicted − run) / run, where known: the
     /// error's shape across designs ([`super::Uncertainty::beyond`]).
     pub signed: Vec<(Vec<f64>, f64)>,
