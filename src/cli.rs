@@ -221,7 +221,7 @@ fn run(study: &Study, options: &RunOptions, verbose: bool) -> Result<i32, Error>
     let outcome = pipeline::run(study, options, &engine, &mut Stderr)?;
     let written = report::run::write_run(study, outcome, &options.out)?;
     print!("{}", report::summary::render(&written.results, verbose));
-    if let Some(splits) = &written.results.splits {
+    if let Some(splits) = &written.results.stated.splits {
         print!("{}", report::summary::splits(splits));
     }
     println!("\nwrote {}", options.out.join("results.json").display());
@@ -266,8 +266,8 @@ fn check(study: &Study) -> Result<i32, Error> {
         study.design.len(),
         study.parameters.len(),
         study.experiments.designs.len(),
-        study.training.len(),
-        study.validation.len()
+        study.split.training.len(),
+        study.split.validation.len()
     );
     let (specimens, designs) = checked.curves;
     if designs > 0 {

@@ -125,8 +125,8 @@ fn base_study_loads() {
     let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.name, "beam");
     assert_eq!(s.experiments.file, c.csv);
-    assert_eq!(s.training, ["h8", "h10"]);
-    assert_eq!(s.validation, ["h13"]);
+    assert_eq!(s.split.training, ["h8", "h10"]);
+    assert_eq!(s.split.validation, ["h13"]);
     assert_eq!(s.diagnosis.hypotheses.len(), 1);
 }
 
@@ -150,8 +150,8 @@ fn cantilever_loads_in_file_order() {
     let names: Vec<&str> = s.experiments.designs.iter().map(|d| d.name.as_str()).collect();
     assert_eq!(names, ["h7", "h8", "h9", "h10", "h11", "h12", "h13"]);
     assert_eq!(s.experiments.get("h8").unwrap().values, [8.0]);
-    assert_eq!(s.training, ["h8", "h10"]);
-    assert_eq!(s.validation, ["h13"]);
+    assert_eq!(s.split.training, ["h8", "h10"]);
+    assert_eq!(s.split.validation, ["h13"]);
     assert_eq!(
         s.calibration.methods,
         [Method::LeastSquares, Method::Sensitivity, Method::Bayesian]
@@ -219,7 +219,7 @@ fn calibration_defaults_to_all_methods() {
     let defaults = lab::calibrate::bayesian::Settings::default();
     assert_eq!(s.calibration.bayesian.mcmc_steps, defaults.mcmc_steps);
     assert_eq!(s.calibration.bayesian.emulator_samples, defaults.emulator_samples);
-    assert!(s.validation.len() == 1 && s.diagnosis.hypotheses.len() == 1);
+    assert!(s.split.validation.len() == 1 && s.diagnosis.hypotheses.len() == 1);
 }
 
 // ---------------------------------------------------------------------------------------------

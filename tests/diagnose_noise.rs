@@ -202,7 +202,7 @@ fn debug_one() {
     for r in &d.record.residuals {
         eprintln!(
             "{} mean {} sd {:?} n {} pred {} z {}",
-            r.design, r.measured, r.std_dev, r.count, r.predicted, r.z
+            r.design, r.test.measured, r.test.std_dev, r.test.count, r.predicted, r.z
         );
     }
     eprintln!("{}", d.record.summary);

@@ -4,7 +4,9 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::model::{self, Binary, Contact, DeckError, Located, Model, Plastic, Reader, Striker, TubePart, card};
+use super::model::{
+    self, Binary, Contact, DeckError, Located, Model, Plastic, Reader, RunControl, Striker, TubeMesh, TubePart, card,
+};
 use lab::render::lsdyna::deck::{self, Card};
 
 type Res<T> = Result<T, DeckError>;
@@ -59,27 +61,31 @@ pub fn load(main: &Path) -> Res<Model> {
             .filter_map(|k| r.params.get(k).map(|v| (k.clone(), v.clone())))
             .collect(),
         material,
-        tube,
-        tube_length: length,
-        tube_diameter: diameter,
-        nodes: geo.nodes.len(),
-        elements: geo.elements,
-        min_edge: geo.min_edge,
         striker,
         base_pid,
-        end_time,
-        tssfac,
-        dt_rcforc: database(&blocks, &r, "DATABASE_RCFORC")?,
-        dt_glstat: database(&blocks, &r, "DATABASE_GLSTAT")?,
-        dt_nodout: database(&blocks, &r, "DATABASE_NODOUT")?,
-        binary: Binary {
-            rcforc: binary(&blocks, &r, "DATABASE_RCFORC")?,
-            glstat: binary(&blocks, &r, "DATABASE_GLSTAT")?,
-            nodout: binary(&blocks, &r, "DATABASE_NODOUT")?,
-        },
-        history_nodes: history(&blocks, &r, &geo)?,
         contacts: contacts(&blocks, &r)?,
         test_switch: test_switch(&blocks, &r)?,
+        mesh: TubeMesh {
+            tube,
+            tube_length: length,
+            tube_diameter: diameter,
+            nodes: geo.nodes.len(),
+            elements: geo.elements,
+            min_edge: geo.min_edge,
+        },
+        run: RunControl {
+            end_time,
+            tssfac,
+            dt_rcforc: database(&blocks, &r, "DATABASE_RCFORC")?,
+            dt_glstat: database(&blocks, &r, "DATABASE_GLSTAT")?,
+            dt_nodout: database(&blocks, &r, "DATABASE_NODOUT")?,
+            binary: Binary {
+                rcforc: binary(&blocks, &r, "DATABASE_RCFORC")?,
+                glstat: binary(&blocks, &r, "DATABASE_GLSTAT")?,
+                nodout: binary(&blocks, &r, "DATABASE_NODOUT")?,
+            },
+            history_nodes: history(&blocks, &r, &geo)?,
+        },
     })
 }
 

@@ -76,7 +76,7 @@ pub fn binout(m: &Model, h: &History, wanted: Wanted, faults: impl Fn(f64) -> Fa
     w.flush()?;
     outs.sort_by(|a, b| a.time.total_cmp(&b.time).then(a.kind.cmp(&b.kind)));
     let middle = |dt: Option<f64>| dt.map_or(usize::MAX, |dt| Faults::middle(m, dt));
-    let of = |dt: Option<f64>| faults(dt.unwrap_or(m.end_time));
+    let of = |dt: Option<f64>| faults(dt.unwrap_or(m.run.end_time));
     for (k, o) in outs.iter().enumerate() {
         match o.kind {
             0 => rcforc_step(
@@ -113,7 +113,7 @@ fn ids(w: &mut Writer, m: &Model, kind: u8) -> Result<(), lsda::Error> {
             w.write("side", &i4(&side))
         }
         2 => {
-            let ids: Vec<i64> = m.history_nodes.iter().map(|n| n.0).collect();
+            let ids: Vec<i64> = m.run.history_nodes.iter().map(|n| n.0).collect();
             w.write("ids", &i4(&ids))
         }
         _ => Ok(()),
@@ -178,7 +178,8 @@ fn nodout_step(w: &mut Writer, m: &Model, h: &History, o: &Out, empty: bool) -> 
     let rows: Vec<[f64; 12]> = if empty {
         Vec::new()
     } else {
-        m.history_nodes
+        m.run
+            .history_nodes
             .iter()
             .map(|&(id, xyz)| output::nodout_row(m, s, id, xyz))
             .collect()

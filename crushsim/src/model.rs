@@ -104,14 +104,30 @@ pub struct Model {
     pub title: String,
     pub params: Vec<(String, Param)>,
     pub material: Plastic,
+    /// The tube's walls and the mesh's size.
+    pub mesh: TubeMesh,
+    pub striker: Striker,
+    pub base_pid: Option<i64>,
+    /// How long the run goes, its time step and the histories it writes.
+    pub run: RunControl,
+    pub contacts: Vec<Contact>,
+    pub test_switch: Option<(String, f64)>,
+}
+
+/// The tube's walls and the mesh's size.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TubeMesh {
     pub tube: Vec<TubePart>,
     pub tube_length: f64,
     pub tube_diameter: f64,
     pub nodes: usize,
     pub elements: usize,
     pub min_edge: f64,
-    pub striker: Striker,
-    pub base_pid: Option<i64>,
+}
+
+/// How long the run goes, its time step and the histories it writes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunControl {
     pub end_time: f64,
     pub tssfac: f64,
     pub dt_rcforc: Option<f64>,
@@ -121,8 +137,6 @@ pub struct Model {
     pub binary: Binary,
     /// History nodes with their initial coordinates.
     pub history_nodes: Vec<(i64, [f64; 3])>,
-    pub contacts: Vec<Contact>,
-    pub test_switch: Option<(String, f64)>,
 }
 
 /// Reads every block of `main` and of the files it includes (relative to `main`'s directory).

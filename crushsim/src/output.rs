@@ -49,10 +49,10 @@ fn header(m: &Model) -> String {
 
 /// Output times for an interval `dt` up to the end time (the end included).
 pub fn times(m: &Model, dt: f64) -> Vec<f64> {
-    let n = (m.end_time / dt + 1e-9).floor() as usize;
+    let n = (m.run.end_time / dt + 1e-9).floor() as usize;
     let mut t: Vec<f64> = (0..=n).map(|k| k as f64 * dt).collect();
-    if m.end_time - t[n] > 1e-9 * m.end_time {
-        t.push(m.end_time);
+    if m.run.end_time - t[n] > 1e-9 * m.run.end_time {
+        t.push(m.run.end_time);
     }
     t
 }
@@ -152,7 +152,7 @@ pub fn rcforc(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
 /// The explicit time step LS-DYNA would take on this mesh (Courant, shell sound speed).
 pub fn time_step(m: &Model) -> f64 {
     let c = (m.material.e / (m.material.rho * (1.0 - m.material.nu.powi(2)))).sqrt();
-    m.tssfac * m.min_edge / c
+    m.run.tssfac * m.mesh.min_edge / c
 }
 
 pub fn cycle(m: &Model, t: f64) -> u64 {
@@ -161,9 +161,10 @@ pub fn cycle(m: &Model, t: f64) -> u64 {
 
 /// The tube's mass (t): what rcforc reports as the mass in contact once the crush force acts.
 pub(crate) fn tube_mass(m: &Model) -> f64 {
-    m.tube
+    m.mesh
+        .tube
         .iter()
-        .map(|p| p.wall_length * p.thickness * m.tube_length * m.material.rho)
+        .map(|p| p.wall_length * p.thickness * m.mesh.tube_length * m.material.rho)
         .sum()
 }
 
@@ -176,7 +177,7 @@ pub fn glstat(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
             "\n dt of cycle {:10} is controlled by shell {:10} of part {:10}\n",
             cycle(m, t),
             1,
-            m.tube.first().map_or(0, |p| p.pid)
+            m.mesh.tube.first().map_or(0, |p| p.pid)
         );
         for (label, v) in rows {
             let _ = writeln!(out, " {label:.<31} {}", e(v, 12, 5));
@@ -193,7 +194,7 @@ pub(crate) fn glstat_rows(m: &Model, h: &History, t: f64, faults: &Faults) -> Ve
     let internal = s.internal / (1.0 + faults.hourglass);
     let hourglass = s.internal - internal;
     let reference = initial + s.external;
-    let sliding = faults.energy_drift * reference * t / m.end_time;
+    let sliding = faults.energy_drift * reference * t / m.run.end_time;
     let total = s.kinetic + internal + hourglass + sliding;
     let ratio = if reference > 0.0 { total / reference } else { 1.0 };
     let mut rows: Vec<(&str, f64)> = vec![
@@ -226,9 +227,10 @@ pub(crate) fn glstat_rows(m: &Model, h: &History, t: f64, faults: &Faults) -> Ve
 /// The tube's and the striker's mass, t.
 fn model_mass(m: &Model) -> f64 {
     let tube: f64 = m
+        .mesh
         .tube
         .iter()
-        .map(|p| p.wall_length * p.thickness * m.tube_length * m.material.rho)
+        .map(|p| p.wall_length * p.thickness * m.mesh.tube_length * m.material.rho)
         .sum();
     tube + m.striker.mass
 }
@@ -248,7 +250,7 @@ pub fn nodout(m: &Model, h: &History, dt: f64, faults: &Faults) -> String {
         let rows = if faults.missing_node && number == middle {
             &[][..]
         } else {
-            &m.history_nodes[..]
+            &m.run.history_nodes[..]
         };
         for &(id, xyz) in rows {
             let row = nodout_row(m, s, id, xyz);
@@ -322,7 +324,7 @@ fn echo(m: &Model) -> String {
         e(mt.srp, 12, 5)
     );
     out.push_str("\n t u b e   p a r t s\n   part  thickness    wall length   shells  title\n");
-    for p in &m.tube {
+    for p in &m.mesh.tube {
         let _ = writeln!(
             out,
             "{:7} {} {} {:8}  {}",
@@ -337,11 +339,11 @@ fn echo(m: &Model) -> String {
     let _ = writeln!(
         out,
         "\n   tube length {}  diameter {}\n   nodes {}  shells {}  smallest edge {}",
-        e(m.tube_length, 12, 5),
-        e(m.tube_diameter, 12, 5),
-        m.nodes,
-        m.elements,
-        e(m.min_edge, 12, 5)
+        e(m.mesh.tube_length, 12, 5),
+        e(m.mesh.tube_diameter, 12, 5),
+        m.mesh.nodes,
+        m.mesh.elements,
+        e(m.mesh.min_edge, 12, 5)
     );
     let motion = if s.prescribed.is_some() { "prescribed" } else { "free" };
     let _ = writeln!(
@@ -354,7 +356,7 @@ fn echo(m: &Model) -> String {
     let _ = writeln!(
         out,
         "   termination time {}  time step {}",
-        e(m.end_time, 12, 5),
+        e(m.run.end_time, 12, 5),
         e(time_step(m), 12, 5)
     );
     for (k, c) in m.contacts.iter().enumerate() {
@@ -382,9 +384,9 @@ fn theory_echo(m: &Model, h: &History) -> String {
         ("strain-rate factor at start", th.rate_factor(m, v)),
         ("mean crush force F_m", th.mean_force(m, v)),
         ("initial peak force", th.peak_force(m, v)),
-        ("fold half-wavelength H", th.half_wave),
-        ("relative density", th.rel_density),
-        ("densification strain", th.eps_d),
+        ("fold half-wavelength H", th.folds.half_wave),
+        ("relative density", th.folds.rel_density),
+        ("densification strain", th.folds.eps_d),
         ("final crush", h.steps.last().map_or(0.0, |s| s.crush)),
         ("absorbed energy", h.steps.last().map_or(0.0, |s| s.internal)),
     ];

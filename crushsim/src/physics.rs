@@ -78,6 +78,13 @@ pub struct Theory {
     pub wall_sum: f64,
     pub wall_area: f64,
     pub stiffness: f64,
+    /// The folds: half-wavelength, period, and the relative density that sets where they lock up.
+    pub folds: Folding,
+}
+
+/// The folds: half-wavelength, period, and the relative density that sets where they lock up.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Folding {
     pub half_wave: f64,
     pub fold_period: f64,
     pub rel_density: f64,
@@ -86,13 +93,18 @@ pub struct Theory {
 
 impl Theory {
     pub fn new(m: &Model) -> Self {
-        let area = PI / 4.0 * m.tube_diameter.powi(2);
-        let total: f64 = m.tube.iter().map(|p| p.wall_length).sum();
+        let area = PI / 4.0 * m.mesh.tube_diameter.powi(2);
+        let total: f64 = m.mesh.tube.iter().map(|p| p.wall_length).sum();
         let from_mesh = 2.0 * area / (3f64.sqrt() * total.max(f64::MIN_POSITIVE));
         let s = cell_parameter(m).map_or(from_mesh, |c| c / 3f64.sqrt());
-        let wall_sum = m.tube.iter().map(|p| p.wall_length * p.thickness.powf(5.0 / 3.0)).sum();
-        let wall_area: f64 = m.tube.iter().map(|p| p.wall_length * p.thickness).sum();
-        let t_ref = m.tube.iter().map(|p| p.thickness).fold(f64::INFINITY, f64::min);
+        let wall_sum = m
+            .mesh
+            .tube
+            .iter()
+            .map(|p| p.wall_length * p.thickness.powf(5.0 / 3.0))
+            .sum();
+        let wall_area: f64 = m.mesh.tube.iter().map(|p| p.wall_length * p.thickness).sum();
+        let t_ref = m.mesh.tube.iter().map(|p| p.thickness).fold(f64::INFINITY, f64::min);
         let half_wave = 0.82 * t_ref.cbrt() * s.powf(2.0 / 3.0);
         let rel_density = wall_area / area;
         let hinge_strain = t_ref / half_wave;
@@ -104,11 +116,13 @@ impl Theory {
             hinge_strain,
             wall_sum,
             wall_area,
-            stiffness: m.material.e * wall_area / m.tube_length,
-            half_wave,
-            fold_period: 0.73 * 2.0 * half_wave,
-            rel_density,
-            eps_d: (1.0 - 1.4 * rel_density).max(0.3),
+            stiffness: m.material.e * wall_area / m.mesh.tube_length,
+            folds: Folding {
+                half_wave,
+                fold_period: 0.73 * 2.0 * half_wave,
+                rel_density,
+                eps_d: (1.0 - 1.4 * rel_density).max(0.3),
+            },
         }
     }
 
@@ -131,6 +145,7 @@ impl Theory {
         let sy = m.material.sigy * self.rate_factor(m, v);
         let plate = 4.0 * PI * PI * m.material.e / (12.0 * (1.0 - m.material.nu.powi(2)));
         let peak: f64 = m
+            .mesh
             .tube
             .iter()
             .map(|p| {
@@ -150,14 +165,14 @@ impl Theory {
         }
         let u = d - d_e;
         let fm = self.mean_force(m, v);
-        let lambda = self.fold_period;
+        let lambda = self.folds.fold_period;
         let folds = 1.0 + 0.10 * (2.0 * PI * u / lambda).sin() + 0.05 * (2.0 * PI * u / (1.618 * lambda)).sin();
-        let decay = (peak - fm) * (-u / (self.half_wave / 3.0)).exp();
-        (fm * folds + decay) * self.densification(d / m.tube_length)
+        let decay = (peak - fm) * (-u / (self.folds.half_wave / 3.0)).exp();
+        (fm * folds + decay) * self.densification(d / m.mesh.tube_length)
     }
 
     fn densification(&self, eps: f64) -> f64 {
-        let ed = self.eps_d;
+        let ed = self.folds.eps_d;
         1.0 + 0.1 * (eps.max(0.0) / ed).powi(8) * ed / (ed - eps).max(0.02)
     }
 }
@@ -220,12 +235,12 @@ fn curve_at(points: &[(f64, f64)], t: f64) -> f64 {
 /// 1e-5 s), so the fold oscillations are resolved.
 pub fn simulate(m: &Model) -> History {
     let th = Theory::new(m);
-    let finest = [m.dt_rcforc, m.dt_glstat, m.dt_nodout]
+    let finest = [m.run.dt_rcforc, m.run.dt_glstat, m.run.dt_nodout]
         .into_iter()
         .flatten()
-        .fold(m.end_time, f64::min);
+        .fold(m.run.end_time, f64::min);
     let dt = (finest / 100.0).min(1e-5);
-    let n = (m.end_time / dt).round().max(1.0) as usize;
+    let n = (m.run.end_time / dt).round().max(1.0) as usize;
     let s = &m.striker;
     let mut steps = Vec::with_capacity(n + 1);
     let mut cur = Step {

@@ -197,7 +197,7 @@ fn resolve(mut f: output::Faults, m: &Model, dt: f64) -> output::Faults {
         f.skip_output = Some(output::Faults::middle(m, dt));
     }
     if let Some(fraction) = f.stop_at {
-        f.stop_at = Some(fraction * m.end_time);
+        f.stop_at = Some(fraction * m.run.end_time);
     }
     f
 }
@@ -264,18 +264,18 @@ fn write_outputs(m: &Model, h: &History, sw: Switch) -> std::io::Result<i32> {
         _ => output::Faults::default(),
     };
     if sw != Switch::NoOutput {
-        let b = m.binary;
+        let b = m.run.binary;
         let ascii = |dt: Option<f64>, flag: i64| dt.filter(|_| flag != 2);
-        if let Some(dt) = ascii(m.dt_rcforc, b.rcforc) {
+        if let Some(dt) = ascii(m.run.dt_rcforc, b.rcforc) {
             match sw {
                 Switch::Garbage => std::fs::write("rcforc", garbage(4096))?,
                 _ => write("rcforc", &output::rcforc(m, h, dt, &resolve(faults, m, dt)))?,
             }
         }
-        if let Some(dt) = ascii(m.dt_glstat, b.glstat) {
+        if let Some(dt) = ascii(m.run.dt_glstat, b.glstat) {
             write("glstat", &output::glstat(m, h, dt, &resolve(faults, m, dt)))?;
         }
-        if let Some(dt) = ascii(m.dt_nodout, b.nodout) {
+        if let Some(dt) = ascii(m.run.dt_nodout, b.nodout) {
             write("nodout", &output::nodout(m, h, dt, &resolve(faults, m, dt)))?;
         }
         if b.any_binout() {
@@ -308,11 +308,11 @@ fn write_binout(m: &Model, h: &History, sw: Switch, faults: output::Faults) -> s
         return std::fs::write("binout", garbage(4096));
     }
     let to_binout = |dt: Option<f64>, flag: i64| dt.filter(|_| flag >= 2);
-    let b = m.binary;
+    let b = m.run.binary;
     let wanted = binout::Wanted {
-        rcforc: to_binout(m.dt_rcforc, b.rcforc),
-        glstat: to_binout(m.dt_glstat, b.glstat),
-        nodout: to_binout(m.dt_nodout, b.nodout),
+        rcforc: to_binout(m.run.dt_rcforc, b.rcforc),
+        glstat: to_binout(m.run.dt_glstat, b.glstat),
+        nodout: to_binout(m.run.dt_nodout, b.nodout),
     };
     let bytes = binout::binout(m, h, wanted, |dt| resolve(faults, m, dt)).map_err(std::io::Error::other)?;
     std::fs::write("binout", bytes)

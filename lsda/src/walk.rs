@@ -78,6 +78,15 @@ struct Walker<'a> {
     h: Header,
     /// The number of the current directory in the database.
     cwd_id: usize,
+    /// What the walk met: the symbol tables, their links and the DATA records.
+    met: Met,
+    /// Where the file was cut, when it was.
+    cut: Option<usize>,
+}
+
+/// What the walk met, to check the symbol tables against the records.
+#[derive(Default)]
+struct Met {
     /// The symbol tables met: where each starts and the offset its end record links to.
     tables: Vec<(usize, i64)>,
     /// Every link (where, target): the symbol-table offset record's and each table's.
@@ -91,8 +100,6 @@ struct Walker<'a> {
     last_found: usize,
     /// The DATA records between the table being read and the one before.
     unindexed_at_table: usize,
-    /// Where the file was cut, when it was.
-    cut: Option<usize>,
 }
 
 /// Walks file number `file` of `db` (its bytes already stored), filing its variables.
@@ -106,18 +113,13 @@ pub(crate) fn walk(db: &mut Database, file: usize, path: &Path, bytes: &[u8]) ->
         bytes,
         h,
         cwd_id: 0,
-        tables: Vec::new(),
-        links: Vec::new(),
-        unindexed: 0,
-        records: Vec::new(),
-        last_found: 0,
-        unindexed_at_table: 0,
+        met: Met::default(),
         cut: None,
     };
     // A binout's DATA records hold a few values each (with their symbol-table entries, some 70
     // bytes), and its directories a few dozen: room for about as many as its size says.
     w.db.reserve(bytes.len() / 64, bytes.len() / 1024);
-    w.records.reserve(bytes.len() / 64);
+    w.met.records.reserve(bytes.len() / 64);
     let mut pos = h.header_len as usize;
     while pos < bytes.len() {
         match w.record(pos)? {
@@ -126,12 +128,12 @@ pub(crate) fn walk(db: &mut Database, file: usize, path: &Path, bytes: &[u8]) ->
         }
     }
     w.check_links()?;
-    if w.unindexed > 0 && w.cut.is_none() {
+    if w.met.unindexed > 0 && w.cut.is_none() {
         w.note(
             pos,
             format!(
                 "{} data record(s) after the last symbol table are not indexed (the writer stopped before its next symbol table); read anyway",
-                w.unindexed
+                w.met.unindexed
             ),
         );
     }
@@ -212,7 +214,7 @@ impl<'a> Walker<'a> {
             BEGIN_SYMBOL_TABLE => self.symbol_table(pos, body)?,
             SYMBOL_TABLE_OFFSET => {
                 let target = self.offset_field(pos, &body)?;
-                self.links.push((pos, target));
+                self.met.links.push((pos, target));
             }
             VARIABLE | END_SYMBOL_TABLE => {
                 return Err(self.err(pos, format!("command {cmd} outside a symbol table")));
@@ -295,9 +297,9 @@ impl<'a> Walker<'a> {
 
     fn data(&mut self, pos: usize, body: std::ops::Range<usize>) -> Result<(), Error> {
         let (type_id, name, data) = self.data_parts(pos, body)?;
-        self.unindexed += 1;
+        self.met.unindexed += 1;
         let count = data.len() >> type_id.size().trailing_zeros();
-        self.records.push((pos, type_id, count));
+        self.met.records.push((pos, type_id, count));
         let var = Var {
             file: self.file,
             record: pos,
@@ -326,8 +328,8 @@ impl<'a> Walker<'a> {
 
     /// A symbol table: CD and VARIABLE entries, then the END record with the next table's offset.
     fn symbol_table(&mut self, pos: usize, body: std::ops::Range<usize>) -> Result<(), Error> {
-        self.unindexed_at_table = self.unindexed;
-        self.unindexed = 0;
+        self.met.unindexed_at_table = self.met.unindexed;
+        self.met.unindexed = 0;
         let h = self.h;
         // The directory of the entries (for messages): borrowed from the file when normal.
         let mut cwd: Cow<'a, str> = Cow::Borrowed("/");
@@ -360,11 +362,11 @@ impl<'a> Walker<'a> {
                         Cow::Owned(change_dir(&cwd, to))
                     };
                 }
-                VARIABLE => self.last_found = self.entry(at, inner, &cwd)?,
+                VARIABLE => self.met.last_found = self.entry(at, inner, &cwd)?,
                 END_SYMBOL_TABLE => {
                     let target = self.offset_field(at, &inner)?;
-                    self.links.push((at, target));
-                    self.tables.push((pos, target));
+                    self.met.links.push((at, target));
+                    self.met.tables.push((pos, target));
                     if end != body.end {
                         return Err(self.err(at, "the symbol table's end record is not at the end of the table"));
                     }
@@ -408,21 +410,21 @@ impl<'a> Walker<'a> {
         };
         // The DATA records met so far are in file order: find the one at `record` (most often
         // the one after the last found).
-        let next = self.last_found + 1;
+        let next = self.met.last_found + 1;
         // Else among the records since the table before (what a table mostly indexes), else
         // among all.
-        let since = self.records.len() - self.unindexed_at_table;
-        let k = if self.records.get(next).is_some_and(|r| r.0 == record) {
+        let since = self.met.records.len() - self.met.unindexed_at_table;
+        let k = if self.met.records.get(next).is_some_and(|r| r.0 == record) {
             next
-        } else if let Ok(k) = self.records[since..].binary_search_by_key(&record, |r| r.0) {
+        } else if let Ok(k) = self.met.records[since..].binary_search_by_key(&record, |r| r.0) {
             since + k
         } else {
-            let Ok(k) = self.records.binary_search_by_key(&record, |r| r.0) else {
+            let Ok(k) = self.met.records.binary_search_by_key(&record, |r| r.0) else {
                 return Err(bad(format!("no DATA record starts at offset {record}")));
             };
             k
         };
-        let (_, t, count_there) = self.records[k];
+        let (_, t, count_there) = self.met.records[k];
         // Its name, read when the record was met (so in the file): a length, then the bytes.
         let name_len_at = record + h.record_head() + h.type_size as usize;
         let name_len = self.bytes[name_len_at] as usize;
@@ -443,21 +445,22 @@ impl<'a> Walker<'a> {
 
     /// The symbol table starting at `at` (the tables met are in file order).
     fn table_at(&self, at: usize) -> Option<(usize, i64)> {
-        self.tables
+        self.met
+            .tables
             .binary_search_by_key(&at, |s| s.0)
             .ok()
-            .map(|k| self.tables[k])
+            .map(|k| self.met.tables[k])
     }
 
     /// Every link must lead to a symbol table (or be 0); a whole file's chain reaches them all.
     fn check_links(&mut self) -> Result<(), Error> {
         let len = self.bytes.len();
-        if let (None, Some(&(at, target))) = (self.cut, self.links.iter().find(|l| l.1 >= len as i64)) {
+        if let (None, Some(&(at, target))) = (self.cut, self.met.links.iter().find(|l| l.1 >= len as i64)) {
             // Cut exactly between two records: a link says more was written.
             self.cut = Some(len);
             self.note(len, format!("the file ends here, though offset {at} links to a symbol table at offset {target}: read up to the end"));
         }
-        for &(at, target) in &self.links {
+        for &(at, target) in &self.met.links {
             let ok = target == 0
                 || usize::try_from(target)
                     .is_ok_and(|t| self.table_at(t).is_some() || self.cut.is_some_and(|c| t >= c));
@@ -468,23 +471,23 @@ impl<'a> Walker<'a> {
                 ));
             }
         }
-        let Some(&(_, first)) = self.links.first() else {
+        let Some(&(_, first)) = self.met.links.first() else {
             return Ok(());
         };
         let mut reached = 0;
         let mut next = first;
-        while next != 0 && reached <= self.tables.len() {
+        while next != 0 && reached <= self.met.tables.len() {
             let Some(table) = usize::try_from(next).ok().and_then(|t| self.table_at(t)) else {
                 break;
             };
             reached += 1;
             next = table.1;
         }
-        let missed = self.tables.len().saturating_sub(reached);
+        let missed = self.met.tables.len().saturating_sub(reached);
         if missed == 0 || self.cut.is_some() {
             return Ok(());
         }
-        let last = self.tables[self.tables.len() - 1].0;
+        let last = self.met.tables[self.met.tables.len() - 1].0;
         if missed == 1 && next == 0 {
             self.note(last, "the last symbol table is not linked from the one before (the writer stopped before linking it); read anyway".into());
             return Ok(());
@@ -493,7 +496,7 @@ impl<'a> Walker<'a> {
             last,
             format!(
                 "the symbol-table chain reaches {reached} of the file's {} tables",
-                self.tables.len()
+                self.met.tables.len()
             ),
         ))
     }

@@ -274,10 +274,11 @@ pub fn inputs_with_extensions<'a>(
     extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
 ) -> Inputs<'a> {
     let observations = study
+        .split
         .training
         .iter()
         .map(|n| (n, Role::Training))
-        .chain(study.validation.iter().map(|n| (n, Role::Validation)))
+        .chain(study.split.validation.iter().map(|n| (n, Role::Validation)))
         .filter_map(|(name, role)| {
             let t = study.experiments.get(name)?;
             Some(Observation::from_replicates(
@@ -775,9 +776,9 @@ pub struct Residual {
     pub design: String,
     pub role: Role,
     pub values: IndexMap<String, f64>,
-    pub measured: f64,
-    pub count: usize,
-    pub std_dev: Option<f64>,
+    /// The tests at the design: their mean, how many, their standard deviation.
+    #[serde(flatten)]
+    pub test: TestMean,
     pub predicted: f64,
     /// measured − predicted.
     pub residual: f64,
@@ -788,6 +789,14 @@ pub struct Residual {
     pub sigma: f64,
     /// residual / sigma.
     pub z: f64,
+}
+
+/// The tests at the design: their mean, how many, their standard deviation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TestMean {
+    pub measured: f64,
+    pub count: usize,
+    pub std_dev: Option<f64>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -65,6 +65,15 @@ pub struct NoiseModel {
     pub relative: f64,
     /// Degrees of freedom behind the scale: Σ(n_i − 1) from replicates, else n − k of the residuals.
     pub dof: usize,
+    /// The replicates' evidence on the noise's form: the likelihoods at the edges and the mixings (absent without replicates).
+    #[serde(flatten)]
+    pub evidence: MixingEvidence,
+    pub note: String,
+}
+
+/// The replicates' evidence on the noise's form: the likelihoods at the edges and the mixings (absent without replicates).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MixingEvidence {
     /// Maximised replicate log-likelihoods at the two edges (absent without replicates).
     pub loglik_absolute: Option<f64>,
     pub loglik_relative: Option<f64>,
@@ -76,7 +85,6 @@ pub struct NoiseModel {
     pub mixing_ml: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub mixing_set: Option<[f64; 2]>,
-    pub note: String,
 }
 
 /// The replicates' scatter: per design (ν_i, SS_i, ȳ_i), with two or more distinct replicates.
@@ -111,12 +119,8 @@ impl NoiseModel {
             absolute: scale,
             relative: 0.0,
             dof,
-            loglik_absolute: None,
-            loglik_relative: None,
-            mixing: None,
-            mixing_ml: None,
-            mixing_set: None,
             note,
+            evidence: MixingEvidence::default(),
         }
     }
 }
@@ -257,12 +261,14 @@ impl Scatter {
             absolute: a,
             relative: b,
             dof: self.nu as usize,
-            loglik_absolute: Some(ll_abs),
-            loglik_relative: ll_rel,
-            mixing: Some(lambda),
-            mixing_ml: Some(ml),
-            mixing_set: Some(set),
             note: self.note(lambda, set, (a, b), (ll_abs, ll_rel)),
+            evidence: MixingEvidence {
+                loglik_absolute: Some(ll_abs),
+                loglik_relative: ll_rel,
+                mixing: Some(lambda),
+                mixing_ml: Some(ml),
+                mixing_set: Some(set),
+            },
         }
     }
 
@@ -412,8 +418,8 @@ mod tests {
                 ml.sigma_at(o.mean)
             );
         }
-        let set = ml.mixing_set.unwrap();
-        assert!(set[0] <= ml.mixing.unwrap() && ml.mixing.unwrap() <= set[1]);
+        let set = ml.evidence.mixing_set.unwrap();
+        assert!(set[0] <= ml.evidence.mixing.unwrap() && ml.evidence.mixing.unwrap() <= set[1]);
     }
 
     /// With two replicates at three nearby levels the replicates cannot tell the edges apart: the
@@ -426,7 +432,7 @@ mod tests {
             .map(|(i, &(m, s))| Observation::from_replicates(format!("d{i}"), vec![m], Role::Training, &[m - s, m + s]))
             .collect();
         let nm = from_replicates(&obs, 0.01).unwrap();
-        assert_eq!(nm.mixing_set, Some([0.0, 1.0]), "{}", nm.note);
+        assert_eq!(nm.evidence.mixing_set, Some([0.0, 1.0]), "{}", nm.note);
     }
 
     #[test]

@@ -8,7 +8,7 @@
 //! the same α as the verdict.
 
 use super::fit::Fit;
-use super::{Context, NoiseModel, Residual, Trend, stats};
+use super::{Context, NoiseModel, Residual, TestMean, Trend, stats};
 
 pub(crate) fn table(cx: &Context, fit: &Fit, noise: &NoiseModel) -> Vec<Residual> {
     let inputs = cx.inputs;
@@ -24,14 +24,16 @@ pub(crate) fn table(cx: &Context, fit: &Fit, noise: &NoiseModel) -> Vec<Residual
                 design: o.name.clone(),
                 role: o.role,
                 values: inputs.space.design_at(&o.design),
-                measured: o.mean,
-                count: o.count,
-                std_dev: o.std_dev,
                 predicted,
                 residual,
                 relative_error: cx.relative_error(i, predicted).filter(|e| e.is_finite()),
                 sigma,
                 z: residual / sigma,
+                test: TestMean {
+                    measured: o.mean,
+                    count: o.count,
+                    std_dev: o.std_dev,
+                },
             }
         })
         .collect()

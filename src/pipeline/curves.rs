@@ -91,10 +91,11 @@ pub fn on_grid(
 /// covers the window).
 pub fn specimens(study: &Study, setting: &Setting) -> Vec<CurveDesign> {
     study
+        .split
         .training
         .iter()
         .map(|n| (n, Role::Training))
-        .chain(study.validation.iter().map(|n| (n, Role::Validation)))
+        .chain(study.split.validation.iter().map(|n| (n, Role::Validation)))
         .filter_map(|(name, role)| {
             let sc = study.experiments.curves.iter().find(|c| &c.design == name)?;
             let values = study.experiments.get(name)?.values.clone();
@@ -139,7 +140,7 @@ pub fn emulators(
     runs: &[CurveRun],
     across: bool,
 ) -> Result<CurveModel, Error> {
-    let names: Vec<&String> = study.training.iter().chain(&study.validation).collect();
+    let names: Vec<&String> = study.split.training.iter().chain(&study.split.validation).collect();
     let all: Vec<Run<DVector<f64>>> = runs
         .iter()
         .map(|r| Run {

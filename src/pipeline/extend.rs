@@ -287,7 +287,7 @@ fn extended_study(study: &Study, k: usize) -> Study {
             h.kind = HypothesisKind::Term(again);
         }
     }
-    extended.splits.clear();
+    extended.calibration.splits.clear();
     extended
 }
 

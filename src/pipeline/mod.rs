@@ -371,13 +371,14 @@ fn calibrate_splits(
     surrogates: &SurrogateModel,
     data: &SimulationData,
 ) -> Option<Vec<SplitCalibration>> {
-    if study.splits.is_empty() {
+    if study.calibration.splits.is_empty() {
         return None;
     }
     // Each split is calibrated on its own from the same runs and emulator: in parallel, in order.
     use rayon::prelude::*;
     Some(
         study
+            .calibration
             .splits
             .par_iter()
             .map(|split| calibrate_split(study, split, surrogates, data))
@@ -393,8 +394,8 @@ fn calibrate_split(
     runs: &SimulationData,
 ) -> SplitCalibration {
     let mut s = study.clone();
-    s.training = split.training.clone();
-    s.validation = split.validation.clone();
+    s.split.training = split.training.clone();
+    s.split.validation = split.validation.clone();
     let problem = problem(&s, surrogates as &dyn Model);
     let calibration = calibrate(&s, &problem, Some(runs));
     SplitCalibration { study: s, calibration }

@@ -74,7 +74,7 @@ fn fit_kind(
     bounds: &Bounds,
     runs: &[FitRun],
 ) -> Vec<Result<DesignSurrogate, (String, String)>> {
-    let names: Vec<&String> = study.training.iter().chain(&study.validation).collect();
+    let names: Vec<&String> = study.split.training.iter().chain(&study.split.validation).collect();
     let all = as_runs(runs);
     let check = |r: &Run<f64>| runs[index_of(&all, r)].check;
     let fitted = match kind {
@@ -180,6 +180,7 @@ pub fn simulation_data(plan: &Plan, responses: &[Option<f64>]) -> bayesian::Simu
 /// The training problem of a study: designs in the order the study lists them, mean measurements.
 pub fn problem<'a>(study: &Study, model: &'a dyn Model) -> Problem<'a> {
     let tests: Vec<_> = study
+        .split
         .training
         .iter()
         .map(|name| {

@@ -160,7 +160,7 @@ pub struct Evidence {
 
 /// The answer of `results`, when it has a diagnosis.
 pub fn of(results: &Results) -> Option<Answer> {
-    let d = results.diagnosis.as_ref()?;
+    let d = results.diagnosed.diagnosis.as_ref()?;
     let reading = Reading::of(results, d);
     Some(reading.answer())
 }
@@ -227,8 +227,8 @@ impl Reading {
 
 /// Each parameter's and extension variable's unit, by name.
 pub(super) fn units(results: &Results) -> IndexMap<String, String> {
-    let mut units = results.units.parameters.clone();
-    units.extend(results.units.variables.clone());
+    let mut units = results.stated.units.parameters.clone();
+    units.extend(results.stated.units.variables.clone());
     units
 }
 
@@ -348,6 +348,7 @@ fn shift(results: &Results, model: &Model) -> Option<Shift> {
             .fold(0.0, f64::max)
     };
     let parameter = results
+        .stated
         .units
         .parameters
         .keys()

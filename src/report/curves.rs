@@ -53,7 +53,7 @@ pub fn design_curves(study: &Study, runs: Option<&RunOutputs>, reference: Option
     // Only a crush-force response has a stroke window; the tests' curves are drawn without one otherwise.
     let window = crush.map(|(w, _)| w);
     let mut out = Vec::new();
-    for design in study.training.iter().chain(&study.validation) {
+    for design in study.split.training.iter().chain(&study.split.validation) {
         let (simulations, nearest, count) = match (runs, crush) {
             (Some(runs), Some((w, source))) => simulated(study, runs, design, w, source, reference),
             _ => (Vec::new(), None, 0),
@@ -224,7 +224,7 @@ pub fn recommended_curves(study: &Study, sets: &[RunOutputs], model: &Model) -> 
         })
     };
     let mut out = Vec::new();
-    for design in study.training.iter().chain(&study.validation) {
+    for design in study.split.training.iter().chain(&study.split.validation) {
         let best = sets
             .iter()
             .flat_map(|set| set.plan.runs.iter().enumerate().map(move |(i, r)| (set, i, r)))

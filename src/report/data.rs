@@ -43,15 +43,9 @@ pub struct ReportData {
     /// One per calibrated method (one-design-variable studies).
     #[serde(default)]
     pub prediction_curves: Vec<PredictionCurve>,
-    /// Solver studies: one per design.
-    #[serde(default)]
-    pub surrogates: Vec<SurrogateData>,
-    /// Solver studies: every planned run.
-    #[serde(default)]
-    pub runs: Vec<RunRow>,
-    /// Force–displacement curves per design: runs of a `crush_force` response, `experiments.curves`.
-    #[serde(default)]
-    pub force_displacement: Vec<DesignCurves>,
+    /// Solver studies: each design's surrogate, every planned run, the force–displacement curves.
+    #[serde(flatten)]
+    pub solver: SolverData,
     /// Hook: calibration and validation errors of further train/validate splits (paper Fig. 13);
     /// the study's own split is always shown from `results.json`.
     #[serde(default)]
@@ -65,6 +59,20 @@ pub struct ReportData {
     /// `openradioss` studies naming the stand-in's recordings: both solvers' curves compared.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solver_comparison: Option<super::solvers::SolverComparison>,
+}
+
+/// Solver studies: each design's surrogate, every planned run, the force–displacement curves.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+pub struct SolverData {
+    /// Solver studies: one per design.
+    #[serde(default)]
+    pub surrogates: Vec<SurrogateData>,
+    /// Solver studies: every planned run.
+    #[serde(default)]
+    pub runs: Vec<RunRow>,
+    /// Force–displacement curves per design: runs of a `crush_force` response, `experiments.curves`.
+    #[serde(default)]
+    pub force_displacement: Vec<DesignCurves>,
 }
 
 /// An extended model's predictions over one extension variable, the other parameters at their
@@ -100,9 +108,10 @@ impl ExtensionSurface {
         variable: &crate::study::Parameter,
     ) -> ExtensionSurface {
         let designs = study
+            .split
             .training
             .iter()
-            .chain(&study.validation)
+            .chain(&study.split.validation)
             .filter_map(|name| {
                 let t = study.experiments.get(name)?;
                 let points = (0..=40)
@@ -222,6 +231,20 @@ pub struct RunRow {
     /// `sample` or `check`.
     pub role: String,
     pub theta: Vec<f64>,
+    /// How the run ended: its class and words, attempts, time and response.
+    #[serde(flatten)]
+    pub ended: RunEnd,
+    /// The quality gates a successful run breaks, in words (empty: sound or not checked).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub flags: Vec<String>,
+    /// The solver's warnings the run's record keeps (`openradioss`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+}
+
+/// How the run ended: its class and words, attempts, time and response.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RunEnd {
     /// Outcome class (`success`, `timeout`, …); `null` when the run has no record.
     pub class: Option<String>,
     /// The outcome in words (failure details).
@@ -229,12 +252,6 @@ pub struct RunRow {
     pub attempts: u32,
     pub seconds: Option<f64>,
     pub response: Option<f64>,
-    /// The quality gates a successful run breaks, in words (empty: sound or not checked).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub flags: Vec<String>,
-    /// The solver's warnings the run's record keeps (`openradioss`).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
 }
 
 /// A force–displacement curve as drawn: thinned to at most [`super::curves::MAX_POINTS`] points.
@@ -377,7 +394,7 @@ impl ReportData {
                 let y = x.iter().map(|&t| d.surrogate.predict(&[t])).collect();
                 (x, y)
             });
-            self.surrogates.push(SurrogateData {
+            self.solver.surrogates.push(SurrogateData {
                 design: d.design.clone(),
                 kind: d.surrogate.kind.key().to_string(),
                 samples,
@@ -387,18 +404,20 @@ impl ReportData {
         }
         for (run, key) in plan.runs.iter().zip(keys) {
             let record = store.record(key);
-            self.runs.push(RunRow {
+            self.solver.runs.push(RunRow {
                 key: key.clone(),
                 design: run.design.clone(),
                 role: run.role.key().to_string(),
                 theta: run.theta.clone(),
-                class: record.map(|r| class_key(r.outcome.class())),
-                outcome: record.map_or("not run".to_string(), |r| r.outcome.to_string()),
-                attempts: record.map_or(0, |r| r.attempts),
-                seconds: record.map(|r| r.ended_ms.saturating_sub(r.started_ms) as f64 / 1000.0),
-                response: record.and_then(|r| r.response),
                 flags: Vec::new(),
                 warnings: record.map(|r| r.warnings.clone()).unwrap_or_default(),
+                ended: RunEnd {
+                    class: record.map(|r| class_key(r.outcome.class())),
+                    outcome: record.map_or("not run".to_string(), |r| r.outcome.to_string()),
+                    attempts: record.map_or(0, |r| r.attempts),
+                    seconds: record.map(|r| r.ended_ms.saturating_sub(r.started_ms) as f64 / 1000.0),
+                    response: record.and_then(|r| r.response),
+                },
             });
         }
         self
@@ -488,9 +507,9 @@ impl From<&Study> for StudyInfo {
             Simulation::Solver(sim) => (sim.execution.command.join(" "), Some(solver_info(sim))),
         };
         let role = |name: &String| {
-            if study.training.contains(name) {
+            if study.split.training.contains(name) {
                 "training"
-            } else if study.validation.contains(name) {
+            } else if study.split.validation.contains(name) {
                 "validation"
             } else {
                 "unused"

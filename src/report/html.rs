@@ -262,7 +262,7 @@ impl Page<'_> {
             "<tr><td class=l>parameters (bounds)</td><td class=l>{}</td></tr>",
             variables_with_bounds(&info.parameters)
         );
-        if let Some(runs) = &self.r.runs {
+        if let Some(runs) = &self.r.solver.runs {
             let _ = write!(
                 s,
                 "<tr><td class=l>solver runs</td><td class=l>{} planned: {} done, {} failed</td></tr>",
@@ -321,7 +321,7 @@ impl Page<'_> {
     }
 
     fn runs_summary(&self) -> String {
-        match &self.r.runs {
+        match &self.r.solver.runs {
             Some(r) => match r.failed_words() {
                 Some(words) => format!("<p class=warn>{}.</p>", escape(&words)),
                 None => format!(
@@ -334,17 +334,17 @@ impl Page<'_> {
     }
 
     fn surrogates(&self) -> String {
-        let Some(table) = &self.r.surrogates else {
+        let Some(table) = &self.r.solver.surrogates else {
             return note("closed-form simulation: evaluated directly, no response surfaces were fitted");
         };
         let mut s = surrogate_table(table);
-        let Some(d) = self.d.filter(|d| !d.surrogates.is_empty()) else {
+        let Some(d) = self.d.filter(|d| !d.solver.surrogates.is_empty()) else {
             return s + &note("the surrogates' samples were not recorded (report-data.json missing)");
         };
         let params: Vec<String> = d.study.parameters.iter().map(|p| p.name.clone()).collect();
         let y_label = self.response_label();
         s.push_str("<div class=grid>");
-        for sd in &d.surrogates {
+        for sd in &d.solver.surrogates {
             let err = table.get(&sd.design).and_then(|t| t.check_max_relative_error);
             let title = format!("Response surface, design {} (max check error {})", sd.design, pct(err));
             let plot = self.surrogate_plot(sd, title, &params[0], &y_label);
@@ -464,7 +464,8 @@ impl Page<'_> {
                 m.parameters.get(name).map_or("–".into(), |v| significant(*v, 5))
             }));
             s.push_str(&row(format!("{} 95 % interval", escape(name)), &|m| {
-                m.interval95
+                m.posterior
+                    .interval95
                     .as_ref()
                     .and_then(|iv| iv.get(name))
                     .map_or("–".into(), |[lo, hi]| {
@@ -472,7 +473,8 @@ impl Page<'_> {
                     })
             }));
             s.push_str(&row(format!("{} posterior median", escape(name)), &|m| {
-                m.median
+                m.posterior
+                    .median
                     .as_ref()
                     .and_then(|md| md.get(name))
                     .map_or("–".into(), |v| significant(*v, 5))
@@ -499,7 +501,7 @@ impl Page<'_> {
         let mut s = String::new();
         for (k, name) in post.parameters.iter().enumerate() {
             let band = bayes
-                .and_then(|b| b.interval95.as_ref())
+                .and_then(|b| b.posterior.interval95.as_ref())
                 .and_then(|iv| iv.get(name))
                 .map(|[lo, hi]| Band {
                     label: format!("95 % interval [{}, {}]", significant(*lo, 4), significant(*hi, 4)),
@@ -530,7 +532,7 @@ impl Page<'_> {
                 Some((x, y)) => plots::density_curve(&title, &x_label, &density, (x, y), band, &marks),
                 None => plots::histogram(&title, &x_label, &density, samples, 30, band, &marks),
             };
-            let how = match (post.density.get(k), bayes.and_then(|b| b.quadrature.as_ref())) {
+            let how = match (post.density.get(k), bayes.and_then(|b| b.posterior.quadrature.as_ref())) {
                 (Some(_), Some(q)) => format!(
                     "by quadrature, no sampling ({}; estimated relative error {:.1e} over θ, {:.1e} in the hyperparameters)",
                     escape(&q.rule),
@@ -540,7 +542,7 @@ impl Page<'_> {
                 _ => format!("{} thinned samples", samples.len()),
             };
             let convergence = bayes
-                .and_then(|b| b.convergence.as_ref())
+                .and_then(|b| b.posterior.convergence.as_ref())
                 .and_then(|c| c.get(name))
                 .map_or(String::new(), |c| {
                     format!(
@@ -655,11 +657,12 @@ impl Page<'_> {
         // misses beyond the noise.
         let noise: Vec<(f64, f64)> = self
             .r
+            .diagnosed
             .diagnosis
             .iter()
             .flat_map(|d| d.record.residuals.iter())
-            .filter(|r| r.sigma.is_finite() && r.sigma > 0.0 && r.count > 1)
-            .map(|r| (r.measured, r.sigma))
+            .filter(|r| r.sigma.is_finite() && r.sigma > 0.0 && r.test.count > 1)
+            .map(|r| (r.test.measured, r.sigma))
             .collect();
         if !noise.is_empty() {
             series.insert(
@@ -737,10 +740,10 @@ impl Page<'_> {
     /// The page's first section: the verdict, the action and the figure that decided it, then the
     /// parameters to use and what limits them (the details are in the diagnosis section).
     fn answer(&self) -> String {
-        let Some(dg) = &self.r.diagnosis else {
+        let Some(dg) = &self.r.diagnosed.diagnosis else {
             return note(&format!(
                 "no diagnosis: {}",
-                self.r.diagnosis_error.as_deref().unwrap_or("it did not run")
+                self.r.diagnosed.diagnosis_error.as_deref().unwrap_or("it did not run")
             ));
         };
         use crate::diagnose::verdict::Verdict;
@@ -773,10 +776,10 @@ impl Page<'_> {
     }
 
     fn diagnosis(&self) -> String {
-        let Some(dg) = &self.r.diagnosis else {
+        let Some(dg) = &self.r.diagnosed.diagnosis else {
             return note(&format!(
                 "no diagnosis: {}",
-                self.r.diagnosis_error.as_deref().unwrap_or("it did not run")
+                self.r.diagnosed.diagnosis_error.as_deref().unwrap_or("it did not run")
             ));
         };
         let mut s = verdict_block(dg);
@@ -929,9 +932,9 @@ impl Page<'_> {
     }
 
     fn run_table(&self) -> String {
-        let rows = self.d.map(|d| d.runs.as_slice()).unwrap_or_default();
+        let rows = self.d.map(|d| d.solver.runs.as_slice()).unwrap_or_default();
         if rows.is_empty() {
-            return if self.r.runs.is_some() {
+            return if self.r.solver.runs.is_some() {
                 self.runs_summary() + &note("the run table was not recorded (report-data.json missing)")
             } else {
                 note("closed-form simulation: no solver runs")
@@ -964,18 +967,21 @@ impl Page<'_> {
     fn runs_sentence(&self, rows: &[RunRow]) -> String {
         let failed = rows
             .iter()
-            .filter(|r| r.class.as_deref().is_some_and(|c| c != "success"))
+            .filter(|r| r.ended.class.as_deref().is_some_and(|c| c != "success"))
             .count();
         let suspect = rows.iter().filter(|r| !r.flags.is_empty()).count();
-        let total: f64 = rows.iter().filter_map(|r| r.seconds).sum();
-        let time = match self.r.runs.as_ref().and_then(|r| r.replayed_from.as_deref()) {
+        let total: f64 = rows.iter().filter_map(|r| r.ended.seconds).sum();
+        let time = match self.r.solver.runs.as_ref().and_then(|r| r.replayed_from.as_deref()) {
             Some(dir) => format!(
                 "replayed from the recordings in {} (times are the replay's, not the solver's)",
                 escape(dir)
             ),
             None => format!("{} of solver time in all", seconds(total)),
         };
-        let suspects = match (suspect, self.r.runs.as_ref().and_then(|r| r.suspect_runs.first())) {
+        let suspects = match (
+            suspect,
+            self.r.solver.runs.as_ref().and_then(|r| r.suspect_runs.first()),
+        ) {
             (0, _) => String::new(),
             (n, Some(first)) if first.used => {
                 format!(", {n} suspect (breaking a quality gate; used by the surrogates)")
@@ -990,7 +996,7 @@ impl Page<'_> {
 /// record, then suspect runs, then sound ones, each group in plan order.
 fn run_order(rows: &[RunRow]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..rows.len()).collect();
-    order.sort_by_key(|&i| match rows[i].class.as_deref() {
+    order.sort_by_key(|&i| match rows[i].ended.class.as_deref() {
         Some("success") if rows[i].flags.is_empty() => 3,
         Some("success") => 2,
         Some(_) => 0,
@@ -1002,7 +1008,7 @@ fn run_order(rows: &[RunRow]) -> Vec<usize> {
 /// Appends the run table's row for `r`: key, design, role, parameters, status, attempts, time,
 /// response and outcome (a successful run's quality flags and warnings, a failure's details).
 fn write_run_row(s: &mut String, r: &RunRow) {
-    let ok = r.class.as_deref() == Some("success");
+    let ok = r.ended.class.as_deref() == Some("success");
     let _ = write!(
         s,
         "<tr{}><td class=l><code title=\"{}\">{}</code></td><td class=l>{}</td><td class=l>{}</td>",
@@ -1018,13 +1024,13 @@ fn write_run_row(s: &mut String, r: &RunRow) {
     let _ = write!(
         s,
         "<td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
-        escape(match r.class.as_deref() {
+        escape(match r.ended.class.as_deref() {
             Some("success") if !r.flags.is_empty() => "suspect",
             other => other.unwrap_or("no record"),
         }),
-        r.attempts,
-        r.seconds.map_or("–".into(), seconds),
-        r.response.map_or("–".into(), |v| significant(v, 5)),
+        r.ended.attempts,
+        r.ended.seconds.map_or("–".into(), seconds),
+        r.ended.response.map_or("–".into(), |v| significant(v, 5)),
         if ok {
             escape(
                 &r.flags
@@ -1035,7 +1041,7 @@ fn write_run_row(s: &mut String, r: &RunRow) {
                     .join("; "),
             )
         } else {
-            escape(&r.outcome)
+            escape(&r.ended.outcome)
         }
     );
 }

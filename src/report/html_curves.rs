@@ -13,7 +13,10 @@ const FAR: f64 = 0.05;
 
 impl Page<'_> {
     pub(super) fn force_displacement(&self) -> String {
-        let curves = self.d.map(|d| d.force_displacement.as_slice()).unwrap_or_default();
+        let curves = self
+            .d
+            .map(|d| d.solver.force_displacement.as_slice())
+            .unwrap_or_default();
         if curves.is_empty() {
             return note(
                 "no force–displacement curves were recorded for this study: its response is not a crush force \
@@ -260,7 +263,7 @@ fn kn(v: Option<f64>) -> String {
 mod tests {
     use super::super::Page;
     use crate::report::Results;
-    use crate::report::data::{Curve, DesignCurves, Reference, ReportData, StudyInfo, TestInfo, Variable};
+    use crate::report::data::{Curve, DesignCurves, Reference, ReportData, SolverData, StudyInfo, TestInfo, Variable};
 
     fn curve(label: &str, parameters: Vec<f64>, mean: f64) -> Curve {
         Curve {
@@ -299,24 +302,27 @@ mod tests {
         };
         ReportData {
             study,
-            force_displacement: vec![DesignCurves {
-                design: "C6T5".into(),
-                window: Some([5.0, 60.0]),
-                simulations: vec![
-                    curve("sigma_y = 100.5 MPa", vec![100.5], 1.5),
-                    curve("sigma_y = 198.9 MPa", vec![198.9], 2.86),
-                    curve("sigma_y = 249 MPa", vec![249.0], 3.6),
-                ],
-                tests: vec![curve("C6T5-1", vec![], 2.7), curve("C6T5-2", vec![], 2.9)],
-                runs: 17,
-                nearest: Some(1),
-                reference: Some(Reference {
-                    method: "least_squares".into(),
-                    parameters: vec![199.23],
-                }),
-                tests_total: 3,
-                recommended: None,
-            }],
+            solver: SolverData {
+                force_displacement: vec![DesignCurves {
+                    design: "C6T5".into(),
+                    window: Some([5.0, 60.0]),
+                    simulations: vec![
+                        curve("sigma_y = 100.5 MPa", vec![100.5], 1.5),
+                        curve("sigma_y = 198.9 MPa", vec![198.9], 2.86),
+                        curve("sigma_y = 249 MPa", vec![249.0], 3.6),
+                    ],
+                    tests: vec![curve("C6T5-1", vec![], 2.7), curve("C6T5-2", vec![], 2.9)],
+                    runs: 17,
+                    nearest: Some(1),
+                    reference: Some(Reference {
+                        method: "least_squares".into(),
+                        parameters: vec![199.23],
+                    }),
+                    tests_total: 3,
+                    recommended: None,
+                }],
+                ..Default::default()
+            },
             ..Default::default()
         }
     }
@@ -359,7 +365,7 @@ mod tests {
         let mut d = data();
         d.study.parameters[0].min = Some(100.0);
         d.study.parameters[0].max = Some(250.0);
-        let dc = &mut d.force_displacement[0];
+        let dc = &mut d.solver.force_displacement[0];
         dc.tests = (1..=5).map(|i| curve(&format!("C6T5-{i}"), vec![], 2.8)).collect();
         dc.simulations[1].parameters = vec![249.0];
         let html = Page { r: &r, d: Some(&d) }.force_displacement();
@@ -373,7 +379,7 @@ mod tests {
             "{html}"
         );
         // Near enough (within 5 % of the range): nothing said.
-        d.force_displacement[0].simulations[1].parameters = vec![198.9];
+        d.solver.force_displacement[0].simulations[1].parameters = vec![198.9];
         let html = Page { r: &r, d: Some(&d) }.force_displacement();
         assert!(!html.contains("no run lies near"), "{html}");
     }

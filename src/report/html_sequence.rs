@@ -27,7 +27,7 @@ pub(super) fn section(r: &Results) -> String {
         out.push_str(&interval_plot(
             s,
             &name,
-            r.truth.as_ref().and_then(|t| t.get(&name)).copied(),
+            r.stated.truth.as_ref().and_then(|t| t.get(&name)).copied(),
         ));
     }
     out.push_str("</div>");

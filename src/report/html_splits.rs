@@ -64,7 +64,7 @@ impl Page<'_> {
                 .collect(),
         };
         let mut out = vec![own];
-        let recorded: Vec<SplitView> = match &r.splits {
+        let recorded: Vec<SplitView> = match &r.stated.splits {
             Some(splits) => splits
                 .iter()
                 .map(|sp| SplitView {
@@ -328,7 +328,7 @@ mod tests {
     #[test]
     fn one_split_is_said_to_be_the_only_one() {
         let mut r = results();
-        r.splits = None;
+        r.stated.splits = None;
         let page = Page { r: &r, d: None };
         assert!(page.split_plot().contains("The study names no further splits"));
         assert_eq!(page.split_table(), "");

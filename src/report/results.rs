@@ -28,17 +28,47 @@ pub struct Results {
     /// Keyed by method name (`least_squares`, `sensitivity`, `bayesian`), in the study's order.
     pub calibration: IndexMap<String, MethodResult>,
     pub identifiability: IdentifiabilityResult,
+    /// The diagnosis, or why it could not run.
+    #[serde(flatten)]
+    pub diagnosed: Diagnosed,
+    /// Solver studies: each design's surrogate and the runs.
+    #[serde(flatten)]
+    pub solver: SolverRecord,
+    /// What the study states beside its tests: the truth, extra splits, units.
+    #[serde(flatten)]
+    pub stated: Stated,
+    /// Calibration against whole force–displacement curves (`calibration.against: [.., curves]`).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub curve_calibration: Option<CurveCalibrationResult>,
+    /// A sequentially sampled study: what each batch of runs bought and why the sequence stopped.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub sampling: Option<crate::pipeline::sequence::Sequence>,
+}
+
+/// The diagnosis, or why it could not run.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct Diagnosed {
     /// What the simulation gets wrong and why (contract `diagnosis`); `null` if it could not run.
     pub diagnosis: Option<Diagnosis>,
     /// Why the diagnosis could not run.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub diagnosis_error: Option<String>,
+}
+
+/// Solver studies: each design's surrogate and the runs.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct SolverRecord {
     /// Solver studies: each design's surrogate and its error at the check runs.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub surrogates: Option<IndexMap<String, SurrogateResult>>,
     /// Solver studies: planned runs and how many have a successful result.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub runs: Option<RunsResult>,
+}
+
+/// What the study states beside its tests: the truth, extra splits, units.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct Stated {
     /// The study's `truth` (known parameter values of synthetic tests), when it states one.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub truth: Option<IndexMap<String, f64>>,
@@ -48,12 +78,6 @@ pub struct Results {
     /// The units the study states: each parameter's (`unit:`) and the response's (`experiments.unit`).
     #[serde(skip_serializing_if = "Units::is_empty", default)]
     pub units: Units,
-    /// Calibration against whole force–displacement curves (`calibration.against: [.., curves]`).
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub curve_calibration: Option<CurveCalibrationResult>,
-    /// A sequentially sampled study: what each batch of runs bought and why the sequence stopped.
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub sampling: Option<crate::pipeline::sequence::Sequence>,
 }
 
 /// Units as the study states them (absent when it states none).
@@ -125,8 +149,9 @@ impl SplitResult {
             .calibration
             .iter()
             .map(|(name, m)| {
-                let parameter_error = (!study.truth.is_empty() && m.error.is_none()).then(|| {
+                let parameter_error = (!study.experiments.truth.is_empty() && m.error.is_none()).then(|| {
                     study
+                        .experiments
                         .truth
                         .iter()
                         .filter_map(|(p, t)| m.parameters.get(p).map(|v| (p.clone(), (v - t) / t)))
@@ -143,8 +168,8 @@ impl SplitResult {
             })
             .collect();
         SplitResult {
-            training: study.training.clone(),
-            validation: study.validation.clone(),
+            training: study.split.training.clone(),
+            validation: study.split.validation.clone(),
             methods,
         }
     }
@@ -268,6 +293,22 @@ pub struct MethodResult {
     pub parameters: IndexMap<String, f64>,
     /// `null` for least squares; `{"constant": d}` for sensitivity; the GP's summary for Bayesian.
     pub discrepancy: Option<serde_json::Value>,
+    /// The Bayesian method's posterior summary (absent for the point estimates).
+    #[serde(flatten)]
+    pub posterior: PosteriorResult,
+    pub predictions: Vec<Prediction>,
+    /// Mean |relative error| over the training designs.
+    pub training_error: Option<f64>,
+    /// Mean |relative error| over the validation designs; `null` when the study names none.
+    pub validation_error: Option<f64>,
+    /// Why the method produced no estimate; the other keys are then empty.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub error: Option<String>,
+}
+
+/// The Bayesian method's posterior summary (absent for the point estimates).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct PosteriorResult {
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub interval95: Option<IndexMap<String, [f64; 2]>>,
     /// Posterior median (Bayesian only).
@@ -287,14 +328,6 @@ pub struct MethodResult {
     /// The quadrature's rule, error estimates and cost (Bayesian, when not sampled).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub quadrature: Option<QuadratureResult>,
-    pub predictions: Vec<Prediction>,
-    /// Mean |relative error| over the training designs.
-    pub training_error: Option<f64>,
-    /// Mean |relative error| over the validation designs; `null` when the study names none.
-    pub validation_error: Option<f64>,
-    /// Why the method produced no estimate; the other keys are then empty.
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub error: Option<String>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -361,15 +394,18 @@ impl Results {
             answer: None,
             calibration: methods,
             identifiability: (&calibration.identifiability).into(),
-            diagnosis_error: diagnosis.as_ref().err().map(|e| e.to_string()),
-            diagnosis: diagnosis.ok(),
-            surrogates: None,
-            runs: None,
-            truth: (!study.truth.is_empty()).then(|| study.truth.iter().cloned().collect()),
-            splits: None,
-            units: Units::of(study),
             curve_calibration: None,
             sampling: None,
+            diagnosed: Diagnosed {
+                diagnosis_error: diagnosis.as_ref().err().map(|e| e.to_string()),
+                diagnosis: diagnosis.ok(),
+            },
+            solver: SolverRecord::default(),
+            stated: Stated {
+                truth: (!study.experiments.truth.is_empty()).then(|| study.experiments.truth.iter().cloned().collect()),
+                splits: None,
+                units: Units::of(study),
+            },
         }
     }
 
@@ -385,7 +421,7 @@ impl Results {
             };
             (d.design.clone(), result)
         });
-        self.surrogates = Some(entries.collect());
+        self.solver.surrogates = Some(entries.collect());
         self
     }
 
@@ -410,16 +446,11 @@ impl MethodResult {
         MethodResult {
             parameters: IndexMap::new(),
             discrepancy: None,
-            interval95: None,
-            median: None,
-            convergence: None,
-            sampler: None,
-            mean: None,
-            quadrature: None,
             predictions: vec![],
             training_error: None,
             validation_error: None,
             error: Some(error),
+            posterior: PosteriorResult::default(),
         }
     }
 }
@@ -439,16 +470,11 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
     let mut result = MethodResult {
         parameters: names().zip(calibrated.theta().iter().copied()).collect(),
         discrepancy: None,
-        interval95: None,
-        median: None,
-        convergence: None,
-        sampler: None,
-        mean: None,
-        quadrature: None,
         predictions,
         training_error,
         validation_error,
         error: None,
+        posterior: PosteriorResult::default(),
     };
     match calibrated {
         Calibrated::Point(e) => {
@@ -457,11 +483,11 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
             }
         }
         Calibrated::Bayesian(fit) => {
-            result.interval95 = Some(names().zip(fit.interval95.iter().map(|&(lo, hi)| [lo, hi])).collect());
-            result.median = Some(names().zip(fit.median.iter().copied()).collect());
-            result.mean = Some(names().zip(fit.mean.iter().copied()).collect());
-            result.quadrature = fit.quadrature.clone();
-            result.convergence = (!fit.sampler.convergence.is_empty()).then(|| {
+            result.posterior.interval95 = Some(names().zip(fit.interval95.iter().map(|&(lo, hi)| [lo, hi])).collect());
+            result.posterior.median = Some(names().zip(fit.median.iter().copied()).collect());
+            result.posterior.mean = Some(names().zip(fit.mean.iter().copied()).collect());
+            result.posterior.quadrature = fit.quadrature.clone();
+            result.posterior.convergence = (!fit.sampler.convergence.is_empty()).then(|| {
                 names()
                     .zip(&fit.sampler.convergence)
                     .map(|(n, c)| {
@@ -474,7 +500,7 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
                     })
                     .collect()
             });
-            result.sampler = (!fit.sampler.sampling_powers.is_empty()).then(|| SamplerResult {
+            result.posterior.sampler = (!fit.sampler.sampling_powers.is_empty()).then(|| SamplerResult {
                 steps: fit.sampler.steps,
                 evaluations_per_move: fit.sampler.evaluations_per_move,
                 kernel: if fit.sampler.acceptance.is_nan() {
@@ -499,10 +525,11 @@ fn method_result(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> M
 /// Calibrated predictions at every training, then validation, design.
 fn predictions(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> Vec<Prediction> {
     let roles = study
+        .split
         .training
         .iter()
         .map(|n| (n, Role::Training))
-        .chain(study.validation.iter().map(|n| (n, Role::Validation)));
+        .chain(study.split.validation.iter().map(|n| (n, Role::Validation)));
     roles
         .map(|(name, role)| {
             let test = study

@@ -87,7 +87,7 @@ fn results(
         return results;
     };
     let mut results = results.with_surrogates(&runs.surrogates);
-    results.splits = splits;
+    results.stated.splits = splits;
     results.sampling = runs.sequence.as_ref().map(|s| sequence::Sequence {
         replaces: sequence::record::Replaced::of(
             study,
@@ -140,7 +140,7 @@ fn results(
         all.suspect_runs
             .extend(suspect_runs(study, plan, keys, &swept.responses, flags, use_suspect));
     }
-    results.runs = Some(all);
+    results.solver.runs = Some(all);
     results
 }
 
@@ -154,7 +154,7 @@ fn report_data(
     recommended: Option<&super::answer::Model>,
 ) -> ReportData {
     let mut data = ReportData::build(study, simulated.model(), calibration);
-    data.force_displacement = match simulated {
+    data.solver.force_displacement = match simulated {
         Simulated::ClosedForm(_) => super::curves::design_curves(study, None, None),
         Simulated::Solver(r) => {
             let responses = &r.executed.swept.responses;
@@ -166,7 +166,7 @@ fn report_data(
                 &r.surrogates,
                 &r.executed.store,
             );
-            for (row, f) in data.runs.iter_mut().zip(&r.flags) {
+            for (row, f) in data.solver.runs.iter_mut().zip(&r.flags) {
                 row.flags = f.iter().map(|f| f.text.clone()).collect();
             }
             let outputs = super::curves::RunOutputs {

@@ -37,7 +37,7 @@ fn answer_lines(results: &Results) -> String {
 /// cause's model and, when the tests cannot tell them apart, the leading explanations', so that
 /// each figure the answer quotes has its row.
 fn diagnosis_models(results: &Results) -> String {
-    let Some(d) = &results.diagnosis else {
+    let Some(d) = &results.diagnosed.diagnosis else {
         return String::new();
     };
     let rows = super::answer::quoted_models(results, d);
@@ -73,7 +73,7 @@ fn diagnosis_models(results: &Results) -> String {
 /// When runs failed: how many, in which stages, and that the fits and the verdict rest on the
 /// runs that finished.
 fn failed_runs(results: &Results) -> String {
-    let Some(words) = results.runs.as_ref().and_then(|r| r.failed_words()) else {
+    let Some(words) = results.solver.runs.as_ref().and_then(|r| r.failed_words()) else {
         return String::new();
     };
     let listed = match results.sampling {
@@ -122,7 +122,7 @@ fn sampling_line(results: &Results) -> String {
 /// diagnosis's limits).
 fn model_caution(results: &Results) -> String {
     use crate::diagnose::verdict::Verdict;
-    let Some(d) = &results.diagnosis else {
+    let Some(d) = &results.diagnosed.diagnosis else {
         return String::new();
     };
     let moved = d.explained.parameter_limits.first().map_or(String::new(), |l| {
@@ -202,14 +202,14 @@ fn curves_table(c: &super::results::CurveCalibrationResult) -> String {
 pub fn convergence_warnings(results: &Results) -> String {
     let mut out = String::new();
     for (method, r) in &results.calibration {
-        if let Some(q) = r.quadrature.as_ref().filter(|q| !q.converged) {
+        if let Some(q) = r.posterior.quadrature.as_ref().filter(|q| !q.converged) {
             let _ = writeln!(
                 out,
                 "warning: the {method} posterior's quadrature stopped at its budget of {} boxes before its                  tolerance (estimated relative error {:.1e}): its interval is rough",
                 q.boxes, q.relative_error
             );
         }
-        let Some(conv) = &r.convergence else { continue };
+        let Some(conv) = &r.posterior.convergence else { continue };
         let short: Vec<String> = conv
             .iter()
             .filter(|(_, c)| !c.converged)
@@ -240,7 +240,11 @@ fn methods_table(results: &Results) -> String {
     let _ = writeln!(out, "study {}\n", results.study);
     let mut header = format!("{:<15}", "method");
     for n in &names {
-        let _ = write!(header, " {:>14}", Units::label(results.units.parameters.get(*n), n));
+        let _ = write!(
+            header,
+            " {:>14}",
+            Units::label(results.stated.units.parameters.get(*n), n)
+        );
     }
     let _ = writeln!(
         out,
@@ -256,7 +260,7 @@ fn methods_table(results: &Results) -> String {
         for n in &names {
             let _ = write!(line, " {:>14}", significant(r.parameters[*n], 6));
         }
-        let extra = match (&r.interval95, &r.discrepancy) {
+        let extra = match (&r.posterior.interval95, &r.discrepancy) {
             (Some(iv), _) => iv
                 .values()
                 .map(|[lo, hi]| format!("[{}, {}]", significant(*lo, 5), significant(*hi, 5)))
@@ -267,6 +271,7 @@ fn methods_table(results: &Results) -> String {
                 .and_then(|c| c.as_f64())
                 .map(|c| {
                     let unit = results
+                        .stated
                         .units
                         .response
                         .as_ref()
@@ -290,7 +295,7 @@ fn methods_table(results: &Results) -> String {
 fn predictions_table(results: &Results) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "\npredictions (relative error)");
-    let measured = Units::label(results.units.response.as_ref(), "measured");
+    let measured = Units::label(results.stated.units.response.as_ref(), "measured");
     let mut header = format!("{:<12} {:<10} {:>14}", "design", "role", measured);
     for method in results.calibration.keys() {
         let _ = write!(header, " {:>24}", method);
@@ -358,8 +363,8 @@ pub fn splits(splits: &[SplitResult]) -> String {
 }
 
 fn write_diagnosis(out: &mut String, results: &Results, verbose: bool) {
-    let Some(d) = &results.diagnosis else {
-        if let Some(e) = &results.diagnosis_error {
+    let Some(d) = &results.diagnosed.diagnosis else {
+        if let Some(e) = &results.diagnosed.diagnosis_error {
             let _ = writeln!(out, "\ndiagnosis: could not run: {e}");
         }
         return;

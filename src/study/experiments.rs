@@ -23,6 +23,8 @@ pub struct Experiments {
     /// `experiments.uncertainty`: the measurement's uncertainty of one test, `[absolute, relative]`
     /// (σ² = a² + (b·y)²), the noise where the tests have no replicates.
     pub uncertainty: Option<[f64; 2]>,
+    /// Known parameter values (`truth`: synthetic tests), by parameter name, in parameter order.
+    pub truth: Vec<(String, f64)>,
 }
 
 /// The test-machine curves of one tested design (mm, kN, compression positive).
@@ -106,6 +108,7 @@ pub fn read(file: &Path, response: &str, design_variables: &[String]) -> Result<
         designs: designs.designs,
         curves: Vec::new(),
         uncertainty: None,
+        truth: Vec::new(),
     })
 }
 

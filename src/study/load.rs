@@ -12,7 +12,7 @@ use super::schema::{BayesianFile, CalibrationFile, DiagnosisFile, Name, Simulati
 use super::yaml::{self, Spanned};
 use super::{
     CalibrationSettings, DesignVariable, DiagnosisSettings, Experiments, Expression, Hypothesis, HypothesisKind,
-    Method, Parameter, Simulation, Study, SurrogateKind, Symbols, experiments, symbols,
+    Method, Parameter, Simulation, Split, Study, SurrogateKind, Symbols, experiments, symbols,
 };
 use crate::error::InputError;
 
@@ -171,8 +171,9 @@ impl Checker<'_> {
             &training,
             &validation,
         )?;
-        let splits = self.splits(file.splits.as_ref(), &experiments, &training, &validation, &calibration)?;
-        let truth = self.truth(&file, &parameters)?;
+        calibration.splits = self.splits(file.splits.as_ref(), &experiments, &training, &validation, &calibration)?;
+        let mut experiments = experiments;
+        experiments.truth = self.truth(&file, &parameters)?;
         let mut study = Study {
             name,
             path: self.path.to_path_buf(),
@@ -181,12 +182,9 @@ impl Checker<'_> {
             parameters,
             simulation,
             experiments,
-            training,
-            validation,
+            split: Split { training, validation },
             calibration,
             diagnosis: DiagnosisSettings::default(),
-            splits,
-            truth,
         };
         debug_assert_eq!(study.symbols(), symbols);
         study.diagnosis = self.diagnosis(file.diagnosis.as_ref(), &study)?;
@@ -773,6 +771,7 @@ impl Checker<'_> {
             bayesian: self.bayesian(spec.map(|c| &c.bayesian))?,
             against: Default::default(),
             curve: Default::default(),
+            splits: Vec::new(),
         })
     }
 

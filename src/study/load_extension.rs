@@ -164,7 +164,7 @@ impl Checker<'_> {
         vars: &[(String, f64)],
     ) -> Result<(), InputError> {
         let render = |vars: &[(String, f64)]| render_at_centre(study, renderer, vars);
-        let design = &study.training[0];
+        let design = &study.split.training[0];
         let full = render(vars).map_err(|mut e| {
             e.message = format!("{} (rendering the extension of {who})", e.message);
             e
@@ -199,7 +199,7 @@ fn render_at_centre(
     renderer: &crate::base::template::Renderer,
     vars: &[(String, f64)],
 ) -> Result<crate::base::template::Inputs, InputError> {
-    let design = &study.training[0];
+    let design = &study.split.training[0];
     let values = study
         .experiments
         .get(design)

@@ -44,15 +44,11 @@ pub struct Study {
     pub parameters: Vec<Parameter>,
     pub simulation: Simulation,
     pub experiments: Experiments,
-    /// Training design names, in the order the study lists them (Eq. 6 pairs consecutive ones).
-    pub training: Vec<String>,
-    pub validation: Vec<String>,
+    /// The designs calibrated against (`training`, in the order the study lists them: Eq. 6 pairs
+    /// consecutive ones) and those held out (`validation`).
+    pub split: Split,
     pub calibration: CalibrationSettings,
     pub diagnosis: DiagnosisSettings,
-    /// Extra train/validate splits, calibrated from the same simulations (`splits`).
-    pub splits: Vec<Split>,
-    /// Known parameter values (`truth`), by parameter name, in parameter order.
-    pub truth: Vec<(String, f64)>,
 }
 
 impl Study {
@@ -120,6 +116,8 @@ pub struct CalibrationSettings {
     pub against: Targets,
     /// How curves are compared (`calibration.curve`), when `against` has `curves`.
     pub curve: CurveSettings,
+    /// Extra train/validate splits, calibrated from the same simulations (`splits`).
+    pub splits: Vec<Split>,
 }
 
 /// `calibration.against`: the response (results.json `calibration`), the force–displacement

@@ -113,9 +113,10 @@ impl SequenceFloor {
 /// Every tested design (training, then validation) with its values.
 pub fn tested_designs(study: &Study) -> impl Iterator<Item = (&String, &Vec<f64>)> {
     study
+        .split
         .training
         .iter()
-        .chain(&study.validation)
+        .chain(&study.split.validation)
         .filter_map(|name| study.experiments.get(name).map(|t| (name, &t.values))) // validated: always there
 }
 

@@ -52,7 +52,7 @@ impl Tests {
         let observations: Vec<Observation> = crate::plan::sweep::tested_designs(study)
             .filter_map(|(name, values)| {
                 let t = study.experiments.get(name)?;
-                let role = if study.training.contains(name) {
+                let role = if study.split.training.contains(name) {
                     Role::Training
                 } else {
                     Role::Validation
