@@ -39,6 +39,7 @@ pub mod lack_of_fit;
 pub mod levels;
 pub mod library;
 pub mod limits;
+mod mixings;
 pub mod next_test;
 pub mod noise;
 pub mod open;
@@ -1099,6 +1100,7 @@ pub fn discover(inputs: &Inputs) -> Result<Option<discover::Discovered>, Calibra
 fn noise_and_base<'a>(
     inputs: &'a Inputs<'a>,
     detection: bool,
+    mixing: Option<f64>,
 ) -> Result<(Context<'a>, candidates::Model, Option<NoiseModel>), CalibrationError> {
     let fitted = |nm: Option<NoiseModel>| -> Result<_, CalibrationError> {
         let cx = Context::new(inputs, nm.as_ref(), detection)?;
@@ -1112,6 +1114,9 @@ fn noise_and_base<'a>(
         return fitted(inputs.settings.measurement.map(NoiseModel::stated));
     };
     let alpha = inputs.settings.alpha;
+    if let Some(lambda) = mixing {
+        return fitted(Some(scatter.model_at(lambda, alpha)));
+    }
     let chosen = scatter.chosen_mixing(alpha);
     let first = fitted(Some(scatter.model_at(chosen, alpha)))?;
     // The other mixings the replicates allow may spare the uncorrected model a claim of model
@@ -1174,19 +1179,22 @@ pub struct LoopModel<'a> {
 /// calibrated (`looped`), decided once ([`after_loop`]). Also returns each loop model's own
 /// diagnosis (what it leaves unexplained).
 pub fn conclude(inputs: &Inputs, looped: &[LoopModel]) -> Result<(Diagnosis, Vec<Diagnosis>), CalibrationError> {
-    let screening = Evidence::gather(inputs, true)?;
-    let evidence: Vec<Evidence> = looped
-        .iter()
-        .map(|m| {
-            Evidence::gather(&m.inputs, false).map(|e| Evidence {
-                checked: m.checked,
-                running: m.running,
-                ..e
+    let mut screening = Evidence::gather(inputs, true)?;
+    let gather = |mixing: Option<f64>| -> Result<Vec<Evidence>, CalibrationError> {
+        looped
+            .iter()
+            .map(|m| {
+                Evidence::gather_at(&m.inputs, false, mixing).map(|e| Evidence {
+                    checked: m.checked,
+                    running: m.running,
+                    ..e
+                })
             })
-        })
-        .collect::<Result<_, _>>()?;
-    let own: Vec<Diagnosis> = evidence.iter().map(|e| e.conclusion(&[], &[])).collect();
+            .collect()
+    };
     let names: Vec<String> = looped.iter().map(|m| m.hypothesis.clone()).collect();
+    let evidence = mixings::judged(&mut screening, gather(None)?, &names, &gather)?;
+    let own: Vec<Diagnosis> = evidence.iter().map(|e| e.conclusion(&[], &[])).collect();
     Ok((screening.conclusion(&evidence, &names), own))
 }
 
@@ -1216,8 +1224,14 @@ impl<'a> Evidence<'a> {
     /// `detection`: the simulation is the study's own, so the uncorrected model's lack of fit
     /// detects model error (a loop model's is judged as a cause's model).
     fn gather(inputs: &'a Inputs<'a>, detection: bool) -> Result<Self, CalibrationError> {
+        Evidence::gather_at(inputs, detection, None)
+    }
+
+    /// [`Evidence::gather`] with the replicates' noise at mixing λ (`Some`), in place of the one
+    /// the noise model chooses.
+    fn gather_at(inputs: &'a Inputs<'a>, detection: bool, mixing: Option<f64>) -> Result<Self, CalibrationError> {
         let mut notes = Vec::new();
-        let (cx, base, replicate_noise) = noise_and_base(inputs, detection)?;
+        let (cx, base, replicate_noise) = noise_and_base(inputs, detection, mixing)?;
         let shapes = candidates::shapes(&cx, &base, &mut notes);
         let fitted = candidates::fit_all(&cx, shapes, &mut notes);
         let assessed = evidence::assess(&cx, &base, &fitted);
