@@ -410,21 +410,45 @@ mod tests {
     use crate::base::Bounds;
     use crate::diagnose::Observation;
 
-    /// Tests of y = a/h³ at five depths (three replicates each, 0.3 % noise); a model of that form.
-    fn beam(kr: f64) -> (Vec<Observation>, NoiseModel) {
-        let truth = |h: f64| 600.0 / h.powi(3) * (1.0 + kr * 3.0 / h);
-        let obs: Vec<Observation> = [7.0, 8.0, 9.0, 11.0, 13.0]
+    /// Tests of y = a/h³ (1 + kr·3/h) at `depths`, each its replicates from `replicates(y)`, the last
+    /// depth validating; their noise from the replicates.
+    fn tests_at(
+        depths: &[f64],
+        kr: f64,
+        mut replicates: impl FnMut(f64) -> Vec<f64>,
+    ) -> (Vec<Observation>, NoiseModel) {
+        let last = depths.len() - 1;
+        let obs: Vec<Observation> = depths
             .iter()
             .enumerate()
             .map(|(i, &h)| {
-                let y = truth(h);
-                let reps = [y * (1.0 - 0.003), y, y * (1.0 + 0.003)];
-                let role = if i < 4 { Role::Training } else { Role::Validation };
+                let reps = replicates(600.0 / h.powi(3) * (1.0 + kr * 3.0 / h));
+                let role = if i < last { Role::Training } else { Role::Validation };
                 Observation::from_replicates(format!("h{h}"), vec![h], role, &reps)
             })
             .collect();
         let noise = crate::diagnose::noise::from_replicates(&obs, 0.01).expect("replicates");
         (obs, noise)
+    }
+
+    /// Tests of y = a/h³ at five depths (three replicates each, 0.3 % noise); a model of that form.
+    fn beam(kr: f64) -> (Vec<Observation>, NoiseModel) {
+        tests_at(&[7.0, 8.0, 9.0, 11.0, 13.0], kr, |y| {
+            vec![y * (1.0 - 0.003), y, y * (1.0 + 0.003)]
+        })
+    }
+
+    /// The model y = a/h³ as the uncorrected simulation of `i`, fitted at `a`, and the solver's
+    /// values there (the solver is the model).
+    fn uncorrected_at<'a>(i: &'a Inputs<'a>, a: f64) -> (Confirming<'a>, Vec<Option<f64>>) {
+        let solver = i.observations.iter().map(|o| Some(a / o.design[0].powi(3))).collect();
+        let m = Confirming {
+            name: "uncorrected".into(),
+            inputs: i,
+            point: vec![a],
+            correction: vec![0.0; i.observations.len()],
+        };
+        (m, solver)
     }
 
     fn inputs<'a>(observations: Vec<Observation>, model: &'a dyn crate::emulate::Model) -> Inputs<'a> {
@@ -454,13 +478,7 @@ mod tests {
         let (obs, noise) = beam(0.0);
         let i = inputs(obs.clone(), &model);
         // Fitted a little off (an emulator's error of 0.2 %).
-        let m = Confirming {
-            name: "uncorrected".into(),
-            inputs: &i,
-            point: vec![601.2],
-            correction: vec![0.0; obs.len()],
-        };
-        let solver: Vec<Option<f64>> = obs.iter().map(|o| Some(model(&o.design, &[601.2]))).collect();
+        let (m, solver) = uncorrected_at(&i, 601.2);
         let c = confirm(&m, &solver, &noise, 0.01);
         let l = c.lack_of_fit.expect("a test");
         assert!(l.fits, "{l:?}");
@@ -471,9 +489,8 @@ mod tests {
         );
 
         let (obs, noise) = beam(0.3);
-        let i = inputs(obs.clone(), &model);
-        let m = Confirming { inputs: &i, ..m };
-        let solver: Vec<Option<f64>> = obs.iter().map(|o| Some(model(&o.design, &[601.2]))).collect();
+        let i = inputs(obs, &model);
+        let (m, solver) = uncorrected_at(&i, 601.2);
         let c = confirm(&m, &solver, &noise, 0.01);
         assert!(c.lack_of_fit.expect("a test").rejects());
     }
@@ -483,13 +500,7 @@ mod tests {
         let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
         let (obs, noise) = beam(0.0);
         let i = inputs(obs.clone(), &model);
-        let m = Confirming {
-            name: "uncorrected".into(),
-            inputs: &i,
-            point: vec![600.0],
-            correction: vec![0.0; obs.len()],
-        };
-        let mut solver: Vec<Option<f64>> = obs.iter().map(|o| Some(model(&o.design, &[600.0]))).collect();
+        let (m, mut solver) = uncorrected_at(&i, 600.0);
         solver[2] = None;
         let c = confirm(&m, &solver, &noise, 0.01);
         assert!(c.lack_of_fit.is_none());
@@ -513,27 +524,13 @@ mod tests {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(53 + (kr * 1e3) as u64);
             (0..draws)
                 .filter(|_| {
-                    let obs: Vec<Observation> = [5.0f64, 7.5, 10.0, 12.5, 15.0]
-                        .iter()
-                        .enumerate()
-                        .map(|(i, &h)| {
-                            let y = 600.0 / h.powi(3) * (1.0 + kr * 3.0 / h);
-                            let reps: Vec<f64> = (0..3)
-                                .map(|_| y * (1.0 + 0.003 * Distribution::<f64>::sample(&StandardNormal, &mut rng)))
-                                .collect();
-                            let role = if i < 4 { Role::Training } else { Role::Validation };
-                            Observation::from_replicates(format!("h{h}"), vec![h], role, &reps)
-                        })
-                        .collect();
-                    let noise = crate::diagnose::noise::from_replicates(&obs, 0.01).expect("replicates");
+                    let (obs, noise) = tests_at(&[5.0, 7.5, 10.0, 12.5, 15.0], kr, |y| {
+                        (0..3)
+                            .map(|_| y * (1.0 + 0.003 * Distribution::<f64>::sample(&StandardNormal, &mut rng)))
+                            .collect()
+                    });
                     let i = inputs(obs.clone(), &model);
-                    let m = Confirming {
-                        name: "uncorrected".into(),
-                        inputs: &i,
-                        point: vec![600.0],
-                        correction: vec![0.0; obs.len()],
-                    };
-                    let solver: Vec<Option<f64>> = obs.iter().map(|o| Some(model(&o.design, &[600.0]))).collect();
+                    let (m, solver) = uncorrected_at(&i, 600.0);
                     let c = confirm(&m, &solver, &noise, 0.01);
                     if c.mixing.is_some() {
                         let under_chosen = confirm_under(&m, &solver, &noise, 0.01);
