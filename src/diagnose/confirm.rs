@@ -39,6 +39,10 @@ pub struct Confirmation {
     pub lack_of_fit: Option<LackOfFit>,
     /// How far the bridge moved each variable, as a fraction of its range.
     pub step: IndexMap<String, f64>,
+    /// The point after the bridge, by name: where the solver's own best fit lies as the emulator's
+    /// slope reads it (empty without a bridge).
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub refitted: IndexMap<String, f64>,
     /// The largest |solver − emulator| at the runs, in units of the tests' noise of the mean:
     /// what the decision's emulators got wrong where it read them.
     pub emulator_miss: Option<f64>,
@@ -161,6 +165,13 @@ fn confirm_under(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, lev
                     .cloned()
                     .zip(b.step.iter().zip(width.iter()).map(|(d, w)| d / w))
                     .collect()
+            })
+            .unwrap_or_default(),
+        refitted: bridged
+            .as_ref()
+            .map(|b| {
+                let at = theta.iter().zip(&b.step).map(|(t, d)| t + d);
+                names.iter().cloned().zip(at).collect()
             })
             .unwrap_or_default(),
         emulator_miss: miss,
@@ -289,6 +300,20 @@ pub fn claims(d: &super::Diagnosis) -> Vec<(String, Claim)> {
     }
 }
 
+/// The runs that would decide where the solver confirmed neither decision: at each confirmed
+/// model's refitted point, one per tested design (none where its runs failed: no bridge).
+fn deciding_runs(confirmations: &[Confirmation], designs: &[String]) -> Vec<DecidingRuns> {
+    confirmations
+        .iter()
+        .filter(|c| !c.refitted.is_empty())
+        .map(|c| DecidingRuns {
+            model: c.model.clone(),
+            at: c.refitted.clone(),
+            designs: designs.to_vec(),
+        })
+        .collect()
+}
+
 /// The name of the uncorrected simulation's confirmation.
 pub const UNCORRECTED: &str = "uncorrected";
 
@@ -316,6 +341,23 @@ pub struct EmulatorReading {
     /// the fitted parameters failed or have no recording, and none refuted it.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub unjudged: Option<String>,
+    /// Where neither decision is confirmed (`emulator_limited`): the solver runs that would decide.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub deciding_runs: Vec<DecidingRuns>,
+}
+
+/// Runs that would decide an `emulator_limited` verdict (`diagnosis.emulator.deciding_runs[]`): at
+/// a model's refitted point (its confirmation's bridge), one run per tested design. There the
+/// solver, not the emulators' slope, says whether the model fits at its own best parameters; the
+/// step from the fitted point is the emulators' error in the fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DecidingRuns {
+    /// `uncorrected`, or the hypothesis whose model it is.
+    pub model: String,
+    /// The point to run at, by name.
+    pub at: IndexMap<String, f64>,
+    /// The tested designs, one run each.
+    pub designs: Vec<String>,
 }
 
 /// A decision as the reading records it.
@@ -359,6 +401,7 @@ pub fn settle(
     noise_alone: super::Diagnosis,
     counted: super::Diagnosis,
     confirmations: Vec<Confirmation>,
+    designs: &[String],
 ) -> super::Diagnosis {
     let differ =
         (noise_alone.finding.verdict, &noise_alone.finding.cause) != (counted.finding.verdict, &counted.finding.cause);
@@ -368,6 +411,7 @@ pub fn settle(
         differ,
         confirmed: confirmed.map(str::to_string),
         unjudged: unjudged.map(str::to_string),
+        deciding_runs: Vec::new(),
     };
     let judged = |d: &super::Diagnosis| {
         let held: Vec<Option<bool>> = claims(d)
@@ -393,10 +437,15 @@ pub fn settle(
     let (d, reading) = match (first(Judged::Confirmed), first(Judged::Unjudged)) {
         (Some((d, w)), _) => (d.clone(), reading(Some(w), None)),
         (None, Some((d, w))) => (d.clone(), reading(None, Some(w))),
-        (None, None) => (
-            super::text::emulator_limited(&noise_alone, &counted, &confirmations),
-            reading(None, None),
-        ),
+        (None, None) => {
+            let deciding = deciding_runs(&confirmations, designs);
+            let d = super::text::emulator_limited(&noise_alone, &counted, &confirmations, &deciding);
+            let reading = EmulatorReading {
+                deciding_runs: deciding,
+                ..reading(None, None)
+            };
+            (d, reading)
+        }
     };
     let mut d = d;
     d.checked.confirmation = confirmations;
@@ -487,6 +536,7 @@ mod tests {
             "the bridge steps back to 600: {:?}",
             c.step
         );
+        assert!((c.refitted["a"] - 600.0).abs() < 1e-3, "{:?}", c.refitted);
 
         let (obs, noise) = beam(0.3);
         let i = inputs(obs, &model);
@@ -544,5 +594,36 @@ mod tests {
         assert!(truth <= 49, "the true model rejected in {truth} of 3000");
         let trend = rejected(0.05, 200);
         assert!(trend >= 180, "a trend of 1.5 % to 3 % rejected in only {trend} of 200");
+    }
+
+    /// Where the solver confirmed neither decision, the runs that decide are each model's refitted
+    /// point at every tested design; a model whose runs failed (no bridge) adds none.
+    #[test]
+    fn the_deciding_runs_are_at_each_models_refitted_point() {
+        let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
+        let (obs, noise) = beam(0.3);
+        let i = inputs(obs, &model);
+        let (m, solver) = uncorrected_at(&i, 601.2);
+        let refuted = confirm(&m, &solver, &noise, 0.01);
+        let (m, mut solver) = uncorrected_at(&i, 600.0);
+        solver[1] = None;
+        let failed = Confirmation {
+            model: "clamp".into(),
+            ..confirm(&m, &solver, &noise, 0.01)
+        };
+        let designs: Vec<String> = i.observations.iter().map(|o| o.group.clone()).collect();
+        let runs = deciding_runs(&[refuted.clone(), failed], &designs);
+        assert_eq!(runs.len(), 1);
+        assert_eq!(runs[0].model, UNCORRECTED);
+        assert_eq!(runs[0].designs, designs);
+        let step = refuted.step["a"] * 600.0;
+        assert!(
+            (runs[0].at["a"] - (601.2 + step)).abs() < 1e-9,
+            "{:?} {step}",
+            runs[0].at
+        );
+        let words = super::super::text::deciding_words(&runs);
+        assert!(words.starts_with("5 more solver runs would decide"), "{words}");
+        assert!(words.contains("h7, h8, h9, h11, h13"), "{words}");
     }
 }

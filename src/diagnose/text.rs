@@ -245,6 +245,7 @@ pub(crate) fn emulator_limited(
     noise_alone: &super::Diagnosis,
     counted: &super::Diagnosis,
     confirmations: &[super::confirm::Confirmation],
+    deciding: &[super::confirm::DecidingRuns],
 ) -> super::Diagnosis {
     let mut d = noise_alone.clone();
     let short = |x: &super::Diagnosis| match &x.finding.cause {
@@ -272,14 +273,10 @@ pub(crate) fn emulator_limited(
         short(noise_alone),
         short(counted)
     );
-    let at = confirmations
-        .iter()
-        .find(|c| c.model == super::confirm::UNCORRECTED)
-        .map_or(String::new(), |c| format!(" around {}", params(&c.at)));
     d.finding.action = format!(
-        "Do not take either model's parameters as the answer yet: more solver runs{at} at the tested designs \
-         (with `sampling: sequential`, a larger `sampling.budget`; with a fixed design, more samples) make the \
-         emulators good enough to decide."
+        "Do not take either model's parameters as the answer yet: {} (with `sampling: sequential`, a larger \
+         `sampling.budget`; with a fixed design, more samples, so that the emulators follow the solver there).",
+        deciding_words(deciding)
     );
     d.finding.verdict = super::verdict::Verdict::EmulatorLimited;
     let mut leading = noise_alone.finding.leading.clone();
@@ -296,6 +293,30 @@ pub(crate) fn emulator_limited(
     d.finding.partial = None;
     d.explained.extended = None;
     d
+}
+
+/// The runs that would decide, in words: how many, where, at which parameters.
+pub(crate) fn deciding_words(deciding: &[super::confirm::DecidingRuns]) -> String {
+    let runs: usize = deciding.iter().map(|r| r.designs.len()).sum();
+    let Some(first) = deciding.first() else {
+        return "more solver runs around the fitted parameters at the tested designs would decide".to_string();
+    };
+    let points: Vec<String> = deciding
+        .iter()
+        .map(|r| {
+            let model = match r.model.as_str() {
+                super::confirm::UNCORRECTED => "the uncorrected simulation".to_string(),
+                name => format!("the model with '{name}'"),
+            };
+            format!("{} for {model}", params(&r.at))
+        })
+        .collect();
+    format!(
+        "{runs} more solver runs would decide — one at each tested design ({}) at each model's parameters refitted \
+         to its solver runs: {}; there the solver alone says whether each model fits",
+        first.designs.join(", "),
+        points.join("; ")
+    )
 }
 
 /// The verdict, the action, the evidence one per line, then the limits: the terminal's and the

@@ -195,7 +195,10 @@ fn confirmed(
 ) -> Result<Confirmed, Error> {
     let noise = noise_alone.diagnosis.record.noise.clone();
     let (confirmations, runs) = super::confirm::run(cx, made, &subjects, (read, &noise, joint), reporter)?;
-    let d = crate::diagnose::confirm::settle(noise_alone.diagnosis, counted.diagnosis, confirmations);
+    let designs: Vec<String> = crate::plan::sweep::tested_designs(cx.study)
+        .map(|(n, _)| n.clone())
+        .collect();
+    let d = crate::diagnose::confirm::settle(noise_alone.diagnosis, counted.diagnosis, confirmations, &designs);
     let kept = d.checked.emulator.as_ref().and_then(|e| e.confirmed.as_deref());
     let residuals = match kept {
         Some("counted") => counted.residuals,
