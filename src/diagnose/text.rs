@@ -207,7 +207,12 @@ fn open_clause(n: &super::open::NotExcluded) -> String {
 
 /// A confirmation's model in words.
 fn model_words(c: &super::confirm::Confirmation) -> String {
-    match c.model.as_str() {
+    named_model(&c.model)
+}
+
+/// A model of a verdict by its confirmation's name: the uncorrected simulation, or a cause's model.
+fn named_model(model: &str) -> String {
+    match model {
         super::confirm::UNCORRECTED => "the uncorrected simulation".to_string(),
         name => format!("the model with '{name}'"),
     }
@@ -303,13 +308,7 @@ pub(crate) fn deciding_words(deciding: &[super::confirm::DecidingRuns]) -> Strin
     };
     let points: Vec<String> = deciding
         .iter()
-        .map(|r| {
-            let model = match r.model.as_str() {
-                super::confirm::UNCORRECTED => "the uncorrected simulation".to_string(),
-                name => format!("the model with '{name}'"),
-            };
-            format!("{} for {model}", params(&r.at))
-        })
+        .map(|r| format!("{} for {}", params(&r.at), named_model(&r.model)))
         .collect();
     format!(
         "{runs} more solver runs would decide — one at each tested design ({}) at each model's parameters refitted \
