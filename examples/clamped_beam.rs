@@ -11,6 +11,10 @@
 //!   + kr 4 F L² / (E b h²)             a clamp of compliance kr (root rotation)
 //! ```
 //!
+//! With `imperfection = cv` (and `seed = k`, 1 by default) the deflection is multiplied by
+//! 1 + cv·z, z a standard normal drawn from (k, h) alone: a random imperfection, the same for the
+//! same seed and depth, whatever E, kr or s (for `simulation.seeds`).
+//!
 //! The three terms part with the depth h as h⁻³, h⁻¹ and h⁻². Built by `cargo test` (examples are
 //! compiled with the tests); the tests run `target/release/examples/clamped_beam`.
 
@@ -40,6 +44,8 @@ fn main() {
     let y = 4.0 * f * l.powi(3) / (e * b * h.powi(3))
         + opt("s") * f * l * (4.0 + 5.0 * nu) / (2.0 * e * b * h)
         + opt("kr") * 4.0 * f * l * l / (e * b * h * h);
+    let seed = v.get("seed").copied().unwrap_or(1.0);
+    let y = y * (1.0 + opt("imperfection") * normal(seed, h));
     std::fs::write(
         "output.txt",
         format!("tip deflection (clamped beam stand-in)\ny = {y:e}\n"),
@@ -50,4 +56,18 @@ fn main() {
 fn fail(message: &str) -> ! {
     eprintln!("clamped_beam: {message}");
     std::process::exit(2)
+}
+
+/// A standard normal from (seed, h) alone: splitmix64 of their bits, two uniforms, Box–Muller.
+fn normal(seed: f64, h: f64) -> f64 {
+    let mix = |mut z: u64| {
+        z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    let a = mix(seed.to_bits() ^ mix(h.to_bits()));
+    let b = mix(a);
+    let uniform = |x: u64| ((x >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+    (-2.0 * uniform(a).ln()).sqrt() * (std::f64::consts::TAU * uniform(b)).cos()
 }

@@ -470,3 +470,33 @@ fn a_budget_below_what_the_sequence_must_run_is_refused() {
     };
     assert_eq!(lab::plan::sweep::sequential_budget(&s, sim), Some(14));
 }
+
+/// `simulation.seeds`: at least two seeds, set by a variable some template uses (else every seed
+/// would run the same deck); a good one loads.
+#[test]
+fn seeds_need_two_and_a_variable_a_template_uses() {
+    let seeds = |v: &str| {
+        with(
+            "  surrogate: quadratic\n",
+            &format!("  surrogate: quadratic\n  seeds: {v}\n"),
+        )
+    };
+    study_error(&seeds("{count: 1, variable: h}"), 17, Some("1,"), "at least 2");
+    study_error(
+        &seeds("{count: 3, variable: seed}"),
+        17,
+        Some("seed}"),
+        "used by no template",
+    );
+    study_error(&seeds("{count: 3}"), 17, None, "variable");
+    let c = case(
+        &seeds("{count: 3, variable: seed}"),
+        "h = {{ h }}\nE = {{ E }}\nseed = {{ seed }}\n",
+    );
+    let s = study::load(&c.study).unwrap_or_else(|e| panic!("{e}"));
+    let Simulation::Solver(sim) = s.simulation else {
+        panic!("not a solver study")
+    };
+    let seeds = sim.inputs.seeds.expect("seeds");
+    assert_eq!((seeds.count, seeds.variable.as_str()), (3, "seed"));
+}

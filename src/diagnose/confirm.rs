@@ -54,6 +54,10 @@ pub struct Confirmation {
     /// the replicates allow it, and under it the model fits (under the chosen one it misses).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mixing: Option<f64>,
+    /// The solver's own scatter between the seeds it ran at, counted beside the tests' noise
+    /// (absent: one seed per design).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scatter: Option<SolverScatter>,
 }
 
 /// One observation of a confirmation.
@@ -82,19 +86,27 @@ pub struct Confirming<'a> {
 /// only under every form of the noise the replicates allow, as the detection rejects the
 /// uncorrected model (Berger & Boos 1994).
 pub fn confirm(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, level: f64) -> Confirmation {
+    let seeded: Vec<Vec<f64>> = solver.iter().map(|v| v.iter().copied().collect()).collect();
+    confirm_seeds(m, &seeded, noise, level)
+}
+
+/// [`confirm`] on the solver's values at each observation at every seed of its imperfection it
+/// ran at (`simulation.seeds`; empty: every run failed): the model is judged on their mean, and
+/// the solver's own scatter between the seeds ([`SolverScatter`]) is counted beside the tests' noise.
+pub fn confirm_seeds(m: &Confirming, solver: &[Vec<f64>], noise: &NoiseModel, level: f64) -> Confirmation {
     let chosen = confirm_under(m, solver, noise, level);
     let misses = chosen.lack_of_fit.as_ref().is_some_and(|l| !l.fits);
-    let scatter = match (misses, &m.inputs.features, noise.evidence.mixing) {
+    let replicates = match (misses, &m.inputs.features, noise.evidence.mixing) {
         (true, None, Some(_)) => super::noise::Scatter::of(&m.inputs.observations),
         _ => None,
     };
-    let Some(scatter) = scatter else { return chosen };
+    let Some(replicates) = replicates else { return chosen };
     let alpha = m.inputs.settings.alpha;
-    scatter
+    replicates
         .set_points(alpha)
         .into_iter()
         .map(|lambda| {
-            let mut c = confirm_under(m, solver, &scatter.model_at(lambda, alpha), level);
+            let mut c = confirm_under(m, solver, &replicates.model_at(lambda, alpha), level);
             c.mixing = Some(lambda);
             c
         })
@@ -103,7 +115,7 @@ pub fn confirm(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, level
 }
 
 /// [`confirm`] under one noise model.
-fn confirm_under(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, level: f64) -> Confirmation {
+fn confirm_under(m: &Confirming, solver: &[Vec<f64>], noise: &NoiseModel, level: f64) -> Confirmation {
     let inputs = m.inputs;
     let obs = &inputs.observations;
     let theta = &m.point;
@@ -113,11 +125,16 @@ fn confirm_under(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, lev
         .zip(&m.correction)
         .map(|(o, c)| inputs.model.predict(&inputs.point(o), theta) + c)
         .collect();
-    let values: Vec<Option<f64>> = solver
+    let seeded: Vec<Vec<f64>> = solver
         .iter()
         .zip(&m.correction)
-        .map(|(s, c)| s.map(|s| s + c).filter(|v| v.is_finite()))
+        .map(|(s, c)| s.iter().map(|s| s + c).filter(|v| v.is_finite()).collect())
         .collect();
+    let values: Vec<Option<f64>> = seeded
+        .iter()
+        .map(|s| (!s.is_empty()).then(|| s.iter().sum::<f64>() / s.len() as f64))
+        .collect();
+    let scatter = SolverScatter::measure(obs, &seeded, noise);
     let runs = obs
         .iter()
         .zip(&values)
@@ -129,10 +146,7 @@ fn confirm_under(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, lev
             measured: o.mean,
         })
         .collect();
-    let sd: Vec<f64> = obs
-        .iter()
-        .map(|o| noise.sigma_at(o.mean) / (o.count.max(1) as f64).sqrt())
-        .collect();
+    let (sd, noise_dof) = standard_errors(obs, &seeded, noise, scatter.as_ref());
     let miss = values
         .iter()
         .zip(&emulated)
@@ -156,7 +170,7 @@ fn confirm_under(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, lev
         model: m.name.clone(),
         at: names.iter().cloned().zip(theta.iter().copied()).collect(),
         runs,
-        lack_of_fit: bridged.as_ref().and_then(|b| lack_of_fit(obs, b, noise, level)),
+        lack_of_fit: bridged.as_ref().and_then(|b| lack_of_fit(obs, b, noise_dof, level)),
         step: bridged
             .as_ref()
             .map(|b| {
@@ -177,6 +191,81 @@ fn confirm_under(m: &Confirming, solver: &[Option<f64>], noise: &NoiseModel, lev
         emulator_miss: miss,
         reused: false,
         mixing: None,
+        scatter,
+    }
+}
+
+/// Each observation's standard error of (test mean − solver mean), √(σ²/n + r σ²/K) with r the
+/// solver's scatter's variance over one specimen's and K the seeds, and the degrees of freedom of
+/// their estimate: the replicates' alone without the scatter, else Welch–Satterthwaite's
+/// 1 / ((1 − f)²/ν_tests + f²/ν_solver), f the scatter's mean share of the variance.
+fn standard_errors(
+    obs: &[super::Observation],
+    seeded: &[Vec<f64>],
+    noise: &NoiseModel,
+    scatter: Option<&SolverScatter>,
+) -> (Vec<f64>, usize) {
+    let parts: Vec<(f64, f64)> = obs
+        .iter()
+        .zip(seeded)
+        .map(|(o, s)| {
+            let var = noise.sigma_at(o.mean).powi(2);
+            let r = scatter.map_or(0.0, |c| c.variance_ratio(o.output));
+            (var / o.count.max(1) as f64, r * var / s.len().max(1) as f64)
+        })
+        .collect();
+    let sd = parts.iter().map(|(a, b)| (a + b).sqrt()).collect();
+    let Some(c) = scatter.filter(|_| noise.dof > 0) else {
+        return (sd, noise.dof);
+    };
+    let f = parts.iter().map(|(a, b)| b / (a + b)).sum::<f64>() / parts.len().max(1) as f64;
+    let inverse = (1.0 - f).powi(2) / noise.dof as f64 + f * f / c.dof.max(1) as f64;
+    (sd, ((1.0 / inverse).floor() as usize).max(1))
+}
+
+/// The solver's own scatter between the seeds of its random imperfection (`simulation.seeds`),
+/// measured at a confirmation's runs (`diagnosis.confirmation[].scatter`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SolverScatter {
+    /// The most seeds an observation's design ran at.
+    pub seeds: usize,
+    /// Per output: the solver's standard deviation between seeds over one specimen's (the tests'
+    /// noise at the same level), pooled over the tested designs.
+    pub relative_sd: Vec<f64>,
+    /// The degrees of freedom of the pooled estimate: Σ (seeds − 1) over the observations.
+    pub dof: usize,
+}
+
+impl SolverScatter {
+    /// The pooled within-seed variance of each output in units of the tests' variance of one
+    /// specimen at the observation's level; `None` where no observation ran at two seeds.
+    fn measure(obs: &[super::Observation], seeded: &[Vec<f64>], noise: &NoiseModel) -> Option<SolverScatter> {
+        let outputs = obs.iter().map(|o| o.output + 1).max()?;
+        let (mut squares, mut dof) = (vec![0.0; outputs], vec![0usize; outputs]);
+        for (o, s) in obs.iter().zip(seeded).filter(|(_, s)| s.len() > 1) {
+            let mean = s.iter().sum::<f64>() / s.len() as f64;
+            let var = noise.sigma_at(o.mean).powi(2);
+            squares[o.output] += s.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / var;
+            dof[o.output] += s.len() - 1;
+        }
+        let total: usize = dof.iter().sum();
+        (total > 0).then(|| SolverScatter {
+            seeds: seeded.iter().map(Vec::len).max().unwrap_or(0),
+            relative_sd: squares
+                .iter()
+                .zip(&dof)
+                .map(|(q, &d)| if d > 0 { (q / d as f64).sqrt() } else { f64::NAN })
+                .collect(),
+            dof: total,
+        })
+    }
+
+    /// The solver's variance between seeds over one specimen's, at `output` (0 where unmeasured).
+    fn variance_ratio(&self, output: usize) -> f64 {
+        self.relative_sd
+            .get(output)
+            .filter(|r| r.is_finite())
+            .map_or(0.0, |r| r * r)
     }
 }
 
@@ -260,8 +349,8 @@ fn slope(m: &Confirming) -> DMatrix<f64> {
 
 /// Step 3: both lack-of-fit tests on the bridged residuals (`None` without a noise to judge
 /// against, or no degrees of freedom left).
-fn lack_of_fit(obs: &[super::Observation], b: &Bridged, noise: &NoiseModel, level: f64) -> Option<LackOfFit> {
-    if noise.dof == 0 {
+fn lack_of_fit(obs: &[super::Observation], b: &Bridged, noise_dof: usize, level: f64) -> Option<LackOfFit> {
+    if noise_dof == 0 {
         return None;
     }
     let dof = obs.len().checked_sub(b.rank).filter(|&d| d > 0)?;
@@ -272,7 +361,7 @@ fn lack_of_fit(obs: &[super::Observation], b: &Bridged, noise: &NoiseModel, leve
         .map(|(o, (r, se))| (o.name.clone(), r / se))
         .collect();
     let chi2: f64 = b.chi2.iter().filter(|v| v.is_finite()).sum();
-    Some(LackOfFit::new(chi2, dof, noise.dof, &z, level))
+    Some(LackOfFit::new(chi2, dof, noise_dof, &z, level))
 }
 
 /// What a verdict claims of a model, for the solver to confirm: that it fits the tests, or that
@@ -583,7 +672,8 @@ mod tests {
                     let (m, solver) = uncorrected_at(&i, 600.0);
                     let c = confirm(&m, &solver, &noise, 0.01);
                     if c.mixing.is_some() {
-                        let under_chosen = confirm_under(&m, &solver, &noise, 0.01);
+                        let seeded: Vec<Vec<f64>> = solver.iter().map(|v| v.iter().copied().collect()).collect();
+                        let under_chosen = confirm_under(&m, &seeded, &noise, 0.01);
                         assert!(under_chosen.lack_of_fit.expect("a test").rejects());
                     }
                     c.lack_of_fit.expect("a test").rejects()
@@ -594,6 +684,58 @@ mod tests {
         assert!(truth <= 49, "the true model rejected in {truth} of 3000");
         let trend = rejected(0.05, 200);
         assert!(trend >= 180, "a trend of 1.5 % to 3 % rejected in only {trend} of 200");
+    }
+
+    /// The solver's own scatter counted beside the tests'. Drawn tests of y = a/h³ (1 + kr·3/h) at
+    /// five depths over [5, 15], three specimens each, every specimen with its own imperfection
+    /// (a factor of standard deviation 0.4 %) and measurement noise (0.1 %); the solver is the
+    /// model with the same imperfections, run at the true a at three seeds per depth. With kr = 0
+    /// it is the truth: judged on the seeds' mean with their scatter counted it is rejected at
+    /// most at the level (0.01: at most 35 of 2,000 draws, 3.4 standard deviations of the
+    /// binomial above its mean 20; measured 7), while one seed's run judged against the tests'
+    /// scatter alone (the imperfection of the one run counted nowhere) is rejected in more than
+    /// one draw in ten (measured 59 of 400); a trend of 2 % to 6 % (kr = 0.1) is still rejected in
+    /// at least 170 of 200 (measured 193).
+    #[test]
+    fn the_solvers_scatter_between_seeds_is_counted_beside_the_tests() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
+        let depths = [5.0, 7.5, 10.0, 12.5, 15.0];
+        let rejected = |kr: f64, seeds: usize, draws: u64| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(531 + (kr * 1e3) as u64 + seeds as u64);
+            let mut normal = move || -> f64 { StandardNormal.sample(&mut rng) };
+            (0..draws)
+                .filter(|_| {
+                    let (obs, noise) = tests_at(&depths, kr, |y| {
+                        (0..3)
+                            .map(|_| y * (1.0 + 0.004 * normal() + 0.001 * normal()))
+                            .collect()
+                    });
+                    let i = inputs(obs, &model);
+                    let (m, _) = uncorrected_at(&i, 600.0);
+                    let solver: Vec<Vec<f64>> = (i.observations.iter())
+                        .map(|o| {
+                            (0..seeds)
+                                .map(|_| 600.0 / o.design[0].powi(3) * (1.0 + 0.004 * normal()))
+                                .collect()
+                        })
+                        .collect();
+                    let c = confirm_seeds(&m, &solver, &noise, 0.01);
+                    assert_eq!(c.scatter.as_ref().map(|s| s.seeds), (seeds > 1).then_some(seeds));
+                    c.lack_of_fit.expect("a test").rejects()
+                })
+                .count()
+        };
+        let counted = rejected(0.0, 3, 2000);
+        assert!(
+            counted <= 35,
+            "the true model rejected in {counted} of 2000 with its seeds' scatter counted"
+        );
+        let one_seed = rejected(0.0, 1, 400);
+        assert!(one_seed > 40, "one seed's run rejected in only {one_seed} of 400");
+        let trend = rejected(0.1, 3, 200);
+        assert!(trend >= 170, "a trend of 2 % to 6 % rejected in only {trend} of 200");
     }
 
     /// Where the solver confirmed neither decision, the runs that decide are each model's refitted

@@ -160,8 +160,9 @@ fn no_model_error_headline(d: &super::Diagnosis) -> String {
         .is_some_and(|e| e.confirmed.as_deref().or(e.unjudged.as_deref()) == Some("counted"));
     let detail = match (solver, &d.record.lack_of_fit) {
         (Some((c, l)), _) => format!(
-            "the solver at the fitted parameters ({}) fits the tests within their scatter alone ({})",
+            "the solver at the fitted parameters ({}) fits the tests within {} ({})",
             params(&c.at),
+            scatter_words(c),
             lack_of_fit(l)
         ),
         (None, Some(l)) if counted => format!(
@@ -218,12 +219,27 @@ fn named_model(model: &str) -> String {
     }
 }
 
+/// What a confirmation was judged against: the tests' scatter alone, or with the solver's own
+/// between the seeds of its imperfection.
+fn scatter_words(c: &super::confirm::Confirmation) -> String {
+    match &c.scatter {
+        None => "their scatter alone".to_string(),
+        Some(s) => format!(
+            "their scatter and the solver's own between {} seeds of its imperfection (its standard deviation {} of \
+             one specimen's, on {} degrees of freedom)",
+            s.seeds,
+            s.relative_sd.iter().map(|r| num(*r)).collect::<Vec<_>>().join(", "),
+            s.dof
+        ),
+    }
+}
+
 /// What the solver showed of one model at its fitted parameters.
 fn confirmation_line(c: &super::confirm::Confirmation) -> String {
     let model = model_words(c);
     let shown = match &c.lack_of_fit {
-        Some(l) if l.fits => format!("fits the tests within their scatter alone ({})", lack_of_fit(l)),
-        Some(l) => format!("misses the tests beyond their scatter alone ({})", lack_of_fit(l)),
+        Some(l) if l.fits => format!("fits the tests within {} ({})", scatter_words(c), lack_of_fit(l)),
+        Some(l) => format!("misses the tests beyond {} ({})", scatter_words(c), lack_of_fit(l)),
         None if c.runs.iter().any(|r| r.solver.is_none()) => "cannot be judged: a run failed".to_string(),
         None => "cannot be judged: the tests give no noise to judge against".to_string(),
     };

@@ -115,6 +115,9 @@ pub fn prepare_after(
     let includes = deck_includes(sim, &mut prepared.meshes);
     for run in &plan.runs {
         let mut context = render::run_context(study, run);
+        if let Some(seeds) = &sim.inputs.seeds {
+            context.insert(seeds.variable.clone(), &(run.seed + 1));
+        }
         let mut mesh_path = prepared.design_mesh.get(&run.design).cloned();
         if let Some(path) = &mesh_path {
             context.insert("mesh_file", &format!("../../{}", path.display()));

@@ -14,14 +14,14 @@ use super::diagnosis::{Finished, Reading};
 use super::runs::{self, RunContext, RunOutcomes};
 use super::sequence::record::Failed;
 use super::{Event, Reporter, curves, extend};
-use crate::diagnose::confirm::{Confirmation, Confirming, UNCORRECTED, confirm};
+use crate::diagnose::confirm::{Confirmation, Confirming, UNCORRECTED, confirm_seeds};
 use crate::diagnose::verdict::Verdict;
 use crate::diagnose::{Diagnosis, Inputs, NoiseModel};
 use crate::error::Error;
 use crate::execute::quality::Flag;
 use crate::execute::sweep::{self, Prepared, SweepResult};
 use crate::plan::{Plan, PlannedRun, RunRole};
-use crate::study::Study;
+use crate::study::{SolverSimulation, Study};
 
 /// The confirmation runs of a solver study.
 pub struct ConfirmRuns {
@@ -322,25 +322,11 @@ pub(super) fn run(
     }
     let (study, sim) = (cx.study, cx.sim);
     let designs: Vec<(&String, &Vec<f64>)> = crate::plan::sweep::tested_designs(study).collect();
-    let subjects = within_budget(cx, sequence.as_ref(), subjects, designs.len());
+    let seeds = sim.inputs.seeds.as_ref().map_or(1, |s| s.count);
+    let subjects = within_budget(cx, sequence.as_ref(), subjects, designs.len() * seeds);
     let fresh: Vec<&Subject> = subjects.iter().filter(|s| s.ran.is_none()).collect();
     let plan = Plan {
-        runs: fresh
-            .iter()
-            .flat_map(|s| {
-                designs.iter().map(move |(name, values)| PlannedRun {
-                    design: (*name).clone(),
-                    design_values: (*values).clone(),
-                    theta: crate::plan::sweep::as_written(sim, &s.theta),
-                    role: RunRole::Confirm,
-                    extension: s
-                        .extension
-                        .iter()
-                        .map(|(n, v)| (n.clone(), crate::plan::sweep::as_written(sim, &[*v])[0]))
-                        .collect(),
-                })
-            })
-            .collect(),
+        runs: fresh.iter().flat_map(|s| planned(sim, s, &designs, seeds)).collect(),
     };
     let made = match plan.runs.is_empty() {
         true => None,
@@ -354,12 +340,12 @@ pub(super) fn run(
             (&m.plan, &m.rendered.keys, &m.swept.usable(&sim.quality)),
         )
     });
-    let nd = designs.len();
+    let nd = designs.len() * seeds;
     let mut next_fresh = 0;
     let confirmations = subjects
         .iter()
         .map(|s| {
-            let at: Vec<Option<DVector<f64>>> = match (&s.ran, joint) {
+            let runs: Vec<Option<DVector<f64>>> = match (&s.ran, joint) {
                 (Some(ran), Some(j)) => {
                     let keys: Vec<String> = ran.iter().map(|&i| j.rendered.keys[i].clone()).collect();
                     let usable: Vec<Option<f64>> = ran.iter().map(|&i| j.usable[i]).collect();
@@ -373,22 +359,48 @@ pub(super) fn run(
                     fresh_values[(next_fresh - 1) * nd..next_fresh * nd].to_vec()
                 }
             };
-            let solver: Vec<Option<f64>> = s
+            // The runs of a design are consecutive, one per seed it ran at.
+            let per_design = runs.len() / designs.len().max(1);
+            let solver: Vec<Vec<f64>> = s
                 .confirming
                 .inputs
                 .observations
                 .iter()
-                .map(|o| {
-                    let d = designs.iter().position(|(n, _)| **n == o.group)?;
-                    at[d].as_ref()?.get(o.output).copied()
+                .map(|o| match designs.iter().position(|(n, _)| **n == o.group) {
+                    Some(d) => runs[d * per_design..(d + 1) * per_design]
+                        .iter()
+                        .filter_map(|v| v.as_ref()?.get(o.output).copied())
+                        .collect(),
+                    None => Vec::new(),
                 })
                 .collect();
-            let mut c = confirm(&s.confirming, &solver, noise, s.level);
+            let mut c = confirm_seeds(&s.confirming, &solver, noise, s.level);
             c.reused = s.ran.is_some();
             c
         })
         .collect();
     Ok((confirmations, made))
+}
+
+/// A subject's confirmation runs: at every tested design, at each of the `seeds` of the solver's
+/// imperfection (consecutive).
+fn planned(sim: &SolverSimulation, s: &Subject, designs: &[(&String, &Vec<f64>)], seeds: usize) -> Vec<PlannedRun> {
+    let theta = crate::plan::sweep::as_written(sim, &s.theta);
+    let extension: Vec<(String, f64)> = (s.extension.iter())
+        .map(|(n, v)| (n.clone(), crate::plan::sweep::as_written(sim, &[*v])[0]))
+        .collect();
+    let at = |(name, values): &(&String, &Vec<f64>), seed| PlannedRun {
+        design: (*name).clone(),
+        design_values: (*values).clone(),
+        theta: theta.clone(),
+        role: RunRole::Confirm,
+        extension: extension.clone(),
+        seed,
+    };
+    designs
+        .iter()
+        .flat_map(|d| (0..seeds).map(|k| at(d, k)).collect::<Vec<_>>())
+        .collect()
 }
 
 /// The confirmation's new runs swept as one batch, recorded as the stage `confirmation`.

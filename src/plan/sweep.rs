@@ -80,6 +80,9 @@ pub struct PlannedRun {
     pub role: RunRole,
     /// The template variables of a model extension set for this run (empty for the baseline).
     pub extension: Vec<(String, f64)>,
+    /// The seed of the run's random imperfection, from 0 (`simulation.seeds`, rendered as
+    /// seed + 1): 0 but for the confirmation runs, which are made at every seed.
+    pub seed: usize,
 }
 
 impl PlannedRun {
@@ -128,6 +131,7 @@ impl Plan {
                 theta: theta.clone(),
                 role,
                 extension: Vec::new(),
+                seed: 0,
             };
             runs.extend(samples.iter().map(|t| at(t, RunRole::Sample)));
             runs.extend(checks.iter().map(|t| at(t, RunRole::Check)));
@@ -156,6 +160,7 @@ impl Plan {
                     theta,
                     role: RunRole::Sample,
                     extension: Vec::new(),
+                    seed: 0,
                 }
             })
             .collect();
@@ -181,6 +186,7 @@ impl Plan {
                     theta: t.clone(),
                     role: RunRole::Sample,
                     extension: Vec::new(),
+                    seed: 0,
                 })
             })
             .collect();
@@ -218,6 +224,7 @@ impl Plan {
                     theta: point[..p].to_vec(),
                     role,
                     extension: extension.at(&point[p..]),
+                    seed: 0,
                 };
                 runs.extend(samples.iter().map(|x| at(x, RunRole::Joint(k))));
                 runs.extend(checks.iter().map(|x| at(x, RunRole::JointCheck(k))));

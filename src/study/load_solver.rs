@@ -6,11 +6,11 @@ use std::path::{Component, Path, PathBuf};
 use std::time::Duration;
 
 use super::super::schema::{
-    DeckSpecFile, MeshFile, ResponseFile, RetriesFile, SamplingFile, SimulationFile, SolverFile,
+    DeckSpecFile, MeshFile, ResponseFile, RetriesFile, SamplingFile, SeedsFile, SimulationFile, SolverFile,
 };
 use super::super::solver::{
-    CopiedFile, Execution, MeshSpec, Response, RunInputs, Sampling, SamplingMethod, SolverSimulation, SurrogateKind,
-    Template,
+    CopiedFile, Execution, MeshSpec, Response, RunInputs, Sampling, SamplingMethod, Seeds, SolverSimulation,
+    SurrogateKind, Template,
 };
 use super::super::yaml::Spanned;
 use super::Checker;
@@ -111,17 +111,11 @@ impl Checker<'_> {
             ));
         };
         let sampling = self.sampling(&sampling.value, surrogate, n_parameters)?;
-        let mesh = sim.mesh.as_ref().map(|m| self.mesh(m, design_names)).transpose()?;
+        let inputs = self.run_inputs(sim, (templates, deck, files), design_names, lsdyna)?;
         let replay = self.replay_dir(sim)?;
         Ok(SolverSimulation {
             adapter,
-            inputs: RunInputs {
-                templates,
-                deck,
-                files,
-                mesh,
-                parameter_width: lsdyna.then_some(10),
-            },
+            inputs,
             execution: Execution {
                 command,
                 timeout,
@@ -350,6 +344,61 @@ impl Checker<'_> {
     }
 
     /// `simulation.replay`, relative to the study file.
+    /// What each run directory gets: the templates, the deck used as it is, the copied files, then
+    /// (checked in this order) the design's mesh and the seeds' variable.
+    fn run_inputs(
+        &self,
+        sim: &SimulationFile,
+        (templates, deck, files): (Vec<Template>, Option<Deck>, Vec<CopiedFile>),
+        design_names: &[String],
+        lsdyna: bool,
+    ) -> Result<RunInputs, InputError> {
+        let mesh = sim.mesh.as_ref().map(|m| self.mesh(m, design_names)).transpose()?;
+        let seeds = sim
+            .seeds
+            .as_ref()
+            .map(|n| self.seeds(n, &templates, deck.as_ref()))
+            .transpose()?;
+        Ok(RunInputs {
+            templates,
+            deck,
+            files,
+            mesh,
+            seeds,
+            parameter_width: lsdyna.then_some(10),
+        })
+    }
+
+    /// `simulation.seeds`: at least two seeds, set by a template variable that a template (or
+    /// the deck's `names`) uses, else every seed would render the same run.
+    fn seeds(
+        &self,
+        node: &Spanned<SeedsFile>,
+        templates: &[Template],
+        deck: Option<&Deck>,
+    ) -> Result<Seeds, InputError> {
+        let s = &node.value;
+        if s.count.value < 2 {
+            return Err(self.at(
+                &s.count,
+                "`seeds.count` must be at least 2: the solver's scatter is measured between seeds",
+            ));
+        }
+        let name = s.variable.value.trim();
+        let used = templates.iter().any(|t| t.source.contains(name))
+            || deck.is_some_and(|d| d.names.iter().any(|(n, _)| n == name));
+        if name.is_empty() || !used {
+            return Err(self.at(
+                &s.variable,
+                format!("`seeds.variable` `{name}` is used by no template (nor named by the deck): every seed would run the same deck"),
+            ));
+        }
+        Ok(Seeds {
+            count: s.count.value,
+            variable: name.to_string(),
+        })
+    }
+
     fn replay_dir(&self, sim: &SimulationFile) -> Result<Option<PathBuf>, InputError> {
         let Some(r) = &sim.replay else {
             return Ok(None);

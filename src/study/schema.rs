@@ -77,6 +77,17 @@ pub struct SimulationFile {
     pub replay: Option<Spanned<String>>,
     /// The gates a run's glstat energies must keep, and what becomes of runs that break them.
     pub quality: Option<Spanned<QualityFile>>,
+    /// The solver's own scatter: the confirmation runs made at several seeds of a random
+    /// imperfection, a template variable (`{count: 3, variable: seed}`).
+    pub seeds: Option<Spanned<SeedsFile>>,
+}
+
+/// `simulation.seeds`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SeedsFile {
+    pub count: Spanned<usize>,
+    pub variable: Spanned<String>,
 }
 
 /// `simulation.quality`: limits as fractions, and `suspect: exclude | use`.

@@ -48,6 +48,8 @@ pub struct RunInputs {
     pub files: Vec<CopiedFile>,
     /// A mesh generated once per design and included by the deck (`mesh_file` in the context).
     pub mesh: Option<MeshSpec>,
+    /// `simulation.seeds`: the template variable a run's seed of its random imperfection sets.
+    pub seeds: Option<Seeds>,
     /// Width of the solver's fixed number fields: sampled parameters are rounded to fit them
     /// (10 for `lsdyna`), so the surrogates see exactly the values the solver read.
     pub parameter_width: Option<usize>,
@@ -147,6 +149,14 @@ pub enum Response {
     },
     /// `calculix`: a value from a block of `JOB.dat` (`response.dat`), judged by the ccx adapter.
     Dat(crate::study::settings::CalculixAdapter),
+}
+
+/// `simulation.seeds`: a run's seed of its random imperfection, set by a template variable
+/// (1 for every run but the confirmation's, which run at seeds 1 to `count`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Seeds {
+    pub count: usize,
+    pub variable: String,
 }
 
 /// `simulation.mesh: {kind: honeycomb_tube, ...}`.

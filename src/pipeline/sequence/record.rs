@@ -229,6 +229,13 @@ pub struct Planned {
     pub role: String,
     pub hypothesis: Option<usize>,
     pub extension: Vec<(String, f64)>,
+    /// The run's seed ([`PlannedRun::seed`]; absent: 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub seed: usize,
+}
+
+fn is_zero(seed: &usize) -> bool {
+    *seed == 0
 }
 
 impl Planned {
@@ -244,6 +251,7 @@ impl Planned {
             role: run.role.key().to_string(),
             hypothesis,
             extension: run.extension.clone(),
+            seed: run.seed,
         }
     }
 
@@ -263,6 +271,7 @@ impl Planned {
             theta: self.theta.clone(),
             role,
             extension: self.extension.clone(),
+            seed: self.seed,
         }
     }
 }

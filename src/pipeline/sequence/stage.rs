@@ -253,6 +253,7 @@ pub fn run_at(name: &str, values: &[f64], theta: Vec<f64>, role: RunRole, extens
         theta,
         role,
         extension,
+        seed: 0,
     }
 }
 
