@@ -498,5 +498,5 @@ fn seeds_need_two_and_a_variable_a_template_uses() {
         panic!("not a solver study")
     };
     let seeds = sim.inputs.seeds.expect("seeds");
-    assert_eq!((seeds.count, seeds.variable.as_str()), (3, "seed"));
+    assert_eq!((seeds.count, seeds.variable.as_deref()), (3, Some("seed")));
 }

@@ -8,6 +8,8 @@
 //!   thickness at equal yield stress (the designs' lines ordered C6T5 < C6T65 < C6T8 at 185 MPa).
 //! - The report draws the real solver's curves beside the stand-in's on the same decks (figures
 //!   `solvers-<design>`), measured alike in `report-data.json`.
+//! - The confirmation runs are made at three seeds of the nodal noise (`simulation.seeds`), their
+//!   scatter measured per curve feature and counted.
 //! - What lab decides on these real-solver curves, as recorded in docs/openradioss.md ([`verdict`]):
 //!   no wrong cause; the hardening named near its truth, or left open with both truths inside what
 //!   the tests do not exclude, never the calibrated simulation handed over "as it is" alone; every
@@ -87,6 +89,21 @@ fn the_study_replays_and_the_real_solver_behaves() {
         );
     }
     assert_eq!(comparison["designs"].as_array().unwrap().len(), 3);
+    // The confirmation runs at the study's three seeds of the nodal noise: their scatter measured
+    // per curve feature (3 designs × 3 features, 2 degrees of freedom each) and counted.
+    let confirmations = results["diagnosis"]["confirmation"].as_array().unwrap();
+    assert!(!confirmations.is_empty());
+    for c in confirmations.iter().filter(|c| c["reused"] != true) {
+        let s = &c["scatter"];
+        assert_eq!((s["seeds"].as_u64(), s["dof"].as_u64()), (Some(3), Some(18)), "{c}");
+        let sd: Vec<f64> = s["relative_sd"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|v| v.as_f64())
+            .collect();
+        assert!(sd.len() == 3 && sd.iter().all(|r| *r > 0.0), "{s}");
+    }
     verdict(&results);
 }
 
@@ -127,4 +144,61 @@ fn verdict(results: &serde_json::Value) {
             .unwrap_or_else(|| panic!("{m}: {}", results["calibration"][m]));
         assert!((140.0..=240.0).contains(&s), "{m}: sigma_y = {s}");
     }
+}
+
+/// `simulation.seeds: {count: 3}` on OpenRadioss: a run at seed k > 0 carries its own nodal-noise
+/// seed (0.5 + k·0.618… modulo 1: 0.118…, 0.736…) as an input (`lab-rseed`), so its key is its own
+/// and its starter is given it (`-rseed`); the first seed's run is the study's own run, its key the
+/// same as without seeds (the recordings made before seeds still serve it).
+#[test]
+fn seeds_give_each_run_its_own_nodal_noise_seed() {
+    use lab::execute::sweep;
+    use lab::plan::{Plan, PlannedRun, RunRole};
+    let study = lab::study::load(&repo().join("studies/honeycomb-openradioss.yaml")).unwrap();
+    let lab::study::Simulation::Solver(sim) = &study.simulation else {
+        panic!("a solver study")
+    };
+    assert_eq!(sim.inputs.seeds.as_ref().map(|s| s.count), Some(3));
+    let (name, values) = lab::plan::sweep::tested_designs(&study).next().unwrap();
+    let run = |seed| PlannedRun {
+        design: name.clone(),
+        design_values: values.clone(),
+        theta: vec![200.0],
+        role: RunRole::Confirm,
+        extension: Vec::new(),
+        seed,
+    };
+    let solver = lab::extract::adapters::solver(sim).unwrap();
+    let plan = Plan {
+        runs: (0..3).map(run).collect(),
+    };
+    let prepared = sweep::prepare(&study, &solver, &plan).unwrap();
+    let keys = &prepared.keys;
+    assert!(
+        keys[0] != keys[1] && keys[1] != keys[2] && keys[0] != keys[2],
+        "{keys:?}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    for (k, expected) in [(0, 0.5), (1, 0.118_033_988_749_894_9), (2, 0.736_067_977_499_789_7)] {
+        let inputs = &prepared.inputs[&keys[k]];
+        let own = inputs.iter().find(|(p, _)| p.as_os_str() == sweep::SEED_FILE);
+        assert_eq!(own.is_some(), k > 0, "seed {k}");
+        let run_dir = dir.path().join(k.to_string());
+        for (path, bytes) in inputs {
+            std::fs::create_dir_all(run_dir.join(path).parent().unwrap()).unwrap();
+            std::fs::write(run_dir.join(path), bytes).unwrap();
+        }
+        let argv = sweep::spec(&solver, &keys[k], run_dir).argv;
+        let at = argv.iter().position(|a| a == "-rseed").expect("-rseed");
+        let given: f64 = argv[at + 1].parse().unwrap();
+        assert!(
+            (given - expected).abs() < 1e-12,
+            "seed {k}: -rseed {given}, expected {expected}"
+        );
+    }
+    let mut unseeded = sim.clone();
+    unseeded.inputs.seeds = None;
+    let solver = lab::extract::adapters::solver(&unseeded).unwrap();
+    let alone = sweep::prepare(&study, &solver, &Plan { runs: vec![run(0)] }).unwrap();
+    assert_eq!(alone.keys[0], keys[0]);
 }

@@ -115,8 +115,8 @@ pub fn prepare_after(
     let includes = deck_includes(sim, &mut prepared.meshes);
     for run in &plan.runs {
         let mut context = render::run_context(study, run);
-        if let Some(seeds) = &sim.inputs.seeds {
-            context.insert(seeds.variable.clone(), &(run.seed + 1));
+        if let Some(variable) = sim.inputs.seeds.as_ref().and_then(|s| s.variable.as_ref()) {
+            context.insert(variable.clone(), &(run.seed + 1));
         }
         let mut mesh_path = prepared.design_mesh.get(&run.design).cloned();
         if let Some(path) = &mesh_path {
@@ -132,7 +132,9 @@ pub fn prepare_after(
             }
         }
         prepared.run_mesh.push(mesh_path);
-        let inputs = render::inputs(&renderer, &sim.inputs.files, &context).map_err(|e| with_run(e, &run.design))?;
+        let mut inputs =
+            render::inputs(&renderer, &sim.inputs.files, &context).map_err(|e| with_run(e, &run.design))?;
+        inputs.extend(nodal_noise_seed(sim, run).map(|s| (PathBuf::from(SEED_FILE), s.to_string().into_bytes())));
         let key = run_key(&inputs, &sim.execution.command, &identity);
         prepared.keys.push(key.clone());
         prepared.inputs.entry(key).or_insert(inputs);
@@ -662,12 +664,38 @@ pub fn run(
     Ok(SweepResult::from_store(store, prepared, reused, summary.errors))
 }
 
-/// What the executor runs for the run `key` in `dir`.
+/// An input of an OpenRadioss run at a seed of its nodal noise other than the study's
+/// (`simulation.seeds` without a variable): the seed its starter is given (`-rseed`). An input, so
+/// that it is in the run's key and in the run directory a Slurm job reads.
+pub const SEED_FILE: &str = "lab-rseed";
+
+/// The nodal noise's seed of an OpenRadioss run at a seed other than the first (see [`SEED_FILE`]).
+fn nodal_noise_seed(sim: &SolverSimulation, run: &crate::plan::PlannedRun) -> Option<f64> {
+    let seeds = sim
+        .inputs
+        .seeds
+        .as_ref()
+        .filter(|s| s.variable.is_none() && run.seed > 0)?;
+    sim.openradioss.as_ref()?.seed(run.seed.min(seeds.count - 1))
+}
+
+/// The argv of the run in `dir`: the study's command, with the run's own `-rseed` where its
+/// inputs hold one ([`SEED_FILE`]).
+fn argv(sim: &SolverSimulation, dir: &std::path::Path) -> Vec<String> {
+    let mut argv = sim.execution.command.clone();
+    let at = argv.iter().position(|a| a == "-rseed").filter(|i| i + 1 < argv.len());
+    if let (Ok(seed), Some(i)) = (std::fs::read_to_string(dir.join(SEED_FILE)), at) {
+        argv[i + 1] = seed.trim().to_string();
+    }
+    argv
+}
+
+/// What the executor runs for the run `key` in `dir` (written: its argv may depend on its inputs).
 pub fn spec(solver: &Solver, key: &str, dir: PathBuf) -> RunSpec {
     RunSpec {
         key: key.to_string(),
+        argv: argv(solver.sim, &dir),
         dir,
-        argv: solver.sim.execution.command.clone(),
         timeout: solver.sim.execution.timeout,
         outputs: solver.adapter.cleared(),
         retry: solver.sim.execution.retry.clone(),

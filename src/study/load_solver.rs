@@ -111,7 +111,8 @@ impl Checker<'_> {
             ));
         };
         let sampling = self.sampling(&sampling.value, surrogate, n_parameters)?;
-        let inputs = self.run_inputs(sim, (templates, deck, files), design_names, lsdyna)?;
+        let nodal_noise = openradioss.as_ref().is_some_and(|o| o.noise.is_some());
+        let inputs = self.run_inputs(sim, (templates, deck, files), design_names, (lsdyna, nodal_noise))?;
         let replay = self.replay_dir(sim)?;
         Ok(SolverSimulation {
             adapter,
@@ -351,13 +352,11 @@ impl Checker<'_> {
         sim: &SimulationFile,
         (templates, deck, files): (Vec<Template>, Option<Deck>, Vec<CopiedFile>),
         design_names: &[String],
-        lsdyna: bool,
+        (lsdyna, nodal_noise): (bool, bool),
     ) -> Result<RunInputs, InputError> {
         let mesh = sim.mesh.as_ref().map(|m| self.mesh(m, design_names)).transpose()?;
-        let seeds = sim
-            .seeds
-            .as_ref()
-            .map(|n| self.seeds(n, &templates, deck.as_ref()))
+        let seeds = (sim.seeds.as_ref())
+            .map(|n| self.seeds(n, &templates, deck.as_ref(), nodal_noise))
             .transpose()?;
         Ok(RunInputs {
             templates,
@@ -376,6 +375,7 @@ impl Checker<'_> {
         node: &Spanned<SeedsFile>,
         templates: &[Template],
         deck: Option<&Deck>,
+        nodal_noise: bool,
     ) -> Result<Seeds, InputError> {
         let s = &node.value;
         if s.count.value < 2 {
@@ -384,18 +384,31 @@ impl Checker<'_> {
                 "`seeds.count` must be at least 2: the solver's scatter is measured between seeds",
             ));
         }
-        let name = s.variable.value.trim();
+        let Some(variable) = &s.variable else {
+            if nodal_noise {
+                return Ok(Seeds {
+                    count: s.count.value,
+                    variable: None,
+                });
+            }
+            return Err(self.at(
+                node,
+                "`seeds` needs `variable`: the template variable that sets a run's seed (an `openradioss` \
+                 solver with `openradioss.noise` may leave it out: the seeds are then its starter's `-rseed`)",
+            ));
+        };
+        let name = variable.value.trim();
         let used = templates.iter().any(|t| t.source.contains(name))
             || deck.is_some_and(|d| d.names.iter().any(|(n, _)| n == name));
         if name.is_empty() || !used {
             return Err(self.at(
-                &s.variable,
+                variable,
                 format!("`seeds.variable` `{name}` is used by no template (nor named by the deck): every seed would run the same deck"),
             ));
         }
         Ok(Seeds {
             count: s.count.value,
-            variable: name.to_string(),
+            variable: Some(name.to_string()),
         })
     }
 

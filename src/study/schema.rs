@@ -78,7 +78,8 @@ pub struct SimulationFile {
     /// The gates a run's glstat energies must keep, and what becomes of runs that break them.
     pub quality: Option<Spanned<QualityFile>>,
     /// The solver's own scatter: the confirmation runs made at several seeds of a random
-    /// imperfection, a template variable (`{count: 3, variable: seed}`).
+    /// imperfection, a template variable (`{count: 3, variable: seed}`) or OpenRadioss's nodal
+    /// noise (`{count: 3}`).
     pub seeds: Option<Spanned<SeedsFile>>,
 }
 
@@ -87,7 +88,8 @@ pub struct SimulationFile {
 #[serde(deny_unknown_fields)]
 pub struct SeedsFile {
     pub count: Spanned<usize>,
-    pub variable: Spanned<String>,
+    /// Absent for an `openradioss` solver with nodal noise: its starter's `-rseed`.
+    pub variable: Option<Spanned<String>>,
 }
 
 /// `simulation.quality`: limits as fractions, and `suspect: exclude | use`.

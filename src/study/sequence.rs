@@ -52,7 +52,8 @@ pub struct SequenceFloor {
     /// screening's first batch where the baseline is the space's edge), and one held-out run.
     pub looped: usize,
     /// The confirmation runs: the solver at the fitted parameters of the uncorrected simulation and
-    /// of a named cause, one run per design each ([`CONFIRMED_MODELS`]).
+    /// of a named cause, one run per design each ([`CONFIRMED_MODELS`]) at each seed
+    /// (`simulation.seeds`).
     pub confirmation: usize,
 }
 
@@ -93,7 +94,7 @@ impl SequenceFloor {
             initial: initial_runs(study, sim),
             probes: designs * (if probes_across(study, sim) { 1 } else { p + 1 }) * extensions,
             looped,
-            confirmation: designs * CONFIRMED_MODELS,
+            confirmation: designs * CONFIRMED_MODELS * sim.inputs.seeds.as_ref().map_or(1, |s| s.count),
         })
     }
 

@@ -106,6 +106,15 @@ pub struct OpenRadiossSettings {
 }
 
 impl OpenRadiossSettings {
+    /// The nodal noise's seed of a run at seed `k` (`simulation.seeds`): the study's own for k = 0,
+    /// then stepped by the golden ratio's conjugate modulo 1 (0.618…: seeds spread over (0, 1], no
+    /// two alike), as the starter accepts them.
+    pub fn seed(&self, k: usize) -> Option<f64> {
+        let (_, nominal) = self.noise?;
+        let s = (nominal + k as f64 * 0.618_033_988_749_894_8).fract();
+        Some(if s <= 0.0 { 1.0 } else { s })
+    }
+
     /// The starter's argv on `deck`.
     pub fn starter_argv(&self, deck: &std::path::Path) -> Vec<String> {
         let mut argv = vec![
@@ -151,12 +160,14 @@ pub enum Response {
     Dat(crate::study::settings::CalculixAdapter),
 }
 
-/// `simulation.seeds`: a run's seed of its random imperfection, set by a template variable
-/// (1 for every run but the confirmation's, which run at seeds 1 to `count`).
+/// `simulation.seeds`: a run's seed of its random imperfection (every run at the first seed but
+/// the confirmation's, which run at each of `count`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Seeds {
     pub count: usize,
-    pub variable: String,
+    /// The template variable that sets it, to 1 … `count`; `None`: OpenRadioss's nodal noise, its
+    /// starter's `-rseed` ([`OpenRadiossSettings::seed`]).
+    pub variable: Option<String>,
 }
 
 /// `simulation.mesh: {kind: honeycomb_tube, ...}`.
