@@ -19,20 +19,23 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-#[allow(dead_code)] // the clamp and the shared template are the families'
+#[allow(dead_code)] // the shared template is the families'
 mod beam_common;
-use beam_common::{B, F, L, NU, bending, solver};
+use beam_common::{B, F, L, NU, bending, clamp, solver};
 
 const E: f64 = 68_000.0;
 
-fn write_study(dir: &Path) -> std::path::PathBuf {
+/// The study: tests at the truth plus a clamp of compliance `kr`; `sampling` and the hypotheses'
+/// lines (empty: none).
+fn write_study(dir: &Path, kr: f64, sampling: &str, hypotheses: &str) -> std::path::PathBuf {
     let hs: Vec<f64> = (7..=13).map(f64::from).collect();
     let mut rng = ChaCha8Rng::seed_from_u64(535);
     let z = Normal::new(0.0, 1.0).unwrap();
     let mut csv = String::from("design,h,deflection\n");
     for h in &hs {
         for _ in 0..3 {
-            let y = bending(*h) / E * (1.0 + 0.004 * z.sample(&mut rng) + 0.001 * z.sample(&mut rng));
+            let y =
+                (bending(*h) + kr * clamp(*h)) / E * (1.0 + 0.004 * z.sample(&mut rng) + 0.001 * z.sample(&mut rng));
             csv.push_str(&format!("h{h},{h},{y:e}\n"));
         }
     }
@@ -40,7 +43,7 @@ fn write_study(dir: &Path) -> std::path::PathBuf {
     std::fs::write(
         dir.join("beam.txt.tera"),
         "h = {{ h }}\nF = {{ F }}\nL = {{ L }}\nb = {{ b }}\nnu = {{ nu }}\nE = {{ E }}\n\
-         imperfection = 0.004\nseed = {{ seed }}\n",
+         kr = {{ kr | default(value=0.0) }}\nimperfection = 0.004\nseed = {{ seed }}\n",
     )
     .unwrap();
     let names: Vec<String> = hs.iter().map(|h| format!("h{h}")).collect();
@@ -51,14 +54,15 @@ fn write_study(dir: &Path) -> std::path::PathBuf {
          parameters:\n  E: {{min: 55000, max: 82000, unit: MPa}}\n\
          simulation:\n  solver:\n    adapter: command\n    templates: [beam.txt.tera]\n    command: [{}, beam.txt]\n\
          \x20 response: {{file: output.txt, regex: \"y = (\\\\S+)\"}}\n\
-         \x20 sampling: {{method: lhs, count: 8, seed: 1, check_runs: 3}}\n\
+         \x20 sampling: {}\n\
          \x20 surrogate: quadratic\n\
          \x20 seeds: {{count: 3, variable: seed}}\n\
          experiments: {{file: tests.csv, response: deflection, unit: mm}}\n\
          training: [{}]\n\
          validation: [{}]\n\
-         calibration: {{methods: [least_squares]}}\n",
+         calibration: {{methods: [least_squares]}}\n{hypotheses}",
         solver().display(),
+        sampling,
         names[..names.len() - 1].join(", "),
         names.last().unwrap(),
     );
@@ -70,7 +74,7 @@ fn write_study(dir: &Path) -> std::path::PathBuf {
 #[test]
 fn confirmation_runs_at_every_seed_count_the_solvers_scatter() {
     let dir = tempfile::tempdir().unwrap();
-    let study = write_study(dir.path());
+    let study = write_study(dir.path(), 0.0, "{method: lhs, count: 8, seed: 1, check_runs: 3}", "");
     let out = dir.path().join("out");
     let (stderr, results) = beam_common::lab_run(&study, &out);
     if std::env::var("LAB_SCATTER_VERBOSE").is_ok() {
@@ -104,4 +108,23 @@ fn confirmation_runs_at_every_seed_count_the_solvers_scatter() {
     }
     let text = serde_json::to_string(&results["diagnosis"]).unwrap();
     assert!(text.contains("3 seeds of its imperfection"), "{text}");
+}
+
+/// A sequential study whose loop names the clamp: its loop checks its emulators with runs at the
+/// fitted point, which a study without seeds takes as the cause's confirmation; with seeds they are
+/// one seed's, so every confirmation is made afresh at the three seeds.
+#[test]
+fn the_loops_runs_do_not_stand_in_for_a_seeded_confirmation() {
+    let dir = tempfile::tempdir().unwrap();
+    let hypotheses =
+        "diagnosis:\n  hypotheses:\n    - name: clamp compliance\n      extension: {kr: {min: 0, max: 1}}\n";
+    let study = write_study(dir.path(), 0.3, "{method: sequential, seed: 1}", hypotheses);
+    let out = dir.path().join("out");
+    let (stderr, results) = beam_common::lab_run(&study, &out);
+    let confirmations = results["diagnosis"]["confirmation"].as_array().expect("confirmations");
+    assert!(!confirmations.is_empty(), "no confirmation: {stderr}");
+    for c in confirmations {
+        assert!(c["reused"] != true, "a loop's run stood in: {c}");
+        assert_eq!(c["scatter"]["seeds"], 3, "{c}");
+    }
 }

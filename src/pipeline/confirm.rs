@@ -137,6 +137,10 @@ pub(super) fn subjects<'a>(
     screening: &'a Inputs<'a>,
     (readings, inputs, joint): (&[LoopReading], &'a [Inputs<'a>], Option<&extend::JointRuns>),
 ) -> Vec<Subject<'a>> {
+    // The loop's runs are at one seed of the solver's imperfection: where `simulation.seeds` asks
+    // for several, a confirmation needs each seed's run, so the loop's do not serve.
+    let seeded = matches!(&study.simulation, crate::study::Simulation::Solver(s) if s.inputs.seeds.is_some());
+    let joint = joint.filter(|_| !seeded);
     let noise_alone = &decided[1].diagnosis;
     let mut out = vec![uncorrected(screening, noise_alone)];
     for (which, f) in decided.iter().enumerate() {

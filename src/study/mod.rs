@@ -53,7 +53,8 @@ pub struct Study {
 
 impl Study {
     /// The template context of a run: design variables, parameters, constants, each by name as a
-    /// number, and `design_name` (the contract's names visible to templates).
+    /// number, and `design_name` (the contract's names visible to templates); with
+    /// `simulation.seeds`, its variable at the first seed, 1 (a run at another sets its own).
     pub fn context(&self, design_name: &str, design: &[f64], theta: &[f64]) -> tera::Context {
         let mut ctx = tera::Context::new();
         let named = self
@@ -67,6 +68,11 @@ impl Study {
             ctx.insert(name.clone(), value);
         }
         ctx.insert("design_name", design_name);
+        if let Simulation::Solver(sim) = &self.simulation
+            && let Some(variable) = sim.inputs.seeds.as_ref().and_then(|s| s.variable.as_ref())
+        {
+            ctx.insert(variable.clone(), &1usize);
+        }
         ctx
     }
 }
