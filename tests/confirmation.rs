@@ -22,7 +22,7 @@ use serde_json::Value;
 mod family_runs;
 
 mod beam_common;
-use beam_common::{B, F, L, NU, bending, clamp, solver};
+use beam_common::{bending, clamp};
 
 /// One case: the truth, the tests, and how the study samples its solver.
 #[derive(Debug, Clone)]
@@ -87,12 +87,7 @@ fn write_study(case: &Case, dir: &Path) -> PathBuf {
     beam_common::write_template(dir);
     let names = case.names();
     let study = format!(
-        "name: confirm-case\n\
-         constants: {{F: {F}, L: {L}, b: {B}, nu: {NU}}}\n\
-         design:\n  h: {{unit: mm, min: 7, max: 13}}\n\
-         parameters:\n  E: {{min: 55000, max: 82000, unit: MPa}}\n\
-         simulation:\n  solver:\n    adapter: command\n    templates: [beam.txt.tera]\n    command: [{}, beam.txt]\n\
-         \x20 response: {{file: output.txt, regex: \"y = (\\\\S+)\"}}\n\
+        "{}\
          \x20 sampling: {}\n\
          \x20 surrogate: {}\n\
          experiments: {{file: tests.csv, response: deflection, unit: mm}}\n\
@@ -103,7 +98,7 @@ fn write_study(case: &Case, dir: &Path) -> PathBuf {
          \x20   - name: clamp compliance\n      extension: {{kr: {{min: 0, max: 1}}}}\n\
          \x20   - name: shear correction\n      extension: {{s: {{min: 0, max: 1.5}}}}\n\
          \x20   - name: fixture offset\n      term: \"1\"\n",
-        solver().display(),
+        beam_common::study_head("confirm-case", (7.0, 13.0)),
         case.sampling,
         case.surrogate,
         names[..names.len() - 1].join(", "),

@@ -23,7 +23,7 @@ mod family_runs;
 mod verdict_common;
 
 mod beam_common;
-use beam_common::{B, F, L, NU, bending, clamp, shear, solver};
+use beam_common::{bending, clamp, shear};
 
 const S_MAX: f64 = 1.5;
 
@@ -76,12 +76,7 @@ fn write_study(case: &Case, dir: &Path) -> PathBuf {
     let lo = case.hs.first().unwrap();
     let hi = case.hs.last().unwrap();
     let study = format!(
-        "name: clamp-case\n\
-         constants: {{F: {F}, L: {L}, b: {B}, nu: {NU}}}\n\
-         design:\n  h: {{unit: mm, min: {lo}, max: {hi}}}\n\
-         parameters:\n  E: {{min: 55000, max: 82000, unit: MPa}}\n\
-         simulation:\n  solver:\n    adapter: command\n    templates: [beam.txt.tera]\n    command: [{}, beam.txt]\n\
-         \x20 response: {{file: output.txt, regex: \"y = (\\\\S+)\"}}\n\
+        "{}\
          \x20 sampling: {}\n\
          \x20 surrogate: gp\n\
          experiments: {{file: tests.csv, response: deflection, unit: mm}}\n\
@@ -92,7 +87,7 @@ fn write_study(case: &Case, dir: &Path) -> PathBuf {
          \x20   - name: shear correction\n      extension: {{s: {{min: 0, max: {S_MAX}}}}}\n\
          \x20   - name: fixture offset\n      term: \"1\"\n\
          \x20   - name: clamp compliance\n      extension: {{kr: {{min: 0, max: 1}}}}\n",
-        solver().display(),
+        beam_common::study_head("clamp-case", (*lo, *hi)),
         sampling(),
         case.training().join(", "),
         names.last().unwrap(),

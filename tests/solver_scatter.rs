@@ -21,7 +21,7 @@ use rand_distr::{Distribution, Normal};
 
 #[allow(dead_code)] // the shared template is the families'
 mod beam_common;
-use beam_common::{B, F, L, NU, bending, clamp, solver};
+use beam_common::{bending, clamp};
 
 const E: f64 = 68_000.0;
 
@@ -48,12 +48,7 @@ fn write_study(dir: &Path, kr: f64, sampling: &str, hypotheses: &str) -> std::pa
     .unwrap();
     let names: Vec<String> = hs.iter().map(|h| format!("h{h}")).collect();
     let study = format!(
-        "name: scatter\n\
-         constants: {{F: {F}, L: {L}, b: {B}, nu: {NU}}}\n\
-         design:\n  h: {{unit: mm, min: 7, max: 13}}\n\
-         parameters:\n  E: {{min: 55000, max: 82000, unit: MPa}}\n\
-         simulation:\n  solver:\n    adapter: command\n    templates: [beam.txt.tera]\n    command: [{}, beam.txt]\n\
-         \x20 response: {{file: output.txt, regex: \"y = (\\\\S+)\"}}\n\
+        "{}\
          \x20 sampling: {}\n\
          \x20 surrogate: quadratic\n\
          \x20 seeds: {{count: 3, variable: seed}}\n\
@@ -61,7 +56,7 @@ fn write_study(dir: &Path, kr: f64, sampling: &str, hypotheses: &str) -> std::pa
          training: [{}]\n\
          validation: [{}]\n\
          calibration: {{methods: [least_squares]}}\n{hypotheses}",
-        solver().display(),
+        beam_common::study_head("scatter", (7.0, 13.0)),
         sampling,
         names[..names.len() - 1].join(", "),
         names.last().unwrap(),

@@ -40,6 +40,20 @@ pub fn clamp(h: f64) -> f64 {
     4.0 * F * L * L / (B * h * h)
 }
 
+/// A beam study's lines up to its response: the constants, h over [lo, hi] mm, E over [55,000,
+/// 82,000] MPa, the stand-in run on `beam.txt`.
+pub fn study_head(name: &str, (lo, hi): (f64, f64)) -> String {
+    format!(
+        "name: {name}\n\
+         constants: {{F: {F}, L: {L}, b: {B}, nu: {NU}}}\n\
+         design:\n  h: {{unit: mm, min: {lo}, max: {hi}}}\n\
+         parameters:\n  E: {{min: 55000, max: 82000, unit: MPa}}\n\
+         simulation:\n  solver:\n    adapter: command\n    templates: [beam.txt.tera]\n    command: [{}, beam.txt]\n\
+         \x20 response: {{file: output.txt, regex: \"y = (\\\\S+)\"}}\n",
+        solver().display()
+    )
+}
+
 /// Writes the solver's input template `beam.txt.tera` into `dir`.
 pub fn write_template(dir: &Path) {
     std::fs::write(
