@@ -260,6 +260,17 @@ fn check(study: &Study) -> Result<i32, Error> {
             ),
         }
     }
+    if let crate::study::Simulation::Solver(sim) = &study.simulation
+        && let Some(s) = &sim.inputs.seeds
+    {
+        let by = (s.variable.as_ref()).map_or("the starter's -rseed".to_string(), |v| {
+            format!("`{v}` = 1 … {}", s.count)
+        });
+        println!(
+            "ok: the confirmation runs are made at {} seeds of the solver's imperfection ({by})",
+            s.count
+        );
+    }
     println!(
         "ok: study `{}`: {} design variable(s), {} parameter(s), {} tested design(s), {} training, {} validation",
         study.name,

@@ -103,6 +103,15 @@ fn confirmation_runs_at_every_seed_count_the_solvers_scatter() {
     }
     let text = serde_json::to_string(&results["diagnosis"]).unwrap();
     assert!(text.contains("3 seeds of its imperfection"), "{text}");
+    let check = std::process::Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args(["check", study.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        said.contains("ok: the confirmation runs are made at 3 seeds of the solver's imperfection (`seed` = 1 … 3)"),
+        "{said}"
+    );
 }
 
 /// A sequential study whose loop names the clamp: its loop checks its emulators with runs at the
