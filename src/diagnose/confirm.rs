@@ -216,7 +216,9 @@ fn standard_errors(
         .collect();
     let sd = parts.iter().map(|(a, b)| (a + b).sqrt()).collect();
     let Some(c) = scatter.filter(|_| noise.dof > 0) else {
-        return (sd, noise.dof);
+        // The tests' noise alone, σ/√n, as it was always written (to the last bit).
+        let alone = (obs.iter()).map(|o| noise.sigma_at(o.mean) / (o.count.max(1) as f64).sqrt());
+        return (alone.collect(), noise.dof);
     };
     let f = parts.iter().map(|(a, b)| b / (a + b)).sum::<f64>() / parts.len().max(1) as f64;
     let inverse = (1.0 - f).powi(2) / noise.dof as f64 + f * f / c.dof.max(1) as f64;
