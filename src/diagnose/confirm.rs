@@ -234,7 +234,8 @@ pub struct SolverScatter {
     /// Per output: the solver's standard deviation between seeds over one specimen's (the tests'
     /// noise at the same level), pooled over the tested designs.
     pub relative_sd: Vec<f64>,
-    /// The degrees of freedom of the pooled estimate: Σ (seeds − 1) over the observations.
+    /// The degrees of freedom of each output's pooled estimate (the fewest of any output):
+    /// Σ (seeds − 1) over its observations.
     pub dof: usize,
 }
 
@@ -250,15 +251,15 @@ impl SolverScatter {
             squares[o.output] += s.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / var;
             dof[o.output] += s.len() - 1;
         }
-        let total: usize = dof.iter().sum();
-        (total > 0).then(|| SolverScatter {
+        let fewest = dof.iter().copied().filter(|&d| d > 0).min()?;
+        Some(SolverScatter {
             seeds: seeded.iter().map(Vec::len).max().unwrap_or(0),
             relative_sd: squares
                 .iter()
                 .zip(&dof)
                 .map(|(q, &d)| if d > 0 { (q / d as f64).sqrt() } else { f64::NAN })
                 .collect(),
-            dof: total,
+            dof: fewest,
         })
     }
 
