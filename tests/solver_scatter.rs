@@ -10,7 +10,8 @@
 //!   design, and its standard deviation over one specimen's near the truth's ratio
 //!   (0.4 / √(0.4² + 0.1²) = 0.97; asserted within [0.4, 2], the spread of an estimate on 14
 //!   degrees of freedom against tests' scatter on 14);
-//! - the words of the confirmation say the solver's own scatter was counted.
+//! - the words of the confirmation say the solver's own scatter was counted, and the verdict agrees
+//!   with an oracle on the exact closed form (no model error, said of both scatters).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -66,6 +67,44 @@ fn write_study(dir: &Path, kr: f64, sampling: &str, hypotheses: &str) -> std::pa
     path
 }
 
+/// The oracle, sharing no code with lab: the exact model y = bending(h)/E fitted to the drawn
+/// tests (`dir/tests.csv`) by weighted least squares in u = 1/E, each mean's variance the
+/// specimens' pooled relative scatter over 3 plus the three seeds' mean's (the stand-in's known
+/// 0.4 % over 3); its χ² on n − 1 and the critical value at upper tail `q` of F(n − 1, ν), ν the
+/// specimens' degrees of freedom.
+fn exact_chi2(dir: &Path, q: f64) -> (f64, f64) {
+    use statrs::distribution::{ContinuousCDF, FisherSnedecor};
+    let text = std::fs::read_to_string(dir.join("tests.csv")).unwrap();
+    let mut by_h: BTreeMap<String, (f64, Vec<f64>)> = BTreeMap::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let e = by_h
+            .entry(f[0].to_string())
+            .or_insert((f[1].parse().unwrap(), Vec::new()));
+        e.1.push(f[2].parse().unwrap());
+    }
+    let (mut ss, mut nu) = (0.0, 0usize);
+    let means: Vec<(f64, f64, usize)> = (by_h.values())
+        .map(|(h, ys)| {
+            let m = ys.iter().sum::<f64>() / ys.len() as f64;
+            ss += ys.iter().map(|y| (y / m - 1.0).powi(2)).sum::<f64>();
+            nu += ys.len() - 1;
+            (*h, m, ys.len())
+        })
+        .collect();
+    let cv2 = ss / nu as f64;
+    let w: Vec<f64> = (means.iter())
+        .map(|(_, m, n)| 1.0 / (m * m * (cv2 / *n as f64 + 0.004f64.powi(2) / 3.0)))
+        .collect();
+    let a: Vec<f64> = means.iter().map(|(h, _, _)| bending(*h)).collect();
+    let u = (0..a.len()).map(|i| w[i] * a[i] * means[i].1).sum::<f64>()
+        / (0..a.len()).map(|i| w[i] * a[i] * a[i]).sum::<f64>();
+    let chi2 = (0..a.len()).map(|i| w[i] * (means[i].1 - a[i] * u).powi(2)).sum();
+    let d1 = a.len() - 1;
+    let critical = d1 as f64 * FisherSnedecor::new(d1 as f64, nu as f64).unwrap().inverse_cdf(q);
+    (chi2, critical)
+}
+
 #[test]
 fn confirmation_runs_at_every_seed_count_the_solvers_scatter() {
     let dir = tempfile::tempdir().unwrap();
@@ -103,6 +142,24 @@ fn confirmation_runs_at_every_seed_count_the_solvers_scatter() {
     }
     let text = serde_json::to_string(&results["diagnosis"]).unwrap();
     assert!(text.contains("3 seeds of its imperfection"), "{text}");
+    // The verdict against the exact closed form: on this draw the exact model fits (its χ² within
+    // the α/10 critical value, α = 0.01: measured 5.75 against 44.6), so lab must find no model
+    // error, and say it of the tests' scatter and the solver's own, not of the tests' alone.
+    let (chi2, critical) = exact_chi2(dir.path(), 1.0 - 0.001);
+    let verdict = results["diagnosis"]["verdict"].as_str().expect("a verdict");
+    let first = results["answer"]["verdict"].as_str().expect("an answer");
+    assert!(
+        chi2 <= critical,
+        "the exact model's χ² {chi2} > {critical}: the draw is not the truth's"
+    );
+    assert_eq!(verdict, "no_model_error", "{first}");
+    assert!(
+        first.contains("within their scatter and the solver's own between 3 seeds"),
+        "{first}"
+    );
+    if std::env::var("LAB_SCATTER_VERBOSE").is_ok() {
+        eprintln!("verdict {verdict}; exact χ² {chi2:.2} (critical {critical:.2}); {first}");
+    }
     let check = std::process::Command::new(env!("CARGO_BIN_EXE_lab"))
         .args(["check", study.to_str().unwrap()])
         .output()

@@ -205,21 +205,24 @@ fn standard_errors(
     noise: &NoiseModel,
     scatter: Option<&SolverScatter>,
 ) -> (Vec<f64>, usize) {
+    let Some(c) = scatter else {
+        // The tests' noise alone, σ/√n, as it was always written (to the last bit).
+        let alone = (obs.iter()).map(|o| noise.sigma_at(o.mean) / (o.count.max(1) as f64).sqrt());
+        return (alone.collect(), noise.dof);
+    };
     let parts: Vec<(f64, f64)> = obs
         .iter()
         .zip(seeded)
         .map(|(o, s)| {
             let var = noise.sigma_at(o.mean).powi(2);
-            let r = scatter.map_or(0.0, |c| c.variance_ratio(o.output));
+            let r = c.variance_ratio(o.output);
             (var / o.count.max(1) as f64, r * var / s.len().max(1) as f64)
         })
         .collect();
     let sd = parts.iter().map(|(a, b)| (a + b).sqrt()).collect();
-    let Some(c) = scatter.filter(|_| noise.dof > 0) else {
-        // The tests' noise alone, σ/√n, as it was always written (to the last bit).
-        let alone = (obs.iter()).map(|o| noise.sigma_at(o.mean) / (o.count.max(1) as f64).sqrt());
-        return (alone.collect(), noise.dof);
-    };
+    if noise.dof == 0 {
+        return (sd, 0);
+    }
     let f = parts.iter().map(|(a, b)| b / (a + b)).sum::<f64>() / parts.len().max(1) as f64;
     let inverse = (1.0 - f).powi(2) / noise.dof as f64 + f * f / c.dof.max(1) as f64;
     (sd, ((1.0 / inverse).floor() as usize).max(1))

@@ -156,6 +156,9 @@ pub struct Evidence {
     pub carried_by: Option<(String, f64)>,
     /// The share of the misfit a partial cause's model removes.
     pub share_removed: Option<f64>,
+    /// The seeds of the solver's imperfection whose scatter the verdict's model's confirmation
+    /// counted beside the tests' (`simulation.seeds`; `None`: the tests' scatter alone).
+    pub solver_seeds: Option<usize>,
 }
 
 /// The answer of `results`, when it has a diagnosis.
@@ -405,7 +408,15 @@ impl Evidence {
             .as_deref()
             .or(d.finding.partial.as_ref().map(|p| p.name.as_str()));
         let extended = d.extended_model();
+        let judged = match d.finding.verdict {
+            Verdict::CauseNamed => cause.unwrap_or_default(),
+            _ => "uncorrected",
+        };
+        let solver_seeds = (d.checked.confirmation.iter())
+            .find(|c| c.model == judged && c.lack_of_fit.is_some())
+            .and_then(|c| Some(c.scatter.as_ref()?.seeds));
         Evidence {
+            solver_seeds,
             uncorrected: confirmed("uncorrected").or_else(|| d.record.lack_of_fit.clone()),
             with_cause: cause
                 .and_then(confirmed)
@@ -442,6 +453,16 @@ impl Evidence {
 // The words.
 
 impl Reading {
+    /// What a fit is within: the tests' scatter, and where the solver ran at several seeds of its
+    /// imperfection, its own scatter between them ("within the tests' scatter" is said of the
+    /// tests' scatter only).
+    fn within(&self) -> String {
+        match self.evidence.solver_seeds {
+            Some(n) => format!("their scatter and the solver's own between {n} seeds"),
+            None => "their scatter".to_string(),
+        }
+    }
+
     fn verdict_words(&self) -> String {
         let cause = self.cause.as_deref().unwrap_or("a listed cause");
         let model = self.model.as_ref().map(Model::words).unwrap_or_default();
@@ -456,7 +477,8 @@ impl Reading {
                     true => String::new(),
                     false => format!(" These tests do not rule out {}.", open.join("; nor ")),
                 };
-                format!("The model fits the tests within their scatter: use {model} as calibrated.{open}")
+                let within = self.within();
+                format!("The model fits the tests within {within}: use {model} as calibrated.{open}")
             }
             Verdict::PartlyExplained => format!(
                 "The model misses the tests beyond their scatter, and {cause} explains only part of it{}. {}",
@@ -631,7 +653,10 @@ impl Reading {
                 let by = e.carried_by.as_ref().map_or(String::new(), |(o, share)| {
                     format!("; the {o} carries {:.0} % of what it removes", 100.0 * share)
                 });
-                format!("with '{cause}' the model fits the tests within their scatter ({w}){u}{by}")
+                format!(
+                    "with '{cause}' the model fits the tests within {} ({w}){u}{by}",
+                    self.within()
+                )
             }
             (Verdict::PartlyExplained, _, Some(w)) => {
                 let share = e.share_removed.map_or(String::new(), |s| {
@@ -644,7 +669,8 @@ impl Reading {
                 format!("{u}{}", rival.unwrap_or_default())
             }
             (Verdict::NoModelError, Some(u), _) => {
-                format!("the calibrated model against the tests' scatter{level}: {u}")
+                let against = self.within().replacen("their", "the tests'", 1);
+                format!("the calibrated model against {against}{level}: {u}")
             }
             (Verdict::TooFewTests, ..) => e.too_few.clone().unwrap_or_default(),
             (Verdict::EmulatorLimited, u, _) => format!(
