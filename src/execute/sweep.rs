@@ -671,18 +671,21 @@ pub const SEED_FILE: &str = "lab-rseed";
 
 /// The nodal noise's seed of an OpenRadioss run at a seed other than the first (see [`SEED_FILE`]).
 fn nodal_noise_seed(sim: &SolverSimulation, run: &crate::plan::PlannedRun) -> Option<f64> {
-    let seeds = sim
-        .inputs
+    sim.inputs
         .seeds
         .as_ref()
         .filter(|s| s.variable.is_none() && run.seed > 0)?;
-    sim.openradioss.as_ref()?.seed(run.seed.min(seeds.count - 1))
+    sim.openradioss.as_ref()?.seed(run.seed)
 }
 
 /// The argv of the run in `dir`: the study's command, with the run's own `-rseed` where its
 /// inputs hold one ([`SEED_FILE`]).
 fn argv(sim: &SolverSimulation, dir: &std::path::Path) -> Vec<String> {
     let mut argv = sim.execution.command.clone();
+    // Only a study whose seeds are the starter's looks for the file (no I/O for the others).
+    if sim.inputs.seeds.as_ref().is_none_or(|s| s.variable.is_some()) {
+        return argv;
+    }
     let at = argv.iter().position(|a| a == "-rseed").filter(|i| i + 1 < argv.len());
     if let (Ok(seed), Some(i)) = (std::fs::read_to_string(dir.join(SEED_FILE)), at) {
         argv[i + 1] = seed.trim().to_string();
