@@ -277,20 +277,20 @@ impl SolverScatter {
 
 /// The solver's values after the local refit: residual and standard error per observation, the
 /// training leverages, and the step.
-struct Bridged {
+pub(super) struct Bridged {
     residual: Vec<f64>,
     /// The standard error of each residual: √(σ²/n (1 − h)) in training, √(σ²/n + J Σ Jᵀ) in
     /// validation.
     se: Vec<f64>,
     /// Each residual's share of the omnibus χ²: (r/σ)² in training, z² in validation.
-    chi2: Vec<f64>,
+    pub(super) chi2: Vec<f64>,
     /// The parameters the training tests move (the hat matrix's trace, Σ h_ii).
     rank: usize,
-    step: Vec<f64>,
+    pub(super) step: Vec<f64>,
 }
 
 /// Step 2 of the module notes.
-fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridged> {
+pub(super) fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridged> {
     let obs = &m.inputs.observations;
     let j = slope(m);
     let r = DVector::from_iterator(obs.len(), obs.iter().zip(values).map(|(o, v)| o.mean - v));
@@ -549,7 +549,7 @@ pub fn settle(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::base::Bounds;
     use crate::diagnose::Observation;
@@ -595,7 +595,11 @@ mod tests {
         (m, solver)
     }
 
-    fn inputs<'a>(observations: Vec<Observation>, model: &'a dyn crate::emulate::Model) -> Inputs<'a> {
+    /// Inputs over the parameter `a` in [300, 900] and the design `h` in [7, 13].
+    pub(in crate::diagnose) fn inputs<'a>(
+        observations: Vec<Observation>,
+        model: &'a dyn crate::emulate::Model,
+    ) -> Inputs<'a> {
         Inputs {
             observations,
             model,
