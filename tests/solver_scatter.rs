@@ -74,17 +74,9 @@ fn write_study(dir: &Path, kr: f64, sampling: &str, hypotheses: &str) -> std::pa
 /// specimens' degrees of freedom.
 fn exact_chi2(dir: &Path, q: f64) -> (f64, f64) {
     use statrs::distribution::{ContinuousCDF, FisherSnedecor};
-    let text = std::fs::read_to_string(dir.join("tests.csv")).unwrap();
-    let mut by_h: BTreeMap<String, (f64, Vec<f64>)> = BTreeMap::new();
-    for line in text.lines().skip(1) {
-        let f: Vec<&str> = line.split(',').collect();
-        let e = by_h
-            .entry(f[0].to_string())
-            .or_insert((f[1].parse().unwrap(), Vec::new()));
-        e.1.push(f[2].parse().unwrap());
-    }
+    let by_h = beam_common::specimens(dir);
     let (mut ss, mut nu) = (0.0, 0usize);
-    let means: Vec<(f64, f64, usize)> = (by_h.values())
+    let means: Vec<(f64, f64, usize)> = (by_h.iter())
         .map(|(h, ys)| {
             let m = ys.iter().sum::<f64>() / ys.len() as f64;
             ss += ys.iter().map(|y| (y / m - 1.0).powi(2)).sum::<f64>();

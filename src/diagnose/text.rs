@@ -185,15 +185,100 @@ fn range(m: &indexmap::IndexMap<String, [f64; 2]>) -> String {
 
 /// What no model error leaves open of one listed hypothesis, in words.
 pub(crate) fn not_excluded_line(n: &super::open::NotExcluded) -> String {
-    let detect = params(&n.detectable);
+    let detect = match n.detectable.is_empty() {
+        true => "any size the range allows".to_string(),
+        false => params(&n.detectable),
+    };
     format!(
-        "'{}' is not excluded by these tests ({}); over that range {}; an effect smaller than {detect} could not \
+        "'{}' is not excluded by these tests ({}{}); over that range {}; an effect smaller than {detect} could not \
          have been detected. A test where it changes the response most, or an independent measurement of the \
          parameters, would tell.",
         n.hypothesis,
         range(&n.amplitude),
+        open_runs(n),
         range(&n.parameters)
     )
+}
+
+/// Where an open range was read from: the solver's runs over the amplitude, or the screening's
+/// probes.
+fn open_runs(n: &super::open::NotExcluded) -> String {
+    let Some(name) = n.amplitude.keys().next() else {
+        return String::new();
+    };
+    let values: Vec<String> = (n.runs.iter())
+        .filter_map(|r| r.amplitude.get(name).map(|v| num(*v)))
+        .collect();
+    match values.is_empty() {
+        true => ", read from the screening's probes, linearised".into(),
+        false => format!(
+            ", read from the solver run at {name} = {} at every tested design",
+            values.join(", ")
+        ),
+    }
+}
+
+impl super::Diagnosis {
+    /// What "no model error" leaves open read again from the solver's runs over the amplitudes
+    /// (`open`, in the order of the screening's): its words replace the screening's.
+    /// `designs`: the tested designs, where runs would decide ([`Self::favoured_by_the_solver`]).
+    pub(crate) fn with_open(mut self, open: Vec<super::open::NotExcluded>, designs: &[String]) -> super::Diagnosis {
+        for (old, new) in self.checked.not_excluded.iter().zip(&open) {
+            let (was, now) = (not_excluded_line(old), not_excluded_line(new));
+            for line in self.finding.limits.iter_mut().filter(|l| **l == was) {
+                line.clone_from(&now);
+            }
+            self.finding.action = self.finding.action.replace(&open_clause(old), &open_clause(new));
+        }
+        self.checked.not_excluded = open;
+        self.resummarise();
+        self.favoured_by_the_solver(designs)
+    }
+
+    /// "No model error" refuted by the solver's runs over an open extension's amplitude
+    /// ([`super::open::Favoured`]): the emulators' reading (no model error) against the solver's
+    /// (the extension improves the fit beyond its level), so undecided — `emulator_limited` — with
+    /// the runs that would decide: the extended model at the profile's best point, at every
+    /// tested design.
+    fn favoured_by_the_solver(mut self, designs: &[String]) -> super::Diagnosis {
+        let Some((n, f)) = (self.checked.not_excluded.iter()).find_map(|n| Some((n.clone(), n.favoured.clone()?)))
+        else {
+            return self;
+        };
+        let deciding = vec![super::confirm::DecidingRuns {
+            model: n.hypothesis.clone(),
+            at: f.at.clone(),
+            designs: designs.to_vec(),
+        }];
+        self.finding.headline = format!(
+            "Undecided: the emulators found no model error, but the solver run over '{}' favours it — χ² falls by \
+             {} from its absence to its best ({}), beyond {} (its amplitude test's critical value at {}); these tests \
+             do not exclude it over {}, over which {}.",
+            n.hypothesis,
+            num(f.drop),
+            params(&f.at),
+            num(f.critical),
+            num(f.level),
+            range(&n.amplitude),
+            range(&n.parameters)
+        );
+        self.finding.action = format!(
+            "Action: do not take the calibrated parameters as the answer yet: {} (the solver in the loop over '{}' \
+             decides; until then, the parameters lie over the range above).",
+            deciding_words(&deciding),
+            n.hypothesis
+        );
+        self.finding.verdict = Verdict::EmulatorLimited;
+        self.finding.cause = None;
+        if !self.finding.leading.contains(&n.hypothesis) {
+            self.finding.leading.insert(0, n.hypothesis.clone());
+        }
+        if let Some(e) = self.checked.emulator.as_mut() {
+            e.deciding_runs = deciding;
+        }
+        self.resummarise();
+        self
+    }
 }
 
 /// One open hypothesis in the action: absent, or else the parameters over its open range.

@@ -70,6 +70,17 @@ pub struct Prepared {
     pub design_mesh: BTreeMap<String, PathBuf>,
 }
 
+impl Prepared {
+    /// `more`'s runs after these (a later batch rendered apart).
+    pub fn append(&mut self, more: Prepared) {
+        self.keys.extend(more.keys);
+        self.inputs.extend(more.inputs);
+        self.meshes.extend(more.meshes);
+        self.run_mesh.extend(more.run_mesh);
+        self.design_mesh.extend(more.design_mesh);
+    }
+}
+
 /// A study's solver as the run engine drives it: its settings and the adapter that judges its runs
 /// (made by the extract stage, which knows every adapter: `crate::extract::adapters::solver`).
 #[derive(Clone)]
@@ -571,6 +582,15 @@ pub struct SweepResult {
 }
 
 impl SweepResult {
+    /// `more`'s runs after these (a later batch swept apart).
+    pub fn append(&mut self, more: SweepResult) {
+        self.responses.extend(more.responses);
+        self.classes.extend(more.classes);
+        self.quality.extend(more.quality);
+        self.reused += more.reused;
+        self.errors.extend(more.errors);
+    }
+
     /// Every planned run's record as the store holds it, nothing run (`reused`: the finished ones).
     pub fn recorded(store: &RunStore, prepared: &Prepared) -> SweepResult {
         let reused = prepared.keys.iter().filter(|k| store.is_finished(k)).count();

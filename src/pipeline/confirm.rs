@@ -75,6 +75,18 @@ pub(super) enum LoopModel<'m> {
     ),
 }
 
+impl ConfirmRuns {
+    /// These runs and `more` after them, as one set.
+    pub(super) fn merge(mut self, more: ConfirmRuns) -> ConfirmRuns {
+        self.plan.runs.extend(more.plan.runs);
+        self.rendered.append(more.rendered);
+        self.swept.append(more.swept);
+        self.outcomes = self.outcomes.merge(more.outcomes);
+        self.flags.extend(more.flags);
+        self
+    }
+}
+
 impl LoopReading<'_> {
     pub(super) fn inputs(&self) -> Inputs<'_> {
         match &self.model {
@@ -311,14 +323,32 @@ fn values(names: &[String], named: &IndexMap<String, f64>) -> Vec<f64> {
         .collect()
 }
 
+/// What a batch of runs at given parameters is for: confirming a verdict's models, or reading what
+/// "no model error" leaves open over an extension's amplitude ([`super::open`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Stage {
+    Confirmation,
+    NotExcluded,
+}
+
+impl Stage {
+    /// Its name in a sequential study's record.
+    fn name(self) -> &'static str {
+        match self {
+            Stage::Confirmation => "confirmation",
+            Stage::NotExcluded => "not_excluded",
+        }
+    }
+}
+
 /// Runs every subject at every tested design in one batch (recorded in a sequential study's
-/// record as the stage `confirmation`), but for those the loop already ran ([`Subject::ran`], read
-/// from `joint`), and judges each against the tests' `noise` alone.
+/// record as `stage`), but for those the loop already ran ([`Subject::ran`], read from `joint`),
+/// and judges each against the tests' `noise` alone.
 pub(super) fn run(
     cx: RunContext,
     (rendered_before, executed, sequence): Made,
     subjects: &[Subject],
-    (read, noise, joint): (&Reading, &NoiseModel, Option<&extend::JointRuns>),
+    (read, noise, joint, stage): (&Reading, &NoiseModel, Option<&extend::JointRuns>, Stage),
     reporter: &mut dyn Reporter,
 ) -> Result<(Vec<Confirmation>, Option<ConfirmRuns>), Error> {
     if subjects.is_empty() {
@@ -334,7 +364,12 @@ pub(super) fn run(
     };
     let made = match plan.runs.is_empty() {
         true => None,
-        false => Some(sweep_batch(cx, (rendered_before, executed, sequence), plan, reporter)?),
+        false => Some(sweep_batch(
+            cx,
+            (rendered_before, executed, sequence),
+            (plan, stage),
+            reporter,
+        )?),
     };
     let fresh_values = made.as_ref().map_or_else(Vec::new, |m| {
         solver_values(
@@ -407,25 +442,25 @@ fn planned(sim: &SolverSimulation, s: &Subject, designs: &[(&String, &Vec<f64>)]
         .collect()
 }
 
-/// The confirmation's new runs swept as one batch, recorded as the stage `confirmation`.
+/// The new runs swept as one batch, recorded as `stage`.
 fn sweep_batch(
     cx: RunContext,
     (rendered_before, executed, sequence): Made,
-    plan: Plan,
+    (plan, stage): (Plan, Stage),
     reporter: &mut dyn Reporter,
 ) -> Result<ConfirmRuns, Error> {
     let (study, sim) = (cx.study, cx.sim);
     let solver = crate::extract::adapters::solver(sim)?;
     let rendered = sweep::prepare_after(study, &solver, &plan, Some(rendered_before))?;
     match sequence.as_mut() {
-        Some(sequence) => sequence.planned_batch("confirmation", &plan, &cx.options.out)?,
-        None => write_plan(&cx.options.out, &plan)?,
+        Some(sequence) => sequence.planned_batch(stage.name(), &plan, &cx.options.out)?,
+        None => write_plan(&cx.options.out, &plan, stage != Stage::Confirmation)?,
     }
     let (swept, outcomes) = runs::sweep_plan(cx, &plan, &rendered, &mut executed.store, reporter)?;
     if let Some(b) = match sequence.as_mut() {
         Some(sequence) => {
             let failed = Failed::of(&outcomes);
-            sequence.finish_planned("confirmation", (plan.runs.len(), failed), &cx.options.out)?
+            sequence.finish_planned(stage.name(), (plan.runs.len(), failed), &cx.options.out)?
         }
         None => None,
     } {
@@ -441,12 +476,18 @@ fn sweep_batch(
     })
 }
 
-/// `OUT/confirmation-plan.json`: a fixed design's confirmation runs, written before they start so
-/// that `lab status` counts them (a sequential study's are in its `sequence.json`).
+/// `OUT/confirmation-plan.json`: a fixed design's confirmation runs (and its runs over the open
+/// amplitudes after them), written before they start so that `lab status` counts them (a
+/// sequential study's are in its `sequence.json`).
 pub const PLAN_FILE: &str = "confirmation-plan.json";
 
-fn write_plan(out: &std::path::Path, plan: &Plan) -> Result<(), Error> {
-    let planned: Vec<_> = plan.runs.iter().map(super::sequence::record::Planned::of).collect();
+/// Writes `plan` as the file's runs, or after the runs already in it (`after`: a later batch of
+/// the same `lab run`).
+fn write_plan(out: &std::path::Path, plan: &Plan, after: bool) -> Result<(), Error> {
+    let before = if after { recorded_plan(out) } else { Vec::new() };
+    let planned: Vec<_> = (before.iter().chain(&plan.runs))
+        .map(super::sequence::record::Planned::of)
+        .collect();
     let text = serde_json::to_vec_pretty(&planned).map_err(|e| Error::Failed(e.to_string()))?;
     let path = out.join(PLAN_FILE);
     crate::execute::store::write_atomic(&path, &text)

@@ -194,11 +194,34 @@ fn confirmed(
     reporter: &mut dyn Reporter,
 ) -> Result<Confirmed, Error> {
     let noise = noise_alone.diagnosis.record.noise.clone();
-    let (confirmations, runs) = super::confirm::run(cx, made, &subjects, (read, &noise, joint), reporter)?;
+    let (rendered, executed, sequence) = made;
+    let stage = super::confirm::Stage::Confirmation;
+    let (confirmations, runs) = super::confirm::run(
+        cx,
+        (rendered, &mut *executed, &mut *sequence),
+        &subjects,
+        (read, &noise, joint, stage),
+        reporter,
+    )?;
     let designs: Vec<String> = crate::plan::sweep::tested_designs(cx.study)
         .map(|(n, _)| n.clone())
         .collect();
     let d = crate::diagnose::confirm::settle(noise_alone.diagnosis, counted.diagnosis, confirmations, &designs);
+    // What "no model error" leaves open, read again from the solver over each open extension.
+    let (d, open_runs) = match subjects.first() {
+        Some(s) => super::open::over_amplitudes(
+            cx,
+            (rendered, executed, sequence),
+            d,
+            (s.confirming.inputs, read, &noise),
+            reporter,
+        )?,
+        None => (d, None),
+    };
+    let runs = match (runs, open_runs) {
+        (Some(a), Some(b)) => Some(a.merge(b)),
+        (a, b) => a.or(b),
+    };
     let kept = d.checked.emulator.as_ref().and_then(|e| e.confirmed.as_deref());
     let residuals = match kept {
         Some("counted") => counted.residuals,

@@ -24,6 +24,7 @@ pub mod confirm;
 pub mod curves;
 mod diagnosis;
 pub mod extend;
+mod open;
 pub mod runs;
 pub mod sequence;
 pub mod stages;

@@ -116,6 +116,9 @@ pub struct Open {
     pub hypothesis: String,
     pub amplitude: Quantity,
     pub parameter: Option<Quantity>,
+    /// The solver's runs over its amplitude favour it beyond its level (`not_excluded[].favoured`):
+    /// χ²'s fall from its absence, and the critical value.
+    pub favoured: Option<[f64; 2]>,
 }
 
 /// What the words are built from: the typed verdict and the figures it rests on.
@@ -387,6 +390,7 @@ fn open(d: &Diagnosis, units: &IndexMap<String, String>) -> Vec<Open> {
                 hypothesis: n.hypothesis.clone(),
                 amplitude: one(&n.amplitude)?,
                 parameter: one(&n.parameters),
+                favoured: n.favoured.as_ref().map(|f| [f.drop, f.critical]),
             })
         })
         .collect()
@@ -494,10 +498,18 @@ impl Reading {
                 "Too few tests to tell whether the model errs. As calibrated, {model}, which holds only if the \
                  model is right."
             ),
-            Verdict::EmulatorLimited => format!(
-                "Not decided: the emulators' error, not the tests, decides whether {}. As calibrated, {model}.",
-                self.between_words()
-            ),
+            Verdict::EmulatorLimited => match self.open.iter().find(|o| o.favoured.is_some()) {
+                Some(o) => format!(
+                    "Not decided: the emulators found no model error, but the solver's runs favour {}: these tests do \
+                     not rule out {}, and rule out its absence. Without it, as calibrated, {model}.",
+                    o.hypothesis,
+                    open_words(o)
+                ),
+                None => format!(
+                    "Not decided: the emulators' error, not the tests, decides whether {}. As calibrated, {model}.",
+                    self.between_words()
+                ),
+            },
         }
     }
 
@@ -615,8 +627,14 @@ impl Reading {
                 format!("Action: use the simulation as calibrated{where_}{n}.")
             }
             (Verdict::EmulatorLimited, n) => format!(
-                "Action: run the solver where the decision is read (more runs near the fitted parameters) before \
-                 trusting either reading{}.",
+                "Action: run the solver {} before trusting either reading{}.",
+                match self.open.iter().find(|o| o.favoured.is_some()) {
+                    Some(o) => format!(
+                        "in the loop over '{}' (its amplitude and the parameters together)",
+                        o.hypothesis
+                    ),
+                    None => "where the decision is read (more runs near the fitted parameters)".into(),
+                },
                 n.map_or(String::new(), |n| format!("; then {n}"))
             ),
             (_, Some(n)) => format!("Action: {n}."),
@@ -673,10 +691,24 @@ impl Reading {
                 format!("the calibrated model against {against}{level}: {u}")
             }
             (Verdict::TooFewTests, ..) => e.too_few.clone().unwrap_or_default(),
-            (Verdict::EmulatorLimited, u, _) => format!(
-                "with the tests' noise alone and with the emulators' error counted the readings differ{}",
-                u.map_or(String::new(), |u| format!("; the uncorrected model: {u}"))
-            ),
+            (Verdict::EmulatorLimited, u, _) => {
+                let favoured = self.open.iter().find_map(|o| Some((o, o.favoured?)));
+                let readings = match favoured {
+                    Some((o, [drop, critical])) => format!(
+                        "the solver's runs over '{}' against its absence (χ² falls by {}, beyond {})",
+                        o.hypothesis,
+                        num(drop),
+                        num(critical)
+                    ),
+                    None => {
+                        "with the tests' noise alone and with the emulators' error counted the readings differ".into()
+                    }
+                };
+                format!(
+                    "{readings}{}",
+                    u.map_or(String::new(), |u| format!("; the uncorrected model: {u}"))
+                )
+            }
             (_, Some(u), _) => format!("the uncorrected model against the tests' scatter{level}: {u}"),
             (_, None, _) => "no lack-of-fit test was possible (no measured noise)".into(),
         };
@@ -992,6 +1024,7 @@ mod tests {
             hypothesis: "strain hardening".into(),
             amplitude: q("etan", 257.8, Some([0.0, 257.8]), "MPa"),
             parameter: Some(q("sigma_y", 210.7, Some([178.4, 210.7]), "MPa")),
+            favoured: None,
         }];
         let a = r.answer();
         assert!(

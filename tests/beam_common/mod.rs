@@ -40,6 +40,22 @@ pub fn clamp(h: f64) -> f64 {
     4.0 * F * L * L / (B * h * h)
 }
 
+/// The specimens of a beam study's `dir/tests.csv` (`design,h,deflection`), by design in name
+/// order: each design's depth and its specimens' deflections.
+#[allow(dead_code)] // not every family reads its tests back
+pub fn specimens(dir: &Path) -> Vec<(f64, Vec<f64>)> {
+    let text = std::fs::read_to_string(dir.join("tests.csv")).unwrap();
+    let mut by_h: std::collections::BTreeMap<String, (f64, Vec<f64>)> = std::collections::BTreeMap::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let e = by_h
+            .entry(f[0].to_string())
+            .or_insert((f[1].parse().unwrap(), Vec::new()));
+        e.1.push(f[2].parse().unwrap());
+    }
+    by_h.into_values().collect()
+}
+
 /// A beam study's lines up to its response: the constants, h over [lo, hi] mm, E over [55,000,
 /// 82,000] MPa, the stand-in run on `beam.txt`.
 pub fn study_head(name: &str, (lo, hi): (f64, f64)) -> String {
