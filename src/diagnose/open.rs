@@ -191,8 +191,8 @@ pub fn linearised_at(c: &Candidate, value: f64) -> IndexMap<String, f64> {
 /// both interpolated linearly in v, and the confirmation's bridge refits the parameters from there
 /// along the emulator's slope: at a value run at, the solver's own values at its own parameters,
 /// the emulator bridging only the small step to the refit. Each observation's variance is the
-/// tests' σ²/n plus the solver's scatter r·σ²·Σ w_j²/K_j of the interpolated means (w_j the
-/// interpolation's weights, K_j the seeds).
+/// tests' σ²/n plus the solver's scatter r·σ²·Σ |w_j|/K_j (w_j the interpolation's weights, K_j
+/// the seeds): a mean's over K seeds at the values run at, held between them.
 pub struct Profile<'a> {
     inputs: &'a Inputs<'a>,
     /// The values run at, ascending, and at each: the parameters, the solver's values per
@@ -277,7 +277,10 @@ impl<'a> Profile<'a> {
         let wa = (b.value - v) / (b.value - a.value);
         let wb = 1.0 - wa;
         let mix = |x: &[f64], y: &[f64]| -> Vec<f64> { x.iter().zip(y).map(|(x, y)| wa * x + wb * y).collect() };
-        let shrink = wa * wa / a.seeds as f64 + wb * wb / b.seeds as f64;
+        // The solver's scatter of the values run at, held over the segment between them (and grown
+        // with the extrapolation's weights beyond): the interpolation's smaller variance between two
+        // values would weigh χ² differently at each v, and the profile compares them.
+        let shrink = wa.abs() / a.seeds as f64 + wb.abs() / b.seeds as f64;
         let sd: Vec<f64> = (self.tests.iter().zip(&self.solver))
             .map(|(t, r)| (t + r * shrink).sqrt())
             .collect();
@@ -548,6 +551,11 @@ mod tests {
     /// rounds at the open range's ends — the first at the linearised range's, then each at the a
     /// the profile puts there; the range read.
     fn looped(inputs: &Inputs, noise: &NoiseModel) -> Option<NotExcluded> {
+        looped_at(inputs, noise, 0.05)
+    }
+
+    /// [`looped`] with the amplitude test at `alpha_k`.
+    fn looped_at(inputs: &Inputs, noise: &NoiseModel, alpha_k: f64) -> Option<NotExcluded> {
         let run = |kr: f64, a: f64| {
             let m = Confirming {
                 name: "kr".into(),
@@ -573,7 +581,7 @@ mod tests {
             at.extend(next.iter().map(|&(kr, a)| (kr, run(kr, a))));
             let points: Vec<(f64, &Confirmation)> = at.iter().map(|(v, c)| (*v, c)).collect();
             let profile = Profile::new(inputs, noise, &points)?;
-            let read = profile.read("compliance", ("kr", 0.0, 1.0), (0.05, 0.05, 0.8))?;
+            let read = profile.read("compliance", ("kr", 0.0, 1.0), (0.05, alpha_k, 0.8))?;
             next = (next_amplitudes(&read, &profile.fresh(&read), (0.0, 1.0)).into_iter())
                 .filter_map(|v| Some((v, profile.at(v)?.1[0])))
                 .collect();
@@ -619,5 +627,30 @@ mod tests {
         }
         assert!(inside >= 34, "the truth inside in {inside} of 40");
         eprintln!("ends within {worst:.5} of the reference; truth inside {inside} of 40; values run at {rounds:?}");
+    }
+
+    /// The solver's runs over the amplitude against the extension's absence, at the amplitude
+    /// test's level 0.01: over 300 drawn beams without a clamp, `favoured` in at most 9 (expected
+    /// 3; 9 or more has chance 0.004 at the level); over 100 with kr = 0.1 (about ten of the
+    /// amplitude's standard errors), in at least 95.
+    #[test]
+    fn the_runs_over_the_amplitude_reject_its_absence_at_the_amplitude_tests_level() {
+        let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2_053);
+        let mut favoured = |kr: f64, draws: usize| {
+            (0..draws)
+                .filter(|_| {
+                    let (obs, noise) = tests(kr, &mut rng);
+                    let inputs = beam_inputs(obs, &model);
+                    // No range from runs (the linearised one is empty at the declared floor): none run.
+                    looped_at(&inputs, &noise, 0.01).is_some_and(|o| o.favoured.is_some())
+                })
+                .count()
+        };
+        let null = favoured(0.0, 300);
+        let clamp = favoured(0.1, 100);
+        eprintln!("favoured: {null} of 300 without a clamp, {clamp} of 100 with kr = 0.1");
+        assert!(null <= 9, "the absence rejected in {null} of 300 at 0.01");
+        assert!(clamp >= 95, "kr = 0.1 favoured in only {clamp} of 100");
     }
 }

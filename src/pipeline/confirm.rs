@@ -51,6 +51,8 @@ pub(super) struct Subject<'a> {
     /// The loop's runs of this model already at `theta` (one per tested design, indices into the
     /// joint runs' plan): the solver is not run again ([`already_ran`]).
     pub ran: Option<Vec<usize>>,
+    /// Its runs' role: a confirmation's, or a run over an open extension's amplitude.
+    pub role: RunRole,
 }
 
 /// A looped hypothesis's model as a confirmation reads it: its inputs (over θ and its ranged
@@ -192,6 +194,7 @@ fn uncorrected<'a>(screening: &'a Inputs<'a>, d: &Diagnosis) -> Subject<'a> {
         extension: Vec::new(),
         level: d.record.levels.uncorrected_fit,
         ran: None,
+        role: RunRole::Confirm,
     }
 }
 
@@ -218,6 +221,7 @@ fn looped_cause<'a>(
         extension: spec.at(&point[p..]),
         level: d.record.levels.cause_fit,
         ran: None,
+        role: RunRole::Confirm,
     })
 }
 
@@ -312,6 +316,7 @@ fn candidate_cause<'a>(screening: &'a Inputs<'a>, d: &Diagnosis, cause: &str) ->
         extension: Vec::new(),
         level: d.record.levels.cause_fit,
         ran: None,
+        role: RunRole::Confirm,
     })
 }
 
@@ -432,7 +437,7 @@ fn planned(sim: &SolverSimulation, s: &Subject, designs: &[(&String, &Vec<f64>)]
         design: (*name).clone(),
         design_values: (*values).clone(),
         theta: theta.clone(),
-        role: RunRole::Confirm,
+        role: s.role,
         extension: extension.clone(),
         seed,
     };

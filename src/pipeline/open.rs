@@ -35,12 +35,13 @@ pub(super) fn over_amplitudes(
     let mut made: Option<ConfirmRuns> = None;
     let mut open = Vec::new();
     for n in &d.checked.not_excluded {
-        let Some(h) = over_runs(cx, n) else {
+        let Some((k, h)) = over_runs(cx, n) else {
             open.push(n.clone());
             continue;
         };
         let one = Extension {
             h,
+            k,
             anchor: &anchor,
             d: &d,
         };
@@ -67,15 +68,18 @@ pub(super) fn over_amplitudes(
 /// The study's hypothesis of an open range, where the solver can be run over it: an extension
 /// with one ranged variable whose lower bound is the baseline (so the uncorrected simulation's
 /// runs are the extension's there).
-fn over_runs<'s>(cx: RunContext<'s>, n: &NotExcluded) -> Option<&'s Hypothesis> {
-    let h = cx.study.diagnosis.hypotheses.iter().find(|h| h.name == n.hypothesis)?;
-    let spec = h.extension_spec()?;
-    (spec.ranges.len() == 1 && spec.baseline_at_edge).then_some(h)
+fn over_runs<'s>(cx: RunContext<'s>, n: &NotExcluded) -> Option<(usize, &'s Hypothesis)> {
+    let hypotheses = &cx.study.diagnosis.hypotheses;
+    let k = hypotheses.iter().position(|h| h.name == n.hypothesis)?;
+    let spec = hypotheses[k].extension_spec()?;
+    (spec.ranges.len() == 1 && spec.baseline_at_edge).then_some((k, &hypotheses[k]))
 }
 
 /// One open extension and what its runs are read against.
 struct Extension<'d> {
     h: &'d Hypothesis,
+    /// Its index in the study's hypotheses.
+    k: usize,
     /// The uncorrected simulation's confirmation: the extension at its baseline value.
     anchor: &'d Confirmation,
     d: &'d Diagnosis,
@@ -117,6 +121,8 @@ impl Extension<'_> {
             if confirmations.is_empty() {
                 break; // no room left in the budget
             }
+            // A round whose runs all failed adds nothing to read, and would be planned again.
+            let failed = (confirmations.iter()).all(|c| c.runs.iter().any(|r| r.solver.is_none()));
             at.extend(next.iter().map(|(v, _)| *v).zip(confirmations));
             let points: Vec<(f64, &Confirmation)> = std::iter::once((lo, self.anchor))
                 .chain(at.iter().map(|(v, c)| (*v, c)))
@@ -126,6 +132,9 @@ impl Extension<'_> {
             };
             read_again = profile.read(&self.h.name, (&r.name, lo, hi), self.levels(screening));
             let Some(open) = &read_again else { break };
+            if failed {
+                break;
+            }
             next = (open::next_amplitudes(open, &profile.fresh(open), (lo, hi)).into_iter())
                 .filter_map(|v| Some((v, profile.at(v)?.1)))
                 .collect();
@@ -179,6 +188,7 @@ impl Extension<'_> {
             extension: spec.at(&[v]),
             level: self.d.record.levels.uncorrected_fit,
             ran: None,
+            role: crate::plan::RunRole::NotExcluded(self.k),
         }
     }
 

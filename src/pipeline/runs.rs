@@ -283,10 +283,19 @@ fn replay(
         return Ok((replayed.swept, replayed.damaged));
     }
     let listed = listed(misses);
-    if plan.runs.iter().all(|r| r.role == crate::plan::RunRole::Confirm) {
+    use crate::plan::RunRole;
+    if plan.runs.iter().all(|r| r.role == RunRole::Confirm) {
         reporter.report(Event::Note(format!(
             "{} confirmation run(s) have no recording, so they failed and the verdict is not confirmed by the \
              solver there (run the study live to confirm it):\n{listed}",
+            misses.len()
+        )));
+        return Ok((replayed.swept, replayed.damaged));
+    }
+    if plan.runs.iter().all(|r| matches!(r.role, RunRole::NotExcluded(_))) {
+        reporter.report(Event::Note(format!(
+            "{} run(s) over an open extension's amplitude have no recording, so they failed and what no model \
+             error leaves open rests on the runs that have (run the study live to read it from them all):\n{listed}",
             misses.len()
         )));
         return Ok((replayed.swept, replayed.damaged));

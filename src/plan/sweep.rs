@@ -44,6 +44,9 @@ pub enum RunRole {
     /// A run at the fitted parameters of a model a verdict rests on, checking the verdict by the
     /// solver itself (not fitted to).
     Confirm,
+    /// A run of hypothesis `k`'s extension at a value of its amplitude, reading what no model error
+    /// leaves open of it (not fitted to).
+    NotExcluded(usize),
 }
 
 impl RunRole {
@@ -55,18 +58,20 @@ impl RunRole {
             RunRole::Joint(_) => "joint",
             RunRole::JointCheck(_) => "joint_check",
             RunRole::Confirm => "confirmation",
+            RunRole::NotExcluded(_) => "not_excluded",
         }
     }
 
     /// The stage a run of this role belongs to, as `sequence.json`, `results.json` `runs.outcomes`
     /// and `lab status` name it: `screening` (samples and checks), `probes` (the extension
-    /// hypotheses' screening runs), `loop: <hypothesis>`, `confirmation`.
+    /// hypotheses' screening runs), `loop: <hypothesis>`, `confirmation`, `not_excluded`.
     pub fn stage(self, study: &Study) -> String {
         match self {
             RunRole::Sample | RunRole::Check => "screening".into(),
             RunRole::Extension(_) => "probes".into(),
             RunRole::Joint(k) | RunRole::JointCheck(k) => format!("loop: {}", study.diagnosis.hypotheses[k].name),
             RunRole::Confirm => "confirmation".into(),
+            RunRole::NotExcluded(_) => "not_excluded".into(),
         }
     }
 }

@@ -225,6 +225,10 @@ pub struct RunsResult {
     /// verdict rests on, one run per tested design each (`diagnosis.confirmation`).
     #[serde(default)]
     pub confirmation: usize,
+    /// Of `planned`, the runs over an open extension's amplitude after no model error
+    /// (`diagnosis.not_excluded[].runs`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub not_excluded: usize,
     /// The recordings the runs were replayed from (`--replay` or the study's `simulation.replay`);
     /// absent when a solver ran. Run times of a replay are the replay's, not the solver's.
     #[serde(skip_serializing_if = "Option::is_none", default)]
@@ -548,4 +552,8 @@ fn predictions(study: &Study, model: &dyn Model, calibrated: &Calibrated) -> Vec
             }
         })
         .collect()
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }

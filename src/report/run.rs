@@ -15,6 +15,7 @@ use crate::error::Error;
 use crate::execute::quality::Flag;
 use crate::pipeline::{Outcome, RunOutcomes, Simulated, SplitCalibration, extend, sequence};
 use crate::plan::Plan;
+use crate::plan::RunRole;
 use crate::study::Study;
 
 /// What `lab run` wrote: `results.json` and `report-data.json`, and how a solver study's runs ended
@@ -93,8 +94,7 @@ fn results(
             study,
             runs.sim,
             runs.diagnosed.joint.as_ref().map(|j| &j.plan),
-            runs.diagnosed.confirmation.as_ref().map_or(0, |c| c.plan.runs.len())
-                + reused * crate::plan::sweep::tested_designs(study).count(),
+            confirmation_runs(runs, |_| true) + reused * crate::plan::sweep::tested_designs(study).count(),
         ),
         ..s.for_results()
     });
@@ -113,7 +113,8 @@ fn results(
         succeeded: 0,
         failed: 0,
         in_the_loop: runs.diagnosed.joint.as_ref().map_or(0, |j| j.plan.runs.len()),
-        confirmation: runs.diagnosed.confirmation.as_ref().map_or(0, |c| c.plan.runs.len()),
+        confirmation: confirmation_runs(runs, |r| r == RunRole::Confirm),
+        not_excluded: confirmation_runs(runs, |r| matches!(r, RunRole::NotExcluded(_))),
         replayed_from: runs.executed.replay.as_ref().map(|d| d.display().to_string()),
         suspect: 0,
         gates: sweeps
@@ -313,4 +314,11 @@ pub fn rewrite_report(dir: &Path) -> Result<Option<String>, Error> {
     };
     write_report(dir, &results, data.as_ref())?;
     Ok(warning)
+}
+
+/// The runs made after the screening and the loop whose role is `of`: the confirmation's, and
+/// those over the open extensions' amplitudes.
+fn confirmation_runs(runs: &crate::pipeline::SolverRuns, of: impl Fn(RunRole) -> bool) -> usize {
+    let made = runs.diagnosed.confirmation.as_ref();
+    made.map_or(0, |c| c.plan.runs.iter().filter(|r| of(r.role)).count())
 }

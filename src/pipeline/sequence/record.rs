@@ -241,7 +241,7 @@ fn is_zero(seed: &usize) -> bool {
 impl Planned {
     pub fn of(run: &PlannedRun) -> Planned {
         let hypothesis = match run.role {
-            RunRole::Extension(k) | RunRole::Joint(k) | RunRole::JointCheck(k) => Some(k),
+            RunRole::Extension(k) | RunRole::Joint(k) | RunRole::JointCheck(k) | RunRole::NotExcluded(k) => Some(k),
             _ => None,
         };
         Planned {
@@ -263,6 +263,7 @@ impl Planned {
             "joint" => RunRole::Joint(k),
             "joint_check" => RunRole::JointCheck(k),
             "confirmation" => RunRole::Confirm,
+            "not_excluded" => RunRole::NotExcluded(k),
             _ => RunRole::Sample,
         };
         PlannedRun {
