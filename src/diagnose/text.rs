@@ -251,7 +251,8 @@ impl super::Diagnosis {
             designs: designs.to_vec(),
         }];
         self.finding.headline = format!(
-            "Undecided: the emulators found no model error, but the solver run over '{}' favours it — χ² falls by \
+            "Undecided: the emulators' error, not the tests, decides: the emulators found no model error, but the \
+             solver run over '{}' favours it — χ² falls by \
              {} from its absence to its best ({}), beyond {} (its amplitude test's critical value at {}); these tests \
              do not exclude it over {}, over which {}.",
             n.hypothesis,

@@ -59,6 +59,7 @@ pub fn assert_verdict_follows_evidence(d: &Value) {
         "partly_explained" => "model error: partly explained: no listed cause accounts for the misfit",
         "no_model_error" => "no model error beyond the noise",
         "unexplained" => "model error: no listed cause explains it",
+        "emulator_limited" => "undecided: the emulators' error, not the tests, decides",
         _ => "too few tests to tell",
     };
     assert!(
@@ -273,6 +274,18 @@ fn assert_screening(d: &Value, verdict: &str, final_extended: bool) {
             assert_nearest_examined(d, candidates);
         }
         "too_few_tests" => assert!(d["cause"].is_null()),
+        "emulator_limited" => {
+            // Undecided for a stated reason: the two readings differ, the solver confirmed neither,
+            // or its runs over an open extension's amplitude favour it beyond its level.
+            assert!(d["cause"].is_null());
+            let e = &d["emulator"];
+            let favoured = (d["not_excluded"].as_array().into_iter().flatten())
+                .any(|n| n["favoured"]["drop"].as_f64() > n["favoured"]["critical"].as_f64());
+            assert!(
+                favoured || e["differ"] == true || e["confirmed"].is_null(),
+                "emulator_limited without a reason: {e}"
+            );
+        }
         other => panic!("unknown verdict {other}"),
     }
 }
