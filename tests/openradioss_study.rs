@@ -2,7 +2,8 @@
 //! (fixtures/honeycomb-openradioss; `--replay`, so it replays even with OpenRadioss on PATH).
 //!
 //! - Every planned run (screening and the solver in the loop) replays to a success; none suspect
-//!   beyond those the recordings' own figures break.
+//!   beyond those the recordings' own figures break; the study samples sequentially within its
+//!   budget of 48 runs.
 //! - The real solver's response grows with the yield stress at every design (the slope of a
 //!   least-squares line through the design's baseline runs is positive), and with the foil
 //!   thickness at equal yield stress (the designs' lines ordered C6T5 < C6T65 < C6T8 at 185 MPa).
@@ -64,6 +65,9 @@ fn the_study_replays_and_the_real_solver_behaves() {
     let runs = &results["runs"];
     assert_eq!(runs["failed"], 0, "{runs}");
     assert_eq!(runs["planned"], runs["succeeded"], "{runs}");
+    // Sampled sequentially within the study's budget of 48 solver runs.
+    assert_eq!(results["sampling"]["method"], "sequential");
+    assert!(runs["planned"].as_u64().is_some_and(|n| n <= 48), "{runs}");
     // Per design: its baseline runs (sample and check) as (sigma_y, response).
     let mut at_185: Vec<(String, f64)> = Vec::new();
     for design in ["C6T5", "C6T65", "C6T8"] {
