@@ -328,32 +328,14 @@ fn values(names: &[String], named: &IndexMap<String, f64>) -> Vec<f64> {
         .collect()
 }
 
-/// What a batch of runs at given parameters is for: confirming a verdict's models, or reading what
-/// "no model error" leaves open over an extension's amplitude ([`super::open`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Stage {
-    Confirmation,
-    NotExcluded,
-}
-
-impl Stage {
-    /// Its name in a sequential study's record.
-    fn name(self) -> &'static str {
-        match self {
-            Stage::Confirmation => "confirmation",
-            Stage::NotExcluded => "not_excluded",
-        }
-    }
-}
-
 /// Runs every subject at every tested design in one batch (recorded in a sequential study's
-/// record as `stage`), but for those the loop already ran ([`Subject::ran`], read from `joint`),
+/// record as the stage of the subjects' role: confirmation, or not_excluded), but for those the loop already ran ([`Subject::ran`], read from `joint`),
 /// and judges each against the tests' `noise` alone.
 pub(super) fn run(
     cx: RunContext,
     (rendered_before, executed, sequence): Made,
     subjects: &[Subject],
-    (read, noise, joint, stage): (&Reading, &NoiseModel, Option<&extend::JointRuns>, Stage),
+    (read, noise, joint): (&Reading, &NoiseModel, Option<&extend::JointRuns>),
     reporter: &mut dyn Reporter,
 ) -> Result<(Vec<Confirmation>, Option<ConfirmRuns>), Error> {
     if subjects.is_empty() {
@@ -369,12 +351,7 @@ pub(super) fn run(
     };
     let made = match plan.runs.is_empty() {
         true => None,
-        false => Some(sweep_batch(
-            cx,
-            (rendered_before, executed, sequence),
-            (plan, stage),
-            reporter,
-        )?),
+        false => Some(sweep_batch(cx, (rendered_before, executed, sequence), plan, reporter)?),
     };
     let fresh_values = made.as_ref().map_or_else(Vec::new, |m| {
         solver_values(
@@ -447,25 +424,28 @@ fn planned(sim: &SolverSimulation, s: &Subject, designs: &[(&String, &Vec<f64>)]
         .collect()
 }
 
-/// The new runs swept as one batch, recorded as `stage`.
+/// The new runs swept as one batch, recorded as their role's stage (every run of a batch has one
+/// role); confirmation-plan.json written anew for the confirmation, appended to after it.
 fn sweep_batch(
     cx: RunContext,
     (rendered_before, executed, sequence): Made,
-    (plan, stage): (Plan, Stage),
+    plan: Plan,
     reporter: &mut dyn Reporter,
 ) -> Result<ConfirmRuns, Error> {
     let (study, sim) = (cx.study, cx.sim);
+    let role = plan.runs[0].role;
+    let stage = role.stage(study);
     let solver = crate::extract::adapters::solver(sim)?;
     let rendered = sweep::prepare_after(study, &solver, &plan, Some(rendered_before))?;
     match sequence.as_mut() {
-        Some(sequence) => sequence.planned_batch(stage.name(), &plan, &cx.options.out)?,
-        None => write_plan(&cx.options.out, &plan, stage != Stage::Confirmation)?,
+        Some(sequence) => sequence.planned_batch(&stage, &plan, &cx.options.out)?,
+        None => write_plan(&cx.options.out, &plan, role != RunRole::Confirm)?,
     }
     let (swept, outcomes) = runs::sweep_plan(cx, &plan, &rendered, &mut executed.store, reporter)?;
     if let Some(b) = match sequence.as_mut() {
         Some(sequence) => {
             let failed = Failed::of(&outcomes);
-            sequence.finish_planned(stage.name(), (plan.runs.len(), failed), &cx.options.out)?
+            sequence.finish_planned(&stage, (plan.runs.len(), failed), &cx.options.out)?
         }
         None => None,
     } {

@@ -195,12 +195,11 @@ fn confirmed(
 ) -> Result<Confirmed, Error> {
     let noise = noise_alone.diagnosis.record.noise.clone();
     let (rendered, executed, sequence) = made;
-    let stage = super::confirm::Stage::Confirmation;
     let (confirmations, runs) = super::confirm::run(
         cx,
         (rendered, &mut *executed, &mut *sequence),
         &subjects,
-        (read, &noise, joint, stage),
+        (read, &noise, joint),
         reporter,
     )?;
     let designs: Vec<String> = crate::plan::sweep::tested_designs(cx.study)

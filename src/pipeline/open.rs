@@ -8,7 +8,7 @@
 //! ([`crate::diagnose::open::Profile`]); it goes on while an end of the range has no run near it, for
 //! [`open::ROUNDS`] rounds at most, and within a sequential study's budget.
 
-use super::confirm::{self, ConfirmRuns, Made, Stage, Subject};
+use super::confirm::{self, ConfirmRuns, Made, Subject};
 use super::diagnosis::Reading;
 use super::{Reporter, RunContext};
 use crate::diagnose::confirm::{Confirmation, Confirming, UNCORRECTED};
@@ -110,13 +110,7 @@ impl Extension<'_> {
                 .map(|(v, theta)| self.subject(screening, *v, theta))
                 .collect();
             let made_now = (rendered, &mut *executed, &mut *sequence);
-            let (confirmations, runs) = confirm::run(
-                cx,
-                made_now,
-                &subjects,
-                (read, noise, None, Stage::NotExcluded),
-                reporter,
-            )?;
+            let (confirmations, runs) = confirm::run(cx, made_now, &subjects, (read, noise, None), reporter)?;
             made.extend(runs);
             if confirmations.is_empty() {
                 break; // no room left in the budget
