@@ -621,7 +621,11 @@ impl Reading {
                 let open: Vec<String> = self.open.iter().map(|o| format!("'{}'", o.hypothesis)).collect();
                 let where_ = match open.is_empty() {
                     true => String::new(),
-                    false => format!(" where {} is absent", open.join(" and ")),
+                    false => format!(
+                        " where {} {} absent",
+                        open.join(" and "),
+                        if open.len() == 1 { "is" } else { "are" }
+                    ),
                 };
                 let n = n.map_or(String::new(), |n| format!("; to look for what it may hide, {n}"));
                 format!("Action: use the simulation as calibrated{where_}{n}.")
@@ -1038,6 +1042,17 @@ mod tests {
         assert!(
             a.action
                 .starts_with("Action: use the simulation as calibrated where 'strain hardening' is absent"),
+            "{}",
+            a.action
+        );
+        let mut second = r.open[0].clone();
+        second.hypothesis = "strain rate".into();
+        r.open.push(second);
+        let a = r.answer();
+        assert!(
+            a.action.starts_with(
+                "Action: use the simulation as calibrated where 'strain hardening' and 'strain rate' are absent"
+            ),
             "{}",
             a.action
         );
