@@ -293,6 +293,24 @@ fn small_fixed_designs_are_confirmed_by_the_solver() {
         if verdict == "cause_named" && d["cause"] != "clamp compliance" {
             wrong_causes.push(d["cause"].clone());
         }
+        // Every extension the solver's runs over its amplitude favour is said and kept among the
+        // leading explanations, not only the first.
+        for open in d["not_excluded"].as_array().into_iter().flatten() {
+            if open["favoured"].is_object() {
+                let name = open["hypothesis"].as_str().unwrap();
+                assert_eq!(verdict, "emulator_limited", "{}", d["summary"]);
+                assert!(
+                    d["leading"].as_array().unwrap().iter().any(|l| l == name),
+                    "{}",
+                    d["summary"]
+                );
+                assert!(
+                    r["answer"]["verdict"].as_str().unwrap().contains(name),
+                    "{}",
+                    r["answer"]
+                );
+            }
+        }
         let undecided = matches!(verdict, "emulator_limited" | "cannot_tell_apart");
         let leading = d["leading"].as_array().unwrap();
         if case.kr > 0.0 && undecided && !leading.iter().any(|l| l == "clamp compliance") {

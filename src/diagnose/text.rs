@@ -241,38 +241,58 @@ impl super::Diagnosis {
     /// the runs that would decide: the extended model at the profile's best point, at every
     /// tested design.
     fn favoured_by_the_solver(mut self, designs: &[String]) -> super::Diagnosis {
-        let Some((n, f)) = (self.checked.not_excluded.iter()).find_map(|n| Some((n.clone(), n.favoured.clone()?)))
-        else {
+        let favoured = favoured_first(&self.checked.not_excluded);
+        let Some((n, f)) = favoured.first().cloned() else {
             return self;
         };
-        let deciding = vec![super::confirm::DecidingRuns {
-            model: n.hypothesis.clone(),
-            at: f.at.clone(),
-            designs: designs.to_vec(),
-        }];
-        self.finding.headline = format!(
-            "Undecided: the emulators' error, not the tests, decides: the emulators found no model error, but the \
-             solver run over '{}' favours it — χ² falls by \
-             {} from its absence to its best ({}), beyond {} (its amplitude test's critical value at {}); these tests \
-             do not exclude it over {}, over which {}.",
-            n.hypothesis,
-            num(f.drop),
-            params(&f.at),
-            num(f.critical),
-            num(f.level),
-            range(&n.amplitude),
-            range(&n.parameters)
-        );
+        let deciding: Vec<super::confirm::DecidingRuns> = favoured
+            .iter()
+            .map(|(n, f)| super::confirm::DecidingRuns {
+                model: n.hypothesis.clone(),
+                at: f.at.clone(),
+                designs: designs.to_vec(),
+            })
+            .collect();
+        self.finding.headline = match favoured.len() {
+            1 => format!(
+                "Undecided: the emulators' error, not the tests, decides: the emulators found no model error, but \
+                 the solver run over '{}' favours it — χ² falls by {} from its absence to its best ({}), beyond {} \
+                 (its amplitude test's critical value at {}); these tests do not exclude it over {}, over which {}.",
+                n.hypothesis,
+                num(f.drop),
+                params(&f.at),
+                num(f.critical),
+                num(f.level),
+                range(&n.amplitude),
+                range(&n.parameters)
+            ),
+            _ => format!(
+                "Undecided: the emulators' error, not the tests, decides: {}; these tests do not exclude {}.",
+                favoured_words(&favoured),
+                (favoured.iter())
+                    .map(|(n, _)| format!(
+                        "'{}' over {}, over which {}",
+                        n.hypothesis,
+                        range(&n.amplitude),
+                        range(&n.parameters)
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(", nor ")
+            ),
+        };
+        let names: Vec<String> = favoured.iter().map(|(n, _)| n.hypothesis.clone()).collect();
         self.finding.action = format!(
-            "Action: do not take the calibrated parameters as the answer yet: {} (the solver in the loop over '{}' \
-             decides; until then, the parameters lie over the range above).",
+            "Action: do not take the calibrated parameters as the answer yet: {} (the solver in the loop over {} \
+             decides; until then, the parameters lie over the range{} above).",
             deciding_words(&deciding),
-            n.hypothesis
+            quoted(&names),
+            if names.len() == 1 { "" } else { "s" }
         );
         self.finding.verdict = Verdict::EmulatorLimited;
         self.finding.cause = None;
-        if !self.finding.leading.contains(&n.hypothesis) {
-            self.finding.leading.insert(0, n.hypothesis.clone());
+        for name in names.iter().rev() {
+            self.finding.leading.retain(|l| l != name);
+            self.finding.leading.insert(0, name.clone());
         }
         if let Some(e) = self.checked.emulator.as_mut() {
             e.deciding_runs = deciding;
@@ -280,6 +300,41 @@ impl super::Diagnosis {
         self.resummarise();
         self
     }
+}
+
+/// The open extensions whose absence the solver's runs reject, the largest fall of χ² first.
+fn favoured_first(open: &[super::open::NotExcluded]) -> Vec<(super::open::NotExcluded, super::open::Favoured)> {
+    let mut favoured: Vec<_> = (open.iter())
+        .filter_map(|n| Some((n.clone(), n.favoured.clone()?)))
+        .collect();
+    favoured.sort_by(|a, b| b.1.drop.total_cmp(&a.1.drop));
+    favoured
+}
+
+/// Several extensions the solver's runs favour where the emulators found no model error, in words:
+/// "the emulators found no model error, but the solver's runs over 'a' (χ² falls by … from its
+/// absence to its best (…), beyond …) and 'b' (…) favour each against its absence (not yet against each
+/// other)".
+fn favoured_words(favoured: &[(super::open::NotExcluded, super::open::Favoured)]) -> String {
+    let shown: Vec<String> = favoured
+        .iter()
+        .map(|(n, f)| {
+            format!(
+                "'{}' (χ² falls by {} from its absence to its best ({}), beyond {}, its amplitude test's critical \
+                 value at {})",
+                n.hypothesis,
+                num(f.drop),
+                params(&f.at),
+                num(f.critical),
+                num(f.level)
+            )
+        })
+        .collect();
+    format!(
+        "the emulators found no model error, but the solver's runs over {} favour each against its absence (not \
+         yet against each other)",
+        shown.join(" and ")
+    )
 }
 
 /// One open hypothesis in the action: absent, or else the parameters over its open range.

@@ -498,14 +498,26 @@ impl Reading {
                 "Too few tests to tell whether the model errs. As calibrated, {model}, which holds only if the \
                  model is right."
             ),
-            Verdict::EmulatorLimited => match self.open.iter().find(|o| o.favoured.is_some()) {
-                Some(o) => format!(
+            Verdict::EmulatorLimited => match self.favoured().as_slice() {
+                [o] => format!(
                     "Not decided: the emulators found no model error, but the solver's runs favour {}: these tests do \
                      not rule out {}, and rule out its absence. Without it, as calibrated, {model}.",
                     o.hypothesis,
                     open_words(o)
                 ),
-                None => format!(
+                [_, _, ..] => {
+                    let fav = self.favoured();
+                    let names: Vec<&str> = fav.iter().map(|o| o.hypothesis.as_str()).collect();
+                    let open: Vec<String> = fav.iter().map(|o| open_words(o)).collect();
+                    format!(
+                        "Not decided: the emulators found no model error, but the solver's runs favour {}, each against \
+                         its absence (not yet against each other): these tests do not rule out {}, and rule out the \
+                         absence of each. Without them, as calibrated, {model}.",
+                        names.join(" and "),
+                        open.join(", nor ")
+                    )
+                }
+                [] => format!(
                     "Not decided: the emulators' error, not the tests, decides whether {}. As calibrated, {model}.",
                     self.between_words()
                 ),
@@ -610,6 +622,16 @@ impl Reading {
         format!(" {lead}{who} {how}.")
     }
 
+    /// The open extensions the solver's runs over their amplitude favour, the largest fall of χ² first.
+    fn favoured(&self) -> Vec<&Open> {
+        let mut f: Vec<&Open> = self.open.iter().filter(|o| o.favoured.is_some()).collect();
+        f.sort_by(|a, b| {
+            let drop = |o: &&Open| o.favoured.map_or(0.0, |f| f[0]);
+            drop(b).total_cmp(&drop(a))
+        });
+        f
+    }
+
     fn action_words(&self) -> String {
         let next = self.next.as_ref().map(next_words);
         match (self.verdict, next) {
@@ -632,12 +654,19 @@ impl Reading {
             }
             (Verdict::EmulatorLimited, n) => format!(
                 "Action: run the solver {} before trusting either reading{}.",
-                match self.open.iter().find(|o| o.favoured.is_some()) {
-                    Some(o) => format!(
+                match self.favoured().as_slice() {
+                    [o] => format!(
                         "in the loop over '{}' (its amplitude and the parameters together)",
                         o.hypothesis
                     ),
-                    None => "where the decision is read (more runs near the fitted parameters)".into(),
+                    [] => "where the decision is read (more runs near the fitted parameters)".into(),
+                    many => format!(
+                        "in the loop over {} (their amplitudes and the parameters together)",
+                        many.iter()
+                            .map(|o| format!("'{}'", o.hypothesis))
+                            .collect::<Vec<_>>()
+                            .join(" and ")
+                    ),
                 },
                 n.map_or(String::new(), |n| format!("; then {n}"))
             ),
@@ -696,15 +725,20 @@ impl Reading {
             }
             (Verdict::TooFewTests, ..) => e.too_few.clone().unwrap_or_default(),
             (Verdict::EmulatorLimited, u, _) => {
-                let favoured = self.open.iter().find_map(|o| Some((o, o.favoured?)));
-                let readings = match favoured {
-                    Some((o, [drop, critical])) => format!(
-                        "the solver's runs over '{}' against its absence (χ² falls by {}, beyond {})",
-                        o.hypothesis,
-                        num(drop),
-                        num(critical)
-                    ),
-                    None => {
+                let favoured: Vec<String> = (self.favoured().iter())
+                    .filter_map(|o| {
+                        let [drop, critical] = o.favoured?;
+                        Some(format!(
+                            "the solver's runs over '{}' against its absence (χ² falls by {}, beyond {})",
+                            o.hypothesis,
+                            num(drop),
+                            num(critical)
+                        ))
+                    })
+                    .collect();
+                let readings = match favoured.is_empty() {
+                    false => favoured.join("; "),
+                    true => {
                         "with the tests' noise alone and with the emulators' error counted the readings differ".into()
                     }
                 };
@@ -1056,6 +1090,46 @@ mod tests {
             "{}",
             a.action
         );
+    }
+
+    /// Several extensions favoured by the solver's runs over their amplitudes: each is said, the
+    /// largest fall of χ² first, in the first line, the action and the deciding line; one is said alone.
+    #[test]
+    fn every_extension_the_solver_favours_is_said() {
+        let mut r = reading(Verdict::EmulatorLimited);
+        let open = |name: &str, var: &str, drop: f64| Open {
+            hypothesis: name.into(),
+            amplitude: q(var, 0.03, Some([0.01, 0.05]), ""),
+            parameter: Some(q("sigma_y", 190.0, Some([180.0, 200.0]), "MPa")),
+            favoured: Some([drop, 17.14]),
+        };
+        r.open = vec![open("shear", "s", 20.4)];
+        let a = r.answer();
+        assert!(a.verdict.contains("the solver's runs favour shear: "), "{}", a.verdict);
+        assert!(
+            a.action.contains("in the loop over 'shear' (its amplitude"),
+            "{}",
+            a.action
+        );
+        r.open = vec![open("shear", "s", 20.4), open("clamp", "kr", 22.2)];
+        let a = r.answer();
+        assert!(
+            a.verdict.contains(
+                "the solver's runs favour clamp and shear, each against its absence (not yet against each other)"
+            ),
+            "{}",
+            a.verdict
+        );
+        assert!(a.verdict.contains("Without them, as calibrated"), "{}", a.verdict);
+        assert!(
+            a.action
+                .contains("in the loop over 'clamp' and 'shear' (their amplitudes and the parameters together)"),
+            "{}",
+            a.action
+        );
+        let clamp = a.decided_by.find("over 'clamp' against its absence (χ² falls by 22.2");
+        let shear = a.decided_by.find("over 'shear' against its absence (χ² falls by 20.4");
+        assert!(clamp.is_some() && shear.is_some() && clamp < shear, "{}", a.decided_by);
     }
 
     #[test]
