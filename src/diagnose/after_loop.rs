@@ -87,6 +87,10 @@ pub struct AfterLoop {
     pub screening_headline: String,
     pub explanations: Vec<Judged>,
     pub pairwise: Vec<Pairwise>,
+    /// The extensions the solver's runs over their amplitudes favoured where the screening found no
+    /// model error: the open explanations the loop judged in place of the screening's.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub favoured: Vec<String>,
     /// The decision is the same whatever the loops still running show ([`settled`]): their runs
     /// cannot change it. True when no loop is running.
     #[serde(skip, default)]
@@ -161,17 +165,27 @@ pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[St
             })
             .collect(),
         pairwise: judged.pairwise,
+        favoured: screening.favoured.clone(),
         settled: settled(&mut readings, &open),
     };
     (judged.decision, record)
 }
 
-/// The open explanations the screening left, each with its final model.
+/// The open explanations the screening left, each with its final model: where it found no model
+/// error but the solver's runs over extensions' amplitudes favoured them, those extensions first,
+/// then every other the loop ran (each is as open as they were: the emulators excluded none).
 fn opens(screening: &Evidence, looped: &[Evidence], loop_names: &[String]) -> Vec<Open> {
-    screening
-        .decision
-        .leading
-        .iter()
+    let mut names: Vec<&String> = screening.favoured.iter().collect();
+    names.extend(loop_names.iter().filter(|n| !screening.favoured.contains(n)));
+    let favoured: Vec<Who> = (names.into_iter())
+        .filter_map(|n| screening.ranked.entries.iter().position(|e| e.model.name() == n))
+        .map(Who::Candidate)
+        .collect();
+    let leading = match screening.decision.detected || screening.favoured.is_empty() {
+        true => &screening.decision.leading,
+        false => &favoured,
+    };
+    (leading.iter())
         .filter_map(|&who| open_one(screening, looped, loop_names, who))
         .collect()
 }

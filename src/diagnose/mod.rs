@@ -1177,9 +1177,15 @@ pub struct LoopModel<'a> {
 
 /// The diagnosis from all the evidence: the screening of `inputs`, then every model the loop
 /// calibrated (`looped`), decided once ([`after_loop`]). Also returns each loop model's own
-/// diagnosis (what it leaves unexplained).
-pub fn conclude(inputs: &Inputs, looped: &[LoopModel]) -> Result<(Diagnosis, Vec<Diagnosis>), CalibrationError> {
+/// diagnosis (what it leaves unexplained). `favoured`: the extensions the solver's runs over their
+/// amplitudes favoured where the screening found no model error; the loop over them judges them.
+pub fn conclude(
+    inputs: &Inputs,
+    looped: &[LoopModel],
+    favoured: &[String],
+) -> Result<(Diagnosis, Vec<Diagnosis>), CalibrationError> {
     let mut screening = Evidence::gather(inputs, true)?;
+    screening.favoured = favoured.to_vec();
     let gather = |mixing: Option<f64>| -> Result<Vec<Evidence>, CalibrationError> {
         looped
             .iter()
@@ -1218,6 +1224,9 @@ pub(crate) struct Evidence<'a> {
     pub checked: bool,
     /// A loop model whose loop is still running ([`LoopModel::running`]).
     pub running: bool,
+    /// The extensions the solver's runs over their amplitudes favoured where this evidence found no
+    /// model error ([`open::Favoured`]): what the loop judges in its place ([`after_loop`]).
+    pub favoured: Vec<String>,
 }
 
 impl<'a> Evidence<'a> {
@@ -1246,6 +1255,7 @@ impl<'a> Evidence<'a> {
             notes,
             checked: true,
             running: false,
+            favoured: Vec::new(),
         })
     }
 

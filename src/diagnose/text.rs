@@ -200,6 +200,32 @@ pub(crate) fn not_excluded_line(n: &super::open::NotExcluded) -> String {
     )
 }
 
+impl super::Diagnosis {
+    /// The decision of the loop started because the solver's runs over these extensions' amplitudes
+    /// (`open`, before the loop) favoured them: where it is not "no model error" (which reads its
+    /// own), the ranges those runs leave open are kept (`not_excluded`) and said beside the loop's
+    /// intervals, which are its emulators'.
+    pub(crate) fn after_favoured(mut self, open: &[super::open::NotExcluded]) -> super::Diagnosis {
+        if self.finding.verdict == Verdict::NoModelError {
+            return self;
+        }
+        let favoured: Vec<super::open::NotExcluded> = open.iter().filter(|n| n.favoured.is_some()).cloned().collect();
+        for n in &favoured {
+            self.finding.limits.push(format!(
+                "before the loop, the solver's runs over '{}' left it open over {}{}, over which {}: the loop's \
+                 intervals are read from its emulators, these from the solver's runs.",
+                n.hypothesis,
+                range(&n.amplitude),
+                open_runs(n),
+                range(&n.parameters)
+            ));
+        }
+        self.checked.not_excluded = favoured;
+        self.resummarise();
+        self
+    }
+}
+
 /// Where an open range was read from: the solver's runs over the amplitude, or the screening's
 /// probes.
 fn open_runs(n: &super::open::NotExcluded) -> String {
@@ -1057,7 +1083,17 @@ fn after_loop_named(f: &Facts, who: Who) -> String {
 /// explanation's final model, and the tests between them.
 fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
     let alpha = f.cx.alpha();
-    let mut out = vec![format!("Before the loop: {}", a.screening_headline)];
+    let mut out = vec![match a.favoured.is_empty() {
+        true => format!("Before the loop: {}", a.screening_headline),
+        false => format!(
+            "Before the loop: {} But the solver's runs over the amplitude of {} favoured {} against its absence, so \
+             the solver in the loop judged {}.",
+            a.screening_headline,
+            quoted(&a.favoured),
+            if a.favoured.len() == 1 { "it" } else { "each" },
+            quoted(&(a.explanations.iter()).map(|j| j.name.clone()).collect::<Vec<_>>())
+        ),
+    }];
     for j in &a.explanations {
         let what = if j.model == "extended" {
             "calibrated with the solver in the loop"

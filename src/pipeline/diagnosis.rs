@@ -79,12 +79,23 @@ pub(super) fn diagnose_with_solver(
         reporter.report(Event::Interrupted { out: &cx.options.out });
         return Err(Error::Interrupted);
     }
-    let chosen = extend::chosen(study, &screening);
-    if chosen.is_empty() {
-        let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
-        let confirmed = without_the_loop(cx, made, stage, (&read, &inputs, screening), reporter)?;
-        return Ok(confirmed.map(|c| runs.diagnosed.keep(c)));
-    }
+    // Where the emulators found no model error but the solver's runs over an extension's amplitude
+    // favour it, the solver in the loop over it decides (the runs made so far are kept).
+    let (chosen, earlier) = match extend::chosen(study, &screening) {
+        chosen if !chosen.is_empty() => (chosen, None),
+        _ => {
+            let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
+            let confirmed = match without_the_loop(cx, made, stage, (&read, &inputs, screening), reporter)? {
+                Ok(c) => c,
+                Err(e) => return Ok(Err(e)),
+            };
+            match loop_from_favoured(cx, &confirmed.0, runs.sequence.as_ref(), reporter) {
+                Some((chosen, favoured)) => (chosen, Some((confirmed, favoured))),
+                None => return Ok(Ok(runs.diagnosed.keep(confirmed))),
+            }
+        }
+    };
+    let favoured = earlier.as_ref().map_or_else(Vec::new, |(_, n)| n.clone());
     let dirs = runs.executed.output_dirs(runs.sim);
     let after = AfterLoop {
         study,
@@ -95,6 +106,7 @@ pub(super) fn diagnose_with_solver(
         surrogates: &runs.surrogates,
         stage,
         extensions: &extensions,
+        favoured: &favoured,
     };
     let screened = Screened {
         plan: &runs.plan,
@@ -130,14 +142,61 @@ pub(super) fn diagnose_with_solver(
     let loop_inputs: Vec<crate::diagnose::Inputs> = readings.iter().map(|l| l.inputs()).collect();
     let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&readings, &loop_inputs, Some(&joint)));
     let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
-    let d = runs
-        .diagnosed
-        .keep(confirmed(cx, made, decided, (subjects, Some(&joint)), &read, reporter)?);
+    let (d, confirmation, residuals) = confirmed(cx, made, decided, (subjects, Some(&joint)), &read, reporter)?;
+    // The runs made before the loop (the confirmation, the runs over the amplitudes) stay counted.
+    let (d, confirmation) = match earlier {
+        Some(((before, runs_before, _), _)) => (
+            d.after_favoured(&before.checked.not_excluded),
+            match (runs_before, confirmation) {
+                (Some(a), Some(b)) => Some(a.merge(b)),
+                (a, b) => a.or(b),
+            },
+        ),
+        None => (d, confirmation),
+    };
+    let d = runs.diagnosed.keep((d, confirmation, residuals));
     for (m, (_, at)) in models.into_iter().zip(extended) {
         runs.diagnosed.extended.push((m, at));
     }
     runs.diagnosed.joint = Some(joint);
     Ok(Ok(d))
+}
+
+/// The extensions the solver in the loop judges where the emulators found no model error but the
+/// solver's runs over extensions' amplitudes favour them ([`extend::open_beside`]), and the names of
+/// the favoured; said. `None`: none favoured, or no room left for the loop.
+fn loop_from_favoured(
+    cx: RunContext,
+    d: &Diagnosis,
+    sequence: Option<&sequence::Sequence>,
+    reporter: &mut dyn Reporter,
+) -> Option<(Vec<usize>, Vec<String>)> {
+    let study = cx.study;
+    let favoured = extend::favoured(study, d);
+    if favoured.is_empty() || !room_for_the_loop(cx, sequence) {
+        return None;
+    }
+    let chosen = extend::open_beside(study, d, &favoured);
+    let name = |k: &usize| study.diagnosis.hypotheses[*k].name.clone();
+    let names: Vec<String> = favoured.iter().map(name).collect();
+    reporter.report(Event::Note(format!(
+        "the emulators found no model error, but the solver's runs over the amplitude of '{}' favour {} against its \
+         absence: the solver in the loop over '{}' decides",
+        names.join("' and '"),
+        if names.len() == 1 { "it" } else { "each" },
+        chosen.iter().map(name).collect::<Vec<_>>().join("' and '")
+    )));
+    Some((chosen, names))
+}
+
+/// Whether the solver in the loop can still decide: always with a fixed design; in a sequential
+/// study, when its budget has room for a batch at every tested design and the check of its
+/// emulators at the fitted point there (a run at each again): a loop with less cannot check its
+/// model, and an unchecked model is neither named nor rejected.
+fn room_for_the_loop(cx: RunContext, sequence: Option<&sequence::Sequence>) -> bool {
+    let Some(s) = sequence else { return true };
+    let budget = crate::plan::sweep::sequential_budget(cx.study, cx.sim).unwrap_or(0);
+    budget.saturating_sub(s.runs) >= 2 * crate::plan::sweep::tested_designs(cx.study).count()
 }
 
 /// The decision when no extension is run with the solver in the loop: the screening's, made
@@ -361,6 +420,9 @@ struct AfterLoop<'a> {
     surrogates: &'a SurrogateModel,
     stage: Option<&'a curves::CurveStage>,
     extensions: &'a [(usize, std::sync::Arc<dyn Model + Send>)],
+    /// The extensions the solver's runs over their amplitudes favoured where the emulators found no
+    /// model error ([`extend::favoured`]).
+    favoured: &'a [String],
 }
 
 /// How the emulators' own error is counted in a decision: at least `floor` (a share of the tests'
@@ -394,7 +456,7 @@ impl AfterLoop<'_> {
             None => Ok(conclude_on_response(
                 study,
                 self.surrogates,
-                inputs,
+                (inputs, self.favoured),
                 models,
                 self.extensions,
                 floor,
@@ -403,7 +465,7 @@ impl AfterLoop<'_> {
                 study,
                 (self.sim, self.plan, self.dirs),
                 st,
-                inputs,
+                (inputs, self.favoured),
                 models,
                 joint,
                 floor,
@@ -486,7 +548,7 @@ type Concluded = (
 fn conclude_on_response(
     study: &Study,
     surrogates: &SurrogateModel,
-    inputs: &crate::diagnose::Inputs,
+    (inputs, favoured): (&crate::diagnose::Inputs, &[String]),
     models: &[extend::ExtendedModel],
     extensions: &[(usize, std::sync::Arc<dyn Model + Send>)],
     floor: Counting,
@@ -501,7 +563,7 @@ fn conclude_on_response(
             l
         })
         .collect();
-    let (d, own) = crate::diagnose::conclude(inputs, &looped)?;
+    let (d, own) = crate::diagnose::conclude(inputs, &looped, favoured)?;
     Ok((d, own, Vec::new()))
 }
 
@@ -511,7 +573,7 @@ fn conclude_on_curves(
     study: &Study,
     (sim, plan, dirs): (&SolverSimulation, &Plan, &[PathBuf]),
     stage: &curves::CurveStage,
-    inputs: &crate::diagnose::Inputs,
+    (inputs, favoured): (&crate::diagnose::Inputs, &[String]),
     models: &[extend::ExtendedModel],
     joint: &extend::JointRuns,
     floor: Counting,
@@ -555,7 +617,7 @@ fn conclude_on_curves(
             running: m.running,
         })
         .collect();
-    Ok(crate::diagnose::conclude(inputs, &looped).map(|(d, own)| (d, own, loop_curves)))
+    Ok(crate::diagnose::conclude(inputs, &looped, favoured).map(|(d, own)| (d, own, loop_curves)))
 }
 
 /// With curves: the diagnosis with the features it read, and the residual curves the report draws.

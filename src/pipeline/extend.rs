@@ -56,6 +56,40 @@ pub fn chosen(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
 /// The most hypotheses one loop extends (each costs a Latin hypercube of runs per design).
 pub const MAX_EXTENDED: usize = 3;
 
+/// The extensions the loop judges where the solver's runs favour `favoured` and the emulators found no
+/// model error: those first, then every other extension left open with a range to calibrate (the
+/// emulators excluded none of them), [`MAX_EXTENDED`] at most.
+pub fn open_beside(study: &Study, diagnosis: &Diagnosis, favoured: &[usize]) -> Vec<usize> {
+    let hypotheses = &study.diagnosis.hypotheses;
+    let others = (diagnosis.checked.not_excluded.iter())
+        .filter_map(|n| {
+            hypotheses
+                .iter()
+                .position(|h| h.name == n.hypothesis && !h.ranges().is_empty())
+        })
+        .filter(|k| !favoured.contains(k));
+    favoured.iter().copied().chain(others).take(MAX_EXTENDED).collect()
+}
+
+/// The extensions whose absence the solver's runs over their amplitude reject where the emulators
+/// found no model error ([`crate::diagnose::open::Favoured`]), the largest fall of χ² first: the
+/// solver in the loop over them decides what the emulators could not.
+pub fn favoured(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
+    let mut open: Vec<(&String, f64)> = (diagnosis.checked.not_excluded.iter())
+        .filter_map(|n| Some((&n.hypothesis, n.favoured.as_ref()?.drop)))
+        .collect();
+    open.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let hypotheses = &study.diagnosis.hypotheses;
+    (open.into_iter())
+        .filter_map(|(name, _)| {
+            hypotheses
+                .iter()
+                .position(|h| &h.name == name && !h.ranges().is_empty())
+        })
+        .take(MAX_EXTENDED)
+        .collect()
+}
+
 /// `OUT/extension-plan.json`: the hypotheses the loop extends, written before its runs start so
 /// that `lab status` counts them (the loop's plan depends on the screening's verdict).
 pub const PLAN_FILE: &str = "extension-plan.json";

@@ -405,7 +405,13 @@ impl Sequence {
             last.state = BatchState::Done;
             last.count.failed = failed;
         }
-        self.stop(stage, StopReason::Planned, runs);
+        // A planned stage may come in several batches (the rounds over an amplitude, a confirmation
+        // after a loop that started late): its stop counts them all.
+        let earlier: usize = (self.sequence.iter().rev().skip(1))
+            .filter(|b| b.stage == stage)
+            .map(|b| b.count.runs)
+            .sum();
+        self.stop(stage, StopReason::Planned, earlier + runs);
         self.write(out)?;
         Ok(self.sequence.last())
     }
@@ -567,6 +573,36 @@ mod tests {
         };
         b.count.failed = vec![f; failed];
         b
+    }
+
+    /// A planned stage run in two batches (two rounds over an amplitude, a second confirmation)
+    /// stops once, with the runs of both; another stage between them is its own.
+    #[test]
+    fn a_planned_stage_in_two_batches_stops_with_the_runs_of_both() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = Sequence::default();
+        let plan = |n: usize| Plan {
+            runs: vec![
+                crate::plan::PlannedRun {
+                    design: "d".into(),
+                    design_values: vec![1.0],
+                    theta: vec![2.0],
+                    role: crate::plan::RunRole::Confirm,
+                    extension: Vec::new(),
+                    seed: 0,
+                };
+                n
+            ],
+        };
+        for (stage, n) in [("not_excluded", 7), ("confirmation", 9), ("not_excluded", 14)] {
+            s.planned_batch(stage, &plan(n), dir.path()).unwrap();
+            s.finish_planned(stage, (n, Vec::new()), dir.path()).unwrap();
+        }
+        let runs = |stage: &str| s.stopped.iter().find(|x| x.stage == stage).map(|x| x.runs);
+        assert_eq!(runs("not_excluded"), Some(21));
+        assert_eq!(runs("confirmation"), Some(9));
+        assert_eq!(s.stopped.len(), 2);
+        assert_eq!(s.runs, 30);
     }
 
     #[test]
