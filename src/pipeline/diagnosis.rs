@@ -118,6 +118,29 @@ pub(super) fn diagnose_with_solver(
         Ok(l) => l,
         Err(e) => return Ok(Err(e)),
     };
+    let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
+    after_the_loop(
+        cx,
+        (made, &mut runs.diagnosed),
+        (stage, &read, &inputs),
+        (looped, earlier),
+        reporter,
+    )
+    .map(Ok)
+}
+
+/// The decision from the loop's runs (made twice, the emulators' error counted and not), confirmed
+/// by the solver at the fitted parameters of the models it rests on, kept with the loop's runs and
+/// with those made before it (`earlier`: where the loop was started by the solver's runs over the
+/// amplitudes, that diagnosis, its runs and the favoured extensions).
+fn after_the_loop(
+    cx: RunContext,
+    (made, diagnosed): (super::confirm::Made, &mut super::Diagnosed),
+    (stage, read, inputs): (Option<&curves::CurveStage>, &Reading, &[crate::diagnose::Inputs; 2]),
+    (looped, earlier): (Looped, Option<(Confirmed, Vec<String>)>),
+    reporter: &mut dyn Reporter,
+) -> Result<Diagnosis, Error> {
+    let study = cx.study;
     let (joint, models, [counted, noise_alone], [own, own_alone], loop_curves) = looped;
     let records = models
         .iter()
@@ -141,8 +164,7 @@ pub(super) fn diagnose_with_solver(
     let readings = super::confirm::loop_readings(stage, &models, &loop_curves, [&own, &own_alone])?;
     let loop_inputs: Vec<crate::diagnose::Inputs> = readings.iter().map(|l| l.inputs()).collect();
     let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&readings, &loop_inputs, Some(&joint)));
-    let made = (&runs.rendered, &mut runs.executed, &mut runs.sequence);
-    let (d, confirmation, residuals) = confirmed(cx, made, decided, (subjects, Some(&joint)), &read, reporter)?;
+    let (d, confirmation, residuals) = confirmed(cx, made, decided, (subjects, Some(&joint)), read, reporter)?;
     // The runs made before the loop (the confirmation, the runs over the amplitudes) stay counted.
     let (d, confirmation) = match earlier {
         Some(((before, runs_before, _), _)) => (
@@ -154,12 +176,12 @@ pub(super) fn diagnose_with_solver(
         ),
         None => (d, confirmation),
     };
-    let d = runs.diagnosed.keep((d, confirmation, residuals));
+    let d = diagnosed.keep((d, confirmation, residuals));
     for (m, (_, at)) in models.into_iter().zip(extended) {
-        runs.diagnosed.extended.push((m, at));
+        diagnosed.extended.push((m, at));
     }
-    runs.diagnosed.joint = Some(joint);
-    Ok(Ok(d))
+    diagnosed.joint = Some(joint);
+    Ok(d)
 }
 
 /// The extensions the solver in the loop judges where the emulators found no model error but the
