@@ -177,13 +177,13 @@ pub(crate) fn decide(screening: &Evidence, looped: &[Evidence], loop_names: &[St
 fn opens(screening: &Evidence, looped: &[Evidence], loop_names: &[String]) -> Vec<Open> {
     let mut names: Vec<&String> = screening.favoured.iter().collect();
     names.extend(loop_names.iter().filter(|n| !screening.favoured.contains(n)));
-    let favoured: Vec<Who> = (names.into_iter())
+    let judged: Vec<Who> = (names.into_iter())
         .filter_map(|n| screening.ranked.entries.iter().position(|e| e.model.name() == n))
         .map(Who::Candidate)
         .collect();
     let leading = match screening.decision.detected || screening.favoured.is_empty() {
         true => &screening.decision.leading,
-        false => &favoured,
+        false => &judged,
     };
     (leading.iter())
         .filter_map(|&who| open_one(screening, looped, loop_names, who))
