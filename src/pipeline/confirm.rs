@@ -328,14 +328,54 @@ fn values(names: &[String], named: &IndexMap<String, f64>) -> Vec<f64> {
         .collect()
 }
 
+/// Runs already made that a confirmation reads again instead of running the solver: the loop's
+/// (a looped model's [`Subject::ran`]) and the confirmation made before a loop the solver's runs
+/// over an amplitude started (the same model at the same point: planned again, it would be counted
+/// twice).
+#[derive(Clone, Copy, Default)]
+pub(super) struct Earlier<'r> {
+    pub joint: Option<&'r extend::JointRuns>,
+    pub confirmed: Option<&'r ConfirmRuns>,
+}
+
+/// Some runs already made, as [`solver_values`] reads them.
+struct MadeRuns {
+    plan: Plan,
+    keys: Vec<String>,
+    usable: Vec<Option<f64>>,
+}
+
+impl Earlier<'_> {
+    /// The runs already made that confirm `s` (`planned`: the runs it would need), if any.
+    fn runs_of(&self, cx: RunContext, s: &Subject, planned: &[PlannedRun]) -> Option<MadeRuns> {
+        let (idx, plan, keys, usable) = match (&s.ran, self.joint, self.confirmed) {
+            (Some(ran), Some(j), _) => (ran.clone(), &j.plan, &j.rendered.keys, j.usable.clone()),
+            (None, _, Some(c)) => {
+                let idx: Option<Vec<usize>> = (planned.iter())
+                    .map(|p| c.plan.runs.iter().position(|r| r == p))
+                    .collect();
+                (idx?, &c.plan, &c.rendered.keys, c.swept.usable(&cx.sim.quality))
+            }
+            _ => return None,
+        };
+        Some(MadeRuns {
+            plan: Plan {
+                runs: idx.iter().map(|&i| plan.runs[i].clone()).collect(),
+            },
+            keys: idx.iter().map(|&i| keys[i].clone()).collect(),
+            usable: idx.iter().map(|&i| usable[i]).collect(),
+        })
+    }
+}
+
 /// Runs every subject at every tested design in one batch (recorded in a sequential study's
-/// record as the stage of the subjects' role: confirmation, or not_excluded), but for those the loop already ran ([`Subject::ran`], read from `joint`),
-/// and judges each against the tests' `noise` alone.
+/// record as the stage of the subjects' role: confirmation, or not_excluded), but for those whose
+/// runs were already made ([`Earlier`]), and judges each against the tests' `noise` alone.
 pub(super) fn run(
     cx: RunContext,
     (rendered_before, executed, sequence): Made,
     subjects: &[Subject],
-    (read, noise, joint): (&Reading, &NoiseModel, Option<&extend::JointRuns>),
+    (read, noise, earlier): (&Reading, &NoiseModel, Earlier),
     reporter: &mut dyn Reporter,
 ) -> Result<(Vec<Confirmation>, Option<ConfirmRuns>), Error> {
     if subjects.is_empty() {
@@ -344,10 +384,21 @@ pub(super) fn run(
     let (study, sim) = (cx.study, cx.sim);
     let designs: Vec<(&String, &Vec<f64>)> = crate::plan::sweep::tested_designs(study).collect();
     let seeds = sim.inputs.seeds.as_ref().map_or(1, |s| s.count);
-    let subjects = within_budget(cx, sequence.as_ref(), subjects, designs.len() * seeds);
-    let fresh: Vec<&Subject> = subjects.iter().filter(|s| s.ran.is_none()).collect();
+    let wanted: Vec<Vec<PlannedRun>> = subjects.iter().map(|s| planned(sim, s, &designs, seeds)).collect();
+    let before: Vec<Option<MadeRuns>> = (subjects.iter().zip(&wanted))
+        .map(|(s, w)| earlier.runs_of(cx, s, w))
+        .collect();
+    let fit = within_budget(
+        cx,
+        sequence.as_ref(),
+        before.iter().map(Option::is_none),
+        designs.len() * seeds,
+    );
     let plan = Plan {
-        runs: fresh.iter().flat_map(|s| planned(sim, s, &designs, seeds)).collect(),
+        runs: (wanted.into_iter().zip(&before).take(fit))
+            .filter(|(_, b)| b.is_none())
+            .flat_map(|(w, _)| w)
+            .collect(),
     };
     let made = match plan.runs.is_empty() {
         true => None,
@@ -363,44 +414,45 @@ pub(super) fn run(
     });
     let nd = designs.len() * seeds;
     let mut next_fresh = 0;
-    let confirmations = subjects
-        .iter()
-        .map(|s| {
-            let runs: Vec<Option<DVector<f64>>> = match (&s.ran, joint) {
-                (Some(ran), Some(j)) => {
-                    let keys: Vec<String> = ran.iter().map(|&i| j.rendered.keys[i].clone()).collect();
-                    let usable: Vec<Option<f64>> = ran.iter().map(|&i| j.usable[i]).collect();
-                    let plan = Plan {
-                        runs: ran.iter().map(|&i| j.plan.runs[i].clone()).collect(),
-                    };
-                    solver_values(cx, executed, read, (&plan, &keys, &usable))
-                }
-                _ => {
+    let confirmations = (subjects.iter().zip(&before).take(fit))
+        .map(|(s, b)| {
+            let runs: Vec<Option<DVector<f64>>> = match b {
+                Some(b) => solver_values(cx, executed, read, (&b.plan, &b.keys, &b.usable)),
+                None => {
                     next_fresh += 1;
                     fresh_values[(next_fresh - 1) * nd..next_fresh * nd].to_vec()
                 }
             };
-            // The runs of a design are consecutive, one per seed it ran at.
-            let per_design = runs.len() / designs.len().max(1);
-            let solver: Vec<Vec<f64>> = s
-                .confirming
-                .inputs
-                .observations
-                .iter()
-                .map(|o| match designs.iter().position(|(n, _)| **n == o.group) {
-                    Some(d) => runs[d * per_design..(d + 1) * per_design]
-                        .iter()
-                        .filter_map(|v| v.as_ref()?.get(o.output).copied())
-                        .collect(),
-                    None => Vec::new(),
-                })
-                .collect();
-            let mut c = confirm_seeds(&s.confirming, &solver, noise, s.level);
-            c.reused = s.ran.is_some();
+            let mut c = judged(s, &designs, &runs, noise);
+            c.reused = s.ran.is_some() && b.is_some();
             c
         })
         .collect();
     Ok((confirmations, made))
+}
+
+/// A subject judged on its runs' values (`runs`: a design's consecutive, one per seed it ran at).
+fn judged(
+    s: &Subject,
+    designs: &[(&String, &Vec<f64>)],
+    runs: &[Option<DVector<f64>>],
+    noise: &NoiseModel,
+) -> Confirmation {
+    let per_design = runs.len() / designs.len().max(1);
+    let solver: Vec<Vec<f64>> = s
+        .confirming
+        .inputs
+        .observations
+        .iter()
+        .map(|o| match designs.iter().position(|(n, _)| **n == o.group) {
+            Some(d) => runs[d * per_design..(d + 1) * per_design]
+                .iter()
+                .filter_map(|v| v.as_ref()?.get(o.output).copied())
+                .collect(),
+            None => Vec::new(),
+        })
+        .collect();
+    confirm_seeds(&s.confirming, &solver, noise, s.level)
 }
 
 /// A subject's confirmation runs: at every tested design, at each of the `seeds` of the solver's
@@ -490,26 +542,25 @@ pub fn recorded_plan(out: &std::path::Path) -> Vec<PlannedRun> {
 
 /// The subjects a sequential study's budget has room for, in their order (the uncorrected
 /// simulation first; one already run needs no room); a fixed design runs them all.
-fn within_budget<'s, 'a>(
+fn within_budget(
     cx: RunContext,
     sequence: Option<&super::sequence::Sequence>,
-    subjects: &'s [Subject<'a>],
+    needs_runs: impl Iterator<Item = bool>,
     designs: usize,
-) -> &'s [Subject<'a>] {
-    let (Some(sequence), Some(budget)) = (sequence, crate::plan::sweep::sequential_budget(cx.study, cx.sim)) else {
-        return subjects;
+) -> usize {
+    let budget = sequence.and(crate::plan::sweep::sequential_budget(cx.study, cx.sim));
+    let (Some(sequence), Some(budget)) = (sequence, budget) else {
+        return usize::MAX;
     };
     let mut room = budget.saturating_sub(sequence.runs);
-    let fit = subjects
-        .iter()
-        .take_while(|s| {
-            let needs = if s.ran.is_some() { 0 } else { designs };
+    needs_runs
+        .take_while(|&needs| {
+            let needs = if needs { designs } else { 0 };
             let fits = needs <= room;
             room = room.saturating_sub(needs);
             fits
         })
-        .count();
-    &subjects[..fit]
+        .count()
 }
 
 /// Each run's values as the decisions read them: with curves, its curve features whitened by the

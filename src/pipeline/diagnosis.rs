@@ -164,7 +164,12 @@ fn after_the_loop(
     let readings = super::confirm::loop_readings(stage, &models, &loop_curves, [&own, &own_alone])?;
     let loop_inputs: Vec<crate::diagnose::Inputs> = readings.iter().map(|l| l.inputs()).collect();
     let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&readings, &loop_inputs, Some(&joint)));
-    let (d, confirmation, residuals) = confirmed(cx, made, decided, (subjects, Some(&joint)), read, reporter)?;
+    let before = earlier.as_ref().and_then(|((_, runs, _), _)| runs.as_ref());
+    let reuse = super::confirm::Earlier {
+        joint: Some(&joint),
+        confirmed: before,
+    };
+    let (d, confirmation, residuals) = confirmed(cx, made, decided, (subjects, reuse), read, reporter)?;
     // The runs made before the loop (the confirmation, the runs over the amplitudes) stay counted.
     let (d, confirmation) = match earlier {
         Some(((before, runs_before, _), _)) => (
@@ -238,7 +243,7 @@ fn without_the_loop(
     let decided =
         [(screening, true), (noise_alone, false)].map(|(d, c)| Finished::of(study, stage, read.problem(c), d, &[]));
     let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&[], &[], None));
-    confirmed(cx, made, decided, (subjects, None), read, reporter).map(Ok)
+    confirmed(cx, made, decided, (subjects, Default::default()), read, reporter).map(Ok)
 }
 
 /// A decision with its words and, with curves, its features and residual curves.
@@ -270,7 +275,7 @@ fn confirmed(
     cx: RunContext,
     made: super::confirm::Made,
     [counted, noise_alone]: [Finished; 2],
-    (subjects, joint): (Vec<super::confirm::Subject>, Option<&extend::JointRuns>),
+    (subjects, earlier): (Vec<super::confirm::Subject>, super::confirm::Earlier),
     read: &Reading,
     reporter: &mut dyn Reporter,
 ) -> Result<Confirmed, Error> {
@@ -280,7 +285,7 @@ fn confirmed(
         cx,
         (rendered, &mut *executed, &mut *sequence),
         &subjects,
-        (read, &noise, joint),
+        (read, &noise, earlier),
         reporter,
     )?;
     let designs: Vec<String> = crate::plan::sweep::tested_designs(cx.study)
@@ -294,6 +299,7 @@ fn confirmed(
             (rendered, executed, sequence),
             d,
             (s.confirming.inputs, read, &noise),
+            earlier.confirmed,
             reporter,
         )?,
         None => (d, None),

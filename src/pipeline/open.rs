@@ -26,6 +26,7 @@ pub(super) fn over_amplitudes(
     (rendered, executed, sequence): Made,
     d: Diagnosis,
     (screening, read, noise): (&Inputs, &Reading, &NoiseModel),
+    before: Option<&ConfirmRuns>,
     reporter: &mut dyn Reporter,
 ) -> Result<(Diagnosis, Option<ConfirmRuns>), Error> {
     let anchor = (d.checked.confirmation.iter()).find(|c| c.model == UNCORRECTED && c.lack_of_fit.is_some());
@@ -49,6 +50,7 @@ pub(super) fn over_amplitudes(
             cx,
             (rendered, &mut *executed, &mut *sequence),
             (screening, read, noise),
+            before,
             reporter,
         )?;
         open.push(read_again.unwrap_or_else(|| n.clone()));
@@ -93,6 +95,7 @@ impl Extension<'_> {
         cx: RunContext,
         (rendered, executed, sequence): Made,
         (screening, read, noise): (&Inputs, &Reading, &NoiseModel),
+        before: Option<&ConfirmRuns>,
         reporter: &mut dyn Reporter,
     ) -> Result<(Option<NotExcluded>, Vec<ConfirmRuns>), Error> {
         let r = &self.h.ranges()[0];
@@ -110,7 +113,11 @@ impl Extension<'_> {
                 .map(|(v, theta)| self.subject(screening, *v, theta))
                 .collect();
             let made_now = (rendered, &mut *executed, &mut *sequence);
-            let (confirmations, runs) = confirm::run(cx, made_now, &subjects, (read, noise, None), reporter)?;
+            let earlier = confirm::Earlier {
+                joint: None,
+                confirmed: before,
+            };
+            let (confirmations, runs) = confirm::run(cx, made_now, &subjects, (read, noise, earlier), reporter)?;
             made.extend(runs);
             if confirmations.is_empty() {
                 break; // no room left in the budget
