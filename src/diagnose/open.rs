@@ -79,6 +79,14 @@ pub struct OpenRun {
     pub seeds: usize,
 }
 
+/// The open extensions the solver's runs favour against their absence, the largest fall of χ²
+/// first: the order the loop takes them in and the words name them in.
+pub fn favoured_first(open: &[NotExcluded]) -> Vec<(&NotExcluded, &Favoured)> {
+    let mut favoured: Vec<_> = (open.iter()).filter_map(|n| Some((n, n.favoured.as_ref()?))).collect();
+    favoured.sort_by(|a, b| b.1.drop.total_cmp(&a.1.drop));
+    favoured
+}
+
 /// The listed hypotheses' open ranges (`shapes`: the hypotheses, for an extension's declared
 /// ranges; `nu`: the noise's degrees of freedom; `power`: the settings'); empty where no candidate
 /// has an amplitude's standard error.

@@ -267,7 +267,9 @@ impl super::Diagnosis {
     /// the runs that would decide: the extended model at the profile's best point, at every
     /// tested design.
     fn favoured_by_the_solver(mut self, designs: &[String]) -> super::Diagnosis {
-        let favoured = favoured_first(&self.checked.not_excluded);
+        let favoured: Vec<_> = (super::open::favoured_first(&self.checked.not_excluded).into_iter())
+            .map(|(n, f)| (n.clone(), f.clone()))
+            .collect();
         let Some((n, f)) = favoured.first().cloned() else {
             return self;
         };
@@ -326,15 +328,6 @@ impl super::Diagnosis {
         self.resummarise();
         self
     }
-}
-
-/// The open extensions whose absence the solver's runs reject, the largest fall of χ² first.
-fn favoured_first(open: &[super::open::NotExcluded]) -> Vec<(super::open::NotExcluded, super::open::Favoured)> {
-    let mut favoured: Vec<_> = (open.iter())
-        .filter_map(|n| Some((n.clone(), n.favoured.clone()?)))
-        .collect();
-    favoured.sort_by(|a, b| b.1.drop.total_cmp(&a.1.drop));
-    favoured
 }
 
 /// Several extensions the solver's runs favour where the emulators found no model error, in words:

@@ -75,16 +75,12 @@ pub fn open_beside(study: &Study, diagnosis: &Diagnosis, favoured: &[usize]) -> 
 /// found no model error ([`crate::diagnose::open::Favoured`]), the largest fall of χ² first: the
 /// solver in the loop over them decides what the emulators could not.
 pub fn favoured(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
-    let mut open: Vec<(&String, f64)> = (diagnosis.checked.not_excluded.iter())
-        .filter_map(|n| Some((&n.hypothesis, n.favoured.as_ref()?.drop)))
-        .collect();
-    open.sort_by(|a, b| b.1.total_cmp(&a.1));
     let hypotheses = &study.diagnosis.hypotheses;
-    (open.into_iter())
-        .filter_map(|(name, _)| {
+    (crate::diagnose::open::favoured_first(&diagnosis.checked.not_excluded).into_iter())
+        .filter_map(|(n, _)| {
             hypotheses
                 .iter()
-                .position(|h| &h.name == name && !h.ranges().is_empty())
+                .position(|h| h.name == n.hypothesis && !h.ranges().is_empty())
         })
         .take(MAX_EXTENDED)
         .collect()
