@@ -369,8 +369,8 @@ fn runs_that_favour_an_extension_start_the_loop_over_it() {
         let verdict = d["verdict"].as_str().unwrap();
         let favoured = d["after_loop"]["favoured"].as_array().map_or(0, Vec::len);
         eprintln!(
-            "kr {:.4} E {:.0} {}: {verdict} {} (loop from favoured runs: {favoured}); {}",
-            case.kr, case.e, case.surrogate, d["cause"], d["leading"]
+            "kr {:.4} E {:.0} {}: {verdict} {} (loop from favoured runs: {favoured}; moved by the solver: {}); {}",
+            case.kr, case.e, case.surrogate, d["cause"], d["solver_refit"]["outside"], d["leading"]
         );
         assert!(
             d["cause"].is_null() || d["cause"] == "clamp compliance",

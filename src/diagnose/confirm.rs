@@ -43,6 +43,10 @@ pub struct Confirmation {
     /// slope reads it (empty without a bridge).
     #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
     pub refitted: IndexMap<String, f64>,
+    /// The refitted point's standard errors from the solver's values, √diag (J_tᵀ W J_t)⁻¹ (empty
+    /// without a bridge).
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub refitted_se: IndexMap<String, f64>,
     /// The largest |solver − emulator| at the runs, in units of the tests' noise of the mean:
     /// what the decision's emulators got wrong where it read them.
     pub emulator_miss: Option<f64>,
@@ -181,12 +185,9 @@ fn confirm_under(m: &Confirming, solver: &[Vec<f64>], noise: &NoiseModel, level:
                     .collect()
             })
             .unwrap_or_default(),
-        refitted: bridged
-            .as_ref()
-            .map(|b| {
-                let at = theta.iter().zip(&b.step).map(|(t, d)| t + d);
-                names.iter().cloned().zip(at).collect()
-            })
+        refitted: bridged.as_ref().map(|b| b.refitted(names, theta)).unwrap_or_default(),
+        refitted_se: (bridged.as_ref())
+            .map(|b| names.iter().cloned().zip(b.step_se.iter().copied()).collect())
             .unwrap_or_default(),
         emulator_miss: miss,
         reused: false,
@@ -287,6 +288,16 @@ pub(super) struct Bridged {
     /// The parameters the training tests move (the hat matrix's trace, Σ h_ii).
     rank: usize,
     pub(super) step: Vec<f64>,
+    /// The step's standard errors, √diag (J_tᵀ W J_t)⁻¹.
+    step_se: Vec<f64>,
+}
+
+impl Bridged {
+    /// The point after the step, by name.
+    fn refitted(&self, names: &[String], theta: &[f64]) -> IndexMap<String, f64> {
+        let at = theta.iter().zip(&self.step).map(|(t, d)| t + d);
+        names.iter().cloned().zip(at).collect()
+    }
 }
 
 /// Step 2 of the module notes.
@@ -333,6 +344,7 @@ pub(super) fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridg
         chi2,
         rank: leverage.round() as usize,
         step: step.iter().copied().collect(),
+        step_se: cov.diagonal().iter().map(|v| v.max(0.0).sqrt()).collect(),
     })
 }
 
@@ -545,7 +557,7 @@ pub fn settle(
     let mut d = d;
     d.checked.confirmation = confirmations;
     d.checked.emulator = Some(reading);
-    d.worded_confirmation()
+    d.with_solver_refit().worded_confirmation()
 }
 
 #[cfg(test)]

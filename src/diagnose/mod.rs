@@ -45,6 +45,7 @@ pub mod noise;
 pub mod open;
 pub mod ranking;
 pub mod readings;
+pub mod refit;
 pub mod residuals;
 pub mod shapes;
 pub mod stats;
@@ -417,6 +418,10 @@ pub struct Checked {
     /// How the models the loop calibrated changed the screening's verdict (absent without a loop).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub after_loop: Option<after_loop::AfterLoop>,
+    /// The named cause's parameters as the solver's runs at the loop's fitted point refit them,
+    /// where that refit leaves the loop's interval ([`refit`]; absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub solver_refit: Option<refit::SolverRefit>,
 }
 
 /// The uncorrected model, the noise it was judged against, and the rule.
@@ -1334,6 +1339,7 @@ impl<'a> Evidence<'a> {
                 confirmation: Vec::new(),
                 emulator: None,
                 after_loop: after,
+                solver_refit: None,
             },
             record: self.record(words.summary, (residuals, structure, confounded), notes),
         }

@@ -131,6 +131,13 @@ impl super::Diagnosis {
         if self.finding.verdict == Verdict::NoModelError {
             self.finding.headline = no_model_error_headline(&self);
         }
+        if let (Some(r), Some(e)) = (&self.checked.solver_refit, &self.explained.extended) {
+            let next = next_test_clause(self.finding.verdict, self.explained.next_test.as_ref());
+            self.finding.action = cause_action(e, next, ", as the solver refits them");
+            self.finding
+                .limits
+                .push(solver_refit_line(r, &self.explained.extensions));
+        }
         if self.checked.emulator.as_ref().is_some_and(|e| e.unjudged.is_some()) {
             self.finding.limits.push(
                 "Not confirmed by the solver: its runs at the fitted parameters could not be judged (see the \
@@ -141,6 +148,31 @@ impl super::Diagnosis {
         self.resummarise();
         self
     }
+}
+
+/// The solver's refit of a named cause's parameters, in words, beside the loop's interval it left.
+fn solver_refit_line(r: &super::refit::SolverRefit, loops: &[super::joint::SolverExtension]) -> String {
+    let interval = |(n, v): (&String, &f64)| match r.interval95.get(n) {
+        Some([lo, hi]) => format!("{n} = {} (95 % {} to {})", num(*v), num(*lo), num(*hi)),
+        None => format!("{n} = {}", num(*v)),
+    };
+    let looped = loops.iter().find(|x| x.setup.hypothesis == r.model);
+    let left: Vec<String> = (r.outside.iter())
+        .filter_map(|n| {
+            let [lo, hi] = looped?.fitted.interval95.as_ref()?.get(n)?;
+            Some(format!("{n} ({} to {})", num(*lo), num(*hi)))
+        })
+        .collect();
+    format!(
+        "The solver's runs at the loop's fitted point ({}) refit the model with '{}' to {}, outside the loop's 95 % \
+         interval of {}: the loop's emulators are off there, so the parameters given are the refit's, its values \
+         moved along the emulators' slope from the solver's at that point (the model judged to fit is the \
+         refitted one); runs at each tested design there would confirm them.",
+        params(&r.from),
+        r.model,
+        r.to.iter().map(interval).collect::<Vec<_>>().join(", "),
+        left.join(" and ")
+    )
 }
 
 /// "No model error" said of what it rests on: the solver at the fitted parameters against the
@@ -724,6 +756,34 @@ fn too_few_reason(f: &Facts) -> String {
     }
 }
 
+/// The next test in the action's words: where, what it tells apart and how many specimens; none
+/// for a named cause whose confirming test the specimens in hand already give.
+fn next_test_clause(verdict: Verdict, next_test: Option<&NextTest>) -> Option<String> {
+    let confirming = next_test.filter(|t| !(verdict == Verdict::CauseNamed && t.in_hand()));
+    confirming.map(|t| {
+        let at = params(&t.choice.design);
+        let names: Vec<String> = t.choice.compared.keys().cloned().collect();
+        if names.len() < 2 {
+            format!("test at {at} — {}", t.choice.advice)
+        } else {
+            format!("test at {at} to tell {} apart — {}", quoted(&names), t.choice.advice)
+        }
+    })
+}
+
+/// "Action: use the model extended with 'c' (its parameters){whence}; to confirm it, …".
+fn cause_action(e: &Extended, next: Option<String>, whence: &str) -> String {
+    format!(
+        "Action: use the model extended with '{}' ({}){whence}; {}.",
+        e.model.cause,
+        params(&e.model.parameters),
+        next.map_or_else(
+            || "the tests in hand decide, no further test is needed".into(),
+            |n| format!("to confirm it, {n}")
+        )
+    )
+}
+
 fn action(f: &Facts) -> String {
     action_with_open(f, &[])
 }
@@ -732,29 +792,9 @@ fn action(f: &Facts) -> String {
 /// calibrated simulation holds only where they are absent, and the parameters over what the tests
 /// do not exclude are said first.
 pub(crate) fn action_with_open(f: &Facts, open: &[super::open::NotExcluded]) -> String {
-    // A named cause needs no confirming test the specimens in hand already give.
-    let confirming = f
-        .next_test
-        .filter(|t| !(f.decision.verdict == Verdict::CauseNamed && t.in_hand()));
-    let next = confirming.map(|t| {
-        let at = params(&t.choice.design);
-        let names: Vec<String> = t.choice.compared.keys().cloned().collect();
-        if names.len() < 2 {
-            format!("test at {at} — {}", t.choice.advice)
-        } else {
-            format!("test at {at} to tell {} apart — {}", quoted(&names), t.choice.advice)
-        }
-    });
+    let next = next_test_clause(f.decision.verdict, f.next_test);
     match (f.decision.verdict, f.extended) {
-        (Verdict::CauseNamed, Some(e)) => format!(
-            "Action: use the model extended with '{}' ({}); {}.",
-            e.model.cause,
-            params(&e.model.parameters),
-            next.map_or_else(
-                || "the tests in hand decide, no further test is needed".into(),
-                |n| format!("to confirm it, {n}")
-            )
-        ),
+        (Verdict::CauseNamed, Some(e)) => cause_action(e, next, ""),
         (Verdict::NoModelError, _) if !open.is_empty() => format!(
             "Action: use the calibrated simulation only where {}; {}.",
             open.iter().map(open_clause).collect::<Vec<_>>().join(", and where "),

@@ -273,6 +273,10 @@ fn cause_model(d: &Diagnosis, e: &Extended, units: &IndexMap<String, String>) ->
     let cause = e.model.cause.as_str();
     if let Some(x) = d.explained.extensions.iter().find(|x| x.setup.hypothesis == cause) {
         let variables: Vec<&String> = x.setup.variables.keys().collect();
+        // Where the solver's runs at the loop's point moved it, the refit is the model's.
+        if let Some(r) = d.checked.solver_refit.as_ref().filter(|r| r.model == cause) {
+            return Model::of(cause, &r.to, Some(&r.interval95), units, &variables);
+        }
         return Model::of(
             cause,
             &x.fitted.parameters,
