@@ -123,6 +123,7 @@ fn run(case: &Case) -> Value {
     // The solver's runs made, one directory each (the store's key): what `runs.planned` must count.
     let made = std::fs::read_dir(out.join("runs")).map_or(0, |d| d.count());
     results["made_by_the_test"] = made.into();
+    results["status_by_the_test"] = beam_common::lab_status_planned(&study, &out).into();
     results
 }
 
@@ -385,6 +386,10 @@ fn runs_that_favour_an_extension_start_the_loop_over_it() {
             looped += 1;
             // The runs made before the loop are read again after it, never planned twice.
             assert_eq!(r["runs"]["planned"], r["made_by_the_test"], "runs planned against made");
+            assert_eq!(
+                r["status_by_the_test"], r["made_by_the_test"],
+                "`lab status` against made"
+            );
             let leading = d["leading"].as_array().unwrap();
             assert!(
                 d["cause"] == "clamp compliance" || leading.iter().any(|l| l == "clamp compliance"),

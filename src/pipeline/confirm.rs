@@ -402,7 +402,16 @@ pub(super) fn run(
     };
     let made = match plan.runs.is_empty() {
         true => None,
-        false => Some(sweep_batch(cx, (rendered_before, executed, sequence), plan, reporter)?),
+        false => {
+            // A confirmation after the runs this `lab run` made before a loop adds to their plan.
+            let append = earlier.confirmed.is_some();
+            Some(sweep_batch(
+                cx,
+                (rendered_before, executed, sequence),
+                (plan, append),
+                reporter,
+            )?)
+        }
     };
     let fresh_values = made.as_ref().map_or_else(Vec::new, |m| {
         solver_values(
@@ -477,11 +486,12 @@ fn planned(sim: &SolverSimulation, s: &Subject, designs: &[(&String, &Vec<f64>)]
 }
 
 /// The new runs swept as one batch, recorded as their role's stage (every run of a batch has one
-/// role); confirmation-plan.json written anew for the confirmation, appended to after it.
+/// role); confirmation-plan.json written anew for the confirmation, appended to after it (and by a
+/// confirmation that follows earlier ones of the same `lab run`: `append`).
 fn sweep_batch(
     cx: RunContext,
     (rendered_before, executed, sequence): Made,
-    plan: Plan,
+    (plan, append): (Plan, bool),
     reporter: &mut dyn Reporter,
 ) -> Result<ConfirmRuns, Error> {
     let (study, sim) = (cx.study, cx.sim);
@@ -491,7 +501,7 @@ fn sweep_batch(
     let rendered = sweep::prepare_after(study, &solver, &plan, Some(rendered_before))?;
     match sequence.as_mut() {
         Some(sequence) => sequence.planned_batch(&stage, &plan, &cx.options.out)?,
-        None => write_plan(&cx.options.out, &plan, role != RunRole::Confirm)?,
+        None => write_plan(&cx.options.out, &plan, append || role != RunRole::Confirm)?,
     }
     let (swept, outcomes) = runs::sweep_plan(cx, &plan, &rendered, &mut executed.store, reporter)?;
     if let Some(b) = match sequence.as_mut() {

@@ -102,3 +102,16 @@ pub fn lab_run(study: &Path, out: &Path) -> (String, serde_json::Value) {
     let results = serde_json::from_slice(&std::fs::read(out.join("results.json")).unwrap()).unwrap();
     (String::from_utf8_lossy(&o.stderr).into_owned(), results)
 }
+
+/// `lab status STUDY --out OUT`: the planned runs it counts ("N planned run(s)").
+#[allow(dead_code)] // the confirmation family's alone
+pub fn lab_status_planned(study: &Path, out: &Path) -> u64 {
+    let o = Command::new(env!("CARGO_BIN_EXE_lab"))
+        .args(["status", study.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    let n = text.split(" planned run").next().and_then(|s| s.rsplit(' ').next());
+    n.and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("lab status said: {text}"))
+}
