@@ -314,7 +314,11 @@ pub(super) fn quoted_models(results: &Results, d: &Diagnosis) -> Vec<(Model, Opt
             .or(d.record.uncorrected.validation.as_ref().map(|v| v.error));
     let mut out = vec![(uncorrected_model(d, &units), before)];
     if let Some(e) = extended {
-        out.push((cause_model(d, e, &units), Some(e.gains.validation_error_after)));
+        // The validation error measured is the loop's model's at its own point, not at the
+        // solver's refit ([`crate::diagnose::refit`]): none is quoted for the refit.
+        let refit = (d.checked.solver_refit.as_ref()).is_some_and(|r| r.model == e.model.cause);
+        let after = (!refit).then_some(e.gains.validation_error_after);
+        out.push((cause_model(d, e, &units), after));
     }
     if d.finding.verdict == Verdict::CannotTellApart {
         for name in &d.finding.leading {

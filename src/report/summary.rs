@@ -411,14 +411,20 @@ fn write_diagnosis(out: &mut String, results: &Results, verbose: bool) {
             .iter()
             .map(|(n, v)| format!("{n} = {}", significant(*v, 6)))
             .collect();
+        let refit = (d.checked.solver_refit.as_ref()).is_some_and(|r| r.model == x.model.cause);
         let _ = writeln!(
             out,
-            "  extended with `{}`: {}; validation error {:.2} % -> {:.2} % (gain {})",
+            "  extended with `{}`: {}; validation error {:.2} % -> {:.2} % (gain {}){}",
             x.model.cause,
             params.join(", "),
             100.0 * x.gains.validation_error_before,
             100.0 * x.gains.validation_error_after,
-            x.gains.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g))
+            x.gains.gain.map_or("-".to_string(), |g| format!("{:.0} %", 100.0 * g)),
+            if refit {
+                ", at the loop's point before the solver's refit"
+            } else {
+                ""
+            }
         );
     }
     if let Some(f) = &d.checked.discovered {
