@@ -245,6 +245,11 @@ fn the_issues_beam_sampled_sequentially_names_the_clamp() {
     assert_eq!(clamp["lack_of_fit"]["fits"], true, "{clamp}");
 }
 
+/// The first seed of a family: 0, or the variable's value to draw cases nobody tuned the rules on.
+fn seed_base(var: &str) -> u64 {
+    std::env::var(var).ok().and_then(|s| s.parse().ok()).unwrap_or(0)
+}
+
 /// Small fixed designs with linear and quadratic surrogates, on drawn beams with a hidden clamp
 /// compliance or none (`LAB_CONFIRM_SEED_BASE` moves the draws). Asserted: no "no model error"
 /// where the oracle's exact χ² exceeds its α/10 critical value; on clean draws, model error claimed
@@ -252,10 +257,7 @@ fn the_issues_beam_sampled_sequentially_names_the_clamp() {
 /// but the clamp named; an undecided case keeps the clamp among its leading explanations.
 #[test]
 fn small_fixed_designs_are_confirmed_by_the_solver() {
-    let base: u64 = std::env::var("LAB_CONFIRM_SEED_BASE")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0);
+    let base = seed_base("LAB_CONFIRM_SEED_BASE");
     let cases: Vec<Case> = (0..16u64)
         .map(|i| {
             let mut rng = ChaCha8Rng::seed_from_u64(base + i);
@@ -344,10 +346,7 @@ fn small_fixed_designs_are_confirmed_by_the_solver() {
 /// clean beams model error is claimed at most once.
 #[test]
 fn runs_that_favour_an_extension_start_the_loop_over_it() {
-    let base: u64 = std::env::var("LAB_FAVOURED_SEED_BASE")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0);
+    let base = seed_base("LAB_FAVOURED_SEED_BASE");
     let cases: Vec<Case> = (0..16u64)
         .map(|i| {
             let mut rng = ChaCha8Rng::seed_from_u64(7_700 + base + i);

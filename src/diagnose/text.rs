@@ -299,10 +299,8 @@ impl super::Diagnosis {
     /// the runs that would decide: the extended model at the profile's best point, at every
     /// tested design.
     fn favoured_by_the_solver(mut self, designs: &[String]) -> super::Diagnosis {
-        let favoured: Vec<_> = (super::open::favoured_first(&self.checked.not_excluded).into_iter())
-            .map(|(n, f)| (n.clone(), f.clone()))
-            .collect();
-        let Some((n, f)) = favoured.first().cloned() else {
+        let favoured = super::open::favoured_first(&self.checked.not_excluded);
+        let Some(&(n, f)) = favoured.first() else {
             return self;
         };
         let deciding: Vec<super::confirm::DecidingRuns> = favoured
@@ -366,7 +364,7 @@ impl super::Diagnosis {
 /// "the emulators found no model error, but the solver's runs over 'a' (χ² falls by … from its
 /// absence to its best (…), beyond …) and 'b' (…) favour each against its absence (not yet against each
 /// other)".
-fn favoured_words(favoured: &[(super::open::NotExcluded, super::open::Favoured)]) -> String {
+fn favoured_words(favoured: &[(&super::open::NotExcluded, &super::open::Favoured)]) -> String {
     let shown: Vec<String> = favoured
         .iter()
         .map(|(n, f)| {

@@ -349,12 +349,19 @@ impl Earlier<'_> {
     /// The runs already made that confirm `s` (`planned`: the runs it would need), if any.
     fn runs_of(&self, cx: RunContext, s: &Subject, planned: &[PlannedRun]) -> Option<MadeRuns> {
         let (idx, plan, keys, usable) = match (&s.ran, self.joint, self.confirmed) {
-            (Some(ran), Some(j), _) => (ran.clone(), &j.plan, &j.rendered.keys, j.usable.clone()),
+            (Some(ran), Some(j), _) => (
+                ran.clone(),
+                &j.plan,
+                &j.rendered.keys,
+                ran.iter().map(|&i| j.usable[i]).collect(),
+            ),
             (None, _, Some(c)) => {
-                let idx: Option<Vec<usize>> = (planned.iter())
+                let idx: Vec<usize> = (planned.iter())
                     .map(|p| c.plan.runs.iter().position(|r| r == p))
-                    .collect();
-                (idx?, &c.plan, &c.rendered.keys, c.swept.usable(&cx.sim.quality))
+                    .collect::<Option<_>>()?;
+                let all = c.swept.usable(&cx.sim.quality);
+                let usable = idx.iter().map(|&i| all[i]).collect();
+                (idx, &c.plan, &c.rendered.keys, usable)
             }
             _ => return None,
         };
@@ -363,7 +370,7 @@ impl Earlier<'_> {
                 runs: idx.iter().map(|&i| plan.runs[i].clone()).collect(),
             },
             keys: idx.iter().map(|&i| keys[i].clone()).collect(),
-            usable: idx.iter().map(|&i| usable[i]).collect(),
+            usable,
         })
     }
 }
