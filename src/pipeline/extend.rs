@@ -60,13 +60,8 @@ pub const MAX_EXTENDED: usize = 3;
 /// model error: those first, then every other extension left open with a range to calibrate (the
 /// emulators excluded none of them), [`MAX_EXTENDED`] at most.
 pub fn open_beside(study: &Study, diagnosis: &Diagnosis, favoured: &[usize]) -> Vec<usize> {
-    let hypotheses = &study.diagnosis.hypotheses;
     let others = (diagnosis.checked.not_excluded.iter())
-        .filter_map(|n| {
-            hypotheses
-                .iter()
-                .position(|h| h.name == n.hypothesis && !h.ranges().is_empty())
-        })
+        .filter_map(|n| ranged(study, &n.hypothesis))
         .filter(|k| !favoured.contains(k));
     favoured.iter().copied().chain(others).take(MAX_EXTENDED).collect()
 }
@@ -75,15 +70,15 @@ pub fn open_beside(study: &Study, diagnosis: &Diagnosis, favoured: &[usize]) -> 
 /// found no model error ([`crate::diagnose::open::Favoured`]), the largest fall of χ² first: the
 /// solver in the loop over them decides what the emulators could not.
 pub fn favoured(study: &Study, diagnosis: &Diagnosis) -> Vec<usize> {
-    let hypotheses = &study.diagnosis.hypotheses;
     (crate::diagnose::open::favoured_first(&diagnosis.checked.not_excluded).into_iter())
-        .filter_map(|(n, _)| {
-            hypotheses
-                .iter()
-                .position(|h| h.name == n.hypothesis && !h.ranges().is_empty())
-        })
+        .filter_map(|(n, _)| ranged(study, &n.hypothesis))
         .take(MAX_EXTENDED)
         .collect()
+}
+
+/// The index of the study's hypothesis `name` where it has a range to calibrate in the loop.
+fn ranged(study: &Study, name: &str) -> Option<usize> {
+    (study.diagnosis.hypotheses.iter()).position(|h| h.name == name && !h.ranges().is_empty())
 }
 
 /// `OUT/extension-plan.json`: the hypotheses the loop extends, written before its runs start so
