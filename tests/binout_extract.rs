@@ -2,7 +2,7 @@
 //! its ASCII files are (same curve, same figures, same completeness checks, now naming the step
 //! and offset), and `lab extract` on a binout or a run directory.
 
-mod crushsim_bin;
+use crate::crushsim_bin;
 
 use std::path::PathBuf;
 use std::process::Command;

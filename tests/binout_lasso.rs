@@ -13,7 +13,7 @@
 //!   read equal by LSTC's reader; a file LSTC's writer wrote (relative directory changes, every
 //!   type, several symbol tables, a continuation file) read equal by the `lsda` reader.
 
-mod crushsim_bin;
+use crate::crushsim_bin;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

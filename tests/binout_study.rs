@@ -18,8 +18,8 @@
 //! the seventh digit between the two formats; the study is therefore run with its former fixed
 //! design (`fixed_design::FIXED`), so that both ways run the same decks.
 
-mod crushsim_bin;
-mod fixed_design;
+use crate::crushsim_bin;
+use crate::fixed_design;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

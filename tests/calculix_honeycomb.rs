@@ -7,7 +7,7 @@
 //! and bottom reactions balance; the mean force grows with sigma_y and with the foil thickness; and
 //! least squares finds the synthetic tests' sigma_y = 185 MPa within 5 %.
 
-mod ccx_common;
+use crate::ccx_common;
 
 use ccx_common::{have_ccx, repo};
 use std::collections::BTreeMap;

@@ -9,8 +9,8 @@
 //! Tests that need `ccx` skip with a message when it is missing, except in CI (`CI=true`), where a
 //! missing `ccx` is a failure: `.ci/run` installs it.
 
-mod ccx_common;
-mod verdict_common;
+use crate::ccx_common;
+use crate::verdict_common;
 
 use std::path::Path;
 use std::process::Command;

@@ -18,10 +18,9 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde_json::Value;
 
-#[allow(dead_code)] // the runs family helpers; this file does not compare with a fixed design
-mod family_runs;
+use crate::family_runs;
 
-mod beam_common;
+use crate::beam_common;
 use beam_common::{bending, clamp};
 
 /// One case: the truth, the tests, and how the study samples its solver.

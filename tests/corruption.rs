@@ -21,9 +21,8 @@ use std::path::Path;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-mod crushsim_bin;
-mod damage;
-mod fixed_design;
+use crate::damage;
+use crate::fixed_design;
 
 use damage::{Mutation, copy_recordings, mutate, run_lab};
 

@@ -32,9 +32,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde_json::Value;
 
-mod crushsim_bin;
-mod family_runs;
-mod verdict_common;
+use crate::crushsim_bin;
+use crate::family_runs;
+use crate::verdict_common;
 
 const HARDENING: &str = "strain hardening in the fold hinges";
 

@@ -10,7 +10,7 @@
 //!   for its field, a parameter defined twice (in an include): exit 2 with the file and line, and
 //!   nothing written.
 
-mod readers;
+use crate::readers;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

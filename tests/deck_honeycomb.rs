@@ -7,7 +7,7 @@
 //! solver (`crushsim`, built with the tests): the deck study makes the same runs and reaches the
 //! same results and verdict, `results.json` equal key for key but for wall and planner times.
 
-mod readers;
+use crate::readers;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

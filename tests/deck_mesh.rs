@@ -119,7 +119,7 @@ fn ribbon_part_present_in_the_include() {
     assert!(problems.is_empty(), "{problems:?}");
 }
 
-/// Sizes and timings of the paper's meshes (0.5 mm): `cargo test --release --test deck_mesh -- --ignored --nocapture`.
+/// Sizes and timings of the paper's meshes (0.5 mm): `cargo test --release --test suite -- --ignored --nocapture deck_mesh::`.
 #[test]
 #[ignore]
 fn paper_mesh_sizes() {

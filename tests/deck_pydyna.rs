@@ -16,7 +16,7 @@
 //! The reader lives in a virtual environment made by scripts/pydyna-venv.sh (`.ci/run` makes it);
 //! `LAB_PYDYNA_PYTHON` names another python. Without it the tests skip, or fail when CI=true.
 
-mod readers;
+use crate::readers;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

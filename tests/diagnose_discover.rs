@@ -19,8 +19,8 @@
 //! - shapes outside the library: either nothing found, or the found term improves the
 //!   leave-one-design-out error and its model passes the lack-of-fit test.
 
-mod power_common;
-mod verdict_common;
+use crate::power_common;
+use crate::verdict_common;
 
 use lab::calibrate::Bounds;
 use lab::diagnose::discover::{Discovered, Outcome};

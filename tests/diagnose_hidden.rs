@@ -19,8 +19,8 @@
 //! alarm in ≥ 9/10 of clean cases. Every family also asserts that enough of its seeds fell in the
 //! class it was built for, so that no assertion passes on an empty class.
 
-mod power_common;
-mod verdict_common;
+use crate::power_common;
+use crate::verdict_common;
 
 use lab::calibrate::Bounds;
 use lab::diagnose::verdict::Verdict;

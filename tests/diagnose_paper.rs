@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-mod verdict_common;
+use crate::verdict_common;
 
 use lab::diagnose::verdict::Verdict;
 use lab::diagnose::{self, Diagnosis, NoiseKind};

@@ -4,7 +4,7 @@
 //! studies replay their recordings, the curves study in tests/honeycomb_diagnosis.rs, with the
 //! same checks.
 
-mod verdict_common;
+use crate::verdict_common;
 
 use std::path::PathBuf;
 use std::process::Command;

@@ -46,7 +46,12 @@ fn second_opener_is_refused_naming_the_holder() {
 fn sigkilled_holder_does_not_leave_the_lock_stuck() {
     let out = tempfile::tempdir().unwrap();
     let mut child = Command::new(std::env::current_exe().unwrap())
-        .args(["--exact", "lock_holder_child", "--nocapture", "--test-threads=1"])
+        .args([
+            "--exact",
+            "execute_lock::lock_holder_child",
+            "--nocapture",
+            "--test-threads=1",
+        ])
         .env(ENV, out.path())
         .stdout(Stdio::null())
         .spawn()

@@ -1,7 +1,7 @@
 //! The executor against the fake solver: every outcome class, retries, timeouts that kill the whole
 //! process group, cancellation that keeps finished results.
 
-mod solvers;
+use crate::solvers;
 
 use std::time::Duration;
 

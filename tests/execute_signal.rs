@@ -1,6 +1,7 @@
 //! Real signals: SIGTERM to `lab` cancels the executor; a second one SIGKILLs the children at once.
 //! Its own test binary (one test), because it installs process-wide signal handlers.
 
+#[allow(dead_code)] // the executor helpers; this test uses a few
 mod solvers;
 
 use std::time::Duration;

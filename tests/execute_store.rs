@@ -1,6 +1,6 @@
 //! The run store: atomic commits, resume, input changes, half-done directories.
 
-mod solvers;
+use crate::solvers;
 
 use std::path::PathBuf;
 

@@ -23,8 +23,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde_json::Value;
 
-mod crushsim_bin;
-mod damage;
+use crate::crushsim_bin;
+use crate::damage;
 
 use damage::{Mutation, copy_recordings, mutate, root, run_lab};
 

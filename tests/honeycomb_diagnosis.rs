@@ -4,12 +4,12 @@
 //! extended with the solver in the loop (ETAN over 0–600 MPa): sigma_y within 2 % of the truth
 //! (185 MPa) and ETAN within 15 % of 200 MPa, both inside their reported intervals.
 
-mod verdict_common;
+use crate::verdict_common;
 
 use std::path::PathBuf;
 use std::process::Command;
 
-mod crushsim_bin;
+use crate::crushsim_bin;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

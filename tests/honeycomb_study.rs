@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-mod crushsim_bin;
+use crate::crushsim_bin;
 
 const LAB: &str = env!("CARGO_BIN_EXE_lab");
 

@@ -19,10 +19,10 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde_json::Value;
 
-mod family_runs;
-mod verdict_common;
+use crate::family_runs;
+use crate::verdict_common;
 
-mod beam_common;
+use crate::beam_common;
 use beam_common::{bending, clamp, shear};
 
 const S_MAX: f64 = 1.5;

@@ -22,8 +22,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-#[allow(dead_code)] // the shared template is the families'
-mod beam_common;
+use crate::beam_common;
 use beam_common::{bending, clamp};
 
 const E: f64 = 68_000.0;

@@ -17,7 +17,7 @@
 //! Needs OpenRadioss on PATH (`eval "$(../shared/tools/openradioss/install.sh)"`): skipped with a
 //! message without it, a failure when CI=true.
 
-mod readers;
+use crate::readers;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

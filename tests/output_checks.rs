@@ -8,10 +8,10 @@
 //!   in results.json and the report, left out of the surrogates unless the study says `use`;
 //! - the study keys of `simulation.quality` are checked with file:line errors.
 
-mod crushsim_bin;
-mod fixed_design;
+use crate::crushsim_bin;
+use crate::fixed_design;
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -8,8 +8,7 @@
 //! finishes the study. Without a terminal, SIGINT leaves the jobs running without asking.
 //! Skips with a message when no Slurm answers, except with CI=true.
 
-mod crushsim_bin;
-mod slurm_common;
+use crate::slurm_common;
 
 use std::io::{Read, Write};
 use std::os::fd::OwnedFd;

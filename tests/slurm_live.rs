@@ -6,8 +6,7 @@
 //! after `slurm.lost_after` and its run is submitted again by the next `lab run`. Skips with a
 //! message when no Slurm answers, except with CI=true. Ctrl-C: tests/slurm_interrupt.rs.
 
-mod crushsim_bin;
-mod slurm_common;
+use crate::slurm_common;
 
 use std::path::Path;
 use std::process::Stdio;

@@ -1,6 +1,5 @@
 //! Seeded damage to recordings, shared by the corruption experiments of a fixed design
 //! (`corruption.rs`) and of a sequential study (`failed_runs.rs`).
-#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

@@ -2,8 +2,6 @@
 //! Slurm of scripts/slurm-up.sh (skip without one, fail with CI=true), copy a study into a temp
 //! directory, read the journal, the solvers' start logs and the queue.
 
-#![allow(dead_code)] // each test binary uses its own subset
-
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -1,5 +1,4 @@
 //! Helpers shared by the `execute_*` tests: the fake solver and runs built on it.
-#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
