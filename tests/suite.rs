@@ -5,30 +5,18 @@
 //! `cargo test --release --test suite -- confirmation::`. One file keeps a binary of its own:
 //! tests/execute_signal.rs signals its own process.
 
-// Helpers the test files share.
-#[allow(dead_code)]
+// Helpers the test files share (one crate: a helper no file uses is dead code, and said so).
 mod beam_common;
-#[allow(dead_code)]
 mod ccx_common;
-#[allow(dead_code)]
 mod common;
-#[allow(dead_code)]
 mod crushsim_bin;
-#[allow(dead_code)]
 mod damage;
-#[allow(dead_code)]
 mod family_runs;
-#[allow(dead_code)]
 mod fixed_design;
-#[allow(dead_code)]
 mod power_common;
-#[allow(dead_code)]
 mod readers;
-#[allow(dead_code)]
 mod slurm_common;
-#[allow(dead_code)]
 mod solvers;
-#[allow(dead_code)]
 mod verdict_common;
 
 // The test files, one module each.

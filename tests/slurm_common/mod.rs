@@ -183,13 +183,6 @@ pub fn keys_with(out: &Path, class: &str) -> BTreeSet<String> {
         .collect()
 }
 
-/// scancel `ids` (cleanup after a test that leaves jobs running).
-pub fn scancel(conf: &str, ids: &[String]) {
-    if !ids.is_empty() {
-        let _ = Command::new("scancel").env("SLURM_CONF", conf).args(ids).output();
-    }
-}
-
 /// Runs `lab` again (`cmd`, solver starts logged to `log`): it must finish (exit 0) after re-attaching
 /// to the jobs left by the previous `lab`. Returns its stderr and the distinct runs started in all.
 pub fn rerun_reattaches(mut cmd: Command, log: &Path) -> (String, BTreeSet<String>) {
