@@ -233,6 +233,20 @@ fn the_curves_name_strain_hardening_from_the_same_recordings() {
         f["decided_by"].as_str().is_some_and(|s| s.starts_with("plateau")),
         "{f}"
     );
+    // The next test's numbers are read at the feature where its pair differs most, named in its
+    // words with the difference in the tests' scatter (whitened features have no unit).
+    let t = &d["next_test"];
+    let read: Vec<&str> = f["read"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|v| v.as_str())
+        .collect();
+    let output = t["output"].as_str().expect("the feature the next test reads");
+    assert!(read.contains(&output), "{output} not among {read:?}");
+    let why = t["why"].as_str().unwrap();
+    assert!(why.contains(&format!("differ most in the {output}")), "{why}");
+    assert!(why.contains("standard deviation(s) of one test"), "{why}");
     // The check runs are each design's latest screening batch: at least one per design.
     assert_eq!(f["emulator"]["runs"], latest_batch_runs(&r, "screening"), "{f}");
     assert!(f["emulator"]["runs"].as_u64().unwrap() >= 9, "{f}");

@@ -737,6 +737,10 @@ pub struct TestChoice {
     /// The tested design at this point, if any, and its specimens.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub already_tested: Option<(String, usize)>,
+    /// With several outputs (curve features), the one `predictions` and `compared` are read at:
+    /// where the two differ most.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub output: Option<String>,
 }
 
 /// How many specimens, with what power, or what else would tell.

@@ -988,6 +988,7 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
             separation: 0.0,
             compared: [("uncorrected".to_string(), y)].into_iter().collect(),
             already_tested: None,
+            output: None,
             design: design.clone(),
         },
         amount: TestAmount {
@@ -1080,8 +1081,18 @@ fn describe_common(
 ) -> NextTest {
     let (d, m) = pick.runs[0].clone();
     let (ea, eb) = (ex[pick.pair.0], ex[pick.pair.1]);
-    let pt = &observation_points(cx, &d)[0];
+    // With several outputs (whitened curve features, each in units of its noise), the one where
+    // the pair differs most: the numbers shown are where the difference is.
+    let points = observation_points(cx, &d);
+    let gap = |pt: &Vec<f64>| (ea.predict(pt) - eb.predict(pt)).abs();
+    let k = (0..points.len())
+        .max_by(|&a, &b| gap(&points[a]).total_cmp(&gap(&points[b])))
+        .unwrap_or(0);
+    let pt = &points[k];
     let (ya, yb) = (ea.predict(pt), eb.predict(pt));
+    let output = (cx.inputs.features.as_ref())
+        .filter(|f| f.outputs.len() > 1)
+        .and_then(|f| f.outputs.get(k).cloned());
     let already_tested = tested_at(cx, &d);
     // The specimens of a programme are new ones: at a tested design they add to those tested.
     let programme: Vec<ProgrammeRun> = pick
@@ -1109,6 +1120,7 @@ fn describe_common(
             separation: 0.0,
             compared: ex.iter().map(|e| (e.name.clone(), e.predict(pt))).collect(),
             already_tested: already_tested.clone(),
+            output,
         },
         amount: TestAmount {
             specimens: single.then(|| m + already_tested.as_ref().map_or(0, |t| t.1)),
@@ -1271,9 +1283,17 @@ fn why(t: &NextTest, noise_known: bool) -> String {
     } else {
         "the design where the fewest specimens would tell them apart"
     };
+    // A whitened curve feature has no unit of its own: its difference is said in the tests' scatter.
+    let difference = match t.choice.output.as_ref().filter(|_| noise_known) {
+        Some(feature) => format!(
+            "the explanations differ most in the {feature}, by {} standard deviation(s) of one test ({preds}, in \
+             units of its noise)",
+            num(t.choice.separation)
+        ),
+        None => format!("{preds}; the closest two are {} apart", crate::base::format::pct(rel)),
+    };
     format!(
-        "Test at {place}: there {preds}; the closest two are {} apart, {chosen}. In numbers: {}.",
-        crate::base::format::pct(rel),
+        "Test at {place}: there {difference}, {chosen}. In numbers: {}.",
         t.choice.advice
     )
 }
