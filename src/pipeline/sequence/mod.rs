@@ -27,6 +27,7 @@
 //! extension hypotheses' probe runs are placed at the screening's posterior (its mode, and a
 //! standard deviation along each parameter), not one per baseline sample.
 
+pub mod absorbed;
 mod converge;
 pub mod record;
 pub mod sites;
@@ -478,19 +479,36 @@ impl<'a> Runner<'a> {
                 false => sites::measured_errors(tests, &data, kinds, bounds),
             },
         );
-        // An error that could not be measured (the held-out runs failed, or the emulators could not
-        // be fitted without them) is not measured: the design stays open, and no "inf" is shown.
-        let measured: Vec<Option<f64>> = measured.into_iter().map(|m| m.filter(|v| v.is_finite())).collect();
         let predicted: Vec<f64> = sites
             .iter()
             .zip(&emulators)
             .map(|(s, e)| seq::predicted_error(s, e, &posterior))
             .collect();
-        let f = self.tolerance;
-        let open = measured
+        // The screening's own emulators per design: the error that still matters is the part the
+        // parameters do not absorb where the misfit stands with it ([`absorbed`]).
+        let screening = absorbed::Screening {
+            tests,
+            sites: &sites,
+            emulators: &emulators,
+            posterior: &posterior,
+            bounds,
+        };
+        let alpha = crate::diagnose::Settings::default().alpha;
+        let matters = (stage.id == StageId::Screening && !across)
+            .then(|| absorbed::unabsorbed_errors(&screening, &measured, alpha))
+            .flatten();
+        // An error that could not be measured (the held-out runs failed, or the emulators could not
+        // be fitted without them) is not measured: the design stays open, and no "inf" is shown.
+        let measured: Vec<Option<f64>> = measured
             .iter()
-            .zip(&predicted)
-            .map(|(m, p)| !(m.is_some_and(|m| m <= f) && *p <= f))
+            .map(|m| m.map(|h| h.rms).filter(|v| v.is_finite()))
+            .collect();
+        let f = self.tolerance;
+        let open = (0..measured.len())
+            .map(|i| {
+                let m = matters.as_ref().map_or(measured[i], |u| u[i]);
+                !(m.is_some_and(|m| m <= f) && predicted[i] <= f)
+            })
             .collect();
         let names: Vec<String> = tests.designs.iter().map(|t| t.name.clone()).collect();
         if let Some(last) = self

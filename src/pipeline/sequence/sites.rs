@@ -26,6 +26,8 @@ pub struct Tests {
     pub designs: Vec<TestedDesign>,
     /// The specimens' whitening of the curve features (with curves).
     pub whitening: Option<(Whitening, FeatureSpec)>,
+    /// The noise was measured (the tests have replicates), not the fallback share of the level.
+    pub measured_noise: bool,
 }
 
 pub struct TestedDesign {
@@ -100,7 +102,11 @@ impl Tests {
                 }
             })
             .collect();
-        Tests { designs, whitening }
+        Tests {
+            designs,
+            whitening,
+            measured_noise: noise.is_some(),
+        }
     }
 
     /// The values of the tested design `name` (empty for a design it does not test).
@@ -154,16 +160,33 @@ pub fn sites(tests: &Tests, runs: &[RunData]) -> Vec<Site> {
         .collect()
 }
 
-/// How each tested design's emulators did on its latest runs, fitted without them: the root mean
-/// square error in units of the tests' noise of the mean, the largest over the outputs (`None`:
-/// the design has runs of one batch only, so nothing was held out yet; infinite: the emulators
-/// could not be fitted without them).
+/// How a design's emulators did on its latest runs, fitted without them, in units of the tests'
+/// noise of the mean.
+#[derive(Debug, Clone, Copy)]
+pub struct Held {
+    /// The root mean square error, the largest over the outputs (infinite: the emulators could
+    /// not be fitted without the runs, or could not predict them).
+    pub rms: f64,
+    /// The response's mean signed error, run − emulator (NaN where `rms` is infinite): the part of
+    /// it the parameters absorb moves their fit, not the residuals ([`super::absorbed`]).
+    pub bias: f64,
+}
+
+impl Held {
+    const FAILED: Held = Held {
+        rms: f64::INFINITY,
+        bias: f64::NAN,
+    };
+}
+
+/// How each tested design's emulators did on its latest runs, fitted without them ([`Held`];
+/// `None`: the design has runs of one batch only, so nothing was held out yet).
 pub fn measured_errors(
     tests: &Tests,
     runs: &[RunData],
     kinds: (SurrogateKind, Option<SurrogateKind>),
     bounds: &Bounds,
-) -> Vec<Option<f64>> {
+) -> Vec<Option<Held>> {
     use rayon::prelude::*;
     let response = Kind::new(kinds.0, bounds.clone());
     let curves = kinds.1.map(|kind| Kind {
@@ -185,26 +208,25 @@ pub fn measured_errors(
 }
 
 /// The study's own emulators of a design (the response's surrogate, the curve emulator) fitted to
-/// its runs before batch `last`, at that batch: RMS error per output over the held-out runs, in
-/// units of √τ², the largest.
+/// its runs before batch `last`, at that batch ([`Held`]).
 fn held_out_error(
     tests: &Tests,
     t: &TestedDesign,
     mine: &[&RunData],
     last: usize,
     kinds: (&Kind, Option<&Kind>),
-) -> f64 {
+) -> Held {
     let held = |i: usize| mine[i].batch == last;
     let response_runs: Vec<Run<f64>> = mine.iter().map(|r| r.response_run(tests)).collect();
     let Ok(response) = held_out::<Surrogate>(kinds.0, &response_runs, &|r| held(index(&response_runs, r))) else {
-        return f64::INFINITY;
+        return Held::FAILED;
     };
     let curves = match kinds.1 {
         Some(kind) => {
             let curve_runs: Vec<Run<DVector<f64>>> = mine.iter().map(|r| r.curve_run(tests)).collect();
             match held_out::<FunctionalSurrogate>(kind, &curve_runs, &|r| held(index(&curve_runs, r))) {
                 Ok(c) => Some(c),
-                Err(_) => return f64::INFINITY,
+                Err(_) => return Held::FAILED,
             }
         }
         None => None,
@@ -222,9 +244,8 @@ fn held_out_error(
 /// design, the emulators fitted to every run but the design's latest batch — the planner's
 /// Gaussian process of the response over the designs, and with curves the study's curve emulator
 /// across the designs ([`CurvesAcrossFit`]) — their RMS error there in units of the tests' noise of
-/// the mean, the largest over the outputs (`None`: the design has no run yet; infinite: the
-/// emulators could not be fitted without them).
-pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) -> Vec<Option<f64>> {
+/// the mean ([`Held`]; `None`: the design has no run yet).
+pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) -> Vec<Option<Held>> {
     use rayon::prelude::*;
     let values: Vec<Vec<f64>> = tests.designs.iter().map(|t| t.values.clone()).collect();
     let joint = crate::emulate::sequential::shared::joint_bounds(&values, bounds);
@@ -249,13 +270,13 @@ pub fn measured_errors_across(tests: &Tests, runs: &[RunData], bounds: &Bounds) 
             let held = |i: usize| runs[i].design == t.name && runs[i].batch == last;
             let fitted = held_out::<gp::Emulator>(&joint, &response_runs, &|r| held(ordered[index(&response_runs, r)]));
             let Ok(mut response) = fitted else {
-                return Some(f64::INFINITY);
+                return Some(Held::FAILED);
             };
             response.runs = response.runs.iter().map(|&k| ordered[k]).collect();
             let curves = match tests.whitening {
                 Some(_) => match held_out::<CurvesAcrossFit>(&curves, &curve_runs, &|r| held(index(&curve_runs, r))) {
                     Ok(c) => Some(c),
-                    Err(_) => return Some(f64::INFINITY),
+                    Err(_) => return Some(Held::FAILED),
                 },
                 None => None,
             };
@@ -321,16 +342,17 @@ impl RunData<'_> {
     }
 }
 
-/// The RMS error over `held` of the emulated outputs per output, in units of the tests' noise of
-/// the mean, the largest over the outputs (infinite where nothing could be compared, or an
-/// emulator could not predict). A run without an output is skipped: its truth is not there.
-fn rms_in_noise(tests: &Tests, t: &TestedDesign, held: &[&RunData], emulated: &[Emulated]) -> f64 {
+/// The errors over `held` of the emulated outputs, in units of the tests' noise of the mean
+/// ([`Held`]: failed where nothing could be compared, or an emulator could not predict). A run
+/// without an output is skipped: its truth is not there.
+fn rms_in_noise(tests: &Tests, t: &TestedDesign, held: &[&RunData], emulated: &[Emulated]) -> Held {
     let mut sq = vec![0.0; t.observed.len()];
+    let mut sum = 0.0;
     let mut n = 0usize;
     for (r, e) in held.iter().zip(emulated) {
         let Some(y) = e.response else { continue };
         if y.is_nan() {
-            return f64::INFINITY;
+            return Held::FAILED;
         }
         let curve = match &e.curve {
             Some(None) => continue,
@@ -343,14 +365,18 @@ fn rms_in_noise(tests: &Tests, t: &TestedDesign, held: &[&RunData], emulated: &[
             continue;
         }
         n += 1;
+        sum += (truth[0] - emulated[0]) / t.noise[0].sqrt();
         for k in 0..sq.len() {
             sq[k] += (truth[k] - emulated[k]).powi(2) / t.noise[k];
         }
     }
     if n == 0 {
-        return f64::INFINITY;
+        return Held::FAILED;
     }
-    sq.iter().map(|s| (s / n as f64).sqrt()).fold(0.0, f64::max)
+    Held {
+        rms: sq.iter().map(|s| (s / n as f64).sqrt()).fold(0.0, f64::max),
+        bias: sum / n as f64,
+    }
 }
 
 pub use crate::emulate::fits::kind_for;
