@@ -262,20 +262,13 @@ fn small_fixed_designs_are_confirmed_by_the_solver() {
     let cases: Vec<Case> = (0..16u64)
         .map(|i| {
             let mut rng = ChaCha8Rng::seed_from_u64(base + i);
-            let hidden = i % 2 == 0;
-            Case {
-                e: rng.random_range(60_000.0..76_000.0),
-                kr: if hidden { rng.random_range(0.1..0.5) } else { 0.0 },
-                hs: (7..=13).map(f64::from).collect(),
-                specimens: 3,
-                cv: rng.random_range(0.002..0.005),
-                seed: base + 1000 + i,
-                sampling: format!(
-                    "{{method: lhs, count: {}, seed: 1, check_runs: 2}}",
-                    [6, 8][rng.random_range(0..2usize)]
-                ),
-                surrogate: ["linear", "quadratic"][rng.random_range(0..2usize)],
-            }
+            let mut case = drawn_beam(&mut rng, i % 2 == 0, base + 1000 + i);
+            case.sampling = format!(
+                "{{method: lhs, count: {}, seed: 1, check_runs: 2}}",
+                [6, 8][rng.random_range(0..2usize)]
+            );
+            case.surrogate = ["linear", "quadratic"][rng.random_range(0..2usize)];
+            case
         })
         .collect();
     let results = family_runs::in_parallel(&cases, run);
@@ -295,17 +288,7 @@ fn sequential_designs_with_a_crude_surrogate_are_confirmed_by_the_solver() {
     let cases: Vec<Case> = (0..12u64)
         .map(|i| {
             let mut rng = ChaCha8Rng::seed_from_u64(base + 500 + i);
-            let hidden = i % 2 == 0;
-            Case {
-                e: rng.random_range(60_000.0..76_000.0),
-                kr: if hidden { rng.random_range(0.1..0.5) } else { 0.0 },
-                hs: (7..=13).map(f64::from).collect(),
-                specimens: 3,
-                cv: rng.random_range(0.002..0.005),
-                seed: base + 1500 + i,
-                sampling: "{method: sequential, seed: 1}".into(),
-                surrogate: "quadratic",
-            }
+            drawn_beam(&mut rng, i % 2 == 0, base + 1500 + i)
         })
         .collect();
     let results = family_runs::in_parallel(&cases, run);
@@ -335,6 +318,22 @@ fn sequential_designs_with_a_crude_surrogate_are_confirmed_by_the_solver() {
                 );
             }
         }
+    }
+}
+
+/// A beam of the confirmation families: E ~ U(60,000, 76,000) MPa, a hidden clamp kr ~ U(0.1, 0.5)
+/// or none, 0.2–0.5 % noise, three specimens at h = 7…13; sampled sequentially with a quadratic
+/// surrogate unless the caller draws another plan (its tests from `seed`).
+fn drawn_beam(rng: &mut ChaCha8Rng, hidden: bool, seed: u64) -> Case {
+    Case {
+        e: rng.random_range(60_000.0..76_000.0),
+        kr: if hidden { rng.random_range(0.1..0.5) } else { 0.0 },
+        hs: (7..=13).map(f64::from).collect(),
+        specimens: 3,
+        cv: rng.random_range(0.002..0.005),
+        seed,
+        sampling: "{method: sequential, seed: 1}".into(),
+        surrogate: "quadratic",
     }
 }
 

@@ -144,17 +144,29 @@ impl Uncertainty {
         if self.paired.is_empty() || jacobian.nrows() != self.variance.len() || fitted.is_empty() {
             return None;
         }
-        let a = DMatrix::from_fn(fitted.len(), jacobian.ncols(), |r, c| {
-            weights[fitted[r]] * jacobian[(fitted[r], c)]
-        });
-        let svd = a.svd(true, true);
-        let tol = 1e-12 * svd.singular_values.max().max(f64::MIN_POSITIVE);
-        let shift = |e: &DVector<f64>| {
-            let b = DVector::from_iterator(fitted.len(), fitted.iter().map(|&i| weights[i] * e[i]));
-            svd.solve(&b, tol).unwrap_or_else(|_| DVector::zeros(jacobian.ncols()))
-        };
-        Some(self.paired.iter().map(shift).collect())
+        Some(absorbing_shifts(jacobian, weights, fitted, &self.paired))
     }
+}
+
+/// For each error vector e (one entry per row of `jacobian`), the parameters' least-squares shift
+/// that absorbs it, δ = (WJ)⁺We over the `fitted` rows in the metric `weights` (1/σ of each row):
+/// e − Jδ is the part no fit of the parameters takes ([`Uncertainty::beyond`]).
+pub fn absorbing_shifts(
+    jacobian: &DMatrix<f64>,
+    weights: &[f64],
+    fitted: &[usize],
+    errors: &[DVector<f64>],
+) -> Vec<DVector<f64>> {
+    let a = DMatrix::from_fn(fitted.len(), jacobian.ncols(), |r, c| {
+        weights[fitted[r]] * jacobian[(fitted[r], c)]
+    });
+    let svd = a.svd(true, true);
+    let tol = 1e-12 * svd.singular_values.max().max(f64::MIN_POSITIVE);
+    let shift = |e: &DVector<f64>| {
+        let b = DVector::from_iterator(fitted.len(), fitted.iter().map(|&i| weights[i] * e[i]));
+        svd.solve(&b, tol).unwrap_or_else(|_| DVector::zeros(jacobian.ncols()))
+    };
+    errors.iter().map(shift).collect()
 }
 
 #[cfg(test)]

@@ -54,7 +54,7 @@ pub fn unabsorbed_errors(s: &Screening, held: &[Option<Held>], alpha: f64) -> Op
         measured.len(),
         measured.iter().map(|&i| held[i].map_or(0.0, |h| h.bias)),
     );
-    let shifted = unabsorbed(&j, &e, &train)?;
+    let shifted = unabsorbed(&j, &e, &train);
     // The spread about a design's mean error is kept whole; its mean only as far as θ leaves it.
     let error: Vec<f64> = (measured.iter().zip(shifted.iter()))
         .map(|(&i, u)| held[i].map_or(0.0, |h| ((h.rms * h.rms - h.bias * h.bias).max(0.0) + u * u).sqrt()))
@@ -70,19 +70,14 @@ pub fn unabsorbed_errors(s: &Screening, held: &[Option<Held>], alpha: f64) -> Op
     Some(out)
 }
 
-/// The part of the errors `e` outside the columns of the slope `j` fitted on the `train` rows:
-/// e − J (J_tᵀJ_t)⁺ J_tᵀ e_t, over every row (the validation rows get the training fit's δ).
-pub fn unabsorbed(j: &DMatrix<f64>, e: &DVector<f64>, train: &[bool]) -> Option<DVector<f64>> {
+/// The part of the errors `e` outside the columns of the (whitened) slope `j` fitted on the
+/// `train` rows: e − J (J_tᵀJ_t)⁺ J_tᵀ e_t, over every row (the validation rows get the training
+/// fit's δ), as [`crate::emulate::uncertainty::absorbing_shifts`] splits the diagnosis's errors.
+pub fn unabsorbed(j: &DMatrix<f64>, e: &DVector<f64>, train: &[bool]) -> DVector<f64> {
     let rows: Vec<usize> = (0..train.len()).filter(|&i| train[i]).collect();
-    let jt = j.select_rows(&rows);
-    let et = e.select_rows(&rows);
-    let info = jt.transpose() * &jt;
-    let inverse = info
-        .clone()
-        .pseudo_inverse(1e-12 * info.norm().max(f64::MIN_POSITIVE))
-        .ok()?;
-    let delta = inverse * jt.transpose() * et;
-    Some(e - j * delta)
+    let ones = vec![1.0; train.len()];
+    let delta = &crate::emulate::uncertainty::absorbing_shifts(j, &ones, &rows, std::slice::from_ref(e))[0];
+    e - j * delta
 }
 
 /// ∂μ/∂θ of the response at `x` by central differences of 1e-4 of each parameter's range, divided
@@ -127,11 +122,11 @@ mod tests {
         let j = DMatrix::from_column_slice(4, 1, &[1.0, 2.0, 3.0, 4.0]);
         let train = [true, true, true, false];
         let along = DVector::from_column_slice(&[0.5, 1.0, 1.5, 2.0]);
-        let u = unabsorbed(&j, &along, &train).unwrap();
+        let u = unabsorbed(&j, &along, &train);
         assert!(u.amax() < 1e-12, "{u}");
         // e = (1, 0, 0, 0): δ = (Σ j e)/(Σ j²) over training = 1/14.
         let across = DVector::from_column_slice(&[1.0, 0.0, 0.0, 0.0]);
-        let u = unabsorbed(&j, &across, &train).unwrap();
+        let u = unabsorbed(&j, &across, &train);
         let expected = [1.0 - 1.0 / 14.0, -2.0 / 14.0, -3.0 / 14.0, -4.0 / 14.0];
         for (a, b) in u.iter().zip(expected) {
             assert!((a - b).abs() < 1e-12, "{u}");
