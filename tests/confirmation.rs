@@ -239,6 +239,25 @@ fn the_issues_beam_sampled_sequentially_names_the_clamp() {
     // The issue's bound: the screening stops once the error its E cannot absorb is within the
     // tolerance, the misfit standing with it counted (126 runs before, 34 of them refining it).
     assert!(runs <= 100, "{runs} solver runs");
+    // Its last batch records the error that decided: within the tolerance at every design, where
+    // the whole measured error (the quadratic's in 1/E, the same relative function of E at every
+    // design) is not.
+    let tolerance = r["sampling"]["tolerance"].as_f64().unwrap();
+    let last = (r["sampling"]["sequence"].as_array().unwrap().iter())
+        .rfind(|b| b["stage"] == "screening")
+        .unwrap();
+    let decided = last["unabsorbed_error"]
+        .as_object()
+        .expect("the unabsorbed error recorded");
+    assert!(
+        decided.values().all(|v| v.as_f64().is_some_and(|v| v <= tolerance)),
+        "{last}"
+    );
+    let whole = last["emulator_error"].as_object().unwrap();
+    assert!(
+        whole.values().any(|v| v.as_f64().is_some_and(|v| v > tolerance)),
+        "{last}"
+    );
     let clamp = d["confirmation"]
         .as_array()
         .and_then(|c| c.iter().find(|c| c["model"] == "clamp compliance"))

@@ -518,7 +518,13 @@ impl<'a> Runner<'a> {
             .rev()
             .find(|l| l.batch == b && l.stage == stage.name)
         {
-            last.done(&names, (&measured, &predicted), &stage.names, &posterior);
+            last.done(
+                &names,
+                (&measured, &predicted),
+                matters.as_deref(),
+                &stage.names,
+                &posterior,
+            );
         }
         Assessed {
             open,

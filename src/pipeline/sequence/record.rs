@@ -112,6 +112,11 @@ pub struct BatchErrors {
     /// Per tested design: the emulators' own predictive error at the posterior, same units
     /// (`null`: it cannot be computed, no run of the design finished).
     pub predicted_error: IndexMap<String, Option<f64>>,
+    /// Per tested design, where the screening read only the measured error its parameters cannot
+    /// absorb (the uncorrected model's misfit standing with it; [`super::absorbed`]): that error,
+    /// same units, which decided instead of `emulator_error`. Absent otherwise.
+    #[serde(skip_serializing_if = "IndexMap::is_empty", default)]
+    pub unabsorbed_error: IndexMap<String, Option<f64>>,
 }
 
 /// The posterior's mean and 95 % interval of each variable of the space once a batch was in.
@@ -450,6 +455,7 @@ impl Batch {
         &mut self,
         designs: &[String],
         (measured, predicted): (&[Option<f64>], &[f64]),
+        unabsorbed: Option<&[Option<f64>]>,
         names: &[String],
         posterior: &crate::emulate::sequential::Posterior,
     ) {
@@ -459,6 +465,9 @@ impl Batch {
             self.errors
                 .predicted_error
                 .insert(d.clone(), p.is_finite().then_some(*p));
+        }
+        for (d, u) in designs.iter().zip(unabsorbed.into_iter().flatten()) {
+            self.errors.unabsorbed_error.insert(d.clone(), *u);
         }
         for (j, n) in names.iter().enumerate() {
             self.posterior.estimates.insert(n.clone(), posterior.mean[j]);
