@@ -1084,9 +1084,12 @@ fn describe_common(
     // With several outputs (whitened curve features, each in units of its noise), the one where
     // the pair differs most: the numbers shown are where the difference is.
     let points = observation_points(cx, &d);
-    let gap = |pt: &Vec<f64>| (ea.predict(pt) - eb.predict(pt)).abs();
+    let gaps: Vec<f64> = points
+        .iter()
+        .map(|pt| (ea.predict(pt) - eb.predict(pt)).abs())
+        .collect();
     let k = (0..points.len())
-        .max_by(|&a, &b| gap(&points[a]).total_cmp(&gap(&points[b])))
+        .max_by(|&a, &b| gaps[a].total_cmp(&gaps[b]))
         .unwrap_or(0);
     let pt = &points[k];
     let (ya, yb) = (ea.predict(pt), eb.predict(pt));

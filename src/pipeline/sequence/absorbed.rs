@@ -46,10 +46,7 @@ pub fn unabsorbed_errors(s: &Screening, held: &[Option<Held>], alpha: f64) -> Op
     if train.iter().filter(|&&t| t).count() <= p {
         return None;
     }
-    let slope = |i: usize| slope_at(&s.emulators[i], mode, s.bounds, s.sites[i].noise[0].sqrt());
-    let rows: Option<Vec<Vec<f64>>> = measured.iter().map(|&i| slope(i)).collect();
-    let rows = rows?;
-    let j = DMatrix::from_fn(measured.len(), p, |a, k| rows[a][k]);
+    let j = slope(s, &measured)?;
     let e = DVector::from_iterator(
         measured.len(),
         measured.iter().map(|&i| held[i].map_or(0.0, |h| h.bias)),
@@ -80,20 +77,24 @@ pub fn unabsorbed(j: &DMatrix<f64>, e: &DVector<f64>, train: &[bool]) -> DVector
     e - j * delta
 }
 
-/// ∂μ/∂θ of the response at `x` by central differences of 1e-4 of each parameter's range, divided
-/// by the tests' noise of the mean `sd` (`None`: the site has no response emulator).
-fn slope_at(emulators: &SiteEmulators, x: &[f64], bounds: &Bounds, sd: f64) -> Option<Vec<f64>> {
-    let width = bounds.width();
-    (0..x.len())
-        .map(|k| {
-            let h = 1e-4 * width[k];
-            let (mut up, mut down) = (x.to_vec(), x.to_vec());
-            up[k] += h;
-            down[k] -= h;
-            let at = |x: &[f64]| emulators.predict(x).and_then(|y| y.first().copied());
-            Some((at(&up)? - at(&down)?) / (2.0 * h * sd))
-        })
-        .collect()
+/// The response's slope at the posterior's mode at each of the `measured` designs, whitened by the
+/// tests' noise of the mean: one row per design, one column per parameter in the unit cube (a
+/// column's scale leaves the span it absorbs as it is), by [`crate::base::optimize::jacobian`]
+/// (`None`: a design's emulators cannot predict there).
+fn slope(s: &Screening, measured: &[usize]) -> Option<DMatrix<f64>> {
+    let whitened = |u: &DVector<f64>| {
+        let x = s.bounds.from_unit(u);
+        DVector::from_iterator(
+            measured.len(),
+            measured.iter().map(|&i| {
+                let mu = s.emulators[i].predict(x.as_slice()).and_then(|y| y.first().copied());
+                mu.map_or(f64::NAN, |m| m / s.sites[i].noise[0].sqrt())
+            }),
+        )
+    };
+    let mode = s.bounds.to_unit(&DVector::from_column_slice(&s.posterior.mode));
+    let j = crate::base::optimize::jacobian(&whitened, &mode);
+    j.iter().all(|v| v.is_finite()).then_some(j)
 }
 
 /// The uncorrected model's χ² at the posterior's mode over the measured designs, each residual's
