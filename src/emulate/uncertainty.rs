@@ -16,6 +16,10 @@ pub struct Uncertainty {
     /// checked at (a fixed design checks every design at the same points): the error's shape
     /// across designs, whose second moment is its covariance.
     paired: Vec<DVector<f64>>,
+    /// Where no check point is shared (a sequential design checks each design at its own latest
+    /// runs, near the posterior): each observation's mean error over its check runs, the shape
+    /// across designs those runs share; the spread about it is the rest of `variance`.
+    means: Option<DVector<f64>>,
 }
 
 impl Uncertainty {
@@ -23,7 +27,7 @@ impl Uncertainty {
     /// relative errors at the design's check runs times the level (none where a design has no
     /// check runs).
     pub fn of_surrogates<'a>(model: &SurrogateModel, at: impl IntoIterator<Item = (&'a [f64], f64)>) -> Uncertainty {
-        let errors = at
+        let errors: Vec<Vec<(&[f64], f64)>> = at
             .into_iter()
             .map(|(design, level)| {
                 let checks = model.designs.iter().find(|d| d.values == design);
@@ -31,13 +35,13 @@ impl Uncertainty {
                 signed.iter().map(|(theta, e)| (theta.as_slice(), e * level)).collect()
             })
             .collect();
-        Uncertainty::of_errors(errors)
+        Uncertainty::of_errors(&errors).with_means(&errors)
     }
 
     /// Errors measured at check runs in several outputs, `checks` each (design, θ, the error in
     /// every output), read at observations `at` (design, output).
     pub fn of_outputs(at: &[(&[f64], usize)], checks: &[(&[f64], &[f64], DVector<f64>)]) -> Uncertainty {
-        let errors = at
+        let errors: Vec<Vec<(&[f64], f64)>> = at
             .iter()
             .map(|(design, k)| {
                 checks
@@ -47,12 +51,12 @@ impl Uncertainty {
                     .collect()
             })
             .collect();
-        Uncertainty::of_errors(errors)
+        Uncertainty::of_errors(&errors)
     }
 
     /// From each observation's errors at its check points (θ, error): their mean square, and the
     /// error vectors at the points every observation has.
-    fn of_errors(errors: Vec<Vec<(&[f64], f64)>>) -> Uncertainty {
+    fn of_errors(errors: &[Vec<(&[f64], f64)>]) -> Uncertainty {
         let variance = errors
             .iter()
             .map(|e| match e.len() {
@@ -70,7 +74,23 @@ impl Uncertainty {
                 column.map(DVector::from_vec)
             })
             .collect();
-        Uncertainty { variance, paired }
+        Uncertainty {
+            variance,
+            paired,
+            means: None,
+        }
+    }
+
+    /// Without shared check points, each observation's mean error over its own check runs as the
+    /// error's shape across designs, as the sequential screening reads its absorbed errors
+    /// (docs/sampling.md, "When it stops"), where every observation's error was measured.
+    /// `errors` as in [`Self::of_errors`].
+    fn with_means(mut self, errors: &[Vec<(&[f64], f64)>]) -> Uncertainty {
+        if self.paired.is_empty() && errors.iter().all(|e| !e.is_empty()) {
+            let mean = |e: &Vec<(&[f64], f64)>| e.iter().map(|(_, x)| x).sum::<f64>() / e.len() as f64;
+            self.means = Some(DVector::from_iterator(errors.len(), errors.iter().map(mean)));
+        }
+        self
     }
 
     /// Whether the errors are paired across the observations at some check point: their shape
@@ -97,15 +117,17 @@ impl Uncertainty {
     /// least-squares residual is unchanged by a covariance J A Jᵀ, Rao 1967), so it cannot excuse a
     /// misfit. Each observation's measured variance is counted in the share Σr²/Σe² of its error
     /// the shared points leave beyond the parameters (the variance itself draws on every check
-    /// run, shared or not). Without shared check points the error's shape across designs is
+    /// run, shared or not). Without shared check points, the observations' mean errors are split
+    /// so instead, and the spread about each mean (not a shift of the design's predictions) is
+    /// counted whole beside the mean's rest. Without either, the error's shape across designs is
     /// unknown, and its whole variance is counted ([`Self::variance`]).
     pub fn beyond(&self, jacobian: &DMatrix<f64>, weights: &[f64], fitted: &[usize]) -> Vec<f64> {
         let n = self.variance.len();
-        let Some(shifts) = self.shifts(jacobian, weights, fitted) else {
+        let Some((shapes, shifts)) = self.shifts(jacobian, weights, fitted) else {
             return self.variance.clone();
         };
         let (mut rest, mut whole) = (vec![0.0; n], vec![0.0; n]);
-        for (e, delta) in self.paired.iter().zip(&shifts) {
+        for (e, delta) in shapes.iter().zip(&shifts) {
             let r = e - jacobian * delta;
             for i in 0..n {
                 rest[i] += r[i] * r[i];
@@ -113,24 +135,26 @@ impl Uncertainty {
             }
         }
         (0..n)
-            .map(|i| match whole[i] > 0.0 {
-                true => self.variance[i] * rest[i] / whole[i],
-                false => self.variance[i],
+            .map(|i| match (&self.means, whole[i] > 0.0) {
+                (Some(_), _) => (self.variance[i] - whole[i]).max(0.0) + rest[i],
+                (None, true) => self.variance[i] * rest[i] / whole[i],
+                (None, false) => self.variance[i],
             })
             .collect()
     }
 
     /// The covariance of the parameters' shift the emulators' error causes, mean δδᵀ over the
-    /// shared check points, δ = (WJ)⁺We (see [`Self::beyond`]): the part of the error a fit absorbs
-    /// moves the fitted parameters by δ, an uncertainty of theirs that more tests do not reduce.
-    /// `None` without shared check points (the shape across designs, hence the shift, is unknown).
+    /// shared check points (or δδᵀ of the mean errors without them), δ = (WJ)⁺We (see
+    /// [`Self::beyond`]): the part of the error a fit absorbs moves the fitted parameters by δ, an
+    /// uncertainty of theirs that more tests do not reduce. `None` where the error's shape across
+    /// designs, hence the shift, is unknown.
     pub fn parameter_covariance(
         &self,
         jacobian: &DMatrix<f64>,
         weights: &[f64],
         fitted: &[usize],
     ) -> Option<DMatrix<f64>> {
-        let shifts = self.shifts(jacobian, weights, fitted)?;
+        let (_, shifts) = self.shifts(jacobian, weights, fitted)?;
         let p = jacobian.ncols();
         let sum = shifts
             .iter()
@@ -138,15 +162,23 @@ impl Uncertainty {
         Some(sum / shifts.len() as f64)
     }
 
-    /// At each shared check point, the parameters' least-squares shift that absorbs its error
-    /// vector, δ = (WJ)⁺We over the `fitted` observations.
-    fn shifts(&self, jacobian: &DMatrix<f64>, weights: &[f64], fitted: &[usize]) -> Option<Vec<DVector<f64>>> {
-        if self.paired.is_empty() || jacobian.nrows() != self.variance.len() || fitted.is_empty() {
+    /// The error vectors whose shape across designs is known (the shared check points', else the
+    /// mean errors), each with the parameters' least-squares shift that absorbs it, δ = (WJ)⁺We
+    /// over the `fitted` observations.
+    fn shifts(&self, jacobian: &DMatrix<f64>, weights: &[f64], fitted: &[usize]) -> Option<Split<'_>> {
+        let shapes = match &self.means {
+            Some(m) => std::slice::from_ref(m),
+            None => self.paired.as_slice(),
+        };
+        if shapes.is_empty() || jacobian.nrows() != self.variance.len() || fitted.is_empty() {
             return None;
         }
-        Some(absorbing_shifts(jacobian, weights, fitted, &self.paired))
+        Some((shapes, absorbing_shifts(jacobian, weights, fitted, shapes)))
     }
 }
+
+/// Error vectors across the observations, each with the parameters' shift that absorbs it.
+type Split<'a> = (&'a [DVector<f64>], Vec<DVector<f64>>);
 
 /// For each error vector e (one entry per row of `jacobian`), the parameters' least-squares shift
 /// that absorbs it, δ = (WJ)⁺We over the `fitted` rows in the metric `weights` (1/σ of each row):
@@ -183,6 +215,7 @@ mod tests {
         let jacobian = DMatrix::from_fn(5, 1, |i, _| -levels[i] / 70_000.0);
         let relative = [0.004, -0.006, 0.002];
         let u = Uncertainty {
+            means: None,
             variance: levels.iter().map(|y| y * y * 0.004f64.powi(2)).collect(),
             paired: relative
                 .iter()
@@ -237,7 +270,11 @@ mod tests {
         let variance = (0..n)
             .map(|i| paired.iter().map(|e| e[i] * e[i]).sum::<f64>() / 3.0)
             .collect();
-        let u = Uncertainty { variance, paired };
+        let u = Uncertainty {
+            variance,
+            paired,
+            means: None,
+        };
         let all: Vec<usize> = (0..n).collect();
         let beyond = u.beyond(&j, &w, &all);
         let ms = scales.iter().map(|s| s * s).sum::<f64>() / 3.0;
@@ -293,5 +330,43 @@ mod tests {
         let beyond = u.beyond(&j, &[1.0, 1.0], &[0, 1]);
         assert!((beyond[0] - u.variance(0) * 0.16 / 0.04).abs() < 1e-12, "{beyond:?}");
         assert!((beyond[1] - u.variance(1) * 0.16 / 0.36).abs() < 1e-12, "{beyond:?}");
+    }
+
+    /// A sequential design checks each design at its own runs: no point is shared, and the mean
+    /// errors carry the shape across designs. Worked by hand: means (0.03, 0.06, 0.09), the first
+    /// design's spread about its mean 1e-4.
+    #[test]
+    fn unpaired_errors_are_split_by_their_means_and_their_spread_is_kept() {
+        let samples: Vec<(Vec<f64>, f64)> = (0..4).map(|i| (vec![1.0 + i as f64], 2.0 + i as f64)).collect();
+        let bounds = crate::base::Bounds::new(vec![1.0], vec![4.0]);
+        let surrogate = Surrogate::fit(SurrogateKind::Linear, &samples, &bounds).unwrap();
+        let design = |v: f64, checks: Vec<(Vec<f64>, f64)>| DesignSurrogate {
+            design: format!("d{v}"),
+            values: vec![v],
+            surrogate: surrogate.clone(),
+            check: CheckError::signed(checks),
+            samples: 4,
+        };
+        let model = SurrogateModel {
+            designs: vec![
+                design(1.0, vec![(vec![1.0], 0.02), (vec![1.1], 0.04)]),
+                design(2.0, vec![(vec![2.0], 0.06), (vec![2.2], 0.06)]),
+                design(3.0, vec![(vec![3.0], 0.09)]),
+            ],
+        };
+        let at = [(&[1.0][..], 1.0), (&[2.0][..], 1.0), (&[3.0][..], 1.0)];
+        let u = Uncertainty::of_surrogates(&model, at);
+        assert!(!u.is_paired());
+        let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-15);
+        // Along J = (1, 2, 3) the means are all absorbed (δ = 0.03): the spread alone is left.
+        let along = DMatrix::from_column_slice(3, 1, &[1.0, 2.0, 3.0]);
+        let beyond = u.beyond(&along, &[1.0; 3], &[0, 1, 2]);
+        assert!(close(&beyond, &[1e-4, 0.0, 0.0]), "{beyond:?}");
+        let cov = u.parameter_covariance(&along, &[1.0; 3], &[0, 1, 2]).unwrap();
+        assert!((cov[(0, 0)] - 9e-4).abs() < 1e-15, "{cov}");
+        // Along (1, 1, 1): δ = 0.06, the means' rest (−0.03, 0, 0.03), the spread beside it.
+        let flat = DMatrix::from_element(3, 1, 1.0);
+        let beyond = u.beyond(&flat, &[1.0; 3], &[0, 1, 2]);
+        assert!(close(&beyond, &[1e-3, 0.0, 9e-4]), "{beyond:?}");
     }
 }
