@@ -202,6 +202,22 @@ fn the_former_fixed_design_is_named_as_the_solver_refits_it() {
         );
     }
     assert_eq!(d["extended"]["parameters"], refit["to"]);
+    // The next test reads the cause's model where the answer is, the refit, not the loop's fit.
+    let wanted: Vec<f64> = (d["next_test"]["measurements"].as_array().unwrap().iter())
+        .filter(|m| m["parameter"] == "sigma_y")
+        .flat_map(|m| m["values"].as_array().unwrap().iter().filter_map(|v| v.as_f64()))
+        .collect();
+    let at = |w: &str| refit[w]["sigma_y"].as_f64().unwrap();
+    let near = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
+    assert!(
+        wanted.iter().any(|&v| near(v, at("to"))),
+        "{wanted:?} against the refit {}",
+        at("to")
+    );
+    assert!(
+        !wanted.iter().any(|&v| near(v, at("from"))),
+        "{wanted:?} still at the loop's fit"
+    );
     for (name, truth) in [("sigma_y", 185.0), ("etan", 200.0)] {
         let [lo, hi] = [0, 1].map(|i| refit["interval95"][name][i].as_f64().unwrap());
         assert!(lo <= truth && truth <= hi, "{name}: {lo}–{hi}");

@@ -503,12 +503,14 @@ enum Judged {
 /// The verdict, confirmed by the solver: of the decision with the tests' noise alone and the one
 /// with the emulators' error counted, the first whose claims hold on the solver's runs at the
 /// fitted parameters; else the first none of whose claims is refuted (kept, said to be unjudged);
-/// else `emulator_limited`, worded from both.
+/// else `emulator_limited`, worded from both. Where the solver refits the named cause
+/// ([`super::refit`]), `refitted` reads the kept decision's next test again at that point (`None`:
+/// it could not, and the loop's stays).
 pub fn settle(
-    noise_alone: super::Diagnosis,
-    counted: super::Diagnosis,
+    (noise_alone, counted): (super::Diagnosis, super::Diagnosis),
     confirmations: Vec<Confirmation>,
     designs: &[String],
+    refitted: &dyn Fn(&super::Diagnosis) -> Option<Option<super::NextTest>>,
 ) -> super::Diagnosis {
     let differ =
         (noise_alone.finding.verdict, &noise_alone.finding.cause) != (counted.finding.verdict, &counted.finding.cause);
@@ -557,7 +559,11 @@ pub fn settle(
     let mut d = d;
     d.checked.confirmation = confirmations;
     d.checked.emulator = Some(reading);
-    d.with_solver_refit().worded_confirmation()
+    let mut d = d.with_solver_refit();
+    if let Some(t) = d.checked.solver_refit.is_some().then(|| refitted(&d)).flatten() {
+        d.explained.next_test = t;
+    }
+    d.worded_confirmation()
 }
 
 #[cfg(test)]

@@ -1182,6 +1182,9 @@ pub struct LoopModel<'a> {
     /// Its loop is still running (its emulators not yet within the tolerance): the decision then
     /// says whether anything its final model may show could change it ([`after_loop::AfterLoop::settled`]).
     pub running: bool,
+    /// Where the solver's confirmation moved its parameters ([`refit`]): the point handed over, at
+    /// which the next test reads it (not its fit through the emulators).
+    pub refit: Option<IndexMap<String, f64>>,
 }
 
 /// The diagnosis from all the evidence: the screening of `inputs`, then every model the loop
@@ -1202,6 +1205,7 @@ pub fn conclude(
                 Evidence::gather_at(&m.inputs, false, mixing).map(|e| Evidence {
                     checked: m.checked,
                     running: m.running,
+                    refit: m.refit.clone(),
                     ..e
                 })
             })
@@ -1236,6 +1240,8 @@ pub(crate) struct Evidence<'a> {
     /// The extensions the solver's runs over their amplitudes favoured where this evidence found no
     /// model error ([`open::Favoured`]): what the loop judges in its place ([`after_loop`]).
     pub favoured: Vec<String>,
+    /// A loop model's parameters as the solver's confirmation refitted them ([`LoopModel::refit`]).
+    pub refit: Option<IndexMap<String, f64>>,
 }
 
 impl<'a> Evidence<'a> {
@@ -1265,6 +1271,7 @@ impl<'a> Evidence<'a> {
             checked: true,
             running: false,
             favoured: Vec::new(),
+            refit: None,
         })
     }
 
@@ -1455,6 +1462,7 @@ impl<'a> Evidence<'a> {
                     verdict::Who::Extended(j) => {
                         next_test::Explanation::from_entry(&looped[j].cx, &looped[j].ranked.base, name(who), false)
                             .simulated_by(&loop_names[j])
+                            .at(looped[j].refit.as_ref())
                     }
                 })
                 .collect(),

@@ -121,6 +121,18 @@ impl<'e> Explanation<'e> {
         self
     }
 
+    /// The same explanation at `values` (by name) where given: the point handed over when the
+    /// solver's confirmation refitted its parameters ([`super::refit`]); its predictions there are
+    /// its emulators' across that small step, its slope and covariance the fit's.
+    pub fn at(mut self, values: Option<&IndexMap<String, f64>>) -> Self {
+        for (name, v) in values.into_iter().flatten() {
+            if let Some(j) = self.names.iter().position(|n| n == name) {
+                self.beta[j] = *v;
+            }
+        }
+        self
+    }
+
     /// The simulation it runs: `None` for the study's own (the screening's), else the hypothesis
     /// the loop extended it with.
     fn simulation(&self) -> Option<&str> {

@@ -4,6 +4,8 @@
 
 use std::path::PathBuf;
 
+use indexmap::IndexMap;
+
 use super::runs::RunContext;
 use super::{Event, Reporter, SolverRuns, curves, extend, extension_surrogates, sequence, values};
 use crate::calibrate::{CalibrationError, Model};
@@ -122,7 +124,7 @@ pub(super) fn diagnose_with_solver(
     after_the_loop(
         cx,
         (made, &mut runs.diagnosed),
-        (stage, &read, &inputs),
+        (&after, &read, &inputs),
         (looped, earlier),
         reporter,
     )
@@ -136,11 +138,11 @@ pub(super) fn diagnose_with_solver(
 fn after_the_loop(
     cx: RunContext,
     (made, diagnosed): (super::confirm::Made, &mut super::Diagnosed),
-    (stage, read, inputs): (Option<&curves::CurveStage>, &Reading, &[crate::diagnose::Inputs; 2]),
+    (after, read, inputs): (&AfterLoop, &Reading, &[crate::diagnose::Inputs; 2]),
     (looped, earlier): (Looped, Option<(Confirmed, Vec<String>)>),
     reporter: &mut dyn Reporter,
 ) -> Result<Diagnosis, Error> {
-    let study = cx.study;
+    let (study, stage) = (cx.study, after.stage);
     let (joint, models, [counted, noise_alone], [own, own_alone], loop_curves) = looped;
     let records = models
         .iter()
@@ -169,7 +171,23 @@ fn after_the_loop(
         joint: Some(&joint),
         confirmed: before,
     };
-    let (d, confirmation, residuals) = confirmed(cx, made, decided, (subjects, reuse), read, reporter)?;
+    // Where the solver refits the named cause, the next test is read again there: the kept
+    // decision (the emulators' error counted or not) made again with that model at the refit.
+    let refitted = |d: &Diagnosis| {
+        let counted = d
+            .checked
+            .emulator
+            .as_ref()
+            .is_none_or(|e| e.confirmed.as_deref().or(e.unjudged.as_deref()) != Some("noise_alone"));
+        let reading = Counting {
+            floor: 0.0,
+            emulator: counted,
+            refit: d.checked.solver_refit.as_ref(),
+        };
+        let again = after.conclude(&inputs[usize::from(!counted)], &models, &joint, reading);
+        again.ok()?.ok().map(|(d, _, _)| d.explained.next_test)
+    };
+    let (d, confirmation, residuals) = confirmed(cx, made, decided, (subjects, reuse), read, &refitted, reporter)?;
     // The runs made before the loop (the confirmation, the runs over the amplitudes) stay counted.
     let (d, confirmation) = match earlier {
         Some(((before, runs_before, _), _)) => (
@@ -243,7 +261,16 @@ fn without_the_loop(
     let decided =
         [(screening, true), (noise_alone, false)].map(|(d, c)| Finished::of(study, stage, read.problem(c), d, &[]));
     let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&[], &[], None));
-    confirmed(cx, made, decided, (subjects, Default::default()), read, reporter).map(Ok)
+    confirmed(
+        cx,
+        made,
+        decided,
+        (subjects, Default::default()),
+        read,
+        &|_| None,
+        reporter,
+    )
+    .map(Ok)
 }
 
 /// A decision with its words and, with curves, its features and residual curves.
@@ -277,6 +304,7 @@ fn confirmed(
     [counted, noise_alone]: [Finished; 2],
     (subjects, earlier): (Vec<super::confirm::Subject>, super::confirm::Earlier),
     read: &Reading,
+    refitted: &Refitted,
     reporter: &mut dyn Reporter,
 ) -> Result<Confirmed, Error> {
     let noise = noise_alone.diagnosis.record.noise.clone();
@@ -291,7 +319,8 @@ fn confirmed(
     let designs: Vec<String> = crate::plan::sweep::tested_designs(cx.study)
         .map(|(n, _)| n.clone())
         .collect();
-    let d = crate::diagnose::confirm::settle(noise_alone.diagnosis, counted.diagnosis, confirmations, &designs);
+    let decided = (noise_alone.diagnosis, counted.diagnosis);
+    let d = crate::diagnose::confirm::settle(decided, confirmations, &designs, refitted);
     // What "no model error" leaves open, read again from the solver over each open extension.
     let (d, open_runs) = match subjects.first() {
         Some(s) => super::open::over_amplitudes(
@@ -324,6 +353,10 @@ impl super::Diagnosed {
         d
     }
 }
+
+/// The kept decision's next test read again where the solver refitted its named cause
+/// ([`crate::diagnose::confirm::settle`]).
+type Refitted<'r> = dyn Fn(&Diagnosis) -> Option<Option<crate::diagnose::NextTest>> + 'r;
 
 /// A confirmed diagnosis, its confirmation runs, and its residual curves.
 type Confirmed = (
@@ -412,7 +445,11 @@ fn in_the_loop(
 ) -> Result<Result<Looped, CalibrationError>, Error> {
     let mut decide = |joint: &extend::JointRuns, floor: f64| -> Option<sequence::Provisional> {
         let models = after.models(chosen, joint).ok()?;
-        let counting = Counting { floor, emulator: true };
+        let counting = Counting {
+            floor,
+            emulator: true,
+            refit: None,
+        };
         let (d, own, _) = after.conclude(&inputs[0], &models, joint, counting).ok()?.ok()?;
         Some(provisional(chosen, &d, &own))
     };
@@ -421,6 +458,7 @@ fn in_the_loop(
     let counted = Counting {
         floor: 0.0,
         emulator: true,
+        refit: None,
     };
     let (d, own, curves) = match after.conclude(&inputs[0], &models, &joint, counted)? {
         Ok(c) => c,
@@ -429,6 +467,7 @@ fn in_the_loop(
     let alone = Counting {
         floor: 0.0,
         emulator: false,
+        refit: None,
     };
     let (d_alone, own_alone, _) = match after.conclude(&inputs[1], &models, &joint, alone)? {
         Ok(c) => c,
@@ -453,12 +492,22 @@ struct AfterLoop<'a> {
     favoured: &'a [String],
 }
 
-/// How the emulators' own error is counted in a decision: at least `floor` (a share of the tests'
-/// noise variance), or, without `emulator`, not at all (the tests' noise alone).
+/// How a decision reads the loop's models: the emulators' own error counted at least at `floor` (a
+/// share of the tests' noise variance), or, without `emulator`, not at all (the tests' noise
+/// alone); and, where the solver's confirmation refitted the named cause (`refit`), that model at
+/// the point handed over for the next test.
 #[derive(Debug, Clone, Copy)]
-struct Counting {
+struct Counting<'r> {
     floor: f64,
     emulator: bool,
+    refit: Option<&'r crate::diagnose::refit::SolverRefit>,
+}
+
+impl Counting<'_> {
+    /// The loop model of `hypothesis` at the solver's refit where it is the refitted one.
+    fn refit_of(&self, hypothesis: &str) -> Option<IndexMap<String, f64>> {
+        self.refit.filter(|r| r.model == hypothesis).map(|r| r.to.clone())
+    }
 }
 
 impl AfterLoop<'_> {
@@ -588,6 +637,7 @@ fn conclude_on_response(
             let mut l = extend::loop_model(study, m, &baseline, extensions);
             l.inputs.settings.emulator_floor = floor.floor;
             l.inputs.settings.emulator_counted = floor.emulator;
+            l.refit = floor.refit_of(&l.hypothesis);
             l
         })
         .collect();
@@ -638,11 +688,15 @@ fn conclude_on_curves(
     let looped: Vec<_> = models
         .iter()
         .zip(problems.iter().zip(&loop_inputs))
-        .map(|(m, (p, ci))| crate::diagnose::LoopModel {
-            hypothesis: study.diagnosis.hypotheses[m.hypothesis].name.clone(),
-            inputs: p.inputs(ci),
-            checked: m.checked,
-            running: m.running,
+        .map(|(m, (p, ci))| {
+            let hypothesis = study.diagnosis.hypotheses[m.hypothesis].name.clone();
+            crate::diagnose::LoopModel {
+                refit: floor.refit_of(&hypothesis),
+                hypothesis,
+                inputs: p.inputs(ci),
+                checked: m.checked,
+                running: m.running,
+            }
         })
         .collect();
     Ok(crate::diagnose::conclude(inputs, &looped, favoured).map(|(d, own)| (d, own, loop_curves)))

@@ -348,6 +348,7 @@ pub fn loop_model<'m>(
         inputs,
         checked: m.checked,
         running: m.running,
+        refit: None,
     }
 }
 
