@@ -288,26 +288,32 @@ mod tests {
         }
     }
 
+    /// Designs at one design variable's `values`, each with its check runs (θ, signed relative
+    /// error), on one linear surrogate (the errors are given, not computed from it).
+    fn checked_at(designs: Vec<(f64, Vec<(Vec<f64>, f64)>)>) -> SurrogateModel {
+        let samples: Vec<(Vec<f64>, f64)> = (0..4).map(|i| (vec![1.0 + i as f64], 2.0 + i as f64)).collect();
+        let bounds = crate::base::Bounds::new(vec![1.0], vec![4.0]);
+        let surrogate = Surrogate::fit(SurrogateKind::Linear, &samples, &bounds).unwrap();
+        let designs = (designs.into_iter())
+            .map(|(v, checks)| DesignSurrogate {
+                design: format!("d{v}"),
+                values: vec![v],
+                surrogate: surrogate.clone(),
+                check: CheckError::signed(checks),
+                samples: 4,
+            })
+            .collect();
+        SurrogateModel { designs }
+    }
+
     /// Errors are paired across designs only at check points every design was checked at; without
     /// such points the whole variance is counted.
     #[test]
     fn errors_are_paired_at_shared_check_points_only() {
-        let samples: Vec<(Vec<f64>, f64)> = (0..4).map(|i| (vec![1.0 + i as f64], 2.0 + i as f64)).collect();
-        let bounds = crate::base::Bounds::new(vec![1.0], vec![4.0]);
-        let surrogate = Surrogate::fit(SurrogateKind::Linear, &samples, &bounds).unwrap();
-        let design = |v: f64, checks: Vec<(Vec<f64>, f64)>| DesignSurrogate {
-            design: format!("d{v}"),
-            values: vec![v],
-            surrogate: surrogate.clone(),
-            check: CheckError::signed(checks),
-            samples: 4,
-        };
-        let model = SurrogateModel {
-            designs: vec![
-                design(1.0, vec![(vec![1.5], 0.01), (vec![2.5], -0.02)]),
-                design(2.0, vec![(vec![2.5], 0.03), (vec![3.5], 0.01)]),
-            ],
-        };
+        let model = checked_at(vec![
+            (1.0, vec![(vec![1.5], 0.01), (vec![2.5], -0.02)]),
+            (2.0, vec![(vec![2.5], 0.03), (vec![3.5], 0.01)]),
+        ]);
         let at = [(&[1.0][..], 10.0), (&[2.0][..], 20.0)];
         let u = Uncertainty::of_surrogates(&model, at);
         assert_eq!(u.paired.len(), 1, "only θ = 2.5 is shared");
@@ -337,23 +343,11 @@ mod tests {
     /// design's spread about its mean 1e-4.
     #[test]
     fn unpaired_errors_are_split_by_their_means_and_their_spread_is_kept() {
-        let samples: Vec<(Vec<f64>, f64)> = (0..4).map(|i| (vec![1.0 + i as f64], 2.0 + i as f64)).collect();
-        let bounds = crate::base::Bounds::new(vec![1.0], vec![4.0]);
-        let surrogate = Surrogate::fit(SurrogateKind::Linear, &samples, &bounds).unwrap();
-        let design = |v: f64, checks: Vec<(Vec<f64>, f64)>| DesignSurrogate {
-            design: format!("d{v}"),
-            values: vec![v],
-            surrogate: surrogate.clone(),
-            check: CheckError::signed(checks),
-            samples: 4,
-        };
-        let model = SurrogateModel {
-            designs: vec![
-                design(1.0, vec![(vec![1.0], 0.02), (vec![1.1], 0.04)]),
-                design(2.0, vec![(vec![2.0], 0.06), (vec![2.2], 0.06)]),
-                design(3.0, vec![(vec![3.0], 0.09)]),
-            ],
-        };
+        let model = checked_at(vec![
+            (1.0, vec![(vec![1.0], 0.02), (vec![1.1], 0.04)]),
+            (2.0, vec![(vec![2.0], 0.06), (vec![2.2], 0.06)]),
+            (3.0, vec![(vec![3.0], 0.09)]),
+        ]);
         let at = [(&[1.0][..], 1.0), (&[2.0][..], 1.0), (&[3.0][..], 1.0)];
         let u = Uncertainty::of_surrogates(&model, at);
         assert!(!u.is_paired());
