@@ -81,6 +81,17 @@ impl Uncertainty {
         }
     }
 
+    /// Errors known as each observation's mean square `mean_square` and mean `means` over its own
+    /// check runs (a sequential screening's held-out batches): the mean errors are the shape across
+    /// the observations, split by [`Self::beyond`] as a sequential study's are.
+    pub fn of_means(mean_square: Vec<f64>, means: DVector<f64>) -> Uncertainty {
+        Uncertainty {
+            variance: mean_square,
+            paired: Vec::new(),
+            means: Some(means),
+        }
+    }
+
     /// Without shared check points, each observation's mean error over its own check runs as the
     /// error's shape across designs, as the sequential screening reads its absorbed errors
     /// (docs/sampling.md, "When it stops"), where every observation's error was measured.
@@ -288,9 +299,12 @@ mod tests {
         }
     }
 
+    /// A design's check runs: (θ, signed relative error) each.
+    type Checks = Vec<(Vec<f64>, f64)>;
+
     /// Designs at one design variable's `values`, each with its check runs (θ, signed relative
     /// error), on one linear surrogate (the errors are given, not computed from it).
-    fn checked_at(designs: Vec<(f64, Vec<(Vec<f64>, f64)>)>) -> SurrogateModel {
+    fn checked_at(designs: Vec<(f64, Checks)>) -> SurrogateModel {
         let samples: Vec<(Vec<f64>, f64)> = (0..4).map(|i| (vec![1.0 + i as f64], 2.0 + i as f64)).collect();
         let bounds = crate::base::Bounds::new(vec![1.0], vec![4.0]);
         let surrogate = Surrogate::fit(SurrogateKind::Linear, &samples, &bounds).unwrap();

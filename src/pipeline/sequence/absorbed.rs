@@ -17,6 +17,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::sites::{Held, Tests};
 use crate::base::Bounds;
+use crate::emulate::Uncertainty;
 use crate::emulate::sequential::{Posterior, Site, SiteEmulators};
 
 /// What the screening's planner has in hand at a step.
@@ -47,14 +48,14 @@ pub fn unabsorbed_errors(s: &Screening, held: &[Option<Held>], alpha: f64) -> Op
         return None;
     }
     let j = slope(s, &measured)?;
-    let e = DVector::from_iterator(
-        measured.len(),
-        measured.iter().map(|&i| held[i].map_or(0.0, |h| h.bias)),
+    let of = |f: fn(&Held) -> f64| measured.iter().map(move |&i| held[i].as_ref().map_or(0.0, f));
+    let errors = Uncertainty::of_means(
+        of(|h| h.rms * h.rms).collect(),
+        DVector::from_iterator(measured.len(), of(|h| h.bias)),
     );
-    let shifted = unabsorbed(&j, &e, &train);
     // The spread about a design's mean error is kept whole; its mean only as far as θ leaves it.
-    let error: Vec<f64> = (measured.iter().zip(shifted.iter()))
-        .map(|(&i, u)| held[i].map_or(0.0, |h| ((h.rms * h.rms - h.bias * h.bias).max(0.0) + u * u).sqrt()))
+    let error: Vec<f64> = (errors.beyond(&j, &vec![1.0; measured.len()], &rows(&train)).into_iter())
+        .map(f64::sqrt)
         .collect();
     let (chi2, dof) = misfit(s, &measured, &error, p)?;
     if crate::diagnose::stats::chi2_sf(chi2, dof as f64) >= alpha {
@@ -67,14 +68,9 @@ pub fn unabsorbed_errors(s: &Screening, held: &[Option<Held>], alpha: f64) -> Op
     Some(out)
 }
 
-/// The part of the errors `e` outside the columns of the (whitened) slope `j` fitted on the
-/// `train` rows: e − J (J_tᵀJ_t)⁺ J_tᵀ e_t, over every row (the validation rows get the training
-/// fit's δ), as [`crate::emulate::uncertainty::absorbing_shifts`] splits the diagnosis's errors.
-pub fn unabsorbed(j: &DMatrix<f64>, e: &DVector<f64>, train: &[bool]) -> DVector<f64> {
-    let rows: Vec<usize> = (0..train.len()).filter(|&i| train[i]).collect();
-    let ones = vec![1.0; train.len()];
-    let delta = &crate::emulate::uncertainty::absorbing_shifts(j, &ones, &rows, std::slice::from_ref(e))[0];
-    e - j * delta
+/// The indices of the `train` rows.
+fn rows(train: &[bool]) -> Vec<usize> {
+    (0..train.len()).filter(|&i| train[i]).collect()
 }
 
 /// The response's slope at the posterior's mode at each of the `measured` designs, whitened by the
@@ -117,20 +113,29 @@ mod tests {
     use super::*;
 
     /// An error along the slope is absorbed whole; one across it is left as it was, to the
-    /// component the least squares cannot reach (checked against the normal equations by hand).
+    /// component the least squares cannot reach (checked against the normal equations by hand):
+    /// the split the screening reads, each design's mean error with no spread about it.
     #[test]
     fn an_error_along_the_slope_is_absorbed_and_one_across_it_is_not() {
         let j = DMatrix::from_column_slice(4, 1, &[1.0, 2.0, 3.0, 4.0]);
         let train = [true, true, true, false];
+        let unabsorbed = |e: &DVector<f64>| -> Vec<f64> {
+            let errors = Uncertainty::of_means(e.iter().map(|x| x * x).collect(), e.clone());
+            errors
+                .beyond(&j, &[1.0; 4], &rows(&train))
+                .into_iter()
+                .map(f64::sqrt)
+                .collect()
+        };
         let along = DVector::from_column_slice(&[0.5, 1.0, 1.5, 2.0]);
-        let u = unabsorbed(&j, &along, &train);
-        assert!(u.amax() < 1e-12, "{u}");
+        let u = unabsorbed(&along);
+        assert!(u.iter().all(|v| *v < 1e-12), "{u:?}");
         // e = (1, 0, 0, 0): δ = (Σ j e)/(Σ j²) over training = 1/14.
         let across = DVector::from_column_slice(&[1.0, 0.0, 0.0, 0.0]);
-        let u = unabsorbed(&j, &across, &train);
-        let expected = [1.0 - 1.0 / 14.0, -2.0 / 14.0, -3.0 / 14.0, -4.0 / 14.0];
+        let u = unabsorbed(&across);
+        let expected: [f64; 4] = [1.0 - 1.0 / 14.0, -2.0 / 14.0, -3.0 / 14.0, -4.0 / 14.0];
         for (a, b) in u.iter().zip(expected) {
-            assert!((a - b).abs() < 1e-12, "{u}");
+            assert!((a - b.abs()).abs() < 1e-12, "{u:?}");
         }
     }
 }
