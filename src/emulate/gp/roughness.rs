@@ -9,6 +9,8 @@
 //! optimiser works on v ∈ ℝᵖ with ln λ = lo + (hi − lo)·s(v), s the logistic function.
 
 use std::cell::RefCell;
+use std::collections::HashMap;
+use std::sync::{LazyLock, Mutex};
 
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
@@ -158,7 +160,43 @@ fn descend(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>, v0: Vec<f64>) -
 
 /// Roughness λ by maximum likelihood: L-BFGS from [`STARTS`] Latin-hypercube starts in the ln λ
 /// box, the best optimum kept.
+///
+/// The fit is a pure function of (x, z, f), and a study fits the same runs again and again (a
+/// design's held-out check, each candidate's reading, a curve's features at every batch): a fit
+/// already made in this process is read back, the same bits. Measured on
+/// `honeycomb-diagnosis-curves.yaml`: 6,249 fits of 3,695 distinct data, the repeats 65 % of the
+/// fits' n³ work.
 pub fn fit(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>) -> Vec<f64> {
+    static FITTED: LazyLock<Mutex<HashMap<blake3::Hash, Vec<f64>>>> = LazyLock::new(Default::default);
+    let key = data_key(x, z, f);
+    if let Some(roughness) = FITTED.lock().ok().and_then(|m| m.get(&key).cloned()) {
+        return roughness;
+    }
+    let roughness = maximise(x, z, f);
+    if let Ok(mut m) = FITTED.lock() {
+        // A bound on the memory of a long-lived process (a test binary): start afresh when full.
+        if m.len() >= 1 << 20 {
+            m.clear();
+        }
+        m.insert(key, roughness.clone());
+    }
+    roughness
+}
+
+/// The exact bits of the fit's data, with its shapes.
+fn data_key(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>) -> blake3::Hash {
+    let mut h = blake3::Hasher::new();
+    for d in [x.nrows(), x.ncols(), f.ncols()] {
+        h.update(&(d as u64).to_le_bytes());
+    }
+    for v in x.iter().chain(z.iter()).chain(f.iter()) {
+        h.update(&v.to_bits().to_le_bytes());
+    }
+    h.finalize()
+}
+
+/// [`fit`] without the memo.
+fn maximise(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>) -> Vec<f64> {
     let p = x.ncols();
     let starts = crate::base::latin_hypercube(STARTS, p, 0x5eed);
     let logit = |u: f64| {
@@ -188,6 +226,24 @@ mod tests {
         let z = y.add_scalar(-y.mean()) / y.variance().sqrt();
         let f = DMatrix::from_fn(n, 3, |i, c| if c == 0 { 1.0 } else { x[(i, c - 1)] });
         (x, z, f)
+    }
+
+    #[test]
+    fn a_repeated_fit_is_the_same_bits_and_a_reshaped_one_is_not_mistaken_for_it() {
+        // The memo must give what the descent gives, and tell data apart by shape as well as by
+        // bits: the same 72 numbers in the same order, read as 12 runs of 2 inputs and as 24 runs
+        // of 1 (x, then z, then f, each column by column).
+        let (x, z, f) = data(12);
+        let first = fit(&x, &z, &f);
+        assert_eq!(first, maximise(&x, &z, &f));
+        assert_eq!(fit(&x, &z, &f), first);
+        let bits: Vec<f64> = x.iter().chain(z.iter()).chain(f.iter()).copied().collect();
+        let flat = DMatrix::from_column_slice(24, 1, &bits[..24]);
+        let zz = DVector::from_column_slice(&bits[24..48]);
+        let ff = DMatrix::from_column_slice(24, 1, &bits[48..]);
+        let other = fit(&flat, &zz, &ff);
+        assert_eq!(other.len(), 1, "read back the 2-input fit: {other:?}");
+        assert_eq!(other, maximise(&flat, &zz, &ff));
     }
 
     #[test]
