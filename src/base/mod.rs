@@ -1,6 +1,6 @@
 //! The shared leaves below every stage: a box of variables ([`Bounds`]), Latin hypercubes, bounded
-//! least squares, the numerics' error, and how numbers are written in words. Nothing here imports
-//! any other module of the crate.
+//! least squares, a bounded memo, the numerics' error, and how numbers are written in words.
+//! Nothing here imports any other module of the crate.
 
 pub mod bounds;
 pub mod curve;
@@ -9,6 +9,7 @@ pub mod dyna_filters;
 pub mod format;
 pub mod grid;
 mod lhs;
+pub mod memo;
 pub mod number;
 pub mod optim;
 pub mod optimize;

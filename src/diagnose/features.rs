@@ -386,30 +386,22 @@ impl FeatureModel {
     }
 }
 
-const CACHE: usize = 200_000;
+/// Whitened feature vectors per (design, θ), keyed by their bits: every output k of a design asks
+/// for the same vector, and fits revisit points.
+struct Memo(crate::base::memo::Memo<Vec<u64>, Option<DVector<f64>>>);
 
-/// Whitened feature vectors per (design, θ): every output k of a design asks for the same vector,
-/// and fits revisit points. Cleared when it grows past [`CACHE`] entries.
-#[derive(Default)]
-struct Memo(std::sync::Mutex<std::collections::HashMap<Vec<u64>, Option<DVector<f64>>>>);
+impl Default for Memo {
+    fn default() -> Self {
+        Self(crate::base::memo::Memo::new(200_000))
+    }
+}
 
 impl Memo {
     /// Entry k of the vector at (d, θ), computed once.
     fn entry(&self, d: &[f64], theta: &[f64], k: usize, compute: impl FnOnce() -> Option<DVector<f64>>) -> f64 {
         let key: Vec<u64> = d.iter().chain(theta).map(|v| v.to_bits()).collect();
         let known = |z: &Option<DVector<f64>>| z.as_ref().map_or(f64::NAN, |z| z[k]);
-        if let Some(value) = self.0.lock().ok().and_then(|c| c.get(&key).map(known)) {
-            return value;
-        }
-        let z = compute();
-        let value = known(&z);
-        if let Ok(mut c) = self.0.lock() {
-            if c.len() >= CACHE {
-                c.clear();
-            }
-            c.insert(key, z);
-        }
-        value
+        self.0.read_or_compute(key, known, compute)
     }
 }
 

@@ -9,8 +9,7 @@
 //! optimiser works on v ∈ ℝᵖ with ln λ = lo + (hi − lo)·s(v), s the logistic function.
 
 use std::cell::RefCell;
-use std::collections::HashMap;
-use std::sync::{LazyLock, Mutex};
+use std::sync::LazyLock;
 
 use argmin::core::{CostFunction, Error, Executor, Gradient, State};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
@@ -19,6 +18,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use super::{GlsFit, gls_with_corr, symmetric_exp};
+use crate::base::memo::Memo;
 use crate::base::optim::FAILED;
 
 /// ln λ range in the unit cube: from nearly flat to wiggles of ~1/20 of the box.
@@ -167,20 +167,9 @@ fn descend(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>, v0: Vec<f64>) -
 /// `honeycomb-diagnosis-curves.yaml`: 6,249 fits of 3,695 distinct data, the repeats 65 % of the
 /// fits' n³ work.
 pub fn fit(x: &DMatrix<f64>, z: &DVector<f64>, f: &DMatrix<f64>) -> Vec<f64> {
-    static FITTED: LazyLock<Mutex<HashMap<blake3::Hash, Vec<f64>>>> = LazyLock::new(Default::default);
-    let key = data_key(x, z, f);
-    if let Some(roughness) = FITTED.lock().ok().and_then(|m| m.get(&key).cloned()) {
-        return roughness;
-    }
-    let roughness = maximise(x, z, f);
-    if let Ok(mut m) = FITTED.lock() {
-        // A bound on the memory of a long-lived process (a test binary): start afresh when full.
-        if m.len() >= 1 << 20 {
-            m.clear();
-        }
-        m.insert(key, roughness.clone());
-    }
-    roughness
+    // About 100 bytes an entry: a bound on the memory of a long-lived process (a test binary).
+    static FITTED: LazyLock<Memo<blake3::Hash, Vec<f64>>> = LazyLock::new(|| Memo::new(1 << 20));
+    FITTED.read_or_compute(data_key(x, z, f), Vec::clone, || maximise(x, z, f))
 }
 
 /// The exact bits of the fit's data, with its shapes.
