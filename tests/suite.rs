@@ -19,7 +19,8 @@ mod slurm_common;
 mod solvers;
 mod verdict_common;
 
-// The test files, one module each.
+// The test files, one module each; those that mostly wait are under `awaiting`, to start first.
+mod awaiting;
 mod bad_input;
 mod bad_solver_input;
 mod binout_extract;
@@ -52,7 +53,6 @@ mod extension;
 mod extract_crush;
 mod extract_lsdyna;
 mod extract_props;
-mod failed_runs;
 mod honeycomb_diagnosis;
 mod honeycomb_study;
 mod loop_verdict;
@@ -64,8 +64,6 @@ mod openradioss_study;
 mod output_checks;
 mod report_browser;
 mod scale_study;
-mod slurm_interrupt;
-mod slurm_live;
 mod solver_scatter;
 mod solver_study;
 mod study_curves;
