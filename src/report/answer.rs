@@ -640,6 +640,21 @@ impl Reading {
         f
     }
 
+    /// The favoured extension the next test would tell from the uncorrected model, if any: the
+    /// solver's runs over its amplitude already tell it from its absence with the tests in hand,
+    /// while the next test's specimens are read from the emulators those runs refuted.
+    fn settled_by_the_solver(&self) -> Option<&str> {
+        let [a, b] = &self.next.as_ref()?.choice.between;
+        let other = match (a.as_str(), b.as_str()) {
+            (h, "uncorrected") | ("uncorrected", h) => h,
+            _ => return None,
+        };
+        self.favoured()
+            .into_iter()
+            .map(|o| o.hypothesis.as_str())
+            .find(|h| *h == other)
+    }
+
     fn action_words(&self) -> String {
         let next = self.next.as_ref().map(next_words);
         match (self.verdict, next) {
@@ -676,7 +691,13 @@ impl Reading {
                             .join(" and ")
                     ),
                 },
-                n.map_or(String::new(), |n| format!("; then {n}"))
+                match (self.settled_by_the_solver(), n) {
+                    (Some(h), _) => format!(
+                        "; with the solver's runs, the tests in hand already rule out the absence of '{h}', so \
+                         no further test is asked for until the loop has decided"
+                    ),
+                    (None, n) => n.map_or(String::new(), |n| format!("; then {n}")),
+                }
             ),
             (_, Some(n)) => format!("Action: {n}."),
             (_, None) => "Action: look for the missing physics; no test in reach decides.".into(),
@@ -1138,6 +1159,72 @@ mod tests {
         let clamp = a.decided_by.find("over 'clamp' against its absence (χ² falls by 22.2");
         let shear = a.decided_by.find("over 'shear' against its absence (χ² falls by 20.4");
         assert!(clamp.is_some() && shear.is_some() && clamp < shear, "{}", a.decided_by);
+    }
+
+    /// A next test between `between`: 7 more specimens at C6T8.
+    fn a_next_test(between: [&str; 2]) -> NextTest {
+        let design: IndexMap<String, f64> = [("c".to_string(), 6.0), ("t".to_string(), 0.08)].into();
+        NextTest {
+            choice: crate::diagnose::TestChoice {
+                design,
+                why: String::new(),
+                advice: String::new(),
+                level: 0.001,
+                between: between.map(String::from),
+                predictions: [47.8, 48.3],
+                separation: 0.44,
+                compared: between.iter().map(|b| (b.to_string(), 48.0)).collect(),
+                already_tested: Some(("C6T8".into(), 4)),
+                output: None,
+            },
+            amount: crate::diagnose::TestAmount {
+                specimens: Some(11),
+                additional_specimens: Some(7),
+                power: Some(0.9),
+                expected_power: None,
+                programme: Vec::new(),
+                outside_range: false,
+                measurements: Vec::new(),
+                limited_by_emulators: false,
+            },
+        }
+    }
+
+    /// The solver's runs over an extension's amplitude already tell it from its absence: a next
+    /// test for that, read from the emulators they refuted, is not asked for; one between two
+    /// extensions (favoured each against its absence, not against each other) still is.
+    #[test]
+    fn no_test_is_asked_for_what_the_solver_already_tells() {
+        let mut r = reading(Verdict::EmulatorLimited);
+        r.open = vec![Open {
+            hypothesis: "shear".into(),
+            amplitude: q("s", 0.03, Some([0.01, 0.05]), ""),
+            parameter: Some(q("sigma_y", 190.0, Some([180.0, 200.0]), "MPa")),
+            favoured: Some([20.4, 17.14]),
+        }];
+        for between in [["shear", "uncorrected"], ["uncorrected", "shear"]] {
+            r.next = Some(a_next_test(between));
+            let a = r.answer();
+            assert!(!a.action.contains("specimen"), "{}", a.action);
+            assert!(
+                a.action
+                    .contains("the tests in hand already rule out the absence of 'shear', so no further test"),
+                "{}",
+                a.action
+            );
+        }
+        for between in [["shear", "clamp"], ["clamp", "uncorrected"]] {
+            r.next = Some(a_next_test(between));
+            let a = r.answer();
+            assert!(
+                a.action.contains("; then test 7 more specimens at C6T8"),
+                "{}",
+                a.action
+            );
+        }
+        r.open[0].favoured = None;
+        r.next = Some(a_next_test(["shear", "uncorrected"]));
+        assert!(r.answer().action.contains("; then test 7 more specimens at C6T8"));
     }
 
     #[test]
