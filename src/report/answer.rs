@@ -937,6 +937,17 @@ mod tests {
         }
     }
 
+    /// A listed hypothesis the tests do not exclude (`favoured`: the solver's runs over its amplitude
+    /// favour it, [fall of χ², critical value]).
+    fn an_open(hypothesis: &str, amplitude: Quantity, sigma_y: Quantity, favoured: Option<[f64; 2]>) -> Open {
+        Open {
+            hypothesis: hypothesis.into(),
+            amplitude,
+            parameter: Some(sigma_y),
+            favoured,
+        }
+    }
+
     /// A reading of `verdict` with the figures every verdict may quote.
     fn reading(verdict: Verdict) -> Reading {
         let cause =
@@ -1087,12 +1098,12 @@ mod tests {
     #[test]
     fn what_no_model_error_leaves_open_is_said_with_its_range() {
         let mut r = reading(Verdict::NoModelError);
-        r.open = vec![Open {
-            hypothesis: "strain hardening".into(),
-            amplitude: q("etan", 257.8, Some([0.0, 257.8]), "MPa"),
-            parameter: Some(q("sigma_y", 210.7, Some([178.4, 210.7]), "MPa")),
-            favoured: None,
-        }];
+        r.open = vec![an_open(
+            "strain hardening",
+            q("etan", 257.8, Some([0.0, 257.8]), "MPa"),
+            q("sigma_y", 210.7, Some([178.4, 210.7]), "MPa"),
+            None,
+        )];
         let a = r.answer();
         assert!(
             a.verdict.ends_with(
@@ -1126,11 +1137,13 @@ mod tests {
     #[test]
     fn every_extension_the_solver_favours_is_said() {
         let mut r = reading(Verdict::EmulatorLimited);
-        let open = |name: &str, var: &str, drop: f64| Open {
-            hypothesis: name.into(),
-            amplitude: q(var, 0.03, Some([0.01, 0.05]), ""),
-            parameter: Some(q("sigma_y", 190.0, Some([180.0, 200.0]), "MPa")),
-            favoured: Some([drop, 17.14]),
+        let open = |name: &str, var: &str, drop: f64| {
+            an_open(
+                name,
+                q(var, 0.03, Some([0.01, 0.05]), ""),
+                q("sigma_y", 190.0, Some([180.0, 200.0]), "MPa"),
+                Some([drop, 17.14]),
+            )
         };
         r.open = vec![open("shear", "s", 20.4)];
         let a = r.answer();
@@ -1196,12 +1209,12 @@ mod tests {
     #[test]
     fn no_test_is_asked_for_what_the_solver_already_tells() {
         let mut r = reading(Verdict::EmulatorLimited);
-        r.open = vec![Open {
-            hypothesis: "shear".into(),
-            amplitude: q("s", 0.03, Some([0.01, 0.05]), ""),
-            parameter: Some(q("sigma_y", 190.0, Some([180.0, 200.0]), "MPa")),
-            favoured: Some([20.4, 17.14]),
-        }];
+        r.open = vec![an_open(
+            "shear",
+            q("s", 0.03, Some([0.01, 0.05]), ""),
+            q("sigma_y", 190.0, Some([180.0, 200.0]), "MPa"),
+            Some([20.4, 17.14]),
+        )];
         for between in [["shear", "uncorrected"], ["uncorrected", "shear"]] {
             r.next = Some(a_next_test(between));
             let a = r.answer();
