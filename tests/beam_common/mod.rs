@@ -30,7 +30,6 @@ pub fn bending(h: f64) -> f64 {
 }
 
 /// Timoshenko's shear term: E times its deflection per unit shear factor.
-#[allow(dead_code)] // confirmation.rs draws no shear
 pub fn shear(h: f64) -> f64 {
     F * L * (4.0 + 5.0 * NU) / (2.0 * B * h)
 }
