@@ -19,6 +19,7 @@ use rand_distr::{Distribution, Normal};
 use serde_json::Value;
 
 use crate::family_runs;
+use crate::verdict_common;
 
 use crate::beam_common;
 use beam_common::{bending, clamp, shear};
@@ -405,6 +406,7 @@ fn judge_family(cases: &[Case], results: &[Value]) {
     for (case, r) in cases.iter().zip(results) {
         let d = &r["diagnosis"];
         let verdict = d["verdict"].as_str().unwrap();
+        verdict_common::assert_listed_rivals_said(d);
         let (chi2, dof, critical) = exact_chi2(case, 0.999);
         eprintln!(
             "kr {:.3} E {:.0} cv {:.4} {} {}: exact χ² {chi2:.1} on {dof}; lab: {verdict} {}",

@@ -5,6 +5,7 @@
 
 use super::after_loop::AfterLoop;
 use super::ranking::RivalTest;
+use super::shapes::Origin;
 use super::verdict::{Decision, Verdict, Who};
 use super::{Candidate, Context, Extended, LackOfFit, NextTest, NoiseModel, Residual, Role};
 
@@ -850,11 +851,40 @@ fn evidence_lines(f: &Facts) -> Vec<String> {
             None => format!("'{}' is not rejected by the validation designs either.", r.rival),
         });
     }
+    out.extend(ruled_out(f));
     if let Some(e) = f.extended {
         out.extend(extended_lines(e));
     }
     out.extend(f.found.confounded.iter().map(|c| format!("{c}.")));
     out
+}
+
+/// Why a hypothesis the study lists is not among the leading explanations: the rival test the
+/// leader won against it (a listed cause is never dropped unsaid). One the loop's models judged is
+/// said by them instead.
+fn ruled_out(f: &Facts) -> Vec<String> {
+    let Some(leader) = f.ranked.leader.map(|l| f.ranked.entries[l].model.name().to_string()) else {
+        return Vec::new();
+    };
+    let listed = |name: &str| {
+        (f.ranked.entries.iter())
+            .any(|e| e.model.name() == name && e.model.shape.as_ref().is_some_and(|s| s.origin == Origin::Study))
+    };
+    (f.ranked.rivals.iter())
+        .filter(|r| r.beaten && listed(&r.rival) && !f.loop_names.contains(&r.rival))
+        .map(|r| match r.p_leader_given_rival {
+            Some(p) => format!(
+                "'{}' alone does not explain the misfit: with it in the model, '{leader}' still adds (encompassing test p = {} < α = {}).",
+                r.rival,
+                num(p),
+                f.cx.alpha()
+            ),
+            None => format!(
+                "'{}' is ruled out by the validation designs: its prediction misses them while '{leader}''s holds.",
+                r.rival
+            ),
+        })
+        .collect()
 }
 
 /// The leading candidates with their weights (and the uncorrected model's, where it is scored).

@@ -34,6 +34,33 @@ fn extended(d: &Value) -> &Value {
     }
 }
 
+/// A hypothesis the study lists (`origin: study`) that the leader beat in a rival test is never
+/// dropped unsaid: the evidence names it with the test that beat it, unless the loop's models
+/// judged it (`extensions`).
+pub fn assert_listed_rivals_said(d: &Value) {
+    let listed = |name: &str| {
+        (d["candidates"].as_array().into_iter().flatten()).any(|c| c["name"] == name && c["origin"] == "study")
+    };
+    let looped = |name: &str| (d["extensions"].as_array().into_iter().flatten()).any(|e| e["hypothesis"] == name);
+    let evidence: Vec<&str> = (d["evidence"].as_array().into_iter().flatten())
+        .filter_map(Value::as_str)
+        .collect();
+    for r in d["rivals"].as_array().into_iter().flatten() {
+        let name = r["rival"].as_str().unwrap();
+        if r["beaten"] != true || !listed(name) || looped(name) {
+            continue;
+        }
+        let said = match r["p_leader_given_rival"].as_f64() {
+            Some(_) => format!("'{name}' alone does not explain the misfit"),
+            None => format!("'{name}' is ruled out by the validation designs"),
+        };
+        assert!(
+            evidence.iter().any(|e| e.starts_with(&said)),
+            "'{name}' beaten but not said: {evidence:?}"
+        );
+    }
+}
+
 /// The diagnosis's decision rule, read back from the numbers it reports (α = 0.01): the screening's
 /// rule, and after the loop (`after_loop`) the rule that decides from the loop's models.
 #[track_caller]
@@ -52,6 +79,7 @@ pub fn assert_verdict_follows_evidence(d: &Value) {
         "no next test: {}",
         d["summary"]
     );
+    assert_listed_rivals_said(d);
     let words = d["headline"].as_str().unwrap().to_lowercase();
     let expected = match verdict {
         "cause_named" => "model error: cause named",
