@@ -874,9 +874,9 @@ fn ruled_out(f: &Facts) -> Vec<String> {
         .filter(|r| r.beaten && listed(&r.rival) && !f.loop_names.contains(&r.rival))
         .map(|r| match r.p_leader_given_rival {
             Some(p) => format!(
-                "'{}' alone does not explain the misfit: with it in the model, '{leader}' still adds (encompassing test p = {} < α = {}).",
+                "'{}' alone does not explain the misfit: with it in the model, '{leader}' still adds (encompassing test {}, below α = {}).",
                 r.rival,
-                num(p),
+                p_text(p),
                 f.cx.alpha()
             ),
             None => format!(
