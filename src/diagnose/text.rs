@@ -880,7 +880,8 @@ fn ruled_out(f: &Facts) -> Vec<String> {
                 f.cx.alpha()
             ),
             None => format!(
-                "'{}' is ruled out by the validation designs: its prediction misses them while '{leader}''s holds.",
+                "'{}' is ruled out by the validation designs: its prediction misses them while the prediction of \
+                 '{leader}' holds.",
                 r.rival
             ),
         })
