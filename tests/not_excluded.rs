@@ -63,7 +63,8 @@ fn write_study(dir: &Path, kr: f64, seed: u64) -> std::path::PathBuf {
 
 /// The oracle, sharing no code with lab: the exact model y = (bending(h) + kr·clamp(h))·u, u = 1/E,
 /// fitted to the drawn tests (`dir/tests.csv`) by weighted least squares in u at each kr on a grid
-/// of 10,000 over [0, 1]; the kr whose χ² is within t²(1 − α/2, ν) of the least. The noise is the
+/// of 10,000 over [0, 1]; the kr whose χ² is within t²(1 − α/2, ν) of the least, at the level `alpha`
+/// of one of the verdict's K amplitude tests (α/(2K): the range says what the verdict says). The noise is the
 /// form lab estimated from the replicates (`noise`: σ² = a² + (b·y)² on ν degrees of freedom, read
 /// from results.json; its estimate is the noise families' to check), each mean's variance σ²/3.
 fn exact_interval(dir: &Path, noise: &serde_json::Value, alpha: f64) -> [f64; 2] {
@@ -134,8 +135,10 @@ fn no_model_error_reads_what_it_leaves_open_from_solver_runs_over_the_amplitude(
         );
         let range = &open["amplitude"]["kr"];
         let (lo, hi) = (range[0].as_f64().unwrap(), range[1].as_f64().unwrap());
-        let alpha = d["levels"]["alpha"].as_f64().expect("alpha");
-        let [a, b] = exact_interval(dir.path(), &d["noise"], alpha);
+        // The level the verdict tests each of its K candidates at: α/2 shared over them.
+        let k = d["candidates"].as_array().expect("candidates").len() as f64;
+        let alpha_k = d["levels"]["candidates"].as_f64().expect("the candidates' level") / k;
+        let [a, b] = exact_interval(dir.path(), &d["noise"], alpha_k);
         said.push(format!(
             "kr {kr:.4}: [{lo:.4}, {hi:.4}], exact [{a:.4}, {b:.4}], {} values run",
             runs.len()

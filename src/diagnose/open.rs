@@ -4,7 +4,13 @@
 //!
 //! From each candidate's joint fit of θ and its amplitude γ (the screening's, [`super::evidence`]):
 //!
-//! - **not excluded**: γ̂ ± t(1 − α/2, ν)·SE(γ), the amplitudes a test at α would not reject;
+//! - **not excluded**: γ̂ ± t(1 − α_K/2, ν)·SE(γ), the amplitudes the candidates' amplitude test (at
+//!   its level α_K, one of the K candidates' Bonferroni shares) would not reject. The ranges are
+//!   read at the level the verdict tests each hypothesis at, so that they say the same as the
+//!   verdict: "no model error" holds exactly where every listed hypothesis's range takes in its
+//!   absence, and the ranges hold together at α (Bonferroni). At α, a hypothesis whose test the
+//!   search's size had left short of α_K would be "excluded from its absence" beside a verdict that
+//!   found no model error;
 //! - **the parameters over it**: the joint fit's regression of θ on γ, θ(γ) = θ̂ + Cov(θ, γ)/Var(γ)·(γ
 //!   − γ̂), at the range's ends: where the parameters would be were the effect there;
 //! - **detectable**: (t(1 − α_K/2, ν) + t(power, ν))·SE(γ), the smallest |γ| the candidates'
@@ -18,7 +24,7 @@
 //! its amplitude, where the pipeline runs it (a small loop, [`next_amplitudes`]): the profile
 //! χ²(v) — the tests' misfit with the parameters refitted at each value v of the extension's
 //! variable — from the runs' values interpolated linearly in v between the values run at, and the
-//! range is {v : χ²(v) − min χ² ≤ t²(1 − α/2, ν)}, the likelihood-ratio interval (Cox & Hinkley
+//! range is {v : χ²(v) − min χ² ≤ t²(1 − α_K/2, ν)}, the likelihood-ratio interval (Cox & Hinkley
 //! 1974, §7.2; for a response linear in v it is the one above, read without its linearisation).
 
 use indexmap::IndexMap;
@@ -33,7 +39,7 @@ use super::{Candidate, Inputs, Levels, NoiseModel, stats};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct NotExcluded {
     pub hypothesis: String,
-    /// The amplitude's range the tests do not exclude at α: an extension's variable, or the
+    /// The amplitude's range the tests do not exclude at α_K (module notes): an extension's variable, or the
     /// term's `amplitude`.
     pub amplitude: IndexMap<String, [f64; 2]>,
     /// Each calibrated parameter over that range.
@@ -105,25 +111,19 @@ pub fn not_excluded(
                 .iter()
                 .find(|s| s.name == c.shape.name)
                 .map_or(&[][..], |s| &s.ranges[..]);
-            one(c, declared, nu, (levels.alpha, levels.amplitude(k)), power)
+            one(c, declared, nu, levels.amplitude(k), power)
         })
         .collect()
 }
 
-fn one(
-    c: &Candidate,
-    declared: &[(String, f64, f64)],
-    nu: usize,
-    (alpha, alpha_k): (f64, f64),
-    power: f64,
-) -> Option<NotExcluded> {
+fn one(c: &Candidate, declared: &[(String, f64, f64)], nu: usize, alpha_k: f64, power: f64) -> Option<NotExcluded> {
     let se = c
         .checks
         .separability
         .amplitude_se
         .filter(|s| s.is_finite() && *s > 0.0)?;
     let nu = nu.max(1) as f64;
-    let half = stats::t_quantile(1.0 - alpha / 2.0, nu) * se;
+    let half = stats::t_quantile(1.0 - alpha_k / 2.0, nu) * se;
     let mut range = [c.fit.amplitude - half, c.fit.amplitude + half];
     // An extension's variable cannot leave the range the study declares for it (a hardening
     // modulus below 0): the open range is clipped to it, in γ (the variable over its probe value).
@@ -330,15 +330,16 @@ impl<'a> Profile<'a> {
     }
 
     /// The open range over the declared `[lo, hi]` of variable `name`: the likelihood-ratio interval
-    /// at `alpha` on a grid of 600 steps and the values run at; the parameters over it; the
-    /// smallest effect detectable from the anchor at level `alpha_k` with `power` (the profile's
+    /// at `alpha_k` (the candidates' amplitude test's level, module notes) on a grid of 600 steps
+    /// and the values run at; the parameters over it; the smallest effect detectable from the
+    /// anchor at that level with `power` (the profile's
     /// curvature between the anchor and the next value run at, t(1 − α_K/2, ν) + t(power, ν)
     /// standard errors).
     pub fn read(
         &self,
         hypothesis: &str,
         (name, lo, hi): (&str, f64, f64),
-        (alpha, alpha_k, power): (f64, f64, f64),
+        (alpha_k, power): (f64, f64),
     ) -> Option<NotExcluded> {
         let names = &self.inputs.space.parameter_names;
         let grid = (0..=600).map(|i| lo + (hi - lo) * i as f64 / 600.0);
@@ -349,7 +350,7 @@ impl<'a> Profile<'a> {
             .collect();
         let least = profile.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
         let nu = self.dof.max(1) as f64;
-        let crit = stats::t_quantile(1.0 - alpha / 2.0, nu).powi(2);
+        let crit = stats::t_quantile(1.0 - alpha_k / 2.0, nu).powi(2);
         let open: Vec<&(f64, f64, Vec<f64>)> = profile.iter().filter(|p| p.1 - least <= crit).collect();
         let values: Vec<f64> = open.iter().map(|p| p.0).collect();
         let mut amplitude = hull(&values)?;
@@ -375,13 +376,13 @@ impl<'a> Profile<'a> {
             let t = stats::t_quantile(1.0 - alpha_k / 2.0, nu) + stats::t_quantile(power, nu);
             self.points[0].value + t * se
         });
-        // The baseline judged against the best of the profile at the candidates' amplitude level.
+        // The baseline judged against the best of the profile at the same level: favoured exactly
+        // where the range leaves the baseline out.
         let best = profile.iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
         let drop = self.at(self.points[0].value)?.0 - least;
-        let critical = stats::t_quantile(1.0 - alpha_k / 2.0, nu).powi(2);
-        let favoured = (drop > critical).then(|| Favoured {
+        let favoured = (drop > crit).then(|| Favoured {
             drop,
-            critical,
+            critical: crit,
             level: alpha_k,
             at: std::iter::once((name.to_string(), best.0))
                 .chain(names.iter().cloned().zip(best.2.iter().copied()))
@@ -589,7 +590,7 @@ mod tests {
             at.extend(next.iter().map(|&(kr, a)| (kr, run(kr, a))));
             let points: Vec<(f64, &Confirmation)> = at.iter().map(|(v, c)| (*v, c)).collect();
             let profile = Profile::new(inputs, noise, &points)?;
-            let read = profile.read("compliance", ("kr", 0.0, 1.0), (0.05, alpha_k, 0.8))?;
+            let read = profile.read("compliance", ("kr", 0.0, 1.0), (alpha_k, 0.8))?;
             next = (next_amplitudes(&read, &profile.fresh(&read), (0.0, 1.0)).into_iter())
                 .filter_map(|v| Some((v, profile.at(v)?.1[0])))
                 .collect();
@@ -640,7 +641,8 @@ mod tests {
     /// The solver's runs over the amplitude against the extension's absence, at the amplitude
     /// test's level 0.01: over 300 drawn beams without a clamp, `favoured` in at most 9 (expected
     /// 3; 9 or more has chance 0.004 at the level); over 100 with kr = 0.1 (about ten of the
-    /// amplitude's standard errors), in at least 95.
+    /// amplitude's standard errors), in at least 95; and favoured exactly where the range leaves
+    /// kr = 0 out.
     #[test]
     fn the_runs_over_the_amplitude_reject_its_absence_at_the_amplitude_tests_level() {
         let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
@@ -651,7 +653,14 @@ mod tests {
                     let (obs, noise) = tests(kr, &mut rng);
                     let inputs = beam_inputs(obs, &model);
                     // No range from runs (the linearised one is empty at the declared floor): none run.
-                    looped_at(&inputs, &noise, 0.01).is_some_and(|o| o.favoured.is_some())
+                    let open = looped_at(&inputs, &noise, 0.01);
+                    // Read at the same level, the range leaves the absence out exactly where the
+                    // runs favour the clamp against it.
+                    if let Some(o) = &open {
+                        let [lo, _] = o.amplitude["kr"];
+                        assert_eq!(o.favoured.is_some(), lo > 0.0, "{o:?}");
+                    }
+                    open.is_some_and(|o| o.favoured.is_some())
                 })
                 .count()
         };

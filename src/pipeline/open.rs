@@ -195,9 +195,9 @@ impl Extension<'_> {
 
     /// The levels the range and the detectable effect are read at: α, one of the candidates'
     /// amplitude tests, and the power.
-    fn levels(&self, screening: &Inputs) -> (f64, f64, f64) {
+    fn levels(&self, screening: &Inputs) -> (f64, f64) {
         let levels = Levels::new(self.d.record.levels.alpha, true);
         let k = self.d.explained.candidates.len();
-        (levels.alpha, levels.amplitude(k), screening.settings.power)
+        (levels.amplitude(k), screening.settings.power)
     }
 }
