@@ -154,7 +154,11 @@ fn diagnose_draw(f: &Family, salt: u64, seed: u64) -> diagnose::Diagnosis {
 /// one-sided binomial test of "the rate is within the level".
 fn beyond_the_level(k: usize, n: u64) -> f64 {
     use statrs::distribution::{Binomial, DiscreteCDF};
-    if k == 0 { 1.0 } else { Binomial::new(0.01, n).unwrap().sf(k as u64 - 1) }
+    if k == 0 {
+        1.0
+    } else {
+        Binomial::new(0.01, n).unwrap().sf(k as u64 - 1)
+    }
 }
 
 /// Each clean family: model error claimed, and a term discovered, at a rate within the level α =
@@ -199,7 +203,10 @@ fn clean_families_with_few_replicates_claim_no_model_error() {
         }
         pooled = (pooled.0 + detected.len(), pooled.1 + discovered.len());
     }
-    assert!(failures.is_empty(), "false claims beyond the level α = 0.01 in {failures:?}");
+    assert!(
+        failures.is_empty(),
+        "false claims beyond the level α = 0.01 in {failures:?}"
+    );
     let draws = DRAWS * families().len() as u64;
     assert!(
         beyond_the_level(pooled.0, draws) >= 1e-3 && beyond_the_level(pooled.1, draws) >= 1e-3,
