@@ -316,11 +316,11 @@ fn leftover(x: &[&DVector<f64>], v: &DVector<f64>) -> f64 {
     left(x, v).0.norm_squared()
 }
 
-/// v − X X⁺ v, and the leverages h_ii of X (the hat matrix's diagonal, from the left singular
-/// vectors of X's numerical column space).
-fn left(x: &[&DVector<f64>], v: &DVector<f64>) -> (DVector<f64>, Vec<f64>) {
+/// v − X X⁺ v, the leverages h_ii of X (the hat matrix's diagonal, from the left singular vectors
+/// of X's numerical column space), and the least-squares coefficients X⁺ v.
+fn left(x: &[&DVector<f64>], v: &DVector<f64>) -> (DVector<f64>, Vec<f64>, DVector<f64>) {
     if x.is_empty() {
-        return (v.clone(), vec![0.0; v.len()]);
+        return (v.clone(), vec![0.0; v.len()], DVector::zeros(0));
     }
     let m = DMatrix::from_columns(&x.iter().map(|c| (*c).clone()).collect::<Vec<_>>());
     let svd = m.clone().svd(true, true);
@@ -335,7 +335,7 @@ fn left(x: &[&DVector<f64>], v: &DVector<f64>) -> (DVector<f64>, Vec<f64>) {
                 .sum()
         })
         .collect();
-    (v - m * coef, leverage)
+    (v - m * &coef, leverage, coef)
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -489,9 +489,7 @@ impl Leftover {
         let x = columns(setup, &setup.train, &w[..n], h);
         let e = DVector::from_fn(n, |i, _| w[i] * (y[i] - model(&setup.train[i], &theta)));
         let cols: Vec<DVector<f64>> = x.column_iter().map(|c| c.into_owned()).collect();
-        let (r, leverage) = left(&cols.iter().collect::<Vec<_>>(), &e);
-        let svd = x.clone().svd(true, true);
-        let coef = svd.solve(&e, 1e-10 * svd.singular_values.max()).unwrap();
+        let (r, leverage, coef) = left(&cols.iter().collect::<Vec<_>>(), &e);
         let xv = columns(setup, &setup.val, &w[n..], h);
         let inverse = (x.transpose() * &x).pseudo_inverse(1e-12).unwrap();
         let z_val = DVector::from_fn(setup.val.len(), |i, _| {

@@ -65,7 +65,8 @@ mod tests {
     }
 
     /// Against scipy's noncentral F, an independent implementation
-    /// (`scipy.stats.ncf.sf(f.ppf(0.99, k, ν), k, ν, λ)`, scipy 1.x).
+    /// (`scipy.stats.ncf.sf(f.ppf(0.99, k, ν), k, ν, λ)`, scipy 1.x, printed to full precision);
+    /// within 2e-3, the error of the 400-node quadrature over the denominator.
     #[test]
     fn power_f_agrees_with_scipy() {
         for (k, nu, lambda, scipy) in [
