@@ -261,6 +261,11 @@ fn hardening_named_from_the_curves(r: &serde_json::Value) {
     }
     let features = &d["features"];
     assert!(features["decided_by"].is_string(), "{features}");
+    // Sampled sequentially, each design's check runs are its own (none shared across designs),
+    // yet every design has some: the curve emulator's error is split by each design's mean.
+    let e = &features["emulator"];
+    assert!(e["by_means"] == true && e["paired"].is_null(), "{e}");
+    assert!(e["runs"].as_u64().is_some_and(|n| n >= 3), "{e}");
     let c = &r["curve_calibration"];
     assert_eq!(c["metric"], "mse");
     assert_eq!(c["points"], 121);

@@ -196,6 +196,9 @@ fn the_former_fixed_design_is_named_as_the_solver_refits_it() {
     );
     let d = &results["diagnosis"];
     assert_eq!(d["cause"], "strain hardening in the fold hinges", "{}", d["summary"]);
+    // A fixed design checks every design at the same points: the error pairs across the designs.
+    let e = &d["features"]["emulator"];
+    assert!(e["paired"] == true && e["by_means"].is_null(), "{e}");
     // `outside` names exactly the variables whose refit left the loop's own 95 % interval.
     let refit = &d["solver_refit"];
     let looped = (d["extensions"].as_array().unwrap().iter())

@@ -299,6 +299,11 @@ pub struct EmulatorError {
     /// absorb is counted ([`crate::emulate::Uncertainty::beyond`]).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub paired: bool,
+    /// The check runs pair nowhere (a sequential study's, each design's own near the posterior)
+    /// but every design has some: each design's mean error is split as the paired errors are, the
+    /// spread about it counted whole.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub by_means: bool,
 }
 
 /// The emulator's error at the check runs, whitened like the tests (Kennedy & O'Hagan 2001 count the
@@ -330,6 +335,7 @@ fn mean_square(w: &Whitening, errors: &[(&EmulatorCheck, DVector<f64>)]) -> Opti
     let n = errors.len();
     (n > 0).then(|| EmulatorError {
         paired: false,
+        by_means: false,
         runs: n,
         variance: (0..w.read.len())
             .map(|k| errors.iter().map(|(_, e)| e[k] * e[k]).sum::<f64>() / n as f64 / w.variance)
@@ -811,9 +817,10 @@ fn feature_shape(h: &CurveHypothesis, model: &FeatureModel) -> Shape {
     }
 }
 
-/// The curve emulator's error when its check runs pair across the designs (each design checked at
-/// the same points θ, as a fixed design's are) and no floor is asked for: its figures, and the
-/// errors in the whitened features as the diagnosis reads them (per observation, in the order of
+/// The curve emulator's error when its shape across designs is known — its check runs pair across
+/// the designs (each design checked at the same points θ, as a fixed design's are), or every design
+/// has its own (a sequential study's) — and no floor is asked for: its figures, and the errors in
+/// the whitened features as the diagnosis reads them (per observation, in the order of
 /// [`observations`]), so that the part a change of θ absorbs is not counted
 /// ([`crate::emulate::Uncertainty::beyond`]). `None`: counted in the whitening instead.
 fn paired_emulator_error(tests: &Whitening, ci: &CurveInputs) -> Option<(EmulatorError, crate::emulate::Uncertainty)> {
@@ -831,11 +838,11 @@ fn paired_emulator_error(tests: &Whitening, ci: &CurveInputs) -> Option<(Emulato
         .flat_map(|d| (0..tests.read.len()).map(move |k| (d.values.as_slice(), k)))
         .collect();
     let u = crate::emulate::Uncertainty::of_outputs(&at, &errors);
-    if !u.is_paired() {
+    if !u.has_shape() {
         return None;
     }
     let mut e = mean_square(tests, &whitened)?;
-    e.paired = true;
+    (e.paired, e.by_means) = (u.is_paired(), !u.is_paired());
     Some((e, u))
 }
 
@@ -851,6 +858,7 @@ fn with_emulator_error(whitening: Whitening, ci: &CurveInputs) -> Whitening {
         None if floor > 0.0 => {
             let none = EmulatorError {
                 paired: false,
+                by_means: false,
                 runs: 0,
                 variance: vec![0.0; whitening.read.len()],
             };
@@ -920,7 +928,7 @@ fn noise_source(ci: &CurveInputs, whitening: &Whitening) -> String {
              specimen's noise variance, per whitened feature), which more specimens do not reduce{}",
             e.runs,
             e.variance.iter().map(|v| num(*v)).collect::<Vec<_>>().join(", "),
-            match e.paired {
+            match e.paired || e.by_means {
                 true => " (only its part that a change of the parameters cannot absorb)",
                 false => "",
             }

@@ -39,7 +39,8 @@ impl Uncertainty {
     }
 
     /// Errors measured at check runs in several outputs, `checks` each (design, θ, the error in
-    /// every output), read at observations `at` (design, output).
+    /// every output), read at observations `at` (design, output); without shared check points,
+    /// split by each observation's mean error as [`Self::of_surrogates`]'.
     pub fn of_outputs(at: &[(&[f64], usize)], checks: &[(&[f64], &[f64], DVector<f64>)]) -> Uncertainty {
         let errors: Vec<Vec<(&[f64], f64)>> = at
             .iter()
@@ -51,7 +52,7 @@ impl Uncertainty {
                     .collect()
             })
             .collect();
-        Uncertainty::of_errors(&errors)
+        Uncertainty::of_errors(&errors).with_means(&errors)
     }
 
     /// From each observation's errors at its check points (θ, error): their mean square, and the
@@ -108,6 +109,12 @@ impl Uncertainty {
     /// across designs is known.
     pub fn is_paired(&self) -> bool {
         !self.paired.is_empty()
+    }
+
+    /// Whether the error's shape across designs is known, from shared check points or from each
+    /// observation's mean error over its own ([`Self::beyond`] then splits it).
+    pub fn has_shape(&self) -> bool {
+        self.is_paired() || self.means.is_some()
     }
 
     /// No error was measured at any observation.
@@ -376,5 +383,36 @@ mod tests {
         let flat = DMatrix::from_element(3, 1, 1.0);
         let beyond = u.beyond(&flat, &[1.0; 3], &[0, 1, 2]);
         assert!(close(&beyond, &[1e-3, 0.0, 9e-4]), "{beyond:?}");
+    }
+
+    /// A curve emulator's checks in two outputs, each design at its own θ (a sequential study's):
+    /// read per (design, output), split by their means as a response's are; with one design
+    /// unchecked the shape is unknown and the whole variance counts. Worked by hand as above.
+    #[test]
+    fn unpaired_errors_in_several_outputs_are_split_by_their_means() {
+        let (d1, d2) = ([1.0], [2.0]);
+        let (t1, t2, t3) = ([10.0], [11.0], [20.0]);
+        let e = |a: f64, b: f64| DVector::from_vec(vec![a, b]);
+        let checks = [
+            (&d1[..], &t1[..], e(0.02, 0.1)),
+            (&d1[..], &t2[..], e(0.04, 0.1)),
+            (&d2[..], &t3[..], e(0.06, -0.2)),
+        ];
+        let at = [(&d1[..], 0), (&d2[..], 0), (&d1[..], 1), (&d2[..], 1)];
+        let u = Uncertainty::of_outputs(&at, &checks);
+        assert!(!u.is_paired() && u.has_shape());
+        // Along J = (1, 2, 0, 0) the first output's means (0.03, 0.06) are absorbed, its spread
+        // about the first design's mean (1e-4) is left; the second output's is kept whole.
+        let j = DMatrix::from_column_slice(4, 1, &[1.0, 2.0, 0.0, 0.0]);
+        let beyond = u.beyond(&j, &[1.0; 4], &[0, 1, 2, 3]);
+        let expected = [1e-4, 0.0, 0.01, 0.04];
+        assert!(
+            beyond.iter().zip(expected).all(|(b, x)| (b - x).abs() < 1e-15),
+            "{beyond:?}"
+        );
+        let unchecked = Uncertainty::of_outputs(&[(&d1[..], 0), (&[3.0][..], 0)], &checks);
+        assert!(!unchecked.has_shape());
+        let whole = unchecked.beyond(&j.rows(0, 2).into_owned(), &[1.0; 2], &[0, 1]);
+        assert!((whole[0] - 1e-3).abs() < 1e-15 && whole[1] == 0.0, "{whole:?}");
     }
 }
