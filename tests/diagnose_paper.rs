@@ -103,6 +103,32 @@ fn cantilever_cause_is_shear_deformation_and_e_is_recovered() {
         "{}",
         unmeasured.finding.headline
     );
+    // Its next test asks for replicates, which measure the scatter the tests lack: every design of
+    // the programme has two specimens or more, the scatter's degrees of freedom are theirs, and the
+    // power is the t test's on them (stats::t_power, checked against scipy's noncentral t).
+    let replicates = unmeasured.explained.next_test.as_ref().expect("a next test");
+    let nu = replicates
+        .amount
+        .scatter_dof
+        .expect("replicates where the noise is not measured");
+    let programme = &replicates.amount.programme;
+    assert!(
+        !programme.is_empty() && programme.iter().all(|r| r.specimens >= 2),
+        "{programme:?}"
+    );
+    assert_eq!(nu, programme.iter().map(|r| r.specimens - 1).sum::<usize>());
+    assert!(
+        nu >= 2 && replicates.amount.power.is_some_and(|p| p >= 0.9 - 1e-9),
+        "{:?}",
+        replicates.amount
+    );
+    assert!(
+        replicates.choice.advice.contains("replicates that measure the scatter"),
+        "{}",
+        replicates.choice.advice
+    );
+    // With the noise stated, no replicates are asked for as such.
+    assert_eq!(d.explained.next_test.as_ref().and_then(|t| t.amount.scatter_dof), None);
     // The next test lies inside the design bounds [7, 13].
     let next = d.explained.next_test.as_ref().expect("a next test");
     let h = next.choice.design["h"];

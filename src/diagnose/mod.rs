@@ -772,6 +772,11 @@ pub struct TestAmount {
     /// not more specimens, come first.
     #[serde(skip_serializing_if = "std::ops::Not::not", default)]
     pub limited_by_emulators: bool,
+    /// Where the tests' noise is not measured (no replicates, none stated): the specimens are
+    /// replicates that measure it, and this is the degrees of freedom of that scatter, on which
+    /// the programme decides (`power` is then a t test's).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub scatter_dof: Option<usize>,
 }
 
 impl NextTest {

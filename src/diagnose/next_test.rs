@@ -29,7 +29,13 @@
 //!    designs alone), reported as a test outside the tested range;
 //! 5. for each parameter both explanations share, the standard uncertainty an independent
 //!    measurement of it (a coupon test of E, say) would need, with the existing tests, to tell them
-//!    apart at the same power: a prior row (β_j − β_A,j)/σ added to B's refit.
+//!    apart at the same power: a prior row (β_j − β_A,j)/σ added to B's refit;
+//! 6. where the tests' noise is not measured (no replicates, none stated), σ is only guessed from
+//!    the residuals of the models being judged, and the new specimens must measure it: they are
+//!    replicates, and the difference is judged on their own scatter, a t test on
+//!    ν = Σ(specimens at a design − 1) degrees of freedom, whose power is the noncentral t's with
+//!    noncentrality √λ ([`stats::t_power`]): each design of the programme gets a specimen more
+//!    until ν ≥ 2 and that power reaches `power`.
 
 use indexmap::IndexMap;
 use nalgebra::{DMatrix, DVector};
@@ -233,6 +239,9 @@ pub(crate) fn recommend(
     };
     if pick.decides {
         search.raise_for_uncertainty(&mut pick, z_alpha);
+        if noise.kind == NoiseKind::FromResiduals {
+            search.replicate(&mut pick, level);
+        }
     }
     let measurements = search.measurements(target);
     pick.limited_by_emulators = limited_by_emulators;
@@ -253,6 +262,9 @@ struct Pick {
     expected_power: Option<f64>,
     /// It does not decide, where exact simulations would: the emulators' error stands between.
     limited_by_emulators: bool,
+    /// Where the noise is not measured: the degrees of freedom of the scatter the programme's
+    /// replicates measure, on which it decides (module notes, 6).
+    scatter_dof: Option<usize>,
 }
 
 impl Pick {
@@ -265,6 +277,7 @@ impl Pick {
             decides,
             expected_power: None,
             limited_by_emulators: false,
+            scatter_dof: None,
         }
     }
 
@@ -681,6 +694,37 @@ impl<'a, 'e> Search<'a, 'e> {
         }
     }
 
+    /// Where the noise is not measured, the programme's specimens are replicates that measure it
+    /// (module notes, 6): one more at each of its designs until their scatter's degrees of freedom
+    /// ν reach 2 and the t test's power on them reaches `power`. The expected power, a normal one
+    /// with the noise known, does not apply to that t test and is dropped.
+    fn replicate(&self, pick: &mut Pick, level: f64) {
+        let power = self.cx.inputs.settings.power;
+        let tested: Vec<usize> = pick
+            .runs
+            .iter()
+            .map(|(d, _)| tested_at(self.cx, d).map_or(0, |t| t.1))
+            .collect();
+        loop {
+            let nu: usize = (pick.runs.iter().zip(&tested))
+                .map(|((_, m), t)| (m + t).saturating_sub(1))
+                .sum();
+            let reaches = nu >= 2 && stats::t_power(pick.lambda.max(0.0).sqrt(), nu as f64, level) >= power;
+            if reaches || pick.total() >= MAX_SPECIMENS {
+                pick.scatter_dof = Some(nu);
+                pick.expected_power = None;
+                return;
+            }
+            for run in pick.runs.iter_mut() {
+                run.1 += 1;
+            }
+            if let Some((l, pair)) = self.weakest(&pick.runs) {
+                pick.lambda = l;
+                pick.pair = pair;
+            }
+        }
+    }
+
     /// Mean power over draws of the truth's numbers, the weakest direction per draw; `None` when a
     /// truth has no covariance.
     fn expected_power(&self, runs: &[(Vec<f64>, usize)], z_alpha: f64) -> Option<f64> {
@@ -1017,6 +1061,7 @@ fn farthest_from_tested(cx: &Context, ex: &[&Explanation]) -> Option<NextTest> {
             outside_range: false,
             measurements: Vec::new(),
             limited_by_emulators: false,
+            scatter_dof: None,
         },
     })
 }
@@ -1146,6 +1191,7 @@ fn describe_common(
             outside_range: outside,
             measurements,
             limited_by_emulators: pick.limited_by_emulators,
+            scatter_dof: pick.scatter_dof,
         },
     }
 }
@@ -1159,10 +1205,11 @@ fn describe(
     measurements: Vec<Measurement>,
     level: f64,
 ) -> NextTest {
-    let z_alpha = stats::normal_quantile(1.0 - level / 2.0);
-    let power = pick
-        .decides
-        .then(|| stats::normal_cdf(pick.lambda.max(0.0).sqrt() - z_alpha));
+    let root = pick.lambda.max(0.0).sqrt();
+    let power = pick.decides.then(|| match pick.scatter_dof {
+        Some(nu) => stats::t_power(root, nu as f64, level),
+        None => stats::normal_cdf(root - stats::normal_quantile(1.0 - level / 2.0)),
+    });
     let mut t = describe_common(cx, ex, &pick, outside, measurements, power);
     let (ya, yb) = (t.choice.predictions[0], t.choice.predictions[1]);
     t.choice.separation = (ya - yb).abs() / sigma(0.5 * (ya + yb));
@@ -1245,6 +1292,13 @@ fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
         ),
     };
     s.push_str(&caveat);
+    if let Some(nu) = t.amount.scatter_dof {
+        s.push_str(&format!(
+            "; the tests in hand have no replicates, so these specimens are replicates that measure the scatter \
+             ({nu} degrees of freedom, on which a t test decides); their number takes a scatter like the \
+             best-ranked model's residuals"
+        ));
+    }
     if let Some(m) = measure {
         s.push_str(&format!("; alternatively, {m}"));
     }

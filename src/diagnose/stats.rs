@@ -64,6 +64,26 @@ pub fn t_quantile(q: f64, nu: f64) -> f64 {
     }
 }
 
+/// The power of the two-sided t test at level α on ν degrees of freedom against a shift of δ
+/// standard errors: P(|T′| > t(1 − α/2, ν)) for T′ noncentral t(ν, δ). T′ = (Z + δ)/√(V/ν) with
+/// V ~ χ²_ν, so the power is E_V[Φ(δ − c√(V/ν)) + Φ(−δ − c√(V/ν))], taken here by the midpoint
+/// rule over 1,000 equal steps of V's probability. (The shortcut T_ν(δ − c) overstates it at few
+/// degrees of freedom: 0.90 where it is 0.75 at ν = 2.)
+pub fn t_power(delta: f64, nu: f64, alpha: f64) -> f64 {
+    const STEPS: usize = 1000;
+    let c = t_quantile(1.0 - alpha / 2.0, nu);
+    let Ok(v) = ChiSquared::new(nu) else {
+        return normal_cdf(delta - c) + normal_cdf(-delta - c);
+    };
+    let total: f64 = (0..STEPS)
+        .map(|i| {
+            let s = (v.inverse_cdf((i as f64 + 0.5) / STEPS as f64) / nu).sqrt();
+            normal_cdf(delta - c * s) + normal_cdf(-delta - c * s)
+        })
+        .sum();
+    total / STEPS as f64
+}
+
 /// The `q` quantile of χ² with `k` degrees of freedom.
 pub fn chi2_quantile(q: f64, k: f64) -> f64 {
     ChiSquared::new(k).map_or(f64::NAN, |c| c.inverse_cdf(q))
@@ -142,6 +162,28 @@ pub fn cosine(a: &[f64], b: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Against scipy's noncentral t, an independent implementation (scipy 1.17.1:
+    /// `nct.sf(c, ν, δ) + nct.cdf(−c, ν, δ)`, c = `t.ppf(0.995, ν)`, the lower tail below 1e-16
+    /// where scipy gave none), at the level 0.01.
+    #[test]
+    fn t_power_agrees_with_scipys_noncentral_t() {
+        for (nu, delta, scipy) in [
+            (1.0, 20.0, 0.24659010926994912),
+            (2.0, 11.81, 0.7528692007390769),
+            (3.0, 7.479, 0.8038857586502299),
+            (4.0, 0.5, 0.01274186328141382 + 0.0016990840407932444),
+            (5.0, 5.508, 0.8519571905568059),
+            (10.0, 4.541, 0.8819882416023058),
+            (30.0, 4.06, 0.895467251344536),
+        ] {
+            let p = t_power(delta, nu, 0.01);
+            assert!(
+                (p - scipy).abs() < 5e-4,
+                "ν = {nu}, δ = {delta}: {p} against scipy's {scipy}"
+            );
+        }
+    }
 
     // Reference values from scipy.stats (sf / cdf), to 1e-8 relative unless noted.
     #[test]

@@ -194,15 +194,15 @@ impl Reading {
             _ => None,
         }
         .or_else(|| Some(uncorrected_model(d, &units)));
+        // Too few tests: the uncorrected model is the one quoted already; the others beside it.
         let alternatives = match d.finding.verdict {
-            Verdict::CannotTellApart => d
-                .finding
-                .leading
-                .iter()
-                .filter_map(|n| named_model(d, n, &units))
-                .collect(),
+            Verdict::CannotTellApart => d.finding.leading.iter().collect(),
+            Verdict::TooFewTests => d.finding.leading.iter().filter(|n| *n != "uncorrected").collect(),
             _ => Vec::new(),
-        };
+        }
+        .into_iter()
+        .filter_map(|n| named_model(d, n, &units))
+        .collect();
         Reading {
             verdict: d.finding.verdict,
             cause: d
@@ -320,7 +320,7 @@ pub(super) fn quoted_models(results: &Results, d: &Diagnosis) -> Vec<(Model, Opt
         let after = (!refit).then_some(e.gains.validation_error_after);
         out.push((cause_model(d, e, &units), after));
     }
-    if d.finding.verdict == Verdict::CannotTellApart {
+    if matches!(d.finding.verdict, Verdict::CannotTellApart | Verdict::TooFewTests) {
         for name in &d.finding.leading {
             if !out.iter().any(|(m, _)| m.model == *name)
                 && let Some(m) = named_model(d, name, &units)
@@ -504,7 +504,8 @@ impl Reading {
             Verdict::CannotTellApart => self.cannot_tell_words(),
             Verdict::TooFewTests => format!(
                 "Too few tests to tell whether the model errs. As calibrated, {model}, which holds only if the \
-                 model is right."
+                 model is right{}.",
+                self.under_each()
             ),
             Verdict::EmulatorLimited => match self.favoured().as_slice() {
                 [o] => format!(
@@ -557,23 +558,40 @@ impl Reading {
         )
     }
 
-    fn cannot_tell_words(&self) -> String {
-        let names: Vec<&str> = self.leading.iter().map(String::as_str).collect();
-        let values: Vec<String> = self
-            .alternatives
-            .iter()
+    /// Each leading explanation's parameters: `E = 68000 MPa under shear deformation`.
+    fn alternative_words(&self) -> Vec<String> {
+        (self.alternatives.iter())
             .map(|m| {
-                format!(
-                    "{} under {}",
-                    Model {
-                        correction: None,
-                        ..m.clone()
-                    }
-                    .words(),
-                    m.model
-                )
+                let bare = Model {
+                    correction: None,
+                    ..m.clone()
+                };
+                format!("{} under {}", bare.words(), m.model)
+            })
+            .collect()
+    }
+
+    /// `; with 'shear deformation' E = 68000 MPa, with 'root rotation' E = 78770 MPa` (empty with
+    /// no leading explanation beside the uncorrected model).
+    fn under_each(&self) -> String {
+        let each: Vec<String> = (self.alternatives.iter())
+            .map(|m| {
+                let bare = Model {
+                    correction: None,
+                    ..m.clone()
+                };
+                format!("with '{}' {}", m.model, bare.words())
             })
             .collect();
+        match each.is_empty() {
+            true => String::new(),
+            false => format!("; {}", each.join(", ")),
+        }
+    }
+
+    fn cannot_tell_words(&self) -> String {
+        let names: Vec<&str> = self.leading.iter().map(String::as_str).collect();
+        let values = self.alternative_words();
         let values = match values.is_empty() {
             true => String::new(),
             false => format!(": {}", values.join("; ")),
@@ -822,7 +840,8 @@ fn next_words(n: &NextTest) -> String {
         let tested = n.choice.already_tested.as_ref().map(|t| &t.0);
         match n.amount.additional_specimens.or(n.amount.specimens) {
             Some(k) => format!(
-                "test {k} more specimen{} at {}",
+                "test {k}{} specimen{} at {}",
+                if tested.is_some() { " more" } else { "" },
                 plural(k),
                 at(&n.choice.design, tested)
             ),
@@ -841,7 +860,13 @@ fn next_words(n: &NextTest) -> String {
                 } else {
                     String::new()
                 };
-                format!("{} more{what} at {}", p.additional, at(&p.design, p.tested_as.as_ref()))
+                // "more" only where specimens were tested already.
+                let more = if p.tested_as.is_some() { " more" } else { "" };
+                format!(
+                    "{}{more}{what} at {}",
+                    p.additional,
+                    at(&p.design, p.tested_as.as_ref())
+                )
             })
             .collect();
         format!("test {}", parts.join(" and "))
@@ -855,6 +880,11 @@ fn next_words(n: &NextTest) -> String {
         format!("to tell whether the model misses '{b}'")
     } else {
         format!("to tell '{a}' from '{b}'")
+    };
+    // Without a measured noise the specimens are replicates: they measure the scatter too.
+    let place = match n.amount.scatter_dof {
+        Some(_) => format!("{place} as replicates (these tests have none, so their scatter is measured too)"),
+        None => place,
     };
     let first = if n.amount.limited_by_emulators {
         "run more solver runs first (the explanations differ by less than their emulators' error), then "
@@ -1061,7 +1091,16 @@ mod tests {
             "{apart}"
         );
         assert!(apart.contains("sigma_y = 184.6 MPa (182.6–186.6) with etan = 195.2 MPa (171.2–219.2) under strain hardening; sigma_y = 190.1 MPa (188.1–192.1) under scale error"), "{apart}");
-        assert!(words(Verdict::TooFewTests).contains("holds only if the model is right"));
+        let few = words(Verdict::TooFewTests);
+        assert!(few.contains("holds only if the model is right"), "{few}");
+        // Each leading explanation's parameters beside it: their spread.
+        assert!(
+            few.contains(
+                "; with 'strain hardening' sigma_y = 184.6 MPa (182.6–186.6) with etan = 195.2 MPa (171.2–219.2), \
+                 with 'scale error' sigma_y = 190.1 MPa (188.1–192.1)."
+            ),
+            "{few}"
+        );
         let limited = words(Verdict::EmulatorLimited);
         assert!(
             limited.contains("decides whether the model fits or it misses strain hardening"),
@@ -1199,8 +1238,27 @@ mod tests {
                 outside_range: false,
                 measurements: Vec::new(),
                 limited_by_emulators: false,
+                scatter_dof: None,
             },
         }
+    }
+
+    /// "More" specimens only where some were tested; without a measured noise they are replicates.
+    #[test]
+    fn a_next_test_says_more_only_where_tested_and_replicates_where_the_noise_is_unmeasured() {
+        let mut n = a_next_test(["shear", "offset"]);
+        assert!(
+            next_words(&n).starts_with("test 7 more specimens at C6T8 (c = 6, t = 0.08) to tell"),
+            "{}",
+            next_words(&n)
+        );
+        n.choice.already_tested = None;
+        n.amount.scatter_dof = Some(6);
+        let words = next_words(&n);
+        assert!(
+            words.starts_with("test 7 specimens at c = 6, t = 0.08 as replicates (these tests have none"),
+            "{words}"
+        );
     }
 
     /// The solver's runs over an extension's amplitude already tell it from its absence: a next

@@ -58,6 +58,17 @@ pub struct ExprError {
     pub offset: Option<usize>,
 }
 
+/// Where an unknown name is a mathematical constant: how to define it (none is built in, so that
+/// exmex's `E` never shadows a Young's modulus).
+fn constant_hint(name: &str) -> String {
+    let value = match name {
+        "pi" | "PI" | "Pi" | "π" => "3.141592653589793",
+        "e" => "2.718281828459045",
+        _ => return String::new(),
+    };
+    format!(" (no constant is built in: define it under `constants`, e.g. `{name}: {value}`)")
+}
+
 /// A parsed expression bound to a symbol table.
 #[derive(Debug, Clone)]
 pub struct Expression {
@@ -79,12 +90,13 @@ impl Expression {
             .map(|name| {
                 symbols.index(name).ok_or_else(|| ExprError {
                     message: format!(
-                        "unknown symbol `{name}`; defined are: {}",
+                        "unknown symbol `{name}`; defined are: {}{}",
                         if symbols.is_empty() {
                             "(none)".to_string()
                         } else {
                             symbols.names().join(", ")
-                        }
+                        },
+                        constant_hint(name)
                     ),
                     offset: find_identifier(text, name),
                 })
@@ -191,6 +203,15 @@ mod tests {
         let err = Expression::compile("a*x + bb", &Symbols::new(["a", "x"])).unwrap_err();
         assert!(err.message.contains("`bb`"), "{}", err.message);
         assert_eq!(err.offset, Some(6));
+        assert!(!err.message.contains("constants"), "{}", err.message);
+    }
+
+    /// `pi` is not built in (nor is any constant): the error says how to define it.
+    #[test]
+    fn an_unknown_pi_says_how_to_define_it() {
+        let err = Expression::compile("pi*x", &Symbols::new(["x"])).unwrap_err();
+        assert!(err.message.contains("`pi: 3.141592653589793`"), "{}", err.message);
+        assert_eq!(err.offset, Some(0));
     }
 
     #[test]
