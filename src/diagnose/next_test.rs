@@ -1241,29 +1241,8 @@ fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
         None => (String::new(), String::new()),
     };
     let measure = measurement_words(&t.amount.measurements);
-    if !decides && t.amount.limited_by_emulators {
-        let mut s = format!(
-            "no programme of specimens makes the difference decisive (power {power:.0} % at α = {alpha}): the \
-             explanations differ by less than their emulators' own error, measured on solver runs they were not \
-             fitted to; with exact simulations a programme would decide, so more solver runs for their models come \
-             before more specimens"
-        );
-        if let Some(m) = measure {
-            s.push_str(&format!("; {m}"));
-        }
-        return s;
-    }
     if !decides {
-        let mut s = format!(
-            "no programme of up to three designs inside the design bounds makes the difference decisive (power \
-             {power:.0} % at α = {alpha}): the existing tests pin the explanations' parameters too loosely, so each \
-             can bend to new points"
-        );
-        s.push_str(&match measure {
-            Some(m) => format!("; {m}"),
-            None => "; tests at wider designs or an independent measurement of the parameters are needed".into(),
-        });
-        return s;
+        return undecided_advice(t, power, &alpha, measure);
     }
     let place = if t.amount.outside_range {
         "only designs outside the tested range decide: "
@@ -1302,6 +1281,33 @@ fn advice(cx: &Context, t: &NextTest, decides: bool) -> String {
     if let Some(m) = measure {
         s.push_str(&format!("; alternatively, {m}"));
     }
+    s
+}
+
+/// Where no programme decides: why (the emulators' error, or the parameters pinned too loosely),
+/// and what else would tell.
+fn undecided_advice(t: &NextTest, power: f64, alpha: &str, measure: Option<String>) -> String {
+    if t.amount.limited_by_emulators {
+        let mut s = format!(
+            "no programme of specimens makes the difference decisive (power {power:.0} % at α = {alpha}): the \
+             explanations differ by less than their emulators' own error, measured on solver runs they were not \
+             fitted to; with exact simulations a programme would decide, so more solver runs for their models come \
+             before more specimens"
+        );
+        if let Some(m) = measure {
+            s.push_str(&format!("; {m}"));
+        }
+        return s;
+    }
+    let mut s = format!(
+        "no programme of up to three designs inside the design bounds makes the difference decisive (power \
+         {power:.0} % at α = {alpha}): the existing tests pin the explanations' parameters too loosely, so each \
+         can bend to new points"
+    );
+    s.push_str(&match measure {
+        Some(m) => format!("; {m}"),
+        None => "; tests at wider designs or an independent measurement of the parameters are needed".into(),
+    });
     s
 }
 
