@@ -664,9 +664,12 @@ fn in_pool_family(
     // Each separable case's bound on the chance that the tests reject the truth's own model, and
     // the cases where they did.
     let (mut bounds, mut truth_rejected) = (Vec::new(), Vec::new());
-    // Seeds until ten fall in the class the family was built for (at most four times as many).
+    // Seeds until ten fall in the class the family was built for, at most ten times as many: the
+    // class's share of the draws is the generator's luck, not lab's (the large root rotation's: 9
+    // of 40 on seed base 808,080): at a share of 22.5 % a hundred draws fall short of ten with a
+    // chance of 0.0003 (binomial), forty with 0.59.
     let intended = |c: &[(usize, usize); 2]| if built_for == Class::Separable { c[0].1 } else { c[1].1 };
-    while intended(&counts) < SEEDS as usize && seeds < 4 * SEEDS {
+    while intended(&counts) < SEEDS as usize && seeds < 10 * SEEDS {
         let seed = seed_base() + seeds;
         seeds += 1;
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed ^ salt);
