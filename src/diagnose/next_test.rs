@@ -696,8 +696,9 @@ impl<'a, 'e> Search<'a, 'e> {
 
     /// Where the noise is not measured, the programme's specimens are replicates that measure it
     /// (module notes, 6): one more at each of its designs until their scatter's degrees of freedom
-    /// ν reach 2 and the t test's power on them reaches `power`. The expected power, a normal one
-    /// with the noise known, does not apply to that t test and is dropped.
+    /// ν reach 2 and the t test's power on them reaches `power` (short of it at the most specimens
+    /// sensible, no programme decides). The expected power, a normal one with the noise known, does
+    /// not apply to that t test and is dropped.
     fn replicate(&self, pick: &mut Pick, level: f64) {
         let power = self.cx.inputs.settings.power;
         let tested: Vec<usize> = pick
@@ -711,8 +712,8 @@ impl<'a, 'e> Search<'a, 'e> {
                 .sum();
             let reaches = nu >= 2 && stats::t_power(pick.lambda.max(0.0).sqrt(), nu as f64, level) >= power;
             if reaches || pick.total() >= MAX_SPECIMENS {
-                pick.scatter_dof = Some(nu);
-                pick.expected_power = None;
+                // Short of the power at the most specimens sensible: no programme decides.
+                (pick.scatter_dof, pick.expected_power, pick.decides) = (Some(nu), None, reaches);
                 return;
             }
             for run in pick.runs.iter_mut() {
