@@ -558,15 +558,16 @@ impl Reading {
         )
     }
 
-    /// Each leading explanation's parameters: `E = 68000 MPa under shear deformation`.
-    fn alternative_words(&self) -> Vec<String> {
+    /// Each leading explanation's parameters (without its correction) beside its name, as `each`
+    /// words them: `E = 68000 MPa under shear deformation`.
+    fn alternative_words(&self, each: impl Fn(&str, &str) -> String) -> Vec<String> {
         (self.alternatives.iter())
             .map(|m| {
                 let bare = Model {
                     correction: None,
                     ..m.clone()
                 };
-                format!("{} under {}", bare.words(), m.model)
+                each(&bare.words(), &m.model)
             })
             .collect()
     }
@@ -574,24 +575,18 @@ impl Reading {
     /// `; with 'shear deformation' E = 68000 MPa, with 'root rotation' E = 78770 MPa` (empty with
     /// no leading explanation beside the uncorrected model).
     fn under_each(&self) -> String {
-        let each: Vec<String> = (self.alternatives.iter())
-            .map(|m| {
-                let bare = Model {
-                    correction: None,
-                    ..m.clone()
-                };
-                format!("with '{}' {}", m.model, bare.words())
-            })
-            .collect();
-        match each.is_empty() {
-            true => String::new(),
-            false => format!("; {}", each.join(", ")),
+        match self
+            .alternative_words(|values, name| format!("with '{name}' {values}"))
+            .as_slice()
+        {
+            [] => String::new(),
+            each => format!("; {}", each.join(", ")),
         }
     }
 
     fn cannot_tell_words(&self) -> String {
         let names: Vec<&str> = self.leading.iter().map(String::as_str).collect();
-        let values = self.alternative_words();
+        let values = self.alternative_words(|values, name| format!("{values} under {name}"));
         let values = match values.is_empty() {
             true => String::new(),
             false => format!(": {}", values.join("; ")),
