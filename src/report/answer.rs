@@ -796,18 +796,19 @@ impl Reading {
     }
 }
 
-/// `χ² = 5.79 on 7 dof, p = 0.6; largest residual 1.6 σ at C6T5 (p = 0.79 over 9)`.
+/// `χ² = 5.79 on 7 dof, p = 0.6 by F(7, 6); largest residual 1.6 σ at C6T5 (p = 0.79 over 9, each by t(6))`.
 pub fn fit_words(l: &LackOfFit) -> String {
+    let (by_f, by_t) = crate::diagnose::text::references(l);
     let largest = l.largest.as_ref().map_or(String::new(), |r| {
         format!(
-            "; largest residual {:.1} σ at {} ({} over {})",
+            "; largest residual {:.1} σ at {} ({} over {}{by_t})",
             r.z.abs(),
             r.design,
             p_text(r.p_corrected),
             r.residuals
         )
     });
-    format!("χ² = {} on {} dof, {}{largest}", num(l.chi2), l.dof, p_text(l.p_value))
+    format!("χ² = {} on {} dof, {}{by_f}{largest}", num(l.chi2), l.dof, p_text(l.p_value))
 }
 
 /// `strain hardening with etan anywhere in 0–257.8 MPa (over which sigma_y = 178.4–210.7 MPa)`.
