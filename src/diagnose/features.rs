@@ -18,10 +18,11 @@
 //!   (ν = Σ(n_d − 1) degrees of freedom), σ_d² from what the scale leaves along the stroke
 //!   ((n_d − 1)(P − 1) degrees of freedom). Used only when the features' own scatter agrees with it:
 //!   whitened by it, their pooled sample covariance Ŝ (ν degrees of freedom) must pass the
-//!   likelihood-ratio test of Σ = I, `ν [tr Ŝ − ln det Ŝ − K] ~ χ²_{K(K+1)/2}` at α (Anderson 2003,
-//!   §10.8). Contrasts between features then rest on the noise along the whole stroke; the tests
-//!   still refer to F with ν denominator degrees of freedom, since the scale variance that dominates
-//!   the plateau level is known only from the specimens (conservative for the contrasts).
+//!   likelihood-ratio test of Σ = I, `ρ ν [tr Ŝ − ln det Ŝ − K] ~ χ²_{K(K+1)/2}` at α, with
+//!   Bartlett's correction ρ (Anderson 2003, §10.8.3). Contrasts between features then rest on the
+//!   noise along the whole stroke; the tests still refer to F with ν denominator degrees of
+//!   freedom, since the scale variance that dominates the plateau level is known only from the
+//!   specimens (conservative for the contrasts).
 //! - *pooled* (when the structure is rejected, or no stroke noise can be estimated): the pooled
 //!   within-design sample covariance S of φ (ν degrees of freedom). With it estimated, a test is
 //!   referred to F with ν − K + 1 denominator degrees of freedom and the variance scaled by
@@ -653,12 +654,23 @@ fn covariance_check(
         }
     }
     s /= nu as f64;
+    unit_covariance_test(&s, nu)
+}
+
+/// The test that a sample covariance `s` on `nu` degrees of freedom comes from Σ = I: the modified
+/// likelihood-ratio criterion ν [tr S − ln det S − K] times Bartlett's ρ = 1 − (2K² + 3K − 1) /
+/// (6ν(K + 1)), against χ² on K(K + 1)/2 (Anderson 2003, §10.8.3). Without ρ the χ² reference
+/// rejects a true Σ = I in 3.7 % of draws at ν = 6, K = 3 for a nominal 1 % (7.8 % at ν = 4): the
+/// few specimens of a curve study would lose their structured covariance to chance.
+pub fn unit_covariance_test(s: &DMatrix<f64>, nu: usize) -> Option<(f64, usize, f64)> {
+    let k = s.nrows() as f64;
     let det = s.determinant();
-    if det <= 0.0 {
+    if det <= 0.0 || nu == 0 {
         return None;
     }
-    let t = nu as f64 * (s.trace() - det.ln() - k as f64);
-    let f = k * (k + 1) / 2;
+    let rho = 1.0 - (2.0 * k * k + 3.0 * k - 1.0) / (6.0 * nu as f64 * (k + 1.0));
+    let t = rho * nu as f64 * (s.trace() - det.ln() - k);
+    let f = s.nrows() * (s.nrows() + 1) / 2;
     Some((t, f, super::stats::chi2_sf(t, f as f64)))
 }
 
@@ -952,6 +964,28 @@ impl super::Diagnosis {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Under Σ = I the corrected test rejects at its level: 20,000 Wishart draws per ν (seeded), the
+    /// share below α = 0.01 within 0.0025 of it (binomial standard deviation 0.0007; the χ²
+    /// reference without ρ gives 0.037 at ν = 6 and 0.078 at ν = 4, numpy, 200,000 draws each).
+    #[test]
+    fn the_unit_covariance_test_holds_its_level_with_few_specimens() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(61);
+        let (k, draws) = (3, 20_000);
+        for nu in [6, 8, 12] {
+            let mut rejected = 0;
+            for _ in 0..draws {
+                let x = DMatrix::from_fn(nu, k, |_, _| rng.sample::<f64, _>(rand_distr::StandardNormal));
+                let s = x.transpose() * &x / nu as f64;
+                let (_, f, p) = unit_covariance_test(&s, nu).unwrap();
+                assert_eq!(f, 6);
+                rejected += usize::from(p < 0.01);
+            }
+            let share = rejected as f64 / draws as f64;
+            assert!((share - 0.01).abs() < 0.0025, "ν = {nu}: {share} rejected at α = 0.01");
+        }
+    }
     use crate::extract::crush::Window;
     use crate::extract::grid::StrokeGrid;
 

@@ -1262,7 +1262,10 @@ mod tests {
     fn the_words_name_the_reference_of_an_estimated_noise() {
         let z = [("C6T70".to_string(), -7.653), ("C3T60".to_string(), 0.5)];
         let estimated = lack_of_fit(&LackOfFit::new(91.0, 7, 4, &z, 0.0125));
-        assert!(estimated.starts_with("χ² = 91 on 7 degrees of freedom, p = 0.013 by F(7, 4); "), "{estimated}");
+        assert!(
+            estimated.starts_with("χ² = 91 on 7 degrees of freedom, p = 0.013 by F(7, 4); "),
+            "{estimated}"
+        );
         assert!(estimated.ends_with("over 2, each by t(4))"), "{estimated}");
         let known = lack_of_fit(&LackOfFit::new(91.0, 7, KNOWN_DOF, &z, 0.0125));
         assert!(!known.contains(" by "), "{known}");

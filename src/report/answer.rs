@@ -808,7 +808,12 @@ pub fn fit_words(l: &LackOfFit) -> String {
             r.residuals
         )
     });
-    format!("χ² = {} on {} dof, {}{by_f}{largest}", num(l.chi2), l.dof, p_text(l.p_value))
+    format!(
+        "χ² = {} on {} dof, {}{by_f}{largest}",
+        num(l.chi2),
+        l.dof,
+        p_text(l.p_value)
+    )
 }
 
 /// `strain hardening with etan anywhere in 0–257.8 MPa (over which sigma_y = 178.4–210.7 MPa)`.
