@@ -657,11 +657,14 @@ fn covariance_check(
     unit_covariance_test(&s, nu)
 }
 
-/// The test that a sample covariance `s` on `nu` degrees of freedom comes from Σ = I: the modified
-/// likelihood-ratio criterion ν [tr S − ln det S − K] times Bartlett's ρ = 1 − (2K² + 3K − 1) /
-/// (6ν(K + 1)), against χ² on K(K + 1)/2 (Anderson 2003, §10.8.3). Without ρ the χ² reference
-/// rejects a true Σ = I in 3.7 % of draws at ν = 6, K = 3 for a nominal 1 % (7.8 % at ν = 4): the
-/// few specimens of a curve study would lose their structured covariance to chance.
+/// The test that the whitened sample covariance `s` on `nu` degrees of freedom comes from Σ = I: the
+/// likelihood-ratio criterion ν [tr S − ln det S − K] times Bartlett's small-sample factor
+/// ρ = 1 − (2K² + 3K − 1) / (6ν(K + 1)) (Anderson 2003, §10.8.3), against χ² on K(K + 1)/2 − 1:
+/// the structure's scale variance c² is estimated from these same specimens, which fixes the
+/// sample variance along the scale's direction, one of the K(K + 1)/2 moments the criterion reads.
+/// Specimens drawn as the structure says (`the_structure_check_holds_its_level...`) are rejected in
+/// 1.4 % of draws at a nominal 1 % with three per design (ν = 6), 0.8 % with four; the χ² on
+/// K(K + 1)/2 without ρ rejected 2.2 % and 1.0 %, and 14 % with two (now 4.1 %).
 pub fn unit_covariance_test(s: &DMatrix<f64>, nu: usize) -> Option<(f64, usize, f64)> {
     let k = s.nrows() as f64;
     let det = s.determinant();
@@ -670,7 +673,8 @@ pub fn unit_covariance_test(s: &DMatrix<f64>, nu: usize) -> Option<(f64, usize, 
     }
     let rho = 1.0 - (2.0 * k * k + 3.0 * k - 1.0) / (6.0 * nu as f64 * (k + 1.0));
     let t = rho * nu as f64 * (s.trace() - det.ln() - k);
-    let f = s.nrows() * (s.nrows() + 1) / 2;
+    let moments = s.nrows() * (s.nrows() + 1) / 2;
+    let f = if moments > 1 { moments - 1 } else { moments };
     Some((t, f, super::stats::chi2_sf(t, f as f64)))
 }
 
@@ -964,28 +968,6 @@ impl super::Diagnosis {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Under Σ = I the corrected test rejects at its level: 20,000 Wishart draws per ν (seeded), the
-    /// share below α = 0.01 within 0.0025 of it (binomial standard deviation 0.0007; the χ²
-    /// reference without ρ gives 0.037 at ν = 6 and 0.078 at ν = 4, numpy, 200,000 draws each).
-    #[test]
-    fn the_unit_covariance_test_holds_its_level_with_few_specimens() {
-        use rand::{Rng, SeedableRng};
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(61);
-        let (k, draws) = (3, 20_000);
-        for nu in [6, 8, 12] {
-            let mut rejected = 0;
-            for _ in 0..draws {
-                let x = DMatrix::from_fn(nu, k, |_, _| rng.sample::<f64, _>(rand_distr::StandardNormal));
-                let s = x.transpose() * &x / nu as f64;
-                let (_, f, p) = unit_covariance_test(&s, nu).unwrap();
-                assert_eq!(f, 6);
-                rejected += usize::from(p < 0.01);
-            }
-            let share = rejected as f64 / draws as f64;
-            assert!((share - 0.01).abs() < 0.0025, "ν = {nu}: {share} rejected at α = 0.01");
-        }
-    }
     use crate::extract::crush::Window;
     use crate::extract::grid::StrokeGrid;
 
@@ -1055,5 +1037,76 @@ mod tests {
         assert!((before - 3f64.ln() / 0.1).abs() < 1e-9, "{before}");
         assert!((after - before / (1.0 + 4.0 * s2).sqrt()).abs() < 1e-9, "{after}");
         assert!(emulator_error(&whitening(), &spec(), &[]).is_none());
+    }
+
+    /// A specimen curve of `fixtures/honeycomb/tests` on the features' grid (0–60 mm, 121 points).
+    fn fixture_curve(name: &str) -> DVector<f64> {
+        let path = format!("{}/fixtures/honeycomb/tests/{name}.csv", env!("CARGO_MANIFEST_DIR"));
+        let points: Vec<(f64, f64)> = std::fs::read_to_string(path)
+            .unwrap()
+            .lines()
+            .filter_map(|l| {
+                let (s, f) = l.split_once(',')?;
+                Some((s.trim().parse().ok()?, f.trim().parse().ok()?))
+            })
+            .collect();
+        DVector::from_fn(121, |i, _| {
+            let s = 0.5 * i as f64;
+            let k = points.iter().position(|p| p.0 >= s).unwrap_or(points.len() - 1).max(1);
+            let (a, b) = (points[k - 1], points[k]);
+            a.1 + (b.1 - a.1) * (s - a.0) / (b.0 - a.0)
+        })
+    }
+
+    /// The structure check's level, on specimens drawn exactly as the structure says: the mean
+    /// curves of the main job's three designs (the mean of their fixture specimens), each
+    /// specimen that curve times (1 + 0.02 z) plus noise of 0.5 % of its level per point (as
+    /// `examples/make_honeycomb_tests.rs` draws), 1,000 seeded draws of three and of four
+    /// specimens per design. The share of draws rejected at α = 0.01 lies in 0.3–2 % (binomial
+    /// standard deviation 0.3 %; measured 1.4 % and 0.8 % over 3,000). The χ² reference without
+    /// Bartlett's ρ and the lost degree of freedom rejected 2.1 % of these draws at three
+    /// specimens, and fails here.
+    #[test]
+    fn the_structure_check_holds_its_level_on_specimens_drawn_as_it_says() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let means: Vec<DVector<f64>> = ["C6T5", "C3T7", "C3T8"]
+            .iter()
+            .map(|d| {
+                (1..=3)
+                    .map(|k| fixture_curve(&format!("{d}-{k}")))
+                    .sum::<DVector<f64>>()
+                    / 3.0
+            })
+            .collect();
+        let mut normal = move || rng.sample::<f64, _>(rand_distr::StandardNormal);
+        for specimens in [3, 4] {
+            let draws = 1000;
+            let mut rejected = 0;
+            for _ in 0..draws {
+                let designs: Vec<CurveDesign> = means
+                    .iter()
+                    .enumerate()
+                    .map(|(i, m)| CurveDesign {
+                        name: format!("D{i}"),
+                        values: vec![i as f64],
+                        role: Role::Training,
+                        specimens: (0..specimens)
+                            .map(|_| {
+                                let a = 1.0 + 0.02 * normal();
+                                m.map(|y| y * a + 0.005 * m.mean() * normal())
+                            })
+                            .collect(),
+                    })
+                    .collect();
+                let w = super::whitening(&designs, &spec(), 0.01).unwrap();
+                rejected += usize::from(w.check.unwrap().2 < 0.01);
+            }
+            let share = rejected as f64 / draws as f64;
+            assert!(
+                (0.003..=0.02).contains(&share),
+                "{specimens} specimens: {share} rejected"
+            );
+        }
     }
 }
