@@ -332,15 +332,17 @@ fn curves_name_hardening_when_it_is_there_and_nothing_on_the_baseline_physics() 
         t.large
     );
     // σy within 3 % and ETAN within 20 % (README), the truths inside the 95 % intervals: the
-    // intervals are 95 %, so one miss in a handful is chance; none may be far off.
+    // intervals are 95 %, so one miss in a handful is chance (in three named cases, one miss or
+    // more has probability 0.14, two or more 0.007); more than 30 % missed, or two in three, is not.
     assert!(
         t.close * 10 >= t.named * 8,
         "σy within 3 % and ETAN within 20 % in {} of {}",
         t.close,
         t.named
     );
+    let missed = t.named - t.covered;
     assert!(
-        t.covered * 10 >= t.named * 7,
+        missed <= 1 || missed * 10 <= t.named * 3,
         "the truths inside the intervals in {} of {}",
         t.covered,
         t.named
