@@ -421,6 +421,18 @@ fn example_study_bayesian_is_fed_the_runs_and_matches_the_paper() {
         assert!(e < 0.05, "{design}: {e}");
         assert_eq!(r["surrogates"][design]["check_runs"].as_u64(), Some(5));
     }
+    // Its tests have no replicates and no stated uncertainty: the noise comes from the residuals,
+    // so no model is said to fit, not even where the solver confirms it at its fitted point.
+    let d = &r["diagnosis"];
+    assert_eq!(d["noise"]["kind"], "from_residuals");
+    assert_eq!(d["verdict"], "too_few_tests");
+    let summary = d["summary"].as_str().unwrap();
+    assert!(!summary.contains("fits the tests"), "{summary}");
+    let confirmed = summary.lines().find(|l| l.contains("Solver runs at the fitted parameters"));
+    assert!(
+        confirmed.is_some_and(|l| l.contains("which is no test of fit: the tests have no replicates")),
+        "{summary}"
+    );
 }
 
 /// `studies/cantilever-extension.yaml` with the shear extension given a range (`shear: {min: 0,

@@ -127,7 +127,10 @@ impl super::Diagnosis {
     /// One line of evidence per model the solver confirmed at its fitted parameters, after the
     /// verdict's own evidence.
     pub(crate) fn worded_confirmation(mut self) -> super::Diagnosis {
-        let lines: Vec<String> = self.checked.confirmation.iter().map(confirmation_line).collect();
+        let measured = self.record.noise.from_replicates();
+        let lines: Vec<String> = (self.checked.confirmation.iter())
+            .map(|c| confirmation_line(c, measured))
+            .collect();
         self.finding.evidence.extend(lines);
         if self.finding.verdict == Verdict::NoModelError {
             self.finding.headline = no_model_error_headline(&self);
@@ -425,10 +428,21 @@ fn scatter_words(c: &super::confirm::Confirmation) -> String {
     }
 }
 
-/// What the solver showed of one model at its fitted parameters.
-fn confirmation_line(c: &super::confirm::Confirmation) -> String {
+/// What the solver showed of one model at its fitted parameters. Against a noise estimated from the
+/// residuals (`measured` false: no replicates, no stated uncertainty) a model is never said to fit:
+/// the scatter is the models' own misfit (docs/diagnosis.md, "Noise that is not measured").
+fn confirmation_line(c: &super::confirm::Confirmation, measured: bool) -> String {
     let model = model_words(c);
     let shown = match &c.lack_of_fit {
+        Some(l) if l.fits && !measured => format!(
+            "stays within the scatter estimated from the models' residuals ({}), which is no test of fit: the \
+             tests have no replicates",
+            lack_of_fit(l)
+        ),
+        Some(l) if !measured => format!(
+            "misses the tests beyond the scatter estimated from the models' residuals ({})",
+            lack_of_fit(l)
+        ),
         Some(l) if l.fits => format!("fits the tests within {} ({})", scatter_words(c), lack_of_fit(l)),
         Some(l) => format!("misses the tests beyond {} ({})", scatter_words(c), lack_of_fit(l)),
         None if c.runs.iter().any(|r| r.solver.is_none()) => "cannot be judged: a run failed".to_string(),
