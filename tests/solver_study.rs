@@ -428,7 +428,9 @@ fn example_study_bayesian_is_fed_the_runs_and_matches_the_paper() {
     assert_eq!(d["verdict"], "too_few_tests");
     let summary = d["summary"].as_str().unwrap();
     assert!(!summary.contains("fits the tests"), "{summary}");
-    let confirmed = summary.lines().find(|l| l.contains("Solver runs at the fitted parameters"));
+    let confirmed = summary
+        .lines()
+        .find(|l| l.contains("Solver runs at the fitted parameters"));
     assert!(
         confirmed.is_some_and(|l| l.contains("which is no test of fit: the tests have no replicates")),
         "{summary}"
