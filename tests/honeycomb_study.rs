@@ -261,6 +261,18 @@ fn hardening_named_from_the_curves(r: &serde_json::Value) {
     }
     let features = &d["features"];
     assert!(features["decided_by"].is_string(), "{features}");
+    // The named model's fit is judged on a noise of 3 specimens at 3 designs (ν = 6): the words say
+    // how large a residual that lets pass, t(6) at the Šidák level of 0.01 over 9, against the
+    // normal's (scipy 1.17.1: t.ppf(1 − p/2, 6) = 5.835, norm.ppf(1 − p/2) = 3.26 with
+    // p = 1 − 0.99^(1/9)).
+    let summary = d["summary"].as_str().unwrap();
+    assert!(
+        summary.contains(
+            "noise measured on 6 degrees of freedom: its largest-residual test (at 0.01, Šidák over 9) lets a \
+             residual of up to 5.835 standard deviations pass (3.26 were the noise known)"
+        ),
+        "{summary}"
+    );
     // Sampled sequentially, each design's check runs are its own (none shared across designs),
     // yet every design has some: the curve emulator's error is split by each design's mean.
     let e = &features["emulator"];

@@ -142,6 +142,9 @@ impl super::Diagnosis {
                 .limits
                 .push(solver_refit_line(r, &self.explained.extensions));
         }
+        if let Some(line) = fit_strength(&self) {
+            self.finding.limits.push(line);
+        }
         if self.checked.emulator.as_ref().is_some_and(|e| e.unjudged.is_some()) {
             self.finding.limits.push(
                 "Not confirmed by the solver: its runs at the fitted parameters could not be judged (see the \
@@ -152,6 +155,36 @@ impl super::Diagnosis {
         self.resummarise();
         self
     }
+}
+
+/// What a fit the verdict claims can show, where the noise is estimated from the replicates: the
+/// largest standardised residual its test lets pass, t(ν) at the Šidák-corrected level of its
+/// record, beside the normal's were the noise known. On three specimens at three designs (ν = 4 to
+/// 6) a miss of six to nine standard deviations passes, so "fits" is weak evidence, and the reader
+/// is told so rather than left to assume a known noise (docs/diagnosis.md, "Lack of fit").
+fn fit_strength(d: &super::Diagnosis) -> Option<String> {
+    let model = super::confirm::claims(d)
+        .into_iter()
+        .find_map(|(m, c)| (c == super::confirm::Claim::Fits).then_some(m))?;
+    let confirmed = d.checked.confirmation.iter().find(|c| c.model == model);
+    let l = confirmed.and_then(|c| c.lack_of_fit.as_ref()).filter(|l| l.fits)?;
+    let r = l.largest.as_ref()?;
+    if l.noise_dof >= super::noise::KNOWN_DOF || !d.record.noise.from_replicates() {
+        return None;
+    }
+    let single = 1.0 - (1.0 - l.level).powf(1.0 / r.residuals as f64);
+    let t = super::stats::t_quantile(1.0 - single / 2.0, l.noise_dof as f64);
+    let z = super::stats::normal_quantile(1.0 - single / 2.0);
+    Some(format!(
+        "The fit is judged on a noise measured on {} degrees of freedom: its largest-residual test (at {}, Šidák \
+         over {}) lets a residual of up to {} standard deviations pass ({} were the noise known); more specimens \
+         per design would sharpen it.",
+        l.noise_dof,
+        num(l.level),
+        r.residuals,
+        num(t),
+        num(z)
+    ))
 }
 
 /// The solver's refit of a named cause's parameters, in words, beside the loop's interval it left.
