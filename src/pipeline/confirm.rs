@@ -14,7 +14,7 @@ use super::diagnosis::{Finished, Reading};
 use super::runs::{self, RunContext, RunOutcomes};
 use super::sequence::record::Failed;
 use super::{Event, Reporter, curves, extend};
-use crate::diagnose::confirm::{Confirmation, Confirming, UNCORRECTED, confirm_seeds};
+use crate::diagnose::confirm::{Claim, Confirmation, Confirming, UNCORRECTED, claims, confirm_held, confirm_seeds};
 use crate::diagnose::verdict::Verdict;
 use crate::diagnose::{Diagnosis, Inputs, NoiseModel};
 use crate::error::Error;
@@ -53,6 +53,9 @@ pub(super) struct Subject<'a> {
     pub ran: Option<Vec<usize>>,
     /// Its runs' role: a confirmation's, or a run over an open extension's amplitude.
     pub role: RunRole,
+    /// Judged under the decision's noise alone ([`confirm_held`]): the uncorrected model where the
+    /// verdict claims it misses.
+    pub noise_held: bool,
 }
 
 /// A looped hypothesis's model as a confirmation reads it: its inputs (over θ and its ranged
@@ -195,6 +198,7 @@ fn uncorrected<'a>(screening: &'a Inputs<'a>, d: &Diagnosis) -> Subject<'a> {
         level: d.record.levels.uncorrected_fit,
         ran: None,
         role: RunRole::Confirm,
+        noise_held: claims(d).contains(&(UNCORRECTED.to_string(), Claim::Misses)),
     }
 }
 
@@ -222,6 +226,7 @@ fn looped_cause<'a>(
         level: d.record.levels.cause_fit,
         ran: None,
         role: RunRole::Confirm,
+        noise_held: false,
     })
 }
 
@@ -317,6 +322,7 @@ fn candidate_cause<'a>(screening: &'a Inputs<'a>, d: &Diagnosis, cause: &str) ->
         level: d.record.levels.cause_fit,
         ran: None,
         role: RunRole::Confirm,
+        noise_held: false,
     })
 }
 
@@ -468,7 +474,10 @@ fn judged(
             None => Vec::new(),
         })
         .collect();
-    confirm_seeds(&s.confirming, &solver, noise, s.level)
+    match s.noise_held {
+        true => confirm_held(&s.confirming, &solver, noise, s.level),
+        false => confirm_seeds(&s.confirming, &solver, noise, s.level),
+    }
 }
 
 /// A subject's confirmation runs: at every tested design, at each of the `seeds` of the solver's

@@ -190,6 +190,7 @@ impl Extension<'_> {
             level: self.d.record.levels.uncorrected_fit,
             ran: None,
             role: crate::plan::RunRole::NotExcluded(self.k),
+            noise_held: false,
         }
     }
 

@@ -143,8 +143,11 @@ fn assert_after_loop(d: &Value, after: &Value, verdict: &str) {
             );
         }
         assert_eq!(
-            verdict, "cannot_tell_apart",
-            "an unchecked loop model beside another explanation"
+            verdict,
+            "cannot_tell_apart",
+            "an unchecked loop model beside another explanation\n{}\nemulator: {}",
+            d["summary"].as_str().unwrap_or_default(),
+            d["emulator"]
         );
         assert!(d["cause"].is_null());
         return;
