@@ -1304,8 +1304,8 @@ mod tests {
         let a = reading(Verdict::CauseNamed).answer();
         assert_eq!(
             a.decided_by,
-            "Decided by: with 'strain hardening' the model fits the tests within their scatter (χ² = 5.79 on 7 dof, p = 0.6); \
-             without it χ² = 652.4 on 8 dof, p = 1.500e-5."
+            "Decided by: with 'strain hardening' the model fits the tests within their scatter (χ² = 5.79 on 7 dof, p = 0.6 by \
+             F(7, 6)); without it χ² = 652.4 on 8 dof, p = 1.500e-5 by F(8, 6)."
         );
         assert_eq!(
             a.action,
