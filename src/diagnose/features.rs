@@ -1039,23 +1039,12 @@ mod tests {
         assert!(emulator_error(&whitening(), &spec(), &[]).is_none());
     }
 
-    /// A specimen curve of `fixtures/honeycomb/tests` on the features' grid (0–60 mm, 121 points).
+    /// A specimen curve of `fixtures/honeycomb/tests` on the features' grid (0–60 mm, 121 points),
+    /// read and resampled as the diagnosis reads the tests.
     fn fixture_curve(name: &str) -> DVector<f64> {
         let path = format!("{}/fixtures/honeycomb/tests/{name}.csv", env!("CARGO_MANIFEST_DIR"));
-        let points: Vec<(f64, f64)> = std::fs::read_to_string(path)
-            .unwrap()
-            .lines()
-            .filter_map(|l| {
-                let (s, f) = l.split_once(',')?;
-                Some((s.trim().parse().ok()?, f.trim().parse().ok()?))
-            })
-            .collect();
-        DVector::from_fn(121, |i, _| {
-            let s = 0.5 * i as f64;
-            let k = points.iter().position(|p| p.0 >= s).unwrap_or(points.len() - 1).max(1);
-            let (a, b) = (points[k - 1], points[k]);
-            a.1 + (b.1 - a.1) * (s - a.0) / (b.0 - a.0)
-        })
+        let curve = crate::base::curve::read_test_csv(path.as_ref(), Default::default()).unwrap();
+        DVector::from_vec(crate::base::grid::resample(&curve, &spec().grid).unwrap())
     }
 
     /// The structure check's level, on specimens drawn exactly as the structure says: the mean

@@ -114,6 +114,18 @@ fn largest(z: &[(String, f64)], nu: f64) -> Option<LargestResidual> {
     })
 }
 
+/// The largest |z| the largest-residual test lets pass at its level, with the noise as estimated
+/// (t on `noise_dof`) and were it known (the normal): the inverse of Šidák's correction at `level`
+/// over the N residuals, 1 − (1 − level)^(1/N), as a two-sided quantile. `None` without a residual.
+impl LackOfFit {
+    pub fn passes_up_to(&self) -> Option<(f64, f64)> {
+        let n = self.largest.as_ref()?.residuals.max(1) as f64;
+        let single = -((-self.level).ln_1p() / n).exp_m1();
+        let q = 1.0 - single / 2.0;
+        Some((stats::t_quantile(q, self.noise_dof as f64), stats::normal_quantile(q)))
+    }
+}
+
 /// Šidák's correction of the smallest of `n` p-values: 1 − (1 − p)^n, computed without cancellation.
 pub fn sidak(p: f64, n: usize) -> f64 {
     if n == 0 {
@@ -193,6 +205,20 @@ mod tests {
     }
 
     /// Leverages against the hat matrix computed by the normal equations on a full-rank design.
+    /// The threshold at 0.01 over 9 residuals, against scipy 1.17.1 with p = 1 − 0.99^(1/9):
+    /// `t.ppf(1 − p/2, 6)` = 5.83486, `t.ppf(1 − p/2, 4)` = 8.36655, `norm.ppf(1 − p/2)` = 3.25950.
+    #[test]
+    fn the_largest_residual_that_passes_is_the_inverse_of_sidak() {
+        let z: Vec<(String, f64)> = (0..9).map(|i| (format!("d{i}"), 0.1)).collect();
+        for (nu, t) in [(6, 5.83486), (4, 8.36655)] {
+            let (tc, zc) = LackOfFit::new(1.0, 8, nu, &z, 0.01).passes_up_to().unwrap();
+            assert!(
+                (tc - t).abs() < 1e-4 && (zc - 3.25950).abs() < 1e-4,
+                "ν = {nu}: {tc}, {zc}"
+            );
+        }
+    }
+
     #[test]
     fn leverages_are_the_hat_matrix_diagonal() {
         let a = DMatrix::from_row_slice(5, 2, &[1.0, 0.0, 1.0, 1.0, 1.0, 2.0, 1.0, 3.0, 1.0, 7.0]);

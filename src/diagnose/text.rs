@@ -172,9 +172,7 @@ fn fit_strength(d: &super::Diagnosis) -> Option<String> {
     if l.noise_dof >= super::noise::KNOWN_DOF || !d.record.noise.from_replicates() {
         return None;
     }
-    let single = 1.0 - (1.0 - l.level).powf(1.0 / r.residuals as f64);
-    let t = super::stats::t_quantile(1.0 - single / 2.0, l.noise_dof as f64);
-    let z = super::stats::normal_quantile(1.0 - single / 2.0);
+    let (t, z) = l.passes_up_to()?;
     Some(format!(
         "The fit is judged on a noise measured on {} degrees of freedom: its largest-residual test (at {}, Šidák \
          over {}) lets a residual of up to {} standard deviations pass ({} were the noise known); more specimens \
