@@ -14,11 +14,12 @@
 //!    model that fails it is out, with its χ² and p.
 //! 3. **The survivors against each other**: the encompassing test of step 4, with each survivor's
 //!    final model as the base — e's (screening) shape added to f's final model: if it still reduces
-//!    the misfit at α, f does not account for what e does. For a loop model f this test is read from
-//!    f's own diagnosis, in which the other open explanations' shapes are candidates. e is named
-//!    when it beats every other survivor this way (an intersection–union test, level α; Berger
-//!    1982). Where both directions are significant each explains a part: the better-scored is named
-//!    and the verdict is "partly explained".
+//!    the misfit at α/(m − 1) among m survivors, f does not account for what e does. For a loop
+//!    model f this test is read from f's own diagnosis, in which the other open explanations' shapes
+//!    are candidates. e is named when it beats every other survivor this way: were f the truth, any
+//!    of the other m − 1 could be the one that beats it, so each test pays for them (Bonferroni, as
+//!    step 4 does for the screening's leader). Where both directions are significant each explains
+//!    a part: the better-scored is named and the verdict is "partly explained".
 //! 4. The named cause's own final diagnosis says whether anything listed still explains what
 //!    remains (α/K): then it only partly explains. No survivor: a single open explanation partly
 //!    explains when its shape explained the misfit at screening; with several, which one is the
@@ -77,6 +78,9 @@ pub struct Pairwise {
     pub added_to: String,
     /// p of the shape's amplitude (F test against a refit of the final model alone).
     pub p_value: Option<f64>,
+    /// The level it is judged at: α over the other survivors (step 3).
+    #[serde(default)]
+    pub level: f64,
 }
 
 /// What the loop's evidence changed, in `results.json` `diagnosis.after_loop`.
@@ -225,6 +229,9 @@ fn judge(r: &mut dyn Readings, open: &[Open]) -> Judgement {
         (None, []) => all_rejected(r, open),
         (None, [one]) => named(r, one, None),
         (None, many) => {
+            // Any of the other survivors could beat a true one: each pair at α/(m − 1) (the
+            // screening's rival level, [`super::levels::Levels::rival`]).
+            let level = alpha / (many.len() - 1) as f64;
             let mut p = |r: &mut dyn Readings, e: &Open, f: &Open| {
                 let value = match &f.assumed {
                     Some(a) => Some(if a.beaten_by.contains(&e.name) { 0.0 } else { 1.0 }),
@@ -234,8 +241,9 @@ fn judge(r: &mut dyn Readings, open: &[Open]) -> Judgement {
                     shape_of: e.name.clone(),
                     added_to: f.name.clone(),
                     p_value: value,
+                    level,
                 });
-                value.is_some_and(|p| p < alpha)
+                value.is_some_and(|p| p < level)
             };
             against_each_other(r, many, &mut p)
         }
@@ -397,9 +405,10 @@ impl Readings for FromEvidence<'_, '_> {
                 .and_then(|x| x.assessed.p_value),
             Who::Candidate(fk) => {
                 let entries = &self.screening.ranked.entries;
-                entries.iter().position(|x| x.model.name() == e.name).and_then(|ek| {
-                    ranking::encompassing(&self.screening.cx, &entries[ek], &entries[fk]).p_leader_given_rival
-                })
+                entries
+                    .iter()
+                    .position(|x| x.model.name() == e.name)
+                    .and_then(|ek| ranking::both_shapes(&self.screening.cx, &entries[ek], &entries[fk]).0)
             }
             Who::Uncorrected => None,
         };
@@ -681,6 +690,36 @@ mod tests {
         h0.running = running[0];
         h1.running = running[1];
         vec![t, h0, h1]
+    }
+
+    /// Three survivors that fit: `t` is named over the other two only when its shape beats each at
+    /// α/2 (either of the two could be the one that beats a true explanation); with one of them
+    /// out, one rival is left and α is its level.
+    #[test]
+    fn each_pair_pays_for_the_other_survivors() {
+        let table = |p: f64| Table {
+            p: vec![
+                ("t", "h0", p),
+                ("t", "h1", p),
+                ("h0", "t", 0.5),
+                ("h1", "t", 0.5),
+                ("h0", "h1", 0.5),
+                ("h1", "h0", 0.5),
+            ],
+        };
+        let named = |p: f64, open: &[Open]| judge(&mut table(p), open).decision.cause;
+        let all = three([false, false]);
+        assert_eq!(named(0.02, &all), Some(Who::Candidate(0)), "0.02 < α/2 = 0.025");
+        let d = judge(&mut table(0.03), &all).decision;
+        assert_eq!((d.verdict, d.cause), (Verdict::CannotTellApart, None), "0.03 ≥ α/2");
+        assert!(judge(&mut table(0.03), &all).pairwise.iter().all(|p| p.level == 0.025));
+        let mut one_out = all.clone();
+        one_out[2] = open(1, 17.0, false, true);
+        assert_eq!(
+            named(0.03, &one_out),
+            Some(Who::Candidate(0)),
+            "0.03 < α with one rival"
+        );
     }
 
     /// The honeycomb diagnosis draw 8's case: neither loop model's shape beats the term `t`

@@ -7,7 +7,7 @@
 //! | the uncorrected model's two lack-of-fit tests, detecting | α/4 each | detection shares α between the base's fit (α/2) and the candidates (α/2) |
 //! | the K candidates' amplitude tests together, detecting | α/2, so α/(2K) each | the other half of α |
 //! | a model judged for a cause (not detecting) | α | one claim |
-//! | a named cause confirmed against each of R rivals | α/R | intersection–union over the rivals (Berger 1982) |
+//! | a named cause confirmed against each of R rivals (either direction) | α/R | the data chose the leader among R + 1: any of the R others could be the one that beats a true rival (Bonferroni) |
 //! | a discovered model among M tried | α/M | the search pays for its size |
 //! | the noise model's mixing set | α/10 | a set of the mixings the replicates do not reject, wide on purpose |
 
@@ -48,8 +48,8 @@ impl Levels {
         if self.detection { self.alpha / 4.0 } else { self.alpha }
     }
 
-    /// The level of each of `rivals` tests that confirm a cause against its rivals (an
-    /// intersection–union test of level α: each rival at α/R).
+    /// The level of each of `rivals` tests that confirm a cause against its rivals, and of each
+    /// test of a rival's shape still adding to the cause: α/R, since the data chose the leader.
     pub fn rival(&self, rivals: usize) -> f64 {
         self.alpha / rivals.max(1) as f64
     }

@@ -1085,7 +1085,7 @@ a refit of the parameters alone) at alpha/(2K) for K candidates, whatever the an
 parameters' sensitivities; ranking: score = (AICc + leave-one-design-out deviance)/2 (with few designs: AIC + the \
 validation designs' predictive deviance), weights exp(-score/2); the leader is the best-scored candidate that \
 explains the misfit, and it is named only when it beats every rival in an encompassing test (leader added to the \
-rival: p < alpha) and its final model fits both ways at alpha, on the noise detection chose; a listed cause whose \
+rival: p < alpha/(K-1), since the data chose the leader among the K) and its final model fits both ways at alpha, on the noise detection chose; a listed cause whose \
 model does not fit only partly explains the misfit: it is reported as partial, never as the cause";
 
 /// Runs the diagnosis, step by step (see the module notes). Errors only when there are no training

@@ -8,11 +8,15 @@
 //! not the data's power to separate shapes. So the leader is set against each rival in an
 //! *encompassing* test (Mizon & Richard 1986; the comprehensive-model F test of non-nested
 //! regressions, Davidson & MacKinnon 1981): fit both shapes together and ask whether the leader's
-//! shape still reduces the misfit once the rival's is in (F on 1 and ν degrees of freedom, at α).
-//! The leader is named only when every rival is rejected this way; requiring all the rejections at
-//! α each is an intersection-union test, itself of level α (Berger 1982), so no correction for the
-//! number of rivals is needed. With too few training designs to fit two shapes, a rival is rejected
-//! only when its prediction fails the validation designs while the leader's passes.
+//! shape still reduces the misfit once the rival's is in (F on 1 and ν degrees of freedom). The
+//! leader is named only when every rival is rejected this way. For a leader fixed in advance,
+//! requiring every rejection at α would be an intersection-union test of level α (Berger 1982);
+//! but the data chose the leader among the K candidates. Were a rival r the truth, the wrong name
+//! comes from whichever of the other K − 1 the data happened to rank first and that beat r, so the
+//! chance of it is at most the sum of their K − 1 tests' levels: each rival test is at α/(K − 1)
+//! (Bonferroni over the leaders the data could have chosen), and the search pays for its size.
+//! With too few training designs to fit two shapes, a rival is rejected only when its prediction
+//! fails the validation designs (at the same share) while the leader's passes (at α).
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -134,51 +138,57 @@ pub(crate) fn rival_tests(cx: &Context, entries: &[Entry], l: usize) -> Vec<Riva
     let leader = &entries[l];
     let n = cx.train.len();
     let both_fit = n >= cx.p() + 2 && (cx.known() || n > cx.p() + 2);
+    let level = cx.levels().rival(entries.len().saturating_sub(1));
     entries
         .par_iter()
         .enumerate()
         .filter(|(r, _)| *r != l)
         .map(|(_, rival)| {
             if both_fit {
-                encompassing(cx, leader, rival)
+                encompassing(cx, leader, rival, level)
             } else {
-                by_validation(cx, leader, rival)
+                by_validation(cx, leader, rival, level)
             }
         })
         .collect()
 }
 
-/// Both shapes fitted together; the leader beats the rival when its shape still counts.
-pub(crate) fn encompassing(cx: &Context, leader: &Entry, rival: &Entry) -> RivalTest {
-    let (ls, rs) = (leader.model.shape.as_ref(), rival.model.shape.as_ref());
-    let shapes: Vec<&super::Shape> = ls.into_iter().chain(rs).collect();
-    let k = cx.p() + 2;
-    let dof = cx.train.len().saturating_sub(k);
-    let (p_l, p_r) = match cx.data.fit(&shapes, &cx.train) {
-        Ok(both) => (
-            cx.drop_test(rival.model.fit.wrss - both.wrss, 1, both.wrss, dof),
-            cx.drop_test(leader.model.fit.wrss - both.wrss, 1, both.wrss, dof),
-        ),
-        Err(_) => (None, None),
-    };
+/// Both shapes fitted together; the leader beats the rival when its shape still counts at `level`.
+fn encompassing(cx: &Context, leader: &Entry, rival: &Entry, level: f64) -> RivalTest {
+    let (p_l, p_r) = both_shapes(cx, leader, rival);
     RivalTest {
         rival: rival.model.name().to_string(),
         p_leader_given_rival: p_l,
         p_rival_given_leader: p_r,
-        beaten: p_l.is_some_and(|p| p < cx.alpha()),
+        beaten: p_l.is_some_and(|p| p < level),
         by: "encompassing".into(),
     }
 }
 
-/// The rival's prediction fails the validation designs at α while the leader's passes.
-fn by_validation(cx: &Context, leader: &Entry, rival: &Entry) -> RivalTest {
+/// The comprehensive model's two F tests (Davidson & MacKinnon 1981): p of `one`'s shape added to
+/// `other`'s model, and p of `other`'s added to `one`'s.
+pub(crate) fn both_shapes(cx: &Context, one: &Entry, other: &Entry) -> (Option<f64>, Option<f64>) {
+    let (ls, rs) = (one.model.shape.as_ref(), other.model.shape.as_ref());
+    let shapes: Vec<&super::Shape> = ls.into_iter().chain(rs).collect();
+    let dof = cx.train.len().saturating_sub(cx.p() + 2);
+    match cx.data.fit(&shapes, &cx.train) {
+        Ok(both) => (
+            cx.drop_test(other.model.fit.wrss - both.wrss, 1, both.wrss, dof),
+            cx.drop_test(one.model.fit.wrss - both.wrss, 1, both.wrss, dof),
+        ),
+        Err(_) => (None, None),
+    }
+}
+
+/// The rival's prediction fails the validation designs at `level` while the leader's passes at α.
+fn by_validation(cx: &Context, leader: &Entry, rival: &Entry, level: f64) -> RivalTest {
     let p = |e: &Entry| e.assessed.validation.as_ref().and_then(|v| v.p_value);
     let (pl, pr) = (p(leader), p(rival));
     RivalTest {
         rival: rival.model.name().to_string(),
         p_leader_given_rival: None,
         p_rival_given_leader: None,
-        beaten: matches!((pl, pr), (Some(a), Some(b)) if a >= cx.alpha() && b < cx.alpha()),
+        beaten: matches!((pl, pr), (Some(a), Some(b)) if a >= cx.alpha() && b < level),
         by: "validation".into(),
     }
 }

@@ -888,10 +888,10 @@ fn evidence_lines(f: &Facts) -> Vec<String> {
     for r in unbeaten.iter().take(if f.after_loop.is_some() { 0 } else { 3 }) {
         out.push(match r.p_leader_given_rival {
             Some(p) => format!(
-                "With '{}' in the model, the leader adds nothing significant (encompassing test p = {} ≥ α = {}).",
+                "With '{}' in the model, the leader adds nothing significant (encompassing test p = {} ≥ {}).",
                 r.rival,
                 num(p),
-                f.cx.alpha()
+                rival_level(f)
             ),
             None => format!("'{}' is not rejected by the validation designs either.", r.rival),
         });
@@ -902,6 +902,22 @@ fn evidence_lines(f: &Facts) -> Vec<String> {
     }
     out.extend(f.found.confounded.iter().map(|c| format!("{c}.")));
     out
+}
+
+/// The level each rival test is at, in words: α shared among the rivals, since the data chose the
+/// leader among them ([`super::ranking`]).
+fn rival_level(f: &Facts) -> String {
+    level_words(f.cx.alpha(), f.cx.levels().rival(f.ranked.rivals.len()))
+}
+
+/// "α = 0.01", or "α/5 = 0.002" for a share of α.
+fn level_words(alpha: f64, level: f64) -> String {
+    let share = (alpha / level).round();
+    if share > 1.0 {
+        format!("α/{share} = {}", num(level))
+    } else {
+        format!("α = {}", num(level))
+    }
 }
 
 /// Why a hypothesis the study lists is not among the leading explanations: the rival test the
@@ -919,10 +935,10 @@ fn ruled_out(f: &Facts) -> Vec<String> {
         .filter(|r| r.beaten && listed(&r.rival) && !f.loop_names.contains(&r.rival))
         .map(|r| match r.p_leader_given_rival {
             Some(p) => format!(
-                "'{}' alone does not explain the misfit: with it in the model, '{leader}' still adds (encompassing test {}, below α = {}).",
+                "'{}' alone does not explain the misfit: with it in the model, '{leader}' still adds (encompassing test {}, below {}).",
                 r.rival,
                 p_text(p),
-                f.cx.alpha()
+                rival_level(f)
             ),
             None => format!(
                 "'{}' is ruled out by the validation designs: its prediction misses them while the prediction of \
@@ -1231,7 +1247,7 @@ fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
     }
     for p in &a.pairwise {
         out.push(match p.p_value {
-            Some(v) if v < alpha => format!(
+            Some(v) if v < p.level => format!(
                 "'{}' still counts with '{}' in the model ({}): '{}' does not account for it.",
                 p.shape_of,
                 p.added_to,
@@ -1239,10 +1255,11 @@ fn after_loop_lines(f: &Facts, a: &AfterLoop) -> Vec<String> {
                 p.added_to
             ),
             Some(v) => format!(
-                "'{}' adds nothing significant to '{}' (p = {} ≥ α = {alpha}).",
+                "'{}' adds nothing significant to '{}' (p = {} ≥ {}).",
                 p.shape_of,
                 p.added_to,
-                num(v)
+                num(v),
+                level_words(alpha, p.level)
             ),
             None => format!(
                 "'{}' could not be tested with '{}' in the model.",

@@ -6,7 +6,7 @@
 //! | `no_model_error` | no candidate's amplitude test is significant at α/(2K) and neither of the uncorrected model's two lack-of-fit tests (omnibus and largest residual) rejects at α/4 |
 //! | `unexplained` | the lack of fit rejects, but no candidate is significant |
 //! | `partly_explained` | the leader is significant and beats every rival, but its extended model's lack of fit (either test) still rejects at α, or a rival's shape still reduces the misfit with the leader's in (encompassing test at α / number of rivals): the cause helps, but it is not the whole story |
-//! | `cannot_tell_apart` | the leader is significant, but some rival survives the encompassing test: the data cannot tell them apart (whether or not the leader's model fits: an undecided part is not named) |
+//! | `cannot_tell_apart` | the leader is significant, but some rival survives the encompassing test (at α / number of rivals: the data chose the leader): the data cannot tell them apart (whether or not the leader's model fits: an undecided part is not named) |
 //! | `cause_named` | the leader is significant, beats every rival, and its extended model fits within the noise |
 //!
 //! Under no model error the detection's tests share α (α/4 for each of the uncorrected model's two
