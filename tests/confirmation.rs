@@ -22,7 +22,7 @@ use crate::family_runs;
 use crate::verdict_common;
 
 use crate::beam_common;
-use beam_common::{bending, clamp, shear};
+use beam_common::{bending, clamp};
 
 /// One case: the truth, the tests, and how the study samples its solver.
 #[derive(Debug, Clone)]
@@ -144,16 +144,11 @@ fn pooled(case: &Case) -> (Vec<f64>, Vec<f64>, usize) {
     (means, w, nu)
 }
 
-/// The weighted least-squares χ² of the tests' means against the model linear in the closed-form
-/// `shapes` of h (E enters as 1/E, so `bending` alone is the baseline and `bending, clamp` the
-/// clamped beam, kr/E its second coefficient).
+/// The weighted least-squares χ² of the tests' means against the model linear in `shapes`
+/// ([`beam_common::wls_chi2`]), weighted by the pooled scatter.
 fn wls_chi2(case: &Case, shapes: &[fn(f64) -> f64]) -> f64 {
     let (means, w, _) = pooled(case);
-    let root: Vec<f64> = w.iter().map(|w| w.sqrt()).collect();
-    let a = nalgebra::DMatrix::from_fn(case.hs.len(), shapes.len(), |i, j| shapes[j](case.hs[i]) * root[i]);
-    let y = nalgebra::DVector::from_fn(case.hs.len(), |i, _| means[i] * root[i]);
-    let beta = a.clone().svd(true, true).solve(&y, 1e-12).expect("an SVD solves");
-    (a * beta - y).norm_squared()
+    beam_common::wls_chi2(&case.hs, &means, &w, shapes)
 }
 
 /// The oracle: the baseline's weighted least-squares χ² against the drawn tests, on n − 1 degrees
@@ -166,19 +161,6 @@ fn exact_chi2(case: &Case, q: f64) -> (f64, usize, f64) {
     (chi2, dof, dof as f64 * f_quantile(q, dof, nu))
 }
 
-/// The closed form of a candidate `lab` may offer, as a shape added to the beam's terms; `None`
-/// for a scale error (proportional to the model: absorbed by E, it cannot add).
-fn closed_form(name: &str) -> Option<fn(f64) -> f64> {
-    match name {
-        "fixture offset" | "constant offset" => Some(|_| 1.0),
-        "linear in h" => Some(|h| h),
-        "shear correction" => Some(shear),
-        "clamp compliance" => Some(clamp),
-        "scale error" => None,
-        other => panic!("the oracle does not model '{other}'"),
-    }
-}
-
 /// Whether the tests themselves, read through the exact closed form, reject the hidden clamp in
 /// favour of one of `leading` at level `alpha`: the smallest p of a leading shape added to the exact
 /// clamped-beam model (an F test on 1 and ν degrees of freedom, the scatter from the specimens).
@@ -188,9 +170,11 @@ fn tests_reject_the_clamp(case: &Case, leading: &[Value], alpha: f64) -> bool {
     use statrs::distribution::{ContinuousCDF, FisherSnedecor};
     let clamped = wls_chi2(case, &[bending, clamp]);
     let reference = FisherSnedecor::new(1.0, pooled(case).2 as f64).expect("dof > 0");
-    (leading.iter().filter_map(|l| closed_form(l.as_str().unwrap())))
-        .map(|shape| 1.0 - reference.cdf(clamped - wls_chi2(case, &[bending, clamp, shape])))
-        .any(|p| p < alpha)
+    (leading
+        .iter()
+        .filter_map(|l| beam_common::closed_form(l.as_str().unwrap())))
+    .map(|shape| 1.0 - reference.cdf(clamped - wls_chi2(case, &[bending, clamp, shape])))
+    .any(|p| p < alpha)
 }
 
 /// The `q` quantile of F(d1, d2) (statrs, independent of lab's own).
@@ -481,7 +465,8 @@ fn judge_family(cases: &[Case], results: &[Value]) {
 /// model error) and clean beams, on fixed designs of 6 samples and 2 check runs per design with
 /// linear and quadratic surrogates (`LAB_FAVOURED_SEED_BASE` moves the draws). Where the emulators
 /// find no model error but the solver's runs over an extension's amplitude favour it, the solver in
-/// the loop over the open extensions decides. Asserted: no cause but the clamp is ever named; on a
+/// the loop over the open extensions decides. Asserted: no cause but the clamp is named, unless the
+/// tests themselves, read through the exact clamped beam, prefer it at α (once at most); on a
 /// hidden clamp, wherever that loop ran, the clamp is named or among the leading explanations, and
 /// where named its kr lies within three standard errors of the truth; the loop ran on at least one
 /// of the twelve hidden clamps (about half start it: it is what the family measures); on the four
@@ -505,7 +490,7 @@ fn runs_that_favour_an_extension_start_the_loop_over_it() {
         })
         .collect();
     let results = family_runs::in_parallel(&cases, run);
-    let (mut looped, mut false_claims) = (0, 0);
+    let (mut looped, mut false_claims, mut rejected_by_the_tests) = (0, 0, 0);
     for (case, r) in cases.iter().zip(&results) {
         let d = &r["diagnosis"];
         let verdict = d["verdict"].as_str().unwrap();
@@ -514,11 +499,16 @@ fn runs_that_favour_an_extension_start_the_loop_over_it() {
             "kr {:.4} E {:.0} {}: {verdict} {} (loop from favoured runs: {favoured}; moved by the solver: {}); {}",
             case.kr, case.e, case.surrogate, d["cause"], d["solver_refit"]["outside"], d["leading"]
         );
-        assert!(
-            d["cause"].is_null() || d["cause"] == "clamp compliance",
-            "{}",
-            d["summary"]
-        );
+        if !(d["cause"].is_null() || d["cause"] == "clamp compliance") {
+            // Another cause named over a hidden clamp only where the tests themselves prefer it.
+            let alpha = d["levels"]["alpha"].as_f64().unwrap();
+            assert!(
+                case.kr > 0.0 && tests_reject_the_clamp(case, std::slice::from_ref(&d["cause"]), alpha),
+                "{}",
+                d["summary"]
+            );
+            rejected_by_the_tests += 1;
+        }
         if case.kr == 0.0 {
             false_claims += usize::from(d["discrepancy_detected"] == true && verdict != "emulator_limited");
             continue;
@@ -555,5 +545,12 @@ fn runs_that_favour_an_extension_start_the_loop_over_it() {
     assert!(
         false_claims <= 1,
         "{false_claims} false claims of model error on 4 clean beams"
+    );
+    // A rival named over the hidden clamp where the exact clamped beam, fitted to the tests, gains
+    // from its shape at α: a level-α event for the truth (however well lab works), at most α per
+    // case, so two or more in the twelve with probability below 0.7 %.
+    assert!(
+        rejected_by_the_tests <= 1,
+        "the tests prefer a rival to the exact clamp on {rejected_by_the_tests} of 12 hidden clamps"
     );
 }

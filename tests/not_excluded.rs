@@ -10,7 +10,9 @@
 //!   likelihood-ratio interval over kr, the parameter E refitted at each kr, under the noise's form
 //!   lab estimated from the replicates;
 //! - the truth lies inside the open range; where model error is detected, the clamp is named or
-//!   among the leading candidates; no other cause is ever named.
+//!   among the leading candidates, unless the tests themselves put it out (the exact clamped beam,
+//!   fitted to them, misses them or gains from a leading shape at α: a level-α event for the
+//!   truth, allowed once); no other cause is ever named.
 //!
 //! The open range's ends are asserted within a twentieth of the exact interval's width of its ends
 //! (lab reads the profile through its emulator's slope and a linear interpolation between the
@@ -69,15 +71,7 @@ fn write_study(dir: &Path, kr: f64, seed: u64) -> std::path::PathBuf {
 /// from results.json; its estimate is the noise families' to check), each mean's variance σ²/3.
 fn exact_interval(dir: &Path, noise: &serde_json::Value, alpha: f64) -> [f64; 2] {
     use statrs::distribution::{ContinuousCDF, StudentsT};
-    let means: Vec<(f64, f64, usize)> = (beam_common::specimens(dir).iter())
-        .map(|(h, ys)| (*h, ys.iter().sum::<f64>() / ys.len() as f64, ys.len()))
-        .collect();
-    let (a, b) = (noise["absolute"].as_f64().unwrap(), noise["relative"].as_f64().unwrap());
-    let nu = noise["dof"].as_f64().unwrap();
-    let w: Vec<f64> = means
-        .iter()
-        .map(|(_, m, n)| *n as f64 / (a * a + (b * m).powi(2)))
-        .collect();
+    let (means, w, nu) = weighted_means(dir, noise);
     let chi2 = |kr: f64| {
         let a: Vec<f64> = means.iter().map(|(h, _, _)| bending(*h) + kr * clamp(*h)).collect();
         let u = (0..a.len()).map(|i| w[i] * a[i] * means[i].1).sum::<f64>()
@@ -96,11 +90,46 @@ fn exact_interval(dir: &Path, noise: &serde_json::Value, alpha: f64) -> [f64; 2]
     [open[0], open[open.len() - 1]]
 }
 
+/// The drawn tests' means by depth `(h, mean, specimens)`, their weights (one over each mean's
+/// variance σ²/n under the noise's form lab estimated, σ² = a² + (b·y)²) and that noise's degrees
+/// of freedom ν.
+fn weighted_means(dir: &Path, noise: &serde_json::Value) -> (Vec<(f64, f64, usize)>, Vec<f64>, f64) {
+    let means: Vec<(f64, f64, usize)> = (beam_common::specimens(dir).iter())
+        .map(|(h, ys)| (*h, ys.iter().sum::<f64>() / ys.len() as f64, ys.len()))
+        .collect();
+    let (a, b) = (noise["absolute"].as_f64().unwrap(), noise["relative"].as_f64().unwrap());
+    let w = (means.iter())
+        .map(|(_, m, n)| *n as f64 / (a * a + (b * m).powi(2)))
+        .collect();
+    (means, w, noise["dof"].as_f64().unwrap())
+}
+
+/// Whether the drawn tests themselves, read through the exact closed form under the noise lab
+/// estimated, put the hidden clamp out at level `alpha`: the exact clamped-beam model (1/E and
+/// kr/E fitted) misses them (its χ² on n − 2 degrees of freedom against F(n − 2, ν)), or a
+/// `leading` shape still reduces its misfit (F on 1 and ν). Each is an event of probability at most
+/// α for the truth however well lab works.
+fn tests_reject_the_clamp(dir: &Path, noise: &serde_json::Value, leading: &[&str], alpha: f64) -> bool {
+    use statrs::distribution::{ContinuousCDF, FisherSnedecor};
+    let (means, w, nu) = weighted_means(dir, noise);
+    let (hs, ys): (Vec<f64>, Vec<f64>) = means.iter().map(|(h, y, _)| (*h, *y)).unzip();
+    let chi2 = |shapes: &[fn(f64) -> f64]| beam_common::wls_chi2(&hs, &ys, &w, shapes);
+    let clamped = chi2(&[bending, clamp]);
+    let dof = hs.len() - 2;
+    let misses = FisherSnedecor::new(dof as f64, nu).expect("dof > 0");
+    let adds = FisherSnedecor::new(1.0, nu).expect("dof > 0");
+    let p_fit = 1.0 - misses.cdf(clamped / dof as f64);
+    (leading.iter().filter_map(|l| beam_common::closed_form(l)))
+        .map(|shape| 1.0 - adds.cdf(clamped - chi2(&[bending, clamp, shape])))
+        .chain([p_fit])
+        .any(|p| p < alpha)
+}
+
 #[test]
 fn no_model_error_reads_what_it_leaves_open_from_solver_runs_over_the_amplitude() {
     let base: u64 = std::env::var("LAB_OPEN_SEED_BASE").map_or(0, |s| s.parse().expect("a seed base"));
     let mut rng = ChaCha8Rng::seed_from_u64(4_053 + base);
-    let mut said = Vec::new();
+    let (mut said, mut out_by_the_tests) = (Vec::new(), 0);
     for draw in 0..12 {
         let kr = 0.03 * rng.random::<f64>();
         let dir = tempfile::tempdir().unwrap();
@@ -119,11 +148,17 @@ fn no_model_error_reads_what_it_leaves_open_from_solver_runs_over_the_amplitude(
                 .filter_map(|l| l.as_str())
                 .collect();
             said.push(format!("kr {kr:.4}: {verdict}, leading {leading:?}"));
-            assert!(
-                d["cause"] == "clamp compliance" || leading.contains(&"clamp compliance"),
-                "{}",
-                d["summary"]
-            );
+            if d["cause"] != "clamp compliance" && !leading.contains(&"clamp compliance") {
+                // Out of the leading set only where the tests themselves put it out.
+                let alpha = d["levels"]["alpha"].as_f64().expect("α");
+                assert!(
+                    tests_reject_the_clamp(dir.path(), &d["noise"], &leading, alpha),
+                    "{}",
+                    d["summary"]
+                );
+                out_by_the_tests += 1;
+                said.push("  (the exact clamped beam, fitted to these tests, is out at α)".into());
+            }
             continue;
         }
         let open = &d["not_excluded"][0];
@@ -161,4 +196,11 @@ fn no_model_error_reads_what_it_leaves_open_from_solver_runs_over_the_amplitude(
         );
     }
     eprintln!("{}", said.join("\n"));
+    // The exact model's two tests and one per leading shape (two or three lead), each at α = 0.01:
+    // at most 0.04 per draw, so two or more of the twelve draws with probability at most 8.1 %, and
+    // only the draws where model error is detected count.
+    assert!(
+        out_by_the_tests <= 1,
+        "the tests put the hidden clamp out of the leading set in {out_by_the_tests} draws"
+    );
 }

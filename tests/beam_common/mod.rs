@@ -39,6 +39,33 @@ pub fn clamp(h: f64) -> f64 {
     4.0 * F * L * L / (B * h * h)
 }
 
+/// The closed form of a candidate `lab` may offer, as a shape added to the beam's terms; `None`
+/// for a scale error (proportional to the model: absorbed by E, it cannot add).
+#[allow(dead_code)] // the oracles of the confirmation and not-excluded families
+pub fn closed_form(name: &str) -> Option<fn(f64) -> f64> {
+    match name {
+        "fixture offset" | "constant offset" => Some(|_| 1.0),
+        "linear in h" => Some(|h| h),
+        "shear correction" => Some(shear),
+        "clamp compliance" => Some(clamp),
+        "scale error" => None,
+        other => panic!("the oracle does not model '{other}'"),
+    }
+}
+
+/// The weighted least-squares χ² of `means` at depths `hs` (weights `w`, one over each mean's
+/// variance) against the model linear in the closed-form `shapes` of h (E enters as 1/E, so
+/// `bending` alone is the baseline and `bending, clamp` the clamped beam, kr/E its second
+/// coefficient), solved by nalgebra's SVD.
+#[allow(dead_code)] // the oracles of the confirmation and not-excluded families
+pub fn wls_chi2(hs: &[f64], means: &[f64], w: &[f64], shapes: &[fn(f64) -> f64]) -> f64 {
+    let root: Vec<f64> = w.iter().map(|w| w.sqrt()).collect();
+    let a = nalgebra::DMatrix::from_fn(hs.len(), shapes.len(), |i, j| shapes[j](hs[i]) * root[i]);
+    let y = nalgebra::DVector::from_fn(hs.len(), |i, _| means[i] * root[i]);
+    let beta = a.clone().svd(true, true).solve(&y, 1e-12).expect("an SVD solves");
+    (a * beta - y).norm_squared()
+}
+
 /// The specimens of a beam study's `dir/tests.csv` (`design,h,deflection`), by design in name
 /// order: each design's depth and its specimens' deflections.
 #[allow(dead_code)] // not every family reads its tests back
