@@ -229,9 +229,9 @@ fn judge(r: &mut dyn Readings, open: &[Open]) -> Judgement {
         (None, []) => all_rejected(r, open),
         (None, [one]) => named(r, one, None),
         (None, many) => {
-            // Any of the other survivors could beat a true one: each pair at α/(m − 1) (the
-            // screening's rival level, [`super::levels::Levels::rival`]).
-            let level = alpha / (many.len() - 1) as f64;
+            // Any of the other survivors could beat a true one: each pair at α/(m − 1), the
+            // screening's rival level.
+            let level = super::levels::Levels::new(alpha, false).rival(many.len() - 1);
             let mut p = |r: &mut dyn Readings, e: &Open, f: &Open| {
                 let value = match &f.assumed {
                     Some(a) => Some(if a.beaten_by.contains(&e.name) { 0.0 } else { 1.0 }),
