@@ -196,7 +196,7 @@ fn no_model_error_reads_what_it_leaves_open_from_solver_runs_over_the_amplitude(
         );
     }
     eprintln!("{}", said.join("\n"));
-    // The exact model's two tests and one per leading shape (two or three lead), each at α = 0.01:
+    // The exact model's fit test and one per leading shape (two or three lead), each at α = 0.01:
     // at most 0.04 per draw, so two or more of the twelve draws with probability at most 8.1 %, and
     // only the draws where model error is detected count.
     assert!(
