@@ -81,12 +81,7 @@ pub(crate) fn uncorrected(cx: &Context) -> Result<Model, CalibrationError> {
 pub(crate) fn shapes(cx: &Context, base: &Model, notes: &mut Vec<String>) -> Vec<(Shape, Option<String>)> {
     let inputs = cx.inputs;
     let mut kept: Vec<(Shape, Option<String>, Vec<f64>)> = Vec::new();
-    for shape in inputs.hypotheses.iter().cloned().chain(
-        inputs
-            .built_ins
-            .clone()
-            .unwrap_or_else(|| Shape::built_ins(&inputs.space.design_names)),
-    ) {
+    for shape in inputs.candidate_shapes() {
         let v = shape_vector(cx, &shape, base);
         if v.iter().any(|x| !x.is_finite()) {
             notes.push(format!(

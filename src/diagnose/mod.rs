@@ -259,6 +259,12 @@ impl Inputs<'_> {
             o.design.clone()
         }
     }
+
+    /// Every candidate shape: the study's hypotheses, then the built-in terms.
+    pub(crate) fn candidate_shapes(&self) -> impl Iterator<Item = Shape> + '_ {
+        let built_ins = (self.built_ins.clone()).unwrap_or_else(|| Shape::built_ins(&self.space.design_names));
+        self.hypotheses.iter().cloned().chain(built_ins)
+    }
 }
 
 /// The diagnosis inputs of a study: its training and validation designs (replicates summarised),

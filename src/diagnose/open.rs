@@ -297,6 +297,7 @@ impl<'a> Profile<'a> {
             inputs: self.inputs,
             point: mix(&a.theta, &b.theta),
             correction: vec![0.0; self.tests.len()],
+            rivals: Vec::new(),
         };
         let bridged = super::confirm::bridge(&from, &mix(&a.values, &b.values), &sd)?;
         let chi2: f64 = bridged.chi2.iter().filter(|c| c.is_finite()).sum();
@@ -571,6 +572,7 @@ mod tests {
                 inputs,
                 point: vec![a],
                 correction: vec![0.0; inputs.observations.len()],
+                rivals: Vec::new(),
             };
             let values: Vec<Option<f64>> = (inputs.observations.iter())
                 .map(|o| Some(solver(a, kr, o.design[0])))

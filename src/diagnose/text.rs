@@ -485,6 +485,7 @@ fn confirmation_line(c: &super::confirm::Confirmation, measured: bool) -> String
             num(m)
         )
     });
+    let rivals: String = c.rivals.iter().filter_map(rival_on_runs).collect();
     let at = match c.reused {
         true => format!(
             "The loop's solver runs at {}, within one standard error of the fitted parameters of {model}",
@@ -492,7 +493,27 @@ fn confirmation_line(c: &super::confirm::Confirmation, measured: bool) -> String
         ),
         false => format!("Solver runs at the fitted parameters of {model} ({})", params(&c.at)),
     };
-    format!("{at}: it {shown}{miss}.")
+    format!("{at}: it {shown}{miss}{rivals}.")
+}
+
+/// A rival's shape added to a confirmed model on the solver's runs, in words (none where it could
+/// not be judged).
+fn rival_on_runs(r: &super::confirm::RivalOnRuns) -> Option<String> {
+    let p = r.p_value?;
+    Some(match r.adds() {
+        true => format!(
+            "; on these runs '{}' still adds to it (p = {}, below the pair's level {}): the emulators hid it",
+            r.shape_of,
+            num(p),
+            num(r.level)
+        ),
+        false => format!(
+            "; on these runs '{}' adds nothing to it (p = {} ≥ {})",
+            r.shape_of,
+            num(p),
+            num(r.level)
+        ),
+    })
 }
 
 /// The verdict when the emulators' error decides it: the noise-alone diagnosis as the record,
@@ -513,8 +534,18 @@ pub(crate) fn emulator_limited(
         .iter()
         .filter_map(|c| {
             let l = c.lack_of_fit.as_ref()?;
+            let adding: Vec<String> = c
+                .rivals
+                .iter()
+                .filter(|r| r.adds())
+                .map(|r| format!("'{}'", r.shape_of))
+                .collect();
+            let still = match adding.is_empty() {
+                true => String::new(),
+                false => format!(" but {} still adds to it", adding.join(" and ")),
+            };
             Some(format!(
-                "{} {} the tests",
+                "{} {} the tests{still}",
                 model_words(c),
                 if l.fits { "fits" } else { "misses" }
             ))

@@ -101,24 +101,36 @@ impl LoopReading<'_> {
     }
 }
 
+/// What the loop models' inputs carry besides their own: the study's simulation (its surrogates)
+/// and the extensions' screening models, whose shapes are the other explanations' candidates in a
+/// loop model's diagnosis (and its confirmation's rivals).
+pub(super) type Shapes<'s> = (
+    &'s Study,
+    &'s std::sync::Arc<dyn crate::emulate::Model + Send>,
+    &'s [(usize, std::sync::Arc<dyn crate::emulate::Model + Send>)],
+);
+
 /// Each looped hypothesis's model and fitted points (`own`: each decision's loop diagnoses, in
-/// the order of `models`).
+/// the order of `models`), with the other explanations' shapes as its diagnosis had them.
 pub(super) fn loop_readings<'m>(
     stage: Option<&curves::CurveStage>,
-    models: &'m [extend::ExtendedModel],
+    (models, shapes): (&'m [extend::ExtendedModel], Shapes),
     loop_curves: &[(usize, crate::emulate::functional::CurveModel)],
     own: [&[Diagnosis]; 2],
 ) -> Result<Vec<LoopReading<'m>>, Error> {
+    let (study, baseline, extensions) = shapes;
     models
         .iter()
         .enumerate()
         .map(|(j, m)| {
             let model = match stage {
-                None => LoopModel::Response(Box::new(crate::diagnose::inputs_from_study(&m.study, &m.surrogates))),
+                None => LoopModel::Response(Box::new(extend::loop_model(study, m, baseline, extensions).inputs)),
                 Some(s) => {
                     let curve = loop_curves.iter().find(|(k, _)| *k == m.hypothesis).map(|(_, c)| c);
                     let curve = curve.ok_or_else(|| Error::Failed("internal: a loop model without curves".into()))?;
-                    let mut ci = curves::inputs(&m.study, &s.setting, s.designs.clone(), curve, Vec::new());
+                    let base = Some((curves::curve_fn(s.baseline.clone()), study.parameters.len()));
+                    let others = curves::extension_hypotheses(study, &s.extension_fns(), base, Some(m.hypothesis));
+                    let mut ci = curves::inputs(&m.study, &s.setting, s.designs.clone(), curve, others);
                     ci.settings.emulator_counted = false;
                     let problem = crate::diagnose::features::FeatureProblem::new(&ci).map_err(Error::Failed)?;
                     LoopModel::Curves(Box::new((ci, problem)))
@@ -183,6 +195,19 @@ pub(super) fn subjects<'a>(
     out
 }
 
+/// The other explanations the after-loop step judged against the named `cause` (its survivors,
+/// not out by their lack of fit), each with the level of its pair: the rivals whose shapes the
+/// cause's confirmation adds to its model on the solver's runs.
+fn survivors(d: &Diagnosis, cause: &str) -> Vec<(String, f64)> {
+    let Some(a) = &d.checked.after_loop else {
+        return Vec::new();
+    };
+    // Every pair is judged at one level, α over the other survivors.
+    let level = a.pairwise.first().map(|p| p.level);
+    let others = a.explanations.iter().filter(|e| !e.rejected && e.name != cause);
+    others.filter_map(|e| Some((e.name.clone(), level?))).collect()
+}
+
 /// The uncorrected simulation at the noise-alone decision's fitted parameters.
 fn uncorrected<'a>(screening: &'a Inputs<'a>, d: &Diagnosis) -> Subject<'a> {
     let point = values(&screening.space.parameter_names, &d.record.uncorrected.parameters);
@@ -192,6 +217,7 @@ fn uncorrected<'a>(screening: &'a Inputs<'a>, d: &Diagnosis) -> Subject<'a> {
             inputs: screening,
             point: point.clone(),
             correction: vec![0.0; screening.observations.len()],
+            rivals: Vec::new(),
         },
         theta: point,
         extension: Vec::new(),
@@ -220,6 +246,7 @@ fn looped_cause<'a>(
             inputs,
             point: point.clone(),
             correction: vec![0.0; inputs.observations.len()],
+            rivals: survivors(d, &h.name),
         },
         theta: point[..p].to_vec(),
         extension: spec.at(&point[p..]),
@@ -316,6 +343,7 @@ fn candidate_cause<'a>(screening: &'a Inputs<'a>, d: &Diagnosis, cause: &str) ->
             inputs: screening,
             point: point.clone(),
             correction,
+            rivals: Vec::new(),
         },
         theta: point,
         extension: Vec::new(),

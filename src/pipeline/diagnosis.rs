@@ -163,7 +163,9 @@ fn after_the_loop(
             &loop_curves,
         )
     });
-    let readings = super::confirm::loop_readings(stage, &models, &loop_curves, [&own, &own_alone])?;
+    let baseline: std::sync::Arc<dyn Model + Send> = std::sync::Arc::new(after.surrogates.clone());
+    let shapes = (study, &baseline, after.extensions);
+    let readings = super::confirm::loop_readings(stage, (&models, shapes), &loop_curves, [&own, &own_alone])?;
     let loop_inputs: Vec<crate::diagnose::Inputs> = readings.iter().map(|l| l.inputs()).collect();
     let subjects = super::confirm::subjects(study, &decided, &inputs[1], (&readings, &loop_inputs, Some(&joint)));
     let before = earlier.as_ref().and_then(|((_, runs, _), _)| runs.as_ref());

@@ -184,6 +184,7 @@ impl Extension<'_> {
                 inputs: screening,
                 point: theta.to_vec(),
                 correction: vec![0.0; screening.observations.len()],
+                rivals: Vec::new(),
             },
             theta: theta.to_vec(),
             extension: spec.at(&[v]),
