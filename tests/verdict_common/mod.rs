@@ -182,6 +182,7 @@ fn assert_after_loop(d: &Value, after: &Value, verdict: &str) {
             }
             assert!(!rejects(&d["extended"]["lack_of_fit"]));
             assert!(d["partial"].is_null());
+            assert_rivals_add_nothing_on_the_solvers_runs(d, level);
         }
         "cannot_tell_apart" => {
             assert!(d["cause"].is_null());
@@ -205,6 +206,24 @@ fn assert_after_loop(d: &Value, after: &Value, verdict: &str) {
         }
         "emulator_limited" => assert_emulators_decide(d),
         other => panic!("the loop ran, yet the verdict is {other}"),
+    }
+}
+
+/// A cause named after the loop and run by the solver at its fitted point: no other survivor's
+/// shape judged on those runs still adds to its model at the pair's level (a rival the solver
+/// shows adding refutes the name).
+#[track_caller]
+fn assert_rivals_add_nothing_on_the_solvers_runs(d: &Value, level: f64) {
+    let confirmations = d["confirmation"].as_array().into_iter().flatten();
+    for c in confirmations.filter(|c| c["model"] == d["cause"]) {
+        for r in c["rivals"].as_array().into_iter().flatten() {
+            let p = r["p_value"].as_f64().unwrap_or(1.0);
+            assert!(
+                p >= level,
+                "cause named, yet on its solver runs '{}' still adds (p = {p})",
+                r["shape_of"]
+            );
+        }
     }
 }
 
