@@ -297,10 +297,10 @@ fn seed_base(var: &str) -> u64 {
 /// compliance or none (`LAB_CONFIRM_SEED_BASE` moves the draws). Asserted: no "no model error"
 /// where the oracle's exact χ² exceeds its α/10 critical value; on clean draws, model error claimed
 /// at most once in eight (at α = 0.01 the chance of two or more false claims is 0.3 %); no cause
-/// but the clamp named; an undecided case keeps the clamp among its leading explanations unless
-/// the tests themselves reject it: where the exact clamped-beam model, fitted to the drawn tests,
-/// still gains from a leading shape at α (F on 1 and the specimens' ν degrees of freedom), the
-/// truth is out by the data's own evidence, which may happen at most once.
+/// but the clamp named, and an undecided case keeps the clamp among its leading explanations,
+/// unless the tests themselves reject it: where the exact clamped-beam model, fitted to the drawn
+/// tests, still gains from the named or a leading shape at α (F on 1 and the specimens' ν degrees
+/// of freedom), the truth is out by the data's own evidence, which may happen at most once.
 #[test]
 fn small_fixed_designs_are_confirmed_by_the_solver() {
     let base = seed_base("LAB_CONFIRM_SEED_BASE");
@@ -407,7 +407,15 @@ fn judge_family(cases: &[Case], results: &[Value]) {
             false_claims += 1;
         }
         if verdict == "cause_named" && d["cause"] != "clamp compliance" {
-            wrong_causes.push(d["cause"].clone());
+            // Another cause named over a hidden clamp only where the tests themselves, read through
+            // the exact clamped beam, prefer it (seed base 200,200: a clamp of kr = 0.184 whose
+            // three specimens scatter at half their true spread; the shear's shape added to the
+            // exact clamped beam p = 0.0079, the clamp's to the exact shear model p = 0.40).
+            let alpha = d["levels"]["alpha"].as_f64().unwrap();
+            match case.kr > 0.0 && tests_reject_the_clamp(case, std::slice::from_ref(&d["cause"]), alpha) {
+                true => rejected_by_the_tests += 1,
+                false => wrong_causes.push(d["cause"].clone()),
+            }
         }
         // Every extension the solver's runs over its amplitude favour is said and kept among the
         // leading explanations, not only the first.
