@@ -516,17 +516,41 @@ pub fn claims(d: &super::Diagnosis) -> Vec<(String, Claim)> {
 }
 
 /// The runs that would decide where the solver confirmed neither decision: at each confirmed
-/// model's refitted point, one per tested design (none where its runs failed: no bridge).
-fn deciding_runs(confirmations: &[Confirmation], designs: &[String]) -> Vec<DecidingRuns> {
-    confirmations
+/// model's refitted point, one per tested design (none where its runs failed: no bridge); and
+/// where a rival's shape still added to a confirmed model on its runs (step 4), at that rival's
+/// own loop model's fitted point (`looped`: each loop model's name and point), which no solver
+/// run has checked: whether its model in turn leaves the other's shape is what decides.
+fn deciding_runs(
+    confirmations: &[Confirmation],
+    looped: &[(String, IndexMap<String, f64>)],
+    designs: &[String],
+) -> Vec<DecidingRuns> {
+    let refitted = confirmations
         .iter()
         .filter(|c| !c.refitted.is_empty())
         .map(|c| DecidingRuns {
             model: c.model.clone(),
             at: c.refitted.clone(),
             designs: designs.to_vec(),
-        })
-        .collect()
+            unchecked: false,
+        });
+    let adding = confirmations.iter().flat_map(|c| c.rivals.iter().filter(|r| r.adds()));
+    let rivals = adding
+        .filter(|r| !confirmations.iter().any(|c| c.model == r.shape_of))
+        .filter_map(|r| looped.iter().find(|(name, _)| *name == r.shape_of))
+        .map(|(name, at)| DecidingRuns {
+            model: name.clone(),
+            at: at.clone(),
+            designs: designs.to_vec(),
+            unchecked: true,
+        });
+    let mut runs: Vec<DecidingRuns> = Vec::new();
+    for r in refitted.chain(rivals) {
+        if !runs.iter().any(|k| k.model == r.model) {
+            runs.push(r);
+        }
+    }
+    runs
 }
 
 /// The name of the uncorrected simulation's confirmation.
@@ -574,6 +598,10 @@ pub struct DecidingRuns {
     pub at: IndexMap<String, f64>,
     /// The tested designs, one run each.
     pub designs: Vec<String>,
+    /// The point is a rival's loop fit that no solver run checked (its shape still added to a
+    /// confirmed model), not a refit to solver runs.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub unchecked: bool,
 }
 
 /// A decision as the reading records it.
@@ -656,7 +684,10 @@ pub fn settle(
         (Some((d, w)), _) => (d.clone(), reading(Some(w), None)),
         (None, Some((d, w))) => (d.clone(), reading(None, Some(w))),
         (None, None) => {
-            let deciding = deciding_runs(&confirmations, designs);
+            let looped: Vec<(String, IndexMap<String, f64>)> = (noise_alone.explained.extensions.iter())
+                .map(|x| (x.setup.hypothesis.clone(), x.fitted.parameters.clone()))
+                .collect();
+            let deciding = deciding_runs(&confirmations, &looped, designs);
             let d = super::text::emulator_limited(&noise_alone, &counted, &confirmations, &deciding);
             let reading = EmulatorReading {
                 deciding_runs: deciding,
@@ -923,6 +954,50 @@ pub(super) mod tests {
         assert!(hidden >= 155, "a clamp of 0.4 % to 1.2 % found in only {hidden} of 200");
     }
 
+    /// Where a rival's shape still adds to a confirmed model on its runs, the runs that decide
+    /// include that rival's own loop fit (unchecked by the solver), once; a rival that adds nothing,
+    /// or whose model the solver already ran, adds none.
+    #[test]
+    fn a_rival_that_still_adds_is_run_at_its_loop_fit() {
+        let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
+        let clamp =
+            crate::diagnose::Shape::new("clamp", "3/h", crate::diagnose::Origin::Study, |d, _, y| y * 3.0 / d[0]);
+        let judged = |kr: f64| {
+            let (obs, noise) = beam(kr);
+            let mut i = inputs(obs, &model);
+            i.hypotheses.push(clamp.clone());
+            let (mut m, solver) = uncorrected_at(&i, 600.0);
+            m.rivals = vec![("clamp".into(), 0.01)];
+            let designs: Vec<String> = i.observations.iter().map(|o| o.group.clone()).collect();
+            (confirm(&m, &solver, &noise, 0.01), designs)
+        };
+        let fit: IndexMap<String, f64> = [("a".to_string(), 580.0), ("kr".to_string(), 0.05)].into();
+        let looped = vec![("clamp".to_string(), fit.clone())];
+        let (c, designs) = judged(0.05);
+        assert!(c.rivals[0].adds(), "{:?}", c.rivals);
+        let runs = deciding_runs(&[c.clone(), c.clone()], &looped, &designs);
+        let rival: Vec<&DecidingRuns> = runs.iter().filter(|r| r.model == "clamp").collect();
+        assert_eq!(rival.len(), 1, "{runs:?}");
+        assert!(rival[0].unchecked && rival[0].at == fit && rival[0].designs == designs);
+        let words = super::super::text::deciding_words(&runs);
+        assert!(
+            words.contains("kr = 0.05 for the model with 'clamp' (its loop's fit"),
+            "{words}"
+        );
+        let ran = Confirmation {
+            model: "clamp".into(),
+            ..c.clone()
+        };
+        assert!(deciding_runs(&[c, ran], &looped, &designs).iter().all(|r| !r.unchecked));
+        let (clean, designs) = judged(0.0);
+        assert!(!clean.rivals[0].adds(), "{:?}", clean.rivals);
+        assert!(
+            deciding_runs(&[clean], &looped, &designs)
+                .iter()
+                .all(|r| r.model != "clamp")
+        );
+    }
+
     /// The p of the clamp's shape y·3/h added to y = a/h³ at a = 600 over the training tests, by
     /// the partialled regression: r and s weighted by 1/sd, M = I − j jᵀ / (jᵀ j) with j = ∂y/∂a.
     fn frisch_waugh_lovell(i: &Inputs, noise: &NoiseModel) -> f64 {
@@ -958,7 +1033,7 @@ pub(super) mod tests {
             ..confirm(&m, &solver, &noise, 0.01)
         };
         let designs: Vec<String> = i.observations.iter().map(|o| o.group.clone()).collect();
-        let runs = deciding_runs(&[refuted.clone(), failed], &designs);
+        let runs = deciding_runs(&[refuted.clone(), failed], &[], &designs);
         assert_eq!(runs.len(), 1);
         assert_eq!(runs[0].model, UNCORRECTED);
         assert_eq!(runs[0].designs, designs);

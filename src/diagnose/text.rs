@@ -344,6 +344,7 @@ impl super::Diagnosis {
                 model: n.hypothesis.clone(),
                 at: f.at.clone(),
                 designs: designs.to_vec(),
+                unchecked: false,
             })
             .collect();
         self.finding.headline = match favoured.len() {
@@ -591,7 +592,15 @@ pub(crate) fn deciding_words(deciding: &[super::confirm::DecidingRuns]) -> Strin
     };
     let points: Vec<String> = deciding
         .iter()
-        .map(|r| format!("{} for {}", params(&r.at), named_model(&r.model)))
+        .map(|r| match r.unchecked {
+            false => format!("{} for {}", params(&r.at), named_model(&r.model)),
+            true => format!(
+                "{} for {} (its loop's fit, where the solver has not run: there it says whether that model leaves the \
+                 other's shape)",
+                params(&r.at),
+                named_model(&r.model)
+            ),
+        })
         .collect();
     format!(
         "{runs} more solver runs would decide — one at each tested design ({}) at each model's parameters refitted \
