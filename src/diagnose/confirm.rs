@@ -236,27 +236,34 @@ fn confirm_under(m: &Confirming, solver: &[Vec<f64>], noise: &NoiseModel, level:
         reused: false,
         mixing: None,
         scatter,
-        rivals: rivals_on_runs(m, &values, &sd, noise_dof),
+        rivals: rivals_on_runs(m, bridged.as_ref(), &values, &sd, noise_dof),
     }
 }
 
 /// Step 4 of the module notes: each rival's shape added to the bridge on the solver's `values`.
-fn rivals_on_runs(m: &Confirming, values: &[Option<f64>], sd: &[f64], noise_dof: usize) -> Vec<RivalOnRuns> {
+/// The slope is the bridge's (`None` where it could not be made: a run failed).
+fn rivals_on_runs(
+    m: &Confirming,
+    bridged: Option<&Bridged>,
+    values: &[Option<f64>],
+    sd: &[f64],
+    noise_dof: usize,
+) -> Vec<RivalOnRuns> {
     let obs = &m.inputs.observations;
     let solver: Option<Vec<f64>> = values.iter().copied().collect();
     let train: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Training).collect();
-    let j = slope(m);
     m.rivals
         .iter()
         .map(|(name, level)| {
             let shape = m.inputs.candidate_shapes().find(|h| &h.name == name);
-            let p_value = match (shape, &solver) {
-                (Some(shape), Some(v)) if noise_dof > 0 => {
+            let p_value = match (shape, &solver, bridged) {
+                (Some(shape), Some(v), Some(b)) if noise_dof > 0 => {
+                    let j = &b.slope;
                     let column: Vec<f64> = train
                         .iter()
                         .map(|&i| shape.eval(&m.inputs.point(&obs[i]), &m.point, v[i]))
                         .collect();
-                    added_amplitude(&j, &train, obs, v, sd, &column)
+                    added_amplitude(j, &train, obs, v, sd, &column)
                         .map(|drop| super::stats::f_sf(drop, 1.0, noise_dof as f64))
                 }
                 _ => None,
@@ -397,6 +404,8 @@ pub(super) struct Bridged {
     pub(super) step: Vec<f64>,
     /// The step's standard errors, √diag (J_tᵀ W J_t)⁻¹.
     step_se: Vec<f64>,
+    /// The emulator's slope J = ∂y/∂θ at the point, one row per observation.
+    slope: DMatrix<f64>,
 }
 
 impl Bridged {
@@ -407,7 +416,39 @@ impl Bridged {
     }
 }
 
-/// Step 2 of the module notes.
+/// The weighted local least-squares step δ = (JᵀWJ)⁺JᵀW(r − J d) over the training tests and its
+/// covariance (JᵀWJ)⁺, the columns of the parameters `held` (each at its offset d) left out, and
+/// the held offsets written into δ. Parameters the training tests cannot move (a flat slope) are
+/// held by the pseudo-inverse.
+fn local_step(
+    j: &DMatrix<f64>,
+    r: &DVector<f64>,
+    (train, w): (&[usize], &dyn Fn(usize) -> f64),
+    held: &[Option<f64>],
+) -> Option<(DVector<f64>, DMatrix<f64>)> {
+    let p = j.ncols();
+    let fixed: DVector<f64> = DVector::from_fn(p, |b, _| held[b].unwrap_or(0.0));
+    let free = |b: usize| held[b].is_none();
+    let jt = DMatrix::from_fn(train.len(), p, |a, b| match free(b) {
+        true => j[(train[a], b)] * w(train[a]).sqrt(),
+        false => 0.0,
+    });
+    let rt = DVector::from_fn(train.len(), |a, _| {
+        (r[train[a]] - (j.row(train[a]) * &fixed)[0]) * w(train[a]).sqrt()
+    });
+    let info = jt.transpose() * &jt;
+    let cov = info
+        .clone()
+        .pseudo_inverse(1e-12 * info.norm().max(f64::MIN_POSITIVE))
+        .ok()?;
+    let step = &cov * jt.transpose() * &rt + fixed;
+    Some((step, cov))
+}
+
+/// Step 2 of the module notes. The model's parameters live in their ranges: a parameter the step
+/// would carry beyond its bound is held at the bound and the others refitted (an active set, one
+/// parameter at a time), so that a model is never said to fit at parameters outside the study's
+/// ranges. The degrees of freedom count every parameter, as the decision's reading of the model did.
 pub(super) fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridged> {
     let obs = &m.inputs.observations;
     let j = slope(m);
@@ -415,15 +456,17 @@ pub(super) fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridg
     let train: Vec<usize> = (0..obs.len()).filter(|&i| obs[i].role == Role::Training).collect();
     let p = m.point.len();
     let w = |i: usize| 1.0 / (sd[i] * sd[i]);
-    let jt = DMatrix::from_fn(train.len(), p, |a, b| j[(train[a], b)] * w(train[a]).sqrt());
-    let rt = DVector::from_fn(train.len(), |a, _| r[train[a]] * w(train[a]).sqrt());
-    let info = jt.transpose() * &jt;
-    // Parameters the training tests cannot move (a flat slope) are held.
-    let cov = info
-        .clone()
-        .pseudo_inverse(1e-12 * info.norm().max(f64::MIN_POSITIVE))
-        .ok()?;
-    let step = &cov * jt.transpose() * &rt;
+    let bounds = &m.inputs.space.parameter_bounds;
+    let mut held: Vec<Option<f64>> = vec![None; p];
+    let (free_step, free_cov) = local_step(&j, &r, (&train, &w), &held)?;
+    let (mut step, mut cov) = (free_step, free_cov.clone());
+    while let Some(b) = (0..p).find(|&b| {
+        let x = m.point[b] + step[b];
+        held[b].is_none() && (x < bounds.lower[b] || x > bounds.upper[b])
+    }) {
+        held[b] = Some((m.point[b] + step[b]).clamp(bounds.lower[b], bounds.upper[b]) - m.point[b]);
+        (step, cov) = local_step(&j, &r, (&train, &w), &held)?;
+    }
     let residual: Vec<f64> = (0..obs.len()).map(|i| r[i] - (j.row(i) * &step)[0]).collect();
     let spread = |i: usize| {
         let ji = j.row(i);
@@ -444,7 +487,10 @@ pub(super) fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridg
             Role::Validation => residual[i] * residual[i] / (se[i] * se[i]),
         })
         .collect();
-    let leverage: f64 = train.iter().map(|&i| spread(i) * w(i)).sum();
+    let leverage: f64 = train
+        .iter()
+        .map(|&i| (j.row(i) * &free_cov * j.row(i).transpose())[0] * w(i))
+        .sum();
     Some(Bridged {
         residual,
         se,
@@ -452,6 +498,7 @@ pub(super) fn bridge(m: &Confirming, values: &[f64], sd: &[f64]) -> Option<Bridg
         rank: leverage.round() as usize,
         step: step.iter().copied().collect(),
         step_se: cov.diagonal().iter().map(|v| v.max(0.0).sqrt()).collect(),
+        slope: j,
     })
 }
 
@@ -499,7 +546,8 @@ pub enum Claim {
 
 /// The claims a diagnosis makes ((model, claim), the model `uncorrected` or a hypothesis's name):
 /// no model error claims the uncorrected simulation fits; a named cause, that its model fits and
-/// that no other surviving explanation's shape still adds to it (step 4);
+/// that no other surviving explanation's shape still adds to it (step 4), and after the loop that
+/// each explanation put out on its lack of fit misses ([`rejected_beside`]);
 /// model error found by the uncorrected model's lack of fit (a cause only partly explaining,
 /// explanations it cannot tell apart, none), that the simulation misses.
 pub fn claims(d: &super::Diagnosis) -> Vec<(String, Claim)> {
@@ -507,12 +555,32 @@ pub fn claims(d: &super::Diagnosis) -> Vec<(String, Claim)> {
     let by_lack_of_fit = d.record.lack_of_fit.as_ref().is_some_and(LackOfFit::rejects);
     match (d.finding.verdict, &d.finding.cause) {
         (Verdict::NoModelError, _) => vec![(UNCORRECTED.into(), Claim::Fits)],
-        (Verdict::CauseNamed, Some(c)) => vec![(c.clone(), Claim::Fits)],
+        (Verdict::CauseNamed, Some(c)) => {
+            let out = rejected_beside(d, c).into_iter().map(|(name, _)| (name, Claim::Misses));
+            std::iter::once((c.clone(), Claim::Fits)).chain(out).collect()
+        }
         (Verdict::PartlyExplained | Verdict::CannotTellApart | Verdict::Unexplained, _) if by_lack_of_fit => {
             vec![(UNCORRECTED.into(), Claim::Misses)]
         }
         _ => Vec::new(),
     }
+}
+
+/// The loop models the after-loop step put out on their lack of fit beside the named `cause`
+/// (`after_loop.explanations[].rejected`), each with the level its lack of fit was judged at. The
+/// name rests on their misses as much as on its own fit, and a loop model's miss was read through
+/// its own emulators, whose error at its fitted point counts in no test: the solver's runs there
+/// judge it as they judge the cause's fit. (A screening candidate put out is read through the
+/// uncorrected simulation's emulators, which its confirmation runs check, and its term's amplitude
+/// is fitted with θ, which a bridge along θ alone would hold.)
+pub fn rejected_beside(d: &super::Diagnosis, cause: &str) -> Vec<(String, f64)> {
+    let Some(a) = &d.checked.after_loop else {
+        return Vec::new();
+    };
+    (a.explanations.iter())
+        .filter(|e| e.rejected && e.name != cause && e.model == "extended")
+        .filter_map(|e| Some((e.name.clone(), e.lack_of_fit.as_ref()?.level)))
+        .collect()
 }
 
 /// The runs that would decide where the solver confirmed neither decision: at each confirmed
@@ -733,6 +801,22 @@ pub(super) mod tests {
         (obs, noise)
     }
 
+    /// Tests of y = a/h³ (1 + kr·3/h) at five depths from 5 to 15, `specimens` each scattering
+    /// by 0.3 % (normal, drawn from `rng`).
+    fn drawn(rng: &mut impl rand::Rng, kr: f64, specimens: usize) -> (Vec<Observation>, NoiseModel) {
+        use rand_distr::{Distribution, StandardNormal};
+        tests_at(&[5.0, 7.5, 10.0, 12.5, 15.0], kr, |y| {
+            (0..specimens)
+                .map(|_| y * (1.0 + 0.003 * Distribution::<f64>::sample(&StandardNormal, &mut *rng)))
+                .collect()
+        })
+    }
+
+    /// A clamp's shape, y·3/h.
+    fn clamp_shape() -> crate::diagnose::Shape {
+        crate::diagnose::Shape::new("clamp", "3/h", crate::diagnose::Origin::Study, |d, _, y| y * 3.0 / d[0])
+    }
+
     /// Tests of y = a/h³ at five depths (three replicates each, 0.3 % noise); a model of that form.
     fn beam(kr: f64) -> (Vec<Observation>, NoiseModel) {
         tests_at(&[7.0, 8.0, 9.0, 11.0, 13.0], kr, |y| {
@@ -803,6 +887,38 @@ pub(super) mod tests {
         assert!(c.lack_of_fit.expect("a test").rejects());
     }
 
+    /// The bridge keeps the parameters in their ranges: where the solver's best fit lies beyond a
+    /// bound, the parameter is held at the bound and the model judged there (its residuals the
+    /// tests less the solver's values at the bound, written out here), on the degrees of freedom
+    /// the decision counted; with the range widened, the same runs refit beyond the old bound.
+    #[test]
+    fn the_bridge_holds_a_parameter_at_the_bound_its_range_sets() {
+        let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
+        // The tests are of a = 250 (y = 250/h³); the range of a starts at 300.
+        let (obs, noise) = tests_at(&[7.0, 8.0, 9.0, 11.0, 13.0], 0.0, |y| {
+            let y = y * 250.0 / 600.0;
+            vec![y * (1.0 - 0.003), y, y * (1.0 + 0.003)]
+        });
+        let i = inputs(obs.clone(), &model);
+        let (m, solver) = uncorrected_at(&i, 300.0);
+        let c = confirm(&m, &solver, &noise, 0.01);
+        assert_eq!(c.refitted["a"], 300.0, "{:?}", c.refitted);
+        let l = c.lack_of_fit.expect("a test");
+        let sd = |o: &Observation| noise.sigma_at(o.mean) / (o.count as f64).sqrt();
+        let chi2: f64 = (obs.iter())
+            .map(|o| ((o.mean - 300.0 / o.design[0].powi(3)) / sd(o)).powi(2))
+            .sum();
+        assert!((l.chi2 / chi2 - 1.0).abs() < 1e-9, "{} against {chi2}", l.chi2);
+        assert_eq!(l.dof, obs.len() - 1);
+        assert!(l.rejects());
+        let mut wide = inputs(obs, &model);
+        wide.space.parameter_bounds = Bounds::new(vec![200.0], vec![900.0]);
+        let (m, solver) = uncorrected_at(&wide, 300.0);
+        let c = confirm(&m, &solver, &noise, 0.01);
+        assert!((c.refitted["a"] - 250.0).abs() < 0.5, "{:?}", c.refitted);
+        assert!(c.lack_of_fit.expect("a test").fits);
+    }
+
     #[test]
     fn a_failed_run_leaves_the_model_unconfirmed() {
         let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
@@ -826,17 +942,12 @@ pub(super) mod tests {
     #[test]
     fn the_true_model_is_rejected_within_the_level_over_the_forms_the_replicates_allow() {
         use rand::SeedableRng;
-        use rand_distr::{Distribution, StandardNormal};
         let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
         let rejected = |kr: f64, draws: u64| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(53 + (kr * 1e3) as u64);
             (0..draws)
                 .filter(|_| {
-                    let (obs, noise) = tests_at(&[5.0, 7.5, 10.0, 12.5, 15.0], kr, |y| {
-                        (0..3)
-                            .map(|_| y * (1.0 + 0.003 * Distribution::<f64>::sample(&StandardNormal, &mut rng)))
-                            .collect()
-                    });
+                    let (obs, noise) = drawn(&mut rng, kr, 3);
                     let i = inputs(obs.clone(), &model);
                     let (m, solver) = uncorrected_at(&i, 600.0);
                     let c = confirm(&m, &solver, &noise, 0.01);
@@ -920,19 +1031,13 @@ pub(super) mod tests {
     #[test]
     fn a_rivals_shape_is_judged_on_the_solvers_runs() {
         use rand::SeedableRng;
-        use rand_distr::{Distribution, StandardNormal};
         let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
-        let clamp =
-            crate::diagnose::Shape::new("clamp", "3/h", crate::diagnose::Origin::Study, |d, _, y| y * 3.0 / d[0]);
+        let clamp = clamp_shape();
         let adds = |kr: f64, draws: u64| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5_300 + (kr * 1e3) as u64);
             (0..draws)
                 .filter(|_| {
-                    let (obs, noise) = tests_at(&[5.0, 7.5, 10.0, 12.5, 15.0], kr, |y| {
-                        (0..5)
-                            .map(|_| y * (1.0 + 0.003 * Distribution::<f64>::sample(&StandardNormal, &mut rng)))
-                            .collect()
-                    });
+                    let (obs, noise) = drawn(&mut rng, kr, 5);
                     let mut i = inputs(obs, &model);
                     i.hypotheses.push(clamp.clone());
                     let (mut m, solver) = uncorrected_at(&i, 600.0);
@@ -960,8 +1065,7 @@ pub(super) mod tests {
     #[test]
     fn a_rival_that_still_adds_is_run_at_its_loop_fit() {
         let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
-        let clamp =
-            crate::diagnose::Shape::new("clamp", "3/h", crate::diagnose::Origin::Study, |d, _, y| y * 3.0 / d[0]);
+        let clamp = clamp_shape();
         let judged = |kr: f64| {
             let (obs, noise) = beam(kr);
             let mut i = inputs(obs, &model);
@@ -995,6 +1099,85 @@ pub(super) mod tests {
             deciding_runs(&[clean], &looped, &designs)
                 .iter()
                 .all(|r| r.model != "clamp")
+        );
+    }
+
+    /// A cause named over a loop model put out on its lack of fit claims that model misses: where
+    /// the solver's runs at its fitted point show it misses, the name is confirmed; where they show
+    /// it fits (its emulators put it out), the name is refuted and the verdict is emulator-limited,
+    /// the runs that decide including that model's refitted point. A screening candidate put out is
+    /// not claimed.
+    #[test]
+    fn a_cause_named_over_a_loop_model_put_out_rests_on_its_miss_on_the_solvers_runs() {
+        use crate::diagnose::after_loop::{AfterLoop, Judged};
+        use crate::diagnose::verdict::Verdict;
+        let model = |d: &[f64], t: &[f64]| t[0] / d[0].powi(3);
+        let (obs, noise) = beam(0.0);
+        let i = inputs(obs, &model);
+        let mut d = crate::diagnose::diagnose(&i).expect("a diagnosis");
+        let judged = |name: &str, model: &str, rejected: bool| Judged {
+            name: name.into(),
+            model: model.into(),
+            lack_of_fit: Some(LackOfFit::new(40.0, 5, 14, &[], 0.01)),
+            rejected,
+            unchecked: false,
+            score: None,
+            weight: 0.5,
+        };
+        d.finding.verdict = Verdict::CauseNamed;
+        d.finding.cause = Some("shear".into());
+        d.checked.after_loop = Some(AfterLoop {
+            screening_verdict: Verdict::CannotTellApart,
+            screening_headline: String::new(),
+            explanations: vec![
+                judged("shear", "extended", false),
+                judged("clamp", "extended", true),
+                judged("offset", "screening", true),
+            ],
+            pairwise: Vec::new(),
+            favoured: Vec::new(),
+            settled: true,
+        });
+        assert_eq!(rejected_beside(&d, "shear"), vec![("clamp".to_string(), 0.01)]);
+        assert_eq!(
+            claims(&d),
+            vec![("shear".to_string(), Claim::Fits), ("clamp".to_string(), Claim::Misses)]
+        );
+        let designs: Vec<String> = i.observations.iter().map(|o| o.group.clone()).collect();
+        // The solver is y = a/h³ for both models' runs: the shear's fits; the clamp's fits or,
+        // with a trend in h the tests do not have, misses.
+        let (m, solver) = uncorrected_at(&i, 600.0);
+        let named = |model: &str, c: Confirmation| Confirmation {
+            model: model.into(),
+            ..c
+        };
+        let shear = named("shear", confirm(&m, &solver, &noise, 0.01));
+        let trend: Vec<Option<f64>> = (i.observations.iter().zip(&solver))
+            .map(|(o, v)| v.map(|v| v * (1.0 + 0.3 * 3.0 / o.design[0])))
+            .collect();
+        let misses = named("clamp", confirm(&m, &trend, &noise, 0.01));
+        assert!(misses.lack_of_fit.as_ref().is_some_and(LackOfFit::rejects));
+        let kept = settle((d.clone(), d.clone()), vec![shear.clone(), misses], &designs, &|_| None);
+        assert_eq!(kept.finding.verdict, Verdict::CauseNamed);
+        assert_eq!(
+            kept.checked.emulator.as_ref().and_then(|e| e.confirmed.clone()),
+            Some("counted".into())
+        );
+        let fits = named("clamp", confirm(&m, &solver, &noise, 0.01));
+        let refuted = settle((d.clone(), d.clone()), vec![shear, fits], &designs, &|_| None);
+        assert_eq!(refuted.finding.verdict, Verdict::EmulatorLimited);
+        let deciding = &refuted.checked.emulator.as_ref().expect("a reading").deciding_runs;
+        assert!(
+            deciding.iter().any(|r| r.model == "clamp" && !r.unchecked),
+            "{deciding:?}"
+        );
+        assert!(
+            refuted
+                .finding
+                .headline
+                .contains("the model with 'clamp' fits the tests"),
+            "{}",
+            refuted.finding.headline
         );
     }
 

@@ -159,7 +159,9 @@ pub(super) fn loop_readings<'m>(
 
 /// The models the two decisions rest on: the uncorrected simulation at its fitted parameters
 /// (noise alone), then each named cause's model in each decision (`decided`: counted, then noise
-/// alone).
+/// alone), then the loop models each put out beside its cause on their lack of fit (their misses
+/// are claimed too, [`crate::diagnose::confirm::rejected_beside`]; last, so that a sequential
+/// budget keeps its room for the causes first).
 pub(super) fn subjects<'a>(
     study: &Study,
     decided: &[Finished; 2],
@@ -172,25 +174,35 @@ pub(super) fn subjects<'a>(
     let joint = joint.filter(|_| !seeded);
     let noise_alone = &decided[1].diagnosis;
     let mut out = vec![uncorrected(screening, noise_alone)];
-    for (which, f) in decided.iter().enumerate() {
-        let d = &f.diagnosis;
-        let (Verdict::CauseNamed, Some(cause)) = (d.finding.verdict, &d.finding.cause) else {
-            continue;
-        };
-        if out.iter().any(|s| &s.confirming.name == cause) {
+    let named = |d: &Diagnosis| match (d.finding.verdict, &d.finding.cause) {
+        (Verdict::CauseNamed, Some(cause)) => Some(cause.clone()),
+        _ => None,
+    };
+    let causes = (decided.iter().enumerate()).filter_map(|(which, f)| Some((which, named(&f.diagnosis)?, None)));
+    let rejected = decided.iter().enumerate().flat_map(|(which, f)| {
+        let beside = named(&f.diagnosis).map(|c| crate::diagnose::confirm::rejected_beside(&f.diagnosis, &c));
+        beside
+            .into_iter()
+            .flatten()
+            .map(move |(name, level)| (which, name, Some(level)))
+    });
+    let wanted: Vec<(usize, String, Option<f64>)> = causes.chain(rejected).collect();
+    for (which, name, out_at) in wanted {
+        if out.iter().any(|s| s.confirming.name == name) {
             continue;
         }
+        let d = &decided[which].diagnosis;
         let looped = readings
             .iter()
             .zip(inputs)
-            .find(|(l, _)| &study.diagnosis.hypotheses[l.hypothesis].name == cause);
+            .find(|(l, _)| study.diagnosis.hypotheses[l.hypothesis].name == name);
         let subject = match looped {
             Some((l, inputs)) => {
                 looped_cause(study, l, inputs, which, d).map(|s| s.already_ran(study, l, which, joint))
             }
-            None => candidate_cause(screening, d, cause),
+            None => candidate_cause(screening, d, &name),
         };
-        out.extend(subject);
+        out.extend(subject.map(|s| s.judged_as_out(out_at)));
     }
     out
 }
@@ -202,10 +214,13 @@ fn survivors(d: &Diagnosis, cause: &str) -> Vec<(String, f64)> {
     let Some(a) = &d.checked.after_loop else {
         return Vec::new();
     };
-    // Every pair is judged at one level, α over the other survivors.
-    let level = a.pairwise.first().map(|p| p.level);
-    let others = a.explanations.iter().filter(|e| !e.rejected && e.name != cause);
-    others.filter_map(|e| Some((e.name.clone(), level?))).collect()
+    let others: Vec<String> = (a.explanations.iter())
+        .filter(|e| !e.rejected && e.name != cause)
+        .map(|e| e.name.clone())
+        .collect();
+    // Every pair is judged at one level, α over the other survivors (as the after-loop step).
+    let level = crate::diagnose::levels::Levels::new(d.record.levels.alpha, false).rival(others.len());
+    others.into_iter().map(|name| (name, level)).collect()
 }
 
 /// The uncorrected simulation at the noise-alone decision's fitted parameters.
@@ -258,6 +273,19 @@ fn looped_cause<'a>(
 }
 
 impl Subject<'_> {
+    /// A loop model put out on its lack of fit (`level`: the one it was judged at), whose miss
+    /// the solver's runs judge: its lack of fit at that level, under the noise the decision put it
+    /// out under (as the uncorrected model's claimed miss, [`confirm_held`]), no rival's shape
+    /// added to it.
+    fn judged_as_out(mut self, level: Option<f64>) -> Self {
+        if let Some(level) = level {
+            self.level = level;
+            self.noise_held = true;
+            self.confirming.rivals.clear();
+        }
+        self
+    }
+
     /// A looped model confirmed by runs the loop already made ([`already_ran`]), where there are
     /// such runs: the subject then sits at their point.
     fn already_ran(mut self, study: &Study, l: &LoopReading, which: usize, joint: Option<&extend::JointRuns>) -> Self {

@@ -183,6 +183,7 @@ fn assert_after_loop(d: &Value, after: &Value, verdict: &str) {
             assert!(!rejects(&d["extended"]["lack_of_fit"]));
             assert!(d["partial"].is_null());
             assert_rivals_add_nothing_on_the_solvers_runs(d, level);
+            assert_the_rejected_miss_on_the_solvers_runs(d, explanations);
         }
         "cannot_tell_apart" => {
             assert!(d["cause"].is_null());
@@ -206,6 +207,45 @@ fn assert_after_loop(d: &Value, after: &Value, verdict: &str) {
         }
         "emulator_limited" => assert_emulators_decide(d),
         other => panic!("the loop ran, yet the verdict is {other}"),
+    }
+}
+
+/// A cause named after the loop rests on the misses of the loop models put out beside it: each
+/// such model, run by the solver at its fitted point (or at the loop's runs within a standard error
+/// of it), misses the tests there too, at the level it was put out at. Where its runs could not be
+/// judged (a sequential budget spent, a run failed) the verdict says it is not confirmed.
+#[track_caller]
+fn assert_the_rejected_miss_on_the_solvers_runs(d: &Value, explanations: &[Value]) {
+    if d["confirmation"].as_array().is_none_or(Vec::is_empty) {
+        return;
+    }
+    let unjudged = !d["emulator"]["unjudged"].is_null();
+    for e in explanations
+        .iter()
+        .filter(|e| e["rejected"] == true && e["model"] == "extended")
+    {
+        let on_runs = (d["confirmation"].as_array().into_iter().flatten())
+            .find(|c| c["model"] == e["name"])
+            .map(|c| &c["lack_of_fit"])
+            .filter(|l| !l.is_null());
+        match on_runs {
+            Some(l) => {
+                assert!(
+                    rejects(l),
+                    "cause named over '{}', out on its emulators, yet it fits on its solver runs: {l}",
+                    e["name"]
+                );
+                assert_eq!(
+                    l["level"], e["lack_of_fit"]["level"],
+                    "judged at the level it was put out at"
+                );
+            }
+            None => assert!(
+                unjudged,
+                "cause named over '{}', out on its emulators: its solver runs are neither judged nor said unjudged",
+                e["name"]
+            ),
+        }
     }
 }
 
